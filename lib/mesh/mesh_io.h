@@ -1,0 +1,75 @@
+#ifndef AQS_MESH_MESH_IO_H_
+#define AQS_MESH_MESH_IO_H_
+
+#include <string>
+#include <vector>
+
+#include "mesh/surface_mesh.h"
+#include "mesh/tet_mesh.h"
+
+namespace aqs {
+
+// All readers return false and set *error on failure. Messages name the file and,
+// for content errors, the 1-based line and what was expected there, e.g.
+//   "a.mesh:17: expected 4 vertex indices and a reference after 'Tetrahedra', got 3 tokens".
+// Readers only parse: they check indices are in range but do not judge geometry
+// (ReadTetMesh does, through ValidateTetMesh).
+
+// MEDIT ASCII .mesh (keywords MeshVersionFormatted, Dimension 3, Vertices,
+// Tetrahedra; the sections Triangles, Edges, Corners, Ridges, RequiredVertices,
+// RequiredEdges, Quadrilaterals, Hexahedra, Normals, NormalAtVertices, Tangents,
+// TangentAtVertices are skipped; an unknown keyword is an error naming it). Indices in
+// the file are 1-based. Binary .meshb is rejected with a message saying so.
+bool ReadMeditMesh(const std::string& path, TetMesh* mesh, std::string* error);
+
+// TetGen .node/.ele. `path` may name the .node file, the .ele file or their common
+// stem; both files must exist. Index base (0 or 1) is taken from the first .node
+// entry as TetGen does; attributes and boundary markers are read past. 10-node
+// elements keep their 4 corner nodes.
+bool ReadTetgenMesh(const std::string& path, TetMesh* mesh, std::string* error);
+
+// Gmsh .msh ASCII, format 2.2 or 4.1 (read from $MeshFormat). Node tags may be any
+// positive integers (non-contiguous is fine); elements of type 4 (4-node tet) and 11
+// (10-node tet, corners kept) become tets; other element types are skipped. Binary
+// files are rejected with a message saying so.
+bool ReadGmshMesh(const std::string& path, TetMesh* mesh, std::string* error);
+
+// Reads a tet mesh by extension (.mesh, .node, .ele, .msh), then validates it with
+// ValidateTetMesh. Unknown extensions are an error listing the known ones.
+bool ReadTetMesh(const std::string& path, TetMesh* mesh, std::string* error);
+
+// Wavefront OBJ surface: 'v x y z [w]' and 'f' records with 'i', 'i/t', 'i//n', 'i/t/n'
+// corners; negative (relative) indices are resolved; polygons are kept in
+// face_offsets/face_vertices and fan-triangulated into `triangles`. Other records
+// (vt, vn, g, o, s, usemtl, mtllib, l, ...) are ignored. Faces with fewer than 3
+// corners or out-of-range indices are errors naming the line.
+bool ReadObj(const std::string& path, SurfaceMesh* surface, std::string* error);
+
+// Writers. Every number is written with 17 significant digits; files are written
+// atomically (temporary file, then rename). Return false with *error on failure.
+
+// MEDIT ASCII .mesh (MeshVersionFormatted 2) with the vertices and tets of `mesh`
+// in the same order (1-based in the file, references 0).
+bool WriteMeditMesh(const std::string& path, const TetMesh& mesh, std::string* error);
+
+// OBJ with `surface`'s vertices and its polygons (or triangles when it has none).
+bool WriteObj(const std::string& path, const SurfaceMesh& surface, std::string* error);
+
+// A named data array for VTU output. `values` holds `components` numbers per entry,
+// entry after entry (for a vector field: x0 y0 z0 x1 y1 z1 ...); the number of entries
+// must be the vertex count (point data) or element count (cell data).
+struct VtuField {
+  std::string name;
+  int components = 1;
+  std::vector<double> values;
+};
+
+// VTK XML unstructured grid (.vtu, ASCII, readable by ParaView) of `mesh` with
+// per-vertex and per-element fields. Field sizes are checked (CHECK: programmer error).
+bool WriteVtu(const std::string& path, const TetMesh& mesh,
+              const std::vector<VtuField>& point_fields,
+              const std::vector<VtuField>& cell_fields, std::string* error);
+
+}  // namespace aqs
+
+#endif  // AQS_MESH_MESH_IO_H_

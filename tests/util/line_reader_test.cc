@@ -1,0 +1,58 @@
+#include "util/line_reader.h"
+
+#include <gtest/gtest.h>
+
+#include "testing/temp_dir.h"
+#include "util/number_format.h"
+
+namespace aqs {
+namespace {
+
+TEST(LineReaderTest, TokensSkipCommentsAndBlankLinesAndCountLines) {
+  testing::TempDir dir;
+  const std::string path = dir.Write("a.txt", "# header\n\n1 2  3\r\n  # only comment\nx y # tail\n");
+  LineReader reader(path);
+  ASSERT_TRUE(reader.ok());
+  std::vector<std::string> tokens;
+  ASSERT_TRUE(reader.NextTokens(&tokens));
+  EXPECT_EQ(reader.line_number(), 3);
+  EXPECT_EQ(tokens, (std::vector<std::string>{"1", "2", "3"}));
+  ASSERT_TRUE(reader.NextTokens(&tokens));
+  EXPECT_EQ(reader.line_number(), 5);
+  EXPECT_EQ(tokens, (std::vector<std::string>{"x", "y"}));
+  EXPECT_EQ(reader.Where("bad"), path + ":5: bad");
+  EXPECT_FALSE(reader.NextTokens(&tokens));
+}
+
+TEST(LineReaderTest, MissingFileNamesPath) {
+  LineReader reader("/nonexistent/dir/file.txt");
+  EXPECT_FALSE(reader.ok());
+  EXPECT_NE(reader.error().find("/nonexistent/dir/file.txt"), std::string::npos);
+}
+
+TEST(LineReaderTest, StrictNumberParsing) {
+  double d = 0;
+  int i = 0;
+  EXPECT_TRUE(ParseDouble("1.5e-3", &d));
+  EXPECT_DOUBLE_EQ(d, 1.5e-3);
+  EXPECT_FALSE(ParseDouble("1.5x", &d));
+  EXPECT_FALSE(ParseDouble("nan", &d));
+  EXPECT_FALSE(ParseDouble("inf", &d));
+  EXPECT_FALSE(ParseDouble("", &d));
+  EXPECT_FALSE(ParseDouble("1e400", &d));
+  EXPECT_TRUE(ParseInt("-12", &i));
+  EXPECT_EQ(i, -12);
+  EXPECT_FALSE(ParseInt("12.0", &i));
+  EXPECT_FALSE(ParseInt("99999999999", &i));
+}
+
+TEST(NumberFormatTest, RoundTripsExactly) {
+  for (double v : {0.1, 1.0 / 3.0, -2.5e-300, 6.02214076e23, 1e-7 + 1e-23}) {
+    double back = 0;
+    ASSERT_TRUE(ParseDouble(FormatDouble(v), &back));
+    EXPECT_EQ(back, v);
+  }
+}
+
+}  // namespace
+}  // namespace aqs
