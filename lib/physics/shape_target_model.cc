@@ -1,0 +1,89 @@
+#include "physics/shape_target_model.h"
+
+#include <cmath>
+
+#include <glog/logging.h>
+
+#include "util/parallel_for.h"
+
+namespace aqs {
+
+ShapeTargetModel::ShapeTargetModel(const TetMesh& mesh, double mu)
+    : ShapeTargetModel(mesh, Eigen::VectorXd::Constant(mesh.num_tets(), mu)) {}
+
+ShapeTargetModel::ShapeTargetModel(const TetMesh& mesh, const Eigen::VectorXd& mu)
+    : num_vertices_(mesh.num_vertices()),
+      tets_(mesh.tets),
+      rest_positions_(mesh.vertices),
+      mu_(mu) {
+  CHECK_EQ(mu.size(), mesh.num_tets()) << "one mu per element";
+  CHECK_GT(mesh.num_tets(), 0);
+  rest_shapes_.resize(mesh.num_tets());
+  weights_.resize(mesh.num_tets());
+  double scale_sum = 0.0;
+  for (int e = 0; e < mesh.num_tets(); ++e) {
+    for (int k = 0; k < 4; ++k) {
+      CHECK(tets_(k, e) >= 0 && tets_(k, e) < num_vertices_) << "element " << e;
+    }
+    CHECK(mu_[e] > 0.0 && std::isfinite(mu_[e])) << "mu of element " << e << " = " << mu_[e];
+    rest_shapes_[e] = ComputeElementRestShape(
+        mesh.vertices.col(tets_(0, e)), mesh.vertices.col(tets_(1, e)),
+        mesh.vertices.col(tets_(2, e)), mesh.vertices.col(tets_(3, e)));
+    weights_[e] = GradientWeights(rest_shapes_[e].dm_inverse);
+    total_volume_ += rest_shapes_[e].volume;
+    scale_sum += mu_[e] * std::cbrt(rest_shapes_[e].volume * rest_shapes_[e].volume);
+  }
+  force_scale_ = 2.0 * scale_sum / mesh.num_tets();
+}
+
+Eigen::Matrix3d ShapeTargetModel::DeformationGradient(const Eigen::Matrix3Xd& x, int e) const {
+  return aqs::DeformationGradient(weights_[e], x.col(tets_(0, e)).data(),
+                                  x.col(tets_(1, e)).data(), x.col(tets_(2, e)).data(),
+                                  x.col(tets_(3, e)).data());
+}
+
+ShapeTargetElement ShapeTargetModel::Element(const Eigen::Matrix3Xd& x, const ActuationMatrix& a,
+                                             int e) const {
+  return ShapeTargetElement(DeformationGradient(x, e), SymmetricFromActuation(a.col(e).data()),
+                            mu_[e]);
+}
+
+double ShapeTargetModel::Energy(const Eigen::Matrix3Xd& x, const ActuationMatrix& a,
+                                int num_threads) const {
+  CHECK_EQ(x.cols(), num_vertices_);
+  CHECK_EQ(a.cols(), num_elements());
+  const int threads = ParallelForThreadCount(num_threads, num_elements());
+  std::vector<double> partial(threads, 0.0);
+  ParallelFor(threads, 0, num_elements(), [&](int t, int e) {
+    partial[t] += rest_shapes_[e].volume * Element(x, a, e).EnergyDensity();
+  });
+  double total = 0.0;
+  for (double p : partial) total += p;
+  return total;
+}
+
+double ShapeTargetModel::EnergyAndGradient(const Eigen::Matrix3Xd& x, const ActuationMatrix& a,
+                                           Eigen::Matrix3Xd* gradient,
+                                           int num_threads) const {
+  CHECK_EQ(x.cols(), num_vertices_);
+  CHECK_EQ(a.cols(), num_elements());
+  const int threads = ParallelForThreadCount(num_threads, num_elements());
+  std::vector<Eigen::Matrix3Xd> partial(threads, Eigen::Matrix3Xd::Zero(3, num_vertices_));
+  std::vector<double> energy(threads, 0.0);
+  ParallelFor(threads, 0, num_elements(), [&](int t, int e) {
+    const ShapeTargetElement element = Element(x, a, e);
+    const double volume = rest_shapes_[e].volume;
+    energy[t] += volume * element.EnergyDensity();
+    const Eigen::Matrix<double, 3, 4> nodal = volume * element.Stress() * weights_[e];
+    for (int k = 0; k < 4; ++k) partial[t].col(tets_(k, e)) += nodal.col(k);
+  });
+  *gradient = partial[0];
+  double total = energy[0];
+  for (int t = 1; t < threads; ++t) {
+    *gradient += partial[t];
+    total += energy[t];
+  }
+  return total;
+}
+
+}  // namespace aqs

@@ -1,0 +1,68 @@
+#ifndef AQS_PHYSICS_SHAPE_TARGET_MODEL_H_
+#define AQS_PHYSICS_SHAPE_TARGET_MODEL_H_
+
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "mesh/tet_mesh.h"
+#include "physics/actuation.h"
+#include "physics/element_geometry.h"
+#include "physics/shape_target_element.h"
+
+namespace aqs {
+
+// A tet mesh with shape-targeting material: the total energy
+//
+//   E(x, a) = sum_e V_e mu_e min_R ||F_e(x) - R S_e||^2
+//
+// of vertex positions x (3 x num_vertices) and actuations a (6 x num_elements, see
+// physics/actuation.h), with its first derivatives. Immutable after construction and
+// safe to share between threads.
+class ShapeTargetModel {
+ public:
+  // `mesh` must have non-degenerate elements (ValidateTetMesh; CHECKed here);
+  // `mu` holds one stiffness (> 0) per element.
+  ShapeTargetModel(const TetMesh& mesh, const Eigen::VectorXd& mu);
+  // Homogeneous stiffness mu for every element.
+  ShapeTargetModel(const TetMesh& mesh, double mu);
+
+  int num_vertices() const { return num_vertices_; }
+  int num_elements() const { return static_cast<int>(tets_.cols()); }
+  const Eigen::Matrix4Xi& tets() const { return tets_; }
+  const Eigen::Matrix3Xd& rest_positions() const { return rest_positions_; }
+  const ElementRestShape& rest_shape(int e) const { return rest_shapes_[e]; }
+  const Eigen::Matrix<double, 3, 4>& gradient_weights(int e) const { return weights_[e]; }
+  double mu(int e) const { return mu_[e]; }
+  const Eigen::VectorXd& mu() const { return mu_; }
+  // sum_e V_e
+  double total_volume() const { return total_volume_; }
+  // A force scale: 2 * mean_e(mu_e V_e^(2/3)), the magnitude of the nodal force of an
+  // element under unit strain. Solver force tolerances are relative to it.
+  double force_scale() const { return force_scale_; }
+
+  // F_e at positions x.
+  Eigen::Matrix3d DeformationGradient(const Eigen::Matrix3Xd& x, int e) const;
+  // The element's derivative helper at (F_e(x), S_e(a), mu_e).
+  ShapeTargetElement Element(const Eigen::Matrix3Xd& x, const ActuationMatrix& a, int e) const;
+
+  // E(x, a).
+  double Energy(const Eigen::Matrix3Xd& x, const ActuationMatrix& a, int num_threads = 1) const;
+  // dE/dx (3 x num_vertices; the nodal forces are its negative). Returns E.
+  double EnergyAndGradient(const Eigen::Matrix3Xd& x, const ActuationMatrix& a,
+                           Eigen::Matrix3Xd* gradient, int num_threads = 1) const;
+
+ private:
+  int num_vertices_;
+  Eigen::Matrix4Xi tets_;
+  Eigen::Matrix3Xd rest_positions_;
+  std::vector<ElementRestShape> rest_shapes_;
+  std::vector<Eigen::Matrix<double, 3, 4>> weights_;
+  Eigen::VectorXd mu_;
+  double total_volume_ = 0.0;
+  double force_scale_ = 0.0;
+};
+
+}  // namespace aqs
+
+#endif  // AQS_PHYSICS_SHAPE_TARGET_MODEL_H_

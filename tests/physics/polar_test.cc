@@ -1,0 +1,85 @@
+#include "physics/polar.h"
+
+#include <random>
+
+#include <Eigen/LU>
+#include <gtest/gtest.h>
+
+#include "physics/element_states.h"
+#include "physics/shape_target_element.h"
+#include "testing/finite_difference.h"
+
+namespace aqs {
+namespace {
+
+using testing::CentralDifferenceJacobian;
+using testing::RelativeError;
+
+Eigen::VectorXd RotationOf(const Eigen::VectorXd& g) {
+  const Eigen::Matrix3d r =
+      PolarRotation(ComputeRotationVariantSvd(UnvecRowMajor(Vector9d(g))));
+  return VecRowMajor(r);
+}
+
+TEST(PolarTest, SvdIsRotationVariantAndReconstructs) {
+  for (const auto& state : testing::DerivativeTestStates(5, 1)) {
+    const Eigen::Matrix3d g = state.f * state.s;
+    const RotationVariantSvd svd = ComputeRotationVariantSvd(g);
+    EXPECT_NEAR(svd.u.determinant(), 1.0, 1e-12) << state.name;
+    EXPECT_NEAR(svd.v.determinant(), 1.0, 1e-12) << state.name;
+    EXPECT_GE(svd.sigma[0], svd.sigma[1]);
+    EXPECT_GE(svd.sigma[1], std::abs(svd.sigma[2]) - 1e-14);
+    EXPECT_LT((svd.u * svd.sigma.asDiagonal() * svd.v.transpose() - g).norm(), 1e-12 * g.norm())
+        << state.name;
+    const Eigen::Matrix3d r = PolarRotation(svd);
+    EXPECT_LT((r.transpose() * r - Eigen::Matrix3d::Identity()).norm(), 1e-12);
+    EXPECT_NEAR(r.determinant(), 1.0, 1e-12);
+    EXPECT_EQ(svd.sigma[2] < 0, g.determinant() < 0) << state.name;
+  }
+}
+
+TEST(PolarTest, RotationMaximizesTraceAgainstNearbyRotations) {
+  std::mt19937 rng(7);
+  for (const auto& state : testing::DerivativeTestStates(3, 2)) {
+    const Eigen::Matrix3d g = state.f * state.s;
+    const Eigen::Matrix3d r = PolarRotation(ComputeRotationVariantSvd(g));
+    const double best = (r.transpose() * g).trace();
+    for (int trial = 0; trial < 50; ++trial) {
+      const Eigen::Matrix3d other = testing::RandomRotation(&rng) * r;
+      EXPECT_LE((other.transpose() * g).trace(), best + 1e-12) << state.name;
+    }
+  }
+}
+
+TEST(PolarTest, DerivativeMatchesFiniteDifferences) {
+  for (const auto& state : testing::DerivativeTestStates(8, 3)) {
+    const Eigen::Matrix3d g = state.f * state.s;
+    const PolarTwists twists = ComputePolarTwists(ComputeRotationVariantSvd(g));
+    Eigen::Matrix<double, 9, 9> analytic;
+    for (int j = 0; j < 9; ++j) {
+      analytic.col(j) = VecRowMajor(
+          PolarRotationDerivative(twists, UnvecRowMajor(Vector9d::Unit(j))));
+    }
+    const double h = state.name.rfind("near_degenerate", 0) == 0 ? 1e-7 : 1e-5;
+    const Eigen::MatrixXd numeric = CentralDifferenceJacobian(RotationOf, VecRowMajor(g), h);
+    EXPECT_LT(RelativeError(analytic, numeric), 1e-6) << state.name;
+  }
+}
+
+TEST(PolarTest, ExactlyDegenerateStateIsFinite) {
+  // G = diag(1, 1, -1): sigma_1 + sigma_2 = 0, the rotation is not unique.
+  const Eigen::Matrix3d g = Eigen::Vector3d(1, 1, -1).asDiagonal();
+  const RotationVariantSvd svd = ComputeRotationVariantSvd(g);
+  EXPECT_NEAR(svd.sigma[1] + svd.sigma[2], 0.0, 1e-15);
+  const PolarTwists twists = ComputePolarTwists(svd);
+  EXPECT_TRUE(twists.gain.allFinite());
+  EXPECT_LE(twists.gain.maxCoeff(), 2.0 / (kPolarDegenerateRatio * svd.sigma[0]) * (1 + 1e-12));
+  const Eigen::Matrix3d dr = PolarRotationDerivative(twists, Eigen::Matrix3d::Ones());
+  EXPECT_TRUE(dr.allFinite());
+  // A collapsed element (G = 0) is finite too.
+  const PolarTwists zero = ComputePolarTwists(ComputeRotationVariantSvd(Eigen::Matrix3d::Zero()));
+  EXPECT_TRUE(zero.gain.allFinite());
+}
+
+}  // namespace
+}  // namespace aqs

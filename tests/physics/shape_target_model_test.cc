@@ -1,0 +1,95 @@
+#include "physics/shape_target_model.h"
+
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "physics/element_states.h"
+#include "testing/finite_difference.h"
+
+namespace aqs {
+namespace {
+
+// Two tets sharing a face, plus a third sharing an edge: small enough for dense FD.
+TetMesh SmallMesh() {
+  TetMesh mesh;
+  mesh.vertices.resize(3, 6);
+  mesh.vertices << 0, 1, 0, 0, 1, 1.2,
+                   0, 0, 1, 0, 1, -0.3,
+                   0, 0, 0, 1, 1, 0.8;
+  mesh.tets.resize(4, 3);
+  mesh.tets << 0, 1, 1,
+               1, 2, 3,
+               2, 3, 0,
+               3, 4, 5;
+  return mesh;
+}
+
+ActuationMatrix RandomActuation(int n, std::mt19937* rng, double amplitude) {
+  std::uniform_real_distribution<double> uniform(-amplitude, amplitude);
+  ActuationMatrix a = IdentityActuations(n);
+  for (int e = 0; e < n; ++e) {
+    for (int k = 0; k < 6; ++k) a(k, e) += uniform(*rng);
+  }
+  return a;
+}
+
+TEST(ShapeTargetModelTest, GradientMatchesFiniteDifferences) {
+  const TetMesh mesh = SmallMesh();
+  Eigen::VectorXd mu(3);
+  mu << 1.0, 2.5, 0.7;
+  const ShapeTargetModel model(mesh, mu);
+  std::mt19937 rng(21);
+  std::normal_distribution<double> normal(0.0, 0.15);
+  for (int trial = 0; trial < 5; ++trial) {
+    const ActuationMatrix a = RandomActuation(3, &rng, 0.3);
+    Eigen::Matrix3Xd x = testing::RandomRotation(&rng) * mesh.vertices;
+    for (int i = 0; i < x.size(); ++i) x.data()[i] += normal(rng);
+    Eigen::Matrix3Xd gradient;
+    const double energy = model.EnergyAndGradient(x, a, &gradient, 2);
+    EXPECT_NEAR(energy, model.Energy(x, a, 1), 1e-12 * energy);
+    auto f = [&](const Eigen::VectorXd& flat) {
+      return model.Energy(Eigen::Map<const Eigen::Matrix3Xd>(flat.data(), 3, 6), a);
+    };
+    const Eigen::VectorXd numeric = testing::CentralDifferenceGradient(
+        f, Eigen::Map<const Eigen::VectorXd>(x.data(), x.size()), 1e-6);
+    EXPECT_LT(testing::RelativeError(
+                  Eigen::Map<const Eigen::VectorXd>(gradient.data(), gradient.size()), numeric),
+              1e-7);
+  }
+}
+
+TEST(ShapeTargetModelTest, RestIsEquilibriumAndRigidMotionsAreFree) {
+  const TetMesh mesh = SmallMesh();
+  const ShapeTargetModel model(mesh, 3.0);
+  const ActuationMatrix identity = IdentityActuations(3);
+  Eigen::Matrix3Xd gradient;
+  EXPECT_NEAR(model.EnergyAndGradient(mesh.vertices, identity, &gradient), 0.0, 1e-28);
+  EXPECT_LT(gradient.norm(), 1e-13);
+  std::mt19937 rng(2);
+  std::mt19937 rng_a(3);
+  const ActuationMatrix a = RandomActuation(3, &rng_a, 0.3);
+  const Eigen::Matrix3d r = testing::RandomRotation(&rng);
+  const Eigen::Vector3d t(0.3, -2.0, 5.0);
+  const Eigen::Matrix3Xd moved = (r * mesh.vertices).colwise() + t;
+  EXPECT_NEAR(model.Energy(moved, identity), 0.0, 1e-26);
+  // A rigid motion of any deformed state keeps its energy (frame indifference).
+  Eigen::Matrix3Xd deformed = mesh.vertices;
+  deformed(0, 4) += 0.3;
+  deformed(2, 5) -= 0.2;
+  const double e = model.Energy(deformed, a);
+  EXPECT_NEAR(model.Energy((r * deformed).colwise() + t, a), e, 1e-12 * e);
+}
+
+TEST(ShapeTargetModelTest, ForceScaleAndVolume) {
+  const TetMesh mesh = SmallMesh();
+  const ShapeTargetModel model(mesh, 2.0);
+  double volume = 0;
+  for (int e = 0; e < 3; ++e) volume += model.rest_shape(e).volume;
+  EXPECT_NEAR(model.total_volume(), volume, 1e-15);
+  EXPECT_NEAR(model.rest_shape(0).volume, 1.0 / 6.0, 1e-15);
+  EXPECT_GT(model.force_scale(), 0.0);
+}
+
+}  // namespace
+}  // namespace aqs
