@@ -36,19 +36,19 @@ ShapeTargetModel::ShapeTargetModel(const TetMesh& mesh, const Eigen::VectorXd& m
   force_scale_ = 2.0 * scale_sum / mesh.num_tets();
 }
 
-Eigen::Matrix3d ShapeTargetModel::DeformationGradient(const Eigen::Matrix3Xd& x, int e) const {
+Eigen::Matrix3d ShapeTargetModel::DeformationGradient(const PositionsRef& x, int e) const {
   return aqs::DeformationGradient(weights_[e], x.col(tets_(0, e)).data(),
                                   x.col(tets_(1, e)).data(), x.col(tets_(2, e)).data(),
                                   x.col(tets_(3, e)).data());
 }
 
-ShapeTargetElement ShapeTargetModel::Element(const Eigen::Matrix3Xd& x, const ActuationMatrix& a,
+ShapeTargetElement ShapeTargetModel::Element(const PositionsRef& x, const ActuationRef& a,
                                              int e) const {
   return ShapeTargetElement(DeformationGradient(x, e), SymmetricFromActuation(a.col(e).data()),
                             mu_[e]);
 }
 
-double ShapeTargetModel::Energy(const Eigen::Matrix3Xd& x, const ActuationMatrix& a,
+double ShapeTargetModel::Energy(const PositionsRef& x, const ActuationRef& a,
                                 int num_threads) const {
   CHECK_EQ(x.cols(), num_vertices_);
   CHECK_EQ(a.cols(), num_elements());
@@ -62,7 +62,7 @@ double ShapeTargetModel::Energy(const Eigen::Matrix3Xd& x, const ActuationMatrix
   return total;
 }
 
-double ShapeTargetModel::EnergyAndGradient(const Eigen::Matrix3Xd& x, const ActuationMatrix& a,
+double ShapeTargetModel::EnergyAndGradient(const PositionsRef& x, const ActuationRef& a,
                                            Eigen::Matrix3Xd* gradient,
                                            int num_threads) const {
   CHECK_EQ(x.cols(), num_vertices_);

@@ -41,15 +41,20 @@ class ShapeTargetModel {
   // element under unit strain. Solver force tolerances are relative to it.
   double force_scale() const { return force_scale_; }
 
+  // Positions and actuations are passed as Eigen::Ref so that matrices and Maps (for
+  // example a solver's state) are read in place.
+  using PositionsRef = Eigen::Ref<const Eigen::Matrix3Xd>;
+  using ActuationRef = Eigen::Ref<const ActuationMatrix>;
+
   // F_e at positions x.
-  Eigen::Matrix3d DeformationGradient(const Eigen::Matrix3Xd& x, int e) const;
+  Eigen::Matrix3d DeformationGradient(const PositionsRef& x, int e) const;
   // The element's derivative helper at (F_e(x), S_e(a), mu_e).
-  ShapeTargetElement Element(const Eigen::Matrix3Xd& x, const ActuationMatrix& a, int e) const;
+  ShapeTargetElement Element(const PositionsRef& x, const ActuationRef& a, int e) const;
 
   // E(x, a).
-  double Energy(const Eigen::Matrix3Xd& x, const ActuationMatrix& a, int num_threads = 1) const;
+  double Energy(const PositionsRef& x, const ActuationRef& a, int num_threads = 1) const;
   // dE/dx (3 x num_vertices; the nodal forces are its negative). Returns E.
-  double EnergyAndGradient(const Eigen::Matrix3Xd& x, const ActuationMatrix& a,
+  double EnergyAndGradient(const PositionsRef& x, const ActuationRef& a,
                            Eigen::Matrix3Xd* gradient, int num_threads = 1) const;
 
  private:

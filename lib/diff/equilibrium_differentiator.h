@@ -1,0 +1,94 @@
+#ifndef AQS_DIFF_EQUILIBRIUM_DIFFERENTIATOR_H_
+#define AQS_DIFF_EQUILIBRIUM_DIFFERENTIATOR_H_
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "diff/sparse_cholesky.h"
+#include "diff/stiffness_pattern.h"
+#include "physics/actuation.h"
+#include "physics/shape_target_model.h"
+
+namespace aqs {
+
+struct EquilibriumDifferentiatorOptions {
+  // Threads for stiffness assembly and per-element accumulation.
+  int num_threads = 2;
+};
+
+// Timings of the last Prepare() and gradient/JVP call, in seconds.
+struct DifferentiationTimings {
+  double assembly = 0.0;
+  double analysis = 0.0;  // symbolic analysis (first Prepare only)
+  double factorization = 0.0;
+  double solve = 0.0;
+  double accumulation = 0.0;
+};
+
+// Derivatives of the equilibrium x*(a) = argmin_x E(x, a) (fixed vertices held) by
+// implicit differentiation. At an equilibrium, dE/dx = 0 on free DOFs, so with the
+// exact stiffness K = d2E/dx2 (free DOFs) and B = d2E/(dx da):
+//
+//   dx*/da = -K^-1 B,     dL/da = -lambda^T B  with  K lambda = dL/dx.
+//
+// Built once per mesh and fixed-vertex set (the symbolic factorization is reused);
+// then, per state: Prepare(x, a) assembles K at (x, a) and factorizes it, after which
+// any number of gradients and Jacobian-vector products reuse that factorization.
+// The model must outlive this object. Not thread-safe.
+class EquilibriumDifferentiator {
+ public:
+  EquilibriumDifferentiator(const ShapeTargetModel& model, const std::vector<bool>& fixed_mask,
+                            const EquilibriumDifferentiatorOptions& options =
+                                EquilibriumDifferentiatorOptions());
+  ~EquilibriumDifferentiator();
+
+  // Assembles the exact K at positions x (3 x num_vertices, an equilibrium of a) and
+  // factorizes it. Returns false with *error if K is not positive definite there
+  // (naming the vertex where the factorization broke down: an unstable equilibrium,
+  // or a body whose fixed vertices do not remove all rigid motions).
+  bool Prepare(const ShapeTargetModel::PositionsRef& x, const ShapeTargetModel::ActuationRef& a, std::string* error);
+
+  // dL/da (6 x num_elements) for a loss L(x) whose gradient with respect to the
+  // positions is dl_dx (3 x num_vertices; entries of fixed vertices are ignored since
+  // fixed positions do not depend on a).
+  ActuationMatrix LossGradient(const Eigen::Matrix3Xd& dl_dx);
+
+  // Jacobian-vector products dx*/da [v] for k actuation directions at once:
+  // directions is (6 num_elements) x k, each column an ActuationMatrix flattened
+  // column-major (element e's six numbers at rows 6e .. 6e+5). Returns
+  // (3 num_vertices) x k, each column a flattened 3 x num_vertices displacement
+  // (zero on fixed vertices). Used with da/dz for latent Jacobians dx*/dz.
+  Eigen::MatrixXd ActuationJacobianProduct(const Eigen::MatrixXd& directions);
+
+  // The adjoint solve alone: lambda = K^-1 g on free DOFs for g = dL/dx
+  // (3 x num_vertices); returns 3 x num_vertices with zeros on fixed vertices.
+  Eigen::Matrix3Xd SolveAdjoint(const Eigen::Matrix3Xd& dl_dx);
+
+  const ShapeTargetModel& model() const { return model_; }
+  const EquilibriumDifferentiatorOptions& options() const { return options_; }
+  const StiffnessPattern& pattern() const { return pattern_; }
+  const SparseCholesky& cholesky() const { return *cholesky_; }
+  const std::vector<double>& stiffness_values() const { return values_; }
+  const DifferentiationTimings& timings() const { return timings_; }
+
+ private:
+  Eigen::VectorXd GatherFree(const Eigen::Matrix3Xd& per_vertex) const;
+  Eigen::Matrix3Xd ScatterFree(const double* free_values) const;
+
+  const ShapeTargetModel& model_;
+  EquilibriumDifferentiatorOptions options_;
+  StiffnessPattern pattern_;
+  std::unique_ptr<SparseCholesky> cholesky_;
+  std::vector<double> values_;
+  Eigen::Matrix3Xd x_;
+  ActuationMatrix a_;
+  bool prepared_ = false;
+  DifferentiationTimings timings_;
+};
+
+}  // namespace aqs
+
+#endif  // AQS_DIFF_EQUILIBRIUM_DIFFERENTIATOR_H_

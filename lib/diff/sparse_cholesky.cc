@@ -1,0 +1,141 @@
+#include "diff/sparse_cholesky.h"
+
+#include <cstring>
+#include <sstream>
+
+#include <cholmod.h>
+#include <glog/logging.h>
+
+#include "util/wall_timer.h"
+
+namespace aqs {
+
+struct SparseCholesky::Impl {
+  cholmod_common common;
+  cholmod_sparse matrix;  // header only: points at the caller's pattern and our values
+  cholmod_factor* factor = nullptr;
+  std::vector<double> values;
+  const std::vector<int64_t>* column_starts;
+  const std::vector<int64_t>* row_indices;
+};
+
+SparseCholesky::SparseCholesky(int n, const std::vector<int64_t>* column_starts,
+                               const std::vector<int64_t>* row_indices)
+    : impl_(new Impl), n_(n) {
+  CHECK_EQ(column_starts->size(), static_cast<size_t>(n) + 1);
+  CHECK_EQ(row_indices->size(), static_cast<size_t>(column_starts->back()));
+  impl_->column_starts = column_starts;
+  impl_->row_indices = row_indices;
+  cholmod_l_start(&impl_->common);
+  impl_->common.print = 0;             // errors are reported through our messages
+  impl_->common.error_handler = nullptr;
+  impl_->common.supernodal = CHOLMOD_SUPERNODAL;
+  impl_->common.final_ll = 1;
+
+  cholmod_sparse& a = impl_->matrix;
+  std::memset(&a, 0, sizeof(a));
+  a.nrow = n;
+  a.ncol = n;
+  a.nzmax = row_indices->size();
+  a.p = const_cast<int64_t*>(column_starts->data());
+  a.i = const_cast<int64_t*>(row_indices->data());
+  a.nz = nullptr;
+  a.z = nullptr;
+  a.stype = 1;  // upper triangle stored
+  a.itype = CHOLMOD_LONG;
+  a.xtype = CHOLMOD_REAL;
+  a.dtype = CHOLMOD_DOUBLE;
+  a.sorted = 1;
+  a.packed = 1;
+}
+
+SparseCholesky::~SparseCholesky() {
+  if (impl_->factor != nullptr) cholmod_l_free_factor(&impl_->factor, &impl_->common);
+  cholmod_l_finish(&impl_->common);
+}
+
+void SparseCholesky::Analyze() {
+  if (impl_->factor != nullptr) return;
+  WallTimer timer;
+  // The analysis looks at the pattern only, but CHOLMOD wants a value array present.
+  impl_->values.assign(impl_->row_indices->size(), 0.0);
+  impl_->matrix.x = impl_->values.data();
+  impl_->factor = cholmod_l_analyze(&impl_->matrix, &impl_->common);
+  CHECK(impl_->factor != nullptr) << "CHOLMOD symbolic analysis failed (status "
+                                  << impl_->common.status << ", out of memory?)";
+  analyze_seconds_ = timer.Seconds();
+}
+
+bool SparseCholesky::Factorize(const std::vector<double>& values, std::string* error) {
+  CHECK_EQ(values.size(), impl_->row_indices->size());
+  Analyze();
+  WallTimer timer;
+  impl_->matrix.x = const_cast<double*>(values.data());
+  const int ok = cholmod_l_factorize(&impl_->matrix, impl_->factor, &impl_->common);
+  impl_->matrix.x = nullptr;
+  factorize_seconds_ = timer.Seconds();
+  factorized_ = false;
+  failed_column_ = -1;
+  if (!ok || impl_->common.status < CHOLMOD_OK) {
+    std::ostringstream out;
+    out << "CHOLMOD factorization failed (status " << impl_->common.status
+        << (impl_->common.status == CHOLMOD_OUT_OF_MEMORY ? ": out of memory" : "") << ")";
+    *error = out.str();
+    return false;
+  }
+  const cholmod_factor* l = impl_->factor;
+  if (impl_->common.status == CHOLMOD_NOT_POSDEF || l->minor < l->n) {
+    const int64_t* perm = static_cast<const int64_t*>(l->Perm);
+    failed_column_ = perm != nullptr ? static_cast<int>(perm[l->minor]) : static_cast<int>(l->minor);
+    std::ostringstream out;
+    out << "the matrix is not positive definite: CHOLMOD met a non-positive pivot at column "
+        << failed_column_ << " of " << n_ << " (step " << l->minor << " of the elimination)";
+    *error = out.str();
+    return false;
+  }
+  factorized_ = true;
+  return true;
+}
+
+double SparseCholesky::factor_nonzeros() const {
+  if (impl_->factor == nullptr) return 0.0;
+  return impl_->common.lnz;
+}
+
+std::string SparseCholesky::ordering_name() const {
+  if (impl_->factor == nullptr) return "none";
+  switch (impl_->factor->ordering) {
+    case CHOLMOD_NATURAL: return "natural";
+    case CHOLMOD_GIVEN: return "given";
+    case CHOLMOD_AMD: return "AMD";
+    case CHOLMOD_METIS: return "METIS";
+    case CHOLMOD_NESDIS: return "NESDIS";
+    case CHOLMOD_COLAMD: return "COLAMD";
+    case CHOLMOD_POSTORDERED: return "postordered";
+    default: return "unknown";
+  }
+}
+
+Eigen::MatrixXd SparseCholesky::Solve(const Eigen::MatrixXd& b) const {
+  CHECK(factorized_) << "Solve() needs a successful Factorize()";
+  CHECK_EQ(b.rows(), n_);
+  cholmod_common* common = &impl_->common;
+  Eigen::MatrixXd x(b.rows(), b.cols());
+  if (b.cols() == 0) return x;
+  cholmod_dense rhs;
+  std::memset(&rhs, 0, sizeof(rhs));
+  rhs.nrow = b.rows();
+  rhs.ncol = b.cols();
+  rhs.nzmax = b.size();
+  rhs.d = b.rows();
+  rhs.x = const_cast<double*>(b.data());
+  rhs.xtype = CHOLMOD_REAL;
+  rhs.dtype = CHOLMOD_DOUBLE;
+  cholmod_dense* solution = cholmod_l_solve(CHOLMOD_A, impl_->factor, &rhs, common);
+  CHECK(solution != nullptr) << "CHOLMOD solve failed (status " << common->status << ")";
+  std::memcpy(x.data(), solution->x, sizeof(double) * b.size());
+  cholmod_l_free_dense(&solution, common);
+  return x;
+}
+
+}  // namespace aqs

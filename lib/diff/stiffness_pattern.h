@@ -1,0 +1,58 @@
+#ifndef AQS_DIFF_STIFFNESS_PATTERN_H_
+#define AQS_DIFF_STIFFNESS_PATTERN_H_
+
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace aqs {
+
+// The sparsity structure of the stiffness K = d2E/dx2 restricted to free DOFs, built
+// once per mesh and set of fixed vertices.
+//
+// DOF numbering: free vertices are numbered in increasing vertex order; free vertex
+// number f owns DOFs 3 f, 3 f + 1, 3 f + 2 (x, y, z). Fixed vertices have no DOFs.
+//
+// Storage: compressed sparse columns (CSC) of the UPPER triangle (row <= column),
+// rows sorted within each column, 64-bit indices (CHOLMOD's "long" interface,
+// stype = +1). Column 3 v + d holds, for each free neighbour u < v of vertex v in
+// increasing order, rows 3u, 3u+1, 3u+2, then the diagonal-block rows 3v .. 3v+d.
+class StiffnessPattern {
+ public:
+  // tets: 4 x num_elements; fixed: one flag per vertex.
+  StiffnessPattern(const Eigen::Matrix4Xi& tets, const std::vector<bool>& fixed);
+
+  int num_vertices() const { return static_cast<int>(vertex_to_free_.size()); }
+  int num_free_vertices() const { return static_cast<int>(free_to_vertex_.size()); }
+  int num_dofs() const { return 3 * num_free_vertices(); }
+  int64_t num_nonzeros() const { return static_cast<int64_t>(row_indices_.size()); }
+
+  // Free index of vertex v, or -1 if v is fixed.
+  int free_index(int v) const { return vertex_to_free_[v]; }
+  int vertex_of_free(int f) const { return free_to_vertex_[f]; }
+
+  const std::vector<int64_t>& column_starts() const { return column_starts_; }  // num_dofs + 1
+  const std::vector<int64_t>& row_indices() const { return row_indices_; }
+
+  // Where element e's Hessian block coupling its local vertices k and l goes.
+  // For free vertices u = tets(k, e), v = tets(l, e) with free_index(u) <= free_index(v),
+  // entry (3 fu + c, 3 fv + d) of K is stored at BlockOffset(e, k, l, d) + c, for all
+  // c, d when u != v and for c <= d when u == v. Returns -1 if either vertex is fixed or
+  // free_index(u) > free_index(v) (then use (l, k) transposed).
+  int64_t BlockOffset(int e, int k, int l, int d) const;
+
+ private:
+  std::vector<int> vertex_to_free_;
+  std::vector<int> free_to_vertex_;
+  std::vector<int64_t> column_starts_;
+  std::vector<int64_t> row_indices_;
+  // Per element and local pair (k, l), k, l in 0..3: position of u among the entries
+  // before the diagonal block of v's columns (in units of 3 rows), or -1.
+  std::vector<int32_t> pair_slot_;  // 16 per element
+  Eigen::Matrix4Xi tets_;
+};
+
+}  // namespace aqs
+
+#endif  // AQS_DIFF_STIFFNESS_PATTERN_H_

@@ -1,0 +1,164 @@
+#include "diff/equilibrium_differentiator.h"
+
+#include <cstdio>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "diff/newton_refinement.h"
+#include "equilibrium/quasistatic_solver.h"
+#include "testing/finite_difference.h"
+#include "testing/test_meshes.h"
+
+namespace aqs {
+namespace {
+
+// The equilibrium for actuation a from warm start `start`, to near round-off: the
+// Ceres solve, then exact Newton refinement (FD references need ~1e-13 accuracy).
+Eigen::Matrix3Xd Equilibrium(QuasistaticSolver* solver, const ActuationMatrix& a,
+                             const Eigen::Matrix3Xd& start) {
+  solver->actuation() = a;
+  solver->SetPositions(start);
+  const QuasistaticSolveReport report = solver->Solve();
+  EXPECT_TRUE(report.converged) << report.Summary();
+  EquilibriumDifferentiator refiner(solver->model(), solver->fixed_mask());
+  NewtonRefinementOptions options;
+  options.force_tolerance = 1e-13 * solver->model().force_scale();
+  Eigen::Matrix3Xd x = solver->positions();
+  const NewtonRefinementReport refined = RefineEquilibrium(options, a, &refiner, &x);
+  EXPECT_TRUE(refined.converged) << refined.message << " " << refined.final_max_force;
+  return x;
+}
+
+QuasistaticSolverOptions SolverOptions() {
+  QuasistaticSolverOptions options;
+  options.relative_force_tolerance = 1e-6;  // into Newton's basin; refinement does the rest
+  options.num_threads = 1;
+  return options;
+}
+
+// L(x) = 1/2 sum_v |x_v - y_v|^2 over all vertices.
+double Loss(const Eigen::Matrix3Xd& x, const Eigen::Matrix3Xd& y) {
+  return 0.5 * (x - y).squaredNorm();
+}
+
+TEST(EquilibriumDifferentiatorTest, FullGradientMatchesResolvedEquilibria) {
+  const TetMesh mesh = testing::BarMesh(2, 1, 1, 0.5);
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<double> uniform_mu(0.5, 2.0);
+  Eigen::VectorXd mu(mesh.num_tets());
+  for (int e = 0; e < mu.size(); ++e) mu[e] = uniform_mu(rng);
+  const ShapeTargetModel model(mesh, mu);
+  const BoundaryConditions bc = testing::LeftFaceFixed(mesh);
+  QuasistaticSolver solver(model, bc, SolverOptions());
+  const ActuationMatrix a = testing::SmoothActuation(mesh, 0.2) +
+                            testing::RandomActuation(mesh.num_tets(), 0.05, &rng) -
+                            IdentityActuations(mesh.num_tets());
+  const Eigen::Matrix3Xd x = Equilibrium(&solver, a, mesh.vertices);
+  Eigen::Matrix3Xd y = x;
+  std::normal_distribution<double> normal(0.0, 0.1);
+  for (int i = 0; i < y.size(); ++i) y.data()[i] += normal(rng);
+
+  EquilibriumDifferentiator differentiator(model, solver.fixed_mask());
+  std::string error;
+  ASSERT_TRUE(differentiator.Prepare(x, a, &error)) << error;
+  const ActuationMatrix analytic = differentiator.LossGradient(x - y);
+
+  auto loss_of_actuation = [&](const Eigen::VectorXd& flat) {
+    const ActuationMatrix perturbed = Eigen::Map<const ActuationMatrix>(flat.data(), 6, a.cols());
+    return Loss(Equilibrium(&solver, perturbed, x), y);
+  };
+  const Eigen::VectorXd numeric = testing::CentralDifferenceGradient(
+      loss_of_actuation, Eigen::Map<const Eigen::VectorXd>(a.data(), a.size()), 1e-4);
+  const double error_value = testing::RelativeError(
+      Eigen::Map<const Eigen::VectorXd>(analytic.data(), analytic.size()), numeric);
+  EXPECT_LT(error_value, 1e-5);
+  EXPECT_GT(numeric.norm(), 1e-3) << "the check must not be vacuous";
+  std::printf("adjoint vs re-solved equilibria: %d components, relative error %.2e\n",
+              static_cast<int>(numeric.size()), error_value);
+}
+
+TEST(EquilibriumDifferentiatorTest, DirectionalGradientAndJacobianProductsOnLargerBar) {
+  const TetMesh mesh = testing::BarMesh(6, 3, 2, 0.3);
+  const ShapeTargetModel model(mesh, 1.0);
+  QuasistaticSolver solver(model, testing::LeftFaceFixed(mesh), SolverOptions());
+  std::mt19937 rng(19);
+  const ActuationMatrix a = testing::SmoothActuation(mesh, 0.25);
+  const Eigen::Matrix3Xd x = Equilibrium(&solver, a, mesh.vertices);
+  const Eigen::Matrix3Xd y = x + 0.05 * Eigen::Matrix3Xd::Random(3, x.cols());
+
+  EquilibriumDifferentiator differentiator(model, solver.fixed_mask());
+  std::string error;
+  ASSERT_TRUE(differentiator.Prepare(x, a, &error)) << error;
+  const ActuationMatrix gradient = differentiator.LossGradient(x - y);
+
+  // Three random directions: gradient . v and dx*/da v against re-solved equilibria.
+  const int k = 3;
+  Eigen::MatrixXd directions(6 * mesh.num_tets(), k);
+  for (int i = 0; i < directions.size(); ++i) {
+    directions.data()[i] = std::uniform_real_distribution<double>(-1, 1)(rng);
+  }
+  const Eigen::MatrixXd jvp = differentiator.ActuationJacobianProduct(directions);
+  ASSERT_EQ(jvp.rows(), 3 * mesh.num_vertices());
+  for (int c = 0; c < k; ++c) {
+    auto equilibrium_along = [&](const Eigen::VectorXd& t) -> Eigen::VectorXd {
+      const ActuationMatrix perturbed =
+          a + t[0] * Eigen::Map<const ActuationMatrix>(directions.col(c).data(), 6, a.cols());
+      const Eigen::Matrix3Xd xt = Equilibrium(&solver, perturbed, x);
+      Eigen::VectorXd out(xt.size() + 1);
+      out.head(xt.size()) = Eigen::Map<const Eigen::VectorXd>(xt.data(), xt.size());
+      out[xt.size()] = Loss(xt, y);
+      return out;
+    };
+    const Eigen::VectorXd numeric = testing::CentralDifferenceDirectional(
+        equilibrium_along, Eigen::VectorXd::Zero(1), Eigen::VectorXd::Ones(1), 1e-4);
+    const double directional = Eigen::Map<const Eigen::VectorXd>(gradient.data(), gradient.size())
+                                   .dot(directions.col(c));
+    EXPECT_NEAR(directional, numeric[x.size()], 1e-5 * std::abs(numeric[x.size()]))
+        << "direction " << c;
+    EXPECT_LT(testing::RelativeError(jvp.col(c), numeric.head(x.size())), 1e-5)
+        << "direction " << c;
+  }
+  // Fixed vertices do not move.
+  for (int v : solver.fixed_vertices()) EXPECT_EQ(jvp.block(3 * v, 0, 3, k).norm(), 0.0);
+}
+
+TEST(NewtonRefinementTest, ConvergesQuadraticallyFromSolverResult) {
+  const TetMesh mesh = testing::BarMesh(5, 2, 2, 0.4);
+  const ShapeTargetModel model(mesh, 1.0);
+  QuasistaticSolverOptions options;
+  options.relative_force_tolerance = 1e-4;  // a loose start
+  QuasistaticSolver solver(model, testing::LeftFaceFixed(mesh), options);
+  solver.actuation() = testing::SmoothActuation(mesh, 0.3);
+  ASSERT_TRUE(solver.Solve().converged);
+  EquilibriumDifferentiator differentiator(model, solver.fixed_mask());
+  Eigen::Matrix3Xd x = solver.positions();
+  NewtonRefinementOptions refine;
+  refine.force_tolerance = 1e-13 * model.force_scale();
+  const NewtonRefinementReport report =
+      RefineEquilibrium(refine, solver.actuation(), &differentiator, &x);
+  EXPECT_TRUE(report.converged) << report.message;
+  EXPECT_LE(report.steps, 3) << "quadratic convergence from 1e-4";
+  EXPECT_LE(report.final_max_force, refine.force_tolerance);
+  for (int v : solver.fixed_vertices()) EXPECT_EQ((x.col(v) - mesh.vertices.col(v)).norm(), 0.0);
+}
+
+TEST(EquilibriumDifferentiatorTest, ReportsStiffnessThatIsNotPositiveDefinite) {
+  const TetMesh mesh = testing::BarMesh(4, 2, 2, 0.5);
+  const ShapeTargetModel model(mesh, 1.0);
+  const BoundaryConditions bc = testing::LeftFaceFixed(mesh);
+  EquilibriumDifferentiator differentiator(model, FixedVertexMask(bc, mesh.num_vertices()));
+  // Every element squeezed to 30%: twist modes have negative stiffness.
+  Eigen::Matrix3Xd squeezed = 0.3 * mesh.vertices;
+  for (int v : bc.vertices) squeezed.col(v) = mesh.vertices.col(v);
+  std::string error;
+  EXPECT_FALSE(differentiator.Prepare(squeezed, IdentityActuations(mesh.num_tets()), &error));
+  EXPECT_NE(error.find("not positive definite"), std::string::npos) << error;
+  EXPECT_NE(error.find("of vertex"), std::string::npos) << error;
+  // And it works at a stable equilibrium afterwards.
+  EXPECT_TRUE(differentiator.Prepare(mesh.vertices, IdentityActuations(mesh.num_tets()), &error))
+      << error;
+}
+
+}  // namespace
+}  // namespace aqs

@@ -1,0 +1,120 @@
+#include "diff/stiffness_assembly.h"
+
+#include <random>
+
+#include <Eigen/Eigenvalues>
+#include <gtest/gtest.h>
+
+#include "equilibrium/boundary_conditions.h"
+#include "testing/finite_difference.h"
+#include "testing/test_meshes.h"
+
+namespace aqs {
+namespace {
+
+TEST(StiffnessPatternTest, ColumnsSortedUpperAndComplete) {
+  const TetMesh mesh = testing::BarMesh(3, 2, 2, 1.0);
+  const BoundaryConditions bc = testing::LeftFaceFixed(mesh);
+  const StiffnessPattern pattern(mesh.tets, FixedVertexMask(bc, mesh.num_vertices()));
+  EXPECT_EQ(pattern.num_free_vertices(), mesh.num_vertices() - static_cast<int>(bc.vertices.size()));
+  for (int j = 0; j < pattern.num_dofs(); ++j) {
+    const int64_t begin = pattern.column_starts()[j], end = pattern.column_starts()[j + 1];
+    ASSERT_LT(begin, end);
+    EXPECT_EQ(pattern.row_indices()[end - 1], j) << "diagonal last";
+    for (int64_t p = begin; p + 1 < end; ++p) {
+      EXPECT_LT(pattern.row_indices()[p], pattern.row_indices()[p + 1]);
+    }
+  }
+  for (int f = 0; f < pattern.num_free_vertices(); ++f) {
+    EXPECT_EQ(pattern.free_index(pattern.vertex_of_free(f)), f);
+  }
+}
+
+class StiffnessAssemblyTest : public ::testing::Test {
+ protected:
+  StiffnessAssemblyTest()
+      : mesh_(testing::BarMesh(3, 2, 1, 0.5)),
+        model_(mesh_, RandomMu(mesh_.num_tets())),
+        bc_(testing::LeftFaceFixed(mesh_)),
+        pattern_(mesh_.tets, FixedVertexMask(bc_, mesh_.num_vertices())) {}
+
+  static Eigen::VectorXd RandomMu(int n) {
+    std::mt19937 rng(8);
+    std::uniform_real_distribution<double> uniform(0.5, 2.0);
+    Eigen::VectorXd mu(n);
+    for (int i = 0; i < n; ++i) mu[i] = uniform(rng);
+    return mu;
+  }
+
+  // Gradient of E on the free DOFs as a function of the free DOFs.
+  Eigen::VectorXd FreeGradient(const Eigen::VectorXd& free, const Eigen::Matrix3Xd& base,
+                               const ActuationMatrix& a) const {
+    Eigen::Matrix3Xd x = base;
+    for (int f = 0; f < pattern_.num_free_vertices(); ++f) {
+      x.col(pattern_.vertex_of_free(f)) = free.segment<3>(3 * f);
+    }
+    Eigen::Matrix3Xd gradient;
+    model_.EnergyAndGradient(x, a, &gradient);
+    Eigen::VectorXd out(pattern_.num_dofs());
+    for (int f = 0; f < pattern_.num_free_vertices(); ++f) {
+      out.segment<3>(3 * f) = gradient.col(pattern_.vertex_of_free(f));
+    }
+    return out;
+  }
+
+  TetMesh mesh_;
+  ShapeTargetModel model_;
+  BoundaryConditions bc_;
+  StiffnessPattern pattern_;
+};
+
+TEST_F(StiffnessAssemblyTest, ExactStiffnessMatchesFiniteDifferencesOfForces) {
+  std::mt19937 rng(12);
+  std::normal_distribution<double> normal(0.0, 0.06);
+  for (int trial = 0; trial < 3; ++trial) {
+    const ActuationMatrix a = testing::RandomActuation(model_.num_elements(), 0.3, &rng);
+    Eigen::Matrix3Xd x = mesh_.vertices;
+    for (int i = 0; i < x.size(); ++i) x.data()[i] += normal(rng);
+    if (trial == 2) x *= 0.6;  // compressed: indefinite element Hessians
+    std::vector<double> values;
+    AssembleStiffness(model_, pattern_, x, a, StiffnessKind::kExact, 2, &values);
+    const Eigen::MatrixXd k = DenseFromUpperCsc(pattern_, values);
+    Eigen::VectorXd free(pattern_.num_dofs());
+    for (int f = 0; f < pattern_.num_free_vertices(); ++f) {
+      free.segment<3>(3 * f) = x.col(pattern_.vertex_of_free(f));
+    }
+    const Eigen::MatrixXd numeric = testing::CentralDifferenceJacobian(
+        [&](const Eigen::VectorXd& v) { return FreeGradient(v, x, a); }, free, 1e-6);
+    EXPECT_LT(testing::RelativeError(k, numeric), 1e-7) << "trial " << trial;
+    // Serial and threaded assembly agree.
+    std::vector<double> serial;
+    AssembleStiffness(model_, pattern_, x, a, StiffnessKind::kExact, 1, &serial);
+    EXPECT_LT(testing::RelativeError(DenseFromUpperCsc(pattern_, serial), k), 1e-13);
+  }
+}
+
+TEST_F(StiffnessAssemblyTest, ProjectedStiffnessIsPositiveSemiDefinite) {
+  std::mt19937 rng(13);
+  const ActuationMatrix a = testing::RandomActuation(model_.num_elements(), 0.3, &rng);
+  const Eigen::Matrix3Xd x = 0.5 * mesh_.vertices;  // strongly compressed
+  std::vector<double> exact, projected;
+  AssembleStiffness(model_, pattern_, x, a, StiffnessKind::kExact, 2, &exact);
+  AssembleStiffness(model_, pattern_, x, a, StiffnessKind::kProjected, 2, &projected);
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> exact_eig(DenseFromUpperCsc(pattern_, exact));
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> projected_eig(
+      DenseFromUpperCsc(pattern_, projected));
+  EXPECT_LT(exact_eig.eigenvalues().minCoeff(), 0.0) << "the state should be indefinite";
+  EXPECT_GE(projected_eig.eigenvalues().minCoeff(),
+            -1e-12 * projected_eig.eigenvalues().maxCoeff());
+  // At rest with S = I every element Hessian is PSD already: both kinds agree.
+  const ActuationMatrix identity = IdentityActuations(model_.num_elements());
+  AssembleStiffness(model_, pattern_, mesh_.vertices, identity, StiffnessKind::kExact, 2, &exact);
+  AssembleStiffness(model_, pattern_, mesh_.vertices, identity, StiffnessKind::kProjected, 2,
+                    &projected);
+  EXPECT_LT(testing::RelativeError(DenseFromUpperCsc(pattern_, projected),
+                                   DenseFromUpperCsc(pattern_, exact)),
+            1e-12);
+}
+
+}  // namespace
+}  // namespace aqs

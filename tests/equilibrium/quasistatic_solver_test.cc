@@ -1,0 +1,190 @@
+#include "equilibrium/quasistatic_solver.h"
+
+#include <cmath>
+#include <random>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
+#include <gtest/gtest.h>
+
+#include "physics/element_states.h"
+#include "testing/test_meshes.h"
+
+namespace aqs {
+namespace {
+
+using testing::BarMesh;
+using testing::LeftFaceFixed;
+
+// A smooth bend and twist of the bar (a deformation with non-trivial rotations).
+Eigen::Matrix3Xd BendAndTwist(const Eigen::Matrix3Xd& rest) {
+  Eigen::Matrix3Xd y(3, rest.cols());
+  for (int v = 0; v < rest.cols(); ++v) {
+    const Eigen::Vector3d p = rest.col(v);
+    const double bend = 0.25 * p.x();
+    const double twist = 0.4 * p.x();
+    const Eigen::Vector3d q(p.x(), p.y() * std::cos(twist) - p.z() * std::sin(twist),
+                            p.y() * std::sin(twist) + p.z() * std::cos(twist));
+    y.col(v) = Eigen::AngleAxisd(bend, Eigen::Vector3d::UnitZ()) * q +
+               Eigen::Vector3d(0, 0.1 * p.x() * p.x(), 0);
+  }
+  return y;
+}
+
+QuasistaticSolverOptions TightOptions() {
+  QuasistaticSolverOptions options;
+  // Tight, near the floating-point floor (see QuasistaticSolverOptions).
+  options.relative_force_tolerance = 1e-9;
+  options.function_tolerance = 0;
+  return options;
+}
+
+TEST(QuasistaticSolverTest, IdentityActuationKeepsRestShape) {
+  const TetMesh mesh = BarMesh(4, 2, 2, 0.5);
+  const ShapeTargetModel model(mesh, 1.0);
+  QuasistaticSolver solver(model, LeftFaceFixed(mesh), TightOptions());
+  // Start from a perturbed state: the solve must come back to rest.
+  std::mt19937 rng(1);
+  std::normal_distribution<double> normal(0.0, 0.03);
+  Eigen::Matrix3Xd start = mesh.vertices;
+  for (int i = 0; i < start.size(); ++i) start.data()[i] += normal(rng);
+  solver.SetPositions(start);
+  const QuasistaticSolveReport report = solver.Solve();
+  EXPECT_TRUE(report.converged) << report.Summary();
+  EXPECT_LT((solver.positions() - mesh.vertices).cwiseAbs().maxCoeff(), 1e-8);
+  EXPECT_LT(report.final_energy, 1e-16);
+}
+
+TEST(QuasistaticSolverTest, PolarFactorTargetsReproduceAnyDeformation) {
+  const TetMesh mesh = BarMesh(6, 2, 2, 0.5);
+  const ShapeTargetModel model(mesh, 1.0);
+  const Eigen::Matrix3Xd y = BendAndTwist(mesh.vertices);
+  BoundaryConditions bc = LeftFaceFixed(mesh);
+  bc.positions.resize(3, bc.vertices.size());
+  for (size_t i = 0; i < bc.vertices.size(); ++i) bc.positions.col(i) = y.col(bc.vertices[i]);
+  QuasistaticSolver solver(model, bc, TightOptions());
+  for (int e = 0; e < model.num_elements(); ++e) {
+    const Eigen::Matrix3d f = model.DeformationGradient(y, e);
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(f.transpose() * f);
+    const Eigen::Matrix3d stretch = eig.eigenvectors() *
+                                    eig.eigenvalues().cwiseSqrt().asDiagonal() *
+                                    eig.eigenvectors().transpose();
+    solver.actuation().col(e) = ActuationFromSymmetric(stretch);
+  }
+  const QuasistaticSolveReport report = solver.Solve();
+  EXPECT_TRUE(report.converged) << report.Summary();
+  EXPECT_LT((solver.positions() - y).cwiseAbs().maxCoeff(), 1e-7) << report.Summary();
+  EXPECT_LT(report.final_energy, 1e-14);
+}
+
+TEST(QuasistaticSolverTest, RigidlyMovedSupportsGiveRigidMotion) {
+  const TetMesh mesh = BarMesh(4, 2, 2, 0.5);
+  const ShapeTargetModel model(mesh, 2.0);
+  BoundaryConditions bc = LeftFaceFixed(mesh);
+  std::mt19937 rng(4);
+  const Eigen::Matrix3d r = testing::RandomRotation(&rng);
+  const Eigen::Vector3d t(1.0, -0.5, 0.25);
+  bc.positions.resize(3, bc.vertices.size());
+  for (size_t i = 0; i < bc.vertices.size(); ++i) {
+    bc.positions.col(i) = r * mesh.vertices.col(bc.vertices[i]) + t;
+  }
+  QuasistaticSolver solver(model, bc, TightOptions());
+  const QuasistaticSolveReport report = solver.Solve();
+  EXPECT_TRUE(report.converged) << report.Summary();
+  const Eigen::Matrix3Xd expected = (r * mesh.vertices).colwise() + t;
+  EXPECT_LT((solver.positions() - expected).cwiseAbs().maxCoeff(), 1e-7) << report.Summary();
+}
+
+TEST(QuasistaticSolverTest, HeterogeneousMuReachesForceTolerance) {
+  const TetMesh mesh = BarMesh(5, 2, 2, 0.4);
+  Eigen::VectorXd mu(mesh.num_tets());
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> uniform(0.2, 5.0);
+  for (int e = 0; e < mu.size(); ++e) mu[e] = uniform(rng);
+  const ShapeTargetModel model(mesh, mu);
+  QuasistaticSolver solver(model, LeftFaceFixed(mesh), TightOptions());
+  solver.actuation() = testing::SmoothActuation(mesh, 0.2);
+  const QuasistaticSolveReport report = solver.Solve();
+  ASSERT_TRUE(report.converged) << report.Summary();
+  EXPECT_GT(report.iterations, 0);
+  // Independent check of the equilibrium: forces from the model's own gradient.
+  Eigen::Matrix3Xd gradient;
+  model.EnergyAndGradient(solver.positions(), solver.actuation(), &gradient);
+  double max_free = 0, max_fixed = 0;
+  for (int v = 0; v < model.num_vertices(); ++v) {
+    const double f = gradient.col(v).norm();
+    if (solver.fixed_mask()[v]) {
+      max_fixed = std::max(max_fixed, f);
+    } else {
+      max_free = std::max(max_free, f);
+    }
+  }
+  EXPECT_LE(max_free, report.force_tolerance);
+  EXPECT_NEAR(max_free, report.final_max_force, 1e-15);
+  EXPECT_GT(max_fixed, 1e3 * report.force_tolerance) << "the support carries load";
+  // Fixed vertices did not move.
+  for (int v : solver.fixed_vertices()) {
+    EXPECT_EQ((solver.positions().col(v) - mesh.vertices.col(v)).norm(), 0.0);
+  }
+}
+
+TEST(QuasistaticSolverTest, WarmStartAndInPlaceActuationUpdates) {
+  const TetMesh mesh = BarMesh(5, 2, 2, 0.4);
+  const ShapeTargetModel model(mesh, 1.0);
+  QuasistaticSolverOptions options;  // defaults: 1e-6 relative force
+  QuasistaticSolver solver(model, LeftFaceFixed(mesh), options);
+  solver.actuation() = testing::SmoothActuation(mesh, 0.15);
+  const QuasistaticSolveReport first = solver.Solve();
+  ASSERT_TRUE(first.converged) << first.Summary();
+  const Eigen::Matrix3Xd first_positions = solver.positions();
+  // Nothing changed: the warm start is already the answer.
+  const QuasistaticSolveReport again = solver.Solve();
+  EXPECT_TRUE(again.converged);
+  EXPECT_EQ(again.iterations, 0);
+  // A 1% change of the actuation, in place: few iterations from the warm start.
+  solver.actuation() = IdentityActuations(model.num_elements()) +
+                       1.01 * (solver.actuation() - IdentityActuations(model.num_elements()));
+  const QuasistaticSolveReport warm = solver.Solve();
+  ASSERT_TRUE(warm.converged) << warm.Summary();
+  EXPECT_LT(warm.iterations, first.iterations);
+  EXPECT_GT((solver.positions() - first_positions).norm(), 1e-6);
+  // The same answer from a cold start.
+  QuasistaticSolver cold(model, LeftFaceFixed(mesh), options);
+  cold.actuation() = solver.actuation();
+  ASSERT_TRUE(cold.Solve().converged);
+  EXPECT_LT((cold.positions() - solver.positions()).cwiseAbs().maxCoeff(), 1e-5);
+}
+
+TEST(QuasistaticSolverTest, NonConvergenceIsReported) {
+  const TetMesh mesh = BarMesh(5, 2, 2, 0.4);
+  const ShapeTargetModel model(mesh, 1.0);
+  QuasistaticSolverOptions options = TightOptions();
+  options.max_iterations = 1;
+  QuasistaticSolver solver(model, LeftFaceFixed(mesh), options);
+  solver.actuation() = testing::SmoothActuation(mesh, 0.4);
+  const QuasistaticSolveReport report = solver.Solve();
+  EXPECT_FALSE(report.converged);
+  EXPECT_GT(report.final_max_force, report.force_tolerance);
+  EXPECT_NE(report.Summary().find("NOT CONVERGED"), std::string::npos);
+  EXPECT_FALSE(report.termination.empty());
+}
+
+TEST(QuasistaticSolverTest, MovingFixedVerticesBetweenSolves) {
+  const TetMesh mesh = BarMesh(4, 2, 2, 0.5);
+  const ShapeTargetModel model(mesh, 1.0);
+  const BoundaryConditions bc = LeftFaceFixed(mesh);
+  QuasistaticSolver solver(model, bc, TightOptions());
+  ASSERT_TRUE(solver.Solve().converged);
+  Eigen::Matrix3Xd moved(3, bc.vertices.size());
+  for (size_t i = 0; i < bc.vertices.size(); ++i) {
+    moved.col(i) = mesh.vertices.col(bc.vertices[i]) + Eigen::Vector3d(0, 0.2, 0);
+  }
+  solver.SetFixedPositions(moved);
+  const QuasistaticSolveReport report = solver.Solve();
+  ASSERT_TRUE(report.converged) << report.Summary();
+  const Eigen::Matrix3Xd expected = mesh.vertices.colwise() + Eigen::Vector3d(0, 0.2, 0);
+  EXPECT_LT((solver.positions() - expected).cwiseAbs().maxCoeff(), 1e-7);
+}
+
+}  // namespace
+}  // namespace aqs

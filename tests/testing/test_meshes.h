@@ -1,0 +1,32 @@
+#ifndef AQS_TESTING_TEST_MESHES_H_
+#define AQS_TESTING_TEST_MESHES_H_
+
+#include <random>
+
+#include <Eigen/Core>
+
+#include "equilibrium/boundary_conditions.h"
+#include "mesh/tet_mesh.h"
+#include "physics/actuation.h"
+
+namespace aqs {
+namespace testing {
+
+// A Kuhn lattice bar of nx x ny x nz cubes of edge `spacing`, minimum corner at 0.
+TetMesh BarMesh(int nx, int ny, int nz, double spacing);
+
+// The vertices with x <= tolerance (the bar's left face), fixed at rest.
+BoundaryConditions LeftFaceFixed(const TetMesh& mesh, double tolerance = 1e-9);
+
+// A smooth, non-trivial actuation: per element, S = R(theta) diag(1 + s1, 1 - s2, 1 + s3)
+// R(theta)^T with amplitudes varying with the element centroid (contraction along a
+// rotating fibre direction), scaled by `amplitude` (0.1 = 10% strains).
+ActuationMatrix SmoothActuation(const TetMesh& mesh, double amplitude);
+
+// Identity plus uniform noise of the given amplitude on every number.
+ActuationMatrix RandomActuation(int num_elements, double amplitude, std::mt19937* rng);
+
+}  // namespace testing
+}  // namespace aqs
+
+#endif  // AQS_TESTING_TEST_MESHES_H_
