@@ -22,6 +22,10 @@ struct BoundarySurface {
   std::vector<int> vertices;
 };
 
+// Triangles come in element order (element t's faces in the order of the vertex they
+// are opposite to). The orientation of each triangle follows the sign of its own
+// element's signed volume. Every index of `mesh` must be in range (CHECK); a triangle
+// shared by three or more elements is not on the boundary. O(n log n) at most.
 BoundarySurface ExtractBoundarySurface(const TetMesh& mesh);
 
 // A standalone surface made of the boundary triangles with only the boundary

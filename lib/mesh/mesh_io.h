@@ -13,25 +13,39 @@ namespace aqs {
 // for content errors, the 1-based line and what was expected there, e.g.
 //   "a.mesh:17: expected 4 vertex indices and a reference after 'Tetrahedra', got 3 tokens".
 // Readers only parse: they check indices are in range but do not judge geometry
-// (ReadTetMesh does, through ValidateTetMesh).
+// (ReadTetMesh does, through ValidateTetMesh). On failure the output is left unchanged.
+// Header counts that are negative or larger than the file can hold are errors (no
+// allocation is made for them). Readers take linear time in the file size.
 
 // MEDIT ASCII .mesh (keywords MeshVersionFormatted, Dimension 3, Vertices,
 // Tetrahedra; the sections Triangles, Edges, Corners, Ridges, RequiredVertices,
 // RequiredEdges, Quadrilaterals, Hexahedra, Normals, NormalAtVertices, Tangents,
 // TangentAtVertices are skipped; an unknown keyword is an error naming it). Indices in
 // the file are 1-based. Binary .meshb is rejected with a message saying so.
+// Details: records may span lines and '#' starts a comment; keywords are
+// case-sensitive; Prisms, Pyramids and Required{Triangles,Quadrilaterals,Tetrahedra,
+// Hexahedra} are skipped too; Dimension must be 3; Vertices and Tetrahedra must each
+// appear exactly once (in either order); a missing final End is tolerated and anything
+// after End is ignored.
 bool ReadMeditMesh(const std::string& path, TetMesh* mesh, std::string* error);
 
 // TetGen .node/.ele. `path` may name the .node file, the .ele file or their common
 // stem; both files must exist. Index base (0 or 1) is taken from the first .node
 // entry as TetGen does; attributes and boundary markers are read past. 10-node
-// elements keep their 4 corner nodes.
+// elements keep their 4 corner nodes. Points must be numbered consecutively from the
+// base; '#' starts a comment. Point lines may omit trailing attributes/markers.
 bool ReadTetgenMesh(const std::string& path, TetMesh* mesh, std::string* error);
 
 // Gmsh .msh ASCII, format 2.2 or 4.1 (read from $MeshFormat). Node tags may be any
 // positive integers (non-contiguous is fine); elements of type 4 (4-node tet) and 11
 // (10-node tet, corners kept) become tets; other element types are skipped. Binary
 // files are rejected with a message saying so.
+// Details: node tags become 0-based vertex indices in order of appearance (nodes
+// used by no tet are kept as vertices); an element type whose node count is unknown,
+// an element node tag missing from $Nodes, a duplicated node tag, counts that
+// disagree with the section and a missing $End<Section> are errors; unknown sections
+// ($PhysicalNames, $Entities, $NodeData, ...) are skipped; a file without tets is an
+// error. Version 2.x (ASCII 2.0-2.2) and 4.1 are read; 4.0 and 1.0 are not.
 bool ReadGmshMesh(const std::string& path, TetMesh* mesh, std::string* error);
 
 // Reads a tet mesh by extension (.mesh, .node, .ele, .msh), then validates it with
@@ -43,6 +57,9 @@ bool ReadTetMesh(const std::string& path, TetMesh* mesh, std::string* error);
 // face_offsets/face_vertices and fan-triangulated into `triangles`. Other records
 // (vt, vn, g, o, s, usemtl, mtllib, l, ...) are ignored. Faces with fewer than 3
 // corners or out-of-range indices are errors naming the line.
+// Details: 'v' may carry w or an r g b colour after x y z (ignored); a positive index
+// may refer to a vertex defined later in the file (checked at the end); face_offsets,
+// face_vertices and triangle_face are filled whenever the file has faces.
 bool ReadObj(const std::string& path, SurfaceMesh* surface, std::string* error);
 
 // Writers. Every number is written with 17 significant digits; files are written
@@ -53,6 +70,8 @@ bool ReadObj(const std::string& path, SurfaceMesh* surface, std::string* error);
 bool WriteMeditMesh(const std::string& path, const TetMesh& mesh, std::string* error);
 
 // OBJ with `surface`'s vertices and its polygons (or triangles when it has none).
+// The first line is "# written by ActiveQS"; indices are written 1-based. Indices out
+// of range are a programmer error (CHECK).
 bool WriteObj(const std::string& path, const SurfaceMesh& surface, std::string* error);
 
 // A named data array for VTU output. `values` holds `components` numbers per entry,
@@ -66,6 +85,8 @@ struct VtuField {
 
 // VTK XML unstructured grid (.vtu, ASCII, readable by ParaView) of `mesh` with
 // per-vertex and per-element fields. Field sizes are checked (CHECK: programmer error).
+// Points and fields are Float64, connectivity and offsets Int64, types UInt8 (10 =
+// tetra); VTU file version 0.1. Field names are XML-escaped.
 bool WriteVtu(const std::string& path, const TetMesh& mesh,
               const std::vector<VtuField>& point_fields,
               const std::vector<VtuField>& cell_fields, std::string* error);

@@ -1,0 +1,154 @@
+#include "mesh/text_io_util.h"
+
+#include <glog/logging.h>
+
+#include <algorithm>
+#include <cctype>
+#include <charconv>
+#include <cstdio>
+#include <fstream>
+#include <limits>
+#include <system_error>
+
+namespace aqs {
+namespace mesh_internal {
+namespace {
+
+inline bool IsSpace(char c) {
+  return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\v' || c == '\f';
+}
+
+}  // namespace
+
+void SplitLine(const std::string& line, char comment_char, std::vector<std::string>* tokens) {
+  size_t count = 0;
+  const char* p = line.data();
+  const char* end = p + line.size();
+  if (comment_char != '\0') {
+    for (const char* q = p; q != end; ++q) {
+      if (*q == comment_char) {
+        end = q;
+        break;
+      }
+    }
+  }
+  while (true) {
+    while (p != end && IsSpace(*p)) ++p;
+    if (p == end) break;
+    const char* start = p;
+    while (p != end && !IsSpace(*p)) ++p;
+    if (count < tokens->size()) {
+      (*tokens)[count].assign(start, p);
+    } else {
+      tokens->emplace_back(start, p);
+    }
+    ++count;
+  }
+  tokens->resize(count);
+}
+
+bool NextLineTokens(LineReader* reader, char comment_char, std::vector<std::string>* tokens) {
+  while (reader->NextLine()) {
+    SplitLine(reader->line(), comment_char, tokens);
+    if (!tokens->empty()) return true;
+  }
+  tokens->clear();
+  return false;
+}
+
+long long FileSizeBytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
+  if (!in) return -1;
+  const std::streamoff size = in.tellg();
+  return size < 0 ? -1 : static_cast<long long>(size);
+}
+
+bool FileLooksBinary(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return false;
+  char buffer[4096];
+  in.read(buffer, sizeof(buffer));
+  const std::streamsize n = in.gcount();
+  return std::find(buffer, buffer + n, '\0') != buffer + n;
+}
+
+std::string Quoted(const std::string& token) {
+  constexpr size_t kMaxShown = 40;
+  std::string out = "'";
+  const size_t shown = std::min(token.size(), kMaxShown);
+  for (size_t i = 0; i < shown; ++i) {
+    const unsigned char c = static_cast<unsigned char>(token[i]);
+    if (std::isprint(c)) {
+      out.push_back(static_cast<char>(c));
+    } else {
+      char escaped[8];
+      std::snprintf(escaped, sizeof(escaped), "\\x%02X", c);
+      out += escaped;
+    }
+  }
+  if (token.size() > kMaxShown) out += "...";
+  out += "'";
+  return out;
+}
+
+bool CheckRecordCount(const LineReader& reader, long long count, int tokens_per_record,
+                      long long file_size, const std::string& what, std::string* error) {
+  CHECK_GE(tokens_per_record, 1);
+  if (count < 0) {
+    *error = reader.Where("the number of " + what + " must not be negative, got " +
+                          std::to_string(count));
+    return false;
+  }
+  if (count > std::numeric_limits<int>::max()) {
+    *error =
+        reader.Where("the number of " + what + " (" + std::to_string(count) + ") is too large");
+    return false;
+  }
+  if (file_size >= 0) {
+    // A record of k tokens takes at least 2k - 1 bytes; all but the last 2k.
+    const long long capacity = (file_size + 1) / (2LL * tokens_per_record);
+    if (count > capacity) {
+      *error = reader.Where("the number of " + what + " (" + std::to_string(count) +
+                            ") is larger than the file (" + std::to_string(file_size) +
+                            " bytes) can hold: the file is truncated or the count is wrong");
+      return false;
+    }
+  }
+  return true;
+}
+
+std::string LowercaseExtension(const std::string& path) {
+  const size_t slash = path.find_last_of('/');
+  const size_t dot = path.find_last_of('.');
+  if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) return "";
+  std::string extension = path.substr(dot);
+  for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return extension;
+}
+
+void AppendInt(long long value, std::string* out) {
+  char buffer[24];
+  const std::to_chars_result result = std::to_chars(buffer, buffer + sizeof(buffer), value);
+  out->append(buffer, result.ptr);
+}
+
+const std::string* TokenStream::Next() {
+  while (next_ >= tokens_.size()) {
+    if (!reader_->NextLine()) return nullptr;
+    SplitLine(reader_->line(), comment_char_, &tokens_);
+    next_ = 0;
+  }
+  return &tokens_[next_++];
+}
+
+ChunkedWriter::ChunkedWriter(std::ostream* out) : out_(out) { buffer_.reserve(kChunkBytes + 4096); }
+
+void ChunkedWriter::Flush() {
+  if (!buffer_.empty()) {
+    out_->write(buffer_.data(), static_cast<std::streamsize>(buffer_.size()));
+    buffer_.clear();
+  }
+}
+
+}  // namespace mesh_internal
+}  // namespace aqs

@@ -1,0 +1,40 @@
+#ifndef AQS_TESTS_MESH_MESH_TEST_UTIL_H_
+#define AQS_TESTS_MESH_MESH_TEST_UTIL_H_
+
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "mesh/tet_mesh.h"
+
+namespace aqs {
+namespace testing {
+
+// Success if `text` contains `part`; the failure message shows both.
+inline ::testing::AssertionResult Contains(const std::string& text, const std::string& part) {
+  if (text.find(part) != std::string::npos) return ::testing::AssertionSuccess();
+  return ::testing::AssertionFailure() << "\"" << text << "\" does not contain \"" << part << "\"";
+}
+
+// The tetrahedron (0,0,0) (1,0,0) (0,1,0) (0,0,1), positive signed volume 1/6.
+inline TetMesh UnitTet() {
+  TetMesh mesh;
+  mesh.vertices.resize(3, 4);
+  mesh.vertices << 0, 1, 0, 0,  //
+      0, 0, 1, 0,               //
+      0, 0, 0, 1;
+  mesh.tets.resize(4, 1);
+  mesh.tets << 0, 1, 2, 3;
+  return mesh;
+}
+
+inline double TotalSignedVolume(const TetMesh& mesh) {
+  double total = 0;
+  for (int t = 0; t < mesh.num_tets(); ++t) total += SignedTetVolume(mesh, mesh.vertices, t);
+  return total;
+}
+
+}  // namespace testing
+}  // namespace aqs
+
+#endif  // AQS_TESTS_MESH_MESH_TEST_UTIL_H_
