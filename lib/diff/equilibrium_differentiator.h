@@ -7,8 +7,7 @@
 
 #include <Eigen/Core>
 
-#include "diff/sparse_cholesky.h"
-#include "diff/stiffness_pattern.h"
+#include "equilibrium/stiffness_factorization.h"
 #include "physics/actuation.h"
 #include "physics/shape_target_model.h"
 
@@ -40,7 +39,13 @@ struct DifferentiationTimings {
 // The model must outlive this object. Not thread-safe.
 class EquilibriumDifferentiator {
  public:
+  // Owns its StiffnessFactorization.
   EquilibriumDifferentiator(const ShapeTargetModel& model, const std::vector<bool>& fixed_mask,
+                            const EquilibriumDifferentiatorOptions& options =
+                                EquilibriumDifferentiatorOptions());
+  // Uses `factorization` (not owned; same model and fixed set), so that one CHOLMOD
+  // factor serves Newton steps and gradients (memory: one factor instead of two).
+  EquilibriumDifferentiator(StiffnessFactorization* factorization,
                             const EquilibriumDifferentiatorOptions& options =
                                 EquilibriumDifferentiatorOptions());
   ~EquilibriumDifferentiator();
@@ -49,7 +54,8 @@ class EquilibriumDifferentiator {
   // factorizes it. Returns false with *error if K is not positive definite there
   // (naming the vertex where the factorization broke down: an unstable equilibrium,
   // or a body whose fixed vertices do not remove all rigid motions).
-  bool Prepare(const ShapeTargetModel::PositionsRef& x, const ShapeTargetModel::ActuationRef& a, std::string* error);
+  bool Prepare(const ShapeTargetModel::PositionsRef& x, const ShapeTargetModel::ActuationRef& a,
+               std::string* error);
 
   // dL/da (6 x num_elements) for a loss L(x) whose gradient with respect to the
   // positions is dl_dx (3 x num_vertices; entries of fixed vertices are ignored since
@@ -69,20 +75,14 @@ class EquilibriumDifferentiator {
 
   const ShapeTargetModel& model() const { return model_; }
   const EquilibriumDifferentiatorOptions& options() const { return options_; }
-  const StiffnessPattern& pattern() const { return pattern_; }
-  const SparseCholesky& cholesky() const { return *cholesky_; }
-  const std::vector<double>& stiffness_values() const { return values_; }
+  const StiffnessFactorization& factorization() const { return *factorization_; }
   const DifferentiationTimings& timings() const { return timings_; }
 
  private:
-  Eigen::VectorXd GatherFree(const Eigen::Matrix3Xd& per_vertex) const;
-  Eigen::Matrix3Xd ScatterFree(const double* free_values) const;
-
   const ShapeTargetModel& model_;
   EquilibriumDifferentiatorOptions options_;
-  StiffnessPattern pattern_;
-  std::unique_ptr<SparseCholesky> cholesky_;
-  std::vector<double> values_;
+  std::unique_ptr<StiffnessFactorization> owned_factorization_;
+  StiffnessFactorization* factorization_;
   Eigen::Matrix3Xd x_;
   ActuationMatrix a_;
   bool prepared_ = false;

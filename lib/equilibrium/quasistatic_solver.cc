@@ -4,11 +4,14 @@
 #include <cmath>
 #include <sstream>
 
+#include <ceres/ordered_groups.h>
 #include <ceres/problem.h>
 #include <ceres/solver.h>
 #include <glog/logging.h>
 
+#include "equilibrium/newton_refinement.h"
 #include "equilibrium/shape_target_cost_function.h"
+#include "sparse/vertex_ordering.h"
 #include "util/wall_timer.h"
 
 namespace aqs {
@@ -16,8 +19,9 @@ namespace aqs {
 std::string QuasistaticSolveReport::Summary() const {
   std::ostringstream out;
   out.precision(4);
-  out << (converged ? "converged" : "NOT CONVERGED") << ": " << iterations << " iterations ("
-      << successful_iterations << " accepted), energy " << initial_energy << " -> "
+  out << (converged ? "converged" : "NOT CONVERGED") << ": " << lm_iterations
+      << " LM iterations (" << successful_iterations << " accepted) + " << newton_steps
+      << " Newton steps, energy " << initial_energy << " -> "
       << final_energy << ", max force " << initial_max_force << " -> " << final_max_force
       << " (tolerance " << force_tolerance << "), " << seconds << " s; " << termination;
   return out.str();
@@ -99,6 +103,77 @@ double QuasistaticSolver::MaxFreeForce(double* energy) const {
   return max_force;
 }
 
+StiffnessFactorization* QuasistaticSolver::stiffness_factorization() {
+  if (!factorization_) {
+    factorization_ =
+        std::make_unique<StiffnessFactorization>(model_, fixed_mask_, options_.num_threads);
+  }
+  return factorization_.get();
+}
+
+bool QuasistaticSolver::RunNewton(QuasistaticSolveReport* report) {
+  NewtonRefinementOptions newton;
+  newton.force_tolerance = report->force_tolerance;
+  newton.max_steps = options_.max_newton_steps;
+  Eigen::Matrix3Xd x = positions();
+  const NewtonRefinementReport result =
+      RefineEquilibrium(newton, actuation(), stiffness_factorization(), &x);
+  SetPositions(x);
+  report->newton_steps += result.steps;
+  report->final_max_force = result.final_max_force;
+  report->final_energy = result.final_energy;
+  if (!report->termination.empty()) report->termination += "; ";
+  report->termination += "Newton: " + result.message;
+  return result.converged;
+}
+
+void QuasistaticSolver::RunCeres(double tolerance, QuasistaticSolveReport* report) {
+  ceres::Solver::Options solver_options;
+  solver_options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+  solver_options.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
+  solver_options.dynamic_sparsity = options_.ordering == NormalEquationsOrdering::kDynamic;
+  solver_options.use_postordering = options_.use_postordering;
+  if (options_.ordering == NormalEquationsOrdering::kVertexFillReducing) {
+    if (vertex_order_.empty()) vertex_order_ = FillReducingVertexOrder(model_.tets(), fixed_mask_);
+    auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+    int group = 0;
+    for (int v : vertex_order_) {
+      double* block = vertex(v);
+      if (problem_->HasParameterBlock(block)) ordering->AddElementToGroup(block, group++);
+    }
+    for (int v : fixed_vertices_) {
+      double* block = vertex(v);
+      if (problem_->HasParameterBlock(block)) ordering->AddElementToGroup(block, group);
+    }
+    solver_options.linear_solver_ordering = ordering;
+  }
+  solver_options.num_threads = options_.num_threads;
+  solver_options.max_num_iterations = std::max(1, options_.max_iterations - report->iterations);
+  solver_options.minimizer_progress_to_stdout = options_.log_progress;
+  solver_options.logging_type = options_.log_progress ? ceres::PER_MINIMIZER_ITERATION
+                                                      : ceres::SILENT;
+  // Ceres tests the max-norm of dE/dx; a per-vertex norm <= tol needs components <= tol/sqrt 3.
+  solver_options.gradient_tolerance = tolerance / std::sqrt(3.0);
+  solver_options.function_tolerance = options_.function_tolerance;
+  solver_options.parameter_tolerance = options_.parameter_tolerance;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver_options, problem_.get(), &summary);
+
+  const int iterations = std::max(0, static_cast<int>(summary.iterations.size()) - 1);
+  report->lm_iterations += iterations;
+  report->iterations += iterations;
+  // Ceres counts the initial evaluation as a successful step.
+  report->successful_iterations += std::max(0, summary.num_successful_steps - 1);
+  report->ceres_preprocessor_seconds += summary.preprocessor_time_in_seconds;
+  report->ceres_minimizer_seconds += summary.minimizer_time_in_seconds;
+  report->ceres_evaluation_seconds +=
+      summary.residual_evaluation_time_in_seconds + summary.jacobian_evaluation_time_in_seconds;
+  report->ceres_linear_solver_seconds += summary.linear_solver_time_in_seconds;
+  if (!report->termination.empty()) report->termination += "; ";
+  report->termination += "Ceres: " + summary.message;
+  report->final_max_force = MaxFreeForce(&report->final_energy);
+}
+
 QuasistaticSolveReport QuasistaticSolver::Solve() {
   WallTimer timer;
   QuasistaticSolveReport report;
@@ -118,29 +193,27 @@ QuasistaticSolveReport QuasistaticSolver::Solve() {
     report.seconds = timer.Seconds();
     return report;
   }
-
-  ceres::Solver::Options solver_options;
-  solver_options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-  solver_options.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
-  solver_options.dynamic_sparsity = options_.dynamic_sparsity;
-  solver_options.num_threads = options_.num_threads;
-  solver_options.max_num_iterations = options_.max_iterations;
-  solver_options.minimizer_progress_to_stdout = options_.log_progress;
-  solver_options.logging_type = options_.log_progress ? ceres::PER_MINIMIZER_ITERATION
-                                                      : ceres::SILENT;
-  // Ceres tests the max-norm of dE/dx; a per-vertex norm <= tol needs components <= tol/sqrt 3.
-  solver_options.gradient_tolerance = report.force_tolerance / std::sqrt(3.0);
-  solver_options.function_tolerance = options_.function_tolerance;
-  solver_options.parameter_tolerance = options_.parameter_tolerance;
-  ceres::Solver::Summary summary;
-  ceres::Solve(solver_options, problem_.get(), &summary);
-
-  report.iterations = std::max(0, static_cast<int>(summary.iterations.size()) - 1);
-  report.successful_iterations = summary.num_successful_steps;
-  report.termination = summary.message;
-  report.final_max_force = MaxFreeForce(&report.final_energy);
+  // Newton needs a positive definite K: fixed vertices must remove rigid motions.
+  const bool use_newton = options_.newton_relative_force > 0.0 && !fixed_vertices_.empty();
+  const double newton_threshold =
+      std::max(report.force_tolerance, options_.newton_relative_force * model_.force_scale());
+  bool done = false;
+  if (use_newton && report.initial_max_force <= newton_threshold) {
+    done = RunNewton(&report);  // a warm start near the answer
+  }
+  if (!done) {
+    RunCeres(use_newton ? newton_threshold : report.force_tolerance, &report);
+    done = report.final_max_force <= report.force_tolerance;
+    if (!done && use_newton && report.final_max_force <= newton_threshold) {
+      done = RunNewton(&report);
+      if (!done && report.iterations < options_.max_iterations) {
+        RunCeres(report.force_tolerance, &report);  // Newton failed: Ceres to the end
+      }
+    }
+  }
+  report.iterations = report.lm_iterations + report.newton_steps;
   report.converged = report.final_max_force <= report.force_tolerance &&
-                     summary.termination_type != ceres::FAILURE;
+                     std::isfinite(report.final_energy);
   report.seconds = timer.Seconds();
   return report;
 }

@@ -8,6 +8,7 @@
 #include <Eigen/Core>
 
 #include "equilibrium/boundary_conditions.h"
+#include "equilibrium/stiffness_factorization.h"
 #include "physics/actuation.h"
 #include "physics/shape_target_model.h"
 
@@ -16,6 +17,19 @@ class Problem;
 }
 
 namespace aqs {
+
+// How Ceres solves the Gauss-Newton / Levenberg-Marquardt normal equations
+// (SPARSE_NORMAL_CHOLESKY with SuiteSparse in all cases). Measured in docs/benchmarks.md.
+enum class NormalEquationsOrdering {
+  // Ceres' static sparsity with one ordering group per free vertex, in the
+  // fill-reducing order CHOLMOD picks for the vertex graph (sparse/vertex_ordering.h):
+  // symbolic analysis once per solver, METIS-quality fill, no per-iteration ordering.
+  kVertexFillReducing,
+  // dynamic_sparsity = true: CHOLMOD re-analyzes (orders) the Jacobian every iteration.
+  kDynamic,
+  // Ceres' default static path: Ceres orders parameter blocks itself (block AMD).
+  kCeresDefault,
+};
 
 struct QuasistaticSolverOptions {
   // Convergence: the largest residual force on a free vertex, |dE/dx_v|, is at most
@@ -34,10 +48,19 @@ struct QuasistaticSolverOptions {
   int num_threads = 2;
   // Print Ceres' per-iteration progress lines to stdout.
   bool log_progress = false;
-  // Ceres linear solver setting. true (default) makes SPARSE_NORMAL_CHOLESKY hand the
-  // Jacobian to CHOLMOD each iteration; measured ~1x one factorization per iteration
-  // where the static path (false) is ~30x slower at 250K elements (docs/benchmarks.md).
-  bool dynamic_sparsity = true;
+  // Ordering of the normal equations (see NormalEquationsOrdering).
+  NormalEquationsOrdering ordering = NormalEquationsOrdering::kVertexFillReducing;
+  // Ceres' use_postordering (static orderings only).
+  bool use_postordering = false;
+  // Exact Newton steps near equilibrium (equilibrium/newton_refinement.h). Once the
+  // largest force is below newton_relative_force x force_scale (at the start, for warm
+  // starts, or when Ceres gets there), the solve continues with Newton steps on the
+  // exact stiffness, which converge quadratically where Levenberg-Marquardt on the
+  // least-squares form converges linearly (its J^T J lacks the curvature of
+  // incompatible targets). If a Newton step fails (K not positive definite, or no
+  // force decrease), Ceres takes over again. 0 disables Newton: Ceres only.
+  double newton_relative_force = 1e-2;
+  int max_newton_steps = 8;
   // Ceres' relative cost-change and step-size stopping tests. function_tolerance
   // 1e-15 stops only at the round-off floor of the cost (where further iterations
   // are noise); the force test above decides whether the result counts as converged.
@@ -48,19 +71,27 @@ struct QuasistaticSolverOptions {
 struct QuasistaticSolveReport {
   // final_max_force <= force_tolerance.
   bool converged = false;
-  // Ceres iterations after the initial evaluation (0 if the start was converged),
-  // and how many of them were accepted steps.
+  // Levenberg-Marquardt iterations (Ceres, after its initial evaluation) plus Newton
+  // steps; and how many LM steps were accepted.
   int iterations = 0;
+  int lm_iterations = 0;
   int successful_iterations = 0;
+  int newton_steps = 0;
   double initial_energy = 0.0;
   double final_energy = 0.0;
   // Largest force norm |dE/dx_v| over free vertices, before and after.
   double initial_max_force = 0.0;
   double final_max_force = 0.0;
   double force_tolerance = 0.0;
-  // Why the solve stopped (Ceres' termination message, or why it did not run).
+  // Why the solve stopped (Ceres' termination message, Newton's, or why neither ran).
   std::string termination;
   double seconds = 0.0;
+  // Ceres' own accounting (0 if Ceres did not run): problem preparation, and the
+  // minimizer's time with its residual/Jacobian evaluation and linear-solver parts.
+  double ceres_preprocessor_seconds = 0.0;
+  double ceres_minimizer_seconds = 0.0;
+  double ceres_evaluation_seconds = 0.0;
+  double ceres_linear_solver_seconds = 0.0;
 
   // One line: converged/NOT CONVERGED, iterations, energies, forces, reason, time.
   std::string Summary() const;
@@ -131,8 +162,16 @@ class QuasistaticSolver {
   // The absolute force tolerance: relative_force_tolerance * model.force_scale().
   double ForceTolerance() const;
 
+  // The stiffness factorization the Newton steps use (created on first use), to share
+  // with an EquilibriumDifferentiator so that one CHOLMOD factor serves both.
+  StiffnessFactorization* stiffness_factorization();
+
  private:
   void ApplyFixedPositions();
+  // Runs Ceres from the current state to the absolute force `tolerance`.
+  void RunCeres(double tolerance, QuasistaticSolveReport* report);
+  // Newton steps from the current state; true if the force tolerance was reached.
+  bool RunNewton(QuasistaticSolveReport* report);
   double* vertex(int v) { return positions_.data() + 3 * static_cast<size_t>(v); }
 
   const ShapeTargetModel& model_;
@@ -145,6 +184,9 @@ class QuasistaticSolver {
   std::vector<double> actuation_;
   std::vector<double> positions_;
   std::unique_ptr<ceres::Problem> problem_;
+  std::unique_ptr<StiffnessFactorization> factorization_;
+  // Free vertices in fill-reducing order (computed on the first Solve that needs it).
+  std::vector<int> vertex_order_;
 };
 
 }  // namespace aqs

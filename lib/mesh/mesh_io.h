@@ -52,6 +52,11 @@ bool ReadGmshMesh(const std::string& path, TetMesh* mesh, std::string* error);
 // ValidateTetMesh. Unknown extensions are an error listing the known ones.
 bool ReadTetMesh(const std::string& path, TetMesh* mesh, std::string* error);
 
+// The parsing half of ReadTetMesh, without the geometric validation: for files that
+// hold deformed states of a known mesh (targets, warm starts), whose elements may be
+// inverted.
+bool ReadTetMeshFile(const std::string& path, TetMesh* mesh, std::string* error);
+
 // Wavefront OBJ surface: 'v x y z [w]' and 'f' records with 'i', 'i/t', 'i//n', 'i/t/n'
 // corners; negative (relative) indices are resolved; polygons are kept in
 // face_offsets/face_vertices and fan-triangulated into `triangles`. Other records

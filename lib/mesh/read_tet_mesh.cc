@@ -1,4 +1,4 @@
-// ReadTetMesh: choose the reader by extension, then validate.
+// ReadTetMeshFile: choose the reader by extension; ReadTetMesh: then validate.
 
 #include <string>
 
@@ -8,7 +8,7 @@
 
 namespace aqs {
 
-bool ReadTetMesh(const std::string& path, TetMesh* mesh, std::string* error) {
+bool ReadTetMeshFile(const std::string& path, TetMesh* mesh, std::string* error) {
   const std::string extension = mesh_internal::LowercaseExtension(path);
   TetMesh read;
   bool ok = false;
@@ -24,7 +24,14 @@ bool ReadTetMesh(const std::string& path, TetMesh* mesh, std::string* error) {
              "; known: .mesh (MEDIT), .node/.ele (TetGen), .msh (Gmsh)";
     return false;
   }
-  if (!ok || !ValidateTetMesh(read, path, error)) return false;
+  if (!ok) return false;
+  *mesh = std::move(read);
+  return true;
+}
+
+bool ReadTetMesh(const std::string& path, TetMesh* mesh, std::string* error) {
+  TetMesh read;
+  if (!ReadTetMeshFile(path, &read, error) || !ValidateTetMesh(read, path, error)) return false;
   *mesh = std::move(read);
   return true;
 }

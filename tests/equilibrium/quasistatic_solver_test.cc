@@ -160,6 +160,7 @@ TEST(QuasistaticSolverTest, NonConvergenceIsReported) {
   const ShapeTargetModel model(mesh, 1.0);
   QuasistaticSolverOptions options = TightOptions();
   options.max_iterations = 1;
+  options.newton_relative_force = 0.0;  // Levenberg-Marquardt only
   QuasistaticSolver solver(model, LeftFaceFixed(mesh), options);
   solver.actuation() = testing::SmoothActuation(mesh, 0.4);
   const QuasistaticSolveReport report = solver.Solve();
@@ -167,6 +168,45 @@ TEST(QuasistaticSolverTest, NonConvergenceIsReported) {
   EXPECT_GT(report.final_max_force, report.force_tolerance);
   EXPECT_NE(report.Summary().find("NOT CONVERGED"), std::string::npos);
   EXPECT_FALSE(report.termination.empty());
+}
+
+TEST(QuasistaticSolverTest, HybridAndLevenbergMarquardtOnlyAgree) {
+  const TetMesh mesh = BarMesh(6, 2, 2, 0.4);
+  const ShapeTargetModel model(mesh, 1.0);
+  QuasistaticSolverOptions hybrid;
+  hybrid.relative_force_tolerance = 1e-8;  // above the least-squares floor of LM alone
+  QuasistaticSolverOptions lm_only = hybrid;
+  lm_only.newton_relative_force = 0.0;
+  QuasistaticSolver a(model, LeftFaceFixed(mesh), lm_only);
+  QuasistaticSolver b(model, LeftFaceFixed(mesh), hybrid);
+  a.actuation() = testing::SmoothActuation(mesh, 0.3);
+  b.actuation() = a.actuation();
+  const QuasistaticSolveReport report_a = a.Solve();
+  const QuasistaticSolveReport report_b = b.Solve();
+  ASSERT_TRUE(report_a.converged) << report_a.Summary();
+  ASSERT_TRUE(report_b.converged) << report_b.Summary();
+  EXPECT_EQ(report_a.newton_steps, 0);
+  EXPECT_GT(report_b.newton_steps, 0) << report_b.Summary();
+  EXPECT_GT(report_b.lm_iterations, 0) << "from rest, LM does the first part";
+  EXPECT_LT((a.positions() - b.positions()).cwiseAbs().maxCoeff(), 1e-7);
+}
+
+TEST(QuasistaticSolverTest, WarmStartsUseNewtonAndReachRoundOffTolerances) {
+  const TetMesh mesh = BarMesh(6, 2, 2, 0.4);
+  const ShapeTargetModel model(mesh, 1.0);
+  QuasistaticSolverOptions options;
+  options.relative_force_tolerance = 1e-13;  // below the least-squares floor
+  QuasistaticSolver solver(model, LeftFaceFixed(mesh), options);
+  solver.actuation() = testing::SmoothActuation(mesh, 0.2);
+  const QuasistaticSolveReport cold = solver.Solve();
+  ASSERT_TRUE(cold.converged) << cold.Summary();
+  const ActuationMatrix identity = IdentityActuations(model.num_elements());
+  solver.actuation() = identity + 1.01 * (solver.actuation() - identity);
+  const QuasistaticSolveReport warm = solver.Solve();
+  ASSERT_TRUE(warm.converged) << warm.Summary();
+  EXPECT_EQ(warm.lm_iterations, 0) << warm.Summary();
+  EXPECT_LE(warm.newton_steps, 3) << warm.Summary();
+  EXPECT_LE(warm.final_max_force, 1e-13 * model.force_scale());
 }
 
 TEST(QuasistaticSolverTest, MovingFixedVerticesBetweenSolves) {

@@ -18,9 +18,7 @@ TetMesh BarMesh(int nx, int ny, int nz, double spacing);
 // The vertices with x <= tolerance (the bar's left face), fixed at rest.
 BoundaryConditions LeftFaceFixed(const TetMesh& mesh, double tolerance = 1e-9);
 
-// A smooth, non-trivial actuation: per element, S = R(theta) diag(1 + s1, 1 - s2, 1 + s3)
-// R(theta)^T with amplitudes varying with the element centroid (contraction along a
-// rotating fibre direction), scaled by `amplitude` (0.1 = 10% strains).
+// SmoothFibreActuation(mesh, amplitude) (physics/actuation_fields.h).
 ActuationMatrix SmoothActuation(const TetMesh& mesh, double amplitude);
 
 // Identity plus uniform noise of the given amplitude on every number.

@@ -1,4 +1,4 @@
-#include "diff/stiffness_assembly.h"
+#include "physics/stiffness_assembly.h"
 
 #include <glog/logging.h>
 

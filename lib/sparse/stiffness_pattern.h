@@ -1,5 +1,5 @@
-#ifndef AQS_DIFF_STIFFNESS_PATTERN_H_
-#define AQS_DIFF_STIFFNESS_PATTERN_H_
+#ifndef AQS_SPARSE_STIFFNESS_PATTERN_H_
+#define AQS_SPARSE_STIFFNESS_PATTERN_H_
 
 #include <cstdint>
 #include <vector>
@@ -55,4 +55,4 @@ class StiffnessPattern {
 
 }  // namespace aqs
 
-#endif  // AQS_DIFF_STIFFNESS_PATTERN_H_
+#endif  // AQS_SPARSE_STIFFNESS_PATTERN_H_

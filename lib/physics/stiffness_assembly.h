@@ -1,11 +1,11 @@
-#ifndef AQS_DIFF_STIFFNESS_ASSEMBLY_H_
-#define AQS_DIFF_STIFFNESS_ASSEMBLY_H_
+#ifndef AQS_PHYSICS_STIFFNESS_ASSEMBLY_H_
+#define AQS_PHYSICS_STIFFNESS_ASSEMBLY_H_
 
 #include <vector>
 
 #include <Eigen/Core>
 
-#include "diff/stiffness_pattern.h"
+#include "sparse/stiffness_pattern.h"
 #include "physics/actuation.h"
 #include "physics/shape_target_model.h"
 
@@ -33,4 +33,4 @@ Eigen::MatrixXd DenseFromUpperCsc(const StiffnessPattern& pattern,
 
 }  // namespace aqs
 
-#endif  // AQS_DIFF_STIFFNESS_ASSEMBLY_H_
+#endif  // AQS_PHYSICS_STIFFNESS_ASSEMBLY_H_

@@ -1,4 +1,4 @@
-#include "diff/stiffness_pattern.h"
+#include "sparse/stiffness_pattern.h"
 
 #include <algorithm>
 

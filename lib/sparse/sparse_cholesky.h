@@ -1,5 +1,5 @@
-#ifndef AQS_DIFF_SPARSE_CHOLESKY_H_
-#define AQS_DIFF_SPARSE_CHOLESKY_H_
+#ifndef AQS_SPARSE_SPARSE_CHOLESKY_H_
+#define AQS_SPARSE_SPARSE_CHOLESKY_H_
 
 #include <cstdint>
 #include <memory>
@@ -47,7 +47,11 @@ class SparseCholesky {
   double analyze_seconds() const { return analyze_seconds_; }
   double factorize_seconds() const { return factorize_seconds_; }
 
-  // Solves A X = B for the n x k dense B (after a successful Factorize).
+  // The fill-reducing permutation CHOLMOD chose (after the analysis): row/column
+  // perm[k] of A is eliminated k-th. Includes CHOLMOD's postordering.
+  std::vector<int64_t> Permutation() const;
+
+  // Solves A X = B for the n x k dense B (after a successful Factorize). Not thread-safe.
   Eigen::MatrixXd Solve(const Eigen::MatrixXd& b) const;
 
  private:
@@ -62,4 +66,4 @@ class SparseCholesky {
 
 }  // namespace aqs
 
-#endif  // AQS_DIFF_SPARSE_CHOLESKY_H_
+#endif  // AQS_SPARSE_SPARSE_CHOLESKY_H_

@@ -1,4 +1,4 @@
-#include "diff/sparse_cholesky.h"
+#include "sparse/sparse_cholesky.h"
 
 #include <cstring>
 #include <sstream>
@@ -114,6 +114,14 @@ std::string SparseCholesky::ordering_name() const {
     case CHOLMOD_POSTORDERED: return "postordered";
     default: return "unknown";
   }
+}
+
+std::vector<int64_t> SparseCholesky::Permutation() const {
+  CHECK(impl_->factor != nullptr) << "Permutation() needs the symbolic analysis";
+  const int64_t* perm = static_cast<const int64_t*>(impl_->factor->Perm);
+  std::vector<int64_t> out(n_);
+  for (int k = 0; k < n_; ++k) out[k] = perm != nullptr ? perm[k] : k;
+  return out;
 }
 
 Eigen::MatrixXd SparseCholesky::Solve(const Eigen::MatrixXd& b) const {

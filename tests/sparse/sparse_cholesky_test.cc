@@ -1,11 +1,11 @@
-#include "diff/sparse_cholesky.h"
+#include "sparse/sparse_cholesky.h"
 
 #include <random>
 
 #include <Eigen/Cholesky>
 #include <gtest/gtest.h>
 
-#include "diff/stiffness_assembly.h"
+#include "physics/stiffness_assembly.h"
 #include "equilibrium/boundary_conditions.h"
 #include "testing/finite_difference.h"
 #include "testing/test_meshes.h"

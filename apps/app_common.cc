@@ -1,0 +1,39 @@
+#include "app_common.h"
+
+#include <cstdio>
+#include <cstdlib>
+#include <sstream>
+
+#include <gflags/gflags.h>
+#include <glog/logging.h>
+
+namespace aqs {
+
+void InitApp(const std::string& usage, int* argc, char*** argv) {
+  gflags::SetUsageMessage(usage);
+  gflags::ParseCommandLineFlags(argc, argv, true);
+  FLAGS_logtostderr = true;
+  FLAGS_minloglevel = 1;  // warnings and errors
+  google::InitGoogleLogging((*argv)[0]);
+  if (*argc > 1) {
+    std::fprintf(stderr, "%s: error: unexpected argument '%s' (flags are --name=value)\n",
+                 gflags::ProgramInvocationShortName(), (*argv)[1]);
+    std::exit(1);
+  }
+}
+
+std::vector<std::string> SplitCommaList(const std::string& text) {
+  std::vector<std::string> items;
+  std::stringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    if (!item.empty()) items.push_back(item);
+  }
+  return items;
+}
+
+void PrintError(const std::string& message) {
+  std::fprintf(stderr, "%s: error: %s\n", gflags::ProgramInvocationShortName(), message.c_str());
+}
+
+}  // namespace aqs

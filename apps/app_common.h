@@ -1,0 +1,21 @@
+#ifndef AQS_APPS_APP_COMMON_H_
+#define AQS_APPS_APP_COMMON_H_
+
+#include <string>
+#include <vector>
+
+namespace aqs {
+
+// Parses gflags (with `usage`), sets up glog to print warnings and errors on stderr.
+// Exits with status 1 and a message if positional arguments are left over.
+void InitApp(const std::string& usage, int* argc, char*** argv);
+
+// "a,b,,c" -> {"a", "b", "c"}.
+std::vector<std::string> SplitCommaList(const std::string& text);
+
+// Prints "<program>: error: <message>" to stderr.
+void PrintError(const std::string& message);
+
+}  // namespace aqs
+
+#endif  // AQS_APPS_APP_COMMON_H_

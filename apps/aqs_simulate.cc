@@ -1,0 +1,66 @@
+// aqs_simulate: the quasistatic equilibrium of a shape-targeting tet mesh for a given
+// actuation, written as .mesh / .vtu / .obj; optionally a loss against a target state
+// and its gradient with respect to every element's actuation.
+//
+// Exit status: 0 done; 1 bad input or unwritable output; 2 the equilibrium was not
+// reached (outputs are written anyway, for inspection); 3 no gradient (K is not
+// positive definite at the solution).
+
+#include <iostream>
+
+#include <gflags/gflags.h>
+
+#include "app_common.h"
+#include "jobs/simulate_job.h"
+
+DEFINE_string(mesh, "", "Tet mesh: .mesh (MEDIT), .node/.ele (TetGen) or .msh (Gmsh 2.2/4.1 ASCII).");
+DEFINE_string(fixed, "", "Fixed vertices: one per line, 'i' (at rest) or 'i x y z' (prescribed).");
+DEFINE_string(actuation, "", "Actuation: one line per element, 'sxx syy szz sxy sxz syz'. "
+              "Default: S = I everywhere.");
+DEFINE_double(mu, 1.0, "Stiffness mu of every element (> 0).");
+DEFINE_string(mu_per_element, "", "Optional file with one mu per element (overrides --mu).");
+DEFINE_string(initial, "", "Optional warm start: a tet-mesh file with the same vertices.");
+DEFINE_string(output, "", "Output file(s), comma-separated: .mesh (deformed tet mesh), "
+              ".vtu (ParaView, with fields), .obj (boundary surface).");
+DEFINE_string(loss_target, "", "Target state (tet-mesh file, same vertex count) for the loss "
+              "L = 1/2 sum_v |x_v - y_v|^2.");
+DEFINE_string(gradient, "", "Where to write dL/da (one line per element); needs --loss_target.");
+DEFINE_double(tolerance, 1e-6, "Relative force tolerance: max free-vertex force <= tolerance "
+              "x (force of an element under unit strain). Down to ~1e-13 is reachable.");
+DEFINE_int32(max_iterations, 200, "Ceres iterations at most.");
+DEFINE_int32(threads, 2, "Threads for evaluation and assembly.");
+DEFINE_double(newton_relative_force, 1e-2, "Switch from Levenberg-Marquardt (Ceres) to exact "
+              "Newton steps once the relative force is below this (0: Ceres only).");
+DEFINE_bool(verbose, false, "Print Ceres' per-iteration progress.");
+
+int main(int argc, char** argv) {
+  aqs::InitApp(
+      "Solve the quasistatic equilibrium of a shape-targeting tet mesh.\n"
+      "  aqs_simulate --mesh=M.mesh --fixed=F.txt [--actuation=A.txt] [--mu=1] --output=OUT.vtu\n"
+      "               [--loss_target=Y.mesh --gradient=G.txt]",
+      &argc, &argv);
+  aqs::SimulateJobOptions options;
+  options.mesh = FLAGS_mesh;
+  options.fixed = FLAGS_fixed;
+  options.actuation = FLAGS_actuation;
+  options.mu = FLAGS_mu;
+  options.mu_per_element = FLAGS_mu_per_element;
+  options.initial = FLAGS_initial;
+  options.outputs = aqs::SplitCommaList(FLAGS_output);
+  options.loss_target = FLAGS_loss_target;
+  options.gradient = FLAGS_gradient;
+  options.solver.relative_force_tolerance = FLAGS_tolerance;
+  options.solver.max_iterations = FLAGS_max_iterations;
+  options.solver.num_threads = FLAGS_threads;
+  options.solver.log_progress = FLAGS_verbose;
+  options.solver.newton_relative_force = FLAGS_newton_relative_force;
+  if (!(FLAGS_tolerance > 0.0) || FLAGS_max_iterations < 1 || FLAGS_threads < 1 ||
+      FLAGS_newton_relative_force < 0.0) {
+    aqs::PrintError("--tolerance must be > 0, --newton_relative_force >= 0, --max_iterations "
+                    "and --threads >= 1");
+    return 1;
+  }
+  const aqs::SimulateJobResult result = aqs::RunSimulateJob(options, std::cout);
+  if (result.status != aqs::JobStatus::kOk) aqs::PrintError(result.message);
+  return static_cast<int>(result.status);
+}

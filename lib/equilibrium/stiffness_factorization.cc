@@ -1,0 +1,84 @@
+#include "equilibrium/stiffness_factorization.h"
+
+#include <sstream>
+
+#include <glog/logging.h>
+
+#include "util/wall_timer.h"
+
+namespace aqs {
+
+StiffnessFactorization::StiffnessFactorization(const ShapeTargetModel& model,
+                                               const std::vector<bool>& fixed_mask,
+                                               int num_threads)
+    : model_(model),
+      num_threads_(num_threads),
+      pattern_(model.tets(), fixed_mask),
+      cholesky_(pattern_.num_dofs(), &pattern_.column_starts(), &pattern_.row_indices()) {
+  CHECK_EQ(static_cast<int>(fixed_mask.size()), model.num_vertices());
+}
+
+StiffnessFactorization::~StiffnessFactorization() = default;
+
+bool StiffnessFactorization::Factorize(const ShapeTargetModel::PositionsRef& x,
+                                       const ShapeTargetModel::ActuationRef& a, StiffnessKind kind,
+                                       std::string* error) {
+  timings_ = FactorizationTimings();
+  if (pattern_.num_dofs() == 0) {
+    *error = "every vertex is fixed: the stiffness has no free degrees of freedom";
+    return false;
+  }
+  WallTimer timer;
+  AssembleStiffness(model_, pattern_, x, a, kind, num_threads_, &values_);
+  timings_.assembly = timer.Seconds();
+  const bool first = cholesky_.factor_nonzeros() == 0.0;
+  std::string cholmod_error;
+  const bool ok = cholesky_.Factorize(values_, &cholmod_error);
+  if (first) timings_.analysis = cholesky_.analyze_seconds();
+  timings_.factorization = cholesky_.factorize_seconds();
+  if (!ok) {
+    std::ostringstream out;
+    out << "the stiffness K = d2E/dx2 cannot be factorized at this state: " << cholmod_error;
+    const int column = cholesky_.failed_column();
+    if (column >= 0) {
+      out << "; that column is DOF " << "xyz"[column % 3] << " of vertex "
+          << pattern_.vertex_of_free(column / 3)
+          << ". K must be positive definite: the state may not be a stable equilibrium, or "
+             "the fixed vertices may not prevent rigid motion";
+    }
+    *error = out.str();
+    return false;
+  }
+  return true;
+}
+
+Eigen::VectorXd StiffnessFactorization::GatherFree(const Eigen::Matrix3Xd& per_vertex) const {
+  CHECK_EQ(per_vertex.cols(), model_.num_vertices());
+  Eigen::VectorXd free(pattern_.num_dofs());
+  for (int f = 0; f < pattern_.num_free_vertices(); ++f) {
+    free.segment<3>(3 * f) = per_vertex.col(pattern_.vertex_of_free(f));
+  }
+  return free;
+}
+
+Eigen::Matrix3Xd StiffnessFactorization::ScatterFree(const double* free_values) const {
+  Eigen::Matrix3Xd out = Eigen::Matrix3Xd::Zero(3, model_.num_vertices());
+  for (int f = 0; f < pattern_.num_free_vertices(); ++f) {
+    out.col(pattern_.vertex_of_free(f)) = Eigen::Map<const Eigen::Vector3d>(free_values + 3 * f);
+  }
+  return out;
+}
+
+Eigen::MatrixXd StiffnessFactorization::SolveFree(const Eigen::MatrixXd& b) {
+  WallTimer timer;
+  Eigen::MatrixXd x = cholesky_.Solve(b);
+  timings_.solve = timer.Seconds();
+  return x;
+}
+
+Eigen::Matrix3Xd StiffnessFactorization::Solve(const Eigen::Matrix3Xd& b) {
+  const Eigen::VectorXd x = SolveFree(GatherFree(b));
+  return ScatterFree(x.data());
+}
+
+}  // namespace aqs

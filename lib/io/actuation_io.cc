@@ -1,0 +1,107 @@
+#include "io/actuation_io.h"
+
+#include <sstream>
+#include <vector>
+
+#include "util/atomic_file.h"
+#include "util/line_reader.h"
+#include "util/number_format.h"
+
+namespace aqs {
+namespace {
+
+// Reads `count` lines of `width` numbers each into a column-major width x count block.
+bool ReadFixedWidthRows(const std::string& path, int count, int width, const char* what,
+                        std::vector<double>* values, std::string* error) {
+  LineReader reader(path);
+  if (!reader.ok()) {
+    *error = reader.error();
+    return false;
+  }
+  values->assign(static_cast<size_t>(count) * width, 0.0);
+  std::vector<std::string> tokens;
+  int row = 0;
+  while (reader.NextTokens(&tokens)) {
+    if (row == count) {
+      std::ostringstream out;
+      out << "more lines than the mesh's " << count << " elements (one " << what
+          << " line per element)";
+      *error = reader.Where(out.str());
+      return false;
+    }
+    if (static_cast<int>(tokens.size()) != width) {
+      std::ostringstream out;
+      out << "expected " << width << " numbers (" << what << ") for element " << row << ", got "
+          << tokens.size();
+      *error = reader.Where(out.str());
+      return false;
+    }
+    for (int c = 0; c < width; ++c) {
+      if (!ParseDouble(tokens[c], &(*values)[static_cast<size_t>(row) * width + c])) {
+        *error = reader.Where("expected a finite number, got '" + tokens[c] + "'");
+        return false;
+      }
+    }
+    ++row;
+  }
+  if (row != count) {
+    std::ostringstream out;
+    out << path << ": " << row << " " << what << " lines for a mesh of " << count
+        << " elements (one line per element, in mesh order)";
+    *error = out.str();
+    return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+bool ReadActuation(const std::string& path, int num_elements, ActuationMatrix* a,
+                   std::string* error) {
+  std::vector<double> values;
+  if (!ReadFixedWidthRows(path, num_elements, 6, "sxx syy szz sxy sxz syz", &values, error)) {
+    return false;
+  }
+  *a = Eigen::Map<const ActuationMatrix>(values.data(), 6, num_elements);
+  return true;
+}
+
+bool WriteActuation(const std::string& path, const ActuationMatrix& values,
+                    const std::string& header, std::string* error) {
+  std::string text;
+  text.reserve(static_cast<size_t>(values.cols()) * 6 * 24 + 256);
+  if (!header.empty()) {
+    std::istringstream lines(header);
+    std::string line;
+    while (std::getline(lines, line)) text += "# " + line + "\n";
+  }
+  for (Eigen::Index e = 0; e < values.cols(); ++e) {
+    for (int k = 0; k < 6; ++k) {
+      if (k > 0) text += ' ';
+      AppendDouble(values(k, e), &text);
+    }
+    text += '\n';
+  }
+  return WriteFileAtomically(path, text, error);
+}
+
+bool ReadScalarsPerLine(const std::string& path, int count, bool require_positive,
+                        Eigen::VectorXd* values, std::string* error) {
+  std::vector<double> raw;
+  if (!ReadFixedWidthRows(path, count, 1, "value", &raw, error)) return false;
+  if (require_positive) {
+    for (int i = 0; i < count; ++i) {
+      if (!(raw[i] > 0.0)) {
+        std::ostringstream out;
+        out << path << ": the value for element " << i << " is " << raw[i]
+            << "; it must be positive";
+        *error = out.str();
+        return false;
+      }
+    }
+  }
+  *values = Eigen::Map<const Eigen::VectorXd>(raw.data(), count);
+  return true;
+}
+
+}  // namespace aqs

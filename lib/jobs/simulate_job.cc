@@ -1,0 +1,186 @@
+#include "jobs/simulate_job.h"
+
+#include <iomanip>
+#include <sstream>
+
+#include <Eigen/LU>
+
+#include "equilibrium/newton_refinement.h"
+#include "io/actuation_io.h"
+#include "io/vertex_list_io.h"
+#include "jobs/deformed_output.h"
+#include "mesh/mesh_io.h"
+#include "util/wall_timer.h"
+
+namespace aqs {
+namespace {
+
+SimulateJobResult Fail(JobStatus status, const std::string& message) {
+  SimulateJobResult result;
+  result.status = status;
+  result.message = message;
+  return result;
+}
+
+// Per-element fields for the VTU output: actuation, energy density, det F.
+void ElementFields(const ShapeTargetModel& model, const Eigen::Matrix3Xd& x,
+                   const ActuationMatrix& a, std::vector<VtuField>* cell_fields) {
+  Eigen::MatrixXd energy(1, model.num_elements()), volume_ratio(1, model.num_elements());
+  for (int e = 0; e < model.num_elements(); ++e) {
+    const ShapeTargetElement element = model.Element(x, a, e);
+    energy(0, e) = element.EnergyDensity();
+    volume_ratio(0, e) = element.f().determinant();
+  }
+  cell_fields->push_back(MakeVtuField("actuation", a));
+  cell_fields->push_back(MakeVtuField("energy_density", energy));
+  cell_fields->push_back(MakeVtuField("volume_ratio", volume_ratio));
+}
+
+}  // namespace
+
+SimulateJobResult RunSimulateJob(const SimulateJobOptions& options, std::ostream& log) {
+  WallTimer total;
+  std::string error;
+  // ---- Inputs (all checked before any work) ----
+  if (options.mesh.empty()) return Fail(JobStatus::kBadInput, "no mesh given (--mesh)");
+  if (options.outputs.empty()) return Fail(JobStatus::kBadInput, "no output given (--output)");
+  for (const std::string& output : options.outputs) {
+    if (!IsDeformedMeshOutputPath(output)) {
+      return Fail(JobStatus::kBadInput,
+                  output + ": unknown output extension; known: .mesh, .vtu, .obj");
+    }
+  }
+  if (!options.gradient.empty() && options.loss_target.empty()) {
+    return Fail(JobStatus::kBadInput, "--gradient needs --loss_target (the loss to differentiate)");
+  }
+  if (!(options.mu > 0.0)) {
+    std::ostringstream out;
+    out << "mu must be positive, got " << options.mu;
+    return Fail(JobStatus::kBadInput, out.str());
+  }
+  TetMesh mesh;
+  if (!ReadTetMesh(options.mesh, &mesh, &error)) return Fail(JobStatus::kBadInput, error);
+  log << "mesh " << options.mesh << ": " << mesh.num_vertices() << " vertices, "
+      << mesh.num_tets() << " elements\n";
+
+  Eigen::VectorXd mu = Eigen::VectorXd::Constant(mesh.num_tets(), options.mu);
+  if (!options.mu_per_element.empty() &&
+      !ReadScalarsPerLine(options.mu_per_element, mesh.num_tets(), true, &mu, &error)) {
+    return Fail(JobStatus::kBadInput, error);
+  }
+  BoundaryConditions bc;
+  if (!options.fixed.empty()) {
+    if (!ReadFixedVertices(options.fixed, mesh.vertices, &bc, &error)) {
+      return Fail(JobStatus::kBadInput, error);
+    }
+    if (bc.vertices.empty()) {
+      return Fail(JobStatus::kBadInput, options.fixed + ": lists no vertices");
+    }
+    log << "fixed " << options.fixed << ": " << bc.vertices.size() << " vertices\n";
+  } else {
+    log << "no fixed vertices: the body is free (the equilibrium is defined up to a rigid "
+           "motion; gradients need fixed vertices)\n";
+  }
+  ActuationMatrix actuation = IdentityActuations(mesh.num_tets());
+  if (!options.actuation.empty()) {
+    if (!ReadActuation(options.actuation, mesh.num_tets(), &actuation, &error)) {
+      return Fail(JobStatus::kBadInput, error);
+    }
+    log << "actuation " << options.actuation << "\n";
+  }
+  Eigen::Matrix3Xd initial = mesh.vertices;
+  if (!options.initial.empty()) {
+    TetMesh start;
+    if (!ReadTetMeshFile(options.initial, &start, &error)) return Fail(JobStatus::kBadInput, error);
+    if (start.num_vertices() != mesh.num_vertices()) {
+      std::ostringstream out;
+      out << options.initial << ": " << start.num_vertices() << " vertices, but the mesh has "
+          << mesh.num_vertices();
+      return Fail(JobStatus::kBadInput, out.str());
+    }
+    initial = start.vertices;
+  }
+  TetMesh target;
+  if (!options.loss_target.empty()) {
+    if (!ReadTetMeshFile(options.loss_target, &target, &error)) {
+      return Fail(JobStatus::kBadInput, error);
+    }
+    if (target.num_vertices() != mesh.num_vertices()) {
+      std::ostringstream out;
+      out << options.loss_target << ": " << target.num_vertices()
+          << " vertices, but the mesh has " << mesh.num_vertices();
+      return Fail(JobStatus::kBadInput, out.str());
+    }
+  }
+
+  // ---- Solve ----
+  const ShapeTargetModel model(mesh, mu);
+  QuasistaticSolver solver(model, bc, options.solver);
+  solver.actuation() = actuation;
+  solver.SetPositions(initial);
+  SimulateJobResult result;
+  result.solve = solver.Solve();
+  log << "solve: " << result.solve.Summary() << "\n";
+  Eigen::Matrix3Xd x = solver.positions();
+
+  if (!result.solve.converged) {
+    result.status = JobStatus::kNotConverged;
+    result.message = "the equilibrium was not reached: " + result.solve.Summary();
+  }
+
+  // ---- Loss and gradient ----
+  std::vector<VtuField> point_fields, cell_fields;
+  point_fields.push_back(MakeVtuField("displacement", x - mesh.vertices));
+  Eigen::Matrix3Xd energy_gradient;
+  model.EnergyAndGradient(x, actuation, &energy_gradient, options.solver.num_threads);
+  point_fields.push_back(MakeVtuField("residual_force", -energy_gradient));
+  ElementFields(model, x, actuation, &cell_fields);
+  if (!options.loss_target.empty()) {
+    result.has_loss = true;
+    result.loss = 0.5 * (x - target.vertices).squaredNorm();
+    log << std::setprecision(17) << "loss " << result.loss << std::setprecision(6) << "\n";
+    if (!options.gradient.empty() && result.status == JobStatus::kOk) {
+      WallTimer timer;
+      // Shares the solver's stiffness factorization (one CHOLMOD factor in memory).
+      EquilibriumDifferentiator differentiator(
+          solver.stiffness_factorization(),
+          EquilibriumDifferentiatorOptions{options.solver.num_threads});
+      if (bc.vertices.empty()) {
+        result.status = JobStatus::kDifferentiationFailed;
+        result.message = "no gradient: a free body's stiffness is singular; fix some vertices (--fixed)";
+      } else if (!differentiator.Prepare(x, actuation, &error)) {
+        result.status = JobStatus::kDifferentiationFailed;
+        result.message = "no gradient: " + error;
+      } else {
+        const ActuationMatrix gradient = differentiator.LossGradient(x - target.vertices);
+        const DifferentiationTimings& t = differentiator.timings();
+        log << "gradient: |dL/da| = " << gradient.norm() << " in " << timer.Seconds()
+            << " s (assembly " << t.assembly << ", analysis " << t.analysis
+            << ", factorization " << t.factorization << ", solve " << t.solve
+            << ", accumulation " << t.accumulation << ")\n";
+        if (!WriteActuation(options.gradient, gradient,
+                            "dL/d(sxx syy szz sxy sxz syz) per element, L = 1/2 sum_v |x_v - y_v|^2"
+                            "\nmesh " + options.mesh + ", target " + options.loss_target,
+                            &error)) {
+          return Fail(JobStatus::kBadInput, error);
+        }
+        log << "wrote " << options.gradient << "\n";
+        cell_fields.push_back(MakeVtuField("dL_da", gradient));
+      }
+    } else if (!options.gradient.empty()) {
+      log << "no gradient written: the equilibrium was not reached\n";
+    }
+  }
+
+  // ---- Outputs ----
+  for (const std::string& output : options.outputs) {
+    if (!WriteDeformedMesh(output, mesh, x, point_fields, cell_fields, &error)) {
+      return Fail(JobStatus::kBadInput, error);
+    }
+    log << "wrote " << output << "\n";
+  }
+  log << "total " << total.Seconds() << " s\n";
+  return result;
+}
+
+}  // namespace aqs

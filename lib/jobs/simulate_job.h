@@ -1,0 +1,55 @@
+#ifndef AQS_JOBS_SIMULATE_JOB_H_
+#define AQS_JOBS_SIMULATE_JOB_H_
+
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "diff/equilibrium_differentiator.h"
+#include "equilibrium/quasistatic_solver.h"
+
+namespace aqs {
+
+// What aqs_simulate does, as a library call: read a tet mesh, boundary conditions and
+// actuation, solve the equilibrium, write the result, and optionally evaluate a loss
+// against a target state and its gradient with respect to the actuation.
+struct SimulateJobOptions {
+  std::string mesh;            // tet mesh (.mesh, .node/.ele, .msh); required
+  std::string fixed;           // fixed-vertex file (io/vertex_list_io.h); empty: none
+  std::string actuation;       // actuation file (io/actuation_io.h); empty: S = I
+  double mu = 1.0;             // stiffness of every element (> 0)
+  std::string mu_per_element;  // one mu per line; overrides `mu` when set
+  std::string initial;         // warm start: a tet-mesh file with the same vertex count
+  std::vector<std::string> outputs;  // .mesh / .vtu / .obj (at least one)
+  // Loss L = 1/2 sum_v |x_v - y_v|^2 over all vertices, y read from this tet-mesh file
+  // (same vertex count; its elements are not used).
+  std::string loss_target;
+  std::string gradient;        // where to write dL/da (needs loss_target)
+  QuasistaticSolverOptions solver;
+  // After the Ceres solve, up to this many exact Newton steps (equilibrium/newton_refinement.h)
+  // towards refinement_relative_tolerance (x the model's force scale). 0: off.
+  int newton_refinement_steps = 0;
+  double refinement_relative_tolerance = 1e-13;
+};
+
+enum class JobStatus {
+  kOk = 0,
+  kBadInput = 1,              // unreadable or invalid input, or an output write failed
+  kNotConverged = 2,          // the equilibrium was not reached (outputs still written)
+  kDifferentiationFailed = 3  // K not positive definite: no gradient
+};
+
+struct SimulateJobResult {
+  JobStatus status = JobStatus::kOk;
+  std::string message;  // what went wrong (empty when kOk)
+  QuasistaticSolveReport solve;
+  bool has_loss = false;
+  double loss = 0.0;
+};
+
+// Runs the job; progress and results go to `log` (one line per step).
+SimulateJobResult RunSimulateJob(const SimulateJobOptions& options, std::ostream& log);
+
+}  // namespace aqs
+
+#endif  // AQS_JOBS_SIMULATE_JOB_H_

@@ -1,0 +1,58 @@
+#include "io/actuation_io.h"
+
+#include <gtest/gtest.h>
+
+#include "testing/temp_dir.h"
+
+namespace aqs {
+namespace {
+
+TEST(ActuationIoTest, RoundTripsBitForBit) {
+  testing::TempDir dir;
+  ActuationMatrix a(6, 3);
+  a << 1.0 / 3, 2, 3, 0.1, 0.2, 0.3,
+       4, 5, 6, -1e-300, 7e200, 8,
+       9, 10, 11, 12, 13, 1e-17;
+  std::string error;
+  ASSERT_TRUE(WriteActuation(dir.File("a.txt"), a, "line one\nline two", &error)) << error;
+  ActuationMatrix back;
+  ASSERT_TRUE(ReadActuation(dir.File("a.txt"), 3, &back, &error)) << error;
+  EXPECT_EQ((back - a).cwiseAbs().maxCoeff(), 0.0);
+}
+
+TEST(ActuationIoTest, WrongCountsAndBadNumbersNameTheLine) {
+  testing::TempDir dir;
+  ActuationMatrix a;
+  std::string error;
+  const std::string two = dir.Write("two.txt", "# comment\n1 1 1 0 0 0\n\n1 1 1 0 0 0\n");
+  EXPECT_FALSE(ReadActuation(two, 3, &a, &error));
+  EXPECT_NE(error.find("2 sxx syy szz sxy sxz syz lines for a mesh of 3 elements"),
+            std::string::npos) << error;
+  EXPECT_FALSE(ReadActuation(two, 1, &a, &error));
+  EXPECT_NE(error.find("two.txt:4: more lines than the mesh's 1 elements"), std::string::npos)
+      << error;
+  const std::string short_line = dir.Write("short.txt", "1 1 1 0 0\n");
+  EXPECT_FALSE(ReadActuation(short_line, 1, &a, &error));
+  EXPECT_NE(error.find("short.txt:1: expected 6 numbers"), std::string::npos) << error;
+  const std::string bad = dir.Write("bad.txt", "1 1 1 0 0 x\n");
+  EXPECT_FALSE(ReadActuation(bad, 1, &a, &error));
+  EXPECT_NE(error.find("bad.txt:1: expected a finite number, got 'x'"), std::string::npos)
+      << error;
+  const std::string nan = dir.Write("nan.txt", "1 1 nan 0 0 0\n");
+  EXPECT_FALSE(ReadActuation(nan, 1, &a, &error));
+  EXPECT_FALSE(ReadActuation(dir.File("missing.txt"), 1, &a, &error));
+  EXPECT_NE(error.find("missing.txt"), std::string::npos);
+}
+
+TEST(ActuationIoTest, PositiveScalars) {
+  testing::TempDir dir;
+  Eigen::VectorXd mu;
+  std::string error;
+  ASSERT_TRUE(ReadScalarsPerLine(dir.Write("mu.txt", "1\n2.5\n"), 2, true, &mu, &error));
+  EXPECT_EQ(mu[1], 2.5);
+  EXPECT_FALSE(ReadScalarsPerLine(dir.Write("neg.txt", "1\n-2\n"), 2, true, &mu, &error));
+  EXPECT_NE(error.find("element 1 is -2"), std::string::npos) << error;
+}
+
+}  // namespace
+}  // namespace aqs
