@@ -1,0 +1,15 @@
+#!/usr/bin/env bash
+# Installs the built ActiveQS into a temporary prefix, then configures, builds and runs
+# tests/consumer/project against it with find_package(ActiveQS).
+# Usage: consumer_test.sh <activeqs build dir> <consumer source dir> <work dir>
+set -euo pipefail
+build_dir=$1
+source_dir=$2
+work=$3
+rm -rf "$work"
+mkdir -p "$work"
+cmake --install "$build_dir" --prefix "$work/prefix" > "$work/install.log"
+cmake -S "$source_dir" -B "$work/build" -DCMAKE_BUILD_TYPE=Release \
+      -DCMAKE_PREFIX_PATH="$work/prefix" > "$work/configure.log"
+cmake --build "$work/build" -j2 > "$work/build.log"
+"$work/build/consumer"
