@@ -9,7 +9,7 @@ namespace {
 double MaxFreeForce(const StiffnessFactorization& factorization, const Eigen::Matrix3Xd& x,
                     const ShapeTargetModel::ActuationRef& a, Eigen::Matrix3Xd* gradient,
                     double* energy) {
-  *energy = factorization.model().EnergyAndGradient(x, a, gradient, factorization.num_threads());
+  *energy = factorization.EnergyAndGradient(x, a, gradient);
   const StiffnessPattern& pattern = factorization.pattern();
   double max_force = 0.0;
   for (int f = 0; f < pattern.num_free_vertices(); ++f) {

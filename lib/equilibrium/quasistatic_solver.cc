@@ -93,8 +93,8 @@ double QuasistaticSolver::ForceTolerance() const {
 
 double QuasistaticSolver::MaxFreeForce(double* energy) const {
   Eigen::Matrix3Xd gradient;
-  const double e = model_.EnergyAndGradient(positions(), actuation(), &gradient,
-                                            options_.num_threads);
+  const double e = TotalEnergyAndGradient(model_, terms_, positions(), actuation(), &gradient,
+                                          options_.num_threads);
   if (energy != nullptr) *energy = e;
   double max_force = 0.0;
   for (int v = 0; v < model_.num_vertices(); ++v) {
@@ -107,8 +107,22 @@ StiffnessFactorization* QuasistaticSolver::stiffness_factorization() {
   if (!factorization_) {
     factorization_ =
         std::make_unique<StiffnessFactorization>(model_, fixed_mask_, options_.num_threads);
+    factorization_->set_energy_terms(terms_);
   }
   return factorization_.get();
+}
+
+void QuasistaticSolver::AddEnergyTerm(const EnergyTerm* term) {
+  CHECK(term != nullptr);
+  std::vector<double*> blocks(model_.num_vertices());
+  for (int v = 0; v < model_.num_vertices(); ++v) blocks[v] = vertex(v);
+  term->AddResidualBlocks(problem_.get(), blocks);
+  // Blocks a term added for vertices in no element: keep fixed ones constant.
+  for (int v : fixed_vertices_) {
+    if (problem_->HasParameterBlock(vertex(v))) problem_->SetParameterBlockConstant(vertex(v));
+  }
+  terms_.push_back(term);
+  if (factorization_) factorization_->set_energy_terms(terms_);
 }
 
 bool QuasistaticSolver::RunNewton(QuasistaticSolveReport* report) {

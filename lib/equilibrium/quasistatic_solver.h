@@ -8,6 +8,7 @@
 #include <Eigen/Core>
 
 #include "equilibrium/boundary_conditions.h"
+#include "equilibrium/energy_term.h"
 #include "equilibrium/stiffness_factorization.h"
 #include "physics/actuation.h"
 #include "physics/shape_target_model.h"
@@ -153,11 +154,17 @@ class QuasistaticSolver {
   // true for fixed vertices (num_vertices entries).
   const std::vector<bool>& fixed_mask() const { return fixed_mask_; }
 
-  // Minimizes E(., actuation()) from positions(). Returns what happened; a solve that
+  // Adds an energy term (not owned; must outlive the solver) to the equilibrium:
+  // the solver then minimizes E(x, a) + the terms. Call before Solve().
+  void AddEnergyTerm(const EnergyTerm* term);
+  const std::vector<const EnergyTerm*>& energy_terms() const { return terms_; }
+
+  // Minimizes E(., actuation()) (plus energy terms) from positions(). Returns what happened; a solve that
   // does not reach the force tolerance says so (converged = false).
   QuasistaticSolveReport Solve();
 
-  // Largest |dE/dx_v| over free vertices at the current state (and E through *energy).
+  // Largest |dE/dx_v| over free vertices at the current state (and E through *energy;
+  // both include the energy terms).
   double MaxFreeForce(double* energy = nullptr) const;
   // The absolute force tolerance: relative_force_tolerance * model.force_scale().
   double ForceTolerance() const;
@@ -185,6 +192,7 @@ class QuasistaticSolver {
   std::vector<double> positions_;
   std::unique_ptr<ceres::Problem> problem_;
   std::unique_ptr<StiffnessFactorization> factorization_;
+  std::vector<const EnergyTerm*> terms_;
   // Free vertices in fill-reducing order (computed on the first Solve that needs it).
   std::vector<int> vertex_order_;
 };

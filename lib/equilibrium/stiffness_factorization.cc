@@ -30,6 +30,7 @@ bool StiffnessFactorization::Factorize(const ShapeTargetModel::PositionsRef& x,
   }
   WallTimer timer;
   AssembleStiffness(model_, pattern_, x, a, kind, num_threads_, &values_);
+  for (const EnergyTerm* term : terms_) term->AddStiffness(x, pattern_, &values_);
   timings_.assembly = timer.Seconds();
   const bool first = cholesky_.factor_nonzeros() == 0.0;
   std::string cholmod_error;
@@ -50,6 +51,12 @@ bool StiffnessFactorization::Factorize(const ShapeTargetModel::PositionsRef& x,
     return false;
   }
   return true;
+}
+
+double StiffnessFactorization::EnergyAndGradient(const ShapeTargetModel::PositionsRef& x,
+                                                 const ShapeTargetModel::ActuationRef& a,
+                                                 Eigen::Matrix3Xd* gradient) const {
+  return TotalEnergyAndGradient(model_, terms_, x, a, gradient, num_threads_);
 }
 
 Eigen::VectorXd StiffnessFactorization::GatherFree(const Eigen::Matrix3Xd& per_vertex) const {

@@ -7,6 +7,7 @@
 
 #include <Eigen/Core>
 
+#include "equilibrium/energy_term.h"
 #include "physics/actuation.h"
 #include "physics/shape_target_model.h"
 #include "physics/stiffness_assembly.h"
@@ -36,6 +37,15 @@ class StiffnessFactorization {
   StiffnessFactorization(const ShapeTargetModel& model, const std::vector<bool>& fixed_mask,
                          int num_threads);
   ~StiffnessFactorization();
+
+  // Extra energy terms of the system (see EnergyTerm): their Hessians are added to K
+  // and their gradients to EnergyAndGradient. Not owned.
+  void set_energy_terms(const std::vector<const EnergyTerm*>& terms) { terms_ = terms; }
+  const std::vector<const EnergyTerm*>& energy_terms() const { return terms_; }
+  // The system's total energy and gradient (model plus terms) at (x, a).
+  double EnergyAndGradient(const ShapeTargetModel::PositionsRef& x,
+                           const ShapeTargetModel::ActuationRef& a,
+                           Eigen::Matrix3Xd* gradient) const;
 
   // Assembles K (exact or PSD-projected) at (x, a) and factorizes it. Returns false
   // with *error if K is not positive definite, naming the vertex and component where
@@ -67,6 +77,7 @@ class StiffnessFactorization {
   StiffnessPattern pattern_;
   SparseCholesky cholesky_;
   std::vector<double> values_;
+  std::vector<const EnergyTerm*> terms_;
   FactorizationTimings timings_;
 };
 

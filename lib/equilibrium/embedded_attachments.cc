@@ -1,0 +1,113 @@
+#include "equilibrium/embedded_attachments.h"
+
+#include <cmath>
+
+#include <ceres/problem.h>
+#include <ceres/sized_cost_function.h>
+#include <glog/logging.h>
+
+namespace aqs {
+namespace {
+
+// r = sqrt(k) (sum_j w_j x_j - y): 3 residuals, four vertex blocks; Jacobian block j
+// is sqrt(k) w_j I (3x3, row-major). Reads the target through a pointer.
+class AttachmentCostFunction final : public ceres::SizedCostFunction<3, 3, 3, 3, 3> {
+ public:
+  AttachmentCostFunction(const Eigen::Vector4d& weights, double stiffness, const double* target)
+      : weights_(weights), scale_(std::sqrt(stiffness)), target_(target) {}
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    for (int c = 0; c < 3; ++c) {
+      double p = 0.0;
+      for (int j = 0; j < 4; ++j) p += weights_[j] * parameters[j][c];
+      residuals[c] = scale_ * (p - target_[c]);
+    }
+    if (jacobians == nullptr) return true;
+    for (int j = 0; j < 4; ++j) {
+      if (jacobians[j] == nullptr) continue;
+      Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> jac(jacobians[j]);
+      jac = scale_ * weights_[j] * Eigen::Matrix3d::Identity();
+    }
+    return true;
+  }
+
+ private:
+  Eigen::Vector4d weights_;
+  double scale_;
+  const double* target_;
+};
+
+}  // namespace
+
+ceres::CostFunction* NewAttachmentCostFunction(const Eigen::Vector4d& weights, double stiffness,
+                                               const double* target) {
+  return new AttachmentCostFunction(weights, stiffness, target);
+}
+
+EmbeddedAttachments::EmbeddedAttachments(const Eigen::Matrix4Xi& tets,
+                                         const std::vector<int>& element,
+                                         const Eigen::Matrix4Xd& weights,
+                                         const Eigen::VectorXd& stiffness,
+                                         const Eigen::Matrix3Xd& rest_positions)
+    : vertices_(4, element.size()), element_(element), weights_(weights), stiffness_(stiffness) {
+  CHECK_EQ(weights.cols(), static_cast<Eigen::Index>(element.size()));
+  CHECK_EQ(stiffness.size(), static_cast<Eigen::Index>(element.size()));
+  for (size_t i = 0; i < element.size(); ++i) {
+    CHECK(element[i] >= 0 && element[i] < tets.cols()) << "point " << i;
+    CHECK(stiffness[i] > 0.0) << "point " << i;
+    vertices_.col(i) = tets.col(element[i]);
+  }
+  targets_.resize(3 * element.size());
+  targets() = Points(rest_positions);
+}
+
+Eigen::Matrix3Xd EmbeddedAttachments::Points(const Eigen::Ref<const Eigen::Matrix3Xd>& x) const {
+  Eigen::Matrix3Xd points = Eigen::Matrix3Xd::Zero(3, num_points());
+  for (int i = 0; i < num_points(); ++i) {
+    for (int j = 0; j < 4; ++j) points.col(i) += weights_(j, i) * x.col(vertices_(j, i));
+  }
+  return points;
+}
+
+double EmbeddedAttachments::AddEnergyAndGradient(const Eigen::Ref<const Eigen::Matrix3Xd>& x,
+                                                 Eigen::Matrix3Xd* gradient) const {
+  double energy = 0.0;
+  for (int i = 0; i < num_points(); ++i) {
+    Eigen::Vector3d d = -targets().col(i);
+    for (int j = 0; j < 4; ++j) d += weights_(j, i) * x.col(vertices_(j, i));
+    energy += 0.5 * stiffness_[i] * d.squaredNorm();
+    for (int j = 0; j < 4; ++j) gradient->col(vertices_(j, i)) += stiffness_[i] * weights_(j, i) * d;
+  }
+  return energy;
+}
+
+void EmbeddedAttachments::AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>& x,
+                                       const StiffnessPattern& pattern,
+                                       std::vector<double>* values) const {
+  // Hessian block (j, l) of point i: k_i w_ij w_il I3 on the element's vertex pair.
+  for (int i = 0; i < num_points(); ++i) {
+    const int e = element_[i];
+    for (int j = 0; j < 4; ++j) {
+      for (int l = 0; l < 4; ++l) {
+        if (pattern.BlockOffset(e, j, l, 0) < 0) continue;
+        const double h = stiffness_[i] * weights_(j, i) * weights_(l, i);
+        // The 3x3 block is h I: only its diagonal entries (c == d) are non-zero.
+        for (int d = 0; d < 3; ++d) (*values)[pattern.BlockOffset(e, j, l, d) + d] += h;
+      }
+    }
+  }
+}
+
+void EmbeddedAttachments::AddResidualBlocks(ceres::Problem* problem,
+                                            const std::vector<double*>& vertex_blocks) const {
+  for (int i = 0; i < num_points(); ++i) {
+    ceres::CostFunction* cost =
+        NewAttachmentCostFunction(weights_.col(i), stiffness_[i], targets_.data() + 3 * i);
+    problem->AddResidualBlock(cost, nullptr, vertex_blocks[vertices_(0, i)],
+                              vertex_blocks[vertices_(1, i)], vertex_blocks[vertices_(2, i)],
+                              vertex_blocks[vertices_(3, i)]);
+  }
+}
+
+}  // namespace aqs

@@ -1,0 +1,15 @@
+#include "equilibrium/energy_term.h"
+
+namespace aqs {
+
+double TotalEnergyAndGradient(const ShapeTargetModel& model,
+                              const std::vector<const EnergyTerm*>& terms,
+                              const ShapeTargetModel::PositionsRef& x,
+                              const ShapeTargetModel::ActuationRef& a,
+                              Eigen::Matrix3Xd* gradient, int num_threads) {
+  double energy = model.EnergyAndGradient(x, a, gradient, num_threads);
+  for (const EnergyTerm* term : terms) energy += term->AddEnergyAndGradient(x, gradient);
+  return energy;
+}
+
+}  // namespace aqs

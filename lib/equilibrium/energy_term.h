@@ -1,0 +1,58 @@
+#ifndef AQS_EQUILIBRIUM_ENERGY_TERM_H_
+#define AQS_EQUILIBRIUM_ENERGY_TERM_H_
+
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "physics/shape_target_model.h"
+#include "sparse/stiffness_pattern.h"
+
+namespace ceres {
+class Problem;
+}
+
+namespace aqs {
+
+// An energy added to the shape-targeting energy of a QuasistaticSolver, E_total(x) =
+// E(x, a) + sum of terms. A term provides its energy, gradient and Hessian (for the
+// force test and Newton steps) and its Ceres residual blocks (for Levenberg-Marquardt),
+// consistent with each other: the Ceres cost of its blocks is its energy.
+//
+// Positions are 3 x num_vertices (column v = vertex v). A term's Hessian may only
+// couple vertices that share an element of the model (so that it fits the stiffness
+// pattern of the model's mesh). Terms are owned by the caller and must outlive the
+// solvers and factorizations that use them. Their const methods may be called
+// concurrently.
+class EnergyTerm {
+ public:
+  virtual ~EnergyTerm() = default;
+
+  // Adds the term's energy to the return value and its gradient dE/dx to *gradient
+  // (3 x num_vertices, accumulated). Returns the term's energy.
+  virtual double AddEnergyAndGradient(const Eigen::Ref<const Eigen::Matrix3Xd>& x,
+                                      Eigen::Matrix3Xd* gradient) const = 0;
+
+  // Adds the term's Hessian at x into `values` (upper-triangle CSC of `pattern`, as
+  // AssembleStiffness fills it). Entries of fixed vertices are dropped.
+  virtual void AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>& x,
+                            const StiffnessPattern& pattern, std::vector<double>* values) const = 0;
+
+  // Adds the term's residual blocks to `problem`. vertex_block(v) is the parameter
+  // block (3 doubles) of vertex v; blocks of vertices not yet in the problem may be
+  // added by this call. The term may keep pointers to its own data in the cost
+  // functions so that later changes (e.g. new targets) take effect without rebuilding.
+  virtual void AddResidualBlocks(ceres::Problem* problem,
+                                 const std::vector<double*>& vertex_blocks) const = 0;
+};
+
+// E(x, a) + sum of the terms' energies, and the total gradient (3 x num_vertices).
+double TotalEnergyAndGradient(const ShapeTargetModel& model,
+                              const std::vector<const EnergyTerm*>& terms,
+                              const ShapeTargetModel::PositionsRef& x,
+                              const ShapeTargetModel::ActuationRef& a,
+                              Eigen::Matrix3Xd* gradient, int num_threads);
+
+}  // namespace aqs
+
+#endif  // AQS_EQUILIBRIUM_ENERGY_TERM_H_
