@@ -1,0 +1,54 @@
+#ifndef AQS_GEOMETRY_EMBEDDING_H_
+#define AQS_GEOMETRY_EMBEDDING_H_
+
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "mesh/tet_mesh.h"
+
+namespace aqs {
+
+// Points expressed as barycentric weights in elements of a tet mesh at rest:
+//   point i = sum_k weights(k, i) * mesh.vertices.col(mesh.tets(k, element[i])).
+//   element:          num_points element indices;
+//   weights:          4 x num_points, each column summing to 1;
+//   outside_distance: 0 if point i lies in element[i] (within a small tolerance), else
+//                     its distance to the mesh (to the closest element, which is then
+//                     element[i]; its weights are the barycentric coordinates of the
+//                     point with respect to that element, some negative, so the formula
+//                     above still reproduces the point exactly).
+struct Embedding {
+  std::vector<int> element;
+  Eigen::Matrix4Xd weights;
+  std::vector<double> outside_distance;
+
+  int num_points() const { return static_cast<int>(element.size()); }
+};
+
+// A point counts as inside an element when all four barycentric coordinates are >=
+// -kEmbeddingTolerance, so points exactly on faces, edges or vertices (also on the
+// mesh boundary) are inside.
+constexpr double kEmbeddingTolerance = 1e-10;
+
+// Embeds every column of `points` (3 x K, finite; CHECK) in `mesh` (at least one
+// element, indices in range; CHECK). Elements are found through a uniform grid over
+// their bounding boxes (cell edge about the mean element size, at most ~4 cells per
+// element), so the cost is about linear in the element and point counts. A point
+// inside several elements (on a shared face, edge or vertex) goes to the one whose
+// smallest barycentric coordinate is largest (the one it is deepest in), ties going to
+// the lowest element index: the choice is deterministic. A point in no element goes to
+// the element with the closest boundary face (a tree over the mesh's boundary
+// triangles, built only if some point is outside). Flat elements never contain points.
+// Threads: up to num_threads; results do not depend on the count.
+Embedding EmbedPoints(const TetMesh& mesh, const Eigen::Matrix3Xd& points, int num_threads);
+
+// Embedded point positions for a state x of the mesh (3 x num_vertices, column v the
+// position of vertex v): 3 x num_points, column i = sum_k weights(k, i) *
+// x.col(tets(k, element[i])). tets: the mesh's 4 x num_tets element matrix.
+Eigen::Matrix3Xd EmbeddedPositions(const Embedding& embedding, const Eigen::Matrix4Xi& tets,
+                                   const Eigen::Matrix3Xd& x);
+
+}  // namespace aqs
+
+#endif  // AQS_GEOMETRY_EMBEDDING_H_

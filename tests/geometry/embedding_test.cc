@@ -1,0 +1,149 @@
+#include "geometry/embedding.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <cstdio>
+#include <random>
+#include <vector>
+
+#include "mesh/lattice.h"
+#include "util/wall_timer.h"
+
+namespace aqs {
+namespace {
+
+TetMesh UnitTet() {
+  TetMesh mesh;
+  mesh.vertices.resize(3, 4);
+  mesh.vertices << 0, 1, 0, 0,  //
+      0, 0, 1, 0,               //
+      0, 0, 0, 1;
+  mesh.tets.resize(4, 1);
+  mesh.tets << 0, 1, 2, 3;
+  return mesh;
+}
+
+TetMesh Lattice(LatticeType type, int n, double spacing) {
+  LatticeOptions options;
+  options.type = type;
+  options.nx = n;
+  options.ny = n + 1;
+  options.nz = n + 2;
+  options.spacing = spacing;
+  options.origin = Eigen::Vector3d(-0.3, 0.7, 1.1);
+  return MakeLatticeMesh(options);
+}
+
+void ExpectReproduces(const TetMesh& mesh, const Embedding& embedding,
+                      const Eigen::Matrix3Xd& points) {
+  const Eigen::Matrix3Xd positions = EmbeddedPositions(embedding, mesh.tets, mesh.vertices);
+  ASSERT_EQ(positions.cols(), points.cols());
+  EXPECT_LT((positions - points).cwiseAbs().maxCoeff(), 1e-12);
+  for (int i = 0; i < embedding.num_points(); ++i) {
+    EXPECT_NEAR(embedding.weights.col(i).sum(), 1.0, 1e-12);
+  }
+}
+
+TEST(EmbeddingTest, SingleTetInsideBoundaryAndOutside) {
+  const TetMesh mesh = UnitTet();
+  Eigen::Matrix3Xd points(3, 6);
+  points << 0.1, 0, 1, 0.5, -1, 1,  //
+      0.2, 0, 0, 0.5, 0.2, 1,       //
+      0.3, 0, 0, 0, 0.2, 1;
+  // inside, vertex 0, vertex 1, middle of an edge, outside (face x = 0 at distance 1),
+  // outside (closest to the face x + y + z = 1: distance 2 / sqrt(3)).
+  const Embedding embedding = EmbedPoints(mesh, points, 1);
+  ASSERT_EQ(embedding.num_points(), 6);
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_EQ(embedding.element[i], 0);
+    EXPECT_EQ(embedding.outside_distance[i], 0.0) << "point " << i;
+  }
+  EXPECT_LT((embedding.weights.col(0) - Eigen::Vector4d(0.4, 0.1, 0.2, 0.3)).norm(), 1e-15);
+  EXPECT_NEAR(embedding.outside_distance[4], 1.0, 1e-15);
+  EXPECT_NEAR(embedding.outside_distance[5], 2.0 / std::sqrt(3.0), 1e-15);
+  EXPECT_LT(embedding.weights.col(4).minCoeff(), 0);
+  ExpectReproduces(mesh, embedding, points);
+}
+
+TEST(EmbeddingTest, LatticePointsAreFoundDeterministically) {
+  for (LatticeType type : {LatticeType::kKuhn, LatticeType::kBcc}) {
+    const TetMesh mesh = Lattice(type, 4, 0.5);
+    // Random points in the box, every lattice vertex (on many elements), and element
+    // face midpoints.
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<double> u(0, 1);
+    const Eigen::Vector3d lo(-0.3, 0.7, 1.1), size(2.0, 2.5, 3.0);
+    const int num_random = 500;
+    Eigen::Matrix3Xd points(3, num_random + mesh.num_vertices() + mesh.num_tets());
+    for (int i = 0; i < num_random; ++i) {
+      points.col(i) = lo + Eigen::Vector3d(u(rng), u(rng), u(rng)).cwiseProduct(size);
+    }
+    points.middleCols(num_random, mesh.num_vertices()) = mesh.vertices;
+    for (int t = 0; t < mesh.num_tets(); ++t) {
+      points.col(num_random + mesh.num_vertices() + t) =
+          (mesh.vertices.col(mesh.tets(0, t)) + mesh.vertices.col(mesh.tets(1, t)) +
+           mesh.vertices.col(mesh.tets(2, t))) /
+          3.0;
+    }
+    const Embedding one = EmbedPoints(mesh, points, 1);
+    const Embedding two = EmbedPoints(mesh, points, 2);
+    EXPECT_EQ(one.element, two.element);
+    EXPECT_EQ(one.weights, two.weights);
+    for (int i = 0; i < points.cols(); ++i) {
+      ASSERT_EQ(one.outside_distance[i], 0.0) << "point " << i;
+      EXPECT_GE(one.weights.col(i).minCoeff(), -kEmbeddingTolerance);
+    }
+    ExpectReproduces(mesh, one, points);
+
+    // An affine deformation is interpolated exactly.
+    Eigen::Matrix3d a;
+    a << 1.1, 0.2, -0.1, 0.05, 0.9, 0.3, -0.2, 0.1, 1.3;
+    const Eigen::Vector3d b(0.5, -2, 3);
+    const Eigen::Matrix3Xd deformed = (a * mesh.vertices).colwise() + b;
+    const Eigen::Matrix3Xd expected = (a * points).colwise() + b;
+    EXPECT_LT((EmbeddedPositions(one, mesh.tets, deformed) - expected).cwiseAbs().maxCoeff(),
+              1e-12);
+  }
+}
+
+TEST(EmbeddingTest, OutsidePointsGetTheDistanceToTheMesh) {
+  const TetMesh mesh = Lattice(LatticeType::kBcc, 3, 1.0);  // box [-0.3,2.7]x[0.7,4.7]x[1.1,6.1]
+  Eigen::Matrix3Xd points(3, 3);
+  points << -1.3, 1.0, 3.7,  //
+      1.0, 2.0, 5.7,         //
+      2.0, 0.1, 7.1;
+  const Embedding embedding = EmbedPoints(mesh, points, 2);
+  EXPECT_NEAR(embedding.outside_distance[0], 1.0, 1e-12);
+  EXPECT_NEAR(embedding.outside_distance[1], 1.0, 1e-12);
+  EXPECT_NEAR(embedding.outside_distance[2], std::sqrt(3.0), 1e-12);
+  for (int i = 0; i < 3; ++i) {
+    const int t = embedding.element[i];
+    ASSERT_GE(t, 0);
+    // Outside its element: some barycentric coordinate is negative.
+    EXPECT_LT(embedding.weights.col(i).minCoeff(), 0);
+  }
+  ExpectReproduces(mesh, embedding, points);
+}
+
+TEST(EmbeddingTest, LargeLatticeIsFast) {
+  // About 250K elements and 13K points, the size of the face meshes.
+  const TetMesh mesh = Lattice(LatticeType::kBcc, 26, 0.5);
+  std::mt19937 rng(12);
+  std::uniform_real_distribution<double> u(0, 1);
+  Eigen::Matrix3Xd points(3, 13294);
+  const Eigen::Vector3d lo(-0.3, 0.7, 1.1), size(13, 13.5, 14);
+  for (int i = 0; i < points.cols(); ++i) {
+    points.col(i) = lo + Eigen::Vector3d(u(rng), u(rng), u(rng)).cwiseProduct(size);
+  }
+  WallTimer timer;
+  const Embedding embedding = EmbedPoints(mesh, points, 2);
+  std::printf("EmbedPoints: %d points in %d elements: %.3f s\n", static_cast<int>(points.cols()),
+              mesh.num_tets(), timer.Seconds());
+  for (int i = 0; i < points.cols(); ++i) ASSERT_EQ(embedding.outside_distance[i], 0.0);
+  ExpectReproduces(mesh, embedding, points);
+}
+
+}  // namespace
+}  // namespace aqs
