@@ -7,6 +7,10 @@
 #include <gflags/gflags.h>
 #include <glog/logging.h>
 
+DEFINE_string(model, "", "Model directory (written by aqs_prepare, read and updated by the "
+              "later stages).");
+DEFINE_int32(threads, 2, "Threads (per-element work, parallel poses; BLAS follows OPENBLAS_NUM_THREADS).");
+
 namespace aqs {
 
 void InitApp(const std::string& usage, int* argc, char*** argv) {

@@ -40,7 +40,7 @@
 DEFINE_string(cubes, "12,20,35", "Lattice sizes: n cubes per side (6 n^3 elements each).");
 DEFINE_double(amplitude, 0.15, "Peak strain of the synthetic actuation.");
 DEFINE_double(tolerance, 1e-6, "Relative force tolerance of the solves.");
-DEFINE_int32(threads, 2, "Threads for evaluation and assembly.");
+DECLARE_int32(threads);
 DEFINE_int32(compare_orderings_max_elements, 60000,
              "Also time one LM iteration with the other orderings of the normal equations "
              "(Ceres' default static ordering, with and without postordering, and dynamic "

@@ -28,7 +28,7 @@ DEFINE_string(gradient, "", "Where to write dL/da (one line per element); needs 
 DEFINE_double(tolerance, 1e-6, "Relative force tolerance: max free-vertex force <= tolerance "
               "x (force of an element under unit strain). Down to ~1e-13 is reachable.");
 DEFINE_int32(max_iterations, 200, "Ceres iterations at most.");
-DEFINE_int32(threads, 2, "Threads for evaluation and assembly.");
+DECLARE_int32(threads);
 DEFINE_double(newton_relative_force, 1e-2, "Switch from Levenberg-Marquardt (Ceres) to exact "
               "Newton steps once the relative force is below this (0: Ceres only).");
 DEFINE_bool(verbose, false, "Print Ceres' per-iteration progress.");

@@ -1,0 +1,52 @@
+// aqs_pipeline: the stages from one flagfile: prepare, pre-train, train (and, once
+// available, evaluate). Every stage's flags are accepted; --stages picks which run.
+// A stage that fails stops the pipeline with its message and exit status 1.
+
+#include <iostream>
+
+#include <gflags/gflags.h>
+
+#include "app_common.h"
+#include "jobs/learning_jobs.h"
+#include "learning_flags.h"
+#include "prepare_flags.h"
+#include "util/wall_timer.h"
+
+DECLARE_string(model);
+DEFINE_string(stages, "prepare,pretrain,train", "Stages to run, in order.");
+DEFINE_bool(restart, false, "Train: ignore an earlier run's iteration count.");
+
+int main(int argc, char** argv) {
+  aqs::InitApp("Run the ActiveQS stages from one flagfile.\n"
+               "  aqs_pipeline --flagfile=configs/face_demo.flags [--stages=prepare,pretrain,train]",
+               &argc, &argv);
+  aqs::WallTimer total;
+  std::string error;
+  for (const std::string& stage : aqs::SplitCommaList(FLAGS_stages)) {
+    std::cout << "=== " << stage << "\n" << std::flush;
+    aqs::WallTimer timer;
+    bool ok = false;
+    if (stage == "prepare") {
+      aqs::PrepareJobOptions options;
+      ok = aqs::PrepareOptionsFromFlags(&options, &error) &&
+           aqs::RunPrepareJob(options, std::cout, &error);
+    } else if (stage == "pretrain") {
+      aqs::PretrainOptions options;
+      ok = aqs::PretrainOptionsFromFlags(&options, &error) &&
+           aqs::RunPretrainJob(FLAGS_model, options, std::cout, &error);
+    } else if (stage == "train") {
+      aqs::TrainOptions options;
+      ok = aqs::TrainOptionsFromFlags(&options, &error) &&
+           aqs::RunTrainJob(FLAGS_model, options, FLAGS_restart, std::cout, &error);
+    } else {
+      error = "unknown stage '" + stage + "' (known: prepare, pretrain, train)";
+    }
+    if (!ok) {
+      aqs::PrintError(stage + ": " + error);
+      return 1;
+    }
+    std::cout << "=== " << stage << " done in " << timer.Seconds() << " s\n";
+  }
+  std::cout << "pipeline done in " << total.Seconds() << " s\n";
+  return 0;
+}

@@ -1,0 +1,28 @@
+// aqs_pretrain: a decoder and one latent per pose fitted to a prepared model's
+// volumetric targets (supervised), to start end-to-end training from.
+// Exit status: 0 done; 1 bad input.
+
+#include <iostream>
+
+#include <gflags/gflags.h>
+
+#include "app_common.h"
+#include "jobs/learning_jobs.h"
+#include "learning_flags.h"
+
+DECLARE_string(model);
+
+int main(int argc, char** argv) {
+  aqs::InitApp("Pre-train the decoder of a prepared model.\n"
+               "  aqs_pretrain --model=MODEL [--latent_dim=16 --hidden=128,128 ...]",
+               &argc, &argv);
+  aqs::PretrainOptions options;
+  std::string error;
+  if (FLAGS_model.empty()) error = "--model is required";
+  if (!error.empty() || !aqs::PretrainOptionsFromFlags(&options, &error) ||
+      !aqs::RunPretrainJob(FLAGS_model, options, std::cout, &error)) {
+    aqs::PrintError(error);
+    return 1;
+  }
+  return 0;
+}

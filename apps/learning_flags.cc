@@ -1,0 +1,80 @@
+#include "learning_flags.h"
+
+#include <gflags/gflags.h>
+
+#include "app_common.h"
+#include "util/line_reader.h"
+
+DEFINE_int32(latent_dim, 16, "Latent dimension d.");
+DEFINE_string(hidden, "128,128", "Hidden layer widths of the decoder (comma-separated).");
+DEFINE_string(activation, "elu", "Hidden activation: elu, tanh or softplus.");
+DEFINE_double(output_scale, 0.1, "Decoder output scale (a = I + field(scale * mlp(z))).");
+DEFINE_double(grid_spacing, 0.0, "Spacing of the decoder's control grid (model units); 0: "
+              "--grid_spacing_factor x the mean element edge.");
+DEFINE_double(grid_spacing_factor, 4.0, "Control grid spacing in mean element edges.");
+DEFINE_bool(per_element, false, "One decoder output per element instead of a control grid "
+            "(small meshes only).");
+DEFINE_double(latent_regularization, 1e-3, "Weight of the latent regularizer (1/P) sum |z|^2.");
+DEFINE_int32(pretrain_iterations, 500, "L-BFGS iterations of pre-training.");
+DEFINE_uint32(seed, 1, "Seed of the decoder's initial weights.");
+DEFINE_int32(train_iterations, 200, "L-BFGS iterations of end-to-end training (in all, counting "
+             "a resumed run's earlier ones).");
+DEFINE_double(train_minutes, 0.0, "Stop end-to-end training after this many minutes of this run "
+              "(0: no limit).");
+DEFINE_double(train_tolerance, 1e-6, "Relative force tolerance of the training equilibria.");
+DEFINE_int32(checkpoint_every, 1, "Save the learned state every this many iterations.");
+DECLARE_int32(threads);
+
+namespace aqs {
+
+bool PretrainOptionsFromFlags(PretrainOptions* options, std::string* error) {
+  if (FLAGS_latent_dim < 1) {
+    *error = "--latent_dim must be at least 1";
+    return false;
+  }
+  options->spec.latent_dim = FLAGS_latent_dim;
+  options->spec.hidden_dims.clear();
+  for (const std::string& item : SplitCommaList(FLAGS_hidden)) {
+    int width = 0;
+    if (!ParseInt(item, &width) || width < 1) {
+      *error = "--hidden takes positive widths, got '" + item + "'";
+      return false;
+    }
+    options->spec.hidden_dims.push_back(width);
+  }
+  if (FLAGS_activation == "elu") {
+    options->spec.activation = Activation::kElu;
+  } else if (FLAGS_activation == "tanh") {
+    options->spec.activation = Activation::kTanh;
+  } else if (FLAGS_activation == "softplus") {
+    options->spec.activation = Activation::kSoftplus;
+  } else {
+    *error = "--activation must be elu, tanh or softplus, got '" + FLAGS_activation + "'";
+    return false;
+  }
+  options->spec.output_scale = FLAGS_output_scale;
+  options->field.node_spacing = FLAGS_grid_spacing;
+  options->field.node_spacing_factor = FLAGS_grid_spacing_factor;
+  options->field.per_element = FLAGS_per_element;
+  options->latent_regularization = FLAGS_latent_regularization;
+  options->max_iterations = FLAGS_pretrain_iterations;
+  options->seed = FLAGS_seed;
+  options->num_threads = FLAGS_threads;
+  return true;
+}
+
+bool TrainOptionsFromFlags(TrainOptions* options, std::string* error) {
+  if (FLAGS_train_iterations < 0 || !(FLAGS_train_tolerance > 0)) {
+    *error = "--train_iterations must be >= 0 and --train_tolerance > 0";
+    return false;
+  }
+  options->latent_regularization = FLAGS_latent_regularization;
+  options->max_iterations = FLAGS_train_iterations;
+  options->max_seconds = 60.0 * FLAGS_train_minutes;
+  options->solver.relative_force_tolerance = FLAGS_train_tolerance;
+  options->num_threads = FLAGS_threads;
+  options->checkpoint_every = FLAGS_checkpoint_every;
+  return true;
+}
+
+}  // namespace aqs

@@ -1,0 +1,105 @@
+#include "prepare_flags.h"
+
+#include <gflags/gflags.h>
+
+#include "app_common.h"
+#include "prepare/pose_files.h"
+
+DEFINE_string(neutral, "", "Neutral surface (OBJ).");
+DEFINE_string(poses, "", "Pose surfaces with the neutral's vertex order: a folder (all *.obj), "
+              "a glob ('dir/*.obj'), a .txt list (one path per line) or a comma-separated list.");
+DEFINE_string(pose_exclude, "", "Glob on file names to leave out of --poses (e.g. *.teeth.obj).");
+DEFINE_string(tet_mesh, "", "A tet mesh to simulate instead of a lattice (.mesh, .node/.ele, .msh).");
+DEFINE_double(spacing, 0.0, "Lattice cube edge for the simulation mesh (model units); required "
+              "without --tet_mesh.");
+DEFINE_string(lattice, "bcc", "Lattice type: bcc or kuhn.");
+DEFINE_double(shell, 0.0, "Keep only elements within this distance of the surface (0: all inside).");
+DEFINE_string(keep_box, "", "Keep only elements whose centroid is in one of these boxes: "
+              "'xmin,ymin,zmin,xmax,ymax,zmax', several separated by ';'.");
+DEFINE_double(mu, 1.0, "Stiffness of every element.");
+DEFINE_double(fixed_depth, -1.0, "Fix the vertices deeper than this under the surface.");
+DEFINE_string(fixed_box, "", "Fix the vertices in these boxes (';'-separated).");
+DEFINE_string(fixed_inside, "", "Fix the vertices inside these closed surfaces (comma-separated OBJ).");
+DEFINE_string(fixed_list, "", "Fix the vertices listed in this file (one index per line).");
+DEFINE_string(bone_name, "jaw", "Name of the bone (with --bone_mesh).");
+DEFINE_string(bone_mesh, "", "A rigid bone surface at rest (OBJ) whose per-pose motion drives "
+              "the fixed vertices in --bone_region.");
+DEFINE_string(bone_poses, "", "The bone's per-pose surfaces: a path pattern with {pose} for the "
+              "pose name (poses without a file keep the bone at rest).");
+DEFINE_string(bone_region, "", "Boxes (';'-separated) whose fixed vertices the bone drives.");
+DEFINE_double(bone_moving_fraction, 0.1, "Fit the bone's motion to its vertices that move more "
+              "than this fraction of the largest motion.");
+DEFINE_double(attachment_stiffness, 100.0, "Springs pulling the embedded surface to each pose, "
+              "per unit area, relative to one layer of elements.");
+DEFINE_double(prepare_tolerance, 1e-6, "Relative force tolerance of the embedded simulations.");
+DECLARE_int32(threads);
+DECLARE_string(model);
+
+namespace aqs {
+namespace {
+
+bool ParseBoxes(const std::string& text, std::vector<Eigen::AlignedBox3d>* boxes,
+                std::string* error) {
+  std::stringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ';')) {
+    if (item.empty()) continue;
+    Eigen::AlignedBox3d box;
+    if (!ParseBox(item, &box, error)) return false;
+    boxes->push_back(box);
+  }
+  return true;
+}
+
+}  // namespace
+
+bool PrepareOptionsFromFlags(PrepareJobOptions* options, std::string* error) {
+  if (FLAGS_neutral.empty() || FLAGS_poses.empty() || FLAGS_model.empty()) {
+    *error = "--neutral, --poses and --model are required";
+    return false;
+  }
+  options->neutral = FLAGS_neutral;
+  if (!ResolvePosePaths(FLAGS_poses, FLAGS_pose_exclude, &options->pose_paths, error)) return false;
+  options->output = FLAGS_model;
+  options->tet_mesh = FLAGS_tet_mesh;
+  if (FLAGS_tet_mesh.empty() && !(FLAGS_spacing > 0)) {
+    *error = "--spacing (the lattice cube edge, > 0) is required without --tet_mesh";
+    return false;
+  }
+  options->meshing.spacing = FLAGS_spacing;
+  if (FLAGS_lattice == "bcc") {
+    options->meshing.type = LatticeType::kBcc;
+  } else if (FLAGS_lattice == "kuhn") {
+    options->meshing.type = LatticeType::kKuhn;
+  } else {
+    *error = "--lattice must be bcc or kuhn, got '" + FLAGS_lattice + "'";
+    return false;
+  }
+  options->meshing.shell_thickness = FLAGS_shell;
+  options->meshing.num_threads = FLAGS_threads;
+  if (!ParseBoxes(FLAGS_keep_box, &options->keep_boxes, error)) return false;
+  options->mu = FLAGS_mu;
+  options->boundary.fixed_depth = FLAGS_fixed_depth;
+  if (!ParseBoxes(FLAGS_fixed_box, &options->boundary.fixed_boxes, error)) return false;
+  options->boundary.fixed_inside_meshes = SplitCommaList(FLAGS_fixed_inside);
+  options->boundary.fixed_list = FLAGS_fixed_list;
+  if (!FLAGS_bone_mesh.empty()) {
+    BoneRule bone;
+    bone.name = FLAGS_bone_name;
+    bone.neutral_mesh = FLAGS_bone_mesh;
+    bone.pose_mesh_pattern = FLAGS_bone_poses;
+    bone.moving_fraction = FLAGS_bone_moving_fraction;
+    if (!ParseBoxes(FLAGS_bone_region, &bone.region_boxes, error)) return false;
+    if (bone.region_boxes.empty()) {
+      *error = "--bone_mesh needs --bone_region (the boxes of fixed vertices it drives)";
+      return false;
+    }
+    options->boundary.bones.push_back(bone);
+  }
+  options->targets.relative_stiffness = FLAGS_attachment_stiffness;
+  options->targets.solver.relative_force_tolerance = FLAGS_prepare_tolerance;
+  options->num_threads = FLAGS_threads;
+  return true;
+}
+
+}  // namespace aqs

@@ -1,0 +1,16 @@
+#ifndef AQS_APPS_PREPARE_FLAGS_H_
+#define AQS_APPS_PREPARE_FLAGS_H_
+
+#include <string>
+
+#include "prepare/prepare_job.h"
+
+namespace aqs {
+
+// PrepareJobOptions from the aqs_prepare flags (defined in prepare_flags.cc). Returns
+// false with *error for missing or malformed flags.
+bool PrepareOptionsFromFlags(PrepareJobOptions* options, std::string* error);
+
+}  // namespace aqs
+
+#endif  // AQS_APPS_PREPARE_FLAGS_H_

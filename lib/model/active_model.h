@@ -1,0 +1,79 @@
+#ifndef AQS_MODEL_ACTIVE_MODEL_H_
+#define AQS_MODEL_ACTIVE_MODEL_H_
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "equilibrium/boundary_conditions.h"
+#include "geometry/embedding.h"
+#include "geometry/rigid_transform.h"
+#include "learn/decoder.h"
+#include "mesh/surface_mesh.h"
+#include "mesh/tet_mesh.h"
+#include "physics/actuation.h"
+
+namespace aqs {
+
+// A rigid bone that drives some fixed simulation vertices: in training pose p, vertex
+// v of `vertices` sits at pose_transforms[p] applied to its rest position.
+struct Bone {
+  std::string name;
+  std::vector<int> vertices;
+  std::vector<RigidTransform> pose_transforms;  // one per training pose
+};
+
+// One example pose of the surface, with what preparation derived from it.
+struct TrainingPose {
+  std::string name;
+  Eigen::Matrix3Xd surface;  // 3 x num_surface_vertices, the neutral's vertex order
+  // Volumetric target (6 x num_elements) from embedded simulation; empty if not made.
+  ActuationMatrix target;
+  // How close the embedded surface of the target simulation came to `surface`.
+  double embedding_mean_error = 0.0;
+  double embedding_max_error = 0.0;
+};
+
+// An active model: the simulation mesh with its material and boundary conditions, the
+// surface embedded in it, the training poses, and (once trained) the decoder with one
+// latent vector per pose. The on-disk layout is in docs/model_format.md.
+struct ActiveModel {
+  TetMesh mesh;                      // simulation mesh at rest
+  Eigen::VectorXd mu;                // stiffness per element
+  std::vector<int> static_vertices;  // fixed at rest
+  std::vector<Bone> bones;           // fixed vertices moved rigidly per pose
+  SurfaceMesh neutral;               // the neutral surface (polygons kept)
+  Embedding embedding;               // each neutral vertex in an element of `mesh`
+  std::vector<TrainingPose> poses;
+
+  // The learned part (absent before pre-training: decoder == nullptr).
+  std::shared_ptr<const ActuationDecoder> decoder;
+  Eigen::VectorXd decoder_params;
+  Eigen::MatrixXd latents;            // latent_dim x num_poses
+  std::vector<Eigen::Matrix3Xd> states;  // per pose: last equilibrium (empty if none)
+
+  int num_poses() const { return static_cast<int>(poses.size()); }
+  int num_surface_vertices() const { return neutral.num_vertices(); }
+  int latent_dim() const { return decoder ? decoder->latent_dim() : 0; }
+  int PoseIndex(const std::string& name) const;  // -1 if absent
+};
+
+// The fixed vertices of the model in a fixed order (static vertices, then each
+// bone's), with their positions when bone b has moved by bone_transforms[b].
+BoundaryConditions ModelBoundaryConditions(const ActiveModel& model,
+                                           const std::vector<RigidTransform>& bone_transforms);
+// The same for training pose p (its recorded bone transforms).
+BoundaryConditions PoseBoundaryConditions(const ActiveModel& model, int pose);
+// Identity transforms for every bone (the rest configuration).
+std::vector<RigidTransform> RestBoneTransforms(const ActiveModel& model);
+
+// Checks sizes and indices for consistency (mesh and mu, vertex indices, embedding,
+// poses, bone transforms, decoder vs mesh, latents, states). Returns false with
+// *error naming `source` and what is inconsistent.
+bool ValidateModel(const ActiveModel& model, const std::string& source, std::string* error);
+
+}  // namespace aqs
+
+#endif  // AQS_MODEL_ACTIVE_MODEL_H_

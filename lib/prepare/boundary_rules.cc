@@ -1,0 +1,197 @@
+#include "prepare/boundary_rules.h"
+
+#include <filesystem>
+#include <sstream>
+
+#include "geometry/rigid_transform.h"
+#include "geometry/triangle_bvh.h"
+#include "geometry/winding_number.h"
+#include "io/vertex_list_io.h"
+#include "mesh/mesh_io.h"
+#include "util/line_reader.h"
+
+namespace aqs {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string Replace(std::string text, const std::string& key, const std::string& value) {
+  for (size_t pos; (pos = text.find(key)) != std::string::npos;) text.replace(pos, key.size(), value);
+  return text;
+}
+
+// Per-pose transforms of a bone, fitted to its moving vertices.
+bool FitBone(const BoneRule& rule, const std::vector<std::string>& pose_names, Bone* bone,
+             std::ostringstream* log, std::string* error) {
+  SurfaceMesh rest;
+  if (!ReadObj(rule.neutral_mesh, &rest, error)) return false;
+  const int n = rest.num_vertices();
+  std::vector<Eigen::Matrix3Xd> posed(pose_names.size());
+  Eigen::VectorXd largest = Eigen::VectorXd::Zero(n);
+  int with_files = 0;
+  for (size_t p = 0; p < pose_names.size(); ++p) {
+    const std::string path = Replace(rule.pose_mesh_pattern, "{pose}", pose_names[p]);
+    if (rule.pose_mesh_pattern.empty() || !fs::exists(path)) continue;
+    SurfaceMesh surface;
+    if (!ReadObj(path, &surface, error)) return false;
+    if (surface.num_vertices() != n) {
+      *error = path + ": " + std::to_string(surface.num_vertices()) + " vertices, but the bone '" +
+               rule.name + "' at rest (" + rule.neutral_mesh + ") has " + std::to_string(n);
+      return false;
+    }
+    posed[p] = surface.vertices;
+    largest = largest.cwiseMax((surface.vertices - rest.vertices).colwise().norm().transpose());
+    ++with_files;
+  }
+  bone->name = rule.name;
+  bone->pose_transforms.assign(pose_names.size(), RigidTransform());
+  const double threshold = rule.moving_fraction * largest.maxCoeff();
+  std::vector<int> moving;
+  for (int i = 0; i < n; ++i) {
+    if (largest[i] > threshold && largest[i] > 0) moving.push_back(i);
+  }
+  *log << "bone '" << rule.name << "': " << n << " vertices, pose surfaces for " << with_files
+       << " of " << pose_names.size() << " poses, transform fitted to " << moving.size()
+       << " moving vertices\n";
+  if (moving.size() < 3) return true;  // the bone never moves: identities
+  Eigen::Matrix3Xd from(3, moving.size()), to(3, moving.size());
+  for (size_t i = 0; i < moving.size(); ++i) from.col(i) = rest.vertices.col(moving[i]);
+  for (size_t p = 0; p < pose_names.size(); ++p) {
+    if (posed[p].cols() == 0) continue;
+    for (size_t i = 0; i < moving.size(); ++i) to.col(i) = posed[p].col(moving[i]);
+    double rms = 0;
+    bone->pose_transforms[p] = FitRigidTransform(from, to, &rms);
+    const Eigen::AngleAxisd angle(bone->pose_transforms[p].rotation);
+    *log << "  pose " << pose_names[p] << ": rotation " << angle.angle() * 180.0 / M_PI
+         << " deg, translation " << bone->pose_transforms[p].translation.norm()
+         << ", fit rms " << rms << "\n";
+  }
+  return true;
+}
+
+// Vertices of `points` inside the closed surface in `path`.
+bool InsideMesh(const std::string& path, const Eigen::Matrix3Xd& points, int threads,
+                std::vector<bool>* inside, std::string* error) {
+  SurfaceMesh surface;
+  if (!ReadObj(path, &surface, error)) return false;
+  if (surface.num_triangles() == 0) {
+    *error = path + ": has no faces (a closed surface is needed for an inside test)";
+    return false;
+  }
+  const FastWindingNumber winding(surface.vertices, surface.triangles);
+  const Eigen::VectorXd w = winding.WindingNumbers(points, threads);
+  inside->assign(points.cols(), false);
+  for (Eigen::Index i = 0; i < points.cols(); ++i) (*inside)[i] = w[i] > 0.5;
+  return true;
+}
+
+}  // namespace
+
+bool ParseBox(const std::string& text, Eigen::AlignedBox3d* box, std::string* error) {
+  std::stringstream in(text);
+  std::string item;
+  std::vector<double> values;
+  while (std::getline(in, item, ',')) {
+    double v = 0;
+    if (!ParseDouble(item, &v)) {
+      *error = "box '" + text + "': '" + item + "' is not a number";
+      return false;
+    }
+    values.push_back(v);
+  }
+  if (values.size() != 6) {
+    *error = "box '" + text + "': expected six numbers xmin,ymin,zmin,xmax,ymax,zmax";
+    return false;
+  }
+  const Eigen::Vector3d lo(values[0], values[1], values[2]), hi(values[3], values[4], values[5]);
+  if (!(lo.array() < hi.array()).all()) {
+    *error = "box '" + text + "': each minimum must be below its maximum";
+    return false;
+  }
+  *box = Eigen::AlignedBox3d(lo, hi);
+  return true;
+}
+
+bool ApplyBoundaryRules(const BoundaryRuleOptions& options, const TetMesh& mesh,
+                        const SurfaceMesh& surface, const std::vector<std::string>& pose_names,
+                        ActiveModel* model, std::string* log_out, std::string* error) {
+  std::ostringstream log;
+  const int nv = mesh.num_vertices();
+  std::vector<bool> fixed(nv, false);
+  auto count = [](const std::vector<bool>& flags) {
+    int c = 0;
+    for (bool f : flags) c += f;
+    return c;
+  };
+  if (options.fixed_depth > 0) {
+    const FastWindingNumber winding(surface.vertices, surface.triangles);
+    const Eigen::VectorXd w = winding.WindingNumbers(mesh.vertices, options.num_threads);
+    const TriangleBvh bvh(surface.vertices, surface.triangles);
+    const std::vector<ClosestPointResult> closest =
+        bvh.ClosestPoints(mesh.vertices, options.num_threads);
+    int selected = 0;
+    for (int v = 0; v < nv; ++v) {
+      if (w[v] > 0.5 && closest[v].distance > options.fixed_depth) {
+        fixed[v] = true;
+        ++selected;
+      }
+    }
+    log << "fixed by depth > " << options.fixed_depth << ": " << selected << " vertices\n";
+  }
+  for (const Eigen::AlignedBox3d& box : options.fixed_boxes) {
+    int selected = 0;
+    for (int v = 0; v < nv; ++v) {
+      if (box.contains(mesh.vertices.col(v))) {
+        fixed[v] = true;
+        ++selected;
+      }
+    }
+    log << "fixed by box: " << selected << " vertices\n";
+  }
+  for (const std::string& path : options.fixed_inside_meshes) {
+    std::vector<bool> inside;
+    if (!InsideMesh(path, mesh.vertices, options.num_threads, &inside, error)) return false;
+    for (int v = 0; v < nv; ++v) fixed[v] = fixed[v] || inside[v];
+    log << "fixed inside " << path << ": " << count(inside) << " vertices\n";
+  }
+  if (!options.fixed_list.empty()) {
+    std::vector<int> list;
+    if (!ReadVertexList(options.fixed_list, nv, &list, error)) return false;
+    for (int v : list) fixed[v] = true;
+    log << "fixed by list " << options.fixed_list << ": " << list.size() << " vertices\n";
+  }
+  if (count(fixed) == 0) {
+    *error = "no simulation vertex is fixed: give --fixed_depth, --fixed_box, --fixed_inside or "
+             "--fixed_list (a body without fixed vertices has no unique equilibrium)";
+    return false;
+  }
+  model->static_vertices.clear();
+  model->bones.clear();
+  std::vector<int> owner(nv, -1);
+  for (size_t b = 0; b < options.bones.size(); ++b) {
+    Bone bone;
+    if (!FitBone(options.bones[b], pose_names, &bone, &log, error)) return false;
+    for (int v = 0; v < nv; ++v) {
+      if (!fixed[v] || owner[v] >= 0) continue;
+      for (const Eigen::AlignedBox3d& box : options.bones[b].region_boxes) {
+        if (box.contains(mesh.vertices.col(v))) {
+          owner[v] = static_cast<int>(b);
+          bone.vertices.push_back(v);
+          break;
+        }
+      }
+    }
+    log << "bone '" << bone.name << "' drives " << bone.vertices.size() << " fixed vertices\n";
+    model->bones.push_back(bone);
+  }
+  for (int v = 0; v < nv; ++v) {
+    if (fixed[v] && owner[v] < 0) model->static_vertices.push_back(v);
+  }
+  log << "fixed vertices: " << model->static_vertices.size() << " static";
+  for (const Bone& bone : model->bones) log << ", " << bone.vertices.size() << " on " << bone.name;
+  log << " (of " << nv << ")\n";
+  *log_out += log.str();
+  return true;
+}
+
+}  // namespace aqs

@@ -1,0 +1,139 @@
+#include "prepare/pose_files.h"
+
+#include <fnmatch.h>
+#include <glob.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <set>
+#include <sstream>
+
+#include "mesh/mesh_io.h"
+#include "util/line_reader.h"
+#include "util/parallel_for.h"
+
+namespace aqs {
+namespace {
+
+namespace fs = std::filesystem;
+
+bool Excluded(const std::string& path, const std::string& exclude) {
+  if (exclude.empty()) return false;
+  const std::string name = fs::path(path).filename().string();
+  return fnmatch(exclude.c_str(), name.c_str(), 0) == 0;
+}
+
+}  // namespace
+
+std::string PoseNameFromPath(const std::string& path) {
+  return fs::path(path).stem().string();
+}
+
+bool ResolvePosePaths(const std::string& spec, const std::string& exclude,
+                      std::vector<std::string>* paths, std::string* error) {
+  std::vector<std::string> found;
+  std::error_code code;
+  if (spec.empty()) {
+    *error = "no poses given";
+    return false;
+  }
+  if (fs::is_directory(spec, code)) {
+    for (const auto& entry : fs::directory_iterator(spec, code)) {
+      if (entry.is_regular_file() && entry.path().extension() == ".obj") {
+        found.push_back(entry.path().string());
+      }
+    }
+  } else if (spec.find_first_of("*?[") != std::string::npos) {
+    glob_t matches;
+    if (glob(spec.c_str(), 0, nullptr, &matches) == 0) {
+      for (size_t i = 0; i < matches.gl_pathc; ++i) found.push_back(matches.gl_pathv[i]);
+    }
+    globfree(&matches);
+  } else if (fs::path(spec).extension() == ".txt") {
+    LineReader reader(spec);
+    if (!reader.ok()) {
+      *error = reader.error();
+      return false;
+    }
+    const fs::path base = fs::path(spec).parent_path();
+    std::vector<std::string> tokens;
+    while (reader.NextTokens(&tokens)) {
+      if (tokens.size() != 1) {
+        *error = reader.Where("expected one path per line");
+        return false;
+      }
+      const fs::path p(tokens[0]);
+      const std::string resolved = p.is_absolute() ? p.string() : (base / p).string();
+      if (!fs::exists(resolved)) {
+        *error = reader.Where("pose file '" + resolved + "' does not exist");
+        return false;
+      }
+      found.push_back(resolved);
+    }
+  } else {
+    std::stringstream list(spec);
+    std::string item;
+    while (std::getline(list, item, ',')) {
+      if (item.empty()) continue;
+      if (!fs::exists(item)) {
+        *error = "pose file '" + item + "' does not exist";
+        return false;
+      }
+      found.push_back(item);
+    }
+  }
+  found.erase(std::remove_if(found.begin(), found.end(),
+                             [&](const std::string& p) { return Excluded(p, exclude); }),
+              found.end());
+  std::sort(found.begin(), found.end());
+  if (found.empty()) {
+    *error = "the pose set '" + spec + "' matches no pose files" +
+             (exclude.empty() ? "" : " (after excluding '" + exclude + "')");
+    return false;
+  }
+  *paths = found;
+  return true;
+}
+
+bool ReadPoseSurfaces(const std::vector<std::string>& paths, int num_vertices, int num_threads,
+                      std::vector<std::string>* names, std::vector<Eigen::Matrix3Xd>* surfaces,
+                      std::string* error) {
+  const int n = static_cast<int>(paths.size());
+  std::vector<std::string> read_names(n), errors(n);
+  std::vector<Eigen::Matrix3Xd> read(n);
+  std::set<std::string> seen;
+  for (int i = 0; i < n; ++i) {
+    read_names[i] = PoseNameFromPath(paths[i]);
+    if (read_names[i].find_first_of(" \t") != std::string::npos) {
+      *error = paths[i] + ": pose names (file names) must not contain white space";
+      return false;
+    }
+    if (!seen.insert(read_names[i]).second) {
+      *error = paths[i] + ": a second pose named '" + read_names[i] + "'";
+      return false;
+    }
+  }
+  ParallelFor(num_threads, 0, n, [&](int, int i) {
+    SurfaceMesh surface;
+    if (!ReadObj(paths[i], &surface, &errors[i])) return;
+    if (surface.num_vertices() != num_vertices) {
+      std::ostringstream out;
+      out << paths[i] << ": " << surface.num_vertices() << " vertices, but the neutral surface has "
+          << num_vertices << " (poses must share the neutral's vertex order)";
+      errors[i] = out.str();
+      return;
+    }
+    read[i] = surface.vertices;
+  }, 1);
+  for (int i = 0; i < n; ++i) {
+    if (!errors[i].empty()) {
+      *error = errors[i];
+      return false;
+    }
+  }
+  *names = read_names;
+  *surfaces = read;
+  return true;
+}
+
+}  // namespace aqs

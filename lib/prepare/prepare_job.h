@@ -1,0 +1,42 @@
+#ifndef AQS_PREPARE_PREPARE_JOB_H_
+#define AQS_PREPARE_PREPARE_JOB_H_
+
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "geometry/surface_tet_mesher.h"
+#include "prepare/boundary_rules.h"
+#include "prepare/volumetric_targets.h"
+
+namespace aqs {
+
+// What aqs_prepare does: from a neutral surface and pose surfaces (same vertex order),
+// build an ActiveModel (simulation mesh, boundary conditions, embedding, volumetric
+// targets per pose) and save it.
+struct PrepareJobOptions {
+  std::string neutral;                  // neutral surface (OBJ); required
+  std::vector<std::string> pose_paths;  // pose surfaces (OBJ), same vertex order; >= 1
+  // The simulation mesh: a user tet mesh (any ReadTetMesh format), or else a lattice
+  // over the inside of the neutral surface (`meshing`).
+  std::string tet_mesh;
+  SurfaceTetMeshOptions meshing;
+  // Elements whose centroid lies outside all these boxes are dropped (none: keep all).
+  std::vector<Eigen::AlignedBox3d> keep_boxes;
+  double mu = 1.0;
+  BoundaryRuleOptions boundary;
+  VolumetricTargetOptions targets;
+  std::string output;                   // model directory; required
+  int num_threads = 2;
+};
+
+// Runs the job, logging progress to `log`. Returns false with *error on bad input
+// (unreadable files, poses with another vertex count, a surface that encloses nothing,
+// no fixed vertices, an empty pose set, ...).
+bool RunPrepareJob(const PrepareJobOptions& options, std::ostream& log, std::string* error);
+
+}  // namespace aqs
+
+#endif  // AQS_PREPARE_PREPARE_JOB_H_

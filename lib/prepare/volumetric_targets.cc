@@ -1,0 +1,123 @@
+#include "prepare/volumetric_targets.h"
+
+#include <iomanip>
+#include <memory>
+#include <mutex>
+#include <sstream>
+
+#include <Eigen/Geometry>
+#include <Eigen/SVD>
+
+#include "equilibrium/embedded_attachments.h"
+#include "geometry/embedding.h"
+#include "learn/grid_actuation_field.h"
+#include "util/parallel_for.h"
+#include "util/wall_timer.h"
+
+namespace aqs {
+
+Eigen::Matrix3d SymmetricPolarFactor(const Eigen::Matrix3d& f) {
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(f, Eigen::ComputeFullV);
+  const Eigen::Matrix3d v = svd.matrixV();
+  Eigen::Matrix3d s = v * svd.singularValues().asDiagonal() * v.transpose();
+  return 0.5 * (s + s.transpose());
+}
+
+Eigen::VectorXd VertexAreas(const Eigen::Matrix3Xd& vertices, const Eigen::Matrix3Xi& triangles) {
+  Eigen::VectorXd areas = Eigen::VectorXd::Zero(vertices.cols());
+  for (Eigen::Index t = 0; t < triangles.cols(); ++t) {
+    const Eigen::Vector3d a = vertices.col(triangles(0, t));
+    const double area =
+        0.5 * (vertices.col(triangles(1, t)) - a).cross(vertices.col(triangles(2, t)) - a).norm();
+    for (int k = 0; k < 3; ++k) areas[triangles(k, t)] += area / 3.0;
+  }
+  return areas;
+}
+
+bool MakeVolumetricTargets(const VolumetricTargetOptions& options, ActiveModel* model,
+                           std::ostream& log, std::string* error) {
+  const ShapeTargetModel physics(model->mesh, model->mu);
+  const int num_poses = model->num_poses();
+  // Springs: per unit area as stiff as relative_stiffness layers of elements. Surface
+  // vertices with no area (isolated) get the mean.
+  Eigen::VectorXd stiffness = VertexAreas(model->neutral.vertices, model->neutral.triangles);
+  const double mean_area = stiffness.sum() / std::max<Eigen::Index>(1, stiffness.size());
+  for (Eigen::Index i = 0; i < stiffness.size(); ++i) {
+    if (!(stiffness[i] > 0)) stiffness[i] = mean_area;
+  }
+  stiffness *= options.relative_stiffness * model->mu.mean() / MeanEdgeLength(model->mesh);
+
+  const int threads = std::max(1, std::min(options.num_threads, num_poses));
+  struct Worker {
+    std::unique_ptr<QuasistaticSolver> solver;
+    std::unique_ptr<EmbeddedAttachments> springs;
+  };
+  std::vector<Worker> workers(threads);
+  QuasistaticSolverOptions solver_options = options.solver;
+  solver_options.num_threads = 1;  // parallel over poses instead
+  std::mutex log_mutex;
+  std::vector<std::string> failures(num_poses);
+  ParallelFor(threads, 0, num_poses, [&](int t, int p) {
+    WallTimer timer;
+    Worker& w = workers[t];
+    if (!w.solver) {
+      w.solver = std::make_unique<QuasistaticSolver>(physics, PoseBoundaryConditions(*model, 0),
+                                                     solver_options);
+      w.springs = std::make_unique<EmbeddedAttachments>(
+          model->mesh.tets, model->embedding.element, model->embedding.weights, stiffness,
+          model->mesh.vertices);
+      w.solver->AddEnergyTerm(w.springs.get());
+    }
+    TrainingPose& pose = model->poses[p];
+    const BoundaryConditions bc = PoseBoundaryConditions(*model, p);
+    const Eigen::Matrix3Xd rest_fixed = ModelBoundaryConditions(*model, RestBoneTransforms(*model)).positions;
+    const Eigen::Matrix3Xd rest_points =
+        EmbeddedPositions(model->embedding, model->mesh.tets, model->mesh.vertices);
+    // Direct solve from rest; if it fails, continuation from rest to the pose.
+    w.solver->SetPositions(model->mesh.vertices);
+    w.solver->SetFixedPositions(bc.positions);
+    w.springs->targets() = pose.surface;
+    QuasistaticSolveReport report = w.solver->Solve();
+    int steps = 1;
+    if (!report.converged && options.continuation_steps > 1) {
+      steps = options.continuation_steps;
+      w.solver->SetPositions(model->mesh.vertices);
+      for (int s = 1; s <= steps && (s == 1 || report.converged); ++s) {
+        const double alpha = static_cast<double>(s) / steps;
+        w.solver->SetFixedPositions((1 - alpha) * rest_fixed + alpha * bc.positions);
+        w.springs->targets() = (1 - alpha) * rest_points + alpha * pose.surface;
+        report = w.solver->Solve();
+      }
+    }
+    if (!report.converged) {
+      failures[p] = "pose '" + pose.name + "': the embedded simulation did not converge: " +
+                    report.Summary();
+      return;
+    }
+    const Eigen::Matrix3Xd x = w.solver->positions();
+    pose.target.resize(6, physics.num_elements());
+    for (int e = 0; e < physics.num_elements(); ++e) {
+      pose.target.col(e) = ActuationFromSymmetric(SymmetricPolarFactor(physics.DeformationGradient(x, e)));
+    }
+    const Eigen::VectorXd distance = (w.springs->Points(x) - pose.surface).colwise().norm();
+    pose.embedding_mean_error = distance.mean();
+    pose.embedding_max_error = distance.maxCoeff();
+    std::lock_guard<std::mutex> lock(log_mutex);
+    log << "  " << std::left << std::setw(22) << pose.name << std::right << " surface error mean "
+        << std::setprecision(3) << pose.embedding_mean_error << " max " << pose.embedding_max_error
+        << " (pose moves up to " << (pose.surface - model->neutral.vertices).colwise().norm().maxCoeff()
+        << "), " << report.lm_iterations << " LM + " << report.newton_steps << " Newton"
+        << (steps > 1 ? " in " + std::to_string(steps) + " steps" : std::string()) << ", "
+        << timer.Seconds() << " s\n"
+        << std::flush;
+  }, 1);
+  for (const std::string& failure : failures) {
+    if (!failure.empty()) {
+      *error = failure;
+      return false;
+    }
+  }
+  return true;
+}
+
+}  // namespace aqs

@@ -1,0 +1,173 @@
+#include "train/pretrain.h"
+
+#include <cstdio>
+
+#include <ceres/gradient_problem.h>
+#include <ceres/gradient_problem_solver.h>
+#include <ceres/first_order_function.h>
+#include <ceres/iteration_callback.h>
+
+#include "train/latent_init.h"
+#include "train/progress.h"
+#include "util/wall_timer.h"
+
+namespace aqs {
+namespace {
+
+// Frobenius weights of the six actuation numbers (off-diagonals appear twice).
+const Vector6d kEntryWeights = (Vector6d() << 1, 1, 1, 2, 2, 2).finished();
+
+// The pre-training objective over [params; z_1; ...; z_P].
+class PretrainObjective final : public ceres::FirstOrderFunction {
+ public:
+  PretrainObjective(const ActuationDecoder& decoder, const std::vector<ActuationMatrix>& targets,
+                    const Eigen::VectorXd& element_weights, double latent_regularization)
+      : decoder_(decoder),
+        targets_(targets),
+        weights_(element_weights),
+        regularization_(latent_regularization) {}
+
+  int NumParameters() const override {
+    return decoder_.num_parameters() + decoder_.latent_dim() * static_cast<int>(targets_.size());
+  }
+
+  // Loss, and the actuation error (weighted mean |a - S|_F^2) through *mse.
+  double Loss(const double* parameters, double* gradient, double* mse) const {
+    const int np = decoder_.num_parameters();
+    const int d = decoder_.latent_dim();
+    const int p = static_cast<int>(targets_.size());
+    const Eigen::Map<const Eigen::MatrixXd> latents(parameters + np, d, p);
+    std::vector<ActuationMatrix> a;
+    DecoderWorkspace workspace;
+    decoder_.DecodeBatch(parameters, latents, &a, &workspace);
+    double data = 0.0;
+    std::vector<ActuationMatrix> dl_da(p);
+    for (int i = 0; i < p; ++i) {
+      const ActuationMatrix diff = a[i] - targets_[i];
+      const ActuationMatrix weighted =
+          kEntryWeights.asDiagonal() * diff * weights_.asDiagonal();  // 6 x m
+      data += (weighted.array() * diff.array()).sum() / p;
+      if (gradient != nullptr) dl_da[i] = (2.0 / p) * weighted;
+    }
+    const double reg = regularization_ * latents.squaredNorm() / p;
+    if (mse != nullptr) *mse = data;
+    if (gradient != nullptr) {
+      Eigen::Map<Eigen::VectorXd> g(gradient, NumParameters());
+      g.setZero();
+      Eigen::MatrixXd latent_gradient;
+      decoder_.Backward(parameters, workspace, dl_da, gradient, &latent_gradient);
+      Eigen::Map<Eigen::MatrixXd>(gradient + np, d, p) =
+          latent_gradient + (2.0 * regularization_ / p) * latents;
+    }
+    return data + reg;
+  }
+
+  bool Evaluate(const double* parameters, double* cost, double* gradient) const override {
+    *cost = Loss(parameters, gradient, nullptr);
+    return std::isfinite(*cost);
+  }
+
+ private:
+  const ActuationDecoder& decoder_;
+  const std::vector<ActuationMatrix>& targets_;
+  Eigen::VectorXd weights_;
+  double regularization_;
+};
+
+class ProgressCallback final : public ceres::IterationCallback {
+ public:
+  ProgressCallback(int every, int total, std::ostream& log) : every_(every), total_(total), log_(log) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
+    if (every_ > 0 && (s.iteration % every_ == 0)) {
+      const double elapsed = timer_.Seconds();
+      char line[256];
+      std::snprintf(line, sizeof(line),
+                    "  pretrain iter %5d/%d  loss %.6e  |g| %.3e  %s  ETA %s\n", s.iteration,
+                    total_, s.cost, s.gradient_norm, FormatDuration(elapsed).c_str(),
+                    FormatDuration(EstimateRemaining(s.iteration, total_, elapsed)).c_str());
+      log_ << line << std::flush;
+    }
+    return ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  int every_, total_;
+  std::ostream& log_;
+  WallTimer timer_;
+};
+
+}  // namespace
+
+bool Pretrain(const PretrainOptions& options, ActiveModel* model, PretrainReport* report,
+              std::ostream& log, std::string* error) {
+  WallTimer timer;
+  const int p = model->num_poses();
+  if (p == 0) {
+    *error = "the model has no training poses";
+    return false;
+  }
+  std::vector<ActuationMatrix> targets;
+  for (const TrainingPose& pose : model->poses) {
+    if (pose.target.cols() != model->mesh.num_tets()) {
+      *error = "pose '" + pose.name + "' has no volumetric target (run aqs_prepare)";
+      return false;
+    }
+    targets.push_back(pose.target);
+  }
+  const int m = model->mesh.num_tets();
+  Eigen::VectorXd volume(m);
+  for (int e = 0; e < m; ++e) {
+    volume[e] = std::abs(SignedTetVolume(model->mesh, model->mesh.vertices, e));
+  }
+  const Eigen::VectorXd weights = volume / volume.sum();
+
+  GridActuationField field(model->mesh, options.field);
+  auto decoder = std::make_shared<ActuationDecoder>(options.spec, std::move(field));
+  const int np = decoder->num_parameters();
+  const int d = decoder->latent_dim();
+  Eigen::VectorXd parameters(np + d * p);
+  decoder->InitializeParameters(options.seed, parameters.data());
+  // Latents: whitened principal components of the (volume-weighted) targets.
+  Eigen::MatrixXd samples(6 * static_cast<Eigen::Index>(m), p);
+  for (int i = 0; i < p; ++i) {
+    samples.col(i) = Eigen::Map<const Eigen::VectorXd>(targets[i].data(), targets[i].size());
+  }
+  Eigen::VectorXd row_weights(6 * static_cast<Eigen::Index>(m));
+  for (int e = 0; e < m; ++e) row_weights.segment<6>(6 * e) = weights[e] * kEntryWeights;
+  Eigen::Map<Eigen::MatrixXd>(parameters.data() + np, d, p) = WhitenedPcaScores(samples, row_weights, d);
+  log << "pretrain: " << np << " decoder parameters (" << decoder->num_nodes()
+      << " control nodes), " << p << " poses x latent " << d << "\n";
+
+  auto* objective = new PretrainObjective(*decoder, targets, weights, options.latent_regularization);
+  report->initial_loss = objective->Loss(parameters.data(), nullptr, nullptr);
+  ceres::GradientProblem problem(objective);  // takes ownership
+  ceres::GradientProblemSolver::Options solver_options;
+  solver_options.line_search_direction_type = ceres::LBFGS;
+  solver_options.max_lbfgs_rank = 20;
+  solver_options.max_num_iterations = options.max_iterations;
+  solver_options.function_tolerance = 1e-12;
+  solver_options.gradient_tolerance = 1e-12;
+  solver_options.parameter_tolerance = 1e-14;
+  solver_options.logging_type = ceres::SILENT;
+  ProgressCallback progress(options.log_every, options.max_iterations, log);
+  solver_options.callbacks.push_back(&progress);
+  solver_options.update_state_every_iteration = false;
+  ceres::GradientProblemSolver::Summary summary;
+  ceres::Solve(solver_options, problem, parameters.data(), &summary);
+  double mse = 0;
+  report->final_loss = objective->Loss(parameters.data(), nullptr, &mse);
+  report->rms_actuation_error = std::sqrt(mse);
+  report->iterations = static_cast<int>(summary.iterations.size()) - 1;
+  report->termination = summary.message;
+  report->seconds = timer.Seconds();
+  log << "pretrain: " << report->iterations << " iterations, loss " << report->initial_loss
+      << " -> " << report->final_loss << ", rms actuation error " << report->rms_actuation_error
+      << " (" << FormatDuration(report->seconds) << "; " << summary.message << ")\n";
+  model->decoder = decoder;
+  model->decoder_params = parameters.head(np);
+  model->latents = Eigen::Map<const Eigen::MatrixXd>(parameters.data() + np, d, p);
+  model->states.clear();
+  return true;
+}
+
+}  // namespace aqs

@@ -1,0 +1,29 @@
+#include "train/progress.h"
+
+#include <cmath>
+#include <cstdio>
+
+namespace aqs {
+
+std::string FormatDuration(double seconds) {
+  if (!(seconds >= 0) || !std::isfinite(seconds)) return "?";
+  char text[32];
+  if (seconds < 60) {
+    std::snprintf(text, sizeof(text), "%.1f s", seconds);
+  } else {
+    const long s = std::lround(seconds);
+    if (s >= 3600) {
+      std::snprintf(text, sizeof(text), "%ld:%02ld:%02ld", s / 3600, (s / 60) % 60, s % 60);
+    } else {
+      std::snprintf(text, sizeof(text), "%ld:%02ld", s / 60, s % 60);
+    }
+  }
+  return text;
+}
+
+double EstimateRemaining(int done, int total, double elapsed) {
+  if (done <= 0) return -1.0;
+  return elapsed / done * std::max(0, total - done);
+}
+
+}  // namespace aqs

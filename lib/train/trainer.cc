@@ -1,0 +1,229 @@
+#include "train/trainer.h"
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <sstream>
+
+#include <ceres/first_order_function.h>
+#include <ceres/gradient_problem.h>
+#include <ceres/gradient_problem_solver.h>
+#include <ceres/iteration_callback.h>
+
+#include "model/model_io.h"
+#include "train/end_to_end_objective.h"
+#include "train/progress.h"
+#include "util/atomic_file.h"
+#include "util/blas.h"
+#include "util/line_reader.h"
+#include "util/parallel_for.h"
+#include "util/wall_timer.h"
+
+namespace aqs {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string CheckpointPath(const std::string& dir) { return dir + "/train/checkpoint.txt"; }
+std::string LogPath(const std::string& dir) { return dir + "/train/log.csv"; }
+constexpr char kLogHeader[] =
+    "iteration,loss,mean_surface_error,max_surface_error,gradient_norm,step_norm,seconds,"
+    "function_evaluations\n";
+
+// Keeps the CSV log's lines up to `iteration` (a killed run may have logged further
+// than it saved), or starts it.
+void PrepareLog(const std::string& dir, int iteration) {
+  std::string kept = kLogHeader;
+  std::ifstream in(LogPath(dir));
+  std::string line;
+  std::getline(in, line);  // header
+  while (std::getline(in, line)) {
+    int it = -1;
+    if (std::sscanf(line.c_str(), "%d,", &it) == 1 && it <= iteration) kept += line + "\n";
+  }
+  std::string error;
+  WriteFileAtomically(LogPath(dir), kept, &error);
+}
+
+class TrainingCallback final : public ceres::IterationCallback {
+ public:
+  TrainingCallback(const TrainOptions& options, ActiveModel* model, const EndToEndObjective& objective,
+                   const Eigen::VectorXd& parameters, int iterations_before, std::ostream& log)
+      : options_(options),
+        model_(model),
+        objective_(objective),
+        parameters_(parameters),
+        before_(iterations_before),
+        log_(log) {}
+
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
+    const int iteration = before_ + s.iteration;
+    const double elapsed = timer_.Seconds();
+    if (s.iteration == 0 && before_ > 0) return ceres::SOLVER_CONTINUE;  // already logged
+    if (options_.log_every > 0 && (s.iteration % options_.log_every == 0)) {
+      char line[320];
+      const int todo = options_.max_iterations - before_;
+      std::snprintf(line, sizeof(line),
+                    "  train iter %5d/%d  loss %.6e  surface mean %.4g max %.4g  |g| %.3e  %s  "
+                    "ETA %s\n",
+                    iteration, options_.max_iterations, s.cost, objective_.mean_surface_error(),
+                    objective_.max_surface_error(), s.gradient_norm,
+                    FormatDuration(elapsed).c_str(),
+                    FormatDuration(EstimateRemaining(s.iteration, todo, elapsed)).c_str());
+      log_ << line << std::flush;
+    }
+    if (!options_.model_directory.empty()) {
+      char row[320];
+      std::snprintf(row, sizeof(row), "%d,%.17g,%.17g,%.17g,%.17g,%.17g,%.6f,%d\n", iteration,
+                    s.cost, objective_.mean_surface_error(), objective_.max_surface_error(),
+                    s.gradient_norm, s.step_norm, elapsed, s.line_search_function_evaluations);
+      std::ofstream(LogPath(options_.model_directory), std::ios::app) << row;
+      const bool checkpoint = options_.checkpoint_every > 0 &&
+                              s.iteration > 0 && s.iteration % options_.checkpoint_every == 0;
+      if (checkpoint && !Save(iteration, s.cost)) return ceres::SOLVER_ABORT;
+    }
+    if (options_.max_seconds > 0 && elapsed > options_.max_seconds) {
+      log_ << "  time budget of " << FormatDuration(options_.max_seconds) << " reached\n";
+      return ceres::SOLVER_TERMINATE_SUCCESSFULLY;
+    }
+    return ceres::SOLVER_CONTINUE;
+  }
+
+  // Copies the current parameters and states into the model and saves them.
+  bool Save(int iteration, double loss) {
+    CopyToModel();
+    std::string error;
+    std::ostringstream checkpoint;
+    checkpoint << "# end-to-end training checkpoint\niterations " << iteration << "\nloss "
+               << loss << "\n";
+    if (!SaveLearnedState(options_.model_directory, *model_, &error) ||
+        !WriteFileAtomically(CheckpointPath(options_.model_directory), checkpoint.str(), &error)) {
+      log_ << "  checkpoint failed: " << error << "\n";
+      return false;
+    }
+    return true;
+  }
+
+  void CopyToModel() {
+    const int np = model_->decoder->num_parameters();
+    model_->decoder_params = parameters_.head(np);
+    model_->latents = Eigen::Map<const Eigen::MatrixXd>(parameters_.data() + np,
+                                                        model_->latent_dim(), model_->num_poses());
+    model_->states = objective_.states();
+  }
+
+ private:
+  const TrainOptions& options_;
+  ActiveModel* model_;
+  const EndToEndObjective& objective_;
+  const Eigen::VectorXd& parameters_;
+  int before_;
+  std::ostream& log_;
+  WallTimer timer_;
+};
+
+}  // namespace
+
+int CheckpointIterations(const std::string& model_directory) {
+  LineReader reader(CheckpointPath(model_directory));
+  if (!reader.ok()) return 0;
+  std::vector<std::string> tokens;
+  int iterations = 0;
+  while (reader.NextTokens(&tokens)) {
+    if (tokens.size() == 2 && tokens[0] == "iterations") ParseInt(tokens[1], &iterations);
+  }
+  return iterations;
+}
+
+bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport* report,
+                   std::ostream& log, std::string* error) {
+  WallTimer timer;
+  if (!model->decoder) {
+    *error = "the model has no decoder yet: pre-train it first (aqs_pretrain)";
+    return false;
+  }
+  if (model->num_poses() == 0) {
+    *error = "the model has no training poses";
+    return false;
+  }
+  report->iterations_before =
+      options.model_directory.empty() ? 0 : CheckpointIterations(options.model_directory);
+  const int remaining = options.max_iterations - report->iterations_before;
+  if (!options.model_directory.empty()) {
+    std::error_code code;
+    fs::create_directories(options.model_directory + "/train", code);
+    PrepareLog(options.model_directory, report->iterations_before);
+  }
+  // Poses run in parallel with one thread each: keep BLAS single-threaded meanwhile.
+  const int blas_threads = BlasThreads();
+  if (options.num_threads > 1) SetBlasThreads(1);
+
+  auto* objective = new EndToEndObjective(options, *model);
+  Eigen::VectorXd parameters = objective->ModelParameters();
+  const int np = model->decoder->num_parameters();
+  double cost = 0;
+  if (!objective->Evaluate(parameters.data(), &cost, nullptr)) {
+    *error = "the starting point cannot be simulated: " + objective->last_failure();
+    SetBlasThreads(blas_threads);
+    delete objective;
+    return false;
+  }
+  report->initial_loss = cost;
+  report->initial_mean_surface_error = objective->mean_surface_error();
+  log << "train: " << model->num_poses() << " poses, " << np << " decoder parameters + "
+      << model->latent_dim() << " x " << model->num_poses() << " latents; start loss " << cost
+      << ", surface error mean " << objective->mean_surface_error() << " max "
+      << objective->max_surface_error();
+  if (report->iterations_before > 0) {
+    log << " (resuming after " << report->iterations_before << " iterations)";
+  }
+  log << "\n";
+  if (remaining <= 0) {
+    log << "train: all " << options.max_iterations << " iterations are done already\n";
+  }
+
+  ceres::GradientProblem problem(objective);  // owns the objective
+  TrainingCallback callback(options, model, *objective, parameters, report->iterations_before, log);
+  ceres::GradientProblemSolver::Summary summary;
+  if (remaining > 0) {
+    ceres::GradientProblemSolver::Options solver_options;
+    solver_options.line_search_direction_type = ceres::LBFGS;
+    solver_options.max_lbfgs_rank = 10;
+    solver_options.max_num_iterations = remaining;
+    solver_options.function_tolerance = 1e-10;
+    solver_options.gradient_tolerance = 1e-12;
+    solver_options.parameter_tolerance = 1e-12;
+    solver_options.logging_type = ceres::SILENT;
+    solver_options.update_state_every_iteration = true;  // the callback saves `parameters`
+    solver_options.callbacks.push_back(&callback);
+    ceres::Solve(solver_options, problem, parameters.data(), &summary);
+    report->termination = summary.message;
+  } else {
+    report->termination = "no iterations left";
+  }
+  SetBlasThreads(blas_threads);
+  // Final state: evaluate the returned parameters (also refreshes states and errors).
+  if (!objective->Evaluate(parameters.data(), &cost, nullptr)) {
+    *error = "the final point cannot be simulated: " + objective->last_failure();
+    return false;
+  }
+  report->final_loss = cost;
+  report->mean_surface_error = objective->mean_surface_error();
+  report->max_surface_error = objective->max_surface_error();
+  report->iterations =
+      report->iterations_before + std::max(0, static_cast<int>(summary.iterations.size()) - 1);
+  callback.CopyToModel();
+  if (!options.model_directory.empty() && !callback.Save(report->iterations, cost)) {
+    *error = "could not save the trained state to " + options.model_directory;
+    return false;
+  }
+  report->seconds = timer.Seconds();
+  log << "train: " << report->iterations << " iterations, loss " << report->initial_loss << " -> "
+      << report->final_loss << ", surface error mean " << report->mean_surface_error << " max "
+      << report->max_surface_error << " (" << FormatDuration(report->seconds) << "; "
+      << report->termination << ")\n";
+  return true;
+}
+
+}  // namespace aqs

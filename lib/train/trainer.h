@@ -1,0 +1,71 @@
+#ifndef AQS_TRAIN_TRAINER_H_
+#define AQS_TRAIN_TRAINER_H_
+
+#include <ostream>
+#include <string>
+
+#include "equilibrium/quasistatic_solver.h"
+#include "model/active_model.h"
+
+namespace aqs {
+
+struct TrainOptions {
+  // Weight of the latent regularizer (1/P) sum_p |z_p|^2.
+  double latent_regularization = 1e-3;
+  // L-BFGS iterations in all (counting those of earlier runs when resuming).
+  int max_iterations = 200;
+  // Stop (successfully, after saving) once this much wall time was spent in this run
+  // (0: no limit).
+  double max_seconds = 0.0;
+  // The per-pose equilibria (tolerance etc.; num_threads is set to 1: poses run in
+  // parallel instead).
+  QuasistaticSolverOptions solver;
+  int num_threads = 2;  // poses solved in parallel
+  // Checkpoints and logs: the model directory the learned state is saved into every
+  // checkpoint_every iterations (decoder.txt, latents.bin, states/), with
+  // train/checkpoint.txt (iterations done) and train/log.csv. Empty: no saving.
+  std::string model_directory;
+  int checkpoint_every = 1;
+  int log_every = 1;  // progress lines
+};
+
+struct TrainReport {
+  int iterations_before = 0;  // done by earlier runs (from the checkpoint)
+  int iterations = 0;         // in all, after this run
+  double initial_loss = 0.0;
+  double final_loss = 0.0;
+  double initial_mean_surface_error = 0.0;  // before this run's iterations
+  // Mean and largest distance between the simulated embedded surface and the pose
+  // surface over all training poses and surface vertices, at the end (model units).
+  double mean_surface_error = 0.0;
+  double max_surface_error = 0.0;
+  double seconds = 0.0;
+  std::string termination;
+};
+
+// End-to-end training through the simulator: decoder parameters and per-pose latents
+// minimize
+//
+//   L = (1/(P N)) sum_p sum_i |p_i(x*(a(z_p))) - y_pi|^2 + latent_regularization (1/P) sum_p |z_p|^2
+//
+// (p_i: embedded surface vertex i, y_pi its position in pose p, N surface vertices,
+// x* the equilibrium under pose p's boundary conditions), by Ceres' L-BFGS
+// (GradientProblemSolver). The gradient comes from implicit differentiation (one
+// adjoint solve per pose) back-propagated through the decoder. Equilibria are
+// warm-started from each pose's last state and computed in parallel. The model must be
+// pre-trained (decoder and latents set); its states are used as warm starts and updated.
+//
+// Progress lines (iteration, loss, mean surface error, gradient norm, time, ETA) go to
+// `log`; with model_directory set, every checkpoint saves the learned state so that a
+// killed run resumes by loading the model and calling this again (the L-BFGS memory
+// restarts empty). Returns false with *error if the poses' equilibria cannot be solved
+// at the starting point.
+bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport* report,
+                   std::ostream& log, std::string* error);
+
+// Iterations recorded in <model_directory>/train/checkpoint.txt (0 if none).
+int CheckpointIterations(const std::string& model_directory);
+
+}  // namespace aqs
+
+#endif  // AQS_TRAIN_TRAINER_H_

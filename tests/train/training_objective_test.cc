@@ -1,0 +1,73 @@
+#include "train/end_to_end_objective.h"
+
+#include <cstdio>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "prepare/volumetric_targets.h"
+#include "testing/finite_difference.h"
+#include "train/pretrain.h"
+#include "train/synthetic_muscles.h"
+
+namespace aqs {
+namespace {
+
+// The gradient of the end-to-end objective with respect to decoder weights and latents
+// against central differences of the whole objective, re-solving every equilibrium.
+TEST(EndToEndObjectiveTest, GradientMatchesCentralDifferencesOfResolvedObjective) {
+  testing::SyntheticMuscles data = testing::MakeSyntheticMuscles(4, 0, 0.3, 11);
+  ActiveModel& model = data.model;
+  std::ostringstream log;
+  std::string error;
+  VolumetricTargetOptions targets;
+  ASSERT_TRUE(MakeVolumetricTargets(targets, &model, log, &error)) << error;
+  PretrainOptions pretrain;
+  pretrain.spec.latent_dim = 2;
+  pretrain.spec.hidden_dims = {8};
+  pretrain.spec.activation = Activation::kTanh;
+  pretrain.field.node_spacing = 0.35;  // a coarse grid: a few dozen control nodes
+  pretrain.max_iterations = 30;
+  pretrain.log_every = 0;
+  PretrainReport pretrain_report;
+  ASSERT_TRUE(Pretrain(pretrain, &model, &pretrain_report, log, &error)) << error;
+
+  TrainOptions options;
+  options.latent_regularization = 1e-2;
+  options.solver.relative_force_tolerance = 1e-12;  // Newton reaches round-off
+  options.num_threads = 2;
+  EndToEndObjective objective(options, model);
+  const Eigen::VectorXd x0 = objective.ModelParameters();
+  double cost = 0;
+  Eigen::VectorXd gradient(objective.NumParameters());
+  ASSERT_TRUE(objective.Evaluate(x0.data(), &cost, gradient.data())) << objective.last_failure();
+
+  // Every latent and a random sample of decoder parameters.
+  const int np = model.decoder->num_parameters();
+  std::vector<int> indices;
+  for (int i = np; i < objective.NumParameters(); ++i) indices.push_back(i);
+  std::mt19937 rng(4);
+  std::uniform_int_distribution<int> pick(0, np - 1);
+  for (int i = 0; i < 12; ++i) indices.push_back(pick(rng));
+  double worst = 0;
+  for (int i : indices) {
+    auto f = [&](const Eigen::VectorXd& t) {
+      Eigen::VectorXd x = x0;
+      x[i] += t[0];
+      double c = 0;
+      EXPECT_TRUE(objective.Evaluate(x.data(), &c, nullptr)) << objective.last_failure();
+      return c;
+    };
+    const double numeric =
+        testing::CentralDifferenceGradient(f, Eigen::VectorXd::Zero(1), 1e-4)[0];
+    const double error_i = std::abs(numeric - gradient[i]) / std::max(1e-8, gradient.cwiseAbs().maxCoeff());
+    worst = std::max(worst, error_i);
+    EXPECT_LT(error_i, 1e-5) << "parameter " << i << ": analytic " << gradient[i] << " numeric "
+                             << numeric;
+  }
+  std::printf("training objective: %zu components checked, worst error %.2e (relative to max |g|)\n",
+              indices.size(), worst);
+}
+
+}  // namespace
+}  // namespace aqs
