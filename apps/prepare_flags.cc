@@ -16,6 +16,11 @@ DEFINE_string(lattice, "bcc", "Lattice type: bcc or kuhn.");
 DEFINE_double(shell, 0.0, "Keep only elements within this distance of the surface (0: all inside).");
 DEFINE_string(keep_box, "", "Keep only elements whose centroid is in one of these boxes: "
               "'xmin,ymin,zmin,xmax,ymax,zmax', several separated by ';'.");
+DEFINE_string(cut, "", "Planar cuts where surface parts touch and must part (lips, eyelids): "
+              "'nx,ny,nz,offset@xmin,ymin,zmin,xmax,ymax,zmax' (the plane n.x = offset, "
+              "within the box), several separated by ';'.");
+DEFINE_double(cut_margin, 0.0, "Within this distance of a cut, surface vertices take the side "
+              "their normal faces away from (the material side of a slit).");
 DEFINE_double(mu, 1.0, "Stiffness of every element.");
 DEFINE_double(fixed_depth, -1.0, "Fix the vertices deeper than this under the surface.");
 DEFINE_string(fixed_box, "", "Fix the vertices in these boxes (';'-separated).");
@@ -78,6 +83,17 @@ bool PrepareOptionsFromFlags(PrepareJobOptions* options, std::string* error) {
   options->meshing.shell_thickness = FLAGS_shell;
   options->meshing.num_threads = FLAGS_threads;
   if (!ParseBoxes(FLAGS_keep_box, &options->keep_boxes, error)) return false;
+  {
+    std::stringstream in(FLAGS_cut);
+    std::string item;
+    while (std::getline(in, item, ';')) {
+      if (item.empty()) continue;
+      PlaneCut cut;
+      if (!ParsePlaneCut(item, &cut, error)) return false;
+      options->cuts.push_back(cut);
+    }
+  }
+  options->cut_margin = FLAGS_cut_margin;
   options->mu = FLAGS_mu;
   options->boundary.fixed_depth = FLAGS_fixed_depth;
   if (!ParseBoxes(FLAGS_fixed_box, &options->boundary.fixed_boxes, error)) return false;

@@ -62,7 +62,7 @@ class LatentFitter::FitCost final : public ceres::CostFunction {
     const int k = static_cast<int>(target_.vertices.size());
     for (int i = 0; i < k; ++i) {
       const int v = target_.vertices[i];
-      Eigen::Vector3d p = Eigen::Vector3d::Zero();
+      Eigen::Vector3d p = model.embedding.offsets.col(v);
       for (int j = 0; j < 4; ++j) {
         p += model.embedding.weights(j, v) * x.col(model.mesh.tets(j, model.embedding.element[v]));
       }

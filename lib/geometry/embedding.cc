@@ -140,6 +140,7 @@ Embedding EmbedPoints(const TetMesh& mesh, const Eigen::Matrix3Xd& points, int n
   Embedding embedding;
   embedding.element.assign(num_points, -1);
   embedding.weights.setZero(4, num_points);
+  embedding.offsets.setZero(3, num_points);
   embedding.outside_distance.assign(num_points, 0.0);
   if (num_points == 0) return embedding;
 
@@ -184,22 +185,16 @@ Embedding EmbedPoints(const TetMesh& mesh, const Eigen::Matrix3Xd& points, int n
         const int t = boundary.triangle_tet[closest.triangle];
         embedding.element[i] = t;
         embedding.outside_distance[i] = closest.distance;
-        Eigen::Vector3d x[4];
-        ElementCorners(mesh, t, x);
-        Eigen::Vector4d w;
-        if (Barycentric(x, p, &w)) {
-          embedding.weights.col(i) = w;
-        } else {
-          // A flat element: the closest point's weights on its boundary face.
-          Eigen::Vector4d face_weights = Eigen::Vector4d::Zero();
-          for (int k = 0; k < 3; ++k) {
-            const int v = boundary.triangles(k, closest.triangle);
-            for (int m = 0; m < 4; ++m) {
-              if (mesh.tets(m, t) == v) face_weights(m) += closest.barycentric(k);
-            }
+        // The closest point's weights on the element's boundary face, and the offset.
+        Eigen::Vector4d face_weights = Eigen::Vector4d::Zero();
+        for (int k = 0; k < 3; ++k) {
+          const int v = boundary.triangles(k, closest.triangle);
+          for (int m = 0; m < 4; ++m) {
+            if (mesh.tets(m, t) == v) face_weights(m) += closest.barycentric(k);
           }
-          embedding.weights.col(i) = face_weights;
         }
+        embedding.weights.col(i) = face_weights;
+        embedding.offsets.col(i) = p - closest.point;
       },
       16);
   return embedding;
@@ -221,7 +216,7 @@ Eigen::Matrix3Xd EmbeddedPositions(const Embedding& embedding, const Eigen::Matr
                                     << ", but the state has " << x.cols() << " vertices";
       p += embedding.weights(k, i) * x.col(v);
     }
-    positions.col(i) = p;
+    positions.col(i) = p + embedding.offsets.col(i);
   }
   return positions;
 }

@@ -9,18 +9,24 @@
 
 namespace aqs {
 
-// Points expressed as barycentric weights in elements of a tet mesh at rest:
-//   point i = sum_k weights(k, i) * mesh.vertices.col(mesh.tets(k, element[i])).
+// Points expressed in elements of a tet mesh at rest:
+//   point i = sum_k weights(k, i) * x.col(tets(k, element[i])) + offsets.col(i),
+// for the rest positions x = mesh.vertices and, as the embedding defines it, for any
+// deformed state x.
 //   element:          num_points element indices;
-//   weights:          4 x num_points, each column summing to 1;
+//   weights:          4 x num_points, each column non-negative and summing to 1;
+//   offsets:          3 x num_points; zero for a point inside its element;
 //   outside_distance: 0 if point i lies in element[i] (within a small tolerance), else
-//                     its distance to the mesh (to the closest element, which is then
-//                     element[i]; its weights are the barycentric coordinates of the
-//                     point with respect to that element, some negative, so the formula
-//                     above still reproduces the point exactly).
+//                     its distance to the mesh. An outside point is attached to the
+//                     closest point of the mesh (on a boundary face of element[i]),
+//                     whose barycentric weights it takes, at the constant offset from
+//                     it: it then moves with that part of the surface, without the
+//                     leverage that extrapolated barycentric coordinates would have far
+//                     from the mesh.
 struct Embedding {
   std::vector<int> element;
   Eigen::Matrix4Xd weights;
+  Eigen::Matrix3Xd offsets;
   std::vector<double> outside_distance;
 
   int num_points() const { return static_cast<int>(element.size()); }
@@ -39,13 +45,14 @@ constexpr double kEmbeddingTolerance = 1e-10;
 // smallest barycentric coordinate is largest (the one it is deepest in), ties going to
 // the lowest element index: the choice is deterministic. A point in no element goes to
 // the element with the closest boundary face (a tree over the mesh's boundary
-// triangles, built only if some point is outside). Flat elements never contain points.
+// triangles, built only if some point is outside), attached to that closest point. Flat elements never contain points.
 // Threads: up to num_threads; results do not depend on the count.
 Embedding EmbedPoints(const TetMesh& mesh, const Eigen::Matrix3Xd& points, int num_threads);
 
 // Embedded point positions for a state x of the mesh (3 x num_vertices, column v the
 // position of vertex v): 3 x num_points, column i = sum_k weights(k, i) *
-// x.col(tets(k, element[i])). tets: the mesh's 4 x num_tets element matrix.
+// x.col(tets(k, element[i])) + offsets.col(i). tets: the mesh's 4 x num_tets element
+// matrix.
 Eigen::Matrix3Xd EmbeddedPositions(const Embedding& embedding, const Eigen::Matrix4Xi& tets,
                                    const Eigen::Matrix3Xd& x);
 

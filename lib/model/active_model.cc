@@ -89,6 +89,9 @@ bool ValidateModel(const ActiveModel& model, const std::string& source, std::str
     return fail("the embedding has " + std::to_string(model.embedding.num_points()) +
                 " points for a surface of " + std::to_string(ns) + " vertices");
   }
+  if (model.embedding.weights.cols() != ns || model.embedding.offsets.cols() != ns) {
+    return fail("the embedding's weights or offsets do not match the surface");
+  }
   for (int i = 0; i < ns; ++i) {
     if (model.embedding.element[i] < 0 || model.embedding.element[i] >= ne) {
       return fail("surface vertex " + std::to_string(i) + " is embedded in element " +

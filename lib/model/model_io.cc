@@ -97,12 +97,17 @@ bool WriteAll(const std::string& dir, const ActiveModel& model, std::string* err
       bones += '\n';
     }
   }
-  std::string embedding = "# element w0 w1 w2 w3 outside_distance, one line per surface vertex\n";
+  std::string embedding =
+      "# element w0 w1 w2 w3 ox oy oz outside_distance, one line per surface vertex\n";
   for (int i = 0; i < model.embedding.num_points(); ++i) {
     embedding += std::to_string(model.embedding.element[i]);
     for (int k = 0; k < 4; ++k) {
       embedding += ' ';
       AppendDouble(model.embedding.weights(k, i), &embedding);
+    }
+    for (int k = 0; k < 3; ++k) {
+      embedding += ' ';
+      AppendDouble(model.embedding.offsets(k, i), &embedding);
     }
     embedding += ' ';
     AppendDouble(model.embedding.outside_distance[i], &embedding);
@@ -307,17 +312,19 @@ bool LoadModel(const std::string& directory, ActiveModel* model_out, std::string
       return false;
     }
     model.embedding.weights.resize(4, ns);
+    model.embedding.offsets.resize(3, ns);
     std::vector<std::string> t;
     int i = 0;
     while (reader.NextTokens(&t)) {
       int e = 0;
       double outside = 0;
-      bool ok = i < ns && t.size() == 6 && ParseInt(t[0], &e) && e >= 0 && e < ne &&
-                ParseDouble(t[5], &outside);
+      bool ok = i < ns && t.size() == 9 && ParseInt(t[0], &e) && e >= 0 && e < ne &&
+                ParseDouble(t[8], &outside);
       for (int k = 0; ok && k < 4; ++k) ok = ParseDouble(t[1 + k], &model.embedding.weights(k, i));
+      for (int k = 0; ok && k < 3; ++k) ok = ParseDouble(t[5 + k], &model.embedding.offsets(k, i));
       if (!ok) {
         *error = reader.Where("expected '<element in [0, " + std::to_string(ne) +
-                              ")> w0 w1 w2 w3 outside_distance' for surface vertex " +
+                              ")> w0 w1 w2 w3 ox oy oz outside_distance' for surface vertex " +
                               std::to_string(i) + " of " + std::to_string(ns));
         return false;
       }

@@ -16,7 +16,7 @@ namespace aqs {
 //   bones.txt         "bone <b> <name>", then "<b> <pose> r00 r01 r02 r10 r11 r12 r20 r21 r22
 //                     t0 t1 t2" per training pose
 //   neutral.obj       the neutral surface
-//   embedding.txt     per surface vertex: "element w0 w1 w2 w3 outside_distance"
+//   embedding.txt     per surface vertex: "element w0 w1 w2 w3 ox oy oz outside_distance"
 //   poses.txt         per training pose: "<index> <name> <mean error> <max error>"
 //   poses/NNNN.bin    pose surfaces (3 x num_surface_vertices)
 //   targets/NNNN.bin  volumetric targets (6 x num_elements), where made

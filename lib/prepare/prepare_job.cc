@@ -107,6 +107,13 @@ bool RunPrepareJob(const PrepareJobOptions& options, std::ostream& log, std::str
       return false;
     }
   }
+  CutMesh cut_mesh;
+  if (!options.cuts.empty()) {
+    cut_mesh = ApplyPlaneCuts(model.mesh, options.cuts);
+    log << "; " << options.cuts.size() << " cut(s) duplicated "
+        << cut_mesh.mesh.num_tets() - model.mesh.num_tets() << " elements";
+    model.mesh = cut_mesh.mesh;
+  }
   if (!ValidateTetMesh(model.mesh, "simulation mesh", error)) return false;
   log << ": " << model.mesh.num_vertices() << " vertices, " << model.mesh.num_tets()
       << " elements (" << timer.Seconds() << " s)\n";
@@ -114,6 +121,13 @@ bool RunPrepareJob(const PrepareJobOptions& options, std::ostream& log, std::str
 
   timer.Reset();
   model.embedding = EmbedPoints(model.mesh, model.neutral.vertices, options.num_threads);
+  if (!options.cuts.empty()) {
+    const int moved = AssignEmbeddingSides(
+        cut_mesh, options.cuts, model.neutral.vertices,
+        VertexNormals(model.neutral.vertices, model.neutral.triangles), options.cut_margin,
+        &model.embedding);
+    log << "cuts: " << moved << " surface vertices moved to their side's element copy\n";
+  }
   int outside = 0;
   double farthest = 0;
   for (double d : model.embedding.outside_distance) {

@@ -7,6 +7,7 @@
 
 #include <Eigen/Geometry>
 
+#include "geometry/plane_cuts.h"
 #include "geometry/surface_tet_mesher.h"
 #include "prepare/boundary_rules.h"
 #include "prepare/volumetric_targets.h"
@@ -25,6 +26,12 @@ struct PrepareJobOptions {
   SurfaceTetMeshOptions meshing;
   // Elements whose centroid lies outside all these boxes are dropped (none: keep all).
   std::vector<Eigen::AlignedBox3d> keep_boxes;
+  // Planar cuts (geometry/plane_cuts.h) where surface parts touch and must part (lips,
+  // eyelids); the embedding puts surface vertices on their side of each cut.
+  std::vector<PlaneCut> cuts;
+  // Within this distance of a cut, a surface vertex's side is the one its normal faces
+  // away from (see AssignEmbeddingSides).
+  double cut_margin = 0.0;
   double mu = 1.0;
   BoundaryRuleOptions boundary;
   VolumetricTargetOptions targets;

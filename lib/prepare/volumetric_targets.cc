@@ -76,7 +76,8 @@ bool MakeVolumetricTargets(const VolumetricTargetOptions& options, ActiveModel* 
     // Direct solve from rest; if it fails, continuation from rest to the pose.
     w.solver->SetPositions(model->mesh.vertices);
     w.solver->SetFixedPositions(bc.positions);
-    w.springs->targets() = pose.surface;
+    const Eigen::Matrix3Xd& offsets = model->embedding.offsets;
+    w.springs->targets() = pose.surface - offsets;
     QuasistaticSolveReport report = w.solver->Solve();
     int steps = 1;
     if (!report.converged && options.continuation_steps > 1) {
@@ -85,7 +86,7 @@ bool MakeVolumetricTargets(const VolumetricTargetOptions& options, ActiveModel* 
       for (int s = 1; s <= steps && (s == 1 || report.converged); ++s) {
         const double alpha = static_cast<double>(s) / steps;
         w.solver->SetFixedPositions((1 - alpha) * rest_fixed + alpha * bc.positions);
-        w.springs->targets() = (1 - alpha) * rest_points + alpha * pose.surface;
+        w.springs->targets() = (1 - alpha) * rest_points + alpha * pose.surface - offsets;
         report = w.solver->Solve();
       }
     }
@@ -99,7 +100,8 @@ bool MakeVolumetricTargets(const VolumetricTargetOptions& options, ActiveModel* 
     for (int e = 0; e < physics.num_elements(); ++e) {
       pose.target.col(e) = ActuationFromSymmetric(SymmetricPolarFactor(physics.DeformationGradient(x, e)));
     }
-    const Eigen::VectorXd distance = (w.springs->Points(x) - pose.surface).colwise().norm();
+    const Eigen::VectorXd distance =
+        (w.springs->Points(x) + offsets - pose.surface).colwise().norm();
     pose.embedding_mean_error = distance.mean();
     pose.embedding_max_error = distance.maxCoeff();
     std::lock_guard<std::mutex> lock(log_mutex);

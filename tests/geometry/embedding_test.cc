@@ -63,7 +63,13 @@ TEST(EmbeddingTest, SingleTetInsideBoundaryAndOutside) {
   EXPECT_LT((embedding.weights.col(0) - Eigen::Vector4d(0.4, 0.1, 0.2, 0.3)).norm(), 1e-15);
   EXPECT_NEAR(embedding.outside_distance[4], 1.0, 1e-15);
   EXPECT_NEAR(embedding.outside_distance[5], 2.0 / std::sqrt(3.0), 1e-15);
-  EXPECT_LT(embedding.weights.col(4).minCoeff(), 0);
+  // Outside points hang on the closest surface point: non-negative weights, an offset
+  // as long as the distance.
+  for (int i : {4, 5}) {
+    EXPECT_GE(embedding.weights.col(i).minCoeff(), 0.0);
+    EXPECT_NEAR(embedding.offsets.col(i).norm(), embedding.outside_distance[i], 1e-15);
+  }
+  for (int i = 0; i < 4; ++i) EXPECT_EQ(embedding.offsets.col(i).norm(), 0.0);
   ExpectReproduces(mesh, embedding, points);
 }
 
@@ -121,10 +127,25 @@ TEST(EmbeddingTest, OutsidePointsGetTheDistanceToTheMesh) {
   for (int i = 0; i < 3; ++i) {
     const int t = embedding.element[i];
     ASSERT_GE(t, 0);
-    // Outside its element: some barycentric coordinate is negative.
-    EXPECT_LT(embedding.weights.col(i).minCoeff(), 0);
+    EXPECT_GE(embedding.weights.col(i).minCoeff(), 0.0);
+    EXPECT_NEAR(embedding.offsets.col(i).norm(), embedding.outside_distance[i], 1e-12);
   }
   ExpectReproduces(mesh, embedding, points);
+  // No leverage: a translated mesh carries outside points along; a point far outside
+  // moves like the surface point it hangs on, not amplified by its distance.
+  const Eigen::Vector3d shift(0.3, -0.2, 0.5);
+  const Eigen::Matrix3Xd moved = mesh.vertices.colwise() + shift;
+  EXPECT_LT(((EmbeddedPositions(embedding, mesh.tets, moved) - points).colwise() - shift)
+                .cwiseAbs()
+                .maxCoeff(),
+            1e-12);
+  Eigen::Matrix3Xd far(3, 1);
+  far << 1.0, 2.0, 40.0;  // 33.9 beyond the top face
+  const Embedding far_embedding = EmbedPoints(mesh, far, 1);
+  Eigen::Matrix3Xd stretched = mesh.vertices;
+  stretched.row(0) *= 1.1;  // a 10% stretch along x
+  const double motion = (EmbeddedPositions(far_embedding, mesh.tets, stretched) - far).norm();
+  EXPECT_LT(motion, 0.1 * 2.7 + 1e-12);
 }
 
 TEST(EmbeddingTest, LargeLatticeIsFast) {
