@@ -1,0 +1,84 @@
+// Runs aqs_pipeline (prepare, pretrain, train) from a flagfile on surface poses of the
+// synthetic-muscle bar written as OBJ files, then aqs_train again (resume).
+
+#include <filesystem>
+#include <fstream>
+
+#include <gtest/gtest.h>
+
+#include "apps/run_command.h"
+#include "mesh/mesh_io.h"
+#include "model/model_io.h"
+#include "testing/temp_dir.h"
+#include "train/synthetic_muscles.h"
+
+namespace aqs {
+namespace {
+
+using testing::AppPath;
+using testing::RunCommand;
+
+TEST(AqsPipelineTest, PreparesPretrainsTrainsAndResumes) {
+  testing::TempDir dir;
+  testing::SyntheticMuscles data = testing::MakeSyntheticMuscles(5, 0, 0.3, 3);
+  std::string error;
+  ASSERT_TRUE(WriteObj(dir.File("neutral.obj"), data.model.neutral, &error)) << error;
+  std::filesystem::create_directories(dir.File("poses"));
+  for (const TrainingPose& pose : data.model.poses) {
+    SurfaceMesh surface = data.model.neutral;
+    surface.vertices = pose.surface;
+    ASSERT_TRUE(WriteObj(dir.File("poses/" + pose.name + ".obj"), surface, &error)) << error;
+  }
+  std::ofstream(dir.File("run.flags"))
+      << "# the bar: 2 x 0.4 x 0.4, its left end (x = 0) fixed\n"
+      << "--neutral=" << dir.File("neutral.obj") << "\n"
+      << "--poses=" << dir.File("poses") << "\n"
+      << "--model=" << dir.File("model") << "\n"
+      << "--spacing=0.2\n--lattice=kuhn\n--fixed_box=-1,-1,-1,0.01,1,1\n"
+      << "--latent_dim=3\n--hidden=16\n--grid_spacing=0.3\n"
+      << "--pretrain_iterations=40\n--train_iterations=4\n";
+  const testing::CommandResult run =
+      RunCommand(AppPath("aqs_pipeline") + " --flagfile=" + dir.File("run.flags"));
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  for (const char* expected : {"=== prepare", "volumetric targets", "=== pretrain",
+                               "=== train", "train iter     4/4", "pipeline done"}) {
+    EXPECT_NE(run.output.find(expected), std::string::npos) << expected << "\n" << run.output;
+  }
+  ActiveModel model;
+  ASSERT_TRUE(LoadModel(dir.File("model"), &model, &error)) << error;
+  EXPECT_EQ(model.num_poses(), 5);
+  ASSERT_TRUE(model.decoder != nullptr);
+  EXPECT_EQ(model.latent_dim(), 3);
+  EXPECT_EQ(static_cast<int>(model.states.size()), 5);
+  // The CSV log: a header and iterations 0..4.
+  std::ifstream log(dir.File("model/train/log.csv"));
+  int lines = 0;
+  for (std::string line; std::getline(log, line);) ++lines;
+  EXPECT_EQ(lines, 6);
+  // Training again with the same budget: nothing left; with more, it resumes at 5.
+  testing::CommandResult again =
+      RunCommand(AppPath("aqs_train") + " --flagfile=" + dir.File("run.flags"));
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  EXPECT_NE(again.output.find("already"), std::string::npos) << again.output;
+  again = RunCommand(AppPath("aqs_train") + " --flagfile=" + dir.File("run.flags") +
+                     " --train_iterations=6");
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  EXPECT_NE(again.output.find("resuming after 4 iterations"), std::string::npos) << again.output;
+  EXPECT_NE(again.output.find("train iter     5/6"), std::string::npos) << again.output;
+}
+
+TEST(AqsPipelineTest, MissingFlagsAndBadStagesFail) {
+  testing::CommandResult run = RunCommand(AppPath("aqs_prepare") + " --poses=x --model=y");
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_NE(run.output.find("--neutral, --poses and --model are required"), std::string::npos)
+      << run.output;
+  run = RunCommand(AppPath("aqs_pipeline") + " --stages=cook --model=x");
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_NE(run.output.find("unknown stage 'cook'"), std::string::npos) << run.output;
+  run = RunCommand(AppPath("aqs_train") + " --model=/nonexistent/model");
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_NE(run.output.find("/nonexistent/model/model.txt"), std::string::npos) << run.output;
+}
+
+}  // namespace
+}  // namespace aqs
