@@ -108,3 +108,51 @@ Eigen::MatrixXd EquilibriumDifferentiator::ActuationJacobianProduct(
 }
 
 }  // namespace aqs
+
+namespace aqs {
+
+Eigen::MatrixXd EquilibriumDifferentiator::FixedVertexJacobianProduct(const Eigen::MatrixXd& motion) {
+  CHECK(prepared_) << "call Prepare() successfully first";
+  CHECK(factorization_->energy_terms().empty())
+      << "fixed-vertex products ignore energy terms; the system has some";
+  const int n = model_.num_vertices();
+  CHECK_EQ(motion.rows(), 3 * static_cast<Eigen::Index>(n));
+  const int k = static_cast<int>(motion.cols());
+  const StiffnessPattern& pattern = factorization_->pattern();
+  const Eigen::Matrix4Xi& tets = model_.tets();
+  WallTimer timer;
+  Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(pattern.num_dofs(), k);
+  for (int e = 0; e < model_.num_elements(); ++e) {
+    int fixed = 0;
+    for (int j = 0; j < 4; ++j) fixed += pattern.free_index(tets(j, e)) < 0;
+    if (fixed == 0 || fixed == 4) continue;
+    const ShapeTargetElement element = model_.Element(x_, a_, e);
+    const Matrix9d h = element.StressDerivative();
+    const Eigen::Matrix<double, 3, 4>& b = model_.gradient_weights(e);
+    const double volume = model_.rest_shape(e).volume;
+    for (int c = 0; c < k; ++c) {
+      Eigen::Matrix3d df = Eigen::Matrix3d::Zero();
+      for (int j = 0; j < 4; ++j) {
+        const int v = tets(j, e);
+        if (pattern.free_index(v) >= 0) continue;
+        df += motion.block<3, 1>(3 * static_cast<Eigen::Index>(v), c) * b.col(j).transpose();
+      }
+      const Eigen::Matrix3d dp = UnvecRowMajor(h * VecRowMajor(df));
+      for (int j = 0; j < 4; ++j) {
+        const int f = pattern.free_index(tets(j, e));
+        if (f >= 0) rhs.block<3, 1>(3 * f, c) -= volume * dp * b.col(j);
+      }
+    }
+  }
+  timings_.accumulation = timer.Seconds();
+  const Eigen::MatrixXd dx_free = factorization_->SolveFree(rhs);
+  timings_.solve = factorization_->timings().solve;
+  Eigen::MatrixXd out = motion;
+  for (int f = 0; f < pattern.num_free_vertices(); ++f) {
+    out.block(3 * static_cast<Eigen::Index>(pattern.vertex_of_free(f)), 0, 3, k) =
+        dx_free.block(3 * f, 0, 3, k);
+  }
+  return out;
+}
+
+}  // namespace aqs

@@ -69,6 +69,16 @@ class EquilibriumDifferentiator {
   // (zero on fixed vertices). Used with da/dz for latent Jacobians dx*/dz.
   Eigen::MatrixXd ActuationJacobianProduct(const Eigen::MatrixXd& directions);
 
+  // Jacobian-vector products with respect to the prescribed positions of the fixed
+  // vertices: for k motions of them (columns of `motion`, (3 num_vertices) x k; only the
+  // rows of fixed vertices are read), the resulting change of the whole state,
+  // (3 num_vertices) x k: the motion itself on fixed vertices and
+  //   dx_free = -K^-1 K_free,fixed motion_fixed
+  // on free ones (K_free,fixed from the exact dP/dF of the elements that touch fixed
+  // vertices). Used to fit bone motions. Energy terms must not couple free and fixed
+  // vertices (CHECKed: the factorization may have no energy terms).
+  Eigen::MatrixXd FixedVertexJacobianProduct(const Eigen::MatrixXd& motion);
+
   // The adjoint solve alone: lambda = K^-1 g on free DOFs for g = dL/dx
   // (3 x num_vertices); returns 3 x num_vertices with zeros on fixed vertices.
   Eigen::Matrix3Xd SolveAdjoint(const Eigen::Matrix3Xd& dl_dx);

@@ -123,6 +123,41 @@ TEST(EquilibriumDifferentiatorTest, DirectionalGradientAndJacobianProductsOnLarg
   for (int v : solver.fixed_vertices()) EXPECT_EQ(jvp.block(3 * v, 0, 3, k).norm(), 0.0);
 }
 
+TEST(EquilibriumDifferentiatorTest, FixedVertexProductsMatchResolvedEquilibria) {
+  const TetMesh mesh = testing::BarMesh(5, 2, 2, 0.3);
+  const ShapeTargetModel model(mesh, 1.0);
+  BoundaryConditions bc = testing::LeftFaceFixed(mesh);
+  QuasistaticSolver solver(model, bc, SolverOptions());
+  const ActuationMatrix a = testing::SmoothActuation(mesh, 0.2);
+  const Eigen::Matrix3Xd x = Equilibrium(&solver, a, mesh.vertices);
+  EquilibriumDifferentiator differentiator(model, solver.fixed_mask());
+  std::string error;
+  ASSERT_TRUE(differentiator.Prepare(x, a, &error)) << error;
+  // Two motions of the fixed face: a shear and a rotation-like field.
+  Eigen::MatrixXd motion = Eigen::MatrixXd::Zero(3 * mesh.num_vertices(), 2);
+  for (int v : bc.vertices) {
+    const Eigen::Vector3d p = mesh.vertices.col(v);
+    motion.block<3, 1>(3 * v, 0) = Eigen::Vector3d(0.0, 1.0, 0.5);
+    motion.block<3, 1>(3 * v, 1) = Eigen::Vector3d(0.0, -p.z(), p.y());
+  }
+  const Eigen::MatrixXd dx = differentiator.FixedVertexJacobianProduct(motion);
+  for (int c = 0; c < 2; ++c) {
+    auto equilibrium_along = [&](const Eigen::VectorXd& t) -> Eigen::VectorXd {
+      Eigen::Matrix3Xd fixed(3, bc.vertices.size());
+      for (size_t i = 0; i < bc.vertices.size(); ++i) {
+        const int v = bc.vertices[i];
+        fixed.col(i) = mesh.vertices.col(v) + t[0] * motion.block<3, 1>(3 * v, c);
+      }
+      solver.SetFixedPositions(fixed);
+      const Eigen::Matrix3Xd xt = Equilibrium(&solver, a, x);
+      return Eigen::Map<const Eigen::VectorXd>(xt.data(), xt.size());
+    };
+    const Eigen::VectorXd numeric = testing::CentralDifferenceDirectional(
+        equilibrium_along, Eigen::VectorXd::Zero(1), Eigen::VectorXd::Ones(1), 1e-4);
+    EXPECT_LT(testing::RelativeError(dx.col(c), numeric), 1e-6) << "motion " << c;
+  }
+}
+
 TEST(NewtonRefinementTest, ConvergesQuadraticallyFromSolverResult) {
   const TetMesh mesh = testing::BarMesh(5, 2, 2, 0.4);
   const ShapeTargetModel model(mesh, 1.0);

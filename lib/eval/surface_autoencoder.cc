@@ -1,0 +1,368 @@
+#include "eval/surface_autoencoder.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <string>
+
+#include <ceres/gradient_problem.h>
+#include <ceres/gradient_problem_solver.h>
+#include <ceres/iteration_callback.h>
+#include <ceres/problem.h>
+#include <ceres/solver.h>
+#include <glog/logging.h>
+
+#include "train/latent_init.h"
+#include "train/progress.h"
+#include "util/wall_timer.h"
+
+namespace aqs {
+namespace {
+
+using RowMajorMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+constexpr int kLbfgsRank = 10;
+constexpr int kFitMaxIterations = 100;
+
+// Residuals sqrt(1/K) (neutral_v + s m_v(z) - y) over the block z, where m is an MLP
+// whose outputs are only the 3K rows of the listed vertices (the full decoder's hidden
+// layers and the matching rows of its output layer).
+class SurfaceFitCost final : public ceres::CostFunction {
+ public:
+  SurfaceFitCost(const Mlp& mlp, const Eigen::VectorXd& parameters, double output_scale,
+                 const Eigen::Matrix3Xd& neutral, const std::vector<int>& vertices,
+                 const Eigen::Matrix3Xd& positions)
+      : mlp_(MlpSpec{mlp.input_dim(), mlp.spec().hidden_dims,
+                     3 * static_cast<int>(vertices.size()), mlp.spec().activation}),
+        parameters_(mlp_.num_parameters()),
+        output_scale_(output_scale),
+        residual_scale_(std::sqrt(1.0 / static_cast<double>(vertices.size()))),
+        offset_(3 * vertices.size()) {
+    const int k = static_cast<int>(vertices.size());
+    const int last = mlp.num_layers() - 1;
+    const int width = mlp.widths()[last];
+    const int n = mlp.output_dim();
+    // The hidden layers come first in both layouts and are identical.
+    std::copy(parameters.data(), parameters.data() + mlp.weight_offset(last), parameters_.data());
+    const Eigen::Map<const Eigen::MatrixXd> w(parameters.data() + mlp.weight_offset(last), n, width);
+    const Eigen::Map<const Eigen::VectorXd> b(parameters.data() + mlp.bias_offset(last), n);
+    Eigen::Map<Eigen::MatrixXd> w_rows(parameters_.data() + mlp_.weight_offset(last), 3 * k, width);
+    Eigen::Map<Eigen::VectorXd> b_rows(parameters_.data() + mlp_.bias_offset(last), 3 * k);
+    for (int i = 0; i < k; ++i) {
+      const int v = vertices[i];
+      w_rows.middleRows(3 * i, 3) = w.middleRows(3 * static_cast<Eigen::Index>(v), 3);
+      b_rows.segment<3>(3 * i) = b.segment<3>(3 * static_cast<Eigen::Index>(v));
+      // neutral_v - y: the residual without the network's part.
+      offset_.segment<3>(3 * i) = neutral.col(v) - positions.col(i);
+    }
+    set_num_residuals(3 * k);
+    mutable_parameter_block_sizes()->push_back(mlp.input_dim());
+  }
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    const int d = mlp_.input_dim();
+    const Eigen::Map<const Eigen::VectorXd> z(parameters[0], d);
+    Eigen::Map<Eigen::VectorXd> r(residuals, num_residuals());
+    if (jacobians != nullptr && jacobians[0] != nullptr) {
+      Eigen::MatrixXd jacobian;
+      Eigen::VectorXd output;
+      mlp_.InputJacobian(parameters_.data(), z, &jacobian, &output);
+      Eigen::Map<RowMajorMatrix>(jacobians[0], num_residuals(), d) =
+          (residual_scale_ * output_scale_) * jacobian;
+      r = residual_scale_ * (offset_ + output_scale_ * output);
+    } else {
+      MlpWorkspace workspace;
+      Eigen::MatrixXd output;
+      mlp_.Forward(parameters_.data(), z, &output, &workspace);
+      r = residual_scale_ * (offset_ + output_scale_ * output.col(0));
+    }
+    return r.allFinite();
+  }
+
+ private:
+  const Mlp mlp_;
+  Eigen::VectorXd parameters_;
+  const double output_scale_;
+  const double residual_scale_;
+  Eigen::VectorXd offset_;  // 3K: neutral_v - y, vertex after vertex
+};
+
+// sqrt(lambda) z: the latent prior as residuals.
+class LatentPrior final : public ceres::CostFunction {
+ public:
+  LatentPrior(int d, double lambda) : d_(d), scale_(std::sqrt(lambda)) {
+    set_num_residuals(d);
+    mutable_parameter_block_sizes()->push_back(d);
+  }
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    for (int i = 0; i < d_; ++i) residuals[i] = scale_ * parameters[0][i];
+    if (jacobians != nullptr && jacobians[0] != nullptr) {
+      Eigen::Map<RowMajorMatrix>(jacobians[0], d_, d_) = scale_ * Eigen::MatrixXd::Identity(d_, d_);
+    }
+    return true;
+  }
+
+ private:
+  int d_;
+  double scale_;
+};
+
+class ProgressCallback final : public ceres::IterationCallback {
+ public:
+  ProgressCallback(int every, int total, std::ostream& log) : every_(every), total_(total), log_(log) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
+    if (every_ > 0 && (s.iteration % every_ == 0)) {
+      const double elapsed = timer_.Seconds();
+      char line[256];
+      std::snprintf(line, sizeof(line),
+                    "  surface autoencoder iter %5d/%d  loss %.6e  |g| %.3e  %s  ETA %s\n",
+                    s.iteration, total_, s.cost, s.gradient_norm, FormatDuration(elapsed).c_str(),
+                    FormatDuration(EstimateRemaining(s.iteration, total_, elapsed)).c_str());
+      log_ << line << std::flush;
+    }
+    return ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  int every_, total_;
+  std::ostream& log_;
+  WallTimer timer_;
+};
+
+// Empty if the options are usable, else what is wrong with them.
+std::string CheckOptions(const SurfaceAutoencoderOptions& options) {
+  if (options.latent_dim < 1) return "latent_dim must be at least 1";
+  for (int width : options.hidden_dims) {
+    if (width < 1) return "hidden layer widths must be positive";
+  }
+  if (!(options.output_scale > 0) || !std::isfinite(options.output_scale)) {
+    return "output_scale must be a positive number";
+  }
+  if (!(options.latent_regularization >= 0) || !std::isfinite(options.latent_regularization)) {
+    return "latent_regularization must be a non-negative number";
+  }
+  if (options.max_iterations < 0) return "max_iterations must not be negative";
+  return "";
+}
+
+}  // namespace
+
+SurfaceAutoencoderObjective::SurfaceAutoencoderObjective(const Mlp& mlp,
+                                                         const Eigen::MatrixXd& displacements,
+                                                         double output_scale,
+                                                         double latent_regularization)
+    : mlp_(mlp),
+      displacements_(displacements),
+      output_scale_(output_scale),
+      latent_regularization_(latent_regularization) {
+  CHECK_EQ(displacements.rows(), mlp.output_dim());
+  CHECK_EQ(displacements.rows() % 3, 0);
+  CHECK_GT(displacements.cols(), 0);
+}
+
+int SurfaceAutoencoderObjective::NumParameters() const {
+  return mlp_.num_parameters() + mlp_.input_dim() * num_surfaces();
+}
+
+double SurfaceAutoencoderObjective::Loss(const double* parameters, double* gradient,
+                                         double* mean_squared_distance,
+                                         double* max_distance) const {
+  const int np = mlp_.num_parameters();
+  const int d = mlp_.input_dim();
+  const int p = num_surfaces();
+  const double scale = 1.0 / (static_cast<double>(p) * (displacements_.rows() / 3));
+  const Eigen::Map<const Eigen::MatrixXd> latents(parameters + np, d, p);
+  mlp_.Forward(parameters, latents, &outputs_, &workspace_);
+  // outputs_ becomes the residual s m(z_p) - D_p, column by column.
+  outputs_ *= output_scale_;
+  outputs_ -= displacements_;
+  const double data = scale * outputs_.squaredNorm();
+  if (mean_squared_distance != nullptr) *mean_squared_distance = data;
+  if (max_distance != nullptr) {
+    *max_distance = std::sqrt(Eigen::Map<const Eigen::Matrix3Xd>(outputs_.data(), 3, outputs_.size() / 3)
+                                  .colwise()
+                                  .squaredNorm()
+                                  .maxCoeff());
+  }
+  const double regularization = latent_regularization_ * latents.squaredNorm() / p;
+  if (gradient != nullptr) {
+    // dL/dm = (2 s / (P N)) (s m - D), in place.
+    outputs_ *= 2.0 * output_scale_ * scale;
+    Eigen::Map<Eigen::VectorXd>(gradient, np).setZero();
+    Eigen::MatrixXd latent_gradient;
+    mlp_.Backward(parameters, workspace_, outputs_, gradient, &latent_gradient);
+    Eigen::Map<Eigen::MatrixXd>(gradient + np, d, p) =
+        latent_gradient + (2.0 * latent_regularization_ / p) * latents;
+  }
+  return data + regularization;
+}
+
+bool SurfaceAutoencoderObjective::Evaluate(const double* parameters, double* cost,
+                                           double* gradient) const {
+  *cost = Loss(parameters, gradient);
+  return std::isfinite(*cost);
+}
+
+SurfaceAutoencoder::SurfaceAutoencoder() = default;
+SurfaceAutoencoder::~SurfaceAutoencoder() = default;
+SurfaceAutoencoder::SurfaceAutoencoder(SurfaceAutoencoder&&) noexcept = default;
+SurfaceAutoencoder& SurfaceAutoencoder::operator=(SurfaceAutoencoder&&) noexcept = default;
+
+bool SurfaceAutoencoder::Train(const Eigen::Matrix3Xd& neutral,
+                               const std::vector<Eigen::Matrix3Xd>& surfaces,
+                               const SurfaceAutoencoderOptions& options, std::ostream& log,
+                               std::string* error) {
+  WallTimer timer;
+  const std::string bad_options = CheckOptions(options);
+  if (!bad_options.empty()) {
+    *error = "surface autoencoder options: " + bad_options;
+    return false;
+  }
+  const int p = static_cast<int>(surfaces.size());
+  const Eigen::Index n = neutral.cols();
+  if (p == 0) {
+    *error = "no training surfaces";
+    return false;
+  }
+  if (n == 0) {
+    *error = "the neutral surface has no vertices";
+    return false;
+  }
+  if (!neutral.allFinite()) {
+    *error = "the neutral surface has non-finite coordinates";
+    return false;
+  }
+  if (3 * n > std::numeric_limits<int>::max()) {
+    *error = "too many vertices (" + std::to_string(n) + ")";
+    return false;
+  }
+  Eigen::MatrixXd displacements(3 * n, p);
+  for (int i = 0; i < p; ++i) {
+    if (surfaces[i].cols() != n) {
+      *error = "training surface " + std::to_string(i) + " has " +
+               std::to_string(surfaces[i].cols()) + " vertices; the neutral has " +
+               std::to_string(n);
+      return false;
+    }
+    if (!surfaces[i].allFinite()) {
+      *error = "training surface " + std::to_string(i) + " has non-finite coordinates";
+      return false;
+    }
+    Eigen::Map<Eigen::Matrix3Xd>(displacements.col(i).data(), 3, n) = surfaces[i] - neutral;
+  }
+
+  const int d = options.latent_dim;
+  auto mlp = std::make_unique<Mlp>(
+      MlpSpec{d, options.hidden_dims, static_cast<int>(3 * n), options.activation});
+  const int np = mlp->num_parameters();
+  Eigen::VectorXd x(static_cast<Eigen::Index>(np) + static_cast<Eigen::Index>(d) * p);
+  mlp->InitializeParameters(options.seed, x.data());
+  // The output bias starts at the mean displacement: the network then only learns the
+  // variation around it.
+  Eigen::Map<Eigen::VectorXd>(x.data() + mlp->bias_offset(mlp->num_layers() - 1), 3 * n) =
+      displacements.rowwise().mean() / options.output_scale;
+  Eigen::Map<Eigen::MatrixXd>(x.data() + np, d, p) =
+      WhitenedPcaScores(displacements, Eigen::VectorXd::Ones(3 * n), d);
+  log << "surface autoencoder: " << p << " surfaces x " << n << " vertices, latent " << d << ", "
+      << np << " network parameters\n";
+
+  auto* objective = new SurfaceAutoencoderObjective(*mlp, displacements, options.output_scale,
+                                                    options.latent_regularization);
+  ceres::GradientProblem problem(objective);  // takes ownership
+  SurfaceAutoencoderReport report;
+  report.initial_loss = objective->Loss(x.data(), nullptr);
+  ceres::GradientProblemSolver::Options solver_options;
+  solver_options.line_search_direction_type = ceres::LBFGS;
+  solver_options.max_lbfgs_rank = kLbfgsRank;
+  solver_options.max_num_iterations = options.max_iterations;
+  solver_options.function_tolerance = 1e-12;
+  solver_options.gradient_tolerance = 1e-12;
+  solver_options.parameter_tolerance = 1e-14;
+  solver_options.logging_type = ceres::SILENT;
+  ProgressCallback progress(options.log_every, options.max_iterations, log);
+  solver_options.callbacks.push_back(&progress);
+  solver_options.update_state_every_iteration = false;
+  ceres::GradientProblemSolver::Summary summary;
+  ceres::Solve(solver_options, problem, x.data(), &summary);
+  double mse = 0;
+  report.final_loss = objective->Loss(x.data(), nullptr, &mse, &report.max_error);
+  report.rms_error = std::sqrt(mse);
+  report.iterations = std::max(0, static_cast<int>(summary.iterations.size()) - 1);
+  report.termination = summary.message;
+  report.seconds = timer.Seconds();
+  if (!std::isfinite(report.final_loss)) {
+    *error = "surface autoencoder training diverged (" + summary.message + ")";
+    return false;
+  }
+  log << "surface autoencoder: " << report.iterations << " iterations, loss "
+      << report.initial_loss << " -> " << report.final_loss << ", rms error " << report.rms_error
+      << ", max " << report.max_error << " (" << FormatDuration(report.seconds) << "; "
+      << summary.message << ")\n";
+
+  options_ = options;
+  neutral_ = neutral;
+  mlp_ = std::move(mlp);
+  parameters_ = x.head(np);
+  latents_ = Eigen::Map<const Eigen::MatrixXd>(x.data() + np, d, p);
+  report_ = report;
+  return true;
+}
+
+Eigen::Matrix3Xd SurfaceAutoencoder::Decode(const Eigen::VectorXd& z) const {
+  CHECK(trained()) << "Decode() before Train()";
+  CHECK_EQ(z.size(), latent_dim());
+  MlpWorkspace workspace;
+  Eigen::MatrixXd output;
+  mlp_->Forward(parameters_.data(), z, &output, &workspace);
+  return neutral_ +
+         options_.output_scale * Eigen::Map<const Eigen::Matrix3Xd>(output.data(), 3, neutral_.cols());
+}
+
+std::unique_ptr<ceres::CostFunction> SurfaceAutoencoder::NewFitCostFunction(
+    const std::vector<int>& vertices, const Eigen::Matrix3Xd& positions) const {
+  CHECK(trained()) << "fitting before Train()";
+  CHECK(!vertices.empty()) << "no vertices to fit";
+  CHECK_EQ(positions.cols(), static_cast<Eigen::Index>(vertices.size()));
+  for (int v : vertices) CHECK(v >= 0 && v < num_vertices()) << "vertex " << v << " out of range";
+  return std::make_unique<SurfaceFitCost>(*mlp_, parameters_, options_.output_scale, neutral_,
+                                          vertices, positions);
+}
+
+bool SurfaceAutoencoder::FitLatent(const std::vector<int>& vertices,
+                                   const Eigen::Matrix3Xd& positions,
+                                   const Eigen::VectorXd& initial, Eigen::VectorXd* z,
+                                   double* rms) const {
+  CHECK_EQ(initial.size(), latent_dim());
+  std::unique_ptr<ceres::CostFunction> fit_cost = NewFitCostFunction(vertices, positions);
+  Eigen::VectorXd latent = initial;
+  ceres::Problem::Options problem_options;
+  problem_options.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
+  problem.AddResidualBlock(fit_cost.get(), nullptr, latent.data());
+  LatentPrior prior(latent_dim(), options_.latent_regularization);
+  if (options_.latent_regularization > 0) {
+    problem.AddResidualBlock(&prior, nullptr, latent.data());
+  }
+  ceres::Solver::Options solver_options;
+  solver_options.linear_solver_type = ceres::DENSE_QR;
+  solver_options.max_num_iterations = kFitMaxIterations;
+  solver_options.function_tolerance = 1e-12;
+  solver_options.gradient_tolerance = 1e-14;
+  solver_options.parameter_tolerance = 1e-12;
+  solver_options.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver_options, &problem, &summary);
+  if (!summary.IsSolutionUsable() || !latent.allFinite()) return false;
+  // The data residuals at the solution: their squared norm is the mean squared distance.
+  Eigen::VectorXd residuals(fit_cost->num_residuals());
+  const double* block = latent.data();
+  if (!fit_cost->Evaluate(&block, residuals.data(), nullptr)) return false;
+  *z = latent;
+  *rms = residuals.norm();
+  return true;
+}
+
+}  // namespace aqs

@@ -1,0 +1,176 @@
+#ifndef AQS_EVAL_SURFACE_AUTOENCODER_H_
+#define AQS_EVAL_SURFACE_AUTOENCODER_H_
+
+#include <memory>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include <ceres/cost_function.h>
+#include <ceres/first_order_function.h>
+#include <Eigen/Core>
+
+#include "learn/mlp.h"
+
+namespace aqs {
+
+// The surface-only baseline of the evaluation: a decoder from a latent z straight to
+// the surface, trained on the same poses with the same network machinery (Mlp,
+// auto-decoder, whitened-PCA latent start, Ceres L-BFGS) but without the simulator.
+struct SurfaceAutoencoderOptions {
+  // Dimension d of the latent vector z.
+  int latent_dim = 16;
+  std::vector<int> hidden_dims = {128, 128};
+  Activation activation = Activation::kElu;
+  // The MLP's outputs are multiplied by output_scale to give displacements in model
+  // units: surface(z) = neutral + output_scale * mlp(z).
+  double output_scale = 1.0;
+  // Weight lambda of the latent regularizer lambda (1/P) sum_p |z_p|^2 in training, and
+  // of the prior residual sqrt(lambda) z in FitLatent.
+  double latent_regularization = 1e-3;
+  int max_iterations = 500;
+  // Seed of the MLP's random initial weights.
+  unsigned seed = 1;
+  // Progress line every this many L-BFGS iterations (0: none).
+  int log_every = 0;
+};
+
+struct SurfaceAutoencoderReport {
+  int iterations = 0;
+  double initial_loss = 0.0;
+  double final_loss = 0.0;
+  // sqrt of the data term at the end: the RMS distance between the decoded and the
+  // training surfaces over all surfaces and vertices (model units).
+  double rms_error = 0.0;
+  // The largest such distance of any vertex of any training surface.
+  double max_error = 0.0;
+  double seconds = 0.0;
+  std::string termination;
+};
+
+// The training objective of SurfaceAutoencoder::Train as a Ceres FirstOrderFunction over
+// the flat vector x = [mlp parameters (mlp.num_parameters(), Mlp layout); z_1; ...; z_P
+// (latent_dim each, i.e. a d x P column-major block)]:
+//
+//   L(x) = (1/(P N)) sum_p sum_i |s m_i(z_p) - D_pi|^2 + lambda (1/P) sum_p |z_p|^2,
+//
+// with m_i(z) the 3 outputs of vertex i (rows 3i .. 3i+2 of mlp(z)), s = output_scale
+// and D_pi = y_pi - neutral_i the training displacements, so that s m_i(z_p) - D_pi =
+// surface_i(z_p) - y_pi. `displacements` is 3N x P (column p: pose p's displacements,
+// flattened x0 y0 z0 x1 ...); the mlp must map latent_dim -> 3N. Both are kept by
+// reference and must outlive the objective. The gradient (same layout as x) comes from
+// one batched forward and backward pass (Mlp::Backward). Public for tests; not
+// thread-safe (it keeps its batch workspace between calls).
+class SurfaceAutoencoderObjective final : public ceres::FirstOrderFunction {
+ public:
+  SurfaceAutoencoderObjective(const Mlp& mlp, const Eigen::MatrixXd& displacements,
+                              double output_scale, double latent_regularization);
+
+  int NumParameters() const override;
+  int num_surfaces() const { return static_cast<int>(displacements_.cols()); }
+
+  // L(x) and, if gradient is not null, dL/dx (NumParameters()). If mean_squared_distance
+  // is not null it receives the data term alone, and if max_distance is not null the
+  // largest vertex distance |surface_i(z_p) - y_pi|.
+  double Loss(const double* parameters, double* gradient, double* mean_squared_distance = nullptr,
+              double* max_distance = nullptr) const;
+
+  // Loss() for Ceres; false (a failed step) if the cost is not finite.
+  bool Evaluate(const double* parameters, double* cost, double* gradient) const override;
+
+ private:
+  const Mlp& mlp_;
+  const Eigen::MatrixXd& displacements_;
+  const double output_scale_;
+  const double latent_regularization_;
+  mutable MlpWorkspace workspace_;
+  mutable Eigen::MatrixXd outputs_;  // 3N x P; reused as dL/doutputs
+};
+
+// A surface-only auto-encoder (trained as an auto-decoder):
+//
+//   surface(z) = neutral + output_scale * reshape(mlp(z)),   z in R^d,
+//
+// where mlp: R^d -> R^(3N) gives the per-vertex displacements, flattened column-major
+// (x0 y0 z0 x1 ...), reshaped to 3 x N. Train() fits the network weights and one latent
+// per training surface; FitLatent() finds the latent whose surface best matches given
+// points with the decoder fixed (the baseline's counterpart of LatentFitter).
+//
+// Memory for N vertices and last hidden width h: the parameters, about 3N (h + 1)
+// doubles (40 MB for N = 13,294 and h = 128), times 24 during training (the iterate,
+// its gradient, Ceres' line-search copies and the L-BFGS history of rank 10: 2 x 10
+// arrays), plus 3N x P doubles for the training displacements and outputs.
+class SurfaceAutoencoder {
+ public:
+  SurfaceAutoencoder();
+  ~SurfaceAutoencoder();
+  SurfaceAutoencoder(SurfaceAutoencoder&&) noexcept;
+  SurfaceAutoencoder& operator=(SurfaceAutoencoder&&) noexcept;
+
+  // Trains a new decoder (replacing any previous one) on `surfaces` (P of them, each
+  // 3 x N, the same vertex order as `neutral`, 3 x N):
+  //
+  //   min over mlp params, z_1..z_P of
+  //     (1/(P N)) sum_p sum_i |surface_i(z_p) - y_pi|^2 + latent_regularization (1/P) sum_p |z_p|^2
+  //
+  // (the normalization of the physics model's end-to-end loss, so that the numbers
+  // compare) by Ceres' L-BFGS (GradientProblemSolver, rank 10). Latents start at the
+  // whitened principal-component scores of the training displacements
+  // (WhitenedPcaScores), the weights at random (Mlp::InitializeParameters with output
+  // gain 0.1) and the output bias at the mean displacement / output_scale. Progress lines
+  // go to `log`. Returns false with *error (and leaves the object unchanged) for no
+  // surfaces, a vertex-count mismatch, non-finite coordinates or invalid options.
+  bool Train(const Eigen::Matrix3Xd& neutral, const std::vector<Eigen::Matrix3Xd>& surfaces,
+             const SurfaceAutoencoderOptions& options, std::ostream& log, std::string* error);
+
+  bool trained() const { return mlp_ != nullptr; }
+  int latent_dim() const { return options_.latent_dim; }
+  int num_vertices() const { return static_cast<int>(neutral_.cols()); }
+  const SurfaceAutoencoderOptions& options() const { return options_; }
+  const SurfaceAutoencoderReport& report() const { return report_; }
+  const Mlp& mlp() const { return *mlp_; }
+  // The flat MLP parameters (mlp().num_parameters(), Mlp layout).
+  const Eigen::VectorXd& parameters() const { return parameters_; }
+  // The trained latents, d x P (column p: training surface p).
+  const Eigen::MatrixXd& training_latents() const { return latents_; }
+  // The mean of the training latents (d): a neutral starting point for FitLatent.
+  Eigen::VectorXd MeanLatent() const { return latents_.rowwise().mean(); }
+
+  // surface(z) (3 x N) for z (latent_dim). CHECKs that the model is trained.
+  Eigen::Matrix3Xd Decode(const Eigen::VectorXd& z) const;
+
+  // Fits the latent to K points with the decoder fixed, starting from `initial` (d):
+  //
+  //   min_z  (1/K) sum_k |surface_{v_k}(z) - y_k|^2 + latent_regularization |z|^2,
+  //
+  // with v_k = vertices[k] and y_k = positions.col(k) (positions: 3 x K), as a Ceres
+  // least-squares problem (Levenberg-Marquardt, DENSE_QR, at most 100 iterations) with
+  // residuals sqrt(1/K) (surface_{v_k}(z) - y_k) (3K) and sqrt(latent_regularization) z
+  // (d) and analytic Jacobians (Mlp::InputJacobian of an MLP restricted to the 3K
+  // outputs of the listed vertices, so one evaluation costs about d forward passes of a
+  // 3K-output network). Sets *z (d) and *rms = sqrt((1/K) sum_k |surface_{v_k}(z) -
+  // y_k|^2). Returns false if Ceres finds no usable solution (non-finite values).
+  // CHECKs: trained, K >= 1, sizes, vertex indices in [0, N).
+  bool FitLatent(const std::vector<int>& vertices, const Eigen::Matrix3Xd& positions,
+                 const Eigen::VectorXd& initial, Eigen::VectorXd* z, double* rms) const;
+
+  // The data residuals of FitLatent as a Ceres cost function over one parameter block,
+  // z (d): residuals sqrt(1/K) (surface_{v_k}(z) - y_k), 3K of them, vertex after
+  // vertex (x y z each); the Jacobian is 3K x d, row-major (Ceres' convention). Holds
+  // copies of what it needs (independent of this object's lifetime). The caller owns
+  // it. Public for tests. Same CHECKs as FitLatent.
+  std::unique_ptr<ceres::CostFunction> NewFitCostFunction(const std::vector<int>& vertices,
+                                                          const Eigen::Matrix3Xd& positions) const;
+
+ private:
+  SurfaceAutoencoderOptions options_;
+  Eigen::Matrix3Xd neutral_;
+  std::unique_ptr<Mlp> mlp_;
+  Eigen::VectorXd parameters_;
+  Eigen::MatrixXd latents_;
+  SurfaceAutoencoderReport report_;
+};
+
+}  // namespace aqs
+
+#endif  // AQS_EVAL_SURFACE_AUTOENCODER_H_
