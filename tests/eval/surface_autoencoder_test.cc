@@ -1,0 +1,245 @@
+#include "eval/surface_autoencoder.h"
+
+#include <cmath>
+#include <random>
+#include <sstream>
+
+#include <gtest/gtest.h>
+
+#include "testing/finite_difference.h"
+
+namespace aqs {
+namespace {
+
+// A 6 x 4 grid of points in the plane z = 0 (x in [-1, 1], y in [0, 1]), stretched along
+// x by (1 + stretch) and then bent around the y axis with curvature `bend`: the point at
+// arc length u = (1 + stretch) x goes to (sin(bend u) / bend, y, (1 - cos(bend u)) / bend).
+// A two-parameter nonlinear family of surfaces; 3 x 24.
+Eigen::Matrix3Xd BentGrid(double bend, double stretch) {
+  constexpr int kNx = 6, kNy = 4;
+  Eigen::Matrix3Xd points(3, kNx * kNy);
+  for (int j = 0; j < kNy; ++j) {
+    for (int i = 0; i < kNx; ++i) {
+      const double x = -1.0 + 2.0 * i / (kNx - 1);
+      const double y = static_cast<double>(j) / (kNy - 1);
+      const double u = (1.0 + stretch) * x;
+      points.col(j * kNx + i) << std::sin(bend * u) / bend, y, (1.0 - std::cos(bend * u)) / bend;
+    }
+  }
+  return points;
+}
+
+// The 16 training surfaces: bend in {0.2, 0.6, 1.0, 1.4} x stretch in {-0.2, ..., 0.2}.
+std::vector<Eigen::Matrix3Xd> TrainingSurfaces() {
+  std::vector<Eigen::Matrix3Xd> surfaces;
+  for (int a = 0; a < 4; ++a) {
+    for (int b = 0; b < 4; ++b) {
+      surfaces.push_back(BentGrid(0.2 + 0.4 * a, -0.2 + 0.4 * b / 3.0));
+    }
+  }
+  return surfaces;
+}
+
+double RmsDistance(const Eigen::Matrix3Xd& a, const Eigen::Matrix3Xd& b) {
+  return std::sqrt((a - b).colwise().squaredNorm().mean());
+}
+
+// The training objective's gradient (network weights and latents) against central
+// differences of the objective.
+TEST(SurfaceAutoencoderObjectiveTest, GradientMatchesCentralDifferences) {
+  for (Activation activation : {Activation::kElu, Activation::kTanh, Activation::kSoftplus}) {
+    const int n = 5, d = 3, p = 4;
+    const Mlp mlp(MlpSpec{d, {7, 6}, 3 * n, activation});
+    std::mt19937 rng(7);
+    std::normal_distribution<double> normal(0.0, 1.0);
+    Eigen::MatrixXd displacements(3 * n, p);
+    for (Eigen::Index i = 0; i < displacements.size(); ++i) displacements.data()[i] = normal(rng);
+    const double output_scale = 0.7, lambda = 0.05;
+    SurfaceAutoencoderObjective objective(mlp, displacements, output_scale, lambda);
+    ASSERT_EQ(objective.NumParameters(), mlp.num_parameters() + d * p);
+    Eigen::VectorXd x(objective.NumParameters());
+    mlp.InitializeParameters(3, x.data(), 1.0);
+    // Non-zero biases, so that every parameter matters.
+    for (int l = 0; l < mlp.num_layers(); ++l) {
+      for (int i = 0; i < mlp.widths()[l + 1]; ++i) x[mlp.bias_offset(l) + i] = 0.3 * normal(rng);
+    }
+    for (int i = mlp.num_parameters(); i < x.size(); ++i) x[i] = normal(rng);
+
+    Eigen::VectorXd gradient(x.size());
+    double cost = 0;
+    ASSERT_TRUE(objective.Evaluate(x.data(), &cost, gradient.data()));
+    EXPECT_DOUBLE_EQ(cost, objective.Loss(x.data(), nullptr));
+    const Eigen::VectorXd numeric = testing::CentralDifferenceGradient(
+        [&](const Eigen::VectorXd& t) { return objective.Loss(t.data(), nullptr); }, x, 1e-4);
+    EXPECT_LT(testing::RelativeError(gradient, numeric), 1e-8) << ActivationName(activation);
+
+    // The data term is the mean squared vertex distance: check it directly.
+    double mse = 0, max_distance = 0;
+    objective.Loss(x.data(), nullptr, &mse, &max_distance);
+    MlpWorkspace workspace;
+    Eigen::MatrixXd outputs;
+    mlp.Forward(x.data(), Eigen::Map<const Eigen::MatrixXd>(x.data() + mlp.num_parameters(), d, p),
+                &outputs, &workspace);
+    const Eigen::MatrixXd residual = output_scale * outputs - displacements;
+    EXPECT_NEAR(mse, residual.squaredNorm() / (p * n), 1e-12);
+    EXPECT_NEAR(cost - mse,
+                lambda * Eigen::Map<const Eigen::VectorXd>(x.data() + mlp.num_parameters(), d * p)
+                             .squaredNorm() / p,
+                1e-12);
+    EXPECT_NEAR(max_distance,
+                std::sqrt(Eigen::Map<const Eigen::Matrix3Xd>(residual.data(), 3, n * p)
+                              .colwise()
+                              .squaredNorm()
+                              .maxCoeff()),
+                1e-12);
+  }
+}
+
+class TrainedAutoencoderTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    surfaces_ = new std::vector<Eigen::Matrix3Xd>(TrainingSurfaces());
+    neutral_ = new Eigen::Matrix3Xd(BentGrid(0.6, 0.0));
+    autoencoder_ = new SurfaceAutoencoder;
+    SurfaceAutoencoderOptions options;
+    options.latent_dim = 2;
+    options.hidden_dims = {32, 32};
+    options.activation = Activation::kTanh;
+    options.output_scale = 0.5;
+    options.latent_regularization = 1e-6;
+    options.max_iterations = 3000;
+    options.seed = 5;
+    std::ostringstream log;
+    std::string error;
+    ASSERT_TRUE(autoencoder_->Train(*neutral_, *surfaces_, options, log, &error)) << error;
+  }
+  static void TearDownTestSuite() {
+    delete autoencoder_;
+    delete neutral_;
+    delete surfaces_;
+  }
+
+  static std::vector<Eigen::Matrix3Xd>* surfaces_;
+  static Eigen::Matrix3Xd* neutral_;
+  static SurfaceAutoencoder* autoencoder_;
+};
+
+std::vector<Eigen::Matrix3Xd>* TrainedAutoencoderTest::surfaces_ = nullptr;
+Eigen::Matrix3Xd* TrainedAutoencoderTest::neutral_ = nullptr;
+SurfaceAutoencoder* TrainedAutoencoderTest::autoencoder_ = nullptr;
+
+// The training surfaces (displacements up to ~0.6) are reproduced from their latents.
+TEST_F(TrainedAutoencoderTest, ReproducesTrainingSurfaces) {
+  const SurfaceAutoencoder& ae = *autoencoder_;
+  ASSERT_TRUE(ae.trained());
+  EXPECT_EQ(ae.latent_dim(), 2);
+  EXPECT_EQ(ae.num_vertices(), 24);
+  ASSERT_EQ(ae.training_latents().rows(), 2);
+  ASSERT_EQ(ae.training_latents().cols(), 16);
+  const SurfaceAutoencoderReport& report = ae.report();
+  EXPECT_LT(report.final_loss, report.initial_loss);
+  EXPECT_LT(report.rms_error, 2e-3) << report.termination;
+  double worst = 0, mse = 0;
+  for (int p = 0; p < 16; ++p) {
+    const Eigen::Matrix3Xd decoded = ae.Decode(ae.training_latents().col(p));
+    const double rms = RmsDistance(decoded, (*surfaces_)[p]);
+    worst = std::max(worst, rms);
+    mse += rms * rms / 16;
+    worst = std::max(worst, (decoded - (*surfaces_)[p]).colwise().norm().maxCoeff());
+  }
+  EXPECT_LT(worst, 1e-2);
+  EXPECT_NEAR(std::sqrt(mse), report.rms_error, 1e-9);
+  std::printf("  training rms %.3e, max %.3e, %d iterations (%s)\n", report.rms_error,
+              report.max_error, report.iterations, report.termination.c_str());
+}
+
+// FitLatent's data Jacobian against central differences of its residuals.
+TEST_F(TrainedAutoencoderTest, FitCostJacobianMatchesCentralDifferences) {
+  const SurfaceAutoencoder& ae = *autoencoder_;
+  const std::vector<int> vertices = {3, 0, 17, 9, 23};
+  Eigen::Matrix3Xd positions(3, vertices.size());
+  for (size_t i = 0; i < vertices.size(); ++i) {
+    positions.col(i) = (*surfaces_)[5].col(vertices[i]) + Eigen::Vector3d(0.01, -0.02, 0.03) * i;
+  }
+  const std::unique_ptr<ceres::CostFunction> cost = ae.NewFitCostFunction(vertices, positions);
+  ASSERT_EQ(cost->num_residuals(), 15);
+  ASSERT_EQ(cost->parameter_block_sizes(), std::vector<int32_t>{2});
+  auto residuals = [&](const Eigen::VectorXd& z) {
+    Eigen::VectorXd r(cost->num_residuals());
+    const double* block = z.data();
+    EXPECT_TRUE(cost->Evaluate(&block, r.data(), nullptr));
+    return r;
+  };
+  for (const Eigen::VectorXd& z : {Eigen::VectorXd(ae.training_latents().col(2)),
+                                   Eigen::VectorXd(Eigen::Vector2d(0.7, -1.3))}) {
+    Eigen::VectorXd r(cost->num_residuals());
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> jacobian(
+        cost->num_residuals(), 2);
+    const double* block = z.data();
+    double* jacobian_blocks[1] = {jacobian.data()};
+    ASSERT_TRUE(cost->Evaluate(&block, r.data(), jacobian_blocks));
+    EXPECT_LT(testing::RelativeError(r, residuals(z)), 1e-14);
+    // The residuals are sqrt(1/K) (surface_v(z) - y).
+    const Eigen::Matrix3Xd decoded = ae.Decode(z);
+    for (size_t i = 0; i < vertices.size(); ++i) {
+      const Eigen::Vector3d expected =
+          std::sqrt(1.0 / vertices.size()) * (decoded.col(vertices[i]) - positions.col(i));
+      EXPECT_LT((r.segment<3>(3 * i) - expected).norm(), 1e-14);
+    }
+    const Eigen::MatrixXd numeric = testing::CentralDifferenceJacobian(residuals, z, 1e-4);
+    EXPECT_LT(testing::RelativeError(jacobian, numeric), 1e-8);
+  }
+}
+
+// A training surface is recovered from its vertices (all, or a third of them) starting
+// from another surface's latent and from the mean latent.
+TEST_F(TrainedAutoencoderTest, FitLatentRecoversTrainingSurface) {
+  const SurfaceAutoencoder& ae = *autoencoder_;
+  const int target = 13;
+  const Eigen::Matrix3Xd& surface = (*surfaces_)[target];
+  std::vector<int> all, third;
+  for (int v = 0; v < ae.num_vertices(); ++v) {
+    all.push_back(v);
+    if (v % 3 == 0) third.push_back(v);
+  }
+  for (const std::vector<int>* vertices : {&all, &third}) {
+    Eigen::Matrix3Xd positions(3, vertices->size());
+    for (size_t i = 0; i < vertices->size(); ++i) positions.col(i) = surface.col((*vertices)[i]);
+    for (const Eigen::VectorXd& start :
+         {Eigen::VectorXd(ae.training_latents().col(2)), ae.MeanLatent()}) {
+      Eigen::VectorXd z;
+      double rms = -1;
+      ASSERT_TRUE(ae.FitLatent(*vertices, positions, start, &z, &rms));
+      ASSERT_EQ(z.size(), 2);
+      EXPECT_LT(rms, 5e-3);
+      EXPECT_LT(RmsDistance(ae.Decode(z), surface), 5e-3);
+      EXPECT_LT((z - ae.training_latents().col(target)).norm(),
+                0.05 * ae.training_latents().col(target).norm() + 0.02);
+    }
+  }
+}
+
+TEST(SurfaceAutoencoderTest, BadInputs) {
+  SurfaceAutoencoder ae;
+  std::ostringstream log;
+  std::string error;
+  const Eigen::Matrix3Xd neutral = BentGrid(0.5, 0.0);
+  SurfaceAutoencoderOptions options;
+  options.max_iterations = 2;
+  EXPECT_FALSE(ae.Train(neutral, {}, options, log, &error));
+  EXPECT_NE(error.find("no training surfaces"), std::string::npos) << error;
+  EXPECT_FALSE(ae.Train(neutral, {BentGrid(0.3, 0.1), Eigen::Matrix3Xd::Zero(3, 5)}, options, log,
+                        &error));
+  EXPECT_NE(error.find("training surface 1 has 5 vertices"), std::string::npos) << error;
+  Eigen::Matrix3Xd bad = BentGrid(0.3, 0.1);
+  bad(1, 4) = std::nan("");
+  EXPECT_FALSE(ae.Train(neutral, {bad}, options, log, &error));
+  EXPECT_NE(error.find("non-finite"), std::string::npos) << error;
+  options.latent_dim = 0;
+  EXPECT_FALSE(ae.Train(neutral, {bad}, options, log, &error));
+  EXPECT_NE(error.find("latent_dim"), std::string::npos) << error;
+  EXPECT_FALSE(ae.trained());
+}
+
+}  // namespace
+}  // namespace aqs
