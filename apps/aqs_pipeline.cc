@@ -1,5 +1,4 @@
-// aqs_pipeline: the stages from one flagfile: prepare, pre-train, train (and, once
-// available, evaluate). Every stage's flags are accepted; --stages picks which run.
+// aqs_pipeline: the stages from one flagfile: prepare, pre-train, train, evaluate. Every stage's flags are accepted; --stages picks which run.
 // A stage that fails stops the pipeline with its message and exit status 1.
 
 #include <iostream>
@@ -8,12 +7,13 @@
 
 #include "app_common.h"
 #include "jobs/learning_jobs.h"
+#include "evaluate_flags.h"
 #include "learning_flags.h"
 #include "prepare_flags.h"
 #include "util/wall_timer.h"
 
 DECLARE_string(model);
-DEFINE_string(stages, "prepare,pretrain,train", "Stages to run, in order.");
+DEFINE_string(stages, "prepare,pretrain,train,evaluate", "Stages to run, in order.");
 DEFINE_bool(restart, false, "Train: ignore an earlier run's iteration count.");
 
 int main(int argc, char** argv) {
@@ -38,8 +38,13 @@ int main(int argc, char** argv) {
       aqs::TrainOptions options;
       ok = aqs::TrainOptionsFromFlags(&options, &error) &&
            aqs::RunTrainJob(FLAGS_model, options, FLAGS_restart, std::cout, &error);
+    } else if (stage == "evaluate") {
+      aqs::EvaluateJobOptions options;
+      std::vector<aqs::EvaluationRow> rows;
+      ok = aqs::EvaluateOptionsFromFlags(&options, &error) &&
+           aqs::RunEvaluateJob(options, std::cout, &rows, &error);
     } else {
-      error = "unknown stage '" + stage + "' (known: prepare, pretrain, train)";
+      error = "unknown stage '" + stage + "' (known: prepare, pretrain, train, evaluate)";
     }
     if (!ok) {
       aqs::PrintError(stage + ": " + error);

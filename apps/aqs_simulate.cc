@@ -14,6 +14,9 @@
 #include "jobs/simulate_job.h"
 
 DEFINE_string(mesh, "", "Tet mesh: .mesh (MEDIT), .node/.ele (TetGen) or .msh (Gmsh 2.2/4.1 ASCII).");
+DECLARE_string(model);
+DEFINE_string(latent, "", "With --model: a latent file (as aqs_fit writes) to decode and simulate.");
+DEFINE_string(pose, "", "With --model: simulate this training pose (its latent and bone motion).");
 DEFINE_string(fixed, "", "Fixed vertices: one per line, 'i' (at rest) or 'i x y z' (prescribed).");
 DEFINE_string(actuation, "", "Actuation: one line per element, 'sxx syy szz sxy sxz syz'. "
               "Default: S = I everywhere.");
@@ -37,9 +40,13 @@ int main(int argc, char** argv) {
   aqs::InitApp(
       "Solve the quasistatic equilibrium of a shape-targeting tet mesh.\n"
       "  aqs_simulate --mesh=M.mesh --fixed=F.txt [--actuation=A.txt] [--mu=1] --output=OUT.vtu\n"
-      "               [--loss_target=Y.mesh --gradient=G.txt]",
+      "               [--loss_target=Y.mesh --gradient=G.txt]\n"
+      "  aqs_simulate --model=MODEL (--latent=Z.txt | --pose=NAME) --output=OUT.obj,OUT.vtu",
       &argc, &argv);
   aqs::SimulateJobOptions options;
+  options.model = FLAGS_model;
+  options.latent = FLAGS_latent;
+  options.pose = FLAGS_pose;
   options.mesh = FLAGS_mesh;
   options.fixed = FLAGS_fixed;
   options.actuation = FLAGS_actuation;

@@ -96,10 +96,14 @@ class SurfaceAutoencoderObjective final : public ceres::FirstOrderFunction {
 // per training surface; FitLatent() finds the latent whose surface best matches given
 // points with the decoder fixed (the baseline's counterpart of LatentFitter).
 //
-// Memory for N vertices and last hidden width h: the parameters, about 3N (h + 1)
-// doubles (40 MB for N = 13,294 and h = 128), times 24 during training (the iterate,
-// its gradient, Ceres' line-search copies and the L-BFGS history of rank 10: 2 x 10
-// arrays), plus 3N x P doubles for the training displacements and outputs.
+// Cost for N vertices and last hidden width h: the parameters are about 3N (h + 1)
+// doubles (21 MB for N = 13,294 and h = 64, 41 MB for h = 128). Training holds about 40
+// arrays of that size (the iterate, its gradient, Ceres' line-search samples and the
+// L-BFGS history of rank 10: 2 x 10 arrays; measured peak 0.8 GB for N = 13,294, h = 64,
+// P = 12), plus 3N x P doubles for the training displacements and outputs. There, one
+// objective evaluation (three products with the output layer) takes about 20 ms, and
+// Ceres' L-BFGS bookkeeping on the long vector (the two-loop recursion: 40 passes;
+// line-search copies) several times that: it dominates the time per iteration.
 class SurfaceAutoencoder {
  public:
   SurfaceAutoencoder();

@@ -1,12 +1,16 @@
 #include "jobs/simulate_job.h"
 
+#include <filesystem>
 #include <iomanip>
 #include <sstream>
 
 #include <Eigen/LU>
 
 #include "equilibrium/newton_refinement.h"
+#include "fit/latent_fit.h"
 #include "io/actuation_io.h"
+#include "io/latent_io.h"
+#include "model/model_io.h"
 #include "io/vertex_list_io.h"
 #include "jobs/deformed_output.h"
 #include "mesh/mesh_io.h"
@@ -14,6 +18,12 @@
 
 namespace aqs {
 namespace {
+
+std::string Extension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
 
 SimulateJobResult Fail(JobStatus status, const std::string& message) {
   SimulateJobResult result;
@@ -36,9 +46,83 @@ void ElementFields(const ShapeTargetModel& model, const Eigen::Matrix3Xd& x,
   cell_fields->push_back(MakeVtuField("volume_ratio", volume_ratio));
 }
 
+// Model mode: decode a latent of a trained model and simulate.
+SimulateJobResult RunModelSimulateJob(const SimulateJobOptions& options, std::ostream& log) {
+  WallTimer total;
+  std::string error;
+  if (!options.mesh.empty() || !options.fixed.empty() || !options.actuation.empty() ||
+      !options.loss_target.empty() || !options.mu_per_element.empty()) {
+    return Fail(JobStatus::kBadInput,
+                "with --model, the mesh, material, boundary conditions and actuation come from "
+                "the model: --mesh, --fixed, --actuation, --mu_per_element and --loss_target "
+                "do not apply");
+  }
+  if (options.latent.empty() == options.pose.empty()) {
+    return Fail(JobStatus::kBadInput, "with --model, give either --latent=Z.txt or --pose=NAME");
+  }
+  if (options.outputs.empty()) return Fail(JobStatus::kBadInput, "no output given (--output)");
+  ActiveModel model;
+  if (!LoadModel(options.model, &model, &error)) return Fail(JobStatus::kBadInput, error);
+  if (!model.decoder) {
+    return Fail(JobStatus::kBadInput, options.model + ": the model is not trained (no decoder)");
+  }
+  std::vector<std::string> names;
+  for (const Bone& bone : model.bones) names.push_back(bone.name);
+  Eigen::VectorXd z;
+  std::vector<RigidTransform> bones;
+  if (!options.latent.empty()) {
+    if (!ReadLatentFile(options.latent, model.latent_dim(), names, &z, &bones, &error)) {
+      return Fail(JobStatus::kBadInput, error);
+    }
+  } else {
+    const int p = model.PoseIndex(options.pose);
+    if (p < 0) {
+      std::string known;
+      for (const TrainingPose& pose : model.poses) known += " " + pose.name;
+      return Fail(JobStatus::kBadInput,
+                  "the model has no training pose '" + options.pose + "'; it has:" + known);
+    }
+    z = model.latents.col(p);
+    for (const Bone& bone : model.bones) bones.push_back(bone.pose_transforms[p]);
+  }
+  LatentFitOptions fit_options;
+  fit_options.solver = options.solver;
+  fit_options.num_threads = options.solver.num_threads;
+  LatentFitter fitter(model, fit_options);
+  fitter.set_bone_transforms(bones);
+  Eigen::Matrix3Xd state, surface;
+  SimulateJobResult result;
+  if (!fitter.Simulate(z, &state, &surface, &error)) {
+    return Fail(JobStatus::kNotConverged, error);
+  }
+  log << "simulated the model " << options.model << " ("
+      << (options.pose.empty() ? "latent " + options.latent : "pose " + options.pose) << "): "
+      << model.mesh.num_tets() << " elements\n";
+  ActuationMatrix a;
+  DecoderWorkspace workspace;
+  model.decoder->Decode(model.decoder_params.data(), z, &a, &workspace);
+  const ShapeTargetModel physics(model.mesh, model.mu);
+  std::vector<VtuField> point_fields = {MakeVtuField("displacement", state - model.mesh.vertices)};
+  std::vector<VtuField> cell_fields;
+  ElementFields(physics, state, a, &cell_fields);
+  for (const std::string& output : options.outputs) {
+    if (Extension(output) == ".obj") {
+      SurfaceMesh out = model.neutral;
+      out.vertices = surface;
+      if (!WriteObj(output, out, &error)) return Fail(JobStatus::kBadInput, error);
+    } else if (!WriteDeformedMesh(output, model.mesh, state, point_fields, cell_fields, &error)) {
+      return Fail(JobStatus::kBadInput, error);
+    }
+    log << "wrote " << output << "\n";
+  }
+  log << "total " << total.Seconds() << " s\n";
+  return result;
+}
+
 }  // namespace
 
 SimulateJobResult RunSimulateJob(const SimulateJobOptions& options, std::ostream& log) {
+  if (!options.model.empty()) return RunModelSimulateJob(options, log);
   WallTimer total;
   std::string error;
   // ---- Inputs (all checked before any work) ----

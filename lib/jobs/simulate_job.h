@@ -14,7 +14,15 @@ namespace aqs {
 // actuation, solve the equilibrium, write the result, and optionally evaluate a loss
 // against a target state and its gradient with respect to the actuation.
 struct SimulateJobOptions {
-  std::string mesh;            // tet mesh (.mesh, .node/.ele, .msh); required
+  // Model mode: with `model` (a trained model directory), the actuation is decoded from
+  // a latent (`latent`: a latent file, io/latent_io.h, or `pose`: a training pose's
+  // latent and bone motion) and the model's own mesh, material and boundary conditions
+  // are used; .obj outputs are then the model's surface (the neutral's faces). The
+  // mesh/fixed/actuation/mu/loss options below are for plain meshes and must be empty.
+  std::string model;
+  std::string latent;
+  std::string pose;
+  std::string mesh;            // tet mesh (.mesh, .node/.ele, .msh); required without model
   std::string fixed;           // fixed-vertex file (io/vertex_list_io.h); empty: none
   std::string actuation;       // actuation file (io/actuation_io.h); empty: S = I
   double mu = 1.0;             // stiffness of every element (> 0)

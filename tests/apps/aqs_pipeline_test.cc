@@ -36,7 +36,7 @@ TEST(AqsPipelineTest, PreparesPretrainsTrainsAndResumes) {
       << "--model=" << dir.File("model") << "\n"
       << "--spacing=0.2\n--lattice=kuhn\n--fixed_box=-1,-1,-1,0.01,1,1\n"
       << "--latent_dim=3\n--hidden=16\n--grid_spacing=0.3\n"
-      << "--pretrain_iterations=40\n--train_iterations=4\n";
+      << "--pretrain_iterations=40\n--train_iterations=4\n--stages=prepare,pretrain,train\n";
   const testing::CommandResult run =
       RunCommand(AppPath("aqs_pipeline") + " --flagfile=" + dir.File("run.flags"));
   ASSERT_EQ(run.exit_code, 0) << run.output;

@@ -1,0 +1,15 @@
+#ifndef AQS_APPS_EVALUATE_FLAGS_H_
+#define AQS_APPS_EVALUATE_FLAGS_H_
+
+#include <string>
+
+#include "jobs/evaluate_job.h"
+
+namespace aqs {
+
+// EvaluateJobOptions from the aqs_evaluate flags (evaluate_flags.cc).
+bool EvaluateOptionsFromFlags(EvaluateJobOptions* options, std::string* error);
+
+}  // namespace aqs
+
+#endif  // AQS_APPS_EVALUATE_FLAGS_H_

@@ -1,0 +1,35 @@
+#ifndef AQS_IO_LATENT_IO_H_
+#define AQS_IO_LATENT_IO_H_
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "geometry/rigid_transform.h"
+
+namespace aqs {
+
+// Latent files (aqs_fit writes them, aqs_simulate --model reads them). Text; '#' starts
+// a comment; the lines, in any order:
+//   latent z_1 ... z_d
+//   bone <name> r00 r01 r02 r10 r11 r12 r20 r21 r22 t0 t1 t2     (optional, per bone)
+// Numbers have 17 significant digits. A bone without a line stays at rest.
+
+// Writes a latent and the named bones' transforms. Atomic.
+bool WriteLatentFile(const std::string& path, const Eigen::VectorXd& latent,
+                     const std::vector<std::string>& bone_names,
+                     const std::vector<RigidTransform>& bones, const std::string& comment,
+                     std::string* error);
+
+// Reads a latent of dimension latent_dim and the transforms of the bones named in
+// bone_names (rest where the file has no line). Errors name path:line: a wrong count
+// of latent numbers, an unknown bone, a rotation that is not a rotation (|R^T R - I| or
+// det far from 1), a missing latent line.
+bool ReadLatentFile(const std::string& path, int latent_dim,
+                    const std::vector<std::string>& bone_names, Eigen::VectorXd* latent,
+                    std::vector<RigidTransform>* bones, std::string* error);
+
+}  // namespace aqs
+
+#endif  // AQS_IO_LATENT_IO_H_

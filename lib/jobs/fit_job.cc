@@ -1,0 +1,196 @@
+#include "jobs/fit_job.h"
+
+#include <filesystem>
+#include <iomanip>
+#include <sstream>
+
+#include <Eigen/Geometry>
+
+#include "io/latent_io.h"
+#include "jobs/deformed_output.h"
+#include "mesh/mesh_io.h"
+#include "mesh/ply_io.h"
+#include "model/model_io.h"
+#include "util/line_reader.h"
+#include "util/wall_timer.h"
+
+namespace aqs {
+namespace {
+
+FitJobResult Fail(const std::string& message) {
+  FitJobResult result;
+  result.status = JobStatus::kBadInput;
+  result.message = message;
+  return result;
+}
+
+std::string Extension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
+
+std::vector<std::string> BoneNames(const ActiveModel& model) {
+  std::vector<std::string> names;
+  for (const Bone& bone : model.bones) names.push_back(bone.name);
+  return names;
+}
+
+}  // namespace
+
+bool ReadMarkers(const std::string& path, int num_surface_vertices, std::vector<int>* vertices,
+                 Eigen::Matrix3Xd* positions, std::string* error) {
+  LineReader reader(path);
+  if (!reader.ok()) {
+    *error = reader.error();
+    return false;
+  }
+  std::vector<int> first_line(num_surface_vertices, 0), read;
+  std::vector<Eigen::Vector3d> points;
+  std::vector<std::string> t;
+  while (reader.NextTokens(&t)) {
+    int v = 0;
+    Eigen::Vector3d p;
+    if (t.size() != 4 || !ParseInt(t[0], &v) || !ParseDouble(t[1], &p.x()) ||
+        !ParseDouble(t[2], &p.y()) || !ParseDouble(t[3], &p.z())) {
+      *error = reader.Where("expected 'vertex x y z' (a surface vertex index and its position)");
+      return false;
+    }
+    if (v < 0 || v >= num_surface_vertices) {
+      *error = reader.Where("surface vertex " + std::to_string(v) + " is outside [0, " +
+                            std::to_string(num_surface_vertices) + ")");
+      return false;
+    }
+    if (first_line[v] > 0) {
+      *error = reader.Where("vertex " + std::to_string(v) + " is given again (first on line " +
+                            std::to_string(first_line[v]) + ")");
+      return false;
+    }
+    first_line[v] = reader.line_number();
+    read.push_back(v);
+    points.push_back(p);
+  }
+  if (read.empty()) {
+    *error = path + ": no markers";
+    return false;
+  }
+  *vertices = read;
+  positions->resize(3, points.size());
+  for (size_t i = 0; i < points.size(); ++i) positions->col(i) = points[i];
+  return true;
+}
+
+FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log) {
+  WallTimer timer;
+  if (options.model.empty() || options.target.empty() || options.output.empty()) {
+    return Fail("--model, --target and --output are required");
+  }
+  if (Extension(options.output) != ".obj") return Fail(options.output + ": --output must be an .obj");
+  ActiveModel model;
+  std::string error;
+  if (!LoadModel(options.model, &model, &error)) return Fail(error);
+  if (!model.decoder) return Fail(options.model + ": the model is not trained (no decoder)");
+  const int ns = model.num_surface_vertices();
+
+  // The target.
+  std::string kind = options.target_kind;
+  const std::string ext = Extension(options.target);
+  SurfaceMesh target_surface;
+  if (kind == "auto") {
+    if (ext == ".txt") {
+      kind = "markers";
+    } else if (ext == ".ply") {
+      kind = "points";
+    } else if (ext == ".obj") {
+      if (!ReadObj(options.target, &target_surface, &error)) return Fail(error);
+      kind = target_surface.num_vertices() == ns ? "pose" : "points";
+    } else {
+      return Fail(options.target + ": cannot tell the target kind from the extension; give "
+                  "--target_kind=pose|markers|points");
+    }
+  }
+  FitTarget target;
+  Eigen::Matrix3Xd cloud;
+  if (kind == "pose") {
+    if (target_surface.num_vertices() == 0 && !ReadObj(options.target, &target_surface, &error)) {
+      return Fail(error);
+    }
+    if (target_surface.num_vertices() != ns) {
+      return Fail(options.target + ": " + std::to_string(target_surface.num_vertices()) +
+                  " vertices, but the model's surface has " + std::to_string(ns) +
+                  " (a pose target needs the neutral's vertex order)");
+    }
+    target = FullSurfaceTarget(target_surface.vertices);
+  } else if (kind == "markers") {
+    std::vector<int> vertices;
+    Eigen::Matrix3Xd positions;
+    if (!ReadMarkers(options.target, ns, &vertices, &positions, &error)) return Fail(error);
+    target = VertexTarget(vertices, positions);
+  } else if (kind == "points") {
+    if (!ReadPointCloud(options.target, &cloud, &error)) return Fail(error);
+    if (cloud.cols() < 3) return Fail(options.target + ": fewer than 3 points");
+  } else {
+    return Fail("--target_kind must be auto, pose, markers or points, got '" + kind + "'");
+  }
+  log << "target " << options.target << ": " << kind << " ("
+      << (kind == "points" ? cloud.cols() : target.num_points()) << " points)\n";
+
+  LatentFitter fitter(model, options.fit);
+  Eigen::VectorXd initial = fitter.MeanLatent();
+  if (!options.initial_latent.empty()) {
+    std::vector<RigidTransform> bones;
+    if (!ReadLatentFile(options.initial_latent, model.latent_dim(), BoneNames(model), &initial,
+                        &bones, &error)) {
+      return Fail(error);
+    }
+    fitter.set_bone_transforms(bones);
+  }
+  FitJobResult result;
+  result.kind = kind;
+  const bool ok = kind == "points"
+                      ? fitter.FitPointCloud(cloud, options.points, initial, &result.fit, &error)
+                      : fitter.Fit(target, initial, &result.fit, &error);
+  if (!ok) {
+    result.status = JobStatus::kNotConverged;
+    result.message = error;
+    return result;
+  }
+  const LatentFitResult& fit = result.fit;
+  log << std::setprecision(6) << "fit: " << fit.iterations << " iterations, error mean "
+      << fit.mean_error << " rms " << fit.rms_error << " max " << fit.max_error << " over "
+      << fit.used_points << " points (" << fit.message << ")\nlatent:";
+  for (Eigen::Index i = 0; i < fit.latent.size(); ++i) log << ' ' << fit.latent[i];
+  log << "\n";
+  for (size_t b = 0; b < model.bones.size(); ++b) {
+    const Eigen::AngleAxisd aa(fit.bones[b].rotation);
+    log << "bone " << model.bones[b].name << ": rotation " << aa.angle() * 180 / M_PI
+        << " deg, translation " << fit.bones[b].translation.transpose() << "\n";
+  }
+  SurfaceMesh surface = model.neutral;
+  surface.vertices = fit.surface;
+  if (!WriteObj(options.output, surface, &error)) return Fail(error);
+  log << "wrote " << options.output << "\n";
+  if (!options.latent_output.empty()) {
+    if (!WriteLatentFile(options.latent_output, fit.latent, BoneNames(model), fit.bones,
+                         "fitted to " + options.target, &error)) {
+      return Fail(error);
+    }
+    log << "wrote " << options.latent_output << "\n";
+  }
+  if (!options.output_volume.empty()) {
+    ActuationMatrix a;
+    DecoderWorkspace workspace;
+    model.decoder->Decode(model.decoder_params.data(), fit.latent, &a, &workspace);
+    const std::vector<VtuField> point_fields = {MakeVtuField("displacement", fit.state - model.mesh.vertices)};
+    const std::vector<VtuField> cell_fields = {MakeVtuField("actuation", a)};
+    if (!WriteDeformedMesh(options.output_volume, model.mesh, fit.state, point_fields, cell_fields,
+                           &error)) {
+      return Fail(error);
+    }
+    log << "wrote " << options.output_volume << "\n";
+  }
+  log << "total " << timer.Seconds() << " s\n";
+  return result;
+}
+
+}  // namespace aqs

@@ -1,0 +1,47 @@
+#ifndef AQS_JOBS_FIT_JOB_H_
+#define AQS_JOBS_FIT_JOB_H_
+
+#include <ostream>
+#include <string>
+
+#include "fit/latent_fit.h"
+#include "jobs/simulate_job.h"
+
+namespace aqs {
+
+// What aqs_fit does: fit a trained model's latent (and bone motions) to a target and
+// write the result.
+struct FitJobOptions {
+  std::string model;   // model directory (trained); required
+  std::string target;  // target file; required
+  // pose: a surface with the neutral's vertex order (OBJ);
+  // markers: a text file of "vertex x y z" lines (0-based surface vertex indices);
+  // points: a point cloud without correspondence (OBJ 'v' lines or PLY);
+  // auto: .txt -> markers, .ply -> points, .obj -> pose if it has the neutral's vertex
+  //       count, else points.
+  std::string target_kind = "auto";
+  std::string output;         // the fitted surface (OBJ, the neutral's faces); required
+  std::string output_volume;  // optional: the equilibrium (.vtu/.mesh/.obj by extension)
+  std::string latent_output;  // optional: the latent file (io/latent_io.h)
+  std::string initial_latent; // optional start (latent file); default: mean training latent
+  LatentFitOptions fit;
+  PointCloudFitOptions points;
+};
+
+struct FitJobResult {
+  JobStatus status = JobStatus::kOk;
+  std::string message;
+  std::string kind;  // the target kind used
+  LatentFitResult fit;
+};
+
+// Reads a markers file: "vertex x y z" per line ('#' comments), vertices in
+// [0, num_surface_vertices), no repeats. Errors name path:line.
+bool ReadMarkers(const std::string& path, int num_surface_vertices, std::vector<int>* vertices,
+                 Eigen::Matrix3Xd* positions, std::string* error);
+
+FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log);
+
+}  // namespace aqs
+
+#endif  // AQS_JOBS_FIT_JOB_H_

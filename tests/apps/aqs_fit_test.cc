@@ -1,0 +1,178 @@
+// aqs_fit, aqs_simulate --model and aqs_evaluate on a small model trained from the
+// synthetic-muscle bar by aqs_pipeline.
+
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "apps/run_command.h"
+#include "io/latent_io.h"
+#include "mesh/mesh_io.h"
+#include "testing/temp_dir.h"
+#include "train/synthetic_muscles.h"
+
+namespace aqs {
+namespace {
+
+using testing::AppPath;
+using testing::RunCommand;
+
+class AqsFitTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new testing::TempDir;
+    data_ = new testing::SyntheticMuscles(testing::MakeSyntheticMuscles(6, 2, 0.3, 13));
+    std::string error;
+    ASSERT_TRUE(WriteObj(dir_->File("neutral.obj"), data_->model.neutral, &error)) << error;
+    std::filesystem::create_directories(dir_->File("poses"));
+    for (const TrainingPose& pose : data_->model.poses) {
+      SurfaceMesh surface = data_->model.neutral;
+      surface.vertices = pose.surface;
+      ASSERT_TRUE(WriteObj(dir_->File("poses/" + pose.name + ".obj"), surface, &error));
+    }
+    for (size_t t = 0; t < data_->test_surfaces.size(); ++t) {
+      SurfaceMesh surface = data_->model.neutral;
+      surface.vertices = data_->test_surfaces[t];
+      ASSERT_TRUE(WriteObj(dir_->File("test" + std::to_string(t) + ".obj"), surface, &error));
+    }
+    std::ofstream(dir_->File("run.flags"))
+        << "--neutral=" << dir_->File("neutral.obj") << "\n--poses=" << dir_->File("poses")
+        << "\n--model=" << dir_->File("model") << "\n--spacing=0.2\n--lattice=kuhn\n"
+        << "--fixed_box=-1,-1,-1,0.01,1,1\n--latent_dim=3\n--hidden=16\n--grid_spacing=0.3\n"
+        << "--activation=tanh\n--pretrain_iterations=60\n--train_iterations=10\n"
+        << "--test_poses=" << dir_->File("test0.obj") << "," << dir_->File("test1.obj")
+        << "\n--output_dir=" << dir_->File("evaluation") << "\n--baseline_iterations=50\n";
+    const testing::CommandResult run =
+        RunCommand(AppPath("aqs_pipeline") + " --flagfile=" + dir_->File("run.flags"));
+    ASSERT_EQ(run.exit_code, 0) << run.output;
+    pipeline_output_ = new std::string(run.output);
+  }
+  static void TearDownTestSuite() {
+    delete dir_;
+    delete data_;
+    delete pipeline_output_;
+  }
+
+  std::string Fit(const std::string& flags) {
+    return AppPath("aqs_fit") + " --model=" + dir_->File("model") + " " + flags;
+  }
+
+  static testing::TempDir* dir_;
+  static testing::SyntheticMuscles* data_;
+  static std::string* pipeline_output_;
+};
+
+testing::TempDir* AqsFitTest::dir_ = nullptr;
+testing::SyntheticMuscles* AqsFitTest::data_ = nullptr;
+std::string* AqsFitTest::pipeline_output_ = nullptr;
+
+TEST_F(AqsFitTest, EvaluationTablesAndFieldsAreWritten) {
+  EXPECT_NE(pipeline_output_->find("| test pose |"), std::string::npos) << *pipeline_output_;
+  EXPECT_TRUE(std::filesystem::exists(dir_->File("evaluation/evaluation.md")));
+  std::ifstream csv(dir_->File("evaluation/evaluation.csv"));
+  int lines = 0;
+  for (std::string line; std::getline(csv, line);) ++lines;
+  EXPECT_EQ(lines, 1 + 3 * (6 + 2));  // header, 3 methods x (6 training + 2 held-out)
+  for (const char* method : {"physics", "autoencoder", "pca"}) {
+    EXPECT_TRUE(std::filesystem::exists(dir_->File(std::string("evaluation/fields/test0_") + method + ".ply")))
+        << method;
+  }
+}
+
+TEST_F(AqsFitTest, FitsAPoseAndSimulatesTheLatentBack) {
+  const testing::CommandResult fit =
+      RunCommand(Fit("--target=" + dir_->File("test0.obj") + " --output=" + dir_->File("fit.obj") +
+                     " --latent_output=" + dir_->File("z.txt") + " --output_volume=" +
+                     dir_->File("fit.vtu")));
+  ASSERT_EQ(fit.exit_code, 0) << fit.output;
+  EXPECT_NE(fit.output.find("target " + dir_->File("test0.obj") + ": pose"), std::string::npos)
+      << fit.output;
+  SurfaceMesh fitted, back;
+  std::string error;
+  ASSERT_TRUE(ReadObj(dir_->File("fit.obj"), &fitted, &error)) << error;
+  EXPECT_EQ(fitted.num_vertices(), data_->model.neutral.num_vertices());
+  EXPECT_EQ(fitted.triangles, data_->model.neutral.triangles) << "the neutral's faces";
+  // The latent decodes and simulates to the same surface.
+  const testing::CommandResult sim = RunCommand(
+      AppPath("aqs_simulate") + " --model=" + dir_->File("model") + " --latent=" +
+      dir_->File("z.txt") + " --output=" + dir_->File("back.obj"));
+  ASSERT_EQ(sim.exit_code, 0) << sim.output;
+  ASSERT_TRUE(ReadObj(dir_->File("back.obj"), &back, &error)) << error;
+  EXPECT_LT((back.vertices - fitted.vertices).cwiseAbs().maxCoeff(), 1e-5);
+  // And a training pose by name.
+  const testing::CommandResult pose = RunCommand(
+      AppPath("aqs_simulate") + " --model=" + dir_->File("model") + " --pose=train_2 --output=" +
+      dir_->File("p.obj"));
+  EXPECT_EQ(pose.exit_code, 0) << pose.output;
+}
+
+TEST_F(AqsFitTest, MarkersAndPointCloudTargets) {
+  // Markers: 12 vertices of the held-out surface.
+  std::ofstream markers(dir_->File("markers.txt"));
+  markers << "# vertex x y z\n";
+  for (int v = 0; v < data_->model.neutral.num_vertices(); v += 8) {
+    const Eigen::Vector3d p = data_->test_surfaces[1].col(v);
+    markers << v << " " << p.x() << " " << p.y() << " " << p.z() << "\n";
+  }
+  markers.close();
+  testing::CommandResult run = RunCommand(
+      Fit("--target=" + dir_->File("markers.txt") + " --output=" + dir_->File("m.obj")));
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find(": markers"), std::string::npos) << run.output;
+  // A point cloud: shuffled points of part of the surface, as a PLY.
+  std::vector<int> order;
+  for (int v = 0; v < data_->model.neutral.num_vertices(); ++v) {
+    if (data_->model.neutral.vertices(0, v) > 0.8) order.push_back(v);
+  }
+  std::shuffle(order.begin(), order.end(), std::mt19937(1));
+  std::ofstream ply(dir_->File("scan.ply"));
+  ply << "ply\nformat ascii 1.0\nelement vertex " << order.size()
+      << "\nproperty float x\nproperty float y\nproperty float z\nend_header\n";
+  for (int v : order) ply << data_->test_surfaces[1].col(v).transpose() << "\n";
+  ply.close();
+  run = RunCommand(Fit("--target=" + dir_->File("scan.ply") + " --output=" + dir_->File("s.obj") +
+                       " --max_distance=0.5 --robust_scale=0.05"));
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find(": points"), std::string::npos) << run.output;
+}
+
+TEST_F(AqsFitTest, MalformedTargetsFailClearly) {
+  std::ofstream(dir_->File("bad_markers.txt")) << "3 0.1 0.2\n";
+  std::ofstream(dir_->File("far_markers.txt")) << "99999 0 0 0\n";
+  std::ofstream(dir_->File("bad.ply")) << "ply\nformat ascii 1.0\nelement vertex 5\n"
+                                           "property float x\nend_header\n1\n";
+  SurfaceMesh small;
+  small.vertices = Eigen::Matrix3Xd::Random(3, 10);
+  std::string error;
+  ASSERT_TRUE(WriteObj(dir_->File("small.obj"), small, &error));
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"--target=" + dir_->File("bad_markers.txt"), "bad_markers.txt:1: expected 'vertex x y z'"},
+      {"--target=" + dir_->File("far_markers.txt"), "far_markers.txt:1: surface vertex 99999"},
+      {"--target=" + dir_->File("bad.ply"), "bad.ply"},
+      {"--target=" + dir_->File("small.obj") + " --target_kind=pose",
+       "small.obj: 10 vertices, but the model's surface has"},
+      {"--target=" + dir_->File("missing.obj"), "missing.obj"},
+      {"--target=" + dir_->File("x.xyz"), "cannot tell the target kind"},
+      {"--target=" + dir_->File("test0.obj") + " --target_kind=cloud", "--target_kind must be"},
+  };
+  for (const auto& [flags, message] : cases) {
+    const testing::CommandResult run = RunCommand(Fit(flags + " --output=" + dir_->File("o.obj")));
+    EXPECT_EQ(run.exit_code, 1) << flags << "\n" << run.output;
+    EXPECT_NE(run.output.find(message), std::string::npos) << flags << "\n" << run.output;
+  }
+  const testing::CommandResult no_model =
+      RunCommand(AppPath("aqs_fit") + " --target=x.obj --output=o.obj");
+  EXPECT_EQ(no_model.exit_code, 1);
+  std::ofstream(dir_->File("bad_latent.txt")) << "latent 1 2\n";
+  const testing::CommandResult bad_latent = RunCommand(
+      AppPath("aqs_simulate") + " --model=" + dir_->File("model") + " --latent=" +
+      dir_->File("bad_latent.txt") + " --output=" + dir_->File("o.obj"));
+  EXPECT_EQ(bad_latent.exit_code, 1);
+  EXPECT_NE(bad_latent.output.find("bad_latent.txt:1: expected 3 latent numbers"), std::string::npos)
+      << bad_latent.output;
+}
+
+}  // namespace
+}  // namespace aqs
