@@ -9,6 +9,8 @@
 
 DEFINE_string(model, "", "Model directory (written by aqs_prepare, read and updated by the "
               "later stages).");
+DEFINE_string(pose_dir, "", "Folder that relative entries of .txt pose lists (--poses, "
+              "--test_poses) are resolved in (default: the list file's folder).");
 DEFINE_int32(threads, 2, "Threads (per-element work, parallel poses; BLAS follows OPENBLAS_NUM_THREADS).");
 
 namespace aqs {

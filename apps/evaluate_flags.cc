@@ -15,6 +15,7 @@ DEFINE_int32(baseline_iterations, 500, "L-BFGS iterations of the auto-encoder ba
 DEFINE_int32(evaluate_fit_iterations, 30, "Levenberg-Marquardt iterations of held-out fits.");
 DEFINE_bool(write_fields, true, "Write per-vertex error fields and fitted surfaces.");
 DECLARE_string(model);
+DECLARE_string(pose_dir);
 DECLARE_int32(threads);
 DECLARE_double(latent_regularization);
 
@@ -28,7 +29,8 @@ bool EvaluateOptionsFromFlags(EvaluateJobOptions* options, std::string* error) {
   options->model = FLAGS_model;
   options->output_directory = FLAGS_output_dir;
   if (!FLAGS_test_poses.empty() &&
-      !ResolvePosePaths(FLAGS_test_poses, FLAGS_test_exclude, &options->test_paths, error)) {
+      !ResolvePosePaths(FLAGS_test_poses, FLAGS_test_exclude, &options->test_paths, error,
+                        FLAGS_pose_dir)) {
     return false;
   }
   if (!FLAGS_error_vertices.empty() &&

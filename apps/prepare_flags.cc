@@ -39,6 +39,7 @@ DEFINE_double(attachment_stiffness, 100.0, "Springs pulling the embedded surface
 DEFINE_double(prepare_tolerance, 1e-6, "Relative force tolerance of the embedded simulations.");
 DECLARE_int32(threads);
 DECLARE_string(model);
+DECLARE_string(pose_dir);
 
 namespace aqs {
 namespace {
@@ -64,7 +65,10 @@ bool PrepareOptionsFromFlags(PrepareJobOptions* options, std::string* error) {
     return false;
   }
   options->neutral = FLAGS_neutral;
-  if (!ResolvePosePaths(FLAGS_poses, FLAGS_pose_exclude, &options->pose_paths, error)) return false;
+  if (!ResolvePosePaths(FLAGS_poses, FLAGS_pose_exclude, &options->pose_paths, error,
+                        FLAGS_pose_dir)) {
+    return false;
+  }
   options->output = FLAGS_model;
   options->tet_mesh = FLAGS_tet_mesh;
   if (FLAGS_tet_mesh.empty() && !(FLAGS_spacing > 0)) {

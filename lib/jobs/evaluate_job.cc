@@ -223,7 +223,10 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& log,
     }
     Eigen::VectorXd ae_latent;
     double ae_rms = 0;
-    autoencoder.FitLatent(all, truth, autoencoder.MeanLatent(), &ae_latent, &ae_rms);
+    if (!autoencoder.FitLatent(all, truth, autoencoder.MeanLatent(), &ae_latent, &ae_rms)) {
+      *error = "held-out pose '" + test_names[t] + "': the auto-encoder's latent fit failed";
+      return false;
+    }
     const Eigen::Matrix3Xd surfaces[3] = {fit.surface, autoencoder.Decode(ae_latent),
                                           pca.Decode(pca.Encode(truth))};
     Eigen::VectorXd errors[3];

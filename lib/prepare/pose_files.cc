@@ -30,7 +30,8 @@ std::string PoseNameFromPath(const std::string& path) {
 }
 
 bool ResolvePosePaths(const std::string& spec, const std::string& exclude,
-                      std::vector<std::string>* paths, std::string* error) {
+                      std::vector<std::string>* paths, std::string* error,
+                      const std::string& base_dir) {
   std::vector<std::string> found;
   std::error_code code;
   if (spec.empty()) {
@@ -55,14 +56,15 @@ bool ResolvePosePaths(const std::string& spec, const std::string& exclude,
       *error = reader.error();
       return false;
     }
-    const fs::path base = fs::path(spec).parent_path();
+    const fs::path base = base_dir.empty() ? fs::path(spec).parent_path() : fs::path(base_dir);
     std::vector<std::string> tokens;
     while (reader.NextTokens(&tokens)) {
       if (tokens.size() != 1) {
         *error = reader.Where("expected one path per line");
         return false;
       }
-      const fs::path p(tokens[0]);
+      fs::path p(tokens[0]);
+      if (!p.has_extension()) p += ".obj";
       const std::string resolved = p.is_absolute() ? p.string() : (base / p).string();
       if (!fs::exists(resolved)) {
         *error = reader.Where("pose file '" + resolved + "' does not exist");

@@ -12,13 +12,15 @@ namespace aqs {
 //   a directory        every "*.obj" file in it;
 //   a glob pattern     (contains '*', '?' or '[') the matching files;
 //   a ".txt" file      one path per line ('#' comments; relative paths are relative to
-//                      the list file's folder);
+//                      `base_dir` if given, else to the list file's folder; a line
+//                      without an extension gets ".obj");
 //   otherwise          a comma-separated list of paths.
 // Files whose name matches `exclude` (a glob on the file name, e.g. "*.teeth.obj";
 // empty: none) are left out. Returns false with *error if nothing matches or a listed
 // file does not exist.
 bool ResolvePosePaths(const std::string& spec, const std::string& exclude,
-                      std::vector<std::string>* paths, std::string* error);
+                      std::vector<std::string>* paths, std::string* error,
+                      const std::string& base_dir = "");
 
 // The pose name of a path: the file name without its last extension ("a/jawOpen.obj"
 // -> "jawOpen"). Names must not contain white space.
