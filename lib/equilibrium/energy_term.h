@@ -33,6 +33,11 @@ class EnergyTerm {
   virtual double AddEnergyAndGradient(const Eigen::Ref<const Eigen::Matrix3Xd>& x,
                                       Eigen::Matrix3Xd* gradient) const = 0;
 
+  // Whether AddStiffness gives the term's Hessian on the model's pattern. Terms that
+  // couple vertices of different elements (contact) cannot, and return false: a
+  // QuasistaticSolver with such a term uses Levenberg-Marquardt only.
+  virtual bool SupportsStiffness() const { return true; }
+
   // Adds the term's Hessian at x into `values` (upper-triangle CSC of `pattern`, as
   // AssembleStiffness fills it). Entries of fixed vertices are dropped.
   virtual void AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>& x,

@@ -207,8 +207,10 @@ QuasistaticSolveReport QuasistaticSolver::Solve() {
     report.seconds = timer.Seconds();
     return report;
   }
-  // Newton needs a positive definite K: fixed vertices must remove rigid motions.
-  const bool use_newton = options_.newton_relative_force > 0.0 && !fixed_vertices_.empty();
+  // Newton needs a positive definite K (fixed vertices must remove rigid motions) and
+  // every energy term's Hessian on the mesh's pattern.
+  bool use_newton = options_.newton_relative_force > 0.0 && !fixed_vertices_.empty();
+  for (const EnergyTerm* term : terms_) use_newton = use_newton && term->SupportsStiffness();
   const double newton_threshold =
       std::max(report.force_tolerance, options_.newton_relative_force * model_.force_scale());
   bool done = false;

@@ -59,7 +59,8 @@ struct QuasistaticSolverOptions {
   // exact stiffness, which converge quadratically where Levenberg-Marquardt on the
   // least-squares form converges linearly (its J^T J lacks the curvature of
   // incompatible targets). If a Newton step fails (K not positive definite, or no
-  // force decrease), Ceres takes over again. 0 disables Newton: Ceres only.
+  // force decrease), Ceres takes over again. 0 disables Newton: Ceres only (as do
+  // energy terms without a stiffness, EnergyTerm::SupportsStiffness).
   double newton_relative_force = 1e-2;
   int max_newton_steps = 8;
   // Ceres' relative cost-change and step-size stopping tests. function_tolerance

@@ -30,7 +30,10 @@ bool StiffnessFactorization::Factorize(const ShapeTargetModel::PositionsRef& x,
   }
   WallTimer timer;
   AssembleStiffness(model_, pattern_, x, a, kind, num_threads_, &values_);
-  for (const EnergyTerm* term : terms_) term->AddStiffness(x, pattern_, &values_);
+  for (const EnergyTerm* term : terms_) {
+    CHECK(term->SupportsStiffness()) << "an energy term without a stiffness on the mesh's pattern";
+    term->AddStiffness(x, pattern_, &values_);
+  }
   timings_.assembly = timer.Seconds();
   const bool first = cholesky_.factor_nonzeros() == 0.0;
   std::string cholmod_error;

@@ -52,19 +52,6 @@ bool CellWeights(const GridFieldDescription& grid, const Eigen::Vector3d& p,
 
 }  // namespace
 
-double MeanEdgeLength(const TetMesh& mesh) {
-  if (mesh.num_tets() == 0) return 0.0;
-  static const int kEdges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
-  double sum = 0.0;
-  for (int e = 0; e < mesh.num_tets(); ++e) {
-    for (const auto& edge : kEdges) {
-      sum += (mesh.vertices.col(mesh.tets(edge[0], e)) - mesh.vertices.col(mesh.tets(edge[1], e)))
-                 .norm();
-    }
-  }
-  return sum / (6.0 * mesh.num_tets());
-}
-
 GridActuationField::GridActuationField(const TetMesh& mesh,
                                        const GridActuationFieldOptions& options) {
   CHECK_GT(mesh.num_tets(), 0);

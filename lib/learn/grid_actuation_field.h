@@ -7,6 +7,7 @@
 
 #include <Eigen/Core>
 
+#include "mesh/mesh_measures.h"
 #include "mesh/tet_mesh.h"
 #include "physics/actuation.h"
 
@@ -16,9 +17,6 @@ namespace aqs {
 // of node n, column-major (node n starts at data() + 6 n), like ActuationMatrix.
 using NodeValueMatrix = Eigen::Matrix<double, 6, Eigen::Dynamic>;
 
-// The mean over all elements of the mean length of their six edges (a characteristic
-// element size h; a Kuhn lattice of cube edge c has h = 1.26 c). 0 for an empty mesh.
-double MeanEdgeLength(const TetMesh& mesh);
 
 struct GridActuationFieldOptions {
   // Distance between neighbouring control nodes along x, y and z, in mesh units.

@@ -10,7 +10,6 @@
 
 #include "equilibrium/embedded_attachments.h"
 #include "geometry/embedding.h"
-#include "learn/grid_actuation_field.h"
 #include "util/parallel_for.h"
 #include "util/wall_timer.h"
 
@@ -21,17 +20,6 @@ Eigen::Matrix3d SymmetricPolarFactor(const Eigen::Matrix3d& f) {
   const Eigen::Matrix3d v = svd.matrixV();
   Eigen::Matrix3d s = v * svd.singularValues().asDiagonal() * v.transpose();
   return 0.5 * (s + s.transpose());
-}
-
-Eigen::VectorXd VertexAreas(const Eigen::Matrix3Xd& vertices, const Eigen::Matrix3Xi& triangles) {
-  Eigen::VectorXd areas = Eigen::VectorXd::Zero(vertices.cols());
-  for (Eigen::Index t = 0; t < triangles.cols(); ++t) {
-    const Eigen::Vector3d a = vertices.col(triangles(0, t));
-    const double area =
-        0.5 * (vertices.col(triangles(1, t)) - a).cross(vertices.col(triangles(2, t)) - a).norm();
-    for (int k = 0; k < 3; ++k) areas[triangles(k, t)] += area / 3.0;
-  }
-  return areas;
 }
 
 bool MakeVolumetricTargets(const VolumetricTargetOptions& options, ActiveModel* model,

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "equilibrium/quasistatic_solver.h"
+#include "mesh/mesh_measures.h"
 #include "model/active_model.h"
 
 namespace aqs {
@@ -38,8 +39,6 @@ bool MakeVolumetricTargets(const VolumetricTargetOptions& options, ActiveModel* 
 // sqrt(F^T F), the symmetric positive semi-definite polar factor of F.
 Eigen::Matrix3d SymmetricPolarFactor(const Eigen::Matrix3d& f);
 
-// Each surface vertex's share of the surface area (a third of each incident triangle).
-Eigen::VectorXd VertexAreas(const Eigen::Matrix3Xd& vertices, const Eigen::Matrix3Xi& triangles);
 
 }  // namespace aqs
 

@@ -1,0 +1,326 @@
+#include "contact/contact_solver.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <unordered_map>
+
+#include "geometry/embedding.h"
+#include "geometry/plane_cuts.h"
+#include "geometry/triangle_intersections.h"
+#include "mesh/mesh_measures.h"
+#include "util/parallel_for.h"
+
+namespace aqs {
+namespace {
+
+// Barycentric margin of self-contact residuals within a round (see Resolve).
+constexpr double kResidualMargin = 1.0;
+
+// A uniform grid over the triangles' bounding boxes for radius queries.
+class TriangleGrid {
+ public:
+  TriangleGrid(const Eigen::Matrix3Xd& vertices, const Eigen::Matrix3Xi& triangles, double cell)
+      : cell_(cell) {
+    lo_ = vertices.rowwise().minCoeff().array() - cell;
+    for (Eigen::Index t = 0; t < triangles.cols(); ++t) {
+      Eigen::Vector3d a = vertices.col(triangles(0, t)), b = a;
+      for (int k = 1; k < 3; ++k) {
+        a = a.cwiseMin(vertices.col(triangles(k, t)));
+        b = b.cwiseMax(vertices.col(triangles(k, t)));
+      }
+      const Eigen::Vector3i ca = Cell(a), cb = Cell(b);
+      for (int i = ca.x(); i <= cb.x(); ++i) {
+        for (int j = ca.y(); j <= cb.y(); ++j) {
+          for (int k = ca.z(); k <= cb.z(); ++k) cells_[Key(i, j, k)].push_back(static_cast<int>(t));
+        }
+      }
+    }
+  }
+
+  // Triangles whose box comes within one cell of p (may repeat).
+  void Near(const Eigen::Vector3d& p, std::vector<int>* out) const {
+    out->clear();
+    const Eigen::Vector3i c = Cell(p);
+    for (int i = c.x() - 1; i <= c.x() + 1; ++i) {
+      for (int j = c.y() - 1; j <= c.y() + 1; ++j) {
+        for (int k = c.z() - 1; k <= c.z() + 1; ++k) {
+          auto it = cells_.find(Key(i, j, k));
+          if (it != cells_.end()) out->insert(out->end(), it->second.begin(), it->second.end());
+        }
+      }
+    }
+    std::sort(out->begin(), out->end());
+    out->erase(std::unique(out->begin(), out->end()), out->end());
+  }
+
+ private:
+  Eigen::Vector3i Cell(const Eigen::Vector3d& p) const {
+    return ((p - lo_) / cell_).array().floor().cast<int>();
+  }
+  static int64_t Key(int i, int j, int k) {
+    return (static_cast<int64_t>(i) * 73856093) ^ (static_cast<int64_t>(j) * 19349663) ^
+           (static_cast<int64_t>(k) * 83492791);
+  }
+  double cell_;
+  Eigen::Vector3d lo_;
+  std::unordered_map<int64_t, std::vector<int>> cells_;
+};
+
+}  // namespace
+
+std::string ContactReport::Summary() const {
+  std::ostringstream out;
+  out.precision(4);
+  out << "penetration into obstacles: max " << max_penetration_before << " -> "
+      << max_penetration_after << ", points inside " << penetrating_points_before << " -> "
+      << penetrating_points_after << "; intersecting triangle pairs: self "
+      << self_intersections_before << " -> " << self_intersections_after << ", with obstacles "
+      << obstacle_intersections_before << " -> " << obstacle_intersections_after
+      << "; surface moved mean " << mean_displacement << " max " << max_displacement
+      << " (max " << max_far_displacement << " farther than " << far_distance
+      << " from the contacts); " << rounds << " rounds, " << obstacle_contacts
+      << " obstacle and " << self_contacts << " self contacts active"
+      << (converged ? "" : "; NOT CONVERGED");
+  return out.str();
+}
+
+ContactSolver::ContactSolver(const ActiveModel& model, const ContactOptions& options)
+    : model_(model), options_(options) {
+  physics_ = std::make_unique<ShapeTargetModel>(model.mesh, model.mu);
+  stencils_ = EmbeddingStencils(model.embedding, model.mesh.tets);
+  stiffness_ = VertexAreas(model.neutral.vertices, model.neutral.triangles);
+  const double mean_area = stiffness_.sum() / std::max<Eigen::Index>(1, stiffness_.size());
+  for (Eigen::Index i = 0; i < stiffness_.size(); ++i) {
+    if (!(stiffness_[i] > 0)) stiffness_[i] = mean_area;
+  }
+  stiffness_ *= options.relative_stiffness * model.mu.mean() / MeanEdgeLength(model.mesh);
+  rest_surface_ = EmbeddedPositions(model.embedding, model.mesh.tets, model.mesh.vertices);
+  rest_normals_ = VertexNormals(rest_surface_, model.neutral.triangles);
+  // Edge rings of every surface vertex.
+  const int ns = model.num_surface_vertices();
+  std::vector<std::vector<int>> neighbours(ns);
+  const Eigen::Matrix3Xi& tris = model.neutral.triangles;
+  for (Eigen::Index t = 0; t < tris.cols(); ++t) {
+    for (int a = 0; a < 3; ++a) {
+      for (int b = 0; b < 3; ++b) {
+        if (a != b) neighbours[tris(a, t)].push_back(tris(b, t));
+      }
+    }
+  }
+  for (auto& list : neighbours) {
+    std::sort(list.begin(), list.end());
+    list.erase(std::unique(list.begin(), list.end()), list.end());
+  }
+  rings_.resize(ns);
+  ParallelFor(options.num_threads, 0, ns, [&](int, int v) {
+    std::vector<int> ring = {v}, frontier = {v};
+    for (int r = 0; r < options.exclusion_rings; ++r) {
+      std::vector<int> next;
+      for (int u : frontier) {
+        for (int w : neighbours[u]) next.push_back(w);
+      }
+      std::sort(next.begin(), next.end());
+      next.erase(std::unique(next.begin(), next.end()), next.end());
+      frontier.clear();
+      for (int w : next) {
+        if (!std::binary_search(ring.begin(), ring.end(), w)) frontier.push_back(w);
+      }
+      ring.insert(ring.end(), frontier.begin(), frontier.end());
+      std::sort(ring.begin(), ring.end());
+    }
+    rings_[v] = ring;
+  });
+}
+
+ContactSolver::~ContactSolver() = default;
+
+void ContactSolver::MeasurePenetration(const Eigen::Matrix3Xd& surface,
+                                       const std::vector<const Obstacle*>& obstacles,
+                                       double* max_depth, int* points) const {
+  *max_depth = 0.0;
+  *points = 0;
+  for (const Obstacle* obstacle : obstacles) {
+    for (Eigen::Index i = 0; i < surface.cols(); ++i) {
+      Eigen::Vector3d g;
+      const double d = obstacle->SignedDistance(surface.col(i), &g, options_.search_radius);
+      if (d < 0) {
+        ++*points;
+        *max_depth = std::max(*max_depth, -d);
+      }
+    }
+  }
+}
+
+int ContactSolver::CountSelfIntersections(const Eigen::Matrix3Xd& surface) const {
+  TriangleIntersectionOptions options;
+  options.num_threads = options_.num_threads;
+  return FindIntersectingTrianglePairs(surface, model_.neutral.triangles, options, nullptr);
+}
+
+int ContactSolver::CountObstacleIntersections(const Eigen::Matrix3Xd& surface,
+                                              const std::vector<const Obstacle*>& obstacles) const {
+  int count = 0;
+  for (const Obstacle* obstacle : obstacles) {
+    count += FindIntersectingTrianglePairs(surface, model_.neutral.triangles, obstacle->vertices(),
+                                           obstacle->triangles(), options_.num_threads, nullptr);
+  }
+  return count;
+}
+
+std::vector<SelfContactPair> ContactSolver::DetectSelfContacts(const Eigen::Matrix3Xd& surface) const {
+  const Eigen::Matrix3Xi& tris = model_.neutral.triangles;
+  // Reach: search_radius in front of a triangle and max_depth behind it.
+  const double reach = std::max({options_.search_radius, options_.max_depth, 1e-9});
+  const TriangleGrid grid(surface, tris, reach);
+  const int ns = static_cast<int>(surface.cols());
+  std::vector<int> best(ns, -1);
+  ParallelFor(options_.num_threads, 0, ns, [&](int, int i) {
+    std::vector<int> candidates;
+    grid.Near(surface.col(i), &candidates);
+    double best_distance = reach;
+    const std::vector<int>& ring = rings_[i];
+    for (int t : candidates) {
+      bool excluded = false;
+      for (int k = 0; k < 3 && !excluded; ++k) {
+        excluded = std::binary_search(ring.begin(), ring.end(), tris(k, t));
+      }
+      if (excluded) continue;
+      double s = 0, s_rest = 0;
+      Eigen::Vector3d beta, beta_rest;
+      if (!PlaneDistance(surface.col(i), surface.col(tris(0, t)), surface.col(tris(1, t)),
+                         surface.col(tris(2, t)), &s, nullptr, &beta) ||
+          beta.minCoeff() < -options_.margin || !(s > -options_.max_depth) ||
+          !(s < options_.thickness + options_.search_radius)) {
+        continue;
+      }
+      // The point must have been on the triangle's outer side at rest, facing it.
+      if (!PlaneDistance(rest_surface_.col(i), rest_surface_.col(tris(0, t)),
+                         rest_surface_.col(tris(1, t)), rest_surface_.col(tris(2, t)), &s_rest,
+                         nullptr, &beta_rest) ||
+          s_rest < -options_.rest_tolerance) {
+        continue;
+      }
+      const Eigen::Vector3d a = rest_surface_.col(tris(0, t));
+      const Eigen::Vector3d n_t =
+          (rest_surface_.col(tris(1, t)) - a).cross(rest_surface_.col(tris(2, t)) - a).normalized();
+      if (rest_normals_.col(i).dot(n_t) > options_.max_normal_alignment) continue;
+      if (std::abs(s) < best_distance) {
+        best_distance = std::abs(s);
+        best[i] = t;
+      }
+    }
+  }, 64);
+  std::vector<SelfContactPair> pairs;
+  for (int i = 0; i < ns; ++i) {
+    if (best[i] < 0) continue;
+    SelfContactPair pair;
+    pair.point = stencils_[i];
+    for (int k = 0; k < 3; ++k) pair.corner[k] = stencils_[tris(k, best[i])];
+    pair.stiffness = stiffness_[i];
+    pairs.push_back(pair);
+  }
+  return pairs;
+}
+
+bool ContactSolver::Resolve(const ActuationMatrix& a, const std::vector<RigidTransform>& bones,
+                            const std::vector<const Obstacle*>& obstacles,
+                            const Eigen::Matrix3Xd& start, Eigen::Matrix3Xd* state,
+                            ContactReport* report, std::string* error) {
+  *report = ContactReport();
+  const Eigen::Matrix3Xd before = EmbeddedPositions(model_.embedding, model_.mesh.tets, start);
+  MeasurePenetration(before, obstacles, &report->max_penetration_before,
+                     &report->penetrating_points_before);
+  report->self_intersections_before = CountSelfIntersections(before);
+  report->obstacle_intersections_before = CountObstacleIntersections(before, obstacles);
+  const BoundaryConditions bc = ModelBoundaryConditions(model_, bones);
+  QuasistaticSolverOptions solver_options = options_.solver;
+  solver_options.num_threads = options_.num_threads;
+  solver_options.newton_relative_force = 0.0;
+  Eigen::Matrix3Xd x = start;
+  std::vector<Eigen::Vector3d> contact_points;
+  for (int round = 0; round < options_.max_rounds; ++round) {
+    const Eigen::Matrix3Xd surface = EmbeddedPositions(model_.embedding, model_.mesh.tets, x);
+    // Candidates near obstacles.
+    std::vector<PointStencil> near_points;
+    std::vector<double> near_stiffness;
+    if (options_.obstacle_contact && !obstacles.empty()) {
+      const ObstacleContactTerm probe({}, Eigen::VectorXd(), options_.thickness, obstacles);
+      for (Eigen::Index i = 0; i < surface.cols(); ++i) {
+        Eigen::Vector3d g;
+        if (probe.Distance(surface.col(i), &g) < options_.thickness + options_.search_radius) {
+          near_points.push_back(stencils_[i]);
+          near_stiffness.push_back(stiffness_[i]);
+        }
+      }
+    }
+    const std::vector<SelfContactPair> pairs =
+        options_.self_contact ? DetectSelfContacts(surface) : std::vector<SelfContactPair>();
+    report->rounds = round + 1;
+    if (near_points.empty() && pairs.empty()) break;
+    const ObstacleContactTerm obstacle_term(
+        near_points, Eigen::Map<const Eigen::VectorXd>(near_stiffness.data(), near_stiffness.size()),
+        options_.thickness, obstacles);
+    // Within a round, a pair keeps its triangle's plane over a wide margin (projections
+    // sliding off the triangle would otherwise switch the penalty off abruptly);
+    // re-detection in the next round pairs points with their new triangles.
+    const SelfContactTerm self_term(pairs, options_.thickness, options_.max_depth,
+                                    kResidualMargin);
+    QuasistaticSolver solver(*physics_, bc, solver_options);
+    solver.actuation() = a;
+    solver.SetPositions(x);
+    if (!near_points.empty()) solver.AddEnergyTerm(&obstacle_term);
+    if (!pairs.empty()) solver.AddEnergyTerm(&self_term);
+    const QuasistaticSolveReport solve = solver.Solve();
+    if (!solve.converged && !std::isfinite(solve.final_energy)) {
+      *error = "the equilibrium with contact failed: " + solve.Summary();
+      return false;
+    }
+    report->converged = solve.converged;
+    x = solver.positions();
+    // Active contacts at the new state; stop when nothing penetrates any more.
+    const Eigen::Matrix3Xd moved = EmbeddedPositions(model_.embedding, model_.mesh.tets, x);
+    Eigen::Matrix3Xd g = Eigen::Matrix3Xd::Zero(3, x.cols());
+    contact_points.clear();
+    report->obstacle_contacts = 0;
+    for (const PointStencil& s : near_points) {
+      Eigen::Vector3d gradient;
+      if (obstacle_term.Distance(s.Position(x), &gradient) < options_.thickness) {
+        ++report->obstacle_contacts;
+        contact_points.push_back(s.Position(x));
+      }
+    }
+    report->self_contacts = 0;
+    for (const SelfContactPair& pair : pairs) {
+      const SelfContactTerm single({pair}, options_.thickness, options_.max_depth, kResidualMargin);
+      if (single.AddEnergyAndGradient(x, &g) > 0) {
+        ++report->self_contacts;
+        contact_points.push_back(pair.point.Position(x));
+      }
+    }
+    double depth = 0;
+    int inside = 0;
+    MeasurePenetration(moved, obstacles, &depth, &inside);
+    if (inside == 0 && (!options_.self_contact || CountSelfIntersections(moved) == 0)) break;
+  }
+  *state = x;
+  const Eigen::Matrix3Xd after = EmbeddedPositions(model_.embedding, model_.mesh.tets, x);
+  MeasurePenetration(after, obstacles, &report->max_penetration_after,
+                     &report->penetrating_points_after);
+  report->self_intersections_after = CountSelfIntersections(after);
+  report->obstacle_intersections_after = CountObstacleIntersections(after, obstacles);
+  const Eigen::VectorXd moved = (after - before).colwise().norm();
+  report->mean_displacement = moved.mean();
+  report->max_displacement = moved.maxCoeff();
+  report->far_distance = 4.0 * options_.search_radius;
+  for (Eigen::Index i = 0; i < after.cols(); ++i) {
+    double nearest = std::numeric_limits<double>::infinity();
+    for (const Eigen::Vector3d& c : contact_points) nearest = std::min(nearest, (after.col(i) - c).norm());
+    if (nearest > report->far_distance) {
+      report->max_far_displacement = std::max(report->max_far_displacement, moved[i]);
+    }
+  }
+  return true;
+}
+
+}  // namespace aqs

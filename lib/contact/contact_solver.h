@@ -1,0 +1,113 @@
+#ifndef AQS_CONTACT_CONTACT_SOLVER_H_
+#define AQS_CONTACT_CONTACT_SOLVER_H_
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "contact/contact_terms.h"
+#include "contact/obstacle.h"
+#include "equilibrium/quasistatic_solver.h"
+#include "model/active_model.h"
+
+namespace aqs {
+
+struct ContactOptions {
+  // Contact thickness (model units): surfaces are kept at least this far apart, and from
+  // obstacles; contacts end between 0 and this distance.
+  double thickness = 0.05;
+  // Penalty stiffness per unit surface area, relative to the material: point i gets
+  // k_i = relative_stiffness * mean(mu) * A_i / h (A_i its share of the neutral surface's
+  // area, h the mean element edge), as the attachments of prepare.
+  double relative_stiffness = 100.0;
+  bool obstacle_contact = true;
+  bool self_contact = true;
+  // Candidates: surface points closer than this to an obstacle, and point-triangle
+  // pairs of the surface closer than this to each other.
+  double search_radius = 0.5;
+  // Self contact: triangles within this many edge rings of a point never pair with it
+  // (its own neighbourhood).
+  int exclusion_rings = 3;
+  // Self contact: a pair counts only if the point was on the outer side of the
+  // triangle at rest (signed distance > -rest_tolerance), and while it is less than
+  // max_depth behind it.
+  double rest_tolerance = 0.02;
+  double max_depth = 1.0;
+  // Self contact: a point pairs with a triangle it projects into (barycentric
+  // coordinates >= -margin) when candidates are detected.
+  double margin = 0.05;
+  // Self contact: surfaces must face each other: the point's rest normal and the
+  // triangle's rest normal must satisfy n_point . n_triangle <= this (-0.5: more than
+  // 120 degrees apart), which rules out pairs within one smooth sheet.
+  double max_normal_alignment = -0.5;
+  // Detection/solve rounds (candidates are re-detected as the surface moves).
+  int max_rounds = 6;
+  // The equilibrium solves (Newton steps are off: contact terms couple elements).
+  QuasistaticSolverOptions solver;
+  int num_threads = 2;
+};
+
+struct ContactReport {
+  // Into obstacles: the deepest surface point (0 if none) and how many points are inside.
+  double max_penetration_before = 0.0, max_penetration_after = 0.0;
+  int penetrating_points_before = 0, penetrating_points_after = 0;
+  // Intersecting triangle pairs: of the surface with itself, and with the obstacles.
+  int self_intersections_before = 0, self_intersections_after = 0;
+  int obstacle_intersections_before = 0, obstacle_intersections_after = 0;
+  // How far the resolution moved the surface: all vertices, and those farther than
+  // far_distance from every point in contact at the end (the rest of the surface).
+  double mean_displacement = 0.0, max_displacement = 0.0;
+  double far_distance = 0.0, max_far_displacement = 0.0;
+  int rounds = 0;
+  int obstacle_contacts = 0, self_contacts = 0;  // active at the end
+  bool converged = true;
+  std::string Summary() const;
+};
+
+// Contact as post-processing: re-solves a model's equilibrium for a given actuation
+// with penalty terms keeping its surface out of rigid obstacles (ObstacleContactTerm) and
+// out of itself (SelfContactTerm), in rounds that re-detect candidates (obstacle trees;
+// a grid over the surface's triangles) as the surface moves.
+class ContactSolver {
+ public:
+  // The model must outlive the solver.
+  ContactSolver(const ActiveModel& model, const ContactOptions& options);
+  ~ContactSolver();
+
+  // From `start` (3 x num_vertices: the contact-free equilibrium for a and bones), the
+  // equilibrium with contact, into *state, and what changed, into *report. Returns false
+  // with *error if an equilibrium cannot be reached.
+  bool Resolve(const ActuationMatrix& a, const std::vector<RigidTransform>& bones,
+               const std::vector<const Obstacle*>& obstacles, const Eigen::Matrix3Xd& start,
+               Eigen::Matrix3Xd* state, ContactReport* report, std::string* error);
+
+  // Measurements used by the report, exposed for tests: the deepest penetration of the
+  // surface (at state x) into the obstacles and the count of points inside; the
+  // intersecting triangle pairs of the surface with itself and with the obstacles.
+  void MeasurePenetration(const Eigen::Matrix3Xd& surface,
+                          const std::vector<const Obstacle*>& obstacles, double* max_depth,
+                          int* points) const;
+  int CountSelfIntersections(const Eigen::Matrix3Xd& surface) const;
+  int CountObstacleIntersections(const Eigen::Matrix3Xd& surface,
+                                 const std::vector<const Obstacle*>& obstacles) const;
+
+  // Self-contact candidates at a surface state (3 x num_surface_vertices).
+  std::vector<SelfContactPair> DetectSelfContacts(const Eigen::Matrix3Xd& surface) const;
+
+ private:
+  const ActiveModel& model_;
+  ContactOptions options_;
+  std::unique_ptr<ShapeTargetModel> physics_;
+  std::vector<PointStencil> stencils_;
+  Eigen::VectorXd stiffness_;     // per surface point
+  Eigen::Matrix3Xd rest_surface_;
+  Eigen::Matrix3Xd rest_normals_;  // per surface vertex
+  // For each surface vertex, the vertices within exclusion_rings rings (sorted).
+  std::vector<std::vector<int>> rings_;
+};
+
+}  // namespace aqs
+
+#endif  // AQS_CONTACT_CONTACT_SOLVER_H_

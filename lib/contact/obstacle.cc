@@ -1,0 +1,107 @@
+#include "contact/obstacle.h"
+
+#include <sstream>
+
+#include "mesh/mesh_io.h"
+#include "util/line_reader.h"
+
+namespace aqs {
+
+Obstacle::Obstacle(std::string name, const Eigen::Matrix3Xd& vertices,
+                   const Eigen::Matrix3Xi& triangles)
+    : name_(std::move(name)),
+      vertices_(vertices),
+      triangles_(triangles),
+      bvh_(vertices, triangles),
+      winding_(vertices, triangles) {}
+
+double Obstacle::SignedDistance(const Eigen::Vector3d& p, Eigen::Vector3d* gradient,
+                                double max_distance) const {
+  const ClosestPointResult closest = bvh_.ClosestPoint(p, max_distance);
+  if (closest.triangle < 0) {
+    gradient->setZero();
+    return max_distance;
+  }
+  const bool inside = winding_.WindingNumber(p) > 0.5;
+  Eigen::Vector3d direction = p - closest.point;
+  const double distance = direction.norm();
+  if (distance > 1e-12) {
+    direction /= distance;
+  } else {  // on the surface: the triangle's normal
+    const Eigen::Vector3d a = vertices_.col(triangles_(0, closest.triangle));
+    direction = (vertices_.col(triangles_(1, closest.triangle)) - a)
+                    .cross(vertices_.col(triangles_(2, closest.triangle)) - a)
+                    .normalized();
+  }
+  *gradient = inside ? -direction : direction;
+  return inside ? -distance : distance;
+}
+
+bool ParseObstacleSpecs(const std::string& text, std::vector<ObstacleSpec>* specs,
+                        std::string* error) {
+  std::stringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    const std::vector<std::string> fields = SplitTokens(item);
+    if (fields.empty()) continue;
+    ObstacleSpec spec;
+    spec.path = fields[0];
+    for (size_t i = 1; i < fields.size(); ++i) {
+      const size_t eq = fields[i].find('=');
+      const std::string key = fields[i].substr(0, eq == std::string::npos ? 0 : eq);
+      const std::string value = eq == std::string::npos ? "" : fields[i].substr(eq + 1);
+      if (key == "bone" && !value.empty()) {
+        spec.bone = value;
+      } else if (key == "vertices") {
+        const size_t colon = value.find(':');
+        if (colon == std::string::npos || !ParseInt(value.substr(0, colon), &spec.first_vertex) ||
+            !ParseInt(value.substr(colon + 1), &spec.end_vertex) || spec.first_vertex < 0 ||
+            spec.end_vertex <= spec.first_vertex) {
+          *error = "obstacle '" + item + "': vertices=a:b needs 0 <= a < b";
+          return false;
+        }
+      } else {
+        *error = "obstacle '" + item + "': unknown field '" + fields[i] +
+                 "' (expected: path [vertices=a:b] [bone=name])";
+        return false;
+      }
+    }
+    specs->push_back(spec);
+  }
+  return true;
+}
+
+bool ReadObstacleSurfaces(const std::vector<ObstacleSpec>& specs,
+                          std::vector<Eigen::Matrix3Xd>* vertices,
+                          std::vector<Eigen::Matrix3Xi>* triangles, std::string* error) {
+  for (const ObstacleSpec& spec : specs) {
+    SurfaceMesh surface;
+    if (!ReadObj(spec.path, &surface, error)) return false;
+    const int end = spec.end_vertex < 0 ? surface.num_vertices() : spec.end_vertex;
+    if (end > surface.num_vertices()) {
+      *error = spec.path + ": vertices=" + std::to_string(spec.first_vertex) + ":" +
+               std::to_string(end) + " but the file has " + std::to_string(surface.num_vertices());
+      return false;
+    }
+    std::vector<int> kept;
+    for (int t = 0; t < surface.num_triangles(); ++t) {
+      bool in = true;
+      for (int k = 0; k < 3; ++k) {
+        const int v = surface.triangles(k, t);
+        in = in && v >= spec.first_vertex && v < end;
+      }
+      if (in) kept.push_back(t);
+    }
+    if (kept.empty()) {
+      *error = spec.path + ": no triangle lies in the requested vertex range";
+      return false;
+    }
+    Eigen::Matrix3Xi tris(3, kept.size());
+    for (size_t i = 0; i < kept.size(); ++i) tris.col(i) = surface.triangles.col(kept[i]);
+    vertices->push_back(surface.vertices);
+    triangles->push_back(tris);
+  }
+  return true;
+}
+
+}  // namespace aqs

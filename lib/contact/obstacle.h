@@ -1,0 +1,65 @@
+#ifndef AQS_CONTACT_OBSTACLE_H_
+#define AQS_CONTACT_OBSTACLE_H_
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "geometry/rigid_transform.h"
+#include "geometry/triangle_bvh.h"
+#include "geometry/winding_number.h"
+
+namespace aqs {
+
+// A rigid obstacle at one placement: a closed triangle surface (e.g. teeth) with its
+// signed distance: positive outside, negative inside (inside by winding number).
+class Obstacle {
+ public:
+  // vertices: 3 x N at the placement; triangles: 3 x M, outward (or consistently)
+  // oriented, closed (the inside test is a winding number; small holes are tolerated).
+  Obstacle(std::string name, const Eigen::Matrix3Xd& vertices, const Eigen::Matrix3Xi& triangles);
+
+  const std::string& name() const { return name_; }
+  const Eigen::Matrix3Xd& vertices() const { return vertices_; }
+  const Eigen::Matrix3Xi& triangles() const { return triangles_; }
+
+  // The signed distance of p and its gradient (the unit vector from the closest surface
+  // point to p, flipped inside: it points out of the obstacle). Points farther than
+  // max_distance (when finite) return +max_distance with a zero gradient, without a
+  // full search.
+  double SignedDistance(const Eigen::Vector3d& p, Eigen::Vector3d* gradient,
+                        double max_distance = std::numeric_limits<double>::infinity()) const;
+
+ private:
+  std::string name_;
+  Eigen::Matrix3Xd vertices_;
+  Eigen::Matrix3Xi triangles_;
+  TriangleBvh bvh_;
+  FastWindingNumber winding_;
+};
+
+// A rigid obstacle as specified by users: a surface file, optionally only the triangles
+// whose vertices all lie in a vertex range (e.g. the lower teeth of a file with both
+// jaws), optionally moving with a bone of the model.
+struct ObstacleSpec {
+  std::string path;
+  int first_vertex = 0;
+  int end_vertex = -1;  // -1: all
+  std::string bone;     // empty: static
+};
+
+// Parses "path [vertices=a:b] [bone=name]" items separated by commas.
+bool ParseObstacleSpecs(const std::string& text, std::vector<ObstacleSpec>* specs,
+                        std::string* error);
+
+// Reads the obstacle surfaces (OBJ) of `specs`, keeping the requested triangles;
+// vertices stay in the file's numbering. Errors name the file.
+bool ReadObstacleSurfaces(const std::vector<ObstacleSpec>& specs,
+                          std::vector<Eigen::Matrix3Xd>* vertices,
+                          std::vector<Eigen::Matrix3Xi>* triangles, std::string* error);
+
+}  // namespace aqs
+
+#endif  // AQS_CONTACT_OBSTACLE_H_

@@ -1,0 +1,131 @@
+#include "jobs/collide_job.h"
+
+#include <filesystem>
+#include <memory>
+
+#include "fit/latent_fit.h"
+#include "io/latent_io.h"
+#include "jobs/deformed_output.h"
+#include "mesh/mesh_io.h"
+#include "model/model_io.h"
+#include "util/atomic_file.h"
+#include "util/wall_timer.h"
+
+namespace aqs {
+namespace {
+
+CollideJobResult Fail(JobStatus status, const std::string& message) {
+  CollideJobResult result;
+  result.status = status;
+  result.message = message;
+  return result;
+}
+
+}  // namespace
+
+CollideJobResult RunCollideJob(const CollideJobOptions& options, std::ostream& log) {
+  WallTimer timer;
+  std::string error;
+  if (options.model.empty() || options.output.empty()) {
+    return Fail(JobStatus::kBadInput, "--model and --output are required");
+  }
+  if (options.latent.empty() == options.pose.empty()) {
+    return Fail(JobStatus::kBadInput, "give either --latent=Z.txt or --pose=NAME");
+  }
+  if (!(options.contact.thickness > 0) || !(options.contact.relative_stiffness > 0)) {
+    return Fail(JobStatus::kBadInput, "the contact thickness and stiffness must be positive");
+  }
+  ActiveModel model;
+  if (!LoadModel(options.model, &model, &error)) return Fail(JobStatus::kBadInput, error);
+  if (!model.decoder) return Fail(JobStatus::kBadInput, options.model + ": the model is not trained");
+  std::vector<std::string> bone_names;
+  for (const Bone& bone : model.bones) bone_names.push_back(bone.name);
+  Eigen::VectorXd z;
+  std::vector<RigidTransform> bones;
+  if (!options.latent.empty()) {
+    if (!ReadLatentFile(options.latent, model.latent_dim(), bone_names, &z, &bones, &error)) {
+      return Fail(JobStatus::kBadInput, error);
+    }
+  } else {
+    const int p = model.PoseIndex(options.pose);
+    if (p < 0) return Fail(JobStatus::kBadInput, "the model has no training pose '" + options.pose + "'");
+    z = model.latents.col(p);
+    for (const Bone& bone : model.bones) bones.push_back(bone.pose_transforms[p]);
+  }
+  // Obstacles, placed with their bones.
+  std::vector<ObstacleSpec> specs;
+  if (!ParseObstacleSpecs(options.obstacles, &specs, &error)) return Fail(JobStatus::kBadInput, error);
+  std::vector<Eigen::Matrix3Xd> obstacle_vertices;
+  std::vector<Eigen::Matrix3Xi> obstacle_triangles;
+  if (!ReadObstacleSurfaces(specs, &obstacle_vertices, &obstacle_triangles, &error)) {
+    return Fail(JobStatus::kBadInput, error);
+  }
+  std::vector<std::unique_ptr<Obstacle>> obstacles;
+  std::vector<const Obstacle*> obstacle_pointers;
+  for (size_t i = 0; i < specs.size(); ++i) {
+    Eigen::Matrix3Xd vertices = obstacle_vertices[i];
+    if (!specs[i].bone.empty()) {
+      int b = -1;
+      for (size_t k = 0; k < bone_names.size(); ++k) {
+        if (bone_names[k] == specs[i].bone) b = static_cast<int>(k);
+      }
+      if (b < 0) return Fail(JobStatus::kBadInput, "obstacle " + specs[i].path + ": the model has no bone '" + specs[i].bone + "'");
+      vertices = bones[b].Apply(vertices);
+    }
+    obstacles.push_back(std::make_unique<Obstacle>(specs[i].path, vertices, obstacle_triangles[i]));
+    obstacle_pointers.push_back(obstacles.back().get());
+    log << "obstacle " << specs[i].path << ": " << obstacle_triangles[i].cols() << " triangles"
+        << (specs[i].bone.empty() ? "" : ", moving with " + specs[i].bone) << "\n";
+  }
+  // The pose without contact.
+  LatentFitOptions fit_options;
+  fit_options.solver = options.contact.solver;
+  fit_options.num_threads = options.contact.num_threads;
+  LatentFitter fitter(model, fit_options);
+  fitter.set_bone_transforms(bones);
+  Eigen::Matrix3Xd start, surface_before;
+  if (!fitter.Simulate(z, &start, &surface_before, &error)) {
+    return Fail(JobStatus::kNotConverged, error);
+  }
+  ActuationMatrix a;
+  DecoderWorkspace workspace;
+  model.decoder->Decode(model.decoder_params.data(), z, &a, &workspace);
+  ContactSolver solver(model, options.contact);
+  CollideJobResult result;
+  Eigen::Matrix3Xd state;
+  if (!solver.Resolve(a, bones, obstacle_pointers, start, &state, &result.report, &error)) {
+    return Fail(JobStatus::kNotConverged, error);
+  }
+  log << "contact: " << result.report.Summary() << "\n";
+  SurfaceMesh surface = model.neutral;
+  surface.vertices = EmbeddedPositions(model.embedding, model.mesh.tets, state);
+  if (!WriteObj(options.output, surface, &error)) return Fail(JobStatus::kBadInput, error);
+  log << "wrote " << options.output << "\n";
+  if (!options.output_before.empty()) {
+    surface.vertices = surface_before;
+    if (!WriteObj(options.output_before, surface, &error)) return Fail(JobStatus::kBadInput, error);
+    log << "wrote " << options.output_before << "\n";
+  }
+  if (!options.output_volume.empty()) {
+    const std::vector<VtuField> point_fields = {MakeVtuField("contact_displacement", state - start),
+                                                MakeVtuField("displacement", state - model.mesh.vertices)};
+    if (!WriteDeformedMesh(options.output_volume, model.mesh, state, point_fields, {}, &error)) {
+      return Fail(JobStatus::kBadInput, error);
+    }
+    log << "wrote " << options.output_volume << "\n";
+  }
+  if (!options.report.empty()) {
+    if (!WriteFileAtomically(options.report, result.report.Summary() + "\n", &error)) {
+      return Fail(JobStatus::kBadInput, error);
+    }
+  }
+  if (!result.report.converged) {
+    result.status = JobStatus::kNotConverged;
+    result.message = "the equilibrium with contact was not reached to tolerance: " +
+                     result.report.Summary();
+  }
+  log << "total " << timer.Seconds() << " s\n";
+  return result;
+}
+
+}  // namespace aqs

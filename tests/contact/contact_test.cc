@@ -1,0 +1,305 @@
+#include <memory>
+#include <random>
+
+#include <ceres/cost_function.h>
+#include <ceres/gradient_checker.h>
+#include <ceres/manifold.h>
+#include <gtest/gtest.h>
+
+#include "contact/contact_solver.h"
+#include "contact/contact_terms.h"
+#include "geometry/embedding.h"
+#include "geometry/geometry_test_util.h"
+#include "geometry/surface_tet_mesher.h"
+#include "mesh/boundary_surface.h"
+#include "mesh/lattice.h"
+#include "testing/finite_difference.h"
+
+namespace aqs {
+namespace {
+
+// An axis-aligned box surface (closed, outward), as an obstacle.
+void BoxSurface(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, Eigen::Matrix3Xd* v,
+                Eigen::Matrix3Xi* t) {
+  LatticeOptions options;
+  options.origin = lo;
+  options.spacing = 1.0;
+  TetMesh cube = MakeLatticeMesh(options);  // one unit cube
+  for (int i = 0; i < cube.num_vertices(); ++i) {
+    cube.vertices.col(i) = lo + (hi - lo).cwiseProduct(cube.vertices.col(i) - lo);
+  }
+  const BoundarySurface boundary = ExtractBoundarySurface(cube);
+  *v = cube.vertices;
+  *t = boundary.triangles;
+}
+
+double MaxBlockError(const ceres::GradientChecker::ProbeResults& r) {
+  double worst = 0;
+  for (size_t b = 0; b < r.jacobians.size(); ++b) {
+    worst = std::max(worst, testing::RelativeError(r.jacobians[b], r.numeric_jacobians[b], 1e-10));
+  }
+  return worst;
+}
+
+TEST(PlaneDistanceTest, GradientMatchesFiniteDifferences) {
+  std::mt19937 rng(3);
+  std::normal_distribution<double> normal;
+  for (int trial = 0; trial < 20; ++trial) {
+    Eigen::VectorXd x(12);
+    for (int i = 0; i < 12; ++i) x[i] = normal(rng);
+    auto s_of = [](const Eigen::VectorXd& v) {
+      double s = 0;
+      PlaneDistance(v.segment<3>(0), v.segment<3>(3), v.segment<3>(6), v.segment<3>(9), &s,
+                    nullptr, nullptr);
+      return s;
+    };
+    double s = 0;
+    Eigen::Matrix<double, 3, 4> g;
+    Eigen::Vector3d beta;
+    ASSERT_TRUE(PlaneDistance(x.segment<3>(0), x.segment<3>(3), x.segment<3>(6), x.segment<3>(9), &s,
+                              &g, &beta));
+    const Eigen::VectorXd numeric = testing::CentralDifferenceGradient(s_of, x, 1e-6);
+    EXPECT_LT(testing::RelativeError(Eigen::Map<const Eigen::VectorXd>(g.data(), 12), numeric), 1e-8);
+    // The projection is reproduced by the barycentric coordinates.
+    const Eigen::Vector3d a = x.segment<3>(3), b = x.segment<3>(6), c = x.segment<3>(9);
+    const Eigen::Vector3d n = (b - a).cross(c - a).normalized();
+    EXPECT_LT((beta[0] * a + beta[1] * b + beta[2] * c - (x.segment<3>(0) - s * n)).norm(), 1e-10);
+  }
+}
+
+// A single-tet "mesh" whose vertices carry a point stencil, for term tests.
+PointStencil Stencil(int first, const Eigen::Vector4d& w) {
+  PointStencil s;
+  for (int j = 0; j < 4; ++j) {
+    s.vertex[j] = first + j;
+    s.weight[j] = w[j];
+  }
+  s.offset = Eigen::Vector3d(0.01, -0.02, 0.03);
+  return s;
+}
+
+TEST(ObstacleContactTermTest, ResidualJacobianAndEnergyGradient) {
+  Eigen::Matrix3Xd v;
+  Eigen::Matrix3Xi t;
+  BoxSurface(Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(2, 1, 1), &v, &t);
+  const Obstacle box("box", v, t);
+  // A point inside the box (penetrating) and one just outside within the thickness.
+  const std::vector<PointStencil> points = {Stencil(0, Eigen::Vector4d(0.1, 0.2, 0.3, 0.4)),
+                                            Stencil(4, Eigen::Vector4d(0.25, 0.25, 0.25, 0.25))};
+  const ObstacleContactTerm term(points, Eigen::Vector2d(3.0, 2.0), 0.1, {&box});
+  Eigen::Matrix3Xd x(3, 8);
+  x << 0.5, 0.6, 0.4, 0.5, 1.0, 1.1, 1.0, 0.9,  //
+      0.8, 0.9, 0.7, 0.85, 1.02, 1.06, 1.04, 1.05,  //
+      0.4, 0.5, 0.6, 0.3, 0.5, 0.4, 0.6, 0.5;
+  for (int i = 0; i < 2; ++i) {
+    std::unique_ptr<ceres::CostFunction> cost(term.NewCostFunction(i));
+    const double* parameters[4];
+    for (int j = 0; j < 4; ++j) parameters[j] = x.col(points[i].vertex[j]).data();
+    double r = 0;
+    ASSERT_TRUE(cost->Evaluate(parameters, &r, nullptr));
+    EXPECT_GT(r, 0.0) << "point " << i << " is in contact";
+    ceres::NumericDiffOptions numeric;
+    numeric.ridders_relative_initial_step_size = 1e-4;
+    const std::vector<const ceres::Manifold*>* none = nullptr;
+    ceres::GradientChecker checker(cost.get(), none, numeric);
+    ceres::GradientChecker::ProbeResults results;
+    checker.Probe(parameters, 1e-7, &results);
+    EXPECT_LT(MaxBlockError(results), 1e-6) << results.error_log;
+  }
+  auto energy = [&](const Eigen::VectorXd& flat) {
+    Eigen::Matrix3Xd g = Eigen::Matrix3Xd::Zero(3, 8);
+    return term.AddEnergyAndGradient(Eigen::Map<const Eigen::Matrix3Xd>(flat.data(), 3, 8), &g);
+  };
+  Eigen::Matrix3Xd gradient = Eigen::Matrix3Xd::Zero(3, 8);
+  term.AddEnergyAndGradient(x, &gradient);
+  EXPECT_LT(testing::RelativeError(
+                Eigen::Map<const Eigen::VectorXd>(gradient.data(), 24),
+                testing::CentralDifferenceGradient(
+                    energy, Eigen::Map<const Eigen::VectorXd>(x.data(), 24), 1e-6)),
+            1e-7);
+}
+
+TEST(SelfContactTermTest, ResidualJacobianAndEnergyGradient) {
+  // A point just below a triangle above it (active), stencils over 16 vertices with a
+  // shared one.
+  SelfContactPair pair;
+  pair.point = Stencil(0, Eigen::Vector4d(0.4, 0.3, 0.2, 0.1));
+  pair.corner[0] = Stencil(4, Eigen::Vector4d(0.7, 0.1, 0.1, 0.1));
+  pair.corner[1] = Stencil(8, Eigen::Vector4d(0.1, 0.7, 0.1, 0.1));
+  pair.corner[2] = Stencil(12, Eigen::Vector4d(0.1, 0.1, 0.7, 0.1));
+  pair.corner[2].vertex[3] = 0;  // shares a vertex with the point
+  pair.stiffness = 5.0;
+  Eigen::Matrix3Xd x(3, 16);
+  std::mt19937 rng(8);
+  std::normal_distribution<double> noise(0.0, 0.02);
+  for (int v = 0; v < 16; ++v) {
+    Eigen::Vector3d p;
+    if (v < 4) p = Eigen::Vector3d(0.3, 0.3, -0.05);        // the point
+    else if (v < 8) p = Eigen::Vector3d(0, 0, 0);           // corner a
+    else if (v < 12) p = Eigen::Vector3d(1, 0, 0.05);       // corner b
+    else p = Eigen::Vector3d(0, 1, -0.03);                  // corner c
+    x.col(v) = p + Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+  }
+  const SelfContactTerm term({pair}, 0.1, 1.0, 0.05);
+  std::vector<int> block_vertices;
+  std::unique_ptr<ceres::CostFunction> cost(term.NewCostFunction(0, &block_vertices));
+  EXPECT_EQ(block_vertices.size(), 15u);  // 16 slots, one shared
+  std::vector<const double*> parameters;
+  for (int v : block_vertices) parameters.push_back(x.col(v).data());
+  double r = 0;
+  ASSERT_TRUE(cost->Evaluate(parameters.data(), &r, nullptr));
+  EXPECT_GT(r, 0.0);
+  ceres::NumericDiffOptions numeric;
+  numeric.ridders_relative_initial_step_size = 1e-4;
+  const std::vector<const ceres::Manifold*>* none = nullptr;
+  ceres::GradientChecker checker(cost.get(), none, numeric);
+  ceres::GradientChecker::ProbeResults results;
+  checker.Probe(parameters.data(), 1e-7, &results);
+  EXPECT_LT(MaxBlockError(results), 1e-6) << results.error_log;
+  auto energy = [&](const Eigen::VectorXd& flat) {
+    Eigen::Matrix3Xd g = Eigen::Matrix3Xd::Zero(3, 16);
+    return term.AddEnergyAndGradient(Eigen::Map<const Eigen::Matrix3Xd>(flat.data(), 3, 16), &g);
+  };
+  Eigen::Matrix3Xd gradient = Eigen::Matrix3Xd::Zero(3, 16);
+  term.AddEnergyAndGradient(x, &gradient);
+  EXPECT_LT(testing::RelativeError(
+                Eigen::Map<const Eigen::VectorXd>(gradient.data(), 48),
+                testing::CentralDifferenceGradient(
+                    energy, Eigen::Map<const Eigen::VectorXd>(x.data(), 48), 1e-6)),
+            1e-7);
+}
+
+// A model of lattice blocks with the given boundary conditions, its surface the mesh
+// boundary (no training data: only what ContactSolver needs).
+ActiveModel BlockModel(const TetMesh& mesh, const std::vector<int>& fixed) {
+  ActiveModel model;
+  model.mesh = mesh;
+  model.mu = Eigen::VectorXd::Ones(mesh.num_tets());
+  model.static_vertices = fixed;
+  const BoundarySurface boundary = ExtractBoundarySurface(mesh);
+  model.neutral.vertices = mesh.vertices;  // all vertices; only boundary ones are in triangles
+  model.neutral.triangles = boundary.triangles;
+  model.embedding = EmbedPoints(mesh, mesh.vertices, 1);
+  return model;
+}
+
+TEST(ContactSolverTest, BlockPushedIntoASlabStopsAtItsSurface) {
+  LatticeOptions lattice;
+  lattice.nx = 3;
+  lattice.ny = 3;
+  lattice.nz = 3;
+  lattice.spacing = 1.0 / 3.0;
+  lattice.type = LatticeType::kKuhn;
+  const TetMesh block = MakeLatticeMesh(lattice);  // [0, 1]^3
+  std::vector<int> top;
+  for (int v = 0; v < block.num_vertices(); ++v) {
+    if (block.vertices(1, v) > 1 - 1e-9) top.push_back(v);
+  }
+  ActiveModel model = BlockModel(block, top);
+  // Push the top down by 0.4: the block's bottom would reach y = -0.4 inside the slab
+  // below y = -0.2.
+  Bone lid;
+  lid.name = "lid";
+  lid.vertices = top;
+  model.static_vertices.clear();
+  model.bones = {lid};
+  RigidTransform push;
+  push.translation = Eigen::Vector3d(0, -0.4, 0);
+  const BoundaryConditions bc = ModelBoundaryConditions(model, {push});
+  const ShapeTargetModel physics(model.mesh, model.mu);
+  QuasistaticSolver free(physics, bc);
+  ASSERT_TRUE(free.Solve().converged);
+  Eigen::Matrix3Xd v;
+  Eigen::Matrix3Xi t;
+  BoxSurface(Eigen::Vector3d(-1, -2, -1), Eigen::Vector3d(2, -0.2, 2), &v, &t);
+  const Obstacle slab("slab", v, t);
+  ContactOptions options;
+  options.thickness = 0.02;
+  options.relative_stiffness = 1000.0;
+  options.self_contact = false;
+  options.solver.relative_force_tolerance = 1e-8;
+  ContactSolver solver(model, options);
+  Eigen::Matrix3Xd state;
+  ContactReport report;
+  std::string error;
+  ASSERT_TRUE(solver.Resolve(IdentityActuations(block.num_tets()), {push}, {&slab},
+                             free.positions(), &state, &report, &error))
+      << error;
+  EXPECT_GT(report.max_penetration_before, 0.15) << report.Summary();
+  EXPECT_GT(report.penetrating_points_before, 0);
+  EXPECT_EQ(report.penetrating_points_after, 0) << report.Summary();
+  EXPECT_EQ(report.obstacle_intersections_after, 0) << report.Summary();
+  // The bottom rests on the slab, within the contact thickness.
+  const double lowest = state.row(1).minCoeff();
+  EXPECT_GE(lowest, -0.2 - 1e-9);
+  EXPECT_LE(lowest, -0.2 + options.thickness);
+  EXPECT_GT(report.obstacle_contacts, 0);
+}
+
+TEST(ContactSolverTest, TwoSpheresPressedTogetherFlattenWithoutIntersecting) {
+  // Two soft balls, each a lattice under a smooth embedded sphere (as faces are
+  // modelled), in one model whose surface is both spheres: the left ball held at its far
+  // side, the right one pushed 0.3 towards it by its far side (0.1 gap: 0.2 of overlap
+  // without contact).
+  const SurfaceMesh left_sphere = testing::Icosphere(3, 0.5, Eigen::Vector3d(0, 0, 0));
+  const SurfaceMesh right_sphere = testing::Icosphere(3, 0.5, Eigen::Vector3d(1.1, 0, 0));
+  SurfaceTetMeshOptions meshing;
+  meshing.spacing = 0.2;
+  TetMesh left_mesh, right_mesh;
+  std::string error;
+  ASSERT_TRUE(MeshSurfaceInterior(left_sphere.vertices, left_sphere.triangles, meshing, &left_mesh,
+                                  &error)) << error;
+  ASSERT_TRUE(MeshSurfaceInterior(right_sphere.vertices, right_sphere.triangles, meshing,
+                                  &right_mesh, &error)) << error;
+  ActiveModel model;
+  model.mesh.vertices.resize(3, left_mesh.num_vertices() + right_mesh.num_vertices());
+  model.mesh.vertices << left_mesh.vertices, right_mesh.vertices;
+  model.mesh.tets.resize(4, left_mesh.num_tets() + right_mesh.num_tets());
+  model.mesh.tets << left_mesh.tets, (right_mesh.tets.array() + left_mesh.num_vertices()).matrix();
+  model.mu = Eigen::VectorXd::Ones(model.mesh.num_tets());
+  const int ns = left_sphere.num_vertices();
+  model.neutral.vertices.resize(3, 2 * ns);
+  model.neutral.vertices << left_sphere.vertices, right_sphere.vertices;
+  model.neutral.triangles.resize(3, 2 * left_sphere.num_triangles());
+  model.neutral.triangles << left_sphere.triangles, (right_sphere.triangles.array() + ns).matrix();
+  model.embedding = EmbedPoints(model.mesh, model.neutral.vertices, 2);
+  Bone driver;
+  driver.name = "driver";
+  for (int v = 0; v < model.mesh.num_vertices(); ++v) {
+    if (model.mesh.vertices(0, v) < -0.3) model.static_vertices.push_back(v);
+    if (model.mesh.vertices(0, v) > 1.4) driver.vertices.push_back(v);
+  }
+  model.bones = {driver};
+  RigidTransform push;
+  push.translation = Eigen::Vector3d(-0.3, 0, 0);
+  const ShapeTargetModel physics(model.mesh, model.mu);
+  QuasistaticSolver free(physics, ModelBoundaryConditions(model, {push}));
+  ASSERT_TRUE(free.Solve().converged);
+  ContactOptions options;
+  options.thickness = 0.01;
+  options.relative_stiffness = 1000.0;
+  options.search_radius = 0.1;
+  options.max_depth = 0.4;
+  ContactSolver solver(model, options);
+  Eigen::Matrix3Xd state;
+  ContactReport report;
+  ASSERT_TRUE(solver.Resolve(IdentityActuations(model.mesh.num_tets()), {push}, {},
+                             free.positions(), &state, &report, &error))
+      << error;
+  EXPECT_GT(report.self_intersections_before, 50) << report.Summary();
+  EXPECT_EQ(report.self_intersections_after, 0) << report.Summary();
+  EXPECT_GT(report.self_contacts, 0) << report.Summary();
+  EXPECT_TRUE(report.converged) << report.Summary();
+  // The spheres meet flattened: along the centre line, the right sphere's leftmost point
+  // is within the thickness of the left sphere's rightmost one, not behind it.
+  const Eigen::Matrix3Xd surface = EmbeddedPositions(model.embedding, model.mesh.tets, state);
+  const double left_front = surface.leftCols(ns).row(0).maxCoeff();
+  const double right_front = surface.rightCols(ns).row(0).minCoeff();
+  EXPECT_GE(right_front - left_front, -0.01) << report.Summary();
+  EXPECT_LE(right_front - left_front, 3 * options.thickness) << report.Summary();
+  // The far sides stay where they were held.
+  EXPECT_LT(report.max_far_displacement, 0.05) << report.Summary();
+}
+
+}  // namespace
+}  // namespace aqs
