@@ -9,6 +9,7 @@
 
 #include "app_common.h"
 #include "jobs/collide_job.h"
+#include "jobs/evaluate_job.h"
 
 DECLARE_string(model);
 DECLARE_int32(threads);
@@ -28,7 +29,9 @@ DEFINE_double(search_radius, 0.5, "Candidate search radius (model units).");
 DEFINE_int32(exclusion_rings, 3, "Self contact: a point never pairs with triangles within this "
              "many edge rings.");
 DEFINE_int32(contact_rounds, 6, "Detection and solve rounds.");
-DEFINE_double(contact_tolerance, 1e-6, "Relative force tolerance of the contact equilibria.");
+DEFINE_double(contact_tolerance, 1e-5, "Relative force tolerance of the contact equilibria.");
+DEFINE_string(contact_vertices, "", "Surface vertices taking part in contact, e.g. 0:11248 "
+              "(default: all).");
 
 int main(int argc, char** argv) {
   aqs::InitApp("Resolve contacts of a trained model's pose.\n"
@@ -53,6 +56,12 @@ int main(int argc, char** argv) {
   options.contact.max_rounds = FLAGS_contact_rounds;
   options.contact.solver.relative_force_tolerance = FLAGS_contact_tolerance;
   options.contact.num_threads = FLAGS_threads;
+  std::string error;
+  if (!FLAGS_contact_vertices.empty() &&
+      !aqs::ParseVertexRanges(FLAGS_contact_vertices, &options.contact.surface_vertices, &error)) {
+    aqs::PrintError(error);
+    return 1;
+  }
   const aqs::CollideJobResult result = aqs::RunCollideJob(options, std::cout);
   if (result.status != aqs::JobStatus::kOk) aqs::PrintError(result.message);
   return result.status == aqs::JobStatus::kOk ? 0 : (result.status == aqs::JobStatus::kBadInput ? 1 : 2);

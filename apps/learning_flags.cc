@@ -23,6 +23,8 @@ DEFINE_double(train_minutes, 0.0, "Stop end-to-end training after this many minu
               "(0: no limit).");
 DEFINE_double(train_tolerance, 1e-6, "Relative force tolerance of the training equilibria.");
 DEFINE_int32(checkpoint_every, 1, "Save the learned state every this many iterations.");
+DEFINE_int32(train_restarts, 5, "L-BFGS restarts allowed when the line search stalls before the "
+             "iteration or time budget is used.");
 DECLARE_int32(threads);
 
 namespace aqs {
@@ -64,8 +66,8 @@ bool PretrainOptionsFromFlags(PretrainOptions* options, std::string* error) {
 }
 
 bool TrainOptionsFromFlags(TrainOptions* options, std::string* error) {
-  if (FLAGS_train_iterations < 0 || !(FLAGS_train_tolerance > 0)) {
-    *error = "--train_iterations must be >= 0 and --train_tolerance > 0";
+  if (FLAGS_train_iterations < 0 || !(FLAGS_train_tolerance > 0) || FLAGS_train_restarts < 0) {
+    *error = "--train_iterations and --train_restarts must be >= 0 and --train_tolerance > 0";
     return false;
   }
   options->latent_regularization = FLAGS_latent_regularization;
@@ -74,6 +76,7 @@ bool TrainOptionsFromFlags(TrainOptions* options, std::string* error) {
   options->solver.relative_force_tolerance = FLAGS_train_tolerance;
   options->num_threads = FLAGS_threads;
   options->checkpoint_every = FLAGS_checkpoint_every;
+  options->max_restarts = FLAGS_train_restarts;
   return true;
 }
 

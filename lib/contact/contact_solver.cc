@@ -5,6 +5,8 @@
 #include <sstream>
 #include <unordered_map>
 
+#include <glog/logging.h>
+
 #include "geometry/embedding.h"
 #include "geometry/plane_cuts.h"
 #include "geometry/triangle_intersections.h"
@@ -75,7 +77,8 @@ std::string ContactReport::Summary() const {
   out << "penetration into obstacles: max " << max_penetration_before << " -> "
       << max_penetration_after << ", points inside " << penetrating_points_before << " -> "
       << penetrating_points_after << "; intersecting triangle pairs: self "
-      << self_intersections_before << " -> " << self_intersections_after << ", with obstacles "
+      << self_intersections_before << " -> " << self_intersections_after << " ("
+      << self_intersections_rest << " at rest), with obstacles "
       << obstacle_intersections_before << " -> " << obstacle_intersections_after
       << "; surface moved mean " << mean_displacement << " max " << max_displacement
       << " (max " << max_far_displacement << " farther than " << far_distance
@@ -97,6 +100,20 @@ ContactSolver::ContactSolver(const ActiveModel& model, const ContactOptions& opt
   stiffness_ *= options.relative_stiffness * model.mu.mean() / MeanEdgeLength(model.mesh);
   rest_surface_ = EmbeddedPositions(model.embedding, model.mesh.tets, model.mesh.vertices);
   rest_normals_ = VertexNormals(rest_surface_, model.neutral.triangles);
+  const int num_surface = model.num_surface_vertices();
+  in_contact_.assign(num_surface, options.surface_vertices.empty() ? 1 : 0);
+  for (int v : options.surface_vertices) {
+    CHECK(v >= 0 && v < num_surface) << "contact surface vertex " << v;
+    in_contact_[v] = 1;
+  }
+  std::vector<int> kept;
+  for (Eigen::Index t = 0; t < model.neutral.triangles.cols(); ++t) {
+    bool in = true;
+    for (int k = 0; k < 3; ++k) in = in && in_contact_[model.neutral.triangles(k, t)];
+    if (in) kept.push_back(static_cast<int>(t));
+  }
+  contact_triangles_.resize(3, kept.size());
+  for (size_t i = 0; i < kept.size(); ++i) contact_triangles_.col(i) = model.neutral.triangles.col(kept[i]);
   // Edge rings of every surface vertex.
   const int ns = model.num_surface_vertices();
   std::vector<std::vector<int>> neighbours(ns);
@@ -142,6 +159,7 @@ void ContactSolver::MeasurePenetration(const Eigen::Matrix3Xd& surface,
   *points = 0;
   for (const Obstacle* obstacle : obstacles) {
     for (Eigen::Index i = 0; i < surface.cols(); ++i) {
+      if (!in_contact_[i]) continue;
       Eigen::Vector3d g;
       const double d = obstacle->SignedDistance(surface.col(i), &g, options_.search_radius);
       if (d < 0) {
@@ -155,27 +173,28 @@ void ContactSolver::MeasurePenetration(const Eigen::Matrix3Xd& surface,
 int ContactSolver::CountSelfIntersections(const Eigen::Matrix3Xd& surface) const {
   TriangleIntersectionOptions options;
   options.num_threads = options_.num_threads;
-  return FindIntersectingTrianglePairs(surface, model_.neutral.triangles, options, nullptr);
+  return FindIntersectingTrianglePairs(surface, contact_triangles_, options, nullptr);
 }
 
 int ContactSolver::CountObstacleIntersections(const Eigen::Matrix3Xd& surface,
                                               const std::vector<const Obstacle*>& obstacles) const {
   int count = 0;
   for (const Obstacle* obstacle : obstacles) {
-    count += FindIntersectingTrianglePairs(surface, model_.neutral.triangles, obstacle->vertices(),
+    count += FindIntersectingTrianglePairs(surface, contact_triangles_, obstacle->vertices(),
                                            obstacle->triangles(), options_.num_threads, nullptr);
   }
   return count;
 }
 
 std::vector<SelfContactPair> ContactSolver::DetectSelfContacts(const Eigen::Matrix3Xd& surface) const {
-  const Eigen::Matrix3Xi& tris = model_.neutral.triangles;
+  const Eigen::Matrix3Xi& tris = contact_triangles_;
   // Reach: search_radius in front of a triangle and max_depth behind it.
   const double reach = std::max({options_.search_radius, options_.max_depth, 1e-9});
   const TriangleGrid grid(surface, tris, reach);
   const int ns = static_cast<int>(surface.cols());
   std::vector<int> best(ns, -1);
   ParallelFor(options_.num_threads, 0, ns, [&](int, int i) {
+    if (!in_contact_[i]) return;
     std::vector<int> candidates;
     grid.Near(surface.col(i), &candidates);
     double best_distance = reach;
@@ -232,6 +251,7 @@ bool ContactSolver::Resolve(const ActuationMatrix& a, const std::vector<RigidTra
   MeasurePenetration(before, obstacles, &report->max_penetration_before,
                      &report->penetrating_points_before);
   report->self_intersections_before = CountSelfIntersections(before);
+  report->self_intersections_rest = CountSelfIntersections(rest_surface_);
   report->obstacle_intersections_before = CountObstacleIntersections(before, obstacles);
   const BoundaryConditions bc = ModelBoundaryConditions(model_, bones);
   QuasistaticSolverOptions solver_options = options_.solver;
@@ -247,6 +267,7 @@ bool ContactSolver::Resolve(const ActuationMatrix& a, const std::vector<RigidTra
     if (options_.obstacle_contact && !obstacles.empty()) {
       const ObstacleContactTerm probe({}, Eigen::VectorXd(), options_.thickness, obstacles);
       for (Eigen::Index i = 0; i < surface.cols(); ++i) {
+        if (!in_contact_[i]) continue;
         Eigen::Vector3d g;
         if (probe.Distance(surface.col(i), &g) < options_.thickness + options_.search_radius) {
           near_points.push_back(stencils_[i]);
@@ -277,6 +298,11 @@ bool ContactSolver::Resolve(const ActuationMatrix& a, const std::vector<RigidTra
       return false;
     }
     report->converged = solve.converged;
+    const bool moved_nothing = solve.iterations == 0;
+    report->round_summaries.push_back("round " + std::to_string(round + 1) + ": " +
+                                      std::to_string(near_points.size()) + " points near obstacles, " +
+                                      std::to_string(pairs.size()) + " self-contact pairs; " +
+                                      solve.Summary());
     x = solver.positions();
     // Active contacts at the new state; stop when nothing penetrates any more.
     const Eigen::Matrix3Xd moved = EmbeddedPositions(model_.embedding, model_.mesh.tets, x);
@@ -301,7 +327,11 @@ bool ContactSolver::Resolve(const ActuationMatrix& a, const std::vector<RigidTra
     double depth = 0;
     int inside = 0;
     MeasurePenetration(moved, obstacles, &depth, &inside);
-    if (inside == 0 && (!options_.self_contact || CountSelfIntersections(moved) == 0)) break;
+    if (moved_nothing) break;  // no progress left to make with these candidates
+    if (inside == 0 && (!options_.self_contact || CountSelfIntersections(moved) == 0) &&
+        CountObstacleIntersections(moved, obstacles) == 0) {
+      break;
+    }
   }
   *state = x;
   const Eigen::Matrix3Xd after = EmbeddedPositions(model_.embedding, model_.mesh.tets, x);

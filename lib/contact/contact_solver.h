@@ -15,6 +15,10 @@
 namespace aqs {
 
 struct ContactOptions {
+  // The surface vertices that take part in contact (empty: all): points, and triangles
+  // with all three corners in the set (e.g. the skin without the mouth socket the teeth
+  // are rooted in). Intersection counts use the same triangles.
+  std::vector<int> surface_vertices;
   // Contact thickness (model units): surfaces are kept at least this far apart, and from
   // obstacles; contacts end between 0 and this distance.
   double thickness = 0.05;
@@ -59,10 +63,15 @@ struct ContactReport {
   // How far the resolution moved the surface: all vertices, and those farther than
   // far_distance from every point in contact at the end (the rest of the surface).
   double mean_displacement = 0.0, max_displacement = 0.0;
+  // Self-intersecting pairs of the neutral (rest) surface, for reference: data such as
+  // the ICT face already intersect at the mouth corners, which contact cannot undo (it
+  // keeps points on the side they had at rest).
+  int self_intersections_rest = 0;
   double far_distance = 0.0, max_far_displacement = 0.0;
   int rounds = 0;
   int obstacle_contacts = 0, self_contacts = 0;  // active at the end
   bool converged = true;
+  std::vector<std::string> round_summaries;  // each round's candidates and solve
   std::string Summary() const;
 };
 
@@ -96,6 +105,7 @@ class ContactSolver {
   // Self-contact candidates at a surface state (3 x num_surface_vertices).
   std::vector<SelfContactPair> DetectSelfContacts(const Eigen::Matrix3Xd& surface) const;
 
+
  private:
   const ActiveModel& model_;
   ContactOptions options_;
@@ -106,6 +116,8 @@ class ContactSolver {
   Eigen::Matrix3Xd rest_normals_;  // per surface vertex
   // For each surface vertex, the vertices within exclusion_rings rings (sorted).
   std::vector<std::vector<int>> rings_;
+  std::vector<char> in_contact_;           // per surface vertex: takes part in contact
+  Eigen::Matrix3Xi contact_triangles_;     // triangles with all corners taking part
 };
 
 }  // namespace aqs

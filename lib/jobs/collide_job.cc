@@ -38,6 +38,13 @@ CollideJobResult RunCollideJob(const CollideJobOptions& options, std::ostream& l
   ActiveModel model;
   if (!LoadModel(options.model, &model, &error)) return Fail(JobStatus::kBadInput, error);
   if (!model.decoder) return Fail(JobStatus::kBadInput, options.model + ": the model is not trained");
+  for (int v : options.contact.surface_vertices) {
+    if (v >= model.num_surface_vertices()) {
+      return Fail(JobStatus::kBadInput, "contact vertex " + std::to_string(v) +
+                                            " is outside the surface's " +
+                                            std::to_string(model.num_surface_vertices()) + " vertices");
+    }
+  }
   std::vector<std::string> bone_names;
   for (const Bone& bone : model.bones) bone_names.push_back(bone.name);
   Eigen::VectorXd z;
@@ -96,6 +103,7 @@ CollideJobResult RunCollideJob(const CollideJobOptions& options, std::ostream& l
   if (!solver.Resolve(a, bones, obstacle_pointers, start, &state, &result.report, &error)) {
     return Fail(JobStatus::kNotConverged, error);
   }
+  for (const std::string& line : result.report.round_summaries) log << "  " << line << "\n";
   log << "contact: " << result.report.Summary() << "\n";
   SurfaceMesh surface = model.neutral;
   surface.vertices = EmbeddedPositions(model.embedding, model.mesh.tets, state);

@@ -54,8 +54,14 @@ class TrainingCallback final : public ceres::IterationCallback {
         model_(model),
         objective_(objective),
         parameters_(parameters),
+        first_(iterations_before),
         before_(iterations_before),
         log_(log) {}
+
+  // Iterations done before the current ceres::Solve call (L-BFGS restarts continue the
+  // numbering).
+  void SetIterationsBefore(int iterations) { before_ = iterations; }
+  bool budget_reached() const { return budget_reached_; }
 
   ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
     const int iteration = before_ + s.iteration;
@@ -63,14 +69,14 @@ class TrainingCallback final : public ceres::IterationCallback {
     if (s.iteration == 0 && before_ > 0) return ceres::SOLVER_CONTINUE;  // already logged
     if (options_.log_every > 0 && (s.iteration % options_.log_every == 0)) {
       char line[320];
-      const int todo = options_.max_iterations - before_;
+      const int todo = options_.max_iterations - first_;
       std::snprintf(line, sizeof(line),
                     "  train iter %5d/%d  loss %.6e  surface mean %.4g max %.4g  |g| %.3e  %s  "
                     "ETA %s\n",
                     iteration, options_.max_iterations, s.cost, objective_.mean_surface_error(),
                     objective_.max_surface_error(), s.gradient_norm,
                     FormatDuration(elapsed).c_str(),
-                    FormatDuration(EstimateRemaining(s.iteration, todo, elapsed)).c_str());
+                    FormatDuration(EstimateRemaining(iteration - first_, todo, elapsed)).c_str());
       log_ << line << std::flush;
     }
     if (!options_.model_directory.empty()) {
@@ -85,6 +91,7 @@ class TrainingCallback final : public ceres::IterationCallback {
     }
     if (options_.max_seconds > 0 && elapsed > options_.max_seconds) {
       log_ << "  time budget of " << FormatDuration(options_.max_seconds) << " reached\n";
+      budget_reached_ = true;
       return ceres::SOLVER_TERMINATE_SUCCESSFULLY;
     }
     return ceres::SOLVER_CONTINUE;
@@ -118,9 +125,11 @@ class TrainingCallback final : public ceres::IterationCallback {
   ActiveModel* model_;
   const EndToEndObjective& objective_;
   const Eigen::VectorXd& parameters_;
-  int before_;
+  int first_;   // iterations done before this run
+  int before_;  // iterations done before the current Solve call
   std::ostream& log_;
   WallTimer timer_;
+  bool budget_reached_ = false;
 };
 
 }  // namespace
@@ -185,20 +194,39 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
 
   ceres::GradientProblem problem(objective);  // owns the objective
   TrainingCallback callback(options, model, *objective, parameters, report->iterations_before, log);
-  ceres::GradientProblemSolver::Summary summary;
+  int done = report->iterations_before;
   if (remaining > 0) {
     ceres::GradientProblemSolver::Options solver_options;
     solver_options.line_search_direction_type = ceres::LBFGS;
     solver_options.max_lbfgs_rank = 10;
-    solver_options.max_num_iterations = remaining;
     solver_options.function_tolerance = 1e-10;
     solver_options.gradient_tolerance = 1e-12;
     solver_options.parameter_tolerance = 1e-12;
     solver_options.logging_type = ceres::SILENT;
     solver_options.update_state_every_iteration = true;  // the callback saves `parameters`
     solver_options.callbacks.push_back(&callback);
-    ceres::Solve(solver_options, problem, parameters.data(), &summary);
-    report->termination = summary.message;
+    // The loss is only as smooth as the equilibria are converged, so the line search
+    // can stall (zero step) far from a minimum. Then L-BFGS restarts from the current
+    // point with an empty memory (a steepest-descent step first), as long as each
+    // restart makes progress and iterations and time remain.
+    for (int restarts = 0;; ++restarts) {
+      ceres::GradientProblemSolver::Summary summary;
+      callback.SetIterationsBefore(done);
+      solver_options.max_num_iterations = options.max_iterations - done;
+      ceres::Solve(solver_options, problem, parameters.data(), &summary);
+      const int steps = std::max(0, static_cast<int>(summary.iterations.size()) - 1);
+      done += steps;
+      report->termination = summary.message;
+      const bool stalled = summary.termination_type == ceres::CONVERGENCE ||
+                           summary.termination_type == ceres::FAILURE;
+      if (!stalled || callback.budget_reached() || done >= options.max_iterations ||
+          steps == 0 || restarts >= options.max_restarts) {
+        break;
+      }
+      ++report->restarts;
+      log << "  L-BFGS stopped (" << summary.message << "); restarting from iteration " << done
+          << "\n";
+    }
   } else {
     report->termination = "no iterations left";
   }
@@ -211,8 +239,7 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
   report->final_loss = cost;
   report->mean_surface_error = objective->mean_surface_error();
   report->max_surface_error = objective->max_surface_error();
-  report->iterations =
-      report->iterations_before + std::max(0, static_cast<int>(summary.iterations.size()) - 1);
+  report->iterations = done;
   callback.CopyToModel();
   if (!options.model_directory.empty() && !callback.Save(report->iterations, cost)) {
     *error = "could not save the trained state to " + options.model_directory;

@@ -26,6 +26,9 @@ struct TrainOptions {
   // train/checkpoint.txt (iterations done) and train/log.csv. Empty: no saving.
   std::string model_directory;
   int checkpoint_every = 1;
+  // L-BFGS restarts (empty memory) allowed after the line search stalls; see
+  // TrainEndToEnd.
+  int max_restarts = 5;
   int log_every = 1;  // progress lines
 };
 
@@ -40,6 +43,7 @@ struct TrainReport {
   double mean_surface_error = 0.0;
   double max_surface_error = 0.0;
   double seconds = 0.0;
+  int restarts = 0;  // L-BFGS restarts after a stalled line search
   std::string termination;
 };
 
@@ -58,7 +62,9 @@ struct TrainReport {
 // Progress lines (iteration, loss, mean surface error, gradient norm, time, ETA) go to
 // `log`; with model_directory set, every checkpoint saves the learned state so that a
 // killed run resumes by loading the model and calling this again (the L-BFGS memory
-// restarts empty). Returns false with *error if the poses' equilibria cannot be solved
+// restarts empty). When the line search stalls (the loss is only as smooth as the
+// equilibria are converged) before the iteration or time budget is used, L-BFGS
+// restarts from the current point, up to max_restarts times while restarts progress. Returns false with *error if the poses' equilibria cannot be solved
 // at the starting point.
 bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport* report,
                    std::ostream& log, std::string* error);

@@ -47,6 +47,8 @@ TEST(SyntheticTrainingTest, ReproducesTrainingPosesAndBeatsLinearBaselineOnHeldO
   TrainReport report;
   ASSERT_TRUE(TrainEndToEnd(train, &model, &report, log, &error)) << error << "\n" << log.str();
   EXPECT_LT(report.final_loss, report.initial_loss);
+  EXPECT_LE(report.iterations, train.max_iterations);
+  EXPECT_LE(report.restarts, train.max_restarts);
 
   const double bar_length = 2.0;
   // Training poses are reproduced closely.
