@@ -22,7 +22,7 @@ DEFINE_string(output_before, "", "Optional: the surface without contact (OBJ).")
 DEFINE_string(output_volume, "", "Optional: the equilibrium with contact (.vtu or .mesh).");
 DEFINE_string(report, "", "Optional: the contact report as a text file.");
 DEFINE_double(thickness, 0.05, "Contact thickness (model units).");
-DEFINE_double(contact_stiffness, 100.0, "Penalty stiffness per unit area, relative to one "
+DEFINE_double(contact_stiffness, 1000.0, "Penalty stiffness per unit area, relative to one "
               "layer of elements.");
 DEFINE_bool(self_contact, true, "Also keep the surface out of itself.");
 DEFINE_double(search_radius, 0.5, "Candidate search radius (model units).");

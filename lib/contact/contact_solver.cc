@@ -78,13 +78,42 @@ std::string ContactReport::Summary() const {
       << max_penetration_after << ", points inside " << penetrating_points_before << " -> "
       << penetrating_points_after << "; intersecting triangle pairs: self "
       << self_intersections_before << " -> " << self_intersections_after << " ("
-      << self_intersections_rest << " at rest), with obstacles "
+      << self_intersections_rest << " at rest; not intersecting at rest "
+      << new_self_intersections_before << " -> " << new_self_intersections_after
+      << "), with obstacles "
       << obstacle_intersections_before << " -> " << obstacle_intersections_after
       << "; surface moved mean " << mean_displacement << " max " << max_displacement
       << " (max " << max_far_displacement << " farther than " << far_distance
       << " from the contacts); " << rounds << " rounds, " << obstacle_contacts
       << " obstacle and " << self_contacts << " self contacts active"
       << (converged ? "" : "; NOT CONVERGED");
+  return out.str();
+}
+
+std::string ContactReport::ToText() const {
+  std::ostringstream out;
+  out.precision(10);
+  out << "# ActiveQS contact report: " << Summary() << "\n";
+  for (const std::string& line : round_summaries) out << "# " << line << "\n";
+  out << "max_penetration_before " << max_penetration_before << "\n"
+      << "max_penetration_after " << max_penetration_after << "\n"
+      << "penetrating_points_before " << penetrating_points_before << "\n"
+      << "penetrating_points_after " << penetrating_points_after << "\n"
+      << "self_intersections_rest " << self_intersections_rest << "\n"
+      << "self_intersections_before " << self_intersections_before << "\n"
+      << "self_intersections_after " << self_intersections_after << "\n"
+      << "new_self_intersections_before " << new_self_intersections_before << "\n"
+      << "new_self_intersections_after " << new_self_intersections_after << "\n"
+      << "obstacle_intersections_before " << obstacle_intersections_before << "\n"
+      << "obstacle_intersections_after " << obstacle_intersections_after << "\n"
+      << "mean_displacement " << mean_displacement << "\n"
+      << "max_displacement " << max_displacement << "\n"
+      << "far_distance " << far_distance << "\n"
+      << "max_far_displacement " << max_far_displacement << "\n"
+      << "rounds " << rounds << "\n"
+      << "obstacle_contacts " << obstacle_contacts << "\n"
+      << "self_contacts " << self_contacts << "\n"
+      << "converged " << (converged ? 1 : 0) << "\n";
   return out.str();
 }
 
@@ -114,6 +143,10 @@ ContactSolver::ContactSolver(const ActiveModel& model, const ContactOptions& opt
   }
   contact_triangles_.resize(3, kept.size());
   for (size_t i = 0; i < kept.size(); ++i) contact_triangles_.col(i) = model.neutral.triangles.col(kept[i]);
+  TriangleIntersectionOptions intersection_options;
+  intersection_options.num_threads = options.num_threads;
+  FindIntersectingTrianglePairs(rest_surface_, contact_triangles_, intersection_options,
+                                &rest_intersections_);
   // Edge rings of every surface vertex.
   const int ns = model.num_surface_vertices();
   std::vector<std::vector<int>> neighbours(ns);
@@ -170,10 +203,20 @@ void ContactSolver::MeasurePenetration(const Eigen::Matrix3Xd& surface,
   }
 }
 
-int ContactSolver::CountSelfIntersections(const Eigen::Matrix3Xd& surface) const {
+int ContactSolver::CountSelfIntersections(const Eigen::Matrix3Xd& surface, int* new_pairs) const {
   TriangleIntersectionOptions options;
   options.num_threads = options_.num_threads;
-  return FindIntersectingTrianglePairs(surface, contact_triangles_, options, nullptr);
+  std::vector<std::pair<int, int>> pairs;
+  const int count = FindIntersectingTrianglePairs(surface, contact_triangles_, options, &pairs);
+  if (new_pairs != nullptr) {
+    *new_pairs = 0;
+    for (const auto& pair : pairs) {
+      if (!std::binary_search(rest_intersections_.begin(), rest_intersections_.end(), pair)) {
+        ++*new_pairs;
+      }
+    }
+  }
+  return count;
 }
 
 int ContactSolver::CountObstacleIntersections(const Eigen::Matrix3Xd& surface,
@@ -237,6 +280,7 @@ std::vector<SelfContactPair> ContactSolver::DetectSelfContacts(const Eigen::Matr
     pair.point = stencils_[i];
     for (int k = 0; k < 3; ++k) pair.corner[k] = stencils_[tris(k, best[i])];
     pair.stiffness = stiffness_[i];
+    pair.surface_vertex = i;
     pairs.push_back(pair);
   }
   return pairs;
@@ -250,20 +294,24 @@ bool ContactSolver::Resolve(const ActuationMatrix& a, const std::vector<RigidTra
   const Eigen::Matrix3Xd before = EmbeddedPositions(model_.embedding, model_.mesh.tets, start);
   MeasurePenetration(before, obstacles, &report->max_penetration_before,
                      &report->penetrating_points_before);
-  report->self_intersections_before = CountSelfIntersections(before);
-  report->self_intersections_rest = CountSelfIntersections(rest_surface_);
+  report->self_intersections_before =
+      CountSelfIntersections(before, &report->new_self_intersections_before);
+  report->self_intersections_rest = static_cast<int>(rest_intersections_.size());
   report->obstacle_intersections_before = CountObstacleIntersections(before, obstacles);
   const BoundaryConditions bc = ModelBoundaryConditions(model_, bones);
   QuasistaticSolverOptions solver_options = options_.solver;
   solver_options.num_threads = options_.num_threads;
   solver_options.newton_relative_force = 0.0;
   Eigen::Matrix3Xd x = start;
-  std::vector<Eigen::Vector3d> contact_points;
+  // Surface vertices in contact in any round (the report's "far" displacement is
+  // measured away from them).
+  std::vector<char> touched(rest_surface_.cols(), 0);
   for (int round = 0; round < options_.max_rounds; ++round) {
     const Eigen::Matrix3Xd surface = EmbeddedPositions(model_.embedding, model_.mesh.tets, x);
     // Candidates near obstacles.
     std::vector<PointStencil> near_points;
     std::vector<double> near_stiffness;
+    std::vector<int> near_vertices;
     if (options_.obstacle_contact && !obstacles.empty()) {
       const ObstacleContactTerm probe({}, Eigen::VectorXd(), options_.thickness, obstacles);
       for (Eigen::Index i = 0; i < surface.cols(); ++i) {
@@ -272,6 +320,7 @@ bool ContactSolver::Resolve(const ActuationMatrix& a, const std::vector<RigidTra
         if (probe.Distance(surface.col(i), &g) < options_.thickness + options_.search_radius) {
           near_points.push_back(stencils_[i]);
           near_stiffness.push_back(stiffness_[i]);
+          near_vertices.push_back(static_cast<int>(i));
         }
       }
     }
@@ -307,13 +356,12 @@ bool ContactSolver::Resolve(const ActuationMatrix& a, const std::vector<RigidTra
     // Active contacts at the new state; stop when nothing penetrates any more.
     const Eigen::Matrix3Xd moved = EmbeddedPositions(model_.embedding, model_.mesh.tets, x);
     Eigen::Matrix3Xd g = Eigen::Matrix3Xd::Zero(3, x.cols());
-    contact_points.clear();
     report->obstacle_contacts = 0;
-    for (const PointStencil& s : near_points) {
+    for (size_t k = 0; k < near_points.size(); ++k) {
       Eigen::Vector3d gradient;
-      if (obstacle_term.Distance(s.Position(x), &gradient) < options_.thickness) {
+      if (obstacle_term.Distance(near_points[k].Position(x), &gradient) < options_.thickness) {
         ++report->obstacle_contacts;
-        contact_points.push_back(s.Position(x));
+        touched[near_vertices[k]] = 1;
       }
     }
     report->self_contacts = 0;
@@ -321,14 +369,16 @@ bool ContactSolver::Resolve(const ActuationMatrix& a, const std::vector<RigidTra
       const SelfContactTerm single({pair}, options_.thickness, options_.max_depth, kResidualMargin);
       if (single.AddEnergyAndGradient(x, &g) > 0) {
         ++report->self_contacts;
-        contact_points.push_back(pair.point.Position(x));
+        touched[pair.surface_vertex] = 1;
       }
     }
     double depth = 0;
     int inside = 0;
     MeasurePenetration(moved, obstacles, &depth, &inside);
     if (moved_nothing) break;  // no progress left to make with these candidates
-    if (inside == 0 && (!options_.self_contact || CountSelfIntersections(moved) == 0) &&
+    int new_intersections = 0;
+    if (options_.self_contact) CountSelfIntersections(moved, &new_intersections);
+    if (inside == 0 && new_intersections == 0 &&
         CountObstacleIntersections(moved, obstacles) == 0) {
       break;
     }
@@ -337,15 +387,20 @@ bool ContactSolver::Resolve(const ActuationMatrix& a, const std::vector<RigidTra
   const Eigen::Matrix3Xd after = EmbeddedPositions(model_.embedding, model_.mesh.tets, x);
   MeasurePenetration(after, obstacles, &report->max_penetration_after,
                      &report->penetrating_points_after);
-  report->self_intersections_after = CountSelfIntersections(after);
+  report->self_intersections_after =
+      CountSelfIntersections(after, &report->new_self_intersections_after);
   report->obstacle_intersections_after = CountObstacleIntersections(after, obstacles);
   const Eigen::VectorXd moved = (after - before).colwise().norm();
   report->mean_displacement = moved.mean();
   report->max_displacement = moved.maxCoeff();
   report->far_distance = 4.0 * options_.search_radius;
+  std::vector<int> contact_vertices;
+  for (Eigen::Index i = 0; i < after.cols(); ++i) {
+    if (touched[i]) contact_vertices.push_back(static_cast<int>(i));
+  }
   for (Eigen::Index i = 0; i < after.cols(); ++i) {
     double nearest = std::numeric_limits<double>::infinity();
-    for (const Eigen::Vector3d& c : contact_points) nearest = std::min(nearest, (after.col(i) - c).norm());
+    for (int c : contact_vertices) nearest = std::min(nearest, (after.col(i) - after.col(c)).norm());
     if (nearest > report->far_distance) {
       report->max_far_displacement = std::max(report->max_far_displacement, moved[i]);
     }

@@ -25,7 +25,9 @@ struct ContactOptions {
   // Penalty stiffness per unit surface area, relative to the material: point i gets
   // k_i = relative_stiffness * mean(mu) * A_i / h (A_i its share of the neutral surface's
   // area, h the mean element edge), as the attachments of prepare.
-  double relative_stiffness = 100.0;
+  // (1000: 100 left the ICT lips of mouthClose 182 new intersecting pairs -> 181, 1000
+  // -> 28; see README.)
+  double relative_stiffness = 1000.0;
   bool obstacle_contact = true;
   bool self_contact = true;
   // Candidates: surface points closer than this to an obstacle, and point-triangle
@@ -61,18 +63,24 @@ struct ContactReport {
   int self_intersections_before = 0, self_intersections_after = 0;
   int obstacle_intersections_before = 0, obstacle_intersections_after = 0;
   // How far the resolution moved the surface: all vertices, and those farther than
-  // far_distance from every point in contact at the end (the rest of the surface).
+  // far_distance from every point that was in contact in any round (the rest of the
+  // surface).
   double mean_displacement = 0.0, max_displacement = 0.0;
   // Self-intersecting pairs of the neutral (rest) surface, for reference: data such as
   // the ICT face already intersect at the mouth corners, which contact cannot undo (it
   // keeps points on the side they had at rest).
   int self_intersections_rest = 0;
+  // Self-intersecting pairs that do not intersect at rest (what contact can undo).
+  int new_self_intersections_before = 0, new_self_intersections_after = 0;
   double far_distance = 0.0, max_far_displacement = 0.0;
   int rounds = 0;
   int obstacle_contacts = 0, self_contacts = 0;  // active at the end
   bool converged = true;
   std::vector<std::string> round_summaries;  // each round's candidates and solve
   std::string Summary() const;
+  // 'name value' lines (after a '#' comment with the summary and one per round), for
+  // scripts: max_penetration_before, ..., converged (0/1).
+  std::string ToText() const;
 };
 
 // Contact as post-processing: re-solves a model's equilibrium for a given actuation
@@ -98,7 +106,8 @@ class ContactSolver {
   void MeasurePenetration(const Eigen::Matrix3Xd& surface,
                           const std::vector<const Obstacle*>& obstacles, double* max_depth,
                           int* points) const;
-  int CountSelfIntersections(const Eigen::Matrix3Xd& surface) const;
+  // *new_pairs (may be null): how many of them do not intersect at rest.
+  int CountSelfIntersections(const Eigen::Matrix3Xd& surface, int* new_pairs = nullptr) const;
   int CountObstacleIntersections(const Eigen::Matrix3Xd& surface,
                                  const std::vector<const Obstacle*>& obstacles) const;
 
@@ -118,6 +127,7 @@ class ContactSolver {
   std::vector<std::vector<int>> rings_;
   std::vector<char> in_contact_;           // per surface vertex: takes part in contact
   Eigen::Matrix3Xi contact_triangles_;     // triangles with all corners taking part
+  std::vector<std::pair<int, int>> rest_intersections_;  // sorted pairs of contact_triangles_
 };
 
 }  // namespace aqs

@@ -56,6 +56,7 @@ struct SelfContactPair {
   PointStencil point;
   PointStencil corner[3];
   double stiffness = 0.0;
+  int surface_vertex = -1;  // the point's surface vertex (reporting only)
 };
 
 // Contact between parts of the simulated surface, for fixed candidate pairs (point,

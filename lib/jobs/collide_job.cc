@@ -123,7 +123,7 @@ CollideJobResult RunCollideJob(const CollideJobOptions& options, std::ostream& l
     log << "wrote " << options.output_volume << "\n";
   }
   if (!options.report.empty()) {
-    if (!WriteFileAtomically(options.report, result.report.Summary() + "\n", &error)) {
+    if (!WriteFileAtomically(options.report, result.report.ToText(), &error)) {
       return Fail(JobStatus::kBadInput, error);
     }
   }

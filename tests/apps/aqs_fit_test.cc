@@ -1,8 +1,10 @@
-// aqs_fit, aqs_simulate --model and aqs_evaluate on a small model trained from the
+// aqs_fit, aqs_simulate --model, aqs_evaluate and aqs_collide on a small model trained from the
 // synthetic-muscle bar by aqs_pipeline.
 
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <sstream>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -172,6 +174,105 @@ TEST_F(AqsFitTest, MalformedTargetsFailClearly) {
   EXPECT_EQ(bad_latent.exit_code, 1);
   EXPECT_NE(bad_latent.output.find("bad_latent.txt:1: expected 3 latent numbers"), std::string::npos)
       << bad_latent.output;
+}
+
+// Reads 'name value' lines (skipping '#' comments) of a contact report.
+std::map<std::string, double> ReadReport(const std::string& path) {
+  std::map<std::string, double> values;
+  std::ifstream in(path);
+  std::string name;
+  double value = 0;
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream fields(line);
+    if (fields >> name >> value) values[name] = value;
+  }
+  return values;
+}
+
+// A closed axis-aligned box as an OBJ surface (outward normals).
+void WriteBoxObj(const std::string& path, const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
+  std::ofstream out(path);
+  for (int k = 0; k < 8; ++k) {
+    out << "v " << ((k & 1) ? hi.x() : lo.x()) << " " << ((k & 2) ? hi.y() : lo.y()) << " "
+        << ((k & 4) ? hi.z() : lo.z()) << "\n";
+  }
+  // Faces as quads (1-based), counter-clockwise seen from outside.
+  out << "f 1 3 4 2\nf 5 6 8 7\nf 1 2 6 5\nf 3 7 8 4\nf 1 5 7 3\nf 2 4 8 6\n";
+}
+
+TEST_F(AqsFitTest, CollidePushesTheSurfaceOutOfAnObstacle) {
+  // A box reaching 0.08 into the upper side of the posed bar around the highest point
+  // of its free half (the left end is fixed), much wider than that (penalty directions
+  // come from the closest obstacle point: a point closer to a side face than to the
+  // bottom is pushed sideways).
+  const Eigen::Matrix3Xd& posed = data_->model.poses[0].surface;
+  Eigen::Vector3d peak(0, -1e9, 0);
+  for (Eigen::Index i = 0; i < posed.cols(); ++i) {
+    if (posed(0, i) > 0.6 * posed.row(0).maxCoeff() && posed(1, i) > peak.y()) peak = posed.col(i);
+  }
+  WriteBoxObj(dir_->File("box.obj"),
+              Eigen::Vector3d(peak.x() - 0.5, peak.y() - 0.08, posed.row(2).minCoeff() - 0.2),
+              Eigen::Vector3d(peak.x() + 0.5, peak.y() + 0.4, posed.row(2).maxCoeff() + 0.2));
+  const std::string collide = AppPath("aqs_collide") + " --model=" + dir_->File("model") +
+                              " --pose=" + data_->model.poses[0].name + " --obstacles=" +
+                              dir_->File("box.obj") + " --thickness=0.01 --search_radius=0.2";
+  const testing::CommandResult run =
+      RunCommand(collide + " --output=" + dir_->File("collided.obj") + " --output_before=" +
+                 dir_->File("free.obj") + " --output_volume=" + dir_->File("collided.vtu") +
+                 " --report=" + dir_->File("contact.txt"));
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  const std::map<std::string, double> report = ReadReport(dir_->File("contact.txt"));
+  ASSERT_EQ(report.count("converged"), 1u) << run.output;
+  EXPECT_EQ(report.at("converged"), 1);
+  EXPECT_GT(report.at("penetrating_points_before"), 0) << run.output;
+  EXPECT_GT(report.at("max_penetration_before"), 0.02) << run.output;
+  EXPECT_EQ(report.at("penetrating_points_after"), 0) << run.output;
+  EXPECT_GT(report.at("obstacle_intersections_before"), 0) << run.output;
+  // Contact acts on surface points only: the box's lower edges still cut the bar's
+  // triangles (0.2 wide) between their corners.
+  EXPECT_LT(report.at("obstacle_intersections_after"), report.at("obstacle_intersections_before"))
+      << run.output;
+  EXPECT_EQ(report.at("new_self_intersections_after"), 0) << run.output;
+  EXPECT_GT(report.at("obstacle_contacts"), 0) << run.output;
+  // The surface moved down by about the penetration, no more.
+  SurfaceMesh before, after;
+  std::string error;
+  ASSERT_TRUE(ReadObj(dir_->File("free.obj"), &before, &error)) << error;
+  ASSERT_TRUE(ReadObj(dir_->File("collided.obj"), &after, &error)) << error;
+  ASSERT_EQ(before.vertices.cols(), after.vertices.cols());
+  const double moved = (after.vertices - before.vertices).colwise().norm().maxCoeff();
+  EXPECT_GT(moved, 0.5 * report.at("max_penetration_before"));
+  EXPECT_LT(moved, 3.0 * report.at("max_penetration_before") + 0.02);
+  EXPECT_TRUE(std::filesystem::exists(dir_->File("collided.vtu")));
+
+  // Bad input: a clear message and exit status 1.
+  std::ofstream(dir_->File("bad_box.obj")) << "v 0 0 0\nf 1 2 3\n";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"--obstacles=" + dir_->File("missing.obj"), "missing.obj"},
+      {"--obstacles=" + dir_->File("bad_box.obj"), "bad_box.obj"},
+      {"--obstacles='" + dir_->File("box.obj") + " bone=jaw'", "no bone 'jaw'"},
+      {"--obstacles='" + dir_->File("box.obj") + " colour=red'", "colour=red"},
+      {"--contact_vertices=0:99999", "outside the surface"},
+      {"--contact_vertices=5:2", "5:2"},
+      {"--thickness=0", "thickness"},
+  };
+  const std::string base = AppPath("aqs_collide") + " --model=" + dir_->File("model") +
+                           " --pose=" + data_->model.poses[0].name + " --output=" +
+                           dir_->File("o.obj") + " ";
+  for (const auto& [flags, message] : cases) {
+    const testing::CommandResult bad = RunCommand(base + flags);
+    EXPECT_EQ(bad.exit_code, 1) << flags << "\n" << bad.output;
+    EXPECT_NE(bad.output.find(message), std::string::npos) << flags << "\n" << bad.output;
+  }
+  const testing::CommandResult both = RunCommand(base + "--latent=z.txt");
+  EXPECT_EQ(both.exit_code, 1);
+  EXPECT_NE(both.output.find("either --latent"), std::string::npos) << both.output;
+  const testing::CommandResult unknown = RunCommand(
+      AppPath("aqs_collide") + " --model=" + dir_->File("model") + " --pose=nope --output=o.obj");
+  EXPECT_EQ(unknown.exit_code, 1);
+  EXPECT_NE(unknown.output.find("no training pose 'nope'"), std::string::npos) << unknown.output;
 }
 
 }  // namespace

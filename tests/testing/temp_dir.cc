@@ -18,6 +18,11 @@ TempDir::TempDir() {
 }
 
 TempDir::~TempDir() {
+  const char* keep = std::getenv("AQS_KEEP_TEST_FILES");
+  if (keep != nullptr && *keep != '\0' && *keep != '0') {
+    LOG(INFO) << "kept " << path_ << " (AQS_KEEP_TEST_FILES)";
+    return;
+  }
   std::error_code ignored;
   std::filesystem::remove_all(path_, ignored);
 }

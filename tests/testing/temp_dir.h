@@ -6,7 +6,8 @@
 namespace aqs {
 namespace testing {
 
-// A fresh temporary directory, removed with its contents on destruction.
+// A fresh temporary directory, removed with its contents on destruction (kept when
+// the environment variable AQS_KEEP_TEST_FILES is set and not 0, for debugging).
 class TempDir {
  public:
   TempDir();
