@@ -20,6 +20,8 @@ DEFINE_string(obstacles, "", "Rigid obstacles: 'path [vertices=a:b] [bone=name]'
 DEFINE_string(output, "", "The surface with contact (OBJ).");
 DEFINE_string(output_before, "", "Optional: the surface without contact (OBJ).");
 DEFINE_string(output_volume, "", "Optional: the equilibrium with contact (.vtu or .mesh).");
+DEFINE_string(output_intersections, "", "Optional: PLY of the surface with contact, coloured by "
+              "the self-intersecting triangle pairs (new since rest) each vertex is part of.");
 DEFINE_string(report, "", "Optional: the contact report as a text file.");
 DEFINE_double(thickness, 0.05, "Contact thickness (model units).");
 DEFINE_double(contact_stiffness, 1000.0, "Penalty stiffness per unit area, relative to one "
@@ -28,6 +30,8 @@ DEFINE_bool(self_contact, true, "Also keep the surface out of itself.");
 DEFINE_double(search_radius, 0.5, "Candidate search radius (model units).");
 DEFINE_int32(exclusion_rings, 3, "Self contact: a point never pairs with triangles within this "
              "many edge rings.");
+DEFINE_double(max_depth, 1.0, "Self contact: a point pairs with a triangle while it is less than "
+              "this far behind it (model units).");
 DEFINE_int32(contact_rounds, 6, "Detection and solve rounds.");
 DEFINE_double(contact_tolerance, 1e-5, "Relative force tolerance of the contact equilibria.");
 DEFINE_string(contact_vertices, "", "Surface vertices taking part in contact, e.g. 0:11248 "
@@ -48,12 +52,14 @@ int main(int argc, char** argv) {
   options.output_before = FLAGS_output_before;
   options.output_volume = FLAGS_output_volume;
   options.report = FLAGS_report;
+  options.output_intersections = FLAGS_output_intersections;
   options.contact.thickness = FLAGS_thickness;
   options.contact.relative_stiffness = FLAGS_contact_stiffness;
   options.contact.self_contact = FLAGS_self_contact;
   options.contact.search_radius = FLAGS_search_radius;
   options.contact.exclusion_rings = FLAGS_exclusion_rings;
   options.contact.max_rounds = FLAGS_contact_rounds;
+  options.contact.max_depth = FLAGS_max_depth;
   options.contact.solver.relative_force_tolerance = FLAGS_contact_tolerance;
   options.contact.num_threads = FLAGS_threads;
   std::string error;

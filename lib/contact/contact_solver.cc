@@ -229,6 +229,21 @@ int ContactSolver::CountObstacleIntersections(const Eigen::Matrix3Xd& surface,
   return count;
 }
 
+std::vector<double> ContactSolver::NewIntersectionField(const Eigen::Matrix3Xd& surface) const {
+  TriangleIntersectionOptions options;
+  options.num_threads = options_.num_threads;
+  std::vector<std::pair<int, int>> pairs;
+  FindIntersectingTrianglePairs(surface, contact_triangles_, options, &pairs);
+  std::vector<double> field(surface.cols(), 0.0);
+  for (const auto& pair : pairs) {
+    if (std::binary_search(rest_intersections_.begin(), rest_intersections_.end(), pair)) continue;
+    for (int t : {pair.first, pair.second}) {
+      for (int k = 0; k < 3; ++k) field[contact_triangles_(k, t)] += 1.0;
+    }
+  }
+  return field;
+}
+
 std::vector<SelfContactPair> ContactSolver::DetectSelfContacts(const Eigen::Matrix3Xd& surface) const {
   const Eigen::Matrix3Xi& tris = contact_triangles_;
   // Reach: search_radius in front of a triangle and max_depth behind it.

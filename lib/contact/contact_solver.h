@@ -111,6 +111,11 @@ class ContactSolver {
   int CountObstacleIntersections(const Eigen::Matrix3Xd& surface,
                                  const std::vector<const Obstacle*>& obstacles) const;
 
+  // Per surface vertex (surface: 3 x num_surface_vertices): the number of
+  // self-intersecting triangle pairs that do not intersect at rest and that one of its
+  // triangles takes part in (0 where the surface is clean), for viewing.
+  std::vector<double> NewIntersectionField(const Eigen::Matrix3Xd& surface) const;
+
   // Self-contact candidates at a surface state (3 x num_surface_vertices).
   std::vector<SelfContactPair> DetectSelfContacts(const Eigen::Matrix3Xd& surface) const;
 

@@ -1,5 +1,6 @@
 #include "jobs/collide_job.h"
 
+#include <algorithm>
 #include <filesystem>
 #include <memory>
 
@@ -7,6 +8,7 @@
 #include "io/latent_io.h"
 #include "jobs/deformed_output.h"
 #include "mesh/mesh_io.h"
+#include "mesh/ply_io.h"
 #include "model/model_io.h"
 #include "util/atomic_file.h"
 #include "util/wall_timer.h"
@@ -32,8 +34,13 @@ CollideJobResult RunCollideJob(const CollideJobOptions& options, std::ostream& l
   if (options.latent.empty() == options.pose.empty()) {
     return Fail(JobStatus::kBadInput, "give either --latent=Z.txt or --pose=NAME");
   }
-  if (!(options.contact.thickness > 0) || !(options.contact.relative_stiffness > 0)) {
-    return Fail(JobStatus::kBadInput, "the contact thickness and stiffness must be positive");
+  if (!(options.contact.thickness > 0) || !(options.contact.relative_stiffness > 0) ||
+      !(options.contact.max_depth > 0) || !(options.contact.search_radius > 0)) {
+    return Fail(JobStatus::kBadInput,
+                "the contact thickness, stiffness, max depth and search radius must be positive");
+  }
+  if (options.contact.max_rounds < 1 || options.contact.exclusion_rings < 0) {
+    return Fail(JobStatus::kBadInput, "--contact_rounds must be >= 1 and --exclusion_rings >= 0");
   }
   ActiveModel model;
   if (!LoadModel(options.model, &model, &error)) return Fail(JobStatus::kBadInput, error);
@@ -113,6 +120,15 @@ CollideJobResult RunCollideJob(const CollideJobOptions& options, std::ostream& l
     surface.vertices = surface_before;
     if (!WriteObj(options.output_before, surface, &error)) return Fail(JobStatus::kBadInput, error);
     log << "wrote " << options.output_before << "\n";
+  }
+  if (!options.output_intersections.empty()) {
+    const std::vector<double> field = solver.NewIntersectionField(surface.vertices);
+    const double most = *std::max_element(field.begin(), field.end());
+    if (!WritePlyWithScalar(options.output_intersections, surface, field, std::max(1.0, most),
+                            &error)) {
+      return Fail(JobStatus::kBadInput, error);
+    }
+    log << "wrote " << options.output_intersections << "\n";
   }
   if (!options.output_volume.empty()) {
     const std::vector<VtuField> point_fields = {MakeVtuField("contact_displacement", state - start),

@@ -22,6 +22,9 @@ struct CollideJobOptions {
   std::string output_before;   // optional: the surface without contact (OBJ)
   std::string output_volume;   // optional: the equilibrium with contact (.vtu/.mesh)
   std::string report;          // optional: the report as text
+  // Optional: PLY of the surface with contact and, per vertex, the count of
+  // self-intersecting triangle pairs (not intersecting at rest) it is part of.
+  std::string output_intersections;
   ContactOptions contact;
 };
 

@@ -20,6 +20,8 @@ namespace aqs {
 namespace {
 
 const char* const kMethods[3] = {"physics", "autoencoder", "pca"};
+// The reference row of every pose: the neutral surface itself (no motion).
+const char* const kNeutral = "neutral";
 
 // Distances of the listed vertices (all if empty).
 Eigen::VectorXd VertexErrors(const Eigen::Matrix3Xd& a, const Eigen::Matrix3Xd& b) {
@@ -67,11 +69,16 @@ std::string MarkdownTable(const std::vector<EvaluationRow>& rows, const std::str
     table[row.pose][row.method] = row;
   }
   if (poses.empty()) return "";
-  std::string out = "| " + split + " pose | physics mean | rms | max | autoencoder mean | rms | max | "
-                    "PCA mean | rms | max |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+  std::string out = "| " + split + " pose | neutral mean | physics mean | rms | max | autoencoder mean | "
+                    "rms | max | PCA mean | rms | max |\n"
+                    "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   std::map<std::string, EvaluationRow> average;
+  double neutral_average = 0;
   for (const std::string& pose : poses) {
-    out += "| " + pose;
+    const auto neutral = table[pose].find(kNeutral);
+    const double neutral_mean = neutral == table[pose].end() ? 0.0 : neutral->second.mean;
+    neutral_average += neutral_mean / poses.size();
+    out += "| " + pose + " | " + Number(neutral_mean);
     for (const char* method : kMethods) {
       const EvaluationRow& r = table[pose][method];
       out += " | " + Number(r.mean) + " | " + Number(r.rms) + " | " + Number(r.max);
@@ -82,7 +89,7 @@ std::string MarkdownTable(const std::vector<EvaluationRow>& rows, const std::str
     }
     out += " |\n";
   }
-  out += "| **mean** (max of max)";
+  out += "| **mean** (max of max) | " + Number(neutral_average);
   for (const char* method : kMethods) {
     const EvaluationRow& a = average[method];
     out += " | **" + Number(a.mean) + "** | " + Number(a.rms) + " | " + Number(a.max);
@@ -200,6 +207,8 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& log,
       *error = "training pose '" + model.poses[p].name + "': " + *error;
       return false;
     }
+    rows.push_back(Summarize("train", model.poses[p].name, kNeutral,
+                             VertexErrors(model.neutral.vertices, truth), options.error_vertices));
     rows.push_back(Summarize("train", model.poses[p].name, "physics", VertexErrors(surface, truth),
                              options.error_vertices));
     rows.push_back(Summarize("train", model.poses[p].name, "autoencoder",
@@ -227,6 +236,8 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& log,
       *error = "held-out pose '" + test_names[t] + "': the auto-encoder's latent fit failed";
       return false;
     }
+    rows.push_back(Summarize("test", test_names[t], kNeutral,
+                             VertexErrors(model.neutral.vertices, truth), options.error_vertices));
     const Eigen::Matrix3Xd surfaces[3] = {fit.surface, autoencoder.Decode(ae_latent),
                                           pca.Decode(pca.Encode(truth))};
     Eigen::VectorXd errors[3];
@@ -235,7 +246,8 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& log,
       rows.push_back(Summarize("test", test_names[t], kMethods[m], errors[m], options.error_vertices));
     }
     log << "  " << test_names[t] << ": fitted in " << FormatDuration(pose_timer.Seconds())
-        << " (physics " << fit.iterations << " iterations), mean error physics "
+        << " (physics " << fit.iterations << " iterations), mean error: neutral "
+        << rows[rows.size() - 4].mean << ", physics "
         << rows[rows.size() - 3].mean << ", autoencoder " << rows[rows.size() - 2].mean << ", PCA "
         << rows.back().mean << "\n";
     if (!options.write_fields) continue;
@@ -262,7 +274,8 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& log,
   md << "# Evaluation of " << options.model << "\n\n"
      << "Vertex distances between each method's surface and the pose (model units), over "
      << (options.error_vertices.empty() ? ns : static_cast<int>(options.error_vertices.size()))
-     << " surface vertices. Latent size " << model.latent_dim() << " for all three methods: "
+     << " surface vertices. **neutral**: the rest surface itself (no motion), for reference. "
+     << "Latent size " << model.latent_dim() << " for all three methods: "
      << "**physics** (this model: training latents, or latent and bone motion fitted to the "
      << "held-out pose through the simulator), **autoencoder** (surface-only decoder with the "
      << "same network layout, trained on the same poses, latent fitted), **PCA** (linear, "

@@ -33,7 +33,7 @@ struct EvaluateJobOptions {
 struct EvaluationRow {
   std::string split;   // "train" or "test"
   std::string pose;
-  std::string method;  // "physics", "autoencoder", "pca"
+  std::string method;  // "neutral" (the rest surface, for reference), "physics", "autoencoder", "pca"
   double mean = 0.0, rms = 0.0, max = 0.0;
 };
 
@@ -42,7 +42,8 @@ struct EvaluationRow {
 // motions, re-simulated; autoencoder: its training latents; PCA: projection) and on the
 // held-out poses (physics: latent and bone motion fitted to all vertices, LatentFitter;
 // autoencoder: latent fitted, SurfaceAutoencoder::FitLatent; PCA: projection), and
-// writes <output>/evaluation.md (a table per split with per-pose rows and means),
+// writes <output>/evaluation.md (a table per split with per-pose rows and means; the
+// neutral surface's error is a reference column),
 // <output>/evaluation.csv, and, with write_fields, <output>/fields/<pose>_<method>.ply
 // and <output>/fitted/<pose>_<method>.obj. Returns false with *error on bad input.
 bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& log,

@@ -76,7 +76,8 @@ TEST_F(AqsFitTest, EvaluationTablesAndFieldsAreWritten) {
   std::ifstream csv(dir_->File("evaluation/evaluation.csv"));
   int lines = 0;
   for (std::string line; std::getline(csv, line);) ++lines;
-  EXPECT_EQ(lines, 1 + 3 * (6 + 2));  // header, 3 methods x (6 training + 2 held-out)
+  // header, 3 methods and the neutral reference x (6 training + 2 held-out)
+  EXPECT_EQ(lines, 1 + 4 * (6 + 2));
   for (const char* method : {"physics", "autoencoder", "pca"}) {
     EXPECT_TRUE(std::filesystem::exists(dir_->File(std::string("evaluation/fields/test0_") + method + ".ply")))
         << method;
@@ -257,6 +258,8 @@ TEST_F(AqsFitTest, CollidePushesTheSurfaceOutOfAnObstacle) {
       {"--contact_vertices=0:99999", "outside the surface"},
       {"--contact_vertices=5:2", "5:2"},
       {"--thickness=0", "thickness"},
+      {"--max_depth=-1", "max depth"},
+      {"--contact_rounds=0", "--contact_rounds must be"},
   };
   const std::string base = AppPath("aqs_collide") + " --model=" + dir_->File("model") +
                            " --pose=" + data_->model.poses[0].name + " --output=" +

@@ -1,0 +1,72 @@
+#!/usr/bin/env python3
+"""Makes a synthetic "scan" of a pose surface for the point-cloud fit demo: a partial,
+noisy sample of its surface, without correspondence (random order),
+as an ASCII PLY (x y z per point).
+
+Usage: make_scan.py POSE.obj NEUTRAL.obj OUT.ply [--points N] [--noise SIGMA]
+       [--min_z Z] [--seed S]
+The pose file holds only `v` records (faces come from the neutral). Points are uniform
+(by area) on the triangles whose three corners have z >= min_z (the front of the face,
+as a single depth camera would see it), plus Gaussian noise of SIGMA per coordinate.
+A development-time tool; the project does not run it."""
+import argparse
+import random
+
+
+def read_vertices(path):
+    with open(path) as src:
+        return [[float(x) for x in line.split()[1:4]] for line in src if line.startswith("v ")]
+
+
+def read_triangles(path):
+    triangles = []
+    with open(path) as src:
+        for line in src:
+            if line.startswith("f "):
+                corners = [int(token.split("/")[0]) - 1 for token in line.split()[1:]]
+                for k in range(1, len(corners) - 1):
+                    triangles.append((corners[0], corners[k], corners[k + 1]))
+    return triangles
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("pose")
+    parser.add_argument("neutral")
+    parser.add_argument("output")
+    parser.add_argument("--points", type=int, default=4000)
+    parser.add_argument("--noise", type=float, default=0.02)
+    parser.add_argument("--min_z", type=float, default=8.0)
+    parser.add_argument("--seed", type=int, default=1)
+    args = parser.parse_args()
+    rng = random.Random(args.seed)
+    vertices = read_vertices(args.pose)
+    triangles = [t for t in read_triangles(args.neutral)
+                 if all(vertices[i][2] >= args.min_z for i in t)]
+    def area(t):
+        a, b, c = (vertices[i] for i in t)
+        e, f = [b[k] - a[k] for k in range(3)], [c[k] - a[k] for k in range(3)]
+        n = [e[1] * f[2] - e[2] * f[1], e[2] * f[0] - e[0] * f[2], e[0] * f[1] - e[1] * f[0]]
+        return 0.5 * sum(x * x for x in n) ** 0.5
+
+    chosen = rng.choices(triangles, weights=[area(t) for t in triangles], k=args.points)
+    points = []
+    for t in chosen:
+        a, b, c = (vertices[i] for i in t)
+        u, v = rng.random(), rng.random()
+        if u + v > 1:
+            u, v = 1 - u, 1 - v
+        points.append([a[k] + u * (b[k] - a[k]) + v * (c[k] - a[k]) + rng.gauss(0, args.noise)
+                       for k in range(3)])
+    with open(args.output, "w") as out:
+        out.write("ply\nformat ascii 1.0\n")
+        out.write("comment synthetic scan of %s: %d points on triangles with z >= %g, noise %g\n"
+                  % (args.pose, len(points), args.min_z, args.noise))
+        out.write("element vertex %d\nproperty float x\nproperty float y\nproperty float z\n"
+                  "end_header\n" % len(points))
+        for p in points:
+            out.write("%.5f %.5f %.5f\n" % tuple(p))
+
+
+if __name__ == "__main__":
+    main()
