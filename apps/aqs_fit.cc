@@ -7,6 +7,7 @@
 #include <gflags/gflags.h>
 
 #include "app_common.h"
+#include "jobs/evaluate_job.h"
 #include "jobs/fit_job.h"
 
 DECLARE_string(model);
@@ -25,6 +26,9 @@ DEFINE_double(max_distance, 1.0, "Points: ignore scan points farther than this f
 DEFINE_double(robust_scale, 0.2, "Points: Cauchy scale of the robust weights (0: none).");
 DEFINE_int32(rounds, 8, "Points: matching rounds.");
 DEFINE_double(fit_tolerance, 1e-6, "Relative force tolerance of the equilibria.");
+DEFINE_string(compare_to, "", "Optional: a ground-truth surface (OBJ, the neutral's vertex order) "
+              "to measure the fitted surface against (e.g. the pose a scan was taken of).");
+DEFINE_string(compare_vertices, "", "Vertices of that comparison, e.g. 0:9409 (default: all).");
 DECLARE_int32(threads);
 
 int main(int argc, char** argv) {
@@ -39,6 +43,13 @@ int main(int argc, char** argv) {
   options.output_volume = FLAGS_output_volume;
   options.latent_output = FLAGS_latent_output;
   options.initial_latent = FLAGS_initial_latent;
+  options.compare_to = FLAGS_compare_to;
+  std::string error;
+  if (!FLAGS_compare_vertices.empty() &&
+      !aqs::ParseVertexRanges(FLAGS_compare_vertices, &options.compare_vertices, &error)) {
+    aqs::PrintError(error);
+    return 1;
+  }
   options.fit.fit_bones = FLAGS_fit_bones;
   options.fit.latent_regularization = FLAGS_fit_regularization;
   options.fit.max_iterations = FLAGS_fit_iterations;

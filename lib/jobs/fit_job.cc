@@ -1,5 +1,7 @@
 #include "jobs/fit_job.h"
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <iomanip>
 #include <sstream>
@@ -132,6 +134,20 @@ FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log) {
   } else {
     return Fail("--target_kind must be auto, pose, markers or points, got '" + kind + "'");
   }
+  SurfaceMesh truth;
+  if (!options.compare_to.empty()) {
+    if (!ReadObj(options.compare_to, &truth, &error)) return Fail(error);
+    if (truth.num_vertices() != ns) {
+      return Fail(options.compare_to + ": " + std::to_string(truth.num_vertices()) +
+                  " vertices, but the model's surface has " + std::to_string(ns));
+    }
+    for (int v : options.compare_vertices) {
+      if (v < 0 || v >= ns) {
+        return Fail("comparison vertex " + std::to_string(v) + " is outside the surface's " +
+                    std::to_string(ns) + " vertices");
+      }
+    }
+  }
   log << "target " << options.target << ": " << kind << " ("
       << (kind == "points" ? cloud.cols() : target.num_points()) << " points)\n";
 
@@ -165,6 +181,26 @@ FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log) {
     const Eigen::AngleAxisd aa(fit.bones[b].rotation);
     log << "bone " << model.bones[b].name << ": rotation " << aa.angle() * 180 / M_PI
         << " deg, translation " << fit.bones[b].translation.transpose() << "\n";
+  }
+  if (!options.compare_to.empty()) {
+    const Eigen::VectorXd distances = (fit.surface - truth.vertices).colwise().norm().transpose();
+    std::vector<int> vertices = options.compare_vertices;
+    if (vertices.empty()) {
+      for (int i = 0; i < ns; ++i) vertices.push_back(i);
+    }
+    double sum = 0, squares = 0, rest_sum = 0;
+    for (int v : vertices) {
+      sum += distances[v];
+      squares += distances[v] * distances[v];
+      result.compare_max = std::max(result.compare_max, distances[v]);
+      rest_sum += (model.neutral.vertices.col(v) - truth.vertices.col(v)).norm();
+    }
+    result.compare_mean = sum / vertices.size();
+    result.compare_rms = std::sqrt(squares / vertices.size());
+    log << "versus " << options.compare_to << " over " << vertices.size()
+        << " vertices: mean " << result.compare_mean << " rms " << result.compare_rms << " max "
+        << result.compare_max << " (the neutral surface: mean " << rest_sum / vertices.size()
+        << ")\n";
   }
   SurfaceMesh surface = model.neutral;
   surface.vertices = fit.surface;

@@ -3,6 +3,7 @@
 
 #include <ostream>
 #include <string>
+#include <vector>
 
 #include "fit/latent_fit.h"
 #include "jobs/simulate_job.h"
@@ -24,6 +25,10 @@ struct FitJobOptions {
   std::string output_volume;  // optional: the equilibrium (.vtu/.mesh/.obj by extension)
   std::string latent_output;  // optional: the latent file (io/latent_io.h)
   std::string initial_latent; // optional start (latent file); default: mean training latent
+  // Optional: a ground-truth surface (OBJ, the neutral's vertex order) the fitted surface
+  // is measured against, over compare_vertices (empty: all), into FitJobResult.
+  std::string compare_to;
+  std::vector<int> compare_vertices;
   LatentFitOptions fit;
   PointCloudFitOptions points;
 };
@@ -33,6 +38,8 @@ struct FitJobResult {
   std::string message;
   std::string kind;  // the target kind used
   LatentFitResult fit;
+  // With compare_to: vertex distances of the fitted surface to it.
+  double compare_mean = 0.0, compare_rms = 0.0, compare_max = 0.0;
 };
 
 // Reads a markers file: "vertex x y z" per line ('#' comments), vertices in

@@ -88,7 +88,8 @@ TEST_F(AqsFitTest, FitsAPoseAndSimulatesTheLatentBack) {
   const testing::CommandResult fit =
       RunCommand(Fit("--target=" + dir_->File("test0.obj") + " --output=" + dir_->File("fit.obj") +
                      " --latent_output=" + dir_->File("z.txt") + " --output_volume=" +
-                     dir_->File("fit.vtu")));
+                     dir_->File("fit.vtu") + " --compare_to=" + dir_->File("test0.obj") +
+                     " --compare_vertices=0:10"));
   ASSERT_EQ(fit.exit_code, 0) << fit.output;
   EXPECT_NE(fit.output.find("target " + dir_->File("test0.obj") + ": pose"), std::string::npos)
       << fit.output;
@@ -97,6 +98,14 @@ TEST_F(AqsFitTest, FitsAPoseAndSimulatesTheLatentBack) {
   ASSERT_TRUE(ReadObj(dir_->File("fit.obj"), &fitted, &error)) << error;
   EXPECT_EQ(fitted.num_vertices(), data_->model.neutral.num_vertices());
   EXPECT_EQ(fitted.triangles, data_->model.neutral.triangles) << "the neutral's faces";
+  // The comparison with the target itself: the fit's error over the first 10 vertices.
+  const double first_ten =
+      (fitted.vertices.leftCols(10) - data_->test_surfaces[0].leftCols(10)).colwise().norm().mean();
+  double reported = -1;
+  const size_t at = fit.output.find("over 10 vertices: mean ");
+  ASSERT_NE(at, std::string::npos) << fit.output;
+  reported = std::stod(fit.output.substr(at + 23));
+  EXPECT_NEAR(reported, first_ten, 1e-5 + 1e-4 * first_ten) << fit.output;
   // The latent decodes and simulates to the same surface.
   const testing::CommandResult sim = RunCommand(
       AppPath("aqs_simulate") + " --model=" + dir_->File("model") + " --latent=" +
@@ -159,6 +168,10 @@ TEST_F(AqsFitTest, MalformedTargetsFailClearly) {
       {"--target=" + dir_->File("missing.obj"), "missing.obj"},
       {"--target=" + dir_->File("x.xyz"), "cannot tell the target kind"},
       {"--target=" + dir_->File("test0.obj") + " --target_kind=cloud", "--target_kind must be"},
+      {"--target=" + dir_->File("test0.obj") + " --compare_to=" + dir_->File("small.obj"),
+       "small.obj: 10 vertices, but the model's surface has"},
+      {"--target=" + dir_->File("test0.obj") + " --compare_to=" + dir_->File("test0.obj") +
+       " --compare_vertices=0:99999", "comparison vertex"},
   };
   for (const auto& [flags, message] : cases) {
     const testing::CommandResult run = RunCommand(Fit(flags + " --output=" + dir_->File("o.obj")));
