@@ -248,6 +248,11 @@ ceres::CostFunction* LatentFitter::NewCostFunction(const FitTarget& target) {
   return new FitCost(this, target, options_.fit_bones && !model_.bones.empty());
 }
 
+void LatentFitter::set_start_state(const Eigen::Matrix3Xd& state) {
+  CHECK_EQ(state.cols(), model_.mesh.num_vertices());
+  solver_->SetPositions(state);
+}
+
 bool LatentFitter::Simulate(const Eigen::VectorXd& z, Eigen::Matrix3Xd* state,
                             Eigen::Matrix3Xd* surface, std::string* error) {
   ActuationMatrix a;

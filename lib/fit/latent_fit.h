@@ -98,6 +98,10 @@ class LatentFitter {
   // Bone motions used by Simulate, and the start of fits (default: rest).
   void set_bone_transforms(const std::vector<RigidTransform>& transforms);
   const std::vector<RigidTransform>& bone_transforms() const { return bones_; }
+  // The state (3 x num_vertices) the next equilibrium solve starts from (default: the
+  // rest shape, then the last equilibrium). The energy is not convex: a training
+  // pose's stored equilibrium (ActiveModel::states) is the branch training saw.
+  void set_start_state(const Eigen::Matrix3Xd& state);
 
   // Fits from latent `initial` (latent_dim) and the current bone transforms. Returns
   // false with *error if the equilibrium cannot be computed at the start.

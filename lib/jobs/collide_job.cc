@@ -56,12 +56,14 @@ CollideJobResult RunCollideJob(const CollideJobOptions& options, std::ostream& l
   for (const Bone& bone : model.bones) bone_names.push_back(bone.name);
   Eigen::VectorXd z;
   std::vector<RigidTransform> bones;
+  int pose_index = -1;  // --pose: the training pose
   if (!options.latent.empty()) {
     if (!ReadLatentFile(options.latent, model.latent_dim(), bone_names, &z, &bones, &error)) {
       return Fail(JobStatus::kBadInput, error);
     }
   } else {
     const int p = model.PoseIndex(options.pose);
+    pose_index = p;
     if (p < 0) return Fail(JobStatus::kBadInput, "the model has no training pose '" + options.pose + "'");
     z = model.latents.col(p);
     for (const Bone& bone : model.bones) bones.push_back(bone.pose_transforms[p]);
@@ -97,6 +99,12 @@ CollideJobResult RunCollideJob(const CollideJobOptions& options, std::ostream& l
   fit_options.num_threads = options.contact.num_threads;
   LatentFitter fitter(model, fit_options);
   fitter.set_bone_transforms(bones);
+  // A training pose starts from the equilibrium training left (the energy is not convex;
+  // from rest the solve may take another branch or crawl).
+  if (pose_index >= 0 && model.states.size() > static_cast<size_t>(pose_index) &&
+      model.states[pose_index].cols() == model.mesh.num_vertices()) {
+    fitter.set_start_state(model.states[pose_index]);
+  }
   Eigen::Matrix3Xd start, surface_before;
   if (!fitter.Simulate(z, &start, &surface_before, &error)) {
     return Fail(JobStatus::kNotConverged, error);

@@ -70,12 +70,14 @@ SimulateJobResult RunModelSimulateJob(const SimulateJobOptions& options, std::os
   for (const Bone& bone : model.bones) names.push_back(bone.name);
   Eigen::VectorXd z;
   std::vector<RigidTransform> bones;
+  int pose_index = -1;  // --pose: the training pose
   if (!options.latent.empty()) {
     if (!ReadLatentFile(options.latent, model.latent_dim(), names, &z, &bones, &error)) {
       return Fail(JobStatus::kBadInput, error);
     }
   } else {
     const int p = model.PoseIndex(options.pose);
+    pose_index = p;
     if (p < 0) {
       std::string known;
       for (const TrainingPose& pose : model.poses) known += " " + pose.name;
@@ -90,6 +92,12 @@ SimulateJobResult RunModelSimulateJob(const SimulateJobOptions& options, std::os
   fit_options.num_threads = options.solver.num_threads;
   LatentFitter fitter(model, fit_options);
   fitter.set_bone_transforms(bones);
+  // A training pose starts from the equilibrium training left (the energy is not convex;
+  // from rest the solve may take another branch or crawl).
+  if (pose_index >= 0 && model.states.size() > static_cast<size_t>(pose_index) &&
+      model.states[pose_index].cols() == model.mesh.num_vertices()) {
+    fitter.set_start_state(model.states[pose_index]);
+  }
   Eigen::Matrix3Xd state, surface;
   SimulateJobResult result;
   if (!fitter.Simulate(z, &state, &surface, &error)) {

@@ -33,6 +33,7 @@ EndToEndObjective::EndToEndObjective(const TrainOptions& options, const ActiveMo
   pose_mean_.resize(num_poses_);
   pose_max_.resize(num_poses_);
   failures_.resize(num_poses_);
+  converged_once_.assign(num_poses_, 0);
 }
 
 EndToEndObjective::~EndToEndObjective() = default;
@@ -60,6 +61,10 @@ double EndToEndObjective::max_surface_error() const {
 }
 
 bool EndToEndObjective::Evaluate(const double* parameters, double* cost, double* gradient) const {
+  if (deadline_ > 0.0 && timer_.Seconds() > deadline_) {
+    last_failure_ = "the time limit has passed";
+    return false;
+  }
   const Eigen::Map<const Eigen::MatrixXd> latents(parameters + num_params_, latent_dim_,
                                                   num_poses_);
   std::vector<ActuationMatrix> a;
@@ -75,7 +80,7 @@ bool EndToEndObjective::Evaluate(const double* parameters, double* cost, double*
     w.solver->actuation() = a[p];
     w.solver->SetPositions(states_[p]);
     QuasistaticSolveReport report = w.solver->Solve();
-    if (!report.converged) {  // retry from rest
+    if (!report.converged && !converged_once_[p]) {  // retry from rest
       w.solver->SetPositions(model_.mesh.vertices);
       report = w.solver->Solve();
     }
@@ -85,6 +90,7 @@ bool EndToEndObjective::Evaluate(const double* parameters, double* cost, double*
     }
     const Eigen::Matrix3Xd x = w.solver->positions();
     states_[p] = x;
+    converged_once_[p] = 1;
     const Eigen::Matrix3Xd diff =
         EmbeddedPositions(model_.embedding, model_.mesh.tets, x) - model_.poses[p].surface;
     pose_loss_[p] = diff.squaredNorm() * scale;

@@ -12,6 +12,7 @@
 #include "equilibrium/quasistatic_solver.h"
 #include "model/active_model.h"
 #include "train/trainer.h"
+#include "util/wall_timer.h"
 
 namespace aqs {
 
@@ -23,8 +24,13 @@ namespace aqs {
 // Evaluate() decodes all poses, solves their equilibria in parallel (per-thread solvers,
 // warm-started from each pose's last state) and, with a gradient, runs one adjoint
 // solve per pose and back-propagates through the embedding and the decoder. It returns
-// false (a failed step for Ceres) if an equilibrium cannot be reached or its stiffness
-// is not positive definite. Not thread-safe (Ceres calls it from one thread).
+// false (a failed step for Ceres, which then shortens the line-search step) if an
+// equilibrium cannot be reached or its stiffness is not positive definite, or once a
+// time limit has passed. A pose whose warm start fails is retried from the rest shape
+// only until it has converged once: afterwards a failure is a step too long for the
+// branch training follows (retrying from rest would cost a long solve and could jump
+// to another branch of the non-convex energy). Not thread-safe (Ceres calls it from
+// one thread).
 class EndToEndObjective final : public ceres::FirstOrderFunction {
  public:
   // The model (pre-trained: decoder set) must outlive the objective; its states seed
@@ -34,6 +40,16 @@ class EndToEndObjective final : public ceres::FirstOrderFunction {
 
   int NumParameters() const override;
   bool Evaluate(const double* parameters, double* cost, double* gradient) const override;
+
+  // Evaluate() fails at once once this many seconds have passed from this call (0:
+  // never), so that a line search overruns a training budget by one evaluation at most.
+  void set_time_limit(double seconds) {
+    deadline_ = seconds > 0.0 ? timer_.Seconds() + seconds : 0.0;
+  }
+
+  // Lets the next evaluation retry every pose from rest again if its warm start fails
+  // (for a final evaluation, which must not fail where a line-search trial may).
+  void AllowRetryFromRest() { converged_once_.assign(num_poses_, 0); }
 
   // The model's current [params; latents] as a flat vector.
   Eigen::VectorXd ModelParameters() const;
@@ -61,7 +77,10 @@ class EndToEndObjective final : public ceres::FirstOrderFunction {
   mutable std::vector<Eigen::Matrix3Xd> states_;
   mutable std::vector<double> pose_loss_, pose_mean_, pose_max_;
   mutable std::vector<std::string> failures_;
+  mutable std::vector<char> converged_once_;  // per pose, in this objective's life
   mutable std::string last_failure_;
+  WallTimer timer_;
+  double deadline_ = 0.0;  // on timer_; 0: none
 };
 
 }  // namespace aqs

@@ -192,6 +192,9 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
     log << "train: all " << options.max_iterations << " iterations are done already\n";
   }
 
+  // The budget counts from here; a line search past it fails at once.
+  objective->set_time_limit(options.max_seconds);
+  WallTimer budget_timer;
   ceres::GradientProblem problem(objective);  // owns the objective
   TrainingCallback callback(options, model, *objective, parameters, report->iterations_before, log);
   int done = report->iterations_before;
@@ -219,7 +222,13 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
       report->termination = summary.message;
       const bool stalled = summary.termination_type == ceres::CONVERGENCE ||
                            summary.termination_type == ceres::FAILURE;
-      if (!stalled || callback.budget_reached() || done >= options.max_iterations ||
+      const bool out_of_time =
+          options.max_seconds > 0 && budget_timer.Seconds() > options.max_seconds;
+      if (out_of_time && !callback.budget_reached()) {
+        log << "  time budget of " << FormatDuration(options.max_seconds)
+            << " reached during a line search (its last step is dropped)\n";
+      }
+      if (!stalled || out_of_time || callback.budget_reached() || done >= options.max_iterations ||
           steps == 0 || restarts >= options.max_restarts) {
         break;
       }
@@ -232,6 +241,8 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
   }
   SetBlasThreads(blas_threads);
   // Final state: evaluate the returned parameters (also refreshes states and errors).
+  objective->set_time_limit(0.0);
+  objective->AllowRetryFromRest();
   if (!objective->Evaluate(parameters.data(), &cost, nullptr)) {
     *error = "the final point cannot be simulated: " + objective->last_failure();
     return false;

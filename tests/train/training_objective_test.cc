@@ -1,7 +1,9 @@
 #include "train/end_to_end_objective.h"
 
+#include <chrono>
 #include <cstdio>
 #include <random>
+#include <thread>
 
 #include <gtest/gtest.h>
 
@@ -13,15 +15,13 @@
 namespace aqs {
 namespace {
 
-// The gradient of the end-to-end objective with respect to decoder weights and latents
-// against central differences of the whole objective, re-solving every equilibrium.
-TEST(EndToEndObjectiveTest, GradientMatchesCentralDifferencesOfResolvedObjective) {
+// The synthetic bar with 4 poses, volumetric targets and a small pre-trained decoder.
+testing::SyntheticMuscles PretrainedBar() {
   testing::SyntheticMuscles data = testing::MakeSyntheticMuscles(4, 0, 0.3, 11);
-  ActiveModel& model = data.model;
   std::ostringstream log;
   std::string error;
   VolumetricTargetOptions targets;
-  ASSERT_TRUE(MakeVolumetricTargets(targets, &model, log, &error)) << error;
+  EXPECT_TRUE(MakeVolumetricTargets(targets, &data.model, log, &error)) << error;
   PretrainOptions pretrain;
   pretrain.spec.latent_dim = 2;
   pretrain.spec.hidden_dims = {8};
@@ -30,7 +30,16 @@ TEST(EndToEndObjectiveTest, GradientMatchesCentralDifferencesOfResolvedObjective
   pretrain.max_iterations = 30;
   pretrain.log_every = 0;
   PretrainReport pretrain_report;
-  ASSERT_TRUE(Pretrain(pretrain, &model, &pretrain_report, log, &error)) << error;
+  EXPECT_TRUE(Pretrain(pretrain, &data.model, &pretrain_report, log, &error)) << error;
+  return data;
+}
+
+// The gradient of the end-to-end objective with respect to decoder weights and latents
+// against central differences of the whole objective, re-solving every equilibrium.
+TEST(EndToEndObjectiveTest, GradientMatchesCentralDifferencesOfResolvedObjective) {
+  testing::SyntheticMuscles data = PretrainedBar();
+  ActiveModel& model = data.model;
+  ASSERT_TRUE(model.decoder);
 
   TrainOptions options;
   options.latent_regularization = 1e-2;
@@ -67,6 +76,27 @@ TEST(EndToEndObjectiveTest, GradientMatchesCentralDifferencesOfResolvedObjective
   }
   std::printf("training objective: %zu components checked, worst error %.2e (relative to max |g|)\n",
               indices.size(), worst);
+}
+
+// Past its time limit an evaluation fails at once (a failed line-search step), and
+// lifting the limit restores the same value.
+TEST(EndToEndObjectiveTest, TimeLimitFailsEvaluationsUntilLifted) {
+  testing::SyntheticMuscles data = PretrainedBar();
+  ASSERT_TRUE(data.model.decoder);
+  TrainOptions options;
+  options.num_threads = 2;
+  EndToEndObjective objective(options, data.model);
+  const Eigen::VectorXd x0 = objective.ModelParameters();
+  double before = 0, after = 0, limited = -1;
+  ASSERT_TRUE(objective.Evaluate(x0.data(), &before, nullptr)) << objective.last_failure();
+  objective.set_time_limit(1e-6);
+  std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  EXPECT_FALSE(objective.Evaluate(x0.data(), &limited, nullptr));
+  EXPECT_EQ(limited, -1);  // untouched
+  EXPECT_EQ(objective.last_failure(), "the time limit has passed");
+  objective.set_time_limit(0.0);
+  ASSERT_TRUE(objective.Evaluate(x0.data(), &after, nullptr)) << objective.last_failure();
+  EXPECT_NEAR(after, before, 1e-10 * before);
 }
 
 }  // namespace
