@@ -1,6 +1,7 @@
 #ifndef AQS_TRAIN_END_TO_END_OBJECTIVE_H_
 #define AQS_TRAIN_END_TO_END_OBJECTIVE_H_
 
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -59,6 +60,16 @@ class EndToEndObjective final : public ceres::FirstOrderFunction {
   double mean_surface_error() const;
   double max_surface_error() const;
   const std::vector<Eigen::Matrix3Xd>& states() const { return states_; }
+
+  // The per-pose equilibria of one of the last kRememberedEvaluations successful
+  // evaluations, found by the exact parameter vector (NumParameters() values): a line
+  // search evaluates trial points after the one it accepts, and with a non-convex energy
+  // the equilibria of the accepted point are the ones to save and to restart from.
+  // StatesAt returns false if no remembered evaluation was at these parameters;
+  // UseStatesOf makes them the warm starts of the next evaluation.
+  static constexpr int kRememberedEvaluations = 3;
+  bool StatesAt(const double* parameters, std::vector<Eigen::Matrix3Xd>* states) const;
+  bool UseStatesOf(const double* parameters);
   const std::string& last_failure() const { return last_failure_; }
 
  private:
@@ -78,6 +89,12 @@ class EndToEndObjective final : public ceres::FirstOrderFunction {
   mutable std::vector<double> pose_loss_, pose_mean_, pose_max_;
   mutable std::vector<std::string> failures_;
   mutable std::vector<char> converged_once_;  // per pose, in this objective's life
+  struct Remembered {
+    uint64_t key = 0;  // hash of the parameter vector
+    std::vector<Eigen::Matrix3Xd> states;
+  };
+  uint64_t Key(const double* parameters) const;
+  mutable std::vector<Remembered> remembered_;  // newest last
   mutable std::string last_failure_;
   WallTimer timer_;
   double deadline_ = 0.0;  // on timer_; 0: none

@@ -117,7 +117,11 @@ class TrainingCallback final : public ceres::IterationCallback {
     model_->decoder_params = parameters_.head(np);
     model_->latents = Eigen::Map<const Eigen::MatrixXd>(parameters_.data() + np,
                                                         model_->latent_dim(), model_->num_poses());
-    model_->states = objective_.states();
+    // The equilibria of the accepted point (the line search may have evaluated others
+    // after it).
+    if (!objective_.StatesAt(parameters_.data(), &model_->states)) {
+      model_->states = objective_.states();
+    }
   }
 
  private:
@@ -232,6 +236,7 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
           steps == 0 || restarts >= options.max_restarts) {
         break;
       }
+      objective->UseStatesOf(parameters.data());  // restart from the accepted point
       ++report->restarts;
       log << "  L-BFGS stopped (" << summary.message << "); restarting from iteration " << done
           << "\n";
@@ -243,6 +248,7 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
   // Final state: evaluate the returned parameters (also refreshes states and errors).
   objective->set_time_limit(0.0);
   objective->AllowRetryFromRest();
+  objective->UseStatesOf(parameters.data());  // the accepted point's equilibria
   if (!objective->Evaluate(parameters.data(), &cost, nullptr)) {
     *error = "the final point cannot be simulated: " + objective->last_failure();
     return false;

@@ -99,5 +99,43 @@ TEST(EndToEndObjectiveTest, TimeLimitFailsEvaluationsUntilLifted) {
   EXPECT_NEAR(after, before, 1e-10 * before);
 }
 
+// The equilibria of recent evaluations are found again by their exact parameters and
+// can be made the warm starts; older or other points are not found.
+TEST(EndToEndObjectiveTest, RemembersTheEquilibriaOfRecentEvaluations) {
+  testing::SyntheticMuscles data = PretrainedBar();
+  ASSERT_TRUE(data.model.decoder);
+  TrainOptions options;
+  options.num_threads = 2;
+  EndToEndObjective objective(options, data.model);
+  const Eigen::VectorXd x0 = objective.ModelParameters();
+  double cost = 0;
+  ASSERT_TRUE(objective.Evaluate(x0.data(), &cost, nullptr)) << objective.last_failure();
+  const std::vector<Eigen::Matrix3Xd> states0 = objective.states();
+  std::vector<Eigen::VectorXd> others;
+  for (int k = 1; k <= EndToEndObjective::kRememberedEvaluations; ++k) {
+    Eigen::VectorXd x = x0;
+    x.tail(x0.size() - data.model.decoder->num_parameters()) *= 1.0 + 0.2 * k;  // latents
+    ASSERT_TRUE(objective.Evaluate(x.data(), &cost, nullptr)) << objective.last_failure();
+    others.push_back(x);
+  }
+  std::vector<Eigen::Matrix3Xd> found;
+  // x0 was pushed out by kRememberedEvaluations newer evaluations.
+  EXPECT_FALSE(objective.StatesAt(x0.data(), &found));
+  ASSERT_TRUE(objective.StatesAt(others[0].data(), &found));
+  ASSERT_EQ(found.size(), states0.size());
+  double moved = 0;
+  for (size_t p = 0; p < found.size(); ++p) moved += (found[p] - states0[p]).norm();
+  EXPECT_GT(moved, 1e-6);  // another point's equilibria
+  // The newest point's equilibria are the current states; an older one's can be restored.
+  ASSERT_TRUE(objective.StatesAt(others.back().data(), &found));
+  for (size_t p = 0; p < found.size(); ++p) EXPECT_EQ(found[p], objective.states()[p]);
+  ASSERT_TRUE(objective.StatesAt(others[0].data(), &found));
+  ASSERT_TRUE(objective.UseStatesOf(others[0].data()));
+  for (size_t p = 0; p < found.size(); ++p) EXPECT_EQ(found[p], objective.states()[p]);
+  Eigen::VectorXd unseen = x0;
+  unseen[0] += 1e-12;
+  EXPECT_FALSE(objective.UseStatesOf(unseen.data()));
+}
+
 }  // namespace
 }  // namespace aqs
