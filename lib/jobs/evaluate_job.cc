@@ -202,6 +202,12 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& log,
     std::vector<RigidTransform> bones;
     for (const Bone& bone : model.bones) bones.push_back(bone.pose_transforms[p]);
     fitter.set_bone_transforms(bones);
+    // From the equilibrium training left for this pose (the energy is not convex: from
+    // rest a large pose such as jawOpen may crawl or reach another branch).
+    if (p < static_cast<int>(model.states.size()) &&
+        model.states[p].cols() == model.mesh.num_vertices()) {
+      fitter.set_start_state(model.states[p]);
+    }
     Eigen::Matrix3Xd state, surface;
     if (!fitter.Simulate(model.latents.col(p), &state, &surface, error)) {
       *error = "training pose '" + model.poses[p].name + "': " + *error;
@@ -225,6 +231,7 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& log,
     WallTimer pose_timer;
     const Eigen::Matrix3Xd& truth = test_surfaces[t];
     fitter.set_bone_transforms(RestBoneTransforms(model));
+    fitter.set_start_state(model.mesh.vertices);  // every fit from rest: order-independent
     LatentFitResult fit;
     if (!fitter.Fit(FullSurfaceTarget(truth), fitter.MeanLatent(), &fit, error)) {
       *error = "held-out pose '" + test_names[t] + "': " + *error;
