@@ -69,14 +69,14 @@ class TrainingCallback final : public ceres::IterationCallback {
     if (s.iteration == 0 && before_ > 0) return ceres::SOLVER_CONTINUE;  // already logged
     if (options_.log_every > 0 && (s.iteration % options_.log_every == 0)) {
       char line[320];
-      const int todo = options_.max_iterations - first_;
+      const int planned = options_.max_iterations - first_;
       std::snprintf(line, sizeof(line),
                     "  train iter %5d/%d  loss %.6e  surface mean %.4g max %.4g  |g| %.3e  %s  "
                     "ETA %s\n",
                     iteration, options_.max_iterations, s.cost, objective_.mean_surface_error(),
                     objective_.max_surface_error(), s.gradient_norm,
                     FormatDuration(elapsed).c_str(),
-                    FormatDuration(EstimateRemaining(iteration - first_, todo, elapsed)).c_str());
+                    FormatDuration(EstimateRemaining(iteration - first_, planned, elapsed)).c_str());
       log_ << line << std::flush;
     }
     if (!options_.model_directory.empty()) {
