@@ -13,6 +13,7 @@
 #include <ceres/solver.h>
 #include <glog/logging.h>
 
+#include "fit/latent_prior.h"
 #include "train/latent_init.h"
 #include "train/progress.h"
 #include "util/wall_timer.h"
@@ -87,49 +88,6 @@ class SurfaceFitCost final : public ceres::CostFunction {
   const double output_scale_;
   const double residual_scale_;
   Eigen::VectorXd offset_;  // 3K: neutral_v - y, vertex after vertex
-};
-
-// sqrt(lambda) z: the latent prior as residuals.
-class LatentPrior final : public ceres::CostFunction {
- public:
-  LatentPrior(int d, double lambda) : d_(d), scale_(std::sqrt(lambda)) {
-    set_num_residuals(d);
-    mutable_parameter_block_sizes()->push_back(d);
-  }
-  bool Evaluate(double const* const* parameters, double* residuals,
-                double** jacobians) const override {
-    for (int i = 0; i < d_; ++i) residuals[i] = scale_ * parameters[0][i];
-    if (jacobians != nullptr && jacobians[0] != nullptr) {
-      Eigen::Map<RowMajorMatrix>(jacobians[0], d_, d_) = scale_ * Eigen::MatrixXd::Identity(d_, d_);
-    }
-    return true;
-  }
-
- private:
-  int d_;
-  double scale_;
-};
-
-class ProgressCallback final : public ceres::IterationCallback {
- public:
-  ProgressCallback(int every, int total, std::ostream& log) : every_(every), total_(total), log_(log) {}
-  ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
-    if (every_ > 0 && (s.iteration % every_ == 0)) {
-      const double elapsed = timer_.Seconds();
-      char line[256];
-      std::snprintf(line, sizeof(line),
-                    "  surface autoencoder iter %5d/%d  loss %.6e  |g| %.3e  %s  ETA %s\n",
-                    s.iteration, total_, s.cost, s.gradient_norm, FormatDuration(elapsed).c_str(),
-                    FormatDuration(EstimateRemaining(s.iteration, total_, elapsed)).c_str());
-      log_ << line << std::flush;
-    }
-    return ceres::SOLVER_CONTINUE;
-  }
-
- private:
-  int every_, total_;
-  std::ostream& log_;
-  WallTimer timer_;
 };
 
 // Empty if the options are usable, else what is wrong with them.
@@ -282,7 +240,8 @@ bool SurfaceAutoencoder::Train(const Eigen::Matrix3Xd& neutral,
   solver_options.gradient_tolerance = 1e-12;
   solver_options.parameter_tolerance = 1e-14;
   solver_options.logging_type = ceres::SILENT;
-  ProgressCallback progress(options.log_every, options.max_iterations, log);
+  ProgressLogger progress("surface autoencoder", options.log_every, options.max_iterations,
+                          log);
   solver_options.callbacks.push_back(&progress);
   solver_options.update_state_every_iteration = false;
   ceres::GradientProblemSolver::Summary summary;

@@ -11,6 +11,7 @@
 #include <Eigen/Geometry>
 #include <glog/logging.h>
 
+#include "fit/latent_prior.h"
 #include "geometry/embedding.h"
 #include "geometry/triangle_bvh.h"
 
@@ -70,28 +71,6 @@ Eigen::Matrix3d RotatedPointJacobian(const double* omega, const Eigen::Vector3d&
   for (int i = 0; i < 3; ++i) jacobian.row(i) = out[i].v.transpose();
   return jacobian;
 }
-
-// sqrt(lambda) z: the latent prior as residuals.
-class LatentPrior final : public ceres::CostFunction {
- public:
-  LatentPrior(int d, double lambda) : d_(d), scale_(std::sqrt(lambda)) {
-    set_num_residuals(d);
-    mutable_parameter_block_sizes()->push_back(d);
-  }
-  bool Evaluate(double const* const* parameters, double* residuals,
-                double** jacobians) const override {
-    for (int i = 0; i < d_; ++i) residuals[i] = scale_ * parameters[0][i];
-    if (jacobians != nullptr && jacobians[0] != nullptr) {
-      Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
-          jacobians[0], d_, d_) = scale_ * Eigen::MatrixXd::Identity(d_, d_);
-    }
-    return true;
-  }
-
- private:
-  int d_;
-  double scale_;
-};
 
 }  // namespace
 
@@ -251,6 +230,14 @@ ceres::CostFunction* LatentFitter::NewCostFunction(const FitTarget& target) {
 void LatentFitter::set_start_state(const Eigen::Matrix3Xd& state) {
   CHECK_EQ(state.cols(), model_.mesh.num_vertices());
   solver_->SetPositions(state);
+}
+
+void LatentFitter::StartFromTrainingPose(int p) {
+  CHECK(p >= 0 && p < model_.num_poses());
+  if (p < static_cast<int>(model_.states.size()) &&
+      model_.states[p].cols() == model_.mesh.num_vertices()) {
+    set_start_state(model_.states[p]);
+  }
 }
 
 bool LatentFitter::Simulate(const Eigen::VectorXd& z, Eigen::Matrix3Xd* state,

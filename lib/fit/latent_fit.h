@@ -102,6 +102,8 @@ class LatentFitter {
   // rest shape, then the last equilibrium). The energy is not convex: a training
   // pose's stored equilibrium (ActiveModel::states) is the branch training saw.
   void set_start_state(const Eigen::Matrix3Xd& state);
+  // The same from training pose p's stored equilibrium, if the model has one.
+  void StartFromTrainingPose(int p);
 
   // Fits from latent `initial` (latent_dim) and the current bone transforms. Returns
   // false with *error if the equilibrium cannot be computed at the start.

@@ -5,8 +5,8 @@
 #include <memory>
 
 #include "fit/latent_fit.h"
-#include "io/latent_io.h"
 #include "jobs/deformed_output.h"
+#include "jobs/model_pose.h"
 #include "mesh/mesh_io.h"
 #include "mesh/ply_io.h"
 #include "model/model_io.h"
@@ -52,22 +52,11 @@ CollideJobResult RunCollideJob(const CollideJobOptions& options, std::ostream& l
                                             std::to_string(model.num_surface_vertices()) + " vertices");
     }
   }
-  std::vector<std::string> bone_names;
-  for (const Bone& bone : model.bones) bone_names.push_back(bone.name);
-  Eigen::VectorXd z;
-  std::vector<RigidTransform> bones;
-  int pose_index = -1;  // --pose: the training pose
-  if (!options.latent.empty()) {
-    if (!ReadLatentFile(options.latent, model.latent_dim(), bone_names, &z, &bones, &error)) {
-      return Fail(JobStatus::kBadInput, error);
-    }
-  } else {
-    const int p = model.PoseIndex(options.pose);
-    pose_index = p;
-    if (p < 0) return Fail(JobStatus::kBadInput, "the model has no training pose '" + options.pose + "'");
-    z = model.latents.col(p);
-    for (const Bone& bone : model.bones) bones.push_back(bone.pose_transforms[p]);
+  ModelPose pose;
+  if (!ResolveModelPose(model, options.latent, options.pose, &pose, &error)) {
+    return Fail(JobStatus::kBadInput, error);
   }
+  const std::vector<RigidTransform>& bones = pose.bones;
   // Obstacles, placed with their bones.
   std::vector<ObstacleSpec> specs;
   if (!ParseObstacleSpecs(options.obstacles, &specs, &error)) return Fail(JobStatus::kBadInput, error);
@@ -82,8 +71,8 @@ CollideJobResult RunCollideJob(const CollideJobOptions& options, std::ostream& l
     Eigen::Matrix3Xd vertices = obstacle_vertices[i];
     if (!specs[i].bone.empty()) {
       int b = -1;
-      for (size_t k = 0; k < bone_names.size(); ++k) {
-        if (bone_names[k] == specs[i].bone) b = static_cast<int>(k);
+      for (size_t k = 0; k < model.bones.size(); ++k) {
+        if (model.bones[k].name == specs[i].bone) b = static_cast<int>(k);
       }
       if (b < 0) return Fail(JobStatus::kBadInput, "obstacle " + specs[i].path + ": the model has no bone '" + specs[i].bone + "'");
       vertices = bones[b].Apply(vertices);
@@ -101,17 +90,14 @@ CollideJobResult RunCollideJob(const CollideJobOptions& options, std::ostream& l
   fitter.set_bone_transforms(bones);
   // A training pose starts from the equilibrium training left (the energy is not convex;
   // from rest the solve may take another branch or crawl).
-  if (pose_index >= 0 && model.states.size() > static_cast<size_t>(pose_index) &&
-      model.states[pose_index].cols() == model.mesh.num_vertices()) {
-    fitter.set_start_state(model.states[pose_index]);
-  }
+  if (pose.training_pose >= 0) fitter.StartFromTrainingPose(pose.training_pose);
   Eigen::Matrix3Xd start, surface_before;
-  if (!fitter.Simulate(z, &start, &surface_before, &error)) {
+  if (!fitter.Simulate(pose.latent, &start, &surface_before, &error)) {
     return Fail(JobStatus::kNotConverged, error);
   }
   ActuationMatrix a;
   DecoderWorkspace workspace;
-  model.decoder->Decode(model.decoder_params.data(), z, &a, &workspace);
+  model.decoder->Decode(model.decoder_params.data(), pose.latent, &a, &workspace);
   ContactSolver solver(model, options.contact);
   CollideJobResult result;
   Eigen::Matrix3Xd state;

@@ -204,10 +204,7 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& log,
     fitter.set_bone_transforms(bones);
     // From the equilibrium training left for this pose (the energy is not convex: from
     // rest a large pose such as jawOpen may crawl or reach another branch).
-    if (p < static_cast<int>(model.states.size()) &&
-        model.states[p].cols() == model.mesh.num_vertices()) {
-      fitter.set_start_state(model.states[p]);
-    }
+    fitter.StartFromTrainingPose(p);
     Eigen::Matrix3Xd state, surface;
     if (!fitter.Simulate(model.latents.col(p), &state, &surface, error)) {
       *error = "training pose '" + model.poses[p].name + "': " + *error;

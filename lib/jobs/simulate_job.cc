@@ -9,10 +9,10 @@
 #include "equilibrium/newton_refinement.h"
 #include "fit/latent_fit.h"
 #include "io/actuation_io.h"
-#include "io/latent_io.h"
 #include "model/model_io.h"
 #include "io/vertex_list_io.h"
 #include "jobs/deformed_output.h"
+#include "jobs/model_pose.h"
 #include "mesh/mesh_io.h"
 #include "util/wall_timer.h"
 
@@ -66,41 +66,21 @@ SimulateJobResult RunModelSimulateJob(const SimulateJobOptions& options, std::os
   if (!model.decoder) {
     return Fail(JobStatus::kBadInput, options.model + ": the model is not trained (no decoder)");
   }
-  std::vector<std::string> names;
-  for (const Bone& bone : model.bones) names.push_back(bone.name);
-  Eigen::VectorXd z;
-  std::vector<RigidTransform> bones;
-  int pose_index = -1;  // --pose: the training pose
-  if (!options.latent.empty()) {
-    if (!ReadLatentFile(options.latent, model.latent_dim(), names, &z, &bones, &error)) {
-      return Fail(JobStatus::kBadInput, error);
-    }
-  } else {
-    const int p = model.PoseIndex(options.pose);
-    pose_index = p;
-    if (p < 0) {
-      std::string known;
-      for (const TrainingPose& pose : model.poses) known += " " + pose.name;
-      return Fail(JobStatus::kBadInput,
-                  "the model has no training pose '" + options.pose + "'; it has:" + known);
-    }
-    z = model.latents.col(p);
-    for (const Bone& bone : model.bones) bones.push_back(bone.pose_transforms[p]);
+  ModelPose pose;
+  if (!ResolveModelPose(model, options.latent, options.pose, &pose, &error)) {
+    return Fail(JobStatus::kBadInput, error);
   }
   LatentFitOptions fit_options;
   fit_options.solver = options.solver;
   fit_options.num_threads = options.solver.num_threads;
   LatentFitter fitter(model, fit_options);
-  fitter.set_bone_transforms(bones);
+  fitter.set_bone_transforms(pose.bones);
   // A training pose starts from the equilibrium training left (the energy is not convex;
   // from rest the solve may take another branch or crawl).
-  if (pose_index >= 0 && model.states.size() > static_cast<size_t>(pose_index) &&
-      model.states[pose_index].cols() == model.mesh.num_vertices()) {
-    fitter.set_start_state(model.states[pose_index]);
-  }
+  if (pose.training_pose >= 0) fitter.StartFromTrainingPose(pose.training_pose);
   Eigen::Matrix3Xd state, surface;
   SimulateJobResult result;
-  if (!fitter.Simulate(z, &state, &surface, &error)) {
+  if (!fitter.Simulate(pose.latent, &state, &surface, &error)) {
     return Fail(JobStatus::kNotConverged, error);
   }
   log << "simulated the model " << options.model << " ("
@@ -108,7 +88,7 @@ SimulateJobResult RunModelSimulateJob(const SimulateJobOptions& options, std::os
       << model.mesh.num_tets() << " elements\n";
   ActuationMatrix a;
   DecoderWorkspace workspace;
-  model.decoder->Decode(model.decoder_params.data(), z, &a, &workspace);
+  model.decoder->Decode(model.decoder_params.data(), pose.latent, &a, &workspace);
   const ShapeTargetModel physics(model.mesh, model.mu);
   std::vector<VtuField> point_fields = {MakeVtuField("displacement", state - model.mesh.vertices)};
   std::vector<VtuField> cell_fields;

@@ -74,28 +74,6 @@ class PretrainObjective final : public ceres::FirstOrderFunction {
   double regularization_;
 };
 
-class ProgressCallback final : public ceres::IterationCallback {
- public:
-  ProgressCallback(int every, int total, std::ostream& log) : every_(every), total_(total), log_(log) {}
-  ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
-    if (every_ > 0 && (s.iteration % every_ == 0)) {
-      const double elapsed = timer_.Seconds();
-      char line[256];
-      std::snprintf(line, sizeof(line),
-                    "  pretrain iter %5d/%d  loss %.6e  |g| %.3e  %s  ETA %s\n", s.iteration,
-                    total_, s.cost, s.gradient_norm, FormatDuration(elapsed).c_str(),
-                    FormatDuration(EstimateRemaining(s.iteration, total_, elapsed)).c_str());
-      log_ << line << std::flush;
-    }
-    return ceres::SOLVER_CONTINUE;
-  }
-
- private:
-  int every_, total_;
-  std::ostream& log_;
-  WallTimer timer_;
-};
-
 }  // namespace
 
 bool Pretrain(const PretrainOptions& options, ActiveModel* model, PretrainReport* report,
@@ -149,7 +127,7 @@ bool Pretrain(const PretrainOptions& options, ActiveModel* model, PretrainReport
   solver_options.gradient_tolerance = 1e-12;
   solver_options.parameter_tolerance = 1e-14;
   solver_options.logging_type = ceres::SILENT;
-  ProgressCallback progress(options.log_every, options.max_iterations, log);
+  ProgressLogger progress("pretrain", options.log_every, options.max_iterations, log);
   solver_options.callbacks.push_back(&progress);
   solver_options.update_state_every_iteration = false;
   ceres::GradientProblemSolver::Summary summary;

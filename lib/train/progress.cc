@@ -26,4 +26,17 @@ double EstimateRemaining(int done, int total, double elapsed) {
   return elapsed / done * std::max(0, total - done);
 }
 
+ceres::CallbackReturnType ProgressLogger::operator()(const ceres::IterationSummary& s) {
+  if (every_ > 0 && (s.iteration % every_ == 0)) {
+    const double elapsed = timer_.Seconds();
+    char line[320];
+    std::snprintf(line, sizeof(line), "  %s iter %5d/%d  loss %.6e  |g| %.3e  %s  ETA %s\n",
+                  label_.c_str(), s.iteration, total_, s.cost, s.gradient_norm,
+                  FormatDuration(elapsed).c_str(),
+                  FormatDuration(EstimateRemaining(s.iteration, total_, elapsed)).c_str());
+    log_ << line << std::flush;
+  }
+  return ceres::SOLVER_CONTINUE;
+}
+
 }  // namespace aqs

@@ -3,6 +3,11 @@
 
 #include <ostream>
 #include <string>
+#include <utility>
+
+#include <ceres/iteration_callback.h>
+
+#include "util/wall_timer.h"
 
 namespace aqs {
 
@@ -11,6 +16,22 @@ std::string FormatDuration(double seconds);
 
 // The estimated time left after `done` of `total` steps took `elapsed` seconds.
 double EstimateRemaining(int done, int total, double elapsed);
+
+// A Ceres iteration callback that prints, every `every` iterations (0: never),
+//   "  <label> iter    k/total  loss ...  |g| ...  <elapsed>  ETA <remaining>"
+// to `log`, timed from construction. It never stops the solver.
+class ProgressLogger final : public ceres::IterationCallback {
+ public:
+  ProgressLogger(std::string label, int every, int total, std::ostream& log)
+      : label_(std::move(label)), every_(every), total_(total), log_(log) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override;
+
+ private:
+  std::string label_;
+  int every_, total_;
+  std::ostream& log_;
+  WallTimer timer_;
+};
 
 }  // namespace aqs
 

@@ -1,0 +1,29 @@
+#include "jobs/model_pose.h"
+
+#include "io/latent_io.h"
+
+namespace aqs {
+
+bool ResolveModelPose(const ActiveModel& model, const std::string& latent_file,
+                      const std::string& pose_name, ModelPose* pose, std::string* error) {
+  *pose = ModelPose();
+  if (!latent_file.empty()) {
+    std::vector<std::string> names;
+    for (const Bone& bone : model.bones) names.push_back(bone.name);
+    return ReadLatentFile(latent_file, model.latent_dim(), names, &pose->latent, &pose->bones,
+                          error);
+  }
+  const int p = model.PoseIndex(pose_name);
+  if (p < 0) {
+    std::string known;
+    for (const TrainingPose& training : model.poses) known += " " + training.name;
+    *error = "the model has no training pose '" + pose_name + "'; it has:" + known;
+    return false;
+  }
+  pose->training_pose = p;
+  pose->latent = model.latents.col(p);
+  for (const Bone& bone : model.bones) pose->bones.push_back(bone.pose_transforms[p]);
+  return true;
+}
+
+}  // namespace aqs

@@ -1,0 +1,31 @@
+#ifndef AQS_JOBS_MODEL_POSE_H_
+#define AQS_JOBS_MODEL_POSE_H_
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "geometry/rigid_transform.h"
+#include "model/active_model.h"
+
+namespace aqs {
+
+// What a job simulates with a trained model: a latent (latent_dim) and one rigid
+// motion per model bone, read from a latent file (aqs_fit --latent_output) or taken
+// from a training pose by name.
+struct ModelPose {
+  Eigen::VectorXd latent;
+  std::vector<RigidTransform> bones;
+  int training_pose = -1;  // the pose's index when given by name, else -1
+};
+
+// Exactly one of latent_file and pose_name must be non-empty (the caller checks).
+// Returns false with *error naming the file and line, or the unknown pose and the
+// model's poses.
+bool ResolveModelPose(const ActiveModel& model, const std::string& latent_file,
+                      const std::string& pose_name, ModelPose* pose, std::string* error);
+
+}  // namespace aqs
+
+#endif  // AQS_JOBS_MODEL_POSE_H_
