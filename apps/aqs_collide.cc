@@ -32,7 +32,10 @@ DEFINE_int32(exclusion_rings, 3, "Self contact: a point never pairs with triangl
              "many edge rings.");
 DEFINE_double(max_depth, 1.0, "Self contact: a point pairs with a triangle while it is less than "
               "this far behind it (model units).");
-DEFINE_int32(contact_rounds, 6, "Detection and solve rounds.");
+DEFINE_int32(contact_rounds, 6, "Detection and solve rounds (per path step).");
+DEFINE_int32(path_steps, 8, "Follow the contact equilibrium from rest to the pose in this many "
+             "steps of actuation and bone motion (halved where a step adds intersections); "
+             "0: start from the contact-free pose (enough for shallow penetrations).");
 DEFINE_double(contact_tolerance, 1e-5, "Relative force tolerance of the contact equilibria.");
 DEFINE_string(contact_vertices, "", "Surface vertices taking part in contact, e.g. 0:11248 "
               "(default: all).");
@@ -59,6 +62,7 @@ int main(int argc, char** argv) {
   options.contact.search_radius = FLAGS_search_radius;
   options.contact.exclusion_rings = FLAGS_exclusion_rings;
   options.contact.max_rounds = FLAGS_contact_rounds;
+  options.contact.path_steps = FLAGS_path_steps;
   options.contact.max_depth = FLAGS_max_depth;
   options.contact.solver.relative_force_tolerance = FLAGS_contact_tolerance;
   options.contact.num_threads = FLAGS_threads;

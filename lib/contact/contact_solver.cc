@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <unordered_map>
 
@@ -9,15 +10,22 @@
 
 #include "geometry/embedding.h"
 #include "geometry/plane_cuts.h"
+#include "geometry/rigid_transform.h"
+#include "geometry/triangle_distance.h"
 #include "geometry/triangle_intersections.h"
 #include "mesh/mesh_measures.h"
+#include "physics/actuation.h"
 #include "util/parallel_for.h"
 
 namespace aqs {
 namespace {
 
-// Barycentric margin of self-contact residuals within a round (see Resolve).
-constexpr double kResidualMargin = 1.0;
+// Barycentric margin of self-contact residuals within a round: unlimited, a pair acts
+// on its triangle's plane until the next detection (a pair switching off as its point
+// slides past a margin makes the energy discontinuous, and Levenberg-Marquardt stalls).
+constexpr double kResidualMargin = std::numeric_limits<double>::infinity();
+// Largest augmented-Lagrangian offset of a self-contact point, in thicknesses.
+constexpr double kMaxOffset = 10.0;
 
 // A uniform grid over the triangles' bounding boxes for radius queries.
 class TriangleGrid {
@@ -80,11 +88,16 @@ std::string ContactReport::Summary() const {
       << self_intersections_before << " -> " << self_intersections_after << " ("
       << self_intersections_rest << " at rest; not intersecting at rest "
       << new_self_intersections_before << " -> " << new_self_intersections_after
-      << "), with obstacles "
+      << ", of which apart at rest " << separated_self_intersections_before << " -> "
+      << separated_self_intersections_after << "), with obstacles "
       << obstacle_intersections_before << " -> " << obstacle_intersections_after
       << "; surface moved mean " << mean_displacement << " max " << max_displacement
       << " (max " << max_far_displacement << " farther than " << far_distance
-      << " from the contacts); " << rounds << " rounds, " << obstacle_contacts
+      << " from the contacts); " << rounds << " rounds";
+  if (path_steps > 0) {
+    out << " over " << path_steps << " path steps from rest (" << path_halvings << " halved)";
+  }
+  out << ", " << obstacle_contacts
       << " obstacle and " << self_contacts << " self contacts active"
       << (converged ? "" : "; NOT CONVERGED");
   return out.str();
@@ -104,6 +117,8 @@ std::string ContactReport::ToText() const {
       << "self_intersections_after " << self_intersections_after << "\n"
       << "new_self_intersections_before " << new_self_intersections_before << "\n"
       << "new_self_intersections_after " << new_self_intersections_after << "\n"
+      << "separated_self_intersections_before " << separated_self_intersections_before << "\n"
+      << "separated_self_intersections_after " << separated_self_intersections_after << "\n"
       << "obstacle_intersections_before " << obstacle_intersections_before << "\n"
       << "obstacle_intersections_after " << obstacle_intersections_after << "\n"
       << "mean_displacement " << mean_displacement << "\n"
@@ -111,6 +126,8 @@ std::string ContactReport::ToText() const {
       << "far_distance " << far_distance << "\n"
       << "max_far_displacement " << max_far_displacement << "\n"
       << "rounds " << rounds << "\n"
+      << "path_steps " << path_steps << "\n"
+      << "path_halvings " << path_halvings << "\n"
       << "obstacle_contacts " << obstacle_contacts << "\n"
       << "self_contacts " << self_contacts << "\n"
       << "converged " << (converged ? 1 : 0) << "\n";
@@ -203,17 +220,24 @@ void ContactSolver::MeasurePenetration(const Eigen::Matrix3Xd& surface,
   }
 }
 
-int ContactSolver::CountSelfIntersections(const Eigen::Matrix3Xd& surface, int* new_pairs) const {
+int ContactSolver::CountSelfIntersections(const Eigen::Matrix3Xd& surface, int* new_pairs,
+                                          int* separated_pairs) const {
   TriangleIntersectionOptions options;
   options.num_threads = options_.num_threads;
   std::vector<std::pair<int, int>> pairs;
   const int count = FindIntersectingTrianglePairs(surface, contact_triangles_, options, &pairs);
-  if (new_pairs != nullptr) {
-    *new_pairs = 0;
-    for (const auto& pair : pairs) {
-      if (!std::binary_search(rest_intersections_.begin(), rest_intersections_.end(), pair)) {
-        ++*new_pairs;
+  if (new_pairs != nullptr) *new_pairs = 0;
+  if (separated_pairs != nullptr) *separated_pairs = 0;
+  for (const auto& pair : pairs) {
+    if (std::binary_search(rest_intersections_.begin(), rest_intersections_.end(), pair)) continue;
+    if (new_pairs != nullptr) ++*new_pairs;
+    if (separated_pairs != nullptr) {
+      Eigen::Matrix3d a, b;
+      for (int k = 0; k < 3; ++k) {
+        a.col(k) = rest_surface_.col(contact_triangles_(k, pair.first));
+        b.col(k) = rest_surface_.col(contact_triangles_(k, pair.second));
       }
+      if (DisjointTriangleDistance(a, b) > options_.rest_tolerance) ++*separated_pairs;
     }
   }
   return count;
@@ -301,28 +325,19 @@ std::vector<SelfContactPair> ContactSolver::DetectSelfContacts(const Eigen::Matr
   return pairs;
 }
 
-bool ContactSolver::Resolve(const ActuationMatrix& a, const std::vector<RigidTransform>& bones,
-                            const std::vector<const Obstacle*>& obstacles,
-                            const Eigen::Matrix3Xd& start, Eigen::Matrix3Xd* state,
-                            ContactReport* report, std::string* error) {
-  *report = ContactReport();
-  const Eigen::Matrix3Xd before = EmbeddedPositions(model_.embedding, model_.mesh.tets, start);
-  MeasurePenetration(before, obstacles, &report->max_penetration_before,
-                     &report->penetrating_points_before);
-  report->self_intersections_before =
-      CountSelfIntersections(before, &report->new_self_intersections_before);
-  report->self_intersections_rest = static_cast<int>(rest_intersections_.size());
-  report->obstacle_intersections_before = CountObstacleIntersections(before, obstacles);
+bool ContactSolver::SolveRounds(const ActuationMatrix& a, const std::vector<RigidTransform>& bones,
+                                const std::vector<const Obstacle*>& obstacles, int allowed_self,
+                                int allowed_obstacle, double relative_force_tolerance,
+                                const std::string& label, Eigen::Matrix3Xd* x,
+                                std::vector<char>* touched, ContactReport* report,
+                                std::string* error) {
   const BoundaryConditions bc = ModelBoundaryConditions(model_, bones);
   QuasistaticSolverOptions solver_options = options_.solver;
+  solver_options.relative_force_tolerance = relative_force_tolerance;
   solver_options.num_threads = options_.num_threads;
   solver_options.newton_relative_force = 0.0;
-  Eigen::Matrix3Xd x = start;
-  // Surface vertices in contact in any round (the report's "far" displacement is
-  // measured away from them).
-  std::vector<char> touched(rest_surface_.cols(), 0);
   for (int round = 0; round < options_.max_rounds; ++round) {
-    const Eigen::Matrix3Xd surface = EmbeddedPositions(model_.embedding, model_.mesh.tets, x);
+    const Eigen::Matrix3Xd surface = EmbeddedPositions(model_.embedding, model_.mesh.tets, *x);
     // Candidates near obstacles.
     std::vector<PointStencil> near_points;
     std::vector<double> near_stiffness;
@@ -339,72 +354,200 @@ bool ContactSolver::Resolve(const ActuationMatrix& a, const std::vector<RigidTra
         }
       }
     }
-    const std::vector<SelfContactPair> pairs =
+    std::vector<SelfContactPair> pairs =
         options_.self_contact ? DetectSelfContacts(surface) : std::vector<SelfContactPair>();
-    report->rounds = round + 1;
-    if (near_points.empty() && pairs.empty()) break;
+    for (SelfContactPair& pair : pairs) pair.offset = self_offsets_[pair.surface_vertex];
     const ObstacleContactTerm obstacle_term(
         near_points, Eigen::Map<const Eigen::VectorXd>(near_stiffness.data(), near_stiffness.size()),
         options_.thickness, obstacles);
-    // Within a round, a pair keeps its triangle's plane over a wide margin (projections
-    // sliding off the triangle would otherwise switch the penalty off abruptly);
-    // re-detection in the next round pairs points with their new triangles.
+    // Within a round, a pair keeps its triangle's plane (kResidualMargin); re-detection
+    // in the next round pairs points with their new triangles.
     const SelfContactTerm self_term(pairs, options_.thickness, options_.max_depth,
                                     kResidualMargin);
     QuasistaticSolver solver(*physics_, bc, solver_options);
     solver.actuation() = a;
-    solver.SetPositions(x);
+    solver.SetPositions(*x);
     if (!near_points.empty()) solver.AddEnergyTerm(&obstacle_term);
     if (!pairs.empty()) solver.AddEnergyTerm(&self_term);
     const QuasistaticSolveReport solve = solver.Solve();
     if (!solve.converged && !std::isfinite(solve.final_energy)) {
-      *error = "the equilibrium with contact failed: " + solve.Summary();
+      *error = "the equilibrium with contact failed" + label + ": " + solve.Summary();
       return false;
     }
+    ++report->rounds;
     report->converged = solve.converged;
-    const bool moved_nothing = solve.iterations == 0;
-    report->round_summaries.push_back("round " + std::to_string(round + 1) + ": " +
+    report->round_summaries.push_back("round " + std::to_string(round + 1) + label + ": " +
                                       std::to_string(near_points.size()) + " points near obstacles, " +
                                       std::to_string(pairs.size()) + " self-contact pairs; " +
                                       solve.Summary());
-    x = solver.positions();
-    // Active contacts at the new state; stop when nothing penetrates any more.
-    const Eigen::Matrix3Xd moved = EmbeddedPositions(model_.embedding, model_.mesh.tets, x);
-    Eigen::Matrix3Xd g = Eigen::Matrix3Xd::Zero(3, x.cols());
+    *x = solver.positions();
+    // Active contacts at the new state.
     report->obstacle_contacts = 0;
     for (size_t k = 0; k < near_points.size(); ++k) {
       Eigen::Vector3d gradient;
-      if (obstacle_term.Distance(near_points[k].Position(x), &gradient) < options_.thickness) {
+      if (obstacle_term.Distance(near_points[k].Position(*x), &gradient) < options_.thickness) {
         ++report->obstacle_contacts;
-        touched[near_vertices[k]] = 1;
+        (*touched)[near_vertices[k]] = 1;
       }
     }
     report->self_contacts = 0;
+    Eigen::Matrix3Xd g = Eigen::Matrix3Xd::Zero(3, x->cols());
     for (const SelfContactPair& pair : pairs) {
       const SelfContactTerm single({pair}, options_.thickness, options_.max_depth, kResidualMargin);
-      if (single.AddEnergyAndGradient(x, &g) > 0) {
+      if (single.AddEnergyAndGradient(*x, &g) > 0) {
         ++report->self_contacts;
-        touched[pair.surface_vertex] = 1;
+        (*touched)[pair.surface_vertex] = 1;
+      }
+      // Augmented Lagrangian: the multiplier k * offset grows by k (thickness - s).
+      double s = 0;
+      Eigen::Vector3d beta;
+      if (options_.augmented_lagrangian &&
+          PlaneDistance(pair.point.Position(*x), pair.corner[0].Position(*x),
+                        pair.corner[1].Position(*x), pair.corner[2].Position(*x), &s, nullptr,
+                        &beta) &&
+          beta.minCoeff() >= -kResidualMargin && s > -options_.max_depth) {
+        double& offset = self_offsets_[pair.surface_vertex];
+        offset = std::clamp(offset + options_.thickness - s, 0.0, kMaxOffset * options_.thickness);
       }
     }
+    if (solve.iterations == 0) break;  // no progress left to make with these candidates
+    // Stop when nothing penetrates any more.
+    const Eigen::Matrix3Xd moved = EmbeddedPositions(model_.embedding, model_.mesh.tets, *x);
     double depth = 0;
     int inside = 0;
     MeasurePenetration(moved, obstacles, &depth, &inside);
-    if (moved_nothing) break;  // no progress left to make with these candidates
     int new_intersections = 0;
     if (options_.self_contact) CountSelfIntersections(moved, &new_intersections);
-    if (inside == 0 && new_intersections == 0 &&
-        CountObstacleIntersections(moved, obstacles) == 0) {
+    if (inside == 0 && new_intersections <= allowed_self &&
+        CountObstacleIntersections(moved, obstacles) <= allowed_obstacle) {
       break;
+    }
+  }
+  return true;
+}
+
+namespace {
+
+std::vector<const Obstacle*> Pointers(const std::vector<std::unique_ptr<Obstacle>>& obstacles) {
+  std::vector<const Obstacle*> pointers;
+  for (const auto& obstacle : obstacles) pointers.push_back(obstacle.get());
+  return pointers;
+}
+
+std::vector<std::unique_ptr<Obstacle>> PlaceAll(const std::vector<MovingObstacle>& obstacles,
+                                                const std::vector<RigidTransform>& bones) {
+  std::vector<std::unique_ptr<Obstacle>> placed;
+  for (const MovingObstacle& obstacle : obstacles) placed.push_back(obstacle.Place(bones));
+  return placed;
+}
+
+}  // namespace
+
+bool ContactSolver::Resolve(const ActuationMatrix& a, const std::vector<RigidTransform>& bones,
+                            const std::vector<MovingObstacle>& obstacles,
+                            const Eigen::Matrix3Xd& start, Eigen::Matrix3Xd* state,
+                            ContactReport* report, std::string* error) {
+  CHECK_EQ(bones.size(), model_.bones.size());
+  *report = ContactReport();
+  const std::vector<std::unique_ptr<Obstacle>> placed = PlaceAll(obstacles, bones);
+  const std::vector<const Obstacle*> final_obstacles = Pointers(placed);
+  const Eigen::Matrix3Xd before = EmbeddedPositions(model_.embedding, model_.mesh.tets, start);
+  MeasurePenetration(before, final_obstacles, &report->max_penetration_before,
+                     &report->penetrating_points_before);
+  report->self_intersections_before =
+      CountSelfIntersections(before, &report->new_self_intersections_before,
+                             &report->separated_self_intersections_before);
+  report->self_intersections_rest = static_cast<int>(rest_intersections_.size());
+  report->obstacle_intersections_before = CountObstacleIntersections(before, final_obstacles);
+  // Surface vertices in contact in any round (the report's "far" displacement is
+  // measured away from them).
+  std::vector<char> touched(rest_surface_.cols(), 0);
+  self_offsets_.assign(rest_surface_.cols(), 0.0);
+  Eigen::Matrix3Xd x;
+  // The path needs a start without penetrations: obstacles placed around the pose may
+  // already hold the rest surface.
+  const std::vector<RigidTransform> rest_bones(bones.size());
+  const std::vector<std::unique_ptr<Obstacle>> rest_placed = PlaceAll(obstacles, rest_bones);
+  double rest_depth = 0;
+  int rest_inside = 0;
+  MeasurePenetration(rest_surface_, Pointers(rest_placed), &rest_depth, &rest_inside);
+  if (options_.path_steps > 0 && rest_inside > 0) {
+    report->round_summaries.push_back(
+        "no path from rest: the rest surface has " + std::to_string(rest_inside) +
+        " points inside the obstacles at their rest placement; rounds from the contact-free pose");
+  }
+  if (options_.path_steps <= 0 || rest_inside > 0) {
+    x = start;
+    if (!SolveRounds(a, bones, final_obstacles, 0, 0, options_.solver.relative_force_tolerance, "",
+                     &x, &touched, report, error)) {
+      return false;
+    }
+  } else {
+    // From rest, where the only intersections are those of the rest surface (not "new")
+    // and whichever pairs the obstacles cross there.
+    x = model_.mesh.vertices;
+    int current_obstacle = CountObstacleIntersections(rest_surface_, Pointers(rest_placed));
+    int current_self = 0;
+    const double full_step = 1.0 / options_.path_steps;
+    double t = 0.0, step = full_step;
+    int halvings = 0;
+    while (t < 1.0) {
+      const double t_next = t + step > 1.0 - 1e-9 ? 1.0 : t + step;
+      std::vector<RigidTransform> bones_t(bones.size());
+      for (size_t b = 0; b < bones.size(); ++b) bones_t[b] = InterpolateRigidTransform(bones[b], t_next);
+      const ActuationMatrix a_t =
+          (1.0 - t_next) * IdentityActuations(static_cast<int>(a.cols())) + t_next * a;
+      const std::vector<std::unique_ptr<Obstacle>> placed_t = PlaceAll(obstacles, bones_t);
+      const std::vector<const Obstacle*> obstacles_t = Pointers(placed_t);
+      std::ostringstream t_text;
+      t_text.precision(4);
+      t_text << t_next;
+      const std::string label = " at t " + t_text.str();
+      Eigen::Matrix3Xd x_next = x;
+      std::vector<char> touched_next = touched;
+      const std::vector<double> offsets = self_offsets_;
+      const double tolerance = t_next < 1.0 ? std::max(options_.path_relative_force_tolerance,
+                                                       options_.solver.relative_force_tolerance)
+                                            : options_.solver.relative_force_tolerance;
+      if (!SolveRounds(a_t, bones_t, obstacles_t, current_self, current_obstacle, tolerance,
+                       label, &x_next, &touched_next, report, error)) {
+        return false;
+      }
+      const Eigen::Matrix3Xd surface = EmbeddedPositions(model_.embedding, model_.mesh.tets, x_next);
+      int self_next = 0;
+      if (options_.self_contact) CountSelfIntersections(surface, &self_next);
+      const int obstacle_next = CountObstacleIntersections(surface, obstacles_t);
+      if ((self_next > current_self || obstacle_next > current_obstacle) &&
+          halvings < options_.max_step_halvings) {
+        self_offsets_ = offsets;
+        step *= 0.5;
+        ++halvings;
+        ++report->path_halvings;
+        report->round_summaries.push_back(
+            "step to t " + t_text.str() + " adds intersecting pairs (self " +
+            std::to_string(current_self) + " -> " + std::to_string(self_next) + ", obstacles " +
+            std::to_string(current_obstacle) + " -> " + std::to_string(obstacle_next) +
+            "): halved");
+        continue;
+      }
+      x = x_next;
+      touched = touched_next;
+      t = t_next;
+      current_self = self_next;
+      current_obstacle = obstacle_next;
+      ++report->path_steps;
+      halvings = 0;
+      step = std::min(full_step, 2.0 * step);
     }
   }
   *state = x;
   const Eigen::Matrix3Xd after = EmbeddedPositions(model_.embedding, model_.mesh.tets, x);
-  MeasurePenetration(after, obstacles, &report->max_penetration_after,
+  MeasurePenetration(after, final_obstacles, &report->max_penetration_after,
                      &report->penetrating_points_after);
   report->self_intersections_after =
-      CountSelfIntersections(after, &report->new_self_intersections_after);
-  report->obstacle_intersections_after = CountObstacleIntersections(after, obstacles);
+      CountSelfIntersections(after, &report->new_self_intersections_after,
+                             &report->separated_self_intersections_after);
+  report->obstacle_intersections_after = CountObstacleIntersections(after, final_obstacles);
   const Eigen::VectorXd moved = (after - before).colwise().norm();
   report->mean_displacement = moved.mean();
   report->max_displacement = moved.maxCoeff();

@@ -48,8 +48,30 @@ struct ContactOptions {
   // triangle's rest normal must satisfy n_point . n_triangle <= this (-0.5: more than
   // 120 degrees apart), which rules out pairs within one smooth sheet.
   double max_normal_alignment = -0.5;
-  // Detection/solve rounds (candidates are re-detected as the surface moves).
+  // Detection/solve rounds (candidates are re-detected as the surface moves), per path
+  // step.
   int max_rounds = 6;
+  // Self contact: after every round, each pair's target distance is raised by what it
+  // misses of the thickness (an augmented-Lagrangian multiplier update, offset =
+  // multiplier / k), so that strongly pressed surfaces still end near the thickness
+  // rather than through each other.
+  bool augmented_lagrangian = true;
+  // The path: the contact equilibrium is followed from rest (identity actuation, bones
+  // at rest) to the pose, through the actuations a(t) = I + t (a - I) and the bones'
+  // screw motions (InterpolateRigidTransform) for t = 1/path_steps, 2/path_steps, ..., 1,
+  // each step starting from the last one, so that contacts are caught as surfaces
+  // approach each other, not after they passed through (a model's lips can cross by
+  // more than their thickness). A step that adds intersecting triangle pairs is halved,
+  // up to max_step_halvings times. 0: no path; the rounds start from the contact-free
+  // equilibrium (enough for shallow penetrations, e.g. teeth); also when the rest
+  // surface has points inside the obstacles at their rest placement (no clean start).
+  int path_steps = 8;
+  int max_step_halvings = 3;
+  // The relative force tolerance of the path's intermediate steps (the last one uses
+  // solver.relative_force_tolerance; the larger of the two applies). On the ICT demo's
+  // mouthClose, 1e-5 everywhere took 3.3 minutes; a trial with 1e-3 (and extra rounds for
+  // an unconverged last step) took over 10, so looser is not known to be faster.
+  double path_relative_force_tolerance = 1e-5;
   // The equilibrium solves (Newton steps are off: contact terms couple elements).
   QuasistaticSolverOptions solver;
   int num_threads = 2;
@@ -72,8 +94,14 @@ struct ContactReport {
   int self_intersections_rest = 0;
   // Self-intersecting pairs that do not intersect at rest (what contact can undo).
   int new_self_intersections_before = 0, new_self_intersections_after = 0;
+  // Of those, the pairs whose triangles were apart at rest by more than rest_tolerance
+  // (the rest, touching at rest, such as the ICT lips at the mouth corners, have no
+  // well-defined side).
+  int separated_self_intersections_before = 0, separated_self_intersections_after = 0;
   double far_distance = 0.0, max_far_displacement = 0.0;
-  int rounds = 0;
+  int rounds = 0;        // detection/solve rounds, over all path steps
+  int path_steps = 0;    // accepted path steps (0: no path)
+  int path_halvings = 0;  // steps halved because they added intersections
   int obstacle_contacts = 0, self_contacts = 0;  // active at the end
   bool converged = true;
   std::vector<std::string> round_summaries;  // each round's candidates and solve
@@ -93,11 +121,14 @@ class ContactSolver {
   ContactSolver(const ActiveModel& model, const ContactOptions& options);
   ~ContactSolver();
 
-  // From `start` (3 x num_vertices: the contact-free equilibrium for a and bones), the
-  // equilibrium with contact, into *state, and what changed, into *report. Returns false
-  // with *error if an equilibrium cannot be reached.
+  // The equilibrium with contact for actuation a (6 x num_elements) and bone transforms
+  // `bones` (one per model bone), into *state (3 x num_vertices), with the obstacles
+  // placed by the bones, and what changed, into *report. `start` (3 x num_vertices) is
+  // the contact-free equilibrium for a and bones: the reference of the report, and the
+  // start of the rounds when options.path_steps is 0 (otherwise the path starts at
+  // rest). Returns false with *error if an equilibrium cannot be reached.
   bool Resolve(const ActuationMatrix& a, const std::vector<RigidTransform>& bones,
-               const std::vector<const Obstacle*>& obstacles, const Eigen::Matrix3Xd& start,
+               const std::vector<MovingObstacle>& obstacles, const Eigen::Matrix3Xd& start,
                Eigen::Matrix3Xd* state, ContactReport* report, std::string* error);
 
   // Measurements used by the report, exposed for tests: the deepest penetration of the
@@ -106,8 +137,11 @@ class ContactSolver {
   void MeasurePenetration(const Eigen::Matrix3Xd& surface,
                           const std::vector<const Obstacle*>& obstacles, double* max_depth,
                           int* points) const;
-  // *new_pairs (may be null): how many of them do not intersect at rest.
-  int CountSelfIntersections(const Eigen::Matrix3Xd& surface, int* new_pairs = nullptr) const;
+  // *new_pairs (may be null): how many of them do not intersect at rest;
+  // *separated_pairs (may be null): how many of those were farther apart at rest than
+  // options.rest_tolerance.
+  int CountSelfIntersections(const Eigen::Matrix3Xd& surface, int* new_pairs = nullptr,
+                             int* separated_pairs = nullptr) const;
   int CountObstacleIntersections(const Eigen::Matrix3Xd& surface,
                                  const std::vector<const Obstacle*>& obstacles) const;
 
@@ -121,6 +155,18 @@ class ContactSolver {
 
 
  private:
+  // Detection/solve rounds for one actuation and placement from *x (3 x num_vertices),
+  // until the surface has no more new self-intersecting pairs than allowed_self, no more
+  // pairs crossing obstacles than allowed_obstacle and no point inside an obstacle, or
+  // max_rounds, each solved to relative_force_tolerance. *x receives the result; *touched marks the surface vertices that were in
+  // contact; the rounds' lines are appended to report->round_summaries (with `label`),
+  // and report->rounds, converged, obstacle_contacts and self_contacts are updated.
+  bool SolveRounds(const ActuationMatrix& a, const std::vector<RigidTransform>& bones,
+                   const std::vector<const Obstacle*>& obstacles, int allowed_self,
+                   int allowed_obstacle, double relative_force_tolerance,
+                   const std::string& label, Eigen::Matrix3Xd* x, std::vector<char>* touched,
+                   ContactReport* report, std::string* error);
+
   const ActiveModel& model_;
   ContactOptions options_;
   std::unique_ptr<ShapeTargetModel> physics_;
@@ -132,6 +178,9 @@ class ContactSolver {
   std::vector<std::vector<int>> rings_;
   std::vector<char> in_contact_;           // per surface vertex: takes part in contact
   Eigen::Matrix3Xi contact_triangles_;     // triangles with all corners taking part
+  // Per surface vertex: the augmented-Lagrangian offset of its self-contact pair
+  // (SelfContactPair::offset), carried across rounds and path steps of one Resolve.
+  std::vector<double> self_offsets_;
   std::vector<std::pair<int, int>> rest_intersections_;  // sorted pairs of contact_triangles_
 };
 

@@ -170,10 +170,11 @@ PairBlocks BlocksOf(const SelfContactPair& pair) {
   return blocks;
 }
 
-// The pair's residual sqrt(k) (thickness - s) (0 if inactive) at the four points, and
-// its gradient with respect to them (3 x 4: point, a, b, c).
+// The pair's residual sqrt(k) (thickness + offset - s) (0 if inactive) at the four
+// points, and its gradient with respect to them (3 x 4: point, a, b, c).
 double PairResidual(const SelfContactPair& pair, const Eigen::Vector3d points[4], double thickness,
                     double max_depth, double margin, Eigen::Matrix<double, 3, 4>* gradient) {
+  thickness += pair.offset;
   double s = 0;
   Eigen::Vector3d beta;
   Eigen::Matrix<double, 3, 4> ds;

@@ -56,6 +56,10 @@ struct SelfContactPair {
   PointStencil point;
   PointStencil corner[3];
   double stiffness = 0.0;
+  // Augmented-Lagrangian shift: the pair keeps the point thickness + offset in front of
+  // the plane (offset = multiplier / stiffness; ContactSolver updates it between rounds
+  // so that the point ends at the thickness despite a finite stiffness).
+  double offset = 0.0;
   int surface_vertex = -1;  // the point's surface vertex (reporting only)
 };
 
@@ -63,11 +67,12 @@ struct SelfContactPair {
 // triangle), as a penalty on the signed distance of the point to the triangle's plane,
 // s = n . (p - P0) with n the unit normal of (P1 - P0) x (P2 - P0):
 //
-//   E = sum_pairs k / 2 (thickness - s)^2   where active,
+//   E = sum_pairs k / 2 (thickness + offset - s)^2   where active,
 //
-// active when s < thickness, s > -max_depth and the point projects into the triangle
+// (offset: the pair's augmented-Lagrangian shift, 0 for a plain penalty), active when
+// s < thickness + offset, s > -max_depth and the point projects into the triangle
 // (barycentric coordinates >= -margin). The Ceres residual per pair is
-// sqrt(k) (thickness - s) (0 when inactive) with the exact derivative of s with respect
+// sqrt(k) (thickness + offset - s) (0 when inactive) with the exact derivative of s with respect
 // to the point and the three corners (through the normal), chained to the simulation
 // vertices of their stencils. Candidate pairs are chosen by ContactSolver (the side a
 // point is on at rest, topological distance); they change between its rounds.

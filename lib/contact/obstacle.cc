@@ -2,6 +2,8 @@
 
 #include <sstream>
 
+#include <glog/logging.h>
+
 #include "mesh/mesh_io.h"
 #include "util/line_reader.h"
 
@@ -102,6 +104,12 @@ bool ReadObstacleSurfaces(const std::vector<ObstacleSpec>& specs,
     triangles->push_back(tris);
   }
   return true;
+}
+
+std::unique_ptr<Obstacle> MovingObstacle::Place(const std::vector<RigidTransform>& bones) const {
+  if (bone < 0) return std::make_unique<Obstacle>(name, vertices, triangles);
+  CHECK_LT(bone, static_cast<int>(bones.size())) << "obstacle " << name << ": bone " << bone;
+  return std::make_unique<Obstacle>(name, bones[bone].Apply(vertices), triangles);
 }
 
 }  // namespace aqs

@@ -40,6 +40,18 @@ class Obstacle {
   FastWindingNumber winding_;
 };
 
+// A rigid obstacle that moves with one of a model's bones, or stays: its surface at rest.
+struct MovingObstacle {
+  std::string name;
+  Eigen::Matrix3Xd vertices;   // 3 x N, at rest
+  Eigen::Matrix3Xi triangles;  // 3 x M
+  int bone = -1;               // index of the bone it moves with; -1: static
+
+  // The obstacle at the placement of `bones` (bones[bone] applied when bone >= 0;
+  // CHECKs that the bone exists).
+  std::unique_ptr<Obstacle> Place(const std::vector<RigidTransform>& bones) const;
+};
+
 // A rigid obstacle as specified by users: a surface file, optionally only the triangles
 // whose vertices all lie in a vertex range (e.g. the lower teeth of a file with both
 // jaws), optionally moving with a bone of the model.

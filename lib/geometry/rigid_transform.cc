@@ -2,6 +2,7 @@
 
 #include <glog/logging.h>
 
+#include <Eigen/Geometry>
 #include <Eigen/LU>
 #include <Eigen/SVD>
 #include <cmath>
@@ -54,6 +55,26 @@ RigidTransform FitRigidTransform(const Eigen::Matrix3Xd& from, const Eigen::Matr
     *rms_residual = std::sqrt(squared.dot(weights) / total);
   }
   return transform;
+}
+
+RigidTransform InterpolateRigidTransform(const RigidTransform& transform, double t) {
+  const Eigen::AngleAxisd rotation(transform.rotation);
+  RigidTransform result;
+  if (std::abs(rotation.angle()) < 1e-12) {
+    result.translation = t * transform.translation;
+    return result;
+  }
+  const Eigen::Vector3d axis = rotation.axis();
+  const Eigen::Vector3d along = axis.dot(transform.translation) * axis;
+  // (I - R) is invertible on the plane normal to the axis; its minimum-norm solution.
+  const Eigen::Matrix3d i_minus_r = Eigen::Matrix3d::Identity() - transform.rotation;
+  const Eigen::Vector3d centre =
+      i_minus_r.jacobiSvd(Eigen::ComputeFullU | Eigen::ComputeFullV)
+          .setThreshold(1e-10)
+          .solve(transform.translation - along);
+  result.rotation = Eigen::AngleAxisd(t * rotation.angle(), axis).toRotationMatrix();
+  result.translation = centre - result.rotation * centre + t * along;
+  return result;
 }
 
 }  // namespace aqs

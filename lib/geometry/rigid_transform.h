@@ -39,6 +39,13 @@ RigidTransform FitRigidTransform(const Eigen::Matrix3Xd& from, const Eigen::Matr
 RigidTransform FitRigidTransform(const Eigen::Matrix3Xd& from, const Eigen::Matrix3Xd& to,
                                  const Eigen::VectorXd& weights, double* rms_residual = nullptr);
 
+// The screw motion from the identity (t = 0) to `transform` (t = 1): the rotation by t
+// times its angle about its axis, through the axis' point c that (I - R) c = the
+// translation's part normal to the axis, with t times the translation's part along the
+// axis (a rotation about a pivot p moves points on arcs around p). Exact at t = 0 and 1;
+// a pure translation is scaled by t.
+RigidTransform InterpolateRigidTransform(const RigidTransform& transform, double t);
+
 }  // namespace aqs
 
 #endif  // AQS_GEOMETRY_RIGID_TRANSFORM_H_

@@ -65,20 +65,19 @@ CollideJobResult RunCollideJob(const CollideJobOptions& options, std::ostream& l
   if (!ReadObstacleSurfaces(specs, &obstacle_vertices, &obstacle_triangles, &error)) {
     return Fail(JobStatus::kBadInput, error);
   }
-  std::vector<std::unique_ptr<Obstacle>> obstacles;
-  std::vector<const Obstacle*> obstacle_pointers;
+  std::vector<MovingObstacle> obstacles;
   for (size_t i = 0; i < specs.size(); ++i) {
-    Eigen::Matrix3Xd vertices = obstacle_vertices[i];
+    MovingObstacle obstacle;
+    obstacle.name = specs[i].path;
+    obstacle.vertices = obstacle_vertices[i];
+    obstacle.triangles = obstacle_triangles[i];
     if (!specs[i].bone.empty()) {
-      int b = -1;
       for (size_t k = 0; k < model.bones.size(); ++k) {
-        if (model.bones[k].name == specs[i].bone) b = static_cast<int>(k);
+        if (model.bones[k].name == specs[i].bone) obstacle.bone = static_cast<int>(k);
       }
-      if (b < 0) return Fail(JobStatus::kBadInput, "obstacle " + specs[i].path + ": the model has no bone '" + specs[i].bone + "'");
-      vertices = bones[b].Apply(vertices);
+      if (obstacle.bone < 0) return Fail(JobStatus::kBadInput, "obstacle " + specs[i].path + ": the model has no bone '" + specs[i].bone + "'");
     }
-    obstacles.push_back(std::make_unique<Obstacle>(specs[i].path, vertices, obstacle_triangles[i]));
-    obstacle_pointers.push_back(obstacles.back().get());
+    obstacles.push_back(std::move(obstacle));
     log << "obstacle " << specs[i].path << ": " << obstacle_triangles[i].cols() << " triangles"
         << (specs[i].bone.empty() ? "" : ", moving with " + specs[i].bone) << "\n";
   }
@@ -101,7 +100,7 @@ CollideJobResult RunCollideJob(const CollideJobOptions& options, std::ostream& l
   ContactSolver solver(model, options.contact);
   CollideJobResult result;
   Eigen::Matrix3Xd state;
-  if (!solver.Resolve(a, bones, obstacle_pointers, start, &state, &result.report, &error)) {
+  if (!solver.Resolve(a, bones, obstacles, start, &state, &result.report, &error)) {
     return Fail(JobStatus::kNotConverged, error);
   }
   for (const std::string& line : result.report.round_summaries) log << "  " << line << "\n";

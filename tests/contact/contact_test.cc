@@ -4,6 +4,7 @@
 #include <ceres/cost_function.h>
 #include <ceres/gradient_checker.h>
 #include <ceres/manifold.h>
+#include <glog/logging.h>
 #include <gtest/gtest.h>
 
 #include "contact/contact_solver.h"
@@ -140,33 +141,45 @@ TEST(SelfContactTermTest, ResidualJacobianAndEnergyGradient) {
     else p = Eigen::Vector3d(0, 1, -0.03);                  // corner c
     x.col(v) = p + Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
   }
-  const SelfContactTerm term({pair}, 0.1, 1.0, 0.05);
-  std::vector<int> block_vertices;
-  std::unique_ptr<ceres::CostFunction> cost(term.NewCostFunction(0, &block_vertices));
-  EXPECT_EQ(block_vertices.size(), 15u);  // 16 slots, one shared
-  std::vector<const double*> parameters;
-  for (int v : block_vertices) parameters.push_back(x.col(v).data());
-  double r = 0;
-  ASSERT_TRUE(cost->Evaluate(parameters.data(), &r, nullptr));
-  EXPECT_GT(r, 0.0);
-  ceres::NumericDiffOptions numeric;
-  numeric.ridders_relative_initial_step_size = 1e-4;
-  const std::vector<const ceres::Manifold*>* none = nullptr;
-  ceres::GradientChecker checker(cost.get(), none, numeric);
-  ceres::GradientChecker::ProbeResults results;
-  checker.Probe(parameters.data(), 1e-7, &results);
-  EXPECT_LT(MaxBlockError(results), 1e-6) << results.error_log;
-  auto energy = [&](const Eigen::VectorXd& flat) {
-    Eigen::Matrix3Xd g = Eigen::Matrix3Xd::Zero(3, 16);
-    return term.AddEnergyAndGradient(Eigen::Map<const Eigen::Matrix3Xd>(flat.data(), 3, 16), &g);
+  // Checks the residual (active) and the energy gradient of one pair at x.
+  auto check = [](const SelfContactPair& pair, const Eigen::Matrix3Xd& x) {
+    const SelfContactTerm term({pair}, 0.1, 1.0, 0.05);
+    std::vector<int> block_vertices;
+    std::unique_ptr<ceres::CostFunction> cost(term.NewCostFunction(0, &block_vertices));
+    EXPECT_EQ(block_vertices.size(), 15u);  // 16 slots, one shared
+    std::vector<const double*> parameters;
+    for (int v : block_vertices) parameters.push_back(x.col(v).data());
+    double r = 0;
+    ASSERT_TRUE(cost->Evaluate(parameters.data(), &r, nullptr));
+    EXPECT_GT(r, 0.0);
+    ceres::NumericDiffOptions numeric;
+    numeric.ridders_relative_initial_step_size = 1e-4;
+    const std::vector<const ceres::Manifold*>* none = nullptr;
+    ceres::GradientChecker checker(cost.get(), none, numeric);
+    ceres::GradientChecker::ProbeResults results;
+    checker.Probe(parameters.data(), 1e-7, &results);
+    EXPECT_LT(MaxBlockError(results), 1e-6) << results.error_log;
+    auto energy = [&](const Eigen::VectorXd& flat) {
+      Eigen::Matrix3Xd g = Eigen::Matrix3Xd::Zero(3, 16);
+      return term.AddEnergyAndGradient(Eigen::Map<const Eigen::Matrix3Xd>(flat.data(), 3, 16), &g);
+    };
+    Eigen::Matrix3Xd gradient = Eigen::Matrix3Xd::Zero(3, 16);
+    term.AddEnergyAndGradient(x, &gradient);
+    EXPECT_LT(testing::RelativeError(
+                  Eigen::Map<const Eigen::VectorXd>(gradient.data(), 48),
+                  testing::CentralDifferenceGradient(
+                      energy, Eigen::Map<const Eigen::VectorXd>(x.data(), 48), 1e-6)),
+              1e-7);
   };
-  Eigen::Matrix3Xd gradient = Eigen::Matrix3Xd::Zero(3, 16);
-  term.AddEnergyAndGradient(x, &gradient);
-  EXPECT_LT(testing::RelativeError(
-                Eigen::Map<const Eigen::VectorXd>(gradient.data(), 48),
-                testing::CentralDifferenceGradient(
-                    energy, Eigen::Map<const Eigen::VectorXd>(x.data(), 48), 1e-6)),
-            1e-7);
+  check(pair, x);
+  // With an augmented-Lagrangian offset, a point in front of the plane by more than the
+  // thickness (0.1) but less than thickness + offset is still pushed; without, it is not.
+  Eigen::Matrix3Xd above = x;
+  for (int v = 0; v < 4; ++v) above(2, v) += 0.2;
+  Eigen::Matrix3Xd unused = Eigen::Matrix3Xd::Zero(3, 16);
+  EXPECT_EQ(SelfContactTerm({pair}, 0.1, 1.0, 0.05).AddEnergyAndGradient(above, &unused), 0.0);
+  pair.offset = 0.3;
+  check(pair, above);
 }
 
 // A model of lattice blocks with the given boundary conditions, its surface the mesh
@@ -212,7 +225,10 @@ TEST(ContactSolverTest, BlockPushedIntoASlabStopsAtItsSurface) {
   Eigen::Matrix3Xd v;
   Eigen::Matrix3Xi t;
   BoxSurface(Eigen::Vector3d(-1, -2, -1), Eigen::Vector3d(2, -0.2, 2), &v, &t);
-  const Obstacle slab("slab", v, t);
+  MovingObstacle slab;
+  slab.name = "slab";
+  slab.vertices = v;
+  slab.triangles = t;
   ContactOptions options;
   options.thickness = 0.02;
   options.relative_stiffness = 1000.0;
@@ -222,7 +238,7 @@ TEST(ContactSolverTest, BlockPushedIntoASlabStopsAtItsSurface) {
   Eigen::Matrix3Xd state;
   ContactReport report;
   std::string error;
-  ASSERT_TRUE(solver.Resolve(IdentityActuations(block.num_tets()), {push}, {&slab},
+  ASSERT_TRUE(solver.Resolve(IdentityActuations(block.num_tets()), {push}, {slab},
                              free.positions(), &state, &report, &error))
       << error;
   EXPECT_GT(report.max_penetration_before, 0.15) << report.Summary();
@@ -236,21 +252,20 @@ TEST(ContactSolverTest, BlockPushedIntoASlabStopsAtItsSurface) {
   EXPECT_GT(report.obstacle_contacts, 0);
 }
 
-TEST(ContactSolverTest, TwoSpheresPressedTogetherFlattenWithoutIntersecting) {
-  // Two soft balls, each a lattice under a smooth embedded sphere (as faces are
-  // modelled), in one model whose surface is both spheres: the left ball held at its far
-  // side, the right one pushed 0.3 towards it by its far side (0.1 gap: 0.2 of overlap
-  // without contact).
+// Two soft balls, each a lattice under a smooth embedded sphere (as faces are modelled),
+// in one model whose surface is both spheres (radius 0.5, centres 1.1 apart): the left
+// ball held at its far side, the right one driven by its far side (bone "driver").
+ActiveModel TwoBallsModel(int* surface_vertices_per_ball) {
   const SurfaceMesh left_sphere = testing::Icosphere(3, 0.5, Eigen::Vector3d(0, 0, 0));
   const SurfaceMesh right_sphere = testing::Icosphere(3, 0.5, Eigen::Vector3d(1.1, 0, 0));
   SurfaceTetMeshOptions meshing;
   meshing.spacing = 0.2;
   TetMesh left_mesh, right_mesh;
   std::string error;
-  ASSERT_TRUE(MeshSurfaceInterior(left_sphere.vertices, left_sphere.triangles, meshing, &left_mesh,
-                                  &error)) << error;
-  ASSERT_TRUE(MeshSurfaceInterior(right_sphere.vertices, right_sphere.triangles, meshing,
-                                  &right_mesh, &error)) << error;
+  CHECK(MeshSurfaceInterior(left_sphere.vertices, left_sphere.triangles, meshing, &left_mesh,
+                            &error)) << error;
+  CHECK(MeshSurfaceInterior(right_sphere.vertices, right_sphere.triangles, meshing, &right_mesh,
+                            &error)) << error;
   ActiveModel model;
   model.mesh.vertices.resize(3, left_mesh.num_vertices() + right_mesh.num_vertices());
   model.mesh.vertices << left_mesh.vertices, right_mesh.vertices;
@@ -270,6 +285,15 @@ TEST(ContactSolverTest, TwoSpheresPressedTogetherFlattenWithoutIntersecting) {
     if (model.mesh.vertices(0, v) > 1.4) driver.vertices.push_back(v);
   }
   model.bones = {driver};
+  *surface_vertices_per_ball = ns;
+  return model;
+}
+
+TEST(ContactSolverTest, TwoSpheresPressedTogetherFlattenWithoutIntersecting) {
+  // The right ball pushed 0.3 towards the left one (0.1 gap: 0.2 of overlap without
+  // contact).
+  int ns = 0;
+  const ActiveModel model = TwoBallsModel(&ns);
   RigidTransform push;
   push.translation = Eigen::Vector3d(-0.3, 0, 0);
   const ShapeTargetModel physics(model.mesh, model.mu);
@@ -280,25 +304,69 @@ TEST(ContactSolverTest, TwoSpheresPressedTogetherFlattenWithoutIntersecting) {
   options.relative_stiffness = 1000.0;
   options.search_radius = 0.1;
   options.max_depth = 0.4;
-  ContactSolver solver(model, options);
+  for (int path_steps : {0, 8}) {
+    options.path_steps = path_steps;
+    ContactSolver solver(model, options);
+    Eigen::Matrix3Xd state;
+    ContactReport report;
+    std::string error;
+    ASSERT_TRUE(solver.Resolve(IdentityActuations(model.mesh.num_tets()), {push}, {},
+                               free.positions(), &state, &report, &error))
+        << error;
+    EXPECT_GT(report.self_intersections_before, 50) << report.Summary();
+    EXPECT_EQ(report.self_intersections_after, 0) << report.Summary();
+    EXPECT_GT(report.self_contacts, 0) << report.Summary();
+    EXPECT_TRUE(report.converged) << report.Summary();
+    EXPECT_EQ(report.path_steps, path_steps) << report.Summary();
+    // The spheres meet flattened: along the centre line, the right sphere's leftmost
+    // point is within the thickness of the left sphere's rightmost one, not behind it.
+    const Eigen::Matrix3Xd surface = EmbeddedPositions(model.embedding, model.mesh.tets, state);
+    const double left_front = surface.leftCols(ns).row(0).maxCoeff();
+    const double right_front = surface.rightCols(ns).row(0).minCoeff();
+    EXPECT_GE(right_front - left_front, -0.01) << report.Summary();
+    EXPECT_LE(right_front - left_front, 3 * options.thickness) << report.Summary();
+    // The far sides stay where they were held.
+    EXPECT_LT(report.max_far_displacement, 0.05) << report.Summary();
+  }
+}
+
+TEST(ContactSolverTest, SpheresPushedThroughEachOtherAreSeparatedAlongThePath) {
+  // The right ball pushed 0.45 towards the left one: without contact its front passes
+  // 0.35 through the left ball, deeper than max_depth (0.25), so rounds that start there
+  // cannot tell the sides; the path from rest catches the contact as it begins.
+  int ns = 0;
+  const ActiveModel model = TwoBallsModel(&ns);
+  RigidTransform push;
+  push.translation = Eigen::Vector3d(-0.45, 0, 0);
+  const ShapeTargetModel physics(model.mesh, model.mu);
+  QuasistaticSolver free(physics, ModelBoundaryConditions(model, {push}));
+  ASSERT_TRUE(free.Solve().converged);
+  ContactOptions options;
+  options.thickness = 0.01;
+  options.search_radius = 0.1;
+  options.max_depth = 0.25;
+  options.path_steps = 0;
+  ContactReport direct, path;
   Eigen::Matrix3Xd state;
-  ContactReport report;
-  ASSERT_TRUE(solver.Resolve(IdentityActuations(model.mesh.num_tets()), {push}, {},
-                             free.positions(), &state, &report, &error))
+  std::string error;
+  ASSERT_TRUE(ContactSolver(model, options)
+                  .Resolve(IdentityActuations(model.mesh.num_tets()), {push}, {}, free.positions(),
+                           &state, &direct, &error))
       << error;
-  EXPECT_GT(report.self_intersections_before, 50) << report.Summary();
-  EXPECT_EQ(report.self_intersections_after, 0) << report.Summary();
-  EXPECT_GT(report.self_contacts, 0) << report.Summary();
-  EXPECT_TRUE(report.converged) << report.Summary();
-  // The spheres meet flattened: along the centre line, the right sphere's leftmost point
-  // is within the thickness of the left sphere's rightmost one, not behind it.
+  EXPECT_GT(direct.self_intersections_after, 20) << direct.Summary();
+  options.path_steps = 8;
+  ASSERT_TRUE(ContactSolver(model, options)
+                  .Resolve(IdentityActuations(model.mesh.num_tets()), {push}, {}, free.positions(),
+                           &state, &path, &error))
+      << error;
+  EXPECT_GT(path.self_intersections_before, 100) << path.Summary();
+  EXPECT_EQ(path.self_intersections_after, 0) << path.Summary();
+  EXPECT_TRUE(path.converged) << path.Summary();
+  EXPECT_GE(path.path_steps, 8);
   const Eigen::Matrix3Xd surface = EmbeddedPositions(model.embedding, model.mesh.tets, state);
-  const double left_front = surface.leftCols(ns).row(0).maxCoeff();
-  const double right_front = surface.rightCols(ns).row(0).minCoeff();
-  EXPECT_GE(right_front - left_front, -0.01) << report.Summary();
-  EXPECT_LE(right_front - left_front, 3 * options.thickness) << report.Summary();
-  // The far sides stay where they were held.
-  EXPECT_LT(report.max_far_displacement, 0.05) << report.Summary();
+  const double gap = surface.rightCols(ns).row(0).minCoeff() - surface.leftCols(ns).row(0).maxCoeff();
+  EXPECT_GE(gap, -0.01) << path.Summary();
+  EXPECT_LE(gap, 3 * options.thickness) << path.Summary();
 }
 
 }  // namespace

@@ -131,5 +131,32 @@ TEST(RigidTransformTest, WeightsAndDegenerateSets) {
   EXPECT_LT(rms, 1e-12);
 }
 
+TEST(InterpolateRigidTransformTest, ScrewMotionAboutAPivot) {
+  // A rotation by 0.6 rad about the axis (0, 0, 1) through the pivot (2, 1, 0), then 0.3
+  // along the axis: halfway, points have turned 0.3 rad about the same pivot and moved
+  // 0.15 along the axis, at the same distance from it.
+  const Eigen::Vector3d pivot(2, 1, 0), axis(0, 0, 1);
+  RigidTransform motion;
+  motion.rotation = Eigen::AngleAxisd(0.6, axis).toRotationMatrix();
+  motion.translation = pivot - motion.rotation * pivot + 0.3 * axis;
+  const RigidTransform start = InterpolateRigidTransform(motion, 0.0);
+  EXPECT_LT((start.rotation - Eigen::Matrix3d::Identity()).norm(), 1e-14);
+  EXPECT_LT(start.translation.norm(), 1e-12);
+  const RigidTransform end = InterpolateRigidTransform(motion, 1.0);
+  EXPECT_LT((end.rotation - motion.rotation).norm(), 1e-12);
+  EXPECT_LT((end.translation - motion.translation).norm(), 1e-12);
+  const RigidTransform half = InterpolateRigidTransform(motion, 0.5);
+  const Eigen::Matrix3d half_rotation = Eigen::AngleAxisd(0.3, axis).toRotationMatrix();
+  const Eigen::Vector3d p(3, -1, 2);
+  const Eigen::Vector3d expected = half_rotation * (p - pivot) + pivot + 0.15 * axis;
+  EXPECT_LT((half.ApplyToPoint(p) - expected).norm(), 1e-12);
+  // A pure translation is scaled.
+  RigidTransform shift;
+  shift.translation << 1, -2, 4;
+  const RigidTransform quarter = InterpolateRigidTransform(shift, 0.25);
+  EXPECT_LT((quarter.translation - Eigen::Vector3d(0.25, -0.5, 1)).norm(), 1e-15);
+  EXPECT_LT((quarter.rotation - Eigen::Matrix3d::Identity()).norm(), 1e-15);
+}
+
 }  // namespace
 }  // namespace aqs
