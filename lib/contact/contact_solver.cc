@@ -136,6 +136,9 @@ std::string ContactReport::ToText() const {
 
 ContactSolver::ContactSolver(const ActiveModel& model, const ContactOptions& options)
     : model_(model), options_(options) {
+  CHECK_GE(options.max_rounds, 1);
+  CHECK_GE(options.path_steps, 0);
+  CHECK_GE(options.max_step_halvings, 0);
   physics_ = std::make_unique<ShapeTargetModel>(model.mesh, model.mu);
   stencils_ = EmbeddingStencils(model.embedding, model.mesh.tets);
   stiffness_ = VertexAreas(model.neutral.vertices, model.neutral.triangles);
@@ -329,7 +332,8 @@ bool ContactSolver::SolveRounds(const ActuationMatrix& a, const std::vector<Rigi
                                 const std::vector<const Obstacle*>& obstacles, int allowed_self,
                                 int allowed_obstacle, double relative_force_tolerance,
                                 const std::string& label, Eigen::Matrix3Xd* x,
-                                std::vector<char>* touched, ContactReport* report,
+                                std::vector<char>* touched, int* self_intersections,
+                                int* obstacle_intersections, ContactReport* report,
                                 std::string* error) {
   const BoundaryConditions bc = ModelBoundaryConditions(model_, bones);
   QuasistaticSolverOptions solver_options = options_.solver;
@@ -410,16 +414,17 @@ bool ContactSolver::SolveRounds(const ActuationMatrix& a, const std::vector<Rigi
         offset = std::clamp(offset + options_.thickness - s, 0.0, kMaxOffset * options_.thickness);
       }
     }
-    if (solve.iterations == 0) break;  // no progress left to make with these candidates
-    // Stop when nothing penetrates any more.
     const Eigen::Matrix3Xd moved = EmbeddedPositions(model_.embedding, model_.mesh.tets, *x);
     double depth = 0;
     int inside = 0;
     MeasurePenetration(moved, obstacles, &depth, &inside);
-    int new_intersections = 0;
-    if (options_.self_contact) CountSelfIntersections(moved, &new_intersections);
-    if (inside == 0 && new_intersections <= allowed_self &&
-        CountObstacleIntersections(moved, obstacles) <= allowed_obstacle) {
+    *self_intersections = 0;
+    if (options_.self_contact) CountSelfIntersections(moved, self_intersections);
+    *obstacle_intersections = CountObstacleIntersections(moved, obstacles);
+    if (solve.iterations == 0) break;  // no progress left to make with these candidates
+    // Stop when nothing penetrates any more.
+    if (inside == 0 && *self_intersections <= allowed_self &&
+        *obstacle_intersections <= allowed_obstacle) {
       break;
     }
   }
@@ -478,8 +483,9 @@ bool ContactSolver::Resolve(const ActuationMatrix& a, const std::vector<RigidTra
   }
   if (options_.path_steps <= 0 || rest_inside > 0) {
     x = start;
+    int self_intersections = 0, obstacle_intersections = 0;
     if (!SolveRounds(a, bones, final_obstacles, 0, 0, options_.solver.relative_force_tolerance, "",
-                     &x, &touched, report, error)) {
+                     &x, &touched, &self_intersections, &obstacle_intersections, report, error)) {
       return false;
     }
   } else {
@@ -509,14 +515,11 @@ bool ContactSolver::Resolve(const ActuationMatrix& a, const std::vector<RigidTra
       const double tolerance = t_next < 1.0 ? std::max(options_.path_relative_force_tolerance,
                                                        options_.solver.relative_force_tolerance)
                                             : options_.solver.relative_force_tolerance;
+      int self_next = 0, obstacle_next = 0;
       if (!SolveRounds(a_t, bones_t, obstacles_t, current_self, current_obstacle, tolerance,
-                       label, &x_next, &touched_next, report, error)) {
+                       label, &x_next, &touched_next, &self_next, &obstacle_next, report, error)) {
         return false;
       }
-      const Eigen::Matrix3Xd surface = EmbeddedPositions(model_.embedding, model_.mesh.tets, x_next);
-      int self_next = 0;
-      if (options_.self_contact) CountSelfIntersections(surface, &self_next);
-      const int obstacle_next = CountObstacleIntersections(surface, obstacles_t);
       if ((self_next > current_self || obstacle_next > current_obstacle) &&
           halvings < options_.max_step_halvings) {
         self_offsets_ = offsets;

@@ -159,12 +159,15 @@ class ContactSolver {
   // until the surface has no more new self-intersecting pairs than allowed_self, no more
   // pairs crossing obstacles than allowed_obstacle and no point inside an obstacle, or
   // max_rounds, each solved to relative_force_tolerance. *x receives the result; *touched marks the surface vertices that were in
-  // contact; the rounds' lines are appended to report->round_summaries (with `label`),
+  // contact; *self_intersections and *obstacle_intersections receive the new
+  // self-intersecting pairs and the pairs crossing obstacles at *x; the rounds' lines are
+  // appended to report->round_summaries (with `label`),
   // and report->rounds, converged, obstacle_contacts and self_contacts are updated.
   bool SolveRounds(const ActuationMatrix& a, const std::vector<RigidTransform>& bones,
                    const std::vector<const Obstacle*>& obstacles, int allowed_self,
                    int allowed_obstacle, double relative_force_tolerance,
                    const std::string& label, Eigen::Matrix3Xd* x, std::vector<char>* touched,
+                   int* self_intersections, int* obstacle_intersections,
                    ContactReport* report, std::string* error);
 
   const ActiveModel& model_;

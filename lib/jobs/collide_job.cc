@@ -39,8 +39,10 @@ CollideJobResult RunCollideJob(const CollideJobOptions& options, std::ostream& l
     return Fail(JobStatus::kBadInput,
                 "the contact thickness, stiffness, max depth and search radius must be positive");
   }
-  if (options.contact.max_rounds < 1 || options.contact.exclusion_rings < 0) {
-    return Fail(JobStatus::kBadInput, "--contact_rounds must be >= 1 and --exclusion_rings >= 0");
+  if (options.contact.max_rounds < 1 || options.contact.exclusion_rings < 0 ||
+      options.contact.path_steps < 0 || options.contact.max_step_halvings < 0) {
+    return Fail(JobStatus::kBadInput,
+                "--contact_rounds must be >= 1, and --exclusion_rings and --path_steps >= 0");
   }
   ActiveModel model;
   if (!LoadModel(options.model, &model, &error)) return Fail(JobStatus::kBadInput, error);

@@ -273,6 +273,7 @@ TEST_F(AqsFitTest, CollidePushesTheSurfaceOutOfAnObstacle) {
       {"--thickness=0", "thickness"},
       {"--max_depth=-1", "max depth"},
       {"--contact_rounds=0", "--contact_rounds must be"},
+      {"--path_steps=-1", "--path_steps >= 0"},
   };
   const std::string base = AppPath("aqs_collide") + " --model=" + dir_->File("model") +
                            " --pose=" + data_->model.poses[0].name + " --output=" +

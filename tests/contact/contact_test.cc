@@ -4,6 +4,7 @@
 #include <ceres/cost_function.h>
 #include <ceres/gradient_checker.h>
 #include <ceres/manifold.h>
+#include <Eigen/Geometry>
 #include <glog/logging.h>
 #include <gtest/gtest.h>
 
@@ -180,6 +181,10 @@ TEST(SelfContactTermTest, ResidualJacobianAndEnergyGradient) {
   EXPECT_EQ(SelfContactTerm({pair}, 0.1, 1.0, 0.05).AddEnergyAndGradient(above, &unused), 0.0);
   pair.offset = 0.3;
   check(pair, above);
+  // The same, rotated and moved (the plane distance is invariant).
+  const Eigen::Matrix3d rotation =
+      Eigen::AngleAxisd(1.1, Eigen::Vector3d(0.3, -0.5, 0.8).normalized()).toRotationMatrix();
+  check(pair, (rotation * above).colwise() + Eigen::Vector3d(0.7, -1.2, 2.0));
 }
 
 // A model of lattice blocks with the given boundary conditions, its surface the mesh
@@ -194,6 +199,17 @@ ActiveModel BlockModel(const TetMesh& mesh, const std::vector<int>& fixed) {
   model.neutral.triangles = boundary.triangles;
   model.embedding = EmbedPoints(mesh, mesh.vertices, 1);
   return model;
+}
+
+// The equilibrium of a one-bone model at rest actuation with the bone moved by `push`
+// (3 x num_vertices), without contact; false if it does not converge.
+bool ContactFreeEquilibrium(const ActiveModel& model, const RigidTransform& push,
+                            Eigen::Matrix3Xd* positions) {
+  const ShapeTargetModel physics(model.mesh, model.mu);
+  QuasistaticSolver solver(physics, ModelBoundaryConditions(model, {push}));
+  const bool converged = solver.Solve().converged;
+  *positions = solver.positions();
+  return converged;
 }
 
 TEST(ContactSolverTest, BlockPushedIntoASlabStopsAtItsSurface) {
@@ -218,10 +234,8 @@ TEST(ContactSolverTest, BlockPushedIntoASlabStopsAtItsSurface) {
   model.bones = {lid};
   RigidTransform push;
   push.translation = Eigen::Vector3d(0, -0.4, 0);
-  const BoundaryConditions bc = ModelBoundaryConditions(model, {push});
-  const ShapeTargetModel physics(model.mesh, model.mu);
-  QuasistaticSolver free(physics, bc);
-  ASSERT_TRUE(free.Solve().converged);
+  Eigen::Matrix3Xd free;
+  ASSERT_TRUE(ContactFreeEquilibrium(model, push, &free));
   Eigen::Matrix3Xd v;
   Eigen::Matrix3Xi t;
   BoxSurface(Eigen::Vector3d(-1, -2, -1), Eigen::Vector3d(2, -0.2, 2), &v, &t);
@@ -239,7 +253,7 @@ TEST(ContactSolverTest, BlockPushedIntoASlabStopsAtItsSurface) {
   ContactReport report;
   std::string error;
   ASSERT_TRUE(solver.Resolve(IdentityActuations(block.num_tets()), {push}, {slab},
-                             free.positions(), &state, &report, &error))
+                             free, &state, &report, &error))
       << error;
   EXPECT_GT(report.max_penetration_before, 0.15) << report.Summary();
   EXPECT_GT(report.penetrating_points_before, 0);
@@ -296,9 +310,8 @@ TEST(ContactSolverTest, TwoSpheresPressedTogetherFlattenWithoutIntersecting) {
   const ActiveModel model = TwoBallsModel(&ns);
   RigidTransform push;
   push.translation = Eigen::Vector3d(-0.3, 0, 0);
-  const ShapeTargetModel physics(model.mesh, model.mu);
-  QuasistaticSolver free(physics, ModelBoundaryConditions(model, {push}));
-  ASSERT_TRUE(free.Solve().converged);
+  Eigen::Matrix3Xd free;
+  ASSERT_TRUE(ContactFreeEquilibrium(model, push, &free));
   ContactOptions options;
   options.thickness = 0.01;
   options.relative_stiffness = 1000.0;
@@ -311,7 +324,7 @@ TEST(ContactSolverTest, TwoSpheresPressedTogetherFlattenWithoutIntersecting) {
     ContactReport report;
     std::string error;
     ASSERT_TRUE(solver.Resolve(IdentityActuations(model.mesh.num_tets()), {push}, {},
-                               free.positions(), &state, &report, &error))
+                               free, &state, &report, &error))
         << error;
     EXPECT_GT(report.self_intersections_before, 50) << report.Summary();
     EXPECT_EQ(report.self_intersections_after, 0) << report.Summary();
@@ -338,9 +351,8 @@ TEST(ContactSolverTest, SpheresPushedThroughEachOtherAreSeparatedAlongThePath) {
   const ActiveModel model = TwoBallsModel(&ns);
   RigidTransform push;
   push.translation = Eigen::Vector3d(-0.45, 0, 0);
-  const ShapeTargetModel physics(model.mesh, model.mu);
-  QuasistaticSolver free(physics, ModelBoundaryConditions(model, {push}));
-  ASSERT_TRUE(free.Solve().converged);
+  Eigen::Matrix3Xd free;
+  ASSERT_TRUE(ContactFreeEquilibrium(model, push, &free));
   ContactOptions options;
   options.thickness = 0.01;
   options.search_radius = 0.1;
@@ -350,13 +362,13 @@ TEST(ContactSolverTest, SpheresPushedThroughEachOtherAreSeparatedAlongThePath) {
   Eigen::Matrix3Xd state;
   std::string error;
   ASSERT_TRUE(ContactSolver(model, options)
-                  .Resolve(IdentityActuations(model.mesh.num_tets()), {push}, {}, free.positions(),
+                  .Resolve(IdentityActuations(model.mesh.num_tets()), {push}, {}, free,
                            &state, &direct, &error))
       << error;
   EXPECT_GT(direct.self_intersections_after, 20) << direct.Summary();
   options.path_steps = 8;
   ASSERT_TRUE(ContactSolver(model, options)
-                  .Resolve(IdentityActuations(model.mesh.num_tets()), {push}, {}, free.positions(),
+                  .Resolve(IdentityActuations(model.mesh.num_tets()), {push}, {}, free,
                            &state, &path, &error))
       << error;
   EXPECT_GT(path.self_intersections_before, 100) << path.Summary();
