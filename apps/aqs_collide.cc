@@ -27,6 +27,8 @@ DEFINE_double(thickness, 0.05, "Contact thickness (model units).");
 DEFINE_double(contact_stiffness, 1000.0, "Penalty stiffness per unit area, relative to one "
               "layer of elements.");
 DEFINE_bool(self_contact, true, "Also keep the surface out of itself.");
+DEFINE_bool(edge_contact, true,
+            "Self contact: also edge-edge pairs (crossings no vertex passes through).");
 DEFINE_double(search_radius, 0.5, "Candidate search radius (model units).");
 DEFINE_int32(exclusion_rings, 3, "Self contact: a point never pairs with triangles within this "
              "many edge rings.");
@@ -59,6 +61,7 @@ int main(int argc, char** argv) {
   options.contact.thickness = FLAGS_thickness;
   options.contact.relative_stiffness = FLAGS_contact_stiffness;
   options.contact.self_contact = FLAGS_self_contact;
+  options.contact.edge_contact = FLAGS_edge_contact;
   options.contact.search_radius = FLAGS_search_radius;
   options.contact.exclusion_rings = FLAGS_exclusion_rings;
   options.contact.max_rounds = FLAGS_contact_rounds;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <set>
 #include <sstream>
 #include <unordered_map>
 
@@ -24,6 +25,11 @@ namespace {
 // on its triangle's plane until the next detection (a pair switching off as its point
 // slides past a margin makes the energy discontinuous, and Levenberg-Marquardt stalls).
 constexpr double kResidualMargin = std::numeric_limits<double>::infinity();
+// Edge-edge pairs per edge at most (those with the smallest signed distances).
+constexpr size_t kEdgePartners = 2;
+// Edge-edge pairs whose side the surface normals tell less clearly than this (cosine of
+// the common normal with the difference of the edges' normals) are left out.
+constexpr double kMinSideCosine = 0.3;
 // Largest augmented-Lagrangian offset of a self-contact point, in thicknesses.
 constexpr double kMaxOffset = 10.0;
 
@@ -167,6 +173,24 @@ ContactSolver::ContactSolver(const ActiveModel& model, const ContactOptions& opt
   intersection_options.num_threads = options.num_threads;
   FindIntersectingTrianglePairs(rest_surface_, contact_triangles_, intersection_options,
                                 &rest_intersections_);
+  // The contact triangles' edges.
+  std::vector<std::pair<int, int>> edge_list;
+  for (Eigen::Index t = 0; t < contact_triangles_.cols(); ++t) {
+    for (int k = 0; k < 3; ++k) {
+      const int a = contact_triangles_(k, t), b = contact_triangles_((k + 1) % 3, t);
+      edge_list.emplace_back(std::min(a, b), std::max(a, b));
+    }
+  }
+  std::sort(edge_list.begin(), edge_list.end());
+  edge_list.erase(std::unique(edge_list.begin(), edge_list.end()), edge_list.end());
+  edges_.resize(2, edge_list.size());
+  edge_normals_.resize(3, edge_list.size());
+  for (size_t e = 0; e < edge_list.size(); ++e) {
+    edges_(0, e) = edge_list[e].first;
+    edges_(1, e) = edge_list[e].second;
+    edge_normals_.col(e) =
+        (rest_normals_.col(edge_list[e].first) + rest_normals_.col(edge_list[e].second)).normalized();
+  }
   // Edge rings of every surface vertex.
   const int ns = model.num_surface_vertices();
   std::vector<std::vector<int>> neighbours(ns);
@@ -328,10 +352,115 @@ std::vector<SelfContactPair> ContactSolver::DetectSelfContacts(const Eigen::Matr
   return pairs;
 }
 
+std::vector<SelfContactPair> ContactSolver::DetectEdgeContacts(
+    const Eigen::Matrix3Xd& surface, const Eigen::Matrix3Xd& reference) const {
+  const int num_edges = static_cast<int>(edges_.cols());
+  if (num_edges == 0) return {};
+  const double reach = std::max({options_.search_radius, options_.max_depth, 1e-9});
+  // Edges as degenerate triangles (a, b, b) in a grid whose cells also hold the longest
+  // edge, so that a query at an edge's midpoint finds every edge within reach of it.
+  Eigen::Matrix3Xi segments(3, num_edges);
+  double longest = 0.0;
+  for (int e = 0; e < num_edges; ++e) {
+    segments.col(e) << edges_(0, e), edges_(1, e), edges_(1, e);
+    longest = std::max(longest, (surface.col(edges_(0, e)) - surface.col(edges_(1, e))).norm());
+  }
+  const TriangleGrid grid(surface, segments, reach + longest);
+  // Edge normals at the reference: the mean of the ends' vertex normals.
+  const Eigen::Matrix3Xd vertex_normals = VertexNormals(reference, model_.neutral.triangles);
+  Eigen::Matrix3Xd edge_normals(3, num_edges);
+  for (int e = 0; e < num_edges; ++e) {
+    edge_normals.col(e) = (vertex_normals.col(edges_(0, e)) + vertex_normals.col(edges_(1, e))).normalized();
+  }
+  // Per edge, its partners with the smallest signed distances (crossed ones first: the
+  // nearest line is often a neighbour of the edge actually crossed).
+  struct Partner {
+    double s;
+    int edge;
+    double sign;
+  };
+  std::vector<std::vector<Partner>> partners(num_edges);
+  ParallelFor(options_.num_threads, 0, num_edges, [&](int, int e) {
+    const int a = edges_(0, e), b = edges_(1, e);
+    std::vector<int> candidates;
+    grid.Near(0.5 * (surface.col(a) + surface.col(b)), &candidates);
+    std::vector<Partner>& found = partners[e];
+    for (int f : candidates) {
+      if (edge_normals_.col(e).dot(edge_normals_.col(f)) > options_.max_normal_alignment) continue;
+      const int c = edges_(0, f), d = edges_(1, f);
+      bool excluded = false;
+      for (int v : {a, b}) {
+        const std::vector<int>& ring = rings_[v];
+        excluded = excluded || std::binary_search(ring.begin(), ring.end(), c) ||
+                   std::binary_search(ring.begin(), ring.end(), d);
+      }
+      if (excluded) continue;
+      double s = 0, u = 0, w = 0;
+      if (!EdgeDistance(surface.col(a), surface.col(b), surface.col(c), surface.col(d),
+                        kMinEdgeSine, &s, nullptr, &u, &w) ||
+          std::max({-u, u - 1.0, -w, w - 1.0}) > options_.margin) {
+        continue;
+      }
+      // The side: the first edge on the outer side of the second's surface,
+      // n . (normal_f - normal_e) > 0 for the common normal n at this state (s > 0 along
+      // n) and the surfaces' normals at the reference, where these tell it clearly. (The
+      // sign of the lines' distance at the reference would not do: it flips without a
+      // crossing wherever the closest points leave the edges, and n flips wherever the
+      // edges turn through parallel.)
+      const Eigen::Vector3d cross = (surface.col(b) - surface.col(a))
+                                        .cross(surface.col(d) - surface.col(c));
+      const Eigen::Vector3d facing = edge_normals.col(f) - edge_normals.col(e);
+      const double side = cross.dot(facing);
+      if (!(std::abs(side) > kMinSideCosine * cross.norm() * facing.norm())) continue;
+      const double sign = side > 0 ? 1.0 : -1.0;
+      // And the lines' distance at the reference must agree (in this state's orientation
+      // of n), so that pairs already crossed there are left alone.
+      double s_reference = 0;
+      if (!EdgeDistance(reference.col(a), reference.col(b), reference.col(c), reference.col(d),
+                        0.0, &s_reference, nullptr, nullptr, nullptr)) {
+        continue;
+      }
+      const Eigen::Vector3d cross_reference = (reference.col(b) - reference.col(a))
+                                                  .cross(reference.col(d) - reference.col(c));
+      if (s_reference * cross_reference.dot(cross) * sign <= 0.0) continue;
+      s *= sign;
+      if (!(s > -options_.max_depth) || !(s < options_.thickness + options_.search_radius)) continue;
+      found.push_back({s, f, sign});
+    }
+    const size_t keep = std::min<size_t>(found.size(), kEdgePartners);
+    std::partial_sort(found.begin(), found.begin() + keep, found.end(),
+                      [](const Partner& x, const Partner& y) { return x.s < y.s; });
+    found.resize(keep);
+  }, 64);
+  // Each unordered pair once, its lower-numbered edge first (the pair's distance and
+  // side do not depend on the order; the augmented-Lagrangian offset is that edge's).
+  std::set<std::pair<int, int>> taken;
+  std::vector<SelfContactPair> pairs;
+  for (int e = 0; e < num_edges; ++e) {
+    for (const Partner& partner : partners[e]) {
+      const int first = std::min(e, partner.edge), second = std::max(e, partner.edge);
+      if (!taken.insert({first, second}).second) continue;
+      SelfContactPair pair;
+      pair.kind = SelfContactPair::Kind::kEdgeEdge;
+      pair.point = stencils_[edges_(0, first)];
+      pair.corner[0] = stencils_[edges_(1, first)];
+      pair.corner[1] = stencils_[edges_(0, second)];
+      pair.corner[2] = stencils_[edges_(1, second)];
+      pair.sign = partner.sign;
+      pair.stiffness = 0.25 * (stiffness_[edges_(0, first)] + stiffness_[edges_(1, first)] +
+                               stiffness_[edges_(0, second)] + stiffness_[edges_(1, second)]);
+      pair.edge = first;
+      pairs.push_back(pair);
+    }
+  }
+  return pairs;
+}
+
 bool ContactSolver::SolveRounds(const ActuationMatrix& a, const std::vector<RigidTransform>& bones,
                                 const std::vector<const Obstacle*>& obstacles, int allowed_self,
                                 int allowed_obstacle, double relative_force_tolerance,
-                                const std::string& label, Eigen::Matrix3Xd* x,
+                                const Eigen::Matrix3Xd& reference, const std::string& label,
+                                Eigen::Matrix3Xd* x,
                                 std::vector<char>* touched, int* self_intersections,
                                 int* obstacle_intersections, ContactReport* report,
                                 std::string* error) {
@@ -361,6 +490,14 @@ bool ContactSolver::SolveRounds(const ActuationMatrix& a, const std::vector<Rigi
     std::vector<SelfContactPair> pairs =
         options_.self_contact ? DetectSelfContacts(surface) : std::vector<SelfContactPair>();
     for (SelfContactPair& pair : pairs) pair.offset = self_offsets_[pair.surface_vertex];
+    int edge_pairs = 0;
+    if (options_.self_contact && options_.edge_contact) {
+      for (SelfContactPair& pair : DetectEdgeContacts(surface, reference)) {
+        pair.offset = edge_offsets_[pair.edge];
+        pairs.push_back(pair);
+        ++edge_pairs;
+      }
+    }
     const ObstacleContactTerm obstacle_term(
         near_points, Eigen::Map<const Eigen::VectorXd>(near_stiffness.data(), near_stiffness.size()),
         options_.thickness, obstacles);
@@ -382,7 +519,8 @@ bool ContactSolver::SolveRounds(const ActuationMatrix& a, const std::vector<Rigi
     report->converged = solve.converged;
     report->round_summaries.push_back("round " + std::to_string(round + 1) + label + ": " +
                                       std::to_string(near_points.size()) + " points near obstacles, " +
-                                      std::to_string(pairs.size()) + " self-contact pairs; " +
+                                      std::to_string(pairs.size()) + " self-contact pairs (" +
+                                      std::to_string(edge_pairs) + " edge-edge); " +
                                       solve.Summary());
     *x = solver.positions();
     // Active contacts at the new state.
@@ -397,20 +535,24 @@ bool ContactSolver::SolveRounds(const ActuationMatrix& a, const std::vector<Rigi
     report->self_contacts = 0;
     Eigen::Matrix3Xd g = Eigen::Matrix3Xd::Zero(3, x->cols());
     for (const SelfContactPair& pair : pairs) {
+      const bool edge = pair.kind == SelfContactPair::Kind::kEdgeEdge;
       const SelfContactTerm single({pair}, options_.thickness, options_.max_depth, kResidualMargin);
       if (single.AddEnergyAndGradient(*x, &g) > 0) {
         ++report->self_contacts;
-        (*touched)[pair.surface_vertex] = 1;
+        if (edge) {
+          (*touched)[edges_(0, pair.edge)] = (*touched)[edges_(1, pair.edge)] = 1;
+        } else {
+          (*touched)[pair.surface_vertex] = 1;
+        }
       }
       // Augmented Lagrangian: the multiplier k * offset grows by k (thickness - s).
-      double s = 0;
-      Eigen::Vector3d beta;
+      const Eigen::Vector3d points[4] = {pair.point.Position(*x), pair.corner[0].Position(*x),
+                                         pair.corner[1].Position(*x), pair.corner[2].Position(*x)};
+      double s = 0, outside = 0;
       if (options_.augmented_lagrangian &&
-          PlaneDistance(pair.point.Position(*x), pair.corner[0].Position(*x),
-                        pair.corner[1].Position(*x), pair.corner[2].Position(*x), &s, nullptr,
-                        &beta) &&
-          beta.minCoeff() >= -kResidualMargin && s > -options_.max_depth) {
-        double& offset = self_offsets_[pair.surface_vertex];
+          SelfContactDistance(pair, points, &s, nullptr, &outside) && outside <= kResidualMargin &&
+          s > -options_.max_depth) {
+        double& offset = edge ? edge_offsets_[pair.edge] : self_offsets_[pair.surface_vertex];
         offset = std::clamp(offset + options_.thickness - s, 0.0, kMaxOffset * options_.thickness);
       }
     }
@@ -468,6 +610,7 @@ bool ContactSolver::Resolve(const ActuationMatrix& a, const std::vector<RigidTra
   // measured away from them).
   std::vector<char> touched(rest_surface_.cols(), 0);
   self_offsets_.assign(rest_surface_.cols(), 0.0);
+  edge_offsets_.assign(edges_.cols(), 0.0);
   Eigen::Matrix3Xd x;
   // The path needs a start without penetrations: obstacles placed around the pose may
   // already hold the rest surface.
@@ -484,8 +627,9 @@ bool ContactSolver::Resolve(const ActuationMatrix& a, const std::vector<RigidTra
   if (options_.path_steps <= 0 || rest_inside > 0) {
     x = start;
     int self_intersections = 0, obstacle_intersections = 0;
-    if (!SolveRounds(a, bones, final_obstacles, 0, 0, options_.solver.relative_force_tolerance, "",
-                     &x, &touched, &self_intersections, &obstacle_intersections, report, error)) {
+    if (!SolveRounds(a, bones, final_obstacles, 0, 0, options_.solver.relative_force_tolerance,
+                     rest_surface_, "", &x, &touched, &self_intersections, &obstacle_intersections,
+                     report, error)) {
       return false;
     }
   } else {
@@ -511,19 +655,21 @@ bool ContactSolver::Resolve(const ActuationMatrix& a, const std::vector<RigidTra
       const std::string label = " at t " + t_text.str();
       Eigen::Matrix3Xd x_next = x;
       std::vector<char> touched_next = touched;
-      const std::vector<double> offsets = self_offsets_;
+      const std::vector<double> offsets = self_offsets_, edge_offsets = edge_offsets_;
+      const Eigen::Matrix3Xd reference = EmbeddedPositions(model_.embedding, model_.mesh.tets, x);
       const double tolerance = t_next < 1.0 ? std::max(options_.path_relative_force_tolerance,
                                                        options_.solver.relative_force_tolerance)
                                             : options_.solver.relative_force_tolerance;
       int self_next = 0, obstacle_next = 0;
       if (!SolveRounds(a_t, bones_t, obstacles_t, current_self, current_obstacle, tolerance,
-                       label, &x_next, &touched_next, &self_next, &obstacle_next, report, error)) {
+                       reference, label, &x_next, &touched_next, &self_next, &obstacle_next, report, error)) {
         return false;
       }
       if ((self_next > current_self || obstacle_next > current_obstacle) &&
           halvings < options_.max_step_halvings) {
         self_offsets_ = offsets;
-        step *= 0.5;
+        edge_offsets_ = edge_offsets;
+        step = 0.5 * (t_next - t);  // half the step taken (the last one may be short)
         ++halvings;
         ++report->path_halvings;
         report->round_summaries.push_back(

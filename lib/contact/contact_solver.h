@@ -48,6 +48,14 @@ struct ContactOptions {
   // triangle's rest normal must satisfy n_point . n_triangle <= this (-0.5: more than
   // 120 degrees apart), which rules out pairs within one smooth sheet.
   double max_normal_alignment = -0.5;
+  // Self contact: also edge-edge pairs, for crossings in which no vertex passes through a
+  // triangle (e.g. lips that touch at rest at the mouth corners). Each surface edge pairs
+  // with the nearest edge that faces it (max_normal_alignment, with the mean rest normal
+  // of each edge's ends), lies outside its exclusion rings and whose closest points lie
+  // on both edges (within margin); the side it keeps is the one the surfaces' normals
+  // give at the start of the path step (or at rest without a path): each edge on the
+  // outer side of the other's surface.
+  bool edge_contact = true;
   // Detection/solve rounds (candidates are re-detected as the surface moves), per path
   // step.
   int max_rounds = 6;
@@ -152,10 +160,19 @@ class ContactSolver {
 
   // Self-contact candidates at a surface state (3 x num_surface_vertices).
   std::vector<SelfContactPair> DetectSelfContacts(const Eigen::Matrix3Xd& surface) const;
+  // Edge-edge candidates at a surface state, each keeping the side the surface normals
+  // give at `reference` (a surface state without the crossings to prevent; both
+  // 3 x num_surface_vertices).
+  // pair.edge indexes edges().
+  std::vector<SelfContactPair> DetectEdgeContacts(const Eigen::Matrix3Xd& surface,
+                                                  const Eigen::Matrix3Xd& reference) const;
+  // The edges of the contact triangles (2 x num_edges, surface vertices, first < second).
+  const Eigen::Matrix2Xi& edges() const { return edges_; }
 
 
  private:
   // Detection/solve rounds for one actuation and placement from *x (3 x num_vertices),
+  // with edge-edge pairs keeping their sides at the surface state `reference`,
   // until the surface has no more new self-intersecting pairs than allowed_self, no more
   // pairs crossing obstacles than allowed_obstacle and no point inside an obstacle, or
   // max_rounds, each solved to relative_force_tolerance. *x receives the result; *touched marks the surface vertices that were in
@@ -166,7 +183,8 @@ class ContactSolver {
   bool SolveRounds(const ActuationMatrix& a, const std::vector<RigidTransform>& bones,
                    const std::vector<const Obstacle*>& obstacles, int allowed_self,
                    int allowed_obstacle, double relative_force_tolerance,
-                   const std::string& label, Eigen::Matrix3Xd* x, std::vector<char>* touched,
+                   const Eigen::Matrix3Xd& reference, const std::string& label,
+                   Eigen::Matrix3Xd* x, std::vector<char>* touched,
                    int* self_intersections, int* obstacle_intersections,
                    ContactReport* report, std::string* error);
 
@@ -184,6 +202,9 @@ class ContactSolver {
   // Per surface vertex: the augmented-Lagrangian offset of its self-contact pair
   // (SelfContactPair::offset), carried across rounds and path steps of one Resolve.
   std::vector<double> self_offsets_;
+  Eigen::Matrix2Xi edges_;          // edges of contact_triangles_
+  Eigen::Matrix3Xd edge_normals_;   // per edge: the mean rest normal of its ends
+  std::vector<double> edge_offsets_;  // per edge, as self_offsets_
   std::vector<std::pair<int, int>> rest_intersections_;  // sorted pairs of contact_triangles_
 };
 

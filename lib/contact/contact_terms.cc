@@ -41,6 +41,56 @@ bool PlaneDistance(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eig
   return true;
 }
 
+bool EdgeDistance(const Eigen::Vector3d& pa, const Eigen::Vector3d& pb, const Eigen::Vector3d& qa,
+                  const Eigen::Vector3d& qb, double min_sine, double* s,
+                  Eigen::Matrix<double, 3, 4>* gradient, double* u, double* v) {
+  const Eigen::Vector3d e1 = pb - pa, e2 = qb - qa;
+  const Eigen::Vector3d cross = e1.cross(e2);
+  const double length = cross.norm();
+  const double scale = e1.norm() * e2.norm();
+  if (!(scale > 1e-300) || !(length > min_sine * scale)) return false;
+  const Eigen::Vector3d n = cross / length;
+  const Eigen::Vector3d d = pa - qa;
+  *s = n.dot(d);
+  if (gradient != nullptr) {
+    // s = d . n(cr), cr = e1 x e2: ds = n . dd + w . dcr with w = (I - n n^T) d / |cr|,
+    // and w . (de1 x e2 + e1 x de2) = de1 . (e2 x w) + de2 . (w x e1).
+    const Eigen::Vector3d w = (d - n * *s) / length;
+    const Eigen::Vector3d ds_de1 = e2.cross(w);
+    const Eigen::Vector3d ds_de2 = w.cross(e1);
+    gradient->col(0) = n - ds_de1;
+    gradient->col(1) = ds_de1;
+    gradient->col(2) = -n - ds_de2;
+    gradient->col(3) = ds_de2;
+  }
+  // Closest points: minimize |d + u e1 - v e2|^2 (the normal equations' determinant is
+  // -|e1 x e2|^2).
+  const double aa = e1.dot(e1), ab = e1.dot(e2), bb = e2.dot(e2);
+  const double ad = e1.dot(d), bd = e2.dot(d);
+  const double det = length * length;
+  if (u != nullptr) *u = (ab * bd - bb * ad) / det;
+  if (v != nullptr) *v = (aa * bd - ab * ad) / det;
+  return true;
+}
+
+bool SelfContactDistance(const SelfContactPair& pair, const Eigen::Vector3d points[4], double* s,
+                         Eigen::Matrix<double, 3, 4>* gradient, double* outside) {
+  if (pair.kind == SelfContactPair::Kind::kPointTriangle) {
+    Eigen::Vector3d beta;
+    if (!PlaneDistance(points[0], points[1], points[2], points[3], s, gradient, &beta)) return false;
+    *outside = -beta.minCoeff();
+    return true;
+  }
+  double u = 0, v = 0;
+  if (!EdgeDistance(points[0], points[1], points[2], points[3], kMinEdgeSine, s, gradient, &u, &v)) {
+    return false;
+  }
+  *s *= pair.sign;
+  if (gradient != nullptr) *gradient *= pair.sign;
+  *outside = std::max({-u, u - 1.0, -v, v - 1.0});
+  return true;
+}
+
 // ---- Obstacles ----
 
 namespace {
@@ -171,16 +221,15 @@ PairBlocks BlocksOf(const SelfContactPair& pair) {
 }
 
 // The pair's residual sqrt(k) (thickness + offset - s) (0 if inactive) at the four
-// points, and its gradient with respect to them (3 x 4: point, a, b, c).
+// points, and its gradient with respect to them (3 x 4: point, corners).
 double PairResidual(const SelfContactPair& pair, const Eigen::Vector3d points[4], double thickness,
                     double max_depth, double margin, Eigen::Matrix<double, 3, 4>* gradient) {
   thickness += pair.offset;
-  double s = 0;
-  Eigen::Vector3d beta;
+  double s = 0, outside = 0;
   Eigen::Matrix<double, 3, 4> ds;
   gradient->setZero();
-  if (!PlaneDistance(points[0], points[1], points[2], points[3], &s, &ds, &beta)) return 0.0;
-  if (!(s < thickness) || !(s > -max_depth) || beta.minCoeff() < -margin) return 0.0;
+  if (!SelfContactDistance(pair, points, &s, &ds, &outside)) return 0.0;
+  if (!(s < thickness) || !(s > -max_depth) || outside > margin) return 0.0;
   const double scale = std::sqrt(pair.stiffness);
   *gradient = -scale * ds;
   return scale * (thickness - s);

@@ -50,32 +50,56 @@ class ObstacleContactTerm : public EnergyTerm {
   std::vector<const Obstacle*> obstacles_;
 };
 
-// One self-contact candidate: surface point `point` against the surface triangle whose
-// corners are the surface points corner[0..2], with stiffness k.
+// One self-contact candidate, of one of two kinds:
+//  - point-triangle (kPointTriangle): surface point `point` against the surface triangle
+//    whose corners are the surface points corner[0..2];
+//  - edge-edge (kEdgeEdge): the surface edge (point, corner[0]) against the surface edge
+//    (corner[1], corner[2]), for crossings in which no corner passes through a triangle.
+// k is the pair's penalty stiffness.
 struct SelfContactPair {
+  enum class Kind { kPointTriangle, kEdgeEdge };
+  Kind kind = Kind::kPointTriangle;
   PointStencil point;
   PointStencil corner[3];
   double stiffness = 0.0;
-  // Augmented-Lagrangian shift: the pair keeps the point thickness + offset in front of
-  // the plane (offset = multiplier / stiffness; ContactSolver updates it between rounds
-  // so that the point ends at the thickness despite a finite stiffness).
+  // Edge-edge: +1 or -1, the side the first edge keeps (the sign of EdgeDistance where the
+  // edges were known to be apart); point-triangle pairs keep the positive side (+1).
+  double sign = 1.0;
+  // Augmented-Lagrangian shift: the pair keeps its distance at least thickness + offset
+  // (offset = multiplier / stiffness; ContactSolver updates it between rounds so that the
+  // pair ends at the thickness despite a finite stiffness).
   double offset = 0.0;
-  int surface_vertex = -1;  // the point's surface vertex (reporting only)
+  // Bookkeeping for ContactSolver (not used by the term): the point's surface vertex
+  // (point-triangle) or the first edge's index (edge-edge).
+  int surface_vertex = -1;
+  int edge = -1;
 };
 
-// Contact between parts of the simulated surface, for fixed candidate pairs (point,
-// triangle), as a penalty on the signed distance of the point to the triangle's plane,
-// s = n . (p - P0) with n the unit normal of (P1 - P0) x (P2 - P0):
+// The signed distance s of a pair at the positions of its four stencils (points[0] =
+// point, points[1..3] = corners), its gradient with respect to them (3 x 4, columns in
+// that order) and how far outside its feature the closest points are (*outside: point-
+// triangle: -min barycentric coordinate of the projection; edge-edge: the largest
+// distance of the closest-point parameters outside [0, 1]; <= 0 inside). Point-triangle:
+// PlaneDistance; edge-edge: sign * EdgeDistance. Returns false where undefined
+// (degenerate triangle, parallel edges).
+bool SelfContactDistance(const SelfContactPair& pair, const Eigen::Vector3d points[4], double* s,
+                         Eigen::Matrix<double, 3, 4>* gradient, double* outside);
+
+// Contact between parts of the simulated surface, for fixed candidate pairs, as a
+// penalty on their signed distance s (SelfContactDistance): for a point and a triangle,
+// the distance of the point to the triangle's plane, s = n . (p - P0) with n the unit
+// normal of (P1 - P0) x (P2 - P0); for two edges, the distance between their lines along
+// their common normal, with the pair's sign:
 //
 //   E = sum_pairs k / 2 (thickness + offset - s)^2   where active,
 //
 // (offset: the pair's augmented-Lagrangian shift, 0 for a plain penalty), active when
-// s < thickness + offset, s > -max_depth and the point projects into the triangle
-// (barycentric coordinates >= -margin). The Ceres residual per pair is
-// sqrt(k) (thickness + offset - s) (0 when inactive) with the exact derivative of s with respect
-// to the point and the three corners (through the normal), chained to the simulation
-// vertices of their stencils. Candidate pairs are chosen by ContactSolver (the side a
-// point is on at rest, topological distance); they change between its rounds.
+// s < thickness + offset, s > -max_depth and the closest points lie on the features
+// (`outside` of SelfContactDistance <= margin). The Ceres residual per pair is
+// sqrt(k) (thickness + offset - s) (0 when inactive) with the exact derivative of s with
+// respect to the four points (through the normal), chained to the simulation vertices of
+// their stencils. Candidate pairs are chosen by ContactSolver (the side a point is on at
+// rest, topological distance); they change between its rounds.
 // Levenberg-Marquardt only (no stiffness).
 class SelfContactTerm : public EnergyTerm {
  public:
@@ -108,6 +132,19 @@ class SelfContactTerm : public EnergyTerm {
 bool PlaneDistance(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
                    const Eigen::Vector3d& c, double* s, Eigen::Matrix<double, 3, 4>* gradient,
                    Eigen::Vector3d* barycentric);
+
+// The distance between the lines of the edges (pa, pb) and (qa, qb) along their common
+// normal, s = n . (pa - qa), n = unit((pb - pa) x (qb - qa)), and its gradient with
+// respect to pa, pb, qa, qb (3 x 4, columns in that order). Also the parameters of the
+// lines' closest points, pa + u (pb - pa) and qa + v (qb - qa) (in [0, 1] where the
+// closest points lie on the edges). Returns false when the edges are parallel within
+// min_sine (|sin angle| <= min_sine) or degenerate: s is then ill-conditioned.
+bool EdgeDistance(const Eigen::Vector3d& pa, const Eigen::Vector3d& pb, const Eigen::Vector3d& qa,
+                  const Eigen::Vector3d& qb, double min_sine, double* s,
+                  Eigen::Matrix<double, 3, 4>* gradient, double* u, double* v);
+
+// The smallest |sin angle| between two edges that edge-edge pairs accept.
+constexpr double kMinEdgeSine = 0.1;
 
 }  // namespace aqs
 

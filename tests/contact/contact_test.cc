@@ -69,6 +69,50 @@ TEST(PlaneDistanceTest, GradientMatchesFiniteDifferences) {
   }
 }
 
+TEST(EdgeDistanceTest, GradientAndClosestPointsMatch) {
+  std::mt19937 rng(5);
+  std::normal_distribution<double> normal;
+  int checked = 0;
+  for (int trial = 0; trial < 40; ++trial) {
+    Eigen::VectorXd x(12);
+    for (int i = 0; i < 12; ++i) x[i] = normal(rng);
+    if (trial % 4 == 3) {
+      // Nearly parallel edges (sine about 0.15, above kMinEdgeSine).
+      x.segment<3>(9) = x.segment<3>(6) + 1.3 * (x.segment<3>(3) - x.segment<3>(0)) +
+                        0.2 * Eigen::Vector3d(normal(rng), normal(rng), normal(rng)).normalized() *
+                            (x.segment<3>(3) - x.segment<3>(0)).norm();
+    }
+    auto s_of = [](const Eigen::VectorXd& v) {
+      double s = 0;
+      CHECK(EdgeDistance(v.segment<3>(0), v.segment<3>(3), v.segment<3>(6), v.segment<3>(9), 0.0,
+                         &s, nullptr, nullptr, nullptr));
+      return s;
+    };
+    double s = 0, u = 0, w = 0;
+    Eigen::Matrix<double, 3, 4> g;
+    if (!EdgeDistance(x.segment<3>(0), x.segment<3>(3), x.segment<3>(6), x.segment<3>(9),
+                      kMinEdgeSine, &s, &g, &u, &w)) {
+      continue;
+    }
+    ++checked;
+    const Eigen::VectorXd numeric = testing::CentralDifferenceGradient(s_of, x, 1e-6);
+    EXPECT_LT(testing::RelativeError(Eigen::Map<const Eigen::VectorXd>(g.data(), 12), numeric), 1e-7)
+        << "trial " << trial;
+    // The closest points are |s| apart, along the common normal.
+    const Eigen::Vector3d p = x.segment<3>(0) + u * (x.segment<3>(3) - x.segment<3>(0));
+    const Eigen::Vector3d q = x.segment<3>(6) + w * (x.segment<3>(9) - x.segment<3>(6));
+    EXPECT_NEAR((p - q).norm(), std::abs(s), 1e-9);
+    EXPECT_LT(std::abs((p - q).dot(x.segment<3>(3) - x.segment<3>(0))), 1e-9);
+    EXPECT_LT(std::abs((p - q).dot(x.segment<3>(9) - x.segment<3>(6))), 1e-9);
+  }
+  EXPECT_GE(checked, 30);
+  // Parallel edges are refused.
+  double s = 0;
+  EXPECT_FALSE(EdgeDistance(Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(1, 0, 0),
+                            Eigen::Vector3d(0, 1, 0), Eigen::Vector3d(2, 1.01, 0), kMinEdgeSine, &s,
+                            nullptr, nullptr, nullptr));
+}
+
 // A single-tet "mesh" whose vertices carry a point stencil, for term tests.
 PointStencil Stencil(int first, const Eigen::Vector4d& w) {
   PointStencil s;
@@ -185,6 +229,83 @@ TEST(SelfContactTermTest, ResidualJacobianAndEnergyGradient) {
   const Eigen::Matrix3d rotation =
       Eigen::AngleAxisd(1.1, Eigen::Vector3d(0.3, -0.5, 0.8).normalized()).toRotationMatrix();
   check(pair, (rotation * above).colwise() + Eigen::Vector3d(0.7, -1.2, 2.0));
+}
+
+TEST(SelfContactTermTest, EdgeEdgeResidualJacobianAndEnergyGradient) {
+  // Edge (p0, p1) along x just above edge (q0, q1) along y, over 16 vertices with one
+  // shared; the pair keeps the first edge below (sign -1: the common normal e1 x e2
+  // points up), so it is crossed (active).
+  SelfContactPair pair;
+  pair.kind = SelfContactPair::Kind::kEdgeEdge;
+  pair.point = Stencil(0, Eigen::Vector4d(0.4, 0.3, 0.2, 0.1));
+  pair.corner[0] = Stencil(4, Eigen::Vector4d(0.7, 0.1, 0.1, 0.1));
+  pair.corner[1] = Stencil(8, Eigen::Vector4d(0.1, 0.7, 0.1, 0.1));
+  pair.corner[2] = Stencil(12, Eigen::Vector4d(0.1, 0.1, 0.7, 0.1));
+  pair.corner[2].vertex[3] = 0;
+  pair.stiffness = 5.0;
+  pair.sign = -1.0;
+  std::mt19937 rng(9);
+  std::normal_distribution<double> noise(0.0, 0.02);
+  Eigen::Matrix3Xd x(3, 16);
+  for (int v = 0; v < 16; ++v) {
+    Eigen::Vector3d p;
+    if (v < 4) p = Eigen::Vector3d(-0.5, 0.1, 0.02);
+    else if (v < 8) p = Eigen::Vector3d(0.5, 0.0, 0.0);
+    else if (v < 12) p = Eigen::Vector3d(0.1, -0.5, -0.03);
+    else p = Eigen::Vector3d(-0.1, 0.5, -0.01);
+    x.col(v) = p + Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+  }
+  auto check = [](const SelfContactPair& pair, const Eigen::Matrix3Xd& x) {
+    const SelfContactTerm term({pair}, 0.1, 1.0, 0.05);
+    std::vector<int> block_vertices;
+    std::unique_ptr<ceres::CostFunction> cost(term.NewCostFunction(0, &block_vertices));
+    std::vector<const double*> parameters;
+    for (int v : block_vertices) parameters.push_back(x.col(v).data());
+    double r = 0;
+    ASSERT_TRUE(cost->Evaluate(parameters.data(), &r, nullptr));
+    EXPECT_GT(r, 0.0);
+    ceres::NumericDiffOptions numeric;
+    numeric.ridders_relative_initial_step_size = 1e-4;
+    const std::vector<const ceres::Manifold*>* none = nullptr;
+    ceres::GradientChecker checker(cost.get(), none, numeric);
+    ceres::GradientChecker::ProbeResults results;
+    checker.Probe(parameters.data(), 1e-7, &results);
+    EXPECT_LT(MaxBlockError(results), 1e-6) << results.error_log;
+    auto energy = [&](const Eigen::VectorXd& flat) {
+      Eigen::Matrix3Xd g = Eigen::Matrix3Xd::Zero(3, 16);
+      return term.AddEnergyAndGradient(Eigen::Map<const Eigen::Matrix3Xd>(flat.data(), 3, 16), &g);
+    };
+    Eigen::Matrix3Xd gradient = Eigen::Matrix3Xd::Zero(3, 16);
+    term.AddEnergyAndGradient(x, &gradient);
+    EXPECT_LT(testing::RelativeError(
+                  Eigen::Map<const Eigen::VectorXd>(gradient.data(), 48),
+                  testing::CentralDifferenceGradient(
+                      energy, Eigen::Map<const Eigen::VectorXd>(x.data(), 48), 1e-6)),
+              1e-7);
+  };
+  check(pair, x);
+  // With sign +1 the pair keeps the first edge above: raised beyond the thickness, it
+  // is not pushed.
+  Eigen::Matrix3Xd unused = Eigen::Matrix3Xd::Zero(3, 16);
+  SelfContactPair flipped = pair;
+  flipped.sign = 1.0;
+  Eigen::Matrix3Xd lifted = x;
+  for (int v = 0; v < 8; ++v) lifted(2, v) += 0.3;
+  EXPECT_EQ(SelfContactTerm({flipped}, 0.1, 1.0, 0.05).AddEnergyAndGradient(lifted, &unused), 0.0);
+  // Crossed (first edge above), with an offset, rotated and moved; and near-parallel
+  // edges (sine about 0.2).
+  Eigen::Matrix3Xd raised = x;
+  for (int v = 0; v < 8; ++v) raised(2, v) += 0.08;
+  pair.offset = 0.2;
+  check(pair, raised);
+  const Eigen::Matrix3d rotation =
+      Eigen::AngleAxisd(-0.8, Eigen::Vector3d(0.6, 0.2, -0.7).normalized()).toRotationMatrix();
+  check(pair, (rotation * raised).colwise() + Eigen::Vector3d(-0.3, 1.5, 0.4));
+  Eigen::Matrix3Xd skew = x;
+  for (int v = 8; v < 16; ++v) skew.col(v) = Eigen::Vector3d(x(1, v) * 0.2, x(1, v), x(2, v));
+  for (int v = 8; v < 12; ++v) skew.col(v) = Eigen::Vector3d(-0.5, -0.1, -0.03);
+  for (int v = 12; v < 16; ++v) skew.col(v) = Eigen::Vector3d(0.5, 0.1, -0.01);
+  check(pair, skew);
 }
 
 // A model of lattice blocks with the given boundary conditions, its surface the mesh
@@ -358,6 +479,9 @@ TEST(ContactSolverTest, SpheresPushedThroughEachOtherAreSeparatedAlongThePath) {
   options.search_radius = 0.1;
   options.max_depth = 0.25;
   options.path_steps = 0;
+  // (Point-triangle pairs only: edge-edge pairs keep the sides of rest without a path
+  // and would separate these balls, whose edges cross shallowly.)
+  options.edge_contact = false;
   ContactReport direct, path;
   Eigen::Matrix3Xd state;
   std::string error;
@@ -367,6 +491,7 @@ TEST(ContactSolverTest, SpheresPushedThroughEachOtherAreSeparatedAlongThePath) {
       << error;
   EXPECT_GT(direct.self_intersections_after, 20) << direct.Summary();
   options.path_steps = 8;
+  options.edge_contact = true;
   ASSERT_TRUE(ContactSolver(model, options)
                   .Resolve(IdentityActuations(model.mesh.num_tets()), {push}, {}, free,
                            &state, &path, &error))
@@ -379,6 +504,102 @@ TEST(ContactSolverTest, SpheresPushedThroughEachOtherAreSeparatedAlongThePath) {
   const double gap = surface.rightCols(ns).row(0).minCoeff() - surface.leftCols(ns).row(0).maxCoeff();
   EXPECT_GE(gap, -0.01) << path.Summary();
   EXPECT_LE(gap, 3 * options.thickness) << path.Summary();
+}
+
+// Two unit cubes, each a 2 x 2 x 2 lattice turned 45 degrees to present an edge: the
+// lower one's ridge along x (held at its bottom), the upper one's along y above it
+// (driven at its top by bone "driver"), 0.1 apart where they cross. Both ridges cross
+// in the middle of an edge, so that no vertex meets a face when the upper cube is
+// pushed down by less than about 0.25 beyond touching: an edge-edge contact.
+ActiveModel CrossedRidgesModel() {
+  LatticeOptions lattice;
+  lattice.nx = lattice.ny = lattice.nz = 2;
+  lattice.spacing = 0.5;
+  lattice.origin = Eigen::Vector3d(-0.5, -0.5, -0.5);
+  const TetMesh cube = MakeLatticeMesh(lattice);
+  const double ridge = std::sqrt(0.5);  // half the cube's face diagonal
+  const Eigen::Matrix3d lower_turn =
+      Eigen::AngleAxisd(M_PI / 4, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  const Eigen::Matrix3d upper_turn =
+      Eigen::AngleAxisd(M_PI / 4, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  TetMesh mesh;
+  const int n = cube.num_vertices();
+  mesh.vertices.resize(3, 2 * n);
+  mesh.vertices.leftCols(n) = lower_turn * cube.vertices;
+  mesh.vertices.rightCols(n) =
+      (upper_turn * cube.vertices).colwise() + Eigen::Vector3d(0.25, 0.25, 2 * ridge + 0.1);
+  mesh.tets.resize(4, 2 * cube.num_tets());
+  mesh.tets << cube.tets, (cube.tets.array() + n).matrix();
+  std::vector<int> held;
+  Bone driver;
+  driver.name = "driver";
+  for (int v = 0; v < 2 * n; ++v) {
+    if (v < n && mesh.vertices(2, v) < -ridge + 1e-9) held.push_back(v);
+    if (v >= n && mesh.vertices(2, v) > 3 * ridge + 0.1 - 1e-9) driver.vertices.push_back(v);
+  }
+  ActiveModel model = BlockModel(mesh, held);
+  model.bones = {driver};
+  return model;
+}
+
+TEST(ContactSolverTest, CrossedRidgesStopAtTheirEdgesWithEdgeEdgePairs) {
+  const ActiveModel model = CrossedRidgesModel();
+  RigidTransform push;
+  push.translation = Eigen::Vector3d(0, 0, -0.25);  // the ridges overlap by 0.15
+  Eigen::Matrix3Xd free;
+  ASSERT_TRUE(ContactFreeEquilibrium(model, push, &free));
+  ContactOptions options;
+  options.thickness = 0.01;
+  options.search_radius = 0.1;
+  options.max_depth = 0.3;
+  options.exclusion_rings = 1;
+  // The crossing ridge edges: the lower one from (0, 0, r) to (0.5, 0, r), the upper one
+  // from (0.25, -0.25, r + 0.1) to (0.25, 0.25, r + 0.1) at rest (r = sqrt(1/2)).
+  const double r = std::sqrt(0.5);
+  auto vertex_at = [&](const Eigen::Vector3d& p) {
+    for (int v = 0; v < model.mesh.num_vertices(); ++v) {
+      if ((model.mesh.vertices.col(v) - p).norm() < 1e-9) return v;
+    }
+    LOG(FATAL) << "no vertex at " << p.transpose();
+    return -1;
+  };
+  const int lower[2] = {vertex_at(Eigen::Vector3d(0, 0, r)), vertex_at(Eigen::Vector3d(0.5, 0, r))};
+  const int upper[2] = {vertex_at(Eigen::Vector3d(0.25, -0.25, r + 0.1)),
+                        vertex_at(Eigen::Vector3d(0.25, 0.25, r + 0.1))};
+  for (int path_steps : {0, 8}) {
+    options.path_steps = path_steps;
+    for (bool edge_contact : {false, true}) {
+      options.edge_contact = edge_contact;
+      Eigen::Matrix3Xd state;
+      ContactReport report;
+      std::string error;
+      ASSERT_TRUE(ContactSolver(model, options)
+                      .Resolve(IdentityActuations(model.mesh.num_tets()), {push}, {}, free,
+                               &state, &report, &error))
+          << error;
+      EXPECT_GT(report.self_intersections_before, 0) << report.Summary();
+      if (!edge_contact) {
+        // Point-triangle pairs alone let the edges pass.
+        EXPECT_GT(report.self_intersections_after, 0) << report.Summary();
+        continue;
+      }
+      EXPECT_EQ(report.self_intersections_after, 0) << "path " << path_steps << ": "
+                                                    << report.Summary();
+      EXPECT_TRUE(report.converged) << report.Summary();
+      // The upper ridge rests on the lower one, about the thickness above it (the
+      // common normal of x and y is z).
+      double s = 0, u = 0, w = 0;
+      ASSERT_TRUE(EdgeDistance(state.col(lower[0]), state.col(lower[1]), state.col(upper[0]),
+                               state.col(upper[1]), kMinEdgeSine, &s, nullptr, &u, &w));
+      // (The closest points lie on both edges: the soft cubes shear under the load, so the
+      // crossing moves along them.)
+      EXPECT_GE(std::min(u, w), -options.margin);
+      EXPECT_LE(std::max(u, w), 1.0 + options.margin);
+      const double gap = -s;
+      EXPECT_GE(gap, -0.005) << report.Summary();
+      EXPECT_LE(gap, 3 * options.thickness) << report.Summary();
+    }
+  }
 }
 
 }  // namespace
