@@ -73,6 +73,29 @@ bool EdgeDistance(const Eigen::Vector3d& pa, const Eigen::Vector3d& pb, const Ei
   return true;
 }
 
+bool EdgeSine(const Eigen::Vector3d& pa, const Eigen::Vector3d& pb, const Eigen::Vector3d& qa,
+              const Eigen::Vector3d& qb, double* sine, Eigen::Matrix<double, 3, 4>* gradient) {
+  const Eigen::Vector3d e1 = pb - pa, e2 = qb - qa;
+  const double a = e1.norm(), b = e2.norm();
+  if (!(a > 1e-300) || !(b > 1e-300)) return false;
+  const Eigen::Vector3d cross = e1.cross(e2);
+  const double length = cross.norm();
+  *sine = length / (a * b);
+  if (gradient != nullptr) {
+    // sine = |e1 x e2| / (|e1| |e2|): d|c| = de1 . (e2 x c) / |c| + de2 . (c x e1) / |c|.
+    Eigen::Vector3d d_e1 = -*sine * e1 / (a * a), d_e2 = -*sine * e2 / (b * b);
+    if (length > 1e-300) {
+      d_e1 += e2.cross(cross) / (length * a * b);
+      d_e2 += cross.cross(e1) / (length * a * b);
+    }
+    gradient->col(0) = -d_e1;
+    gradient->col(1) = d_e1;
+    gradient->col(2) = -d_e2;
+    gradient->col(3) = d_e2;
+  }
+  return true;
+}
+
 bool SelfContactDistance(const SelfContactPair& pair, const Eigen::Vector3d points[4], double* s,
                          Eigen::Matrix<double, 3, 4>* gradient, double* outside) {
   if (pair.kind == SelfContactPair::Kind::kPointTriangle) {
@@ -82,7 +105,7 @@ bool SelfContactDistance(const SelfContactPair& pair, const Eigen::Vector3d poin
     return true;
   }
   double u = 0, v = 0;
-  if (!EdgeDistance(points[0], points[1], points[2], points[3], kMinEdgeSine, s, gradient, &u, &v)) {
+  if (!EdgeDistance(points[0], points[1], points[2], points[3], 0.0, s, gradient, &u, &v)) {
     return false;
   }
   *s *= pair.sign;
@@ -231,8 +254,26 @@ double PairResidual(const SelfContactPair& pair, const Eigen::Vector3d points[4]
   if (!SelfContactDistance(pair, points, &s, &ds, &outside)) return 0.0;
   if (!(s < thickness) || !(s > -max_depth) || outside > margin) return 0.0;
   const double scale = std::sqrt(pair.stiffness);
-  *gradient = -scale * ds;
-  return scale * (thickness - s);
+  if (pair.kind == SelfContactPair::Kind::kPointTriangle) {
+    *gradient = -scale * ds;
+    return scale * (thickness - s);
+  }
+  // Edge-edge: weight w = sqrt(smoothstep(x)) = x sqrt(3 - 2 x) of the sine's position x
+  // in the fade band (dw/dx = 0 at x = 1; w^2 is C1 at x = 0).
+  double sine = 0;
+  Eigen::Matrix<double, 3, 4> dsine;
+  if (!EdgeSine(points[0], points[1], points[2], points[3], &sine, &dsine)) return 0.0;
+  const double x = (sine - kEdgeFadeSine) / (kFullEdgeSine - kEdgeFadeSine);
+  if (!(x > 0.0)) return 0.0;
+  double w = 1.0, dw_dx = 0.0;
+  if (x < 1.0) {
+    const double root = std::sqrt(3.0 - 2.0 * x);
+    w = x * root;
+    dw_dx = root - x / root;
+  }
+  const double r = scale * (thickness - s);
+  *gradient = -scale * w * ds + r * dw_dx / (kFullEdgeSine - kEdgeFadeSine) * dsine;
+  return w * r;
 }
 
 class SelfContactCost final : public ceres::CostFunction {

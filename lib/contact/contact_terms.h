@@ -80,8 +80,8 @@ struct SelfContactPair {
 // that order) and how far outside its feature the closest points are (*outside: point-
 // triangle: -min barycentric coordinate of the projection; edge-edge: the largest
 // distance of the closest-point parameters outside [0, 1]; <= 0 inside). Point-triangle:
-// PlaneDistance; edge-edge: sign * EdgeDistance. Returns false where undefined
-// (degenerate triangle, parallel edges).
+// PlaneDistance; edge-edge: sign * EdgeDistance (any angle but parallel). Returns false
+// where undefined (degenerate triangle, parallel edges).
 bool SelfContactDistance(const SelfContactPair& pair, const Eigen::Vector3d points[4], double* s,
                          Eigen::Matrix<double, 3, 4>* gradient, double* outside);
 
@@ -95,7 +95,8 @@ bool SelfContactDistance(const SelfContactPair& pair, const Eigen::Vector3d poin
 //
 // (offset: the pair's augmented-Lagrangian shift, 0 for a plain penalty), active when
 // s < thickness + offset, s > -max_depth and the closest points lie on the features
-// (`outside` of SelfContactDistance <= margin). The Ceres residual per pair is
+// (`outside` of SelfContactDistance <= margin); edge-edge pairs are weighted by the fade
+// of kEdgeFadeSine. The Ceres residual per pair is
 // sqrt(k) (thickness + offset - s) (0 when inactive) with the exact derivative of s with
 // respect to the four points (through the normal), chained to the simulation vertices of
 // their stencils. Candidate pairs are chosen by ContactSolver (the side a point is on at
@@ -143,8 +144,18 @@ bool EdgeDistance(const Eigen::Vector3d& pa, const Eigen::Vector3d& pb, const Ei
                   const Eigen::Vector3d& qb, double min_sine, double* s,
                   Eigen::Matrix<double, 3, 4>* gradient, double* u, double* v);
 
-// The smallest |sin angle| between two edges that edge-edge pairs accept.
-constexpr double kMinEdgeSine = 0.1;
+// Edge-edge pairs fade out as their edges turn parallel (where the lines' distance is
+// ill-conditioned and its normal flips): the residual is scaled by
+// sqrt(smoothstep((sine - kEdgeFadeSine) / (kFullEdgeSine - kEdgeFadeSine))), so that the
+// energy stays C1; ContactSolver pairs only edges with sine >= kMinEdgeSine.
+constexpr double kEdgeFadeSine = 0.05;
+constexpr double kFullEdgeSine = 0.15;
+constexpr double kMinEdgeSine = 0.2;
+
+// |sin angle| between the edges (pb - pa) and (qb - qa) and its gradient with respect to
+// pa, pb, qa, qb (3 x 4). Returns false for a degenerate edge.
+bool EdgeSine(const Eigen::Vector3d& pa, const Eigen::Vector3d& pb, const Eigen::Vector3d& qa,
+              const Eigen::Vector3d& qb, double* sine, Eigen::Matrix<double, 3, 4>* gradient);
 
 }  // namespace aqs
 

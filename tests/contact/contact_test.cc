@@ -77,7 +77,7 @@ TEST(EdgeDistanceTest, GradientAndClosestPointsMatch) {
     Eigen::VectorXd x(12);
     for (int i = 0; i < 12; ++i) x[i] = normal(rng);
     if (trial % 4 == 3) {
-      // Nearly parallel edges (sine about 0.15, above kMinEdgeSine).
+      // Nearly parallel edges (sine about 0.15).
       x.segment<3>(9) = x.segment<3>(6) + 1.3 * (x.segment<3>(3) - x.segment<3>(0)) +
                         0.2 * Eigen::Vector3d(normal(rng), normal(rng), normal(rng)).normalized() *
                             (x.segment<3>(3) - x.segment<3>(0)).norm();
@@ -91,7 +91,7 @@ TEST(EdgeDistanceTest, GradientAndClosestPointsMatch) {
     double s = 0, u = 0, w = 0;
     Eigen::Matrix<double, 3, 4> g;
     if (!EdgeDistance(x.segment<3>(0), x.segment<3>(3), x.segment<3>(6), x.segment<3>(9),
-                      kMinEdgeSine, &s, &g, &u, &w)) {
+                      kEdgeFadeSine, &s, &g, &u, &w)) {
       continue;
     }
     ++checked;
@@ -106,6 +106,31 @@ TEST(EdgeDistanceTest, GradientAndClosestPointsMatch) {
     EXPECT_LT(std::abs((p - q).dot(x.segment<3>(9) - x.segment<3>(6))), 1e-9);
   }
   EXPECT_GE(checked, 30);
+  // The sine's gradient, at the same kinds of states.
+  for (int trial = 0; trial < 20; ++trial) {
+    Eigen::VectorXd x(12);
+    for (int i = 0; i < 12; ++i) x[i] = normal(rng);
+    if (trial % 2 == 1) {
+      x.segment<3>(9) = x.segment<3>(6) + 0.8 * (x.segment<3>(3) - x.segment<3>(0)) +
+                        0.1 * Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
+    }
+    auto sine_of = [](const Eigen::VectorXd& v) {
+      double sine = 0;
+      CHECK(EdgeSine(v.segment<3>(0), v.segment<3>(3), v.segment<3>(6), v.segment<3>(9), &sine,
+                     nullptr));
+      return sine;
+    };
+    double sine = 0;
+    Eigen::Matrix<double, 3, 4> g;
+    ASSERT_TRUE(EdgeSine(x.segment<3>(0), x.segment<3>(3), x.segment<3>(6), x.segment<3>(9), &sine,
+                         &g));
+    const Eigen::Vector3d e1 = x.segment<3>(3) - x.segment<3>(0), e2 = x.segment<3>(9) - x.segment<3>(6);
+    EXPECT_NEAR(sine, e1.cross(e2).norm() / (e1.norm() * e2.norm()), 1e-14);
+    EXPECT_LT(testing::RelativeError(Eigen::Map<const Eigen::VectorXd>(g.data(), 12),
+                                     testing::CentralDifferenceGradient(sine_of, x, 1e-6)),
+              1e-7)
+        << "trial " << trial << " sine " << sine;
+  }
   // Parallel edges are refused.
   double s = 0;
   EXPECT_FALSE(EdgeDistance(Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(1, 0, 0),
@@ -306,6 +331,25 @@ TEST(SelfContactTermTest, EdgeEdgeResidualJacobianAndEnergyGradient) {
   for (int v = 8; v < 12; ++v) skew.col(v) = Eigen::Vector3d(-0.5, -0.1, -0.03);
   for (int v = 12; v < 16; ++v) skew.col(v) = Eigen::Vector3d(0.5, 0.1, -0.01);
   check(pair, skew);
+  // Nearly parallel, within the fade band of the sine (weight below 1, with its
+  // derivative).
+  Eigen::Matrix3Xd fading(3, 16);
+  for (int v = 0; v < 16; ++v) {
+    const Eigen::Vector3d ends[4] = {{-0.5, 0.025, 0.02}, {0.5, -0.025, 0.0},
+                                     {-0.5, -0.025, -0.03}, {0.5, 0.025, -0.01}};
+    fading.col(v) = ends[v / 4] + 0.002 * Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+  }
+  double sine = 0;
+  ASSERT_TRUE(EdgeSine(pair.point.Position(fading), pair.corner[0].Position(fading),
+                       pair.corner[1].Position(fading), pair.corner[2].Position(fading), &sine,
+                       nullptr));
+  EXPECT_GT(sine, kEdgeFadeSine + 0.01);
+  EXPECT_LT(sine, kFullEdgeSine - 0.01);
+  check(pair, fading);
+  // Parallel edges: no energy.
+  Eigen::Matrix3Xd parallel = fading;
+  for (int v = 0; v < 16; ++v) parallel(1, v) = 0.0;
+  EXPECT_EQ(SelfContactTerm({pair}, 0.1, 1.0, 0.05).AddEnergyAndGradient(parallel, &unused), 0.0);
 }
 
 // A model of lattice blocks with the given boundary conditions, its surface the mesh
