@@ -25,6 +25,9 @@ namespace {
 // on its triangle's plane until the next detection (a pair switching off as its point
 // slides past a margin makes the energy discontinuous, and Levenberg-Marquardt stalls).
 constexpr double kResidualMargin = std::numeric_limits<double>::infinity();
+// Likewise a pair keeps pushing a point that went deeper than max_depth within a round
+// (max_depth only selects candidates): switching off there made the energy jump.
+constexpr double kResidualDepth = std::numeric_limits<double>::infinity();
 // Edge-edge pairs per edge at most (those with the smallest signed distances).
 constexpr size_t kEdgePartners = 2;
 // Edge-edge pairs whose side the surface normals tell less clearly than this (cosine of
@@ -503,8 +506,7 @@ bool ContactSolver::SolveRounds(const ActuationMatrix& a, const std::vector<Rigi
         options_.thickness, obstacles);
     // Within a round, a pair keeps its triangle's plane (kResidualMargin); re-detection
     // in the next round pairs points with their new triangles.
-    const SelfContactTerm self_term(pairs, options_.thickness, options_.max_depth,
-                                    kResidualMargin);
+    const SelfContactTerm self_term(pairs, options_.thickness, kResidualDepth, kResidualMargin);
     QuasistaticSolver solver(*physics_, bc, solver_options);
     solver.actuation() = a;
     solver.SetPositions(*x);
@@ -536,7 +538,7 @@ bool ContactSolver::SolveRounds(const ActuationMatrix& a, const std::vector<Rigi
     Eigen::Matrix3Xd g = Eigen::Matrix3Xd::Zero(3, x->cols());
     for (const SelfContactPair& pair : pairs) {
       const bool edge = pair.kind == SelfContactPair::Kind::kEdgeEdge;
-      const SelfContactTerm single({pair}, options_.thickness, options_.max_depth, kResidualMargin);
+      const SelfContactTerm single({pair}, options_.thickness, kResidualDepth, kResidualMargin);
       if (single.AddEnergyAndGradient(*x, &g) > 0) {
         ++report->self_contacts;
         if (edge) {

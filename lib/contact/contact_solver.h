@@ -36,9 +36,10 @@ struct ContactOptions {
   // Self contact: triangles within this many edge rings of a point never pair with it
   // (its own neighbourhood).
   int exclusion_rings = 3;
-  // Self contact: a pair counts only if the point was on the outer side of the
-  // triangle at rest (signed distance > -rest_tolerance), and while it is less than
-  // max_depth behind it.
+  // Self contact: a pair forms only if the point was on the outer side of the
+  // triangle at rest (signed distance > -rest_tolerance) and is less than max_depth
+  // behind it when candidates are detected (within a round it keeps acting deeper, so
+  // that the energy stays continuous).
   double rest_tolerance = 0.02;
   double max_depth = 1.0;
   // Self contact: a point pairs with a triangle it projects into (barycentric
