@@ -371,9 +371,9 @@ std::vector<SelfContactPair> ContactSolver::DetectEdgeContacts(
   const TriangleGrid grid(surface, segments, reach + longest);
   // Edge normals at the reference: the mean of the ends' vertex normals.
   const Eigen::Matrix3Xd vertex_normals = VertexNormals(reference, model_.neutral.triangles);
-  Eigen::Matrix3Xd edge_normals(3, num_edges);
+  Eigen::Matrix3Xd reference_normals(3, num_edges);
   for (int e = 0; e < num_edges; ++e) {
-    edge_normals.col(e) = (vertex_normals.col(edges_(0, e)) + vertex_normals.col(edges_(1, e))).normalized();
+    reference_normals.col(e) = (vertex_normals.col(edges_(0, e)) + vertex_normals.col(edges_(1, e))).normalized();
   }
   // Per edge, its partners with the smallest signed distances (crossed ones first: the
   // nearest line is often a neighbour of the edge actually crossed).
@@ -412,7 +412,7 @@ std::vector<SelfContactPair> ContactSolver::DetectEdgeContacts(
       // edges turn through parallel.)
       const Eigen::Vector3d cross = (surface.col(b) - surface.col(a))
                                         .cross(surface.col(d) - surface.col(c));
-      const Eigen::Vector3d facing = edge_normals.col(f) - edge_normals.col(e);
+      const Eigen::Vector3d facing = reference_normals.col(f) - reference_normals.col(e);
       const double side = cross.dot(facing);
       if (!(std::abs(side) > kMinSideCosine * cross.norm() * facing.norm())) continue;
       const double sign = side > 0 ? 1.0 : -1.0;
@@ -562,8 +562,11 @@ bool ContactSolver::SolveRounds(const ActuationMatrix& a, const std::vector<Rigi
     double depth = 0;
     int inside = 0;
     MeasurePenetration(moved, obstacles, &depth, &inside);
+    // Self intersections that contact can tell apart: new pairs whose triangles were
+    // apart at rest (those touching at rest, such as the ICT lips' corners, have no
+    // defined side; steps and rounds cannot decide on them).
     *self_intersections = 0;
-    if (options_.self_contact) CountSelfIntersections(moved, self_intersections);
+    if (options_.self_contact) CountSelfIntersections(moved, nullptr, self_intersections);
     *obstacle_intersections = CountObstacleIntersections(moved, obstacles);
     if (solve.iterations == 0) break;  // no progress left to make with these candidates
     // Stop when nothing penetrates any more.
@@ -675,7 +678,7 @@ bool ContactSolver::Resolve(const ActuationMatrix& a, const std::vector<RigidTra
         ++halvings;
         ++report->path_halvings;
         report->round_summaries.push_back(
-            "step to t " + t_text.str() + " adds intersecting pairs (self " +
+            "step to t " + t_text.str() + " adds intersecting pairs (self, apart at rest, " +
             std::to_string(current_self) + " -> " + std::to_string(self_next) + ", obstacles " +
             std::to_string(current_obstacle) + " -> " + std::to_string(obstacle_next) +
             "): halved");

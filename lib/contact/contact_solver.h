@@ -74,6 +74,8 @@ struct ContactOptions {
   // up to max_step_halvings times. 0: no path; the rounds start from the contact-free
   // equilibrium (enough for shallow penetrations, e.g. teeth); also when the rest
   // surface has points inside the obstacles at their rest placement (no clean start).
+  // (Steps and rounds count the new self-intersecting pairs whose triangles were apart
+  // at rest: pairs touching at rest have no defined side.)
   int path_steps = 8;
   int max_step_halvings = 3;
   // The relative force tolerance of the path's intermediate steps (the last one uses
@@ -174,11 +176,12 @@ class ContactSolver {
  private:
   // Detection/solve rounds for one actuation and placement from *x (3 x num_vertices),
   // with edge-edge pairs keeping their sides at the surface state `reference`,
-  // until the surface has no more new self-intersecting pairs than allowed_self, no more
+  // until the surface has no more new self-intersecting pairs apart at rest than
+  // allowed_self, no more
   // pairs crossing obstacles than allowed_obstacle and no point inside an obstacle, or
   // max_rounds, each solved to relative_force_tolerance. *x receives the result; *touched marks the surface vertices that were in
   // contact; *self_intersections and *obstacle_intersections receive the new
-  // self-intersecting pairs and the pairs crossing obstacles at *x; the rounds' lines are
+  // self-intersecting pairs apart at rest and the pairs crossing obstacles at *x; the rounds' lines are
   // appended to report->round_summaries (with `label`),
   // and report->rounds, converged, obstacle_contacts and self_contacts are updated.
   bool SolveRounds(const ActuationMatrix& a, const std::vector<RigidTransform>& bones,
