@@ -10,7 +10,7 @@
 #   3. aqs_collide: re-solves jawOpen and the two fits with contact (teeth as obstacles,
 #      the skin against itself), and reports penetrations and intersecting triangles
 #      before and after.
-# About 13 minutes on 2 cores after the build (estimated: contact along a path from rest). Results in out/face_demo/: see the README.
+# About 12 minutes on 2 cores after the build. Results in out/face_demo/: see the README.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ./scripts/install_deps.sh
