@@ -62,8 +62,9 @@ struct SelfContactPair {
   PointStencil point;
   PointStencil corner[3];
   double stiffness = 0.0;
-  // Edge-edge: +1 or -1, the side the first edge keeps (the sign of EdgeDistance where the
-  // edges were known to be apart); point-triangle pairs keep the positive side (+1).
+  // Edge-edge: +1 or -1, the side of the second edge the first one keeps, as the sign of
+  // EdgeDistance (ContactSolver takes it from the surface normals where the edges were
+  // apart); point-triangle pairs keep the positive side (+1).
   double sign = 1.0;
   // Augmented-Lagrangian shift: the pair keeps its distance at least thickness + offset
   // (offset = multiplier / stiffness; ContactSolver updates it between rounds so that the
