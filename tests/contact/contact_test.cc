@@ -190,6 +190,40 @@ TEST(ObstacleContactTermTest, ResidualJacobianAndEnergyGradient) {
             1e-7);
 }
 
+// Checks one active self-contact pair (thickness 0.1, max depth 1, margin 0.05) at x
+// (3 x 16, its stencils over vertices 0..15, one shared): a positive residual, its
+// Jacobian against Ceres' GradientChecker and the energy gradient against central
+// differences.
+void CheckActiveSelfContactPair(const SelfContactPair& pair, const Eigen::Matrix3Xd& x) {
+  const SelfContactTerm term({pair}, 0.1, 1.0, 0.05);
+  std::vector<int> block_vertices;
+  std::unique_ptr<ceres::CostFunction> cost(term.NewCostFunction(0, &block_vertices));
+  EXPECT_EQ(block_vertices.size(), 15u);  // 16 slots, one shared
+  std::vector<const double*> parameters;
+  for (int v : block_vertices) parameters.push_back(x.col(v).data());
+  double r = 0;
+  ASSERT_TRUE(cost->Evaluate(parameters.data(), &r, nullptr));
+  EXPECT_GT(r, 0.0);
+  ceres::NumericDiffOptions numeric;
+  numeric.ridders_relative_initial_step_size = 1e-4;
+  const std::vector<const ceres::Manifold*>* none = nullptr;
+  ceres::GradientChecker checker(cost.get(), none, numeric);
+  ceres::GradientChecker::ProbeResults results;
+  checker.Probe(parameters.data(), 1e-7, &results);
+  EXPECT_LT(MaxBlockError(results), 1e-6) << results.error_log;
+  auto energy = [&](const Eigen::VectorXd& flat) {
+    Eigen::Matrix3Xd g = Eigen::Matrix3Xd::Zero(3, 16);
+    return term.AddEnergyAndGradient(Eigen::Map<const Eigen::Matrix3Xd>(flat.data(), 3, 16), &g);
+  };
+  Eigen::Matrix3Xd gradient = Eigen::Matrix3Xd::Zero(3, 16);
+  term.AddEnergyAndGradient(x, &gradient);
+  EXPECT_LT(testing::RelativeError(
+                Eigen::Map<const Eigen::VectorXd>(gradient.data(), 48),
+                testing::CentralDifferenceGradient(
+                    energy, Eigen::Map<const Eigen::VectorXd>(x.data(), 48), 1e-6)),
+            1e-7);
+}
+
 TEST(SelfContactTermTest, ResidualJacobianAndEnergyGradient) {
   // A point just below a triangle above it (active), stencils over 16 vertices with a
   // shared one.
@@ -211,37 +245,7 @@ TEST(SelfContactTermTest, ResidualJacobianAndEnergyGradient) {
     else p = Eigen::Vector3d(0, 1, -0.03);                  // corner c
     x.col(v) = p + Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
   }
-  // Checks the residual (active) and the energy gradient of one pair at x.
-  auto check = [](const SelfContactPair& pair, const Eigen::Matrix3Xd& x) {
-    const SelfContactTerm term({pair}, 0.1, 1.0, 0.05);
-    std::vector<int> block_vertices;
-    std::unique_ptr<ceres::CostFunction> cost(term.NewCostFunction(0, &block_vertices));
-    EXPECT_EQ(block_vertices.size(), 15u);  // 16 slots, one shared
-    std::vector<const double*> parameters;
-    for (int v : block_vertices) parameters.push_back(x.col(v).data());
-    double r = 0;
-    ASSERT_TRUE(cost->Evaluate(parameters.data(), &r, nullptr));
-    EXPECT_GT(r, 0.0);
-    ceres::NumericDiffOptions numeric;
-    numeric.ridders_relative_initial_step_size = 1e-4;
-    const std::vector<const ceres::Manifold*>* none = nullptr;
-    ceres::GradientChecker checker(cost.get(), none, numeric);
-    ceres::GradientChecker::ProbeResults results;
-    checker.Probe(parameters.data(), 1e-7, &results);
-    EXPECT_LT(MaxBlockError(results), 1e-6) << results.error_log;
-    auto energy = [&](const Eigen::VectorXd& flat) {
-      Eigen::Matrix3Xd g = Eigen::Matrix3Xd::Zero(3, 16);
-      return term.AddEnergyAndGradient(Eigen::Map<const Eigen::Matrix3Xd>(flat.data(), 3, 16), &g);
-    };
-    Eigen::Matrix3Xd gradient = Eigen::Matrix3Xd::Zero(3, 16);
-    term.AddEnergyAndGradient(x, &gradient);
-    EXPECT_LT(testing::RelativeError(
-                  Eigen::Map<const Eigen::VectorXd>(gradient.data(), 48),
-                  testing::CentralDifferenceGradient(
-                      energy, Eigen::Map<const Eigen::VectorXd>(x.data(), 48), 1e-6)),
-              1e-7);
-  };
-  check(pair, x);
+  CheckActiveSelfContactPair(pair, x);
   // With an augmented-Lagrangian offset, a point in front of the plane by more than the
   // thickness (0.1) but less than thickness + offset is still pushed; without, it is not.
   Eigen::Matrix3Xd above = x;
@@ -249,11 +253,11 @@ TEST(SelfContactTermTest, ResidualJacobianAndEnergyGradient) {
   Eigen::Matrix3Xd unused = Eigen::Matrix3Xd::Zero(3, 16);
   EXPECT_EQ(SelfContactTerm({pair}, 0.1, 1.0, 0.05).AddEnergyAndGradient(above, &unused), 0.0);
   pair.offset = 0.3;
-  check(pair, above);
+  CheckActiveSelfContactPair(pair, above);
   // The same, rotated and moved (the plane distance is invariant).
   const Eigen::Matrix3d rotation =
       Eigen::AngleAxisd(1.1, Eigen::Vector3d(0.3, -0.5, 0.8).normalized()).toRotationMatrix();
-  check(pair, (rotation * above).colwise() + Eigen::Vector3d(0.7, -1.2, 2.0));
+  CheckActiveSelfContactPair(pair, (rotation * above).colwise() + Eigen::Vector3d(0.7, -1.2, 2.0));
 }
 
 TEST(SelfContactTermTest, EdgeEdgeResidualJacobianAndEnergyGradient) {
@@ -280,35 +284,7 @@ TEST(SelfContactTermTest, EdgeEdgeResidualJacobianAndEnergyGradient) {
     else p = Eigen::Vector3d(-0.1, 0.5, -0.01);
     x.col(v) = p + Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
   }
-  auto check = [](const SelfContactPair& pair, const Eigen::Matrix3Xd& x) {
-    const SelfContactTerm term({pair}, 0.1, 1.0, 0.05);
-    std::vector<int> block_vertices;
-    std::unique_ptr<ceres::CostFunction> cost(term.NewCostFunction(0, &block_vertices));
-    std::vector<const double*> parameters;
-    for (int v : block_vertices) parameters.push_back(x.col(v).data());
-    double r = 0;
-    ASSERT_TRUE(cost->Evaluate(parameters.data(), &r, nullptr));
-    EXPECT_GT(r, 0.0);
-    ceres::NumericDiffOptions numeric;
-    numeric.ridders_relative_initial_step_size = 1e-4;
-    const std::vector<const ceres::Manifold*>* none = nullptr;
-    ceres::GradientChecker checker(cost.get(), none, numeric);
-    ceres::GradientChecker::ProbeResults results;
-    checker.Probe(parameters.data(), 1e-7, &results);
-    EXPECT_LT(MaxBlockError(results), 1e-6) << results.error_log;
-    auto energy = [&](const Eigen::VectorXd& flat) {
-      Eigen::Matrix3Xd g = Eigen::Matrix3Xd::Zero(3, 16);
-      return term.AddEnergyAndGradient(Eigen::Map<const Eigen::Matrix3Xd>(flat.data(), 3, 16), &g);
-    };
-    Eigen::Matrix3Xd gradient = Eigen::Matrix3Xd::Zero(3, 16);
-    term.AddEnergyAndGradient(x, &gradient);
-    EXPECT_LT(testing::RelativeError(
-                  Eigen::Map<const Eigen::VectorXd>(gradient.data(), 48),
-                  testing::CentralDifferenceGradient(
-                      energy, Eigen::Map<const Eigen::VectorXd>(x.data(), 48), 1e-6)),
-              1e-7);
-  };
-  check(pair, x);
+  CheckActiveSelfContactPair(pair, x);
   // With sign +1 the pair keeps the first edge above: raised beyond the thickness, it
   // is not pushed.
   Eigen::Matrix3Xd unused = Eigen::Matrix3Xd::Zero(3, 16);
@@ -322,15 +298,15 @@ TEST(SelfContactTermTest, EdgeEdgeResidualJacobianAndEnergyGradient) {
   Eigen::Matrix3Xd raised = x;
   for (int v = 0; v < 8; ++v) raised(2, v) += 0.08;
   pair.offset = 0.2;
-  check(pair, raised);
+  CheckActiveSelfContactPair(pair, raised);
   const Eigen::Matrix3d rotation =
       Eigen::AngleAxisd(-0.8, Eigen::Vector3d(0.6, 0.2, -0.7).normalized()).toRotationMatrix();
-  check(pair, (rotation * raised).colwise() + Eigen::Vector3d(-0.3, 1.5, 0.4));
+  CheckActiveSelfContactPair(pair, (rotation * raised).colwise() + Eigen::Vector3d(-0.3, 1.5, 0.4));
   Eigen::Matrix3Xd skew = x;
   for (int v = 8; v < 16; ++v) skew.col(v) = Eigen::Vector3d(x(1, v) * 0.2, x(1, v), x(2, v));
   for (int v = 8; v < 12; ++v) skew.col(v) = Eigen::Vector3d(-0.5, -0.1, -0.03);
   for (int v = 12; v < 16; ++v) skew.col(v) = Eigen::Vector3d(0.5, 0.1, -0.01);
-  check(pair, skew);
+  CheckActiveSelfContactPair(pair, skew);
   // Nearly parallel, within the fade band of the sine (weight below 1, with its
   // derivative).
   Eigen::Matrix3Xd fading(3, 16);
@@ -345,7 +321,7 @@ TEST(SelfContactTermTest, EdgeEdgeResidualJacobianAndEnergyGradient) {
                        nullptr));
   EXPECT_GT(sine, kEdgeFadeSine + 0.01);
   EXPECT_LT(sine, kFullEdgeSine - 0.01);
-  check(pair, fading);
+  CheckActiveSelfContactPair(pair, fading);
   // Parallel edges: no energy.
   Eigen::Matrix3Xd parallel = fading;
   for (int v = 0; v < 16; ++v) parallel(1, v) = 0.0;
