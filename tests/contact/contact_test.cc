@@ -444,6 +444,24 @@ ActiveModel TwoBallsModel(int* surface_vertices_per_ball) {
   return model;
 }
 
+// Contact options of the two-balls tests: thickness 0.01, search radius 0.1.
+ContactOptions BallsContactOptions(double max_depth) {
+  ContactOptions options;
+  options.thickness = 0.01;
+  options.search_radius = 0.1;
+  options.max_depth = max_depth;
+  return options;
+}
+
+// Along the centre line of TwoBallsModel at `state`: the right ball's leftmost surface
+// point minus the left ball's rightmost one (negative: they overlap).
+double BallsGap(const ActiveModel& model, int surface_vertices_per_ball,
+                const Eigen::Matrix3Xd& state) {
+  const int ns = surface_vertices_per_ball;
+  const Eigen::Matrix3Xd surface = EmbeddedPositions(model.embedding, model.mesh.tets, state);
+  return surface.rightCols(ns).row(0).minCoeff() - surface.leftCols(ns).row(0).maxCoeff();
+}
+
 TEST(ContactSolverTest, TwoSpheresPressedTogetherFlattenWithoutIntersecting) {
   // The right ball pushed 0.3 towards the left one (0.1 gap: 0.2 of overlap without
   // contact).
@@ -453,11 +471,7 @@ TEST(ContactSolverTest, TwoSpheresPressedTogetherFlattenWithoutIntersecting) {
   push.translation = Eigen::Vector3d(-0.3, 0, 0);
   Eigen::Matrix3Xd free;
   ASSERT_TRUE(ContactFreeEquilibrium(model, push, &free));
-  ContactOptions options;
-  options.thickness = 0.01;
-  options.relative_stiffness = 1000.0;
-  options.search_radius = 0.1;
-  options.max_depth = 0.4;
+  ContactOptions options = BallsContactOptions(0.4);
   for (int path_steps : {0, 8}) {
     options.path_steps = path_steps;
     ContactSolver solver(model, options);
@@ -474,11 +488,9 @@ TEST(ContactSolverTest, TwoSpheresPressedTogetherFlattenWithoutIntersecting) {
     EXPECT_EQ(report.path_steps, path_steps) << report.Summary();
     // The spheres meet flattened: along the centre line, the right sphere's leftmost
     // point is within the thickness of the left sphere's rightmost one, not behind it.
-    const Eigen::Matrix3Xd surface = EmbeddedPositions(model.embedding, model.mesh.tets, state);
-    const double left_front = surface.leftCols(ns).row(0).maxCoeff();
-    const double right_front = surface.rightCols(ns).row(0).minCoeff();
-    EXPECT_GE(right_front - left_front, -0.01) << report.Summary();
-    EXPECT_LE(right_front - left_front, 3 * options.thickness) << report.Summary();
+    const double gap = BallsGap(model, ns, state);
+    EXPECT_GE(gap, -0.01) << report.Summary();
+    EXPECT_LE(gap, 3 * options.thickness) << report.Summary();
     // The far sides stay where they were held.
     EXPECT_LT(report.max_far_displacement, 0.05) << report.Summary();
   }
@@ -494,10 +506,7 @@ TEST(ContactSolverTest, SpheresPushedThroughEachOtherAreSeparatedAlongThePath) {
   push.translation = Eigen::Vector3d(-0.45, 0, 0);
   Eigen::Matrix3Xd free;
   ASSERT_TRUE(ContactFreeEquilibrium(model, push, &free));
-  ContactOptions options;
-  options.thickness = 0.01;
-  options.search_radius = 0.1;
-  options.max_depth = 0.25;
+  ContactOptions options = BallsContactOptions(0.25);
   options.path_steps = 0;
   // (Point-triangle pairs only: edge-edge pairs keep the sides of rest without a path
   // and would separate these balls, whose edges cross shallowly.)
@@ -520,8 +529,7 @@ TEST(ContactSolverTest, SpheresPushedThroughEachOtherAreSeparatedAlongThePath) {
   EXPECT_EQ(path.self_intersections_after, 0) << path.Summary();
   EXPECT_TRUE(path.converged) << path.Summary();
   EXPECT_GE(path.path_steps, 8);
-  const Eigen::Matrix3Xd surface = EmbeddedPositions(model.embedding, model.mesh.tets, state);
-  const double gap = surface.rightCols(ns).row(0).minCoeff() - surface.leftCols(ns).row(0).maxCoeff();
+  const double gap = BallsGap(model, ns, state);
   EXPECT_GE(gap, -0.01) << path.Summary();
   EXPECT_LE(gap, 3 * options.thickness) << path.Summary();
 }
