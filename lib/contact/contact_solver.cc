@@ -98,7 +98,9 @@ std::string ContactReport::Summary() const {
       << self_intersections_rest << " at rest; not intersecting at rest "
       << new_self_intersections_before << " -> " << new_self_intersections_after
       << ", of which apart at rest " << separated_self_intersections_before << " -> "
-      << separated_self_intersections_after << "), with obstacles "
+      << separated_self_intersections_after << ", between triangles clean at rest "
+      << clean_self_intersections_before << " -> " << clean_self_intersections_after
+      << "), with obstacles "
       << obstacle_intersections_before << " -> " << obstacle_intersections_after
       << "; surface moved mean " << mean_displacement << " max " << max_displacement
       << " (max " << max_far_displacement << " farther than " << far_distance
@@ -128,6 +130,8 @@ std::string ContactReport::ToText() const {
       << "new_self_intersections_after " << new_self_intersections_after << "\n"
       << "separated_self_intersections_before " << separated_self_intersections_before << "\n"
       << "separated_self_intersections_after " << separated_self_intersections_after << "\n"
+      << "clean_self_intersections_before " << clean_self_intersections_before << "\n"
+      << "clean_self_intersections_after " << clean_self_intersections_after << "\n"
       << "obstacle_intersections_before " << obstacle_intersections_before << "\n"
       << "obstacle_intersections_after " << obstacle_intersections_after << "\n"
       << "mean_displacement " << mean_displacement << "\n"
@@ -176,6 +180,10 @@ ContactSolver::ContactSolver(const ActiveModel& model, const ContactOptions& opt
   intersection_options.num_threads = options.num_threads;
   FindIntersectingTrianglePairs(rest_surface_, contact_triangles_, intersection_options,
                                 &rest_intersections_);
+  intersects_at_rest_.assign(contact_triangles_.cols(), 0);
+  for (const auto& pair : rest_intersections_) {
+    intersects_at_rest_[pair.first] = intersects_at_rest_[pair.second] = 1;
+  }
   // The contact triangles' edges.
   std::vector<std::pair<int, int>> edge_list;
   for (Eigen::Index t = 0; t < contact_triangles_.cols(); ++t) {
@@ -250,27 +258,24 @@ void ContactSolver::MeasurePenetration(const Eigen::Matrix3Xd& surface,
   }
 }
 
-int ContactSolver::CountSelfIntersections(const Eigen::Matrix3Xd& surface, int* new_pairs,
-                                          int* separated_pairs) const {
+SelfIntersectionCounts ContactSolver::CountSelfIntersections(const Eigen::Matrix3Xd& surface) const {
   TriangleIntersectionOptions options;
   options.num_threads = options_.num_threads;
   std::vector<std::pair<int, int>> pairs;
-  const int count = FindIntersectingTrianglePairs(surface, contact_triangles_, options, &pairs);
-  if (new_pairs != nullptr) *new_pairs = 0;
-  if (separated_pairs != nullptr) *separated_pairs = 0;
+  SelfIntersectionCounts counts;
+  counts.all = FindIntersectingTrianglePairs(surface, contact_triangles_, options, &pairs);
   for (const auto& pair : pairs) {
     if (std::binary_search(rest_intersections_.begin(), rest_intersections_.end(), pair)) continue;
-    if (new_pairs != nullptr) ++*new_pairs;
-    if (separated_pairs != nullptr) {
-      Eigen::Matrix3d a, b;
-      for (int k = 0; k < 3; ++k) {
-        a.col(k) = rest_surface_.col(contact_triangles_(k, pair.first));
-        b.col(k) = rest_surface_.col(contact_triangles_(k, pair.second));
-      }
-      if (DisjointTriangleDistance(a, b) > options_.rest_tolerance) ++*separated_pairs;
+    ++counts.new_pairs;
+    if (!intersects_at_rest_[pair.first] && !intersects_at_rest_[pair.second]) ++counts.clean;
+    Eigen::Matrix3d a, b;
+    for (int k = 0; k < 3; ++k) {
+      a.col(k) = rest_surface_.col(contact_triangles_(k, pair.first));
+      b.col(k) = rest_surface_.col(contact_triangles_(k, pair.second));
     }
+    if (DisjointTriangleDistance(a, b) > options_.rest_tolerance) ++counts.separated;
   }
-  return count;
+  return counts;
 }
 
 int ContactSolver::CountObstacleIntersections(const Eigen::Matrix3Xd& surface,
@@ -566,7 +571,7 @@ bool ContactSolver::SolveRounds(const ActuationMatrix& a, const std::vector<Rigi
     // apart at rest (those touching at rest, such as the ICT lips' corners, have no
     // defined side; steps and rounds cannot decide on them).
     *self_intersections = 0;
-    if (options_.self_contact) CountSelfIntersections(moved, nullptr, self_intersections);
+    if (options_.self_contact) *self_intersections = CountSelfIntersections(moved).separated;
     *obstacle_intersections = CountObstacleIntersections(moved, obstacles);
     if (solve.iterations == 0) break;  // no progress left to make with these candidates
     // Stop when nothing penetrates any more.
@@ -606,9 +611,11 @@ bool ContactSolver::Resolve(const ActuationMatrix& a, const std::vector<RigidTra
   const Eigen::Matrix3Xd before = EmbeddedPositions(model_.embedding, model_.mesh.tets, start);
   MeasurePenetration(before, final_obstacles, &report->max_penetration_before,
                      &report->penetrating_points_before);
-  report->self_intersections_before =
-      CountSelfIntersections(before, &report->new_self_intersections_before,
-                             &report->separated_self_intersections_before);
+  const SelfIntersectionCounts counts_before = CountSelfIntersections(before);
+  report->self_intersections_before = counts_before.all;
+  report->new_self_intersections_before = counts_before.new_pairs;
+  report->separated_self_intersections_before = counts_before.separated;
+  report->clean_self_intersections_before = counts_before.clean;
   report->self_intersections_rest = static_cast<int>(rest_intersections_.size());
   report->obstacle_intersections_before = CountObstacleIntersections(before, final_obstacles);
   // Surface vertices in contact in any round (the report's "far" displacement is
@@ -698,9 +705,11 @@ bool ContactSolver::Resolve(const ActuationMatrix& a, const std::vector<RigidTra
   const Eigen::Matrix3Xd after = EmbeddedPositions(model_.embedding, model_.mesh.tets, x);
   MeasurePenetration(after, final_obstacles, &report->max_penetration_after,
                      &report->penetrating_points_after);
-  report->self_intersections_after =
-      CountSelfIntersections(after, &report->new_self_intersections_after,
-                             &report->separated_self_intersections_after);
+  const SelfIntersectionCounts counts_after = CountSelfIntersections(after);
+  report->self_intersections_after = counts_after.all;
+  report->new_self_intersections_after = counts_after.new_pairs;
+  report->separated_self_intersections_after = counts_after.separated;
+  report->clean_self_intersections_after = counts_after.clean;
   report->obstacle_intersections_after = CountObstacleIntersections(after, final_obstacles);
   const Eigen::VectorXd moved = (after - before).colwise().norm();
   report->mean_displacement = moved.mean();

@@ -88,6 +88,15 @@ struct ContactOptions {
   int num_threads = 2;
 };
 
+// Intersecting triangle pairs of a surface with itself (ContactSolver's contact
+// triangles), by how they relate to the rest surface.
+struct SelfIntersectionCounts {
+  int all = 0;
+  int new_pairs = 0;  // not intersecting at rest
+  int separated = 0;  // new, and the triangles farther apart at rest than rest_tolerance
+  int clean = 0;      // new, and neither triangle intersects any triangle at rest
+};
+
 struct ContactReport {
   // Into obstacles: the deepest surface point (0 if none) and how many points are inside.
   double max_penetration_before = 0.0, max_penetration_after = 0.0;
@@ -109,6 +118,10 @@ struct ContactReport {
   // (the rest, touching at rest, such as the ICT lips at the mouth corners, have no
   // well-defined side).
   int separated_self_intersections_before = 0, separated_self_intersections_after = 0;
+  // Of the new pairs, those whose two triangles intersect nothing at rest (the rest,
+  // such as the ICT lips' commissure, already pass through the surface at rest, so
+  // contact has no side to keep for them).
+  int clean_self_intersections_before = 0, clean_self_intersections_after = 0;
   double far_distance = 0.0, max_far_displacement = 0.0;
   int rounds = 0;        // detection/solve rounds, over all path steps
   int path_steps = 0;    // accepted path steps (0: no path)
@@ -148,11 +161,8 @@ class ContactSolver {
   void MeasurePenetration(const Eigen::Matrix3Xd& surface,
                           const std::vector<const Obstacle*>& obstacles, double* max_depth,
                           int* points) const;
-  // *new_pairs (may be null): how many of them do not intersect at rest;
-  // *separated_pairs (may be null): how many of those were farther apart at rest than
-  // options.rest_tolerance.
-  int CountSelfIntersections(const Eigen::Matrix3Xd& surface, int* new_pairs = nullptr,
-                             int* separated_pairs = nullptr) const;
+  // CountSelfIntersections classifies the pairs as SelfIntersectionCounts says.
+  SelfIntersectionCounts CountSelfIntersections(const Eigen::Matrix3Xd& surface) const;
   int CountObstacleIntersections(const Eigen::Matrix3Xd& surface,
                                  const std::vector<const Obstacle*>& obstacles) const;
 
@@ -210,6 +220,7 @@ class ContactSolver {
   Eigen::Matrix3Xd edge_normals_;   // per edge: the mean rest normal of its ends
   std::vector<double> edge_offsets_;  // per edge, as self_offsets_
   std::vector<std::pair<int, int>> rest_intersections_;  // sorted pairs of contact_triangles_
+  std::vector<char> intersects_at_rest_;  // per contact triangle: in rest_intersections_
 };
 
 }  // namespace aqs

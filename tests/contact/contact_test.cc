@@ -407,6 +407,54 @@ TEST(ContactSolverTest, BlockPushedIntoASlabStopsAtItsSurface) {
   EXPECT_GT(report.obstacle_contacts, 0);
 }
 
+TEST(ContactSolverTest, CountsNewSelfIntersectionsByTheirRestState) {
+  // A unit block whose embedded surface is five loose triangles: A (horizontal) and B
+  // (vertical) crossing each other at rest, C and D apart from everything, E 0.01 above
+  // D (touching it, within rest_tolerance).
+  LatticeOptions lattice;
+  lattice.nx = lattice.ny = lattice.nz = 2;
+  lattice.spacing = 0.5;
+  ActiveModel model = BlockModel(MakeLatticeMesh(lattice), {0});
+  Eigen::Matrix3Xd rest(3, 15);
+  rest << 0.2, 0.8, 0.5, 0.5, 0.5, 0.5, 0.1, 0.3, 0.2, 0.7, 0.9, 0.8, 0.7, 0.9, 0.8,  //
+          0.2, 0.2, 0.8, 0.4, 0.6, 0.5, 0.1, 0.1, 0.3, 0.1, 0.1, 0.3, 0.1, 0.1, 0.3,  //
+          0.5, 0.5, 0.5, 0.3, 0.3, 0.7, 0.9, 0.9, 0.9, 0.9, 0.9, 0.9, 0.91, 0.91, 0.91;
+  model.neutral.vertices = rest;
+  model.neutral.triangles.resize(3, 5);
+  model.neutral.triangles << 0, 3, 6, 9, 12, 1, 4, 7, 10, 13, 2, 5, 8, 11, 14;
+  model.embedding = EmbedPoints(model.mesh, rest, 1);
+  ContactOptions options;
+  options.exclusion_rings = 0;
+  const ContactSolver solver(model, options);
+  const SelfIntersectionCounts at_rest = solver.CountSelfIntersections(rest);
+  EXPECT_EQ(at_rest.all, 1);
+  EXPECT_EQ(at_rest.new_pairs, 0);
+  // C moved through A (which intersects B at rest): new and apart at rest, not clean.
+  Eigen::Matrix3Xd c_through_a = rest;
+  c_through_a.middleCols(6, 3) << 0.3, 0.4, 0.35, 0.3, 0.3, 0.3, 0.4, 0.4, 0.6;
+  const SelfIntersectionCounts a_c = solver.CountSelfIntersections(c_through_a);
+  EXPECT_EQ(a_c.all, 2);
+  EXPECT_EQ(a_c.new_pairs, 1);
+  EXPECT_EQ(a_c.separated, 1);
+  EXPECT_EQ(a_c.clean, 0);
+  // D moved through C (both clean at rest): new, apart at rest and clean.
+  Eigen::Matrix3Xd d_through_c = rest;
+  d_through_c.middleCols(9, 3) << 0.2, 0.25, 0.15, 0.2, 0.2, 0.2, 0.85, 0.95, 0.95;
+  const SelfIntersectionCounts c_d = solver.CountSelfIntersections(d_through_c);
+  EXPECT_EQ(c_d.all, 2);
+  EXPECT_EQ(c_d.new_pairs, 1);
+  EXPECT_EQ(c_d.separated, 1);
+  EXPECT_EQ(c_d.clean, 1);
+  // E turned through D, which it touched at rest: new and clean, not separated.
+  Eigen::Matrix3Xd e_through_d = rest;
+  e_through_d.middleCols(12, 3) << 0.8, 0.85, 0.75, 0.2, 0.2, 0.2, 0.85, 0.95, 0.95;
+  const SelfIntersectionCounts d_e = solver.CountSelfIntersections(e_through_d);
+  EXPECT_EQ(d_e.all, 2);
+  EXPECT_EQ(d_e.new_pairs, 1);
+  EXPECT_EQ(d_e.separated, 0);
+  EXPECT_EQ(d_e.clean, 1);
+}
+
 // Two soft balls, each a lattice under a smooth embedded sphere (as faces are modelled),
 // in one model whose surface is both spheres (radius 0.5, centres 1.1 apart): the left
 // ball held at its far side, the right one driven by its far side (bone "driver").
