@@ -476,7 +476,6 @@ bool ContactSolver::SolveRounds(const ActuationMatrix& a, const std::vector<Rigi
   QuasistaticSolverOptions solver_options = options_.solver;
   solver_options.relative_force_tolerance = relative_force_tolerance;
   solver_options.num_threads = options_.num_threads;
-  solver_options.newton_relative_force = 0.0;
   for (int round = 0; round < options_.max_rounds; ++round) {
     const Eigen::Matrix3Xd surface = EmbeddedPositions(model_.embedding, model_.mesh.tets, *x);
     // Candidates near obstacles.

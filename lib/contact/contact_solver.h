@@ -83,7 +83,8 @@ struct ContactOptions {
   // mouthClose, 1e-5 everywhere took 3.3 minutes; a trial with 1e-3 (and extra rounds for
   // an unconverged last step) took over 10, so looser is not known to be faster.
   double path_relative_force_tolerance = 1e-5;
-  // The equilibrium solves (Newton steps are off: contact terms couple elements).
+  // The equilibrium solves: Levenberg-Marquardt, then Newton steps on the stiffness with
+  // the contact terms' Hessians (solver.newton_relative_force; 0: LM only).
   QuasistaticSolverOptions solver;
   int num_threads = 2;
 };

@@ -114,6 +114,131 @@ bool SelfContactDistance(const SelfContactPair& pair, const Eigen::Vector3d poin
   return true;
 }
 
+namespace {
+
+// [a]x: the cross-product matrix, [a]x b = a x b.
+Eigen::Matrix3d Skew(const Eigen::Vector3d& a) {
+  Eigen::Matrix3d m;
+  m << 0, -a.z(), a.y(), a.z(), 0, -a.x(), -a.y(), a.x(), 0;
+  return m;
+}
+
+// The Hessian of f = n . w, n = unit(u x v), with respect to (u, v, w) (9 x 9, blocks in
+// that order). With m = u x v, N = |m|, P = I - n n^T, w_perp = P w and g = w_perp / N
+// (= df/dm):
+//   d2f/dm2 = -((n . w) P + w_perp n^T + n w_perp^T) / N^2,   d2f/dm dw = P / N,
+// and m is bilinear in (u, v): dm/du = -[v]x, dm/dv = [u]x, d2(g . m)/du dv = -[g]x.
+// Returns false if u x v vanishes.
+bool UnitCrossDotHessian(const Eigen::Vector3d& u, const Eigen::Vector3d& v,
+                         const Eigen::Vector3d& w, Eigen::Matrix<double, 9, 9>* hessian) {
+  const Eigen::Vector3d m = u.cross(v);
+  const double length = m.norm();
+  if (!(length > 1e-300)) return false;
+  const Eigen::Vector3d n = m / length;
+  const double nw = n.dot(w);
+  const Eigen::Matrix3d projector = Eigen::Matrix3d::Identity() - n * n.transpose();
+  const Eigen::Vector3d w_perp = w - nw * n;
+  const Eigen::Vector3d g = w_perp / length;
+  const Eigen::Matrix3d h_mm =
+      -(nw * projector + w_perp * n.transpose() + n * w_perp.transpose()) / (length * length);
+  const Eigen::Matrix3d h_mw = projector / length;
+  const Eigen::Matrix3d dm_du = -Skew(v), dm_dv = Skew(u);
+  hessian->setZero();
+  hessian->block<3, 3>(0, 0) = dm_du.transpose() * h_mm * dm_du;
+  hessian->block<3, 3>(3, 3) = dm_dv.transpose() * h_mm * dm_dv;
+  hessian->block<3, 3>(0, 3) = dm_du.transpose() * h_mm * dm_dv - Skew(g);
+  hessian->block<3, 3>(3, 0) = hessian->block<3, 3>(0, 3).transpose();
+  hessian->block<3, 3>(0, 6) = dm_du.transpose() * h_mw;
+  hessian->block<3, 3>(6, 0) = hessian->block<3, 3>(0, 6).transpose();
+  hessian->block<3, 3>(3, 6) = dm_dv.transpose() * h_mw;
+  hessian->block<3, 3>(6, 3) = hessian->block<3, 3>(3, 6).transpose();
+  return true;
+}
+
+}  // namespace
+
+namespace {
+
+// Scatters a Hessian over differences (3 k x 3 k, difference a's DOFs at rows 3 a ..)
+// to the four points: difference a = sum_j coefficients(a, j) points[j].
+template <int kDifferences>
+void ToPoints(const Eigen::Matrix<double, kDifferences, 4>& coefficients,
+              const Eigen::Matrix<double, 3 * kDifferences, 3 * kDifferences>& h,
+              Eigen::Matrix<double, 12, 12>* hessian) {
+  for (int i = 0; i < 4; ++i) {
+    for (int j = 0; j < 4; ++j) {
+      Eigen::Matrix3d block = Eigen::Matrix3d::Zero();
+      for (int a = 0; a < kDifferences; ++a) {
+        for (int b = 0; b < kDifferences; ++b) {
+          const double c = coefficients(a, i) * coefficients(b, j);
+          if (c != 0.0) block += c * h.template block<3, 3>(3 * a, 3 * b);
+        }
+      }
+      hessian->block<3, 3>(3 * i, 3 * j) = block;
+    }
+  }
+}
+
+}  // namespace
+
+bool EdgeSineHessian(const Eigen::Vector3d& pa, const Eigen::Vector3d& pb,
+                     const Eigen::Vector3d& qa, const Eigen::Vector3d& qb,
+                     Eigen::Matrix<double, 12, 12>* hessian) {
+  // sine = exp(phi), phi = log |m| - log |e1| - log |e2|, m = e1 x e2:
+  // Hess sine = sine (Hess phi + grad phi grad phi^T). With g = m / |m|^2,
+  // d2 log|m| / dm2 = (I - 2 n n^T) / |m|^2, and m bilinear (dm/de1 = -[e2]x,
+  // dm/de2 = [e1]x, d2(g . m)/de1 de2 = -[g]x); d2 log|e| / de2 = (I - 2 e e^T / |e|^2) / |e|^2.
+  const Eigen::Vector3d e1 = pb - pa, e2 = qb - qa;
+  const Eigen::Vector3d m = e1.cross(e2);
+  const double mm = m.squaredNorm(), aa = e1.squaredNorm(), bb = e2.squaredNorm();
+  if (!(aa > 1e-300) || !(bb > 1e-300) || !(mm > 1e-300 * aa * bb)) return false;
+  const double sine = std::sqrt(mm / (aa * bb));
+  const Eigen::Matrix3d identity = Eigen::Matrix3d::Identity();
+  const Eigen::Vector3d g = m / mm;
+  const Eigen::Matrix3d h_m = (identity - 2.0 * m * m.transpose() / mm) / mm;
+  const Eigen::Matrix3d j1 = -Skew(e2), j2 = Skew(e1);
+  Eigen::Matrix<double, 6, 1> grad_phi;
+  grad_phi << j1.transpose() * g - e1 / aa, j2.transpose() * g - e2 / bb;
+  Eigen::Matrix<double, 6, 6> h;
+  h.block<3, 3>(0, 0) = j1.transpose() * h_m * j1 - (identity - 2.0 * e1 * e1.transpose() / aa) / aa;
+  h.block<3, 3>(3, 3) = j2.transpose() * h_m * j2 - (identity - 2.0 * e2 * e2.transpose() / bb) / bb;
+  h.block<3, 3>(0, 3) = j1.transpose() * h_m * j2 - Skew(g);
+  h.block<3, 3>(3, 0) = h.block<3, 3>(0, 3).transpose();
+  h = sine * (h + grad_phi * grad_phi.transpose());
+  Eigen::Matrix<double, 2, 4> coefficients;
+  coefficients << -1, 1, 0, 0,  //
+                  0, 0, -1, 1;
+  ToPoints<2>(coefficients, h, hessian);
+  return true;
+}
+
+bool SelfContactDistanceHessian(const SelfContactPair& pair, const Eigen::Vector3d points[4],
+                                Eigen::Matrix<double, 12, 12>* hessian) {
+  // (u, v, w) = L (p0, p1, p2, p3), L made of +-I blocks: coefficient of point j in each.
+  const Eigen::Vector3d& p0 = points[0];
+  const Eigen::Vector3d& p1 = points[1];
+  const Eigen::Vector3d& p2 = points[2];
+  const Eigen::Vector3d& p3 = points[3];
+  Eigen::Matrix<double, 3, 4> coefficients;
+  Eigen::Matrix<double, 9, 9> h;  // with respect to (u, v, w)
+  if (pair.kind == SelfContactPair::Kind::kPointTriangle) {
+    // u = P1 - P0, v = P2 - P0, w = p - P0 (points: p, P0, P1, P2).
+    coefficients << 0, -1, 1, 0,  //
+                    0, -1, 0, 1,  //
+                    1, -1, 0, 0;
+    if (!UnitCrossDotHessian(p2 - p1, p3 - p1, p0 - p1, &h)) return false;
+  } else {
+    // u = pb - pa, v = qb - qa, w = pa - qa (points: pa, pb, qa, qb).
+    coefficients << -1, 1, 0, 0,  //
+                    0, 0, -1, 1,  //
+                    1, 0, -1, 0;
+    if (!UnitCrossDotHessian(p1 - p0, p3 - p2, p0 - p2, &h)) return false;
+    h *= pair.sign;
+  }
+  ToPoints<3>(coefficients, h, hessian);
+  return true;
+}
+
 // ---- Obstacles ----
 
 namespace {
@@ -195,9 +320,21 @@ double ObstacleContactTerm::AddEnergyAndGradient(const Eigen::Ref<const Eigen::M
   return energy;
 }
 
-void ObstacleContactTerm::AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>&,
-                                       const StiffnessPattern&, std::vector<double>*) const {
-  LOG(FATAL) << "ObstacleContactTerm has no stiffness (Levenberg-Marquardt only)";
+void ObstacleContactTerm::AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>& x,
+                                       const StiffnessPattern& pattern,
+                                       std::vector<double>* values) const {
+  for (size_t i = 0; i < points_.size(); ++i) {
+    const PointStencil& s = points_[i];
+    Eigen::Vector3d g;
+    if (!(Distance(s.Position(x), &g) < thickness_)) continue;
+    const Eigen::Matrix3d h = stiffness_[i] * g * g.transpose();
+    std::vector<int> vertices(s.vertex, s.vertex + 4);
+    Eigen::MatrixXd hessian(12, 12);
+    for (int j = 0; j < 4; ++j) {
+      for (int l = 0; l < 4; ++l) hessian.block<3, 3>(3 * j, 3 * l) = s.weight[j] * s.weight[l] * h;
+    }
+    AddVertexHessian(vertices, hessian, pattern, values);
+  }
 }
 
 ceres::CostFunction* ObstacleContactTerm::NewCostFunction(int i) const {
@@ -347,9 +484,72 @@ double SelfContactTerm::AddEnergyAndGradient(const Eigen::Ref<const Eigen::Matri
   return energy;
 }
 
-void SelfContactTerm::AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>&,
-                                   const StiffnessPattern&, std::vector<double>*) const {
-  LOG(FATAL) << "SelfContactTerm has no stiffness (Levenberg-Marquardt only)";
+void SelfContactTerm::AppendVertexCouplings(std::vector<std::vector<int>>* couplings) const {
+  for (const SelfContactPair& pair : pairs_) couplings->push_back(BlocksOf(pair).vertices);
+}
+
+void SelfContactTerm::AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>& x,
+                                   const StiffnessPattern& pattern,
+                                   std::vector<double>* values) const {
+  for (const SelfContactPair& pair : pairs_) {
+    const PointStencil* stencils[4] = {&pair.point, &pair.corner[0], &pair.corner[1], &pair.corner[2]};
+    Eigen::Vector3d points[4];
+    for (int m = 0; m < 4; ++m) points[m] = stencils[m]->Position(x);
+    Eigen::Matrix<double, 3, 4> dr;
+    const double r = PairResidual(pair, points, thickness_, max_depth_, margin_, &dr);
+    if (r == 0.0) continue;
+    // Hessian of r^2 / 2 at the points: dr dr^T + r d2r, with d2r = -sqrt(k) Hess s, or
+    // for edge-edge pairs in the fade band (r = w(x) q, q = sqrt(k) (thickness + offset -
+    // s), x = (sine - kEdgeFadeSine) / band):
+    //   d2r = w d2q + q d2w + dw dq^T + dq dw^T,
+    //   d2w = w''(x) / band^2 dsine dsine^T + w'(x) / band Hess sine.
+    const Eigen::Map<const Eigen::Matrix<double, 12, 1>> dr_flat(dr.data());
+    Eigen::Matrix<double, 12, 12> h_points = dr_flat * dr_flat.transpose();
+    Eigen::Matrix<double, 12, 12> hess_s;
+    double s = 0, outside = 0;
+    Eigen::Matrix<double, 3, 4> ds;
+    if (SelfContactDistanceHessian(pair, points, &hess_s) &&
+        SelfContactDistance(pair, points, &s, &ds, &outside)) {
+      const double root_k = std::sqrt(pair.stiffness);
+      Eigen::Matrix<double, 12, 12> d2r = -root_k * hess_s;
+      double sine = 0;
+      Eigen::Matrix<double, 3, 4> dsine;
+      Eigen::Matrix<double, 12, 12> hess_sine;
+      if (pair.kind == SelfContactPair::Kind::kEdgeEdge &&
+          EdgeSine(points[0], points[1], points[2], points[3], &sine, &dsine) &&
+          sine < kFullEdgeSine && EdgeSineHessian(points[0], points[1], points[2], points[3], &hess_sine)) {
+        const double band = kFullEdgeSine - kEdgeFadeSine;
+        const double t = (sine - kEdgeFadeSine) / band;  // in (0, 1): r != 0
+        const double root = std::sqrt(3.0 - 2.0 * t);
+        const double w = t * root, dw = root - t / root;
+        const double d2w = -2.0 / root - t / (root * root * root);
+        const double q = root_k * (thickness_ + pair.offset - s);
+        const Eigen::Map<const Eigen::Matrix<double, 12, 1>> ds_flat(ds.data()), dsine_flat(dsine.data());
+        const Eigen::Matrix<double, 12, 1> dq = -root_k * ds_flat;
+        const Eigen::Matrix<double, 12, 1> dw_flat = dw / band * dsine_flat;
+        const Eigen::Matrix<double, 12, 12> hess_w =
+            d2w / (band * band) * dsine_flat * dsine_flat.transpose() + dw / band * hess_sine;
+        d2r = w * d2r + q * hess_w + dw_flat * dq.transpose() + dq * dw_flat.transpose();
+      }
+      h_points += r * d2r;
+    }
+    // Chained to the stencils' simulation vertices.
+    const PairBlocks blocks = BlocksOf(pair);
+    const int n = static_cast<int>(blocks.vertices.size());
+    Eigen::MatrixXd hessian = Eigen::MatrixXd::Zero(3 * n, 3 * n);
+    for (int m = 0; m < 4; ++m) {
+      for (int j = 0; j < 4; ++j) {
+        for (int m2 = 0; m2 < 4; ++m2) {
+          for (int j2 = 0; j2 < 4; ++j2) {
+            hessian.block<3, 3>(3 * blocks.slot[4 * m + j], 3 * blocks.slot[4 * m2 + j2]) +=
+                stencils[m]->weight[j] * stencils[m2]->weight[j2] *
+                h_points.block<3, 3>(3 * m, 3 * m2);
+          }
+        }
+      }
+    }
+    AddVertexHessian(blocks.vertices, hessian, pattern, values);
+  }
 }
 
 ceres::CostFunction* SelfContactTerm::NewCostFunction(int i, std::vector<int>* block_vertices) const {

@@ -24,13 +24,14 @@ namespace aqs {
 // whose Jacobian -sqrt(k_i) grad d(p_i)^T dp_i/dx is exact wherever the closest obstacle
 // feature is unique (grad d is the unit vector from the closest point). The closest
 // point is found anew at every evaluation (obstacle trees), so contacts follow the solve.
-// Levenberg-Marquardt only (no stiffness).
+// Its stiffness (for Newton steps) is the Gauss-Newton part k_i grad d grad d^T of each
+// active point, exact where the closest obstacle feature is a face (there Hess d = 0);
+// a point's stencil lies in one element, so it needs no extra couplings.
 class ObstacleContactTerm : public EnergyTerm {
  public:
   ObstacleContactTerm(const std::vector<PointStencil>& points, const Eigen::VectorXd& stiffness,
                       double thickness, const std::vector<const Obstacle*>& obstacles);
 
-  bool SupportsStiffness() const override { return false; }
   double AddEnergyAndGradient(const Eigen::Ref<const Eigen::Matrix3Xd>& x,
                               Eigen::Matrix3Xd* gradient) const override;
   void AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>& x, const StiffnessPattern& pattern,
@@ -102,13 +103,17 @@ bool SelfContactDistance(const SelfContactPair& pair, const Eigen::Vector3d poin
 // respect to the four points (through the normal), chained to the simulation vertices of
 // their stencils. Candidate pairs are chosen by ContactSolver (the side a point is on at
 // rest, topological distance); they change between its rounds.
-// Levenberg-Marquardt only (no stiffness).
+//
+// Its stiffness (for Newton steps) is the exact Hessian of every active pair's energy,
+// k (grad s grad s^T - (thickness + offset - s) Hess s), with the fade weight's
+// derivatives for edge-edge pairs inside the fade band. A pair couples the simulation
+// vertices of its four stencils (AppendVertexCouplings).
 class SelfContactTerm : public EnergyTerm {
  public:
   SelfContactTerm(const std::vector<SelfContactPair>& pairs, double thickness, double max_depth,
                   double margin);
 
-  bool SupportsStiffness() const override { return false; }
+  void AppendVertexCouplings(std::vector<std::vector<int>>* couplings) const override;
   double AddEnergyAndGradient(const Eigen::Ref<const Eigen::Matrix3Xd>& x,
                               Eigen::Matrix3Xd* gradient) const override;
   void AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>& x, const StiffnessPattern& pattern,
@@ -145,6 +150,14 @@ bool EdgeDistance(const Eigen::Vector3d& pa, const Eigen::Vector3d& pb, const Ei
                   const Eigen::Vector3d& qb, double min_sine, double* s,
                   Eigen::Matrix<double, 3, 4>* gradient, double* u, double* v);
 
+// The Hessian of a self-contact pair's signed distance s (SelfContactDistance, with the
+// pair's sign) with respect to its four points (12 x 12; rows and columns point, then
+// corners, x y z each). Both kinds are s = unit(u x v) . w for differences u, v, w of
+// the points (point-triangle: u = P1 - P0, v = P2 - P0, w = p - P0; edge-edge:
+// u = pb - pa, v = qb - qa, w = pa - qa). Returns false where s is undefined.
+bool SelfContactDistanceHessian(const SelfContactPair& pair, const Eigen::Vector3d points[4],
+                                Eigen::Matrix<double, 12, 12>* hessian);
+
 // Edge-edge pairs fade out as their edges turn parallel (where the lines' distance is
 // ill-conditioned and its normal flips): the residual is scaled by
 // sqrt(smoothstep((sine - kEdgeFadeSine) / (kFullEdgeSine - kEdgeFadeSine))), so that the
@@ -157,6 +170,11 @@ constexpr double kMinEdgeSine = 0.2;
 // pa, pb, qa, qb (3 x 4). Returns false for a degenerate edge.
 bool EdgeSine(const Eigen::Vector3d& pa, const Eigen::Vector3d& pb, const Eigen::Vector3d& qa,
               const Eigen::Vector3d& qb, double* sine, Eigen::Matrix<double, 3, 4>* gradient);
+// Its Hessian with respect to pa, pb, qa, qb (12 x 12, x y z of each point in turn).
+// Returns false for a degenerate edge or parallel edges (where the sine is not smooth).
+bool EdgeSineHessian(const Eigen::Vector3d& pa, const Eigen::Vector3d& pb,
+                     const Eigen::Vector3d& qa, const Eigen::Vector3d& qb,
+                     Eigen::Matrix<double, 12, 12>* hessian);
 
 }  // namespace aqs
 

@@ -20,10 +20,10 @@ namespace aqs {
 // consistent with each other: the Ceres cost of its blocks is its energy.
 //
 // Positions are 3 x num_vertices (column v = vertex v). A term's Hessian may only
-// couple vertices that share an element of the model (so that it fits the stiffness
-// pattern of the model's mesh). Terms are owned by the caller and must outlive the
-// solvers and factorizations that use them. Their const methods may be called
-// concurrently.
+// couple vertices that share an element of the model or that it declares together in
+// AppendVertexCouplings (the stiffness pattern is the mesh's plus those). Terms are
+// owned by the caller and must outlive the solvers and factorizations that use them.
+// Their const methods may be called concurrently.
 class EnergyTerm {
  public:
   virtual ~EnergyTerm() = default;
@@ -33,13 +33,18 @@ class EnergyTerm {
   virtual double AddEnergyAndGradient(const Eigen::Ref<const Eigen::Matrix3Xd>& x,
                                       Eigen::Matrix3Xd* gradient) const = 0;
 
-  // Whether AddStiffness gives the term's Hessian on the model's pattern. Terms that
-  // couple vertices of different elements (contact) cannot, and return false: a
+  // Whether AddStiffness gives the term's Hessian. A term without one returns false: a
   // QuasistaticSolver with such a term uses Levenberg-Marquardt only.
   virtual bool SupportsStiffness() const { return true; }
 
+  // Appends the vertex sets (simulation vertex indices) whose pairs the term's Hessian
+  // couples beyond the model's elements: the stiffness pattern then holds every pair of
+  // each set. The sets must not change while a factorization built with them is in use.
+  virtual void AppendVertexCouplings(std::vector<std::vector<int>>* couplings) const {}
+
   // Adds the term's Hessian at x into `values` (upper-triangle CSC of `pattern`, as
-  // AssembleStiffness fills it). Entries of fixed vertices are dropped.
+  // AssembleStiffness fills it; pattern.VertexBlockOffset finds any coupled pair).
+  // Entries of fixed vertices are dropped.
   virtual void AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>& x,
                             const StiffnessPattern& pattern, std::vector<double>* values) const = 0;
 

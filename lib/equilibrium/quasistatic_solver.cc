@@ -105,8 +105,10 @@ double QuasistaticSolver::MaxFreeForce(double* energy) const {
 
 StiffnessFactorization* QuasistaticSolver::stiffness_factorization() {
   if (!factorization_) {
-    factorization_ =
-        std::make_unique<StiffnessFactorization>(model_, fixed_mask_, options_.num_threads);
+    std::vector<std::vector<int>> couplings;
+    for (const EnergyTerm* term : terms_) term->AppendVertexCouplings(&couplings);
+    factorization_ = std::make_unique<StiffnessFactorization>(model_, fixed_mask_,
+                                                              options_.num_threads, couplings);
     factorization_->set_energy_terms(terms_);
   }
   return factorization_.get();
@@ -122,7 +124,13 @@ void QuasistaticSolver::AddEnergyTerm(const EnergyTerm* term) {
     if (problem_->HasParameterBlock(vertex(v))) problem_->SetParameterBlockConstant(vertex(v));
   }
   terms_.push_back(term);
-  if (factorization_) factorization_->set_energy_terms(terms_);
+  std::vector<std::vector<int>> couplings;
+  term->AppendVertexCouplings(&couplings);
+  if (!couplings.empty()) {
+    factorization_.reset();  // its pattern lacks the new couplings; rebuilt on next use
+  } else if (factorization_) {
+    factorization_->set_energy_terms(terms_);
+  }
 }
 
 bool QuasistaticSolver::RunNewton(QuasistaticSolveReport* report) {

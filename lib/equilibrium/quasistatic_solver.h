@@ -60,7 +60,8 @@ struct QuasistaticSolverOptions {
   // least-squares form converges linearly (its J^T J lacks the curvature of
   // incompatible targets). If a Newton step fails (K not positive definite, or no
   // force decrease), Ceres takes over again. 0 disables Newton: Ceres only (as do
-  // energy terms without a stiffness, EnergyTerm::SupportsStiffness).
+  // energy terms without a stiffness, EnergyTerm::SupportsStiffness). Contact terms
+  // (lib/contact) have one, on a pattern extended by their pairs' couplings.
   double newton_relative_force = 1e-2;
   int max_newton_steps = 8;
   // Ceres' relative cost-change and step-size stopping tests. function_tolerance
@@ -156,7 +157,8 @@ class QuasistaticSolver {
   const std::vector<bool>& fixed_mask() const { return fixed_mask_; }
 
   // Adds an energy term (not owned; must outlive the solver) to the equilibrium:
-  // the solver then minimizes E(x, a) + the terms. Call before Solve().
+  // the solver then minimizes E(x, a) + the terms. Call before Solve(), and before
+  // taking stiffness_factorization(): a term with vertex couplings replaces it.
   void AddEnergyTerm(const EnergyTerm* term);
   const std::vector<const EnergyTerm*>& energy_terms() const { return terms_; }
 
@@ -170,8 +172,9 @@ class QuasistaticSolver {
   // The absolute force tolerance: relative_force_tolerance * model.force_scale().
   double ForceTolerance() const;
 
-  // The stiffness factorization the Newton steps use (created on first use), to share
-  // with an EquilibriumDifferentiator so that one CHOLMOD factor serves both.
+  // The stiffness factorization the Newton steps use (created on first use, its pattern
+  // with the energy terms' couplings), to share with an EquilibriumDifferentiator so
+  // that one CHOLMOD factor serves both.
   StiffnessFactorization* stiffness_factorization();
 
  private:

@@ -10,10 +10,11 @@ namespace aqs {
 
 StiffnessFactorization::StiffnessFactorization(const ShapeTargetModel& model,
                                                const std::vector<bool>& fixed_mask,
-                                               int num_threads)
+                                               int num_threads,
+                                               const std::vector<std::vector<int>>& couplings)
     : model_(model),
       num_threads_(num_threads),
-      pattern_(model.tets(), fixed_mask),
+      pattern_(model.tets(), fixed_mask, couplings),
       cholesky_(pattern_.num_dofs(), &pattern_.column_starts(), &pattern_.row_indices()) {
   CHECK_EQ(static_cast<int>(fixed_mask.size()), model.num_vertices());
 }

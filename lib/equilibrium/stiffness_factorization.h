@@ -26,16 +26,19 @@ struct FactorizationTimings {
 
 // The stiffness K = d2E/dx2 of a ShapeTargetModel on the free DOFs of a fixed-vertex
 // set, assembled and Cholesky-factorized at a given state, for Newton steps and
-// implicit differentiation. Built once per mesh and fixed set: the sparsity pattern
-// and CHOLMOD's symbolic analysis are reused by every Factorize().
+// implicit differentiation. Built once per mesh and fixed set (and energy terms'
+// couplings): the sparsity pattern and CHOLMOD's symbolic analysis are reused by every
+// Factorize().
 //
 // Vectors "per vertex" are 3 x num_vertices (column v for vertex v); entries of fixed
 // vertices are ignored on input and zero on output. The model must outlive this
 // object. Not thread-safe.
 class StiffnessFactorization {
  public:
+  // couplings: vertex sets beyond the elements whose blocks energy terms fill
+  // (EnergyTerm::AppendVertexCouplings of the terms to be set).
   StiffnessFactorization(const ShapeTargetModel& model, const std::vector<bool>& fixed_mask,
-                         int num_threads);
+                         int num_threads, const std::vector<std::vector<int>>& couplings = {});
   ~StiffnessFactorization();
 
   // Extra energy terms of the system (see EnergyTerm): their Hessians are added to K

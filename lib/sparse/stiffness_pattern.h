@@ -20,8 +20,10 @@ namespace aqs {
 // increasing order, rows 3u, 3u+1, 3u+2, then the diagonal-block rows 3v .. 3v+d.
 class StiffnessPattern {
  public:
-  // tets: 4 x num_elements; fixed: one flag per vertex.
-  StiffnessPattern(const Eigen::Matrix4Xi& tets, const std::vector<bool>& fixed);
+  // tets: 4 x num_elements; fixed: one flag per vertex. couplings: further vertex sets
+  // whose every pair gets a block (e.g. contact pairs, EnergyTerm::AppendVertexCouplings).
+  StiffnessPattern(const Eigen::Matrix4Xi& tets, const std::vector<bool>& fixed,
+                   const std::vector<std::vector<int>>& couplings = {});
 
   int num_vertices() const { return static_cast<int>(vertex_to_free_.size()); }
   int num_free_vertices() const { return static_cast<int>(free_to_vertex_.size()); }
@@ -41,6 +43,11 @@ class StiffnessPattern {
   // c, d when u != v and for c <= d when u == v. Returns -1 if either vertex is fixed or
   // free_index(u) > free_index(v) (then use (l, k) transposed).
   int64_t BlockOffset(int e, int k, int l, int d) const;
+  // The same for any two vertices u, v whose block is in the pattern (sharing an element
+  // or a coupling), by search in v's column: entry (3 fu + c, 3 fv + d) is at
+  // VertexBlockOffset(u, v, d) + c. Returns -1 if either vertex is fixed,
+  // free_index(u) > free_index(v) or the block is not in the pattern.
+  int64_t VertexBlockOffset(int u, int v, int d) const;
 
  private:
   std::vector<int> vertex_to_free_;
@@ -52,6 +59,13 @@ class StiffnessPattern {
   std::vector<int32_t> pair_slot_;  // 16 per element
   Eigen::Matrix4Xi tets_;
 };
+
+// Adds a dense symmetric Hessian over `vertices` (3 n x 3 n, vertex i's DOFs at rows
+// 3 i .. 3 i + 2; vertices distinct) into `values` (upper-triangle CSC of `pattern`).
+// Blocks of fixed vertices are dropped; every pair of free vertices must be in the
+// pattern (CHECKed).
+void AddVertexHessian(const std::vector<int>& vertices, const Eigen::MatrixXd& hessian,
+                      const StiffnessPattern& pattern, std::vector<double>* values);
 
 }  // namespace aqs
 

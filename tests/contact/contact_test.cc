@@ -15,6 +15,7 @@
 #include "geometry/surface_tet_mesher.h"
 #include "mesh/boundary_surface.h"
 #include "mesh/lattice.h"
+#include "sparse/stiffness_pattern.h"
 #include "testing/finite_difference.h"
 
 namespace aqs {
@@ -130,6 +131,20 @@ TEST(EdgeDistanceTest, GradientAndClosestPointsMatch) {
                                      testing::CentralDifferenceGradient(sine_of, x, 1e-6)),
               1e-7)
         << "trial " << trial << " sine " << sine;
+    // And its Hessian, against differences of that gradient.
+    auto sine_gradient = [](const Eigen::VectorXd& v) {
+      double sine = 0;
+      Eigen::Matrix<double, 3, 4> gradient;
+      CHECK(EdgeSine(v.segment<3>(0), v.segment<3>(3), v.segment<3>(6), v.segment<3>(9), &sine,
+                     &gradient));
+      return Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>(gradient.data(), 12));
+    };
+    Eigen::Matrix<double, 12, 12> hessian;
+    ASSERT_TRUE(EdgeSineHessian(x.segment<3>(0), x.segment<3>(3), x.segment<3>(6), x.segment<3>(9),
+                                &hessian));
+    EXPECT_LT(testing::RelativeError(hessian, testing::CentralDifferenceJacobian(sine_gradient, x, 1e-5)),
+              1e-6)
+        << "trial " << trial << " sine " << sine;
   }
   // Parallel edges are refused.
   double s = 0;
@@ -139,6 +154,53 @@ TEST(EdgeDistanceTest, GradientAndClosestPointsMatch) {
 }
 
 // A single-tet "mesh" whose vertices carry a point stencil, for term tests.
+TEST(SelfContactDistanceTest, HessianMatchesFiniteDifferences) {
+  std::mt19937 rng(11);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  const Eigen::Matrix3d rotation =
+      Eigen::AngleAxisd(2.3, Eigen::Vector3d(-0.2, 0.9, 0.4).normalized()).toRotationMatrix();
+  for (const SelfContactPair::Kind kind :
+       {SelfContactPair::Kind::kPointTriangle, SelfContactPair::Kind::kEdgeEdge}) {
+    SelfContactPair pair;
+    pair.kind = kind;
+    pair.sign = kind == SelfContactPair::Kind::kEdgeEdge ? -1.0 : 1.0;
+    // Random states; rotated; near-degenerate (a thin triangle, nearly parallel edges).
+    std::vector<Eigen::Matrix<double, 3, 4>> states;
+    for (int trial = 0; trial < 4; ++trial) {
+      Eigen::Matrix<double, 3, 4> points;
+      for (int k = 0; k < 12; ++k) points(k) = noise(rng);
+      states.push_back(points);
+      states.push_back(rotation * points);
+    }
+    Eigen::Matrix<double, 3, 4> thin;
+    if (kind == SelfContactPair::Kind::kPointTriangle) {
+      thin << 0.3, 0, 1, 0.5, 0.2, 0, 0, 0.02, 0.4, 0, 0.01, 0;  // corners nearly collinear
+    } else {
+      thin << 0, 1, 0.1, 1.1, 0, 0.02, 0.1, 0.1 - 0.02, 0, 0.01, -0.3, -0.3;  // sine ~0.04
+    }
+    states.push_back(thin);
+    for (const Eigen::Matrix<double, 3, 4>& state : states) {
+      const Eigen::Vector3d points[4] = {state.col(0), state.col(1), state.col(2), state.col(3)};
+      Eigen::Matrix<double, 12, 12> hessian;
+      ASSERT_TRUE(SelfContactDistanceHessian(pair, points, &hessian));
+      auto gradient = [&](const Eigen::VectorXd& flat) {
+        const Eigen::Vector3d p[4] = {flat.segment<3>(0), flat.segment<3>(3), flat.segment<3>(6),
+                                      flat.segment<3>(9)};
+        double s = 0, outside = 0;
+        Eigen::Matrix<double, 3, 4> g;
+        CHECK(SelfContactDistance(pair, p, &s, &g, &outside));
+        return Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>(g.data(), 12));
+      };
+      const Eigen::MatrixXd differenced = testing::CentralDifferenceJacobian(
+          gradient, Eigen::Map<const Eigen::VectorXd>(state.data(), 12), 1e-5);
+      EXPECT_LT(testing::RelativeError(hessian, differenced), 1e-6)
+          << (kind == SelfContactPair::Kind::kEdgeEdge ? "edge-edge" : "point-triangle") << "\n"
+          << state;
+      EXPECT_LT((hessian - hessian.transpose()).norm(), 1e-12 * hessian.norm());
+    }
+  }
+}
+
 PointStencil Stencil(int first, const Eigen::Vector4d& w) {
   PointStencil s;
   for (int j = 0; j < 4; ++j) {
@@ -147,6 +209,38 @@ PointStencil Stencil(int first, const Eigen::Vector4d& w) {
   }
   s.offset = Eigen::Vector3d(0.01, -0.02, 0.03);
   return s;
+}
+
+// A term's stiffness at x (3 x n, all vertices free) as a dense 3n x 3n matrix, on the
+// pattern of the given elements plus the term's couplings.
+Eigen::MatrixXd DenseStiffness(const EnergyTerm& term, const Eigen::Matrix3Xd& x,
+                               const Eigen::Matrix4Xi& tets) {
+  const int n = static_cast<int>(x.cols());
+  std::vector<std::vector<int>> couplings;
+  term.AppendVertexCouplings(&couplings);
+  const StiffnessPattern pattern(tets, std::vector<bool>(n, false), couplings);
+  std::vector<double> values(pattern.num_nonzeros(), 0.0);
+  term.AddStiffness(x, pattern, &values);
+  Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(3 * n, 3 * n);
+  for (int j = 0; j < pattern.num_dofs(); ++j) {
+    for (int64_t k = pattern.column_starts()[j]; k < pattern.column_starts()[j + 1]; ++k) {
+      const int64_t i = pattern.row_indices()[k];
+      dense(i, j) = dense(j, i) = values[k];
+    }
+  }
+  return dense;
+}
+
+// Central differences of a term's energy gradient at x (3 x n): its Hessian, 3n x 3n.
+Eigen::MatrixXd DifferencedHessian(const EnergyTerm& term, const Eigen::Matrix3Xd& x) {
+  const int n = static_cast<int>(x.cols());
+  auto gradient = [&](const Eigen::VectorXd& flat) {
+    Eigen::Matrix3Xd g = Eigen::Matrix3Xd::Zero(3, n);
+    term.AddEnergyAndGradient(Eigen::Map<const Eigen::Matrix3Xd>(flat.data(), 3, n), &g);
+    return Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>(g.data(), 3 * n));
+  };
+  return testing::CentralDifferenceJacobian(
+      gradient, Eigen::Map<const Eigen::VectorXd>(x.data(), 3 * n), 1e-6);
 }
 
 TEST(ObstacleContactTermTest, ResidualJacobianAndEnergyGradient) {
@@ -188,12 +282,17 @@ TEST(ObstacleContactTermTest, ResidualJacobianAndEnergyGradient) {
                 testing::CentralDifferenceGradient(
                     energy, Eigen::Map<const Eigen::VectorXd>(x.data(), 24), 1e-6)),
             1e-7);
+  // The stiffness (Gauss-Newton part, exact here: both closest features are faces).
+  Eigen::Matrix4Xi tets(4, 2);
+  tets << 0, 4, 1, 5, 2, 6, 3, 7;
+  EXPECT_LT(testing::RelativeError(DenseStiffness(term, x, tets), DifferencedHessian(term, x)),
+            1e-6);
 }
 
 // Checks one active self-contact pair (thickness 0.1, max depth 1, margin 0.05) at x
 // (3 x 16, its stencils over vertices 0..15, one shared): a positive residual, its
-// Jacobian against Ceres' GradientChecker and the energy gradient against central
-// differences.
+// Jacobian against Ceres' GradientChecker, the energy gradient against central
+// differences, and its stiffness against central differences of that gradient.
 void CheckActiveSelfContactPair(const SelfContactPair& pair, const Eigen::Matrix3Xd& x) {
   const SelfContactTerm term({pair}, 0.1, 1.0, 0.05);
   std::vector<int> block_vertices;
@@ -217,11 +316,18 @@ void CheckActiveSelfContactPair(const SelfContactPair& pair, const Eigen::Matrix
   };
   Eigen::Matrix3Xd gradient = Eigen::Matrix3Xd::Zero(3, 16);
   term.AddEnergyAndGradient(x, &gradient);
+  const Eigen::Map<const Eigen::VectorXd> flat_gradient(gradient.data(), 48);
   EXPECT_LT(testing::RelativeError(
-                Eigen::Map<const Eigen::VectorXd>(gradient.data(), 48),
-                testing::CentralDifferenceGradient(
-                    energy, Eigen::Map<const Eigen::VectorXd>(x.data(), 48), 1e-6)),
+                flat_gradient, testing::CentralDifferenceGradient(
+                                   energy, Eigen::Map<const Eigen::VectorXd>(x.data(), 48), 1e-6)),
             1e-7);
+  // The stencils' elements (the pair's coupling joins them).
+  Eigen::Matrix4Xi tets(4, 4);
+  const PointStencil* stencils[4] = {&pair.point, &pair.corner[0], &pair.corner[1], &pair.corner[2]};
+  for (int m = 0; m < 4; ++m) {
+    for (int j = 0; j < 4; ++j) tets(j, m) = stencils[m]->vertex[j];
+  }
+  EXPECT_LT(testing::RelativeError(DenseStiffness(term, x, tets), DifferencedHessian(term, x)), 1e-6);
 }
 
 TEST(SelfContactTermTest, ResidualJacobianAndEnergyGradient) {

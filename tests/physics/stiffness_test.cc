@@ -30,6 +30,62 @@ TEST(StiffnessPatternTest, ColumnsSortedUpperAndComplete) {
   }
 }
 
+TEST(StiffnessPatternTest, CouplingsAddBlocksFoundByVertexBlockOffset) {
+  const TetMesh mesh = testing::BarMesh(3, 2, 2, 1.0);
+  const BoundaryConditions bc = testing::LeftFaceFixed(mesh);
+  const std::vector<bool> fixed = FixedVertexMask(bc, mesh.num_vertices());
+  // Couple a fixed vertex (dropped), the first free one and the last one (far apart in
+  // the mesh).
+  const int n = mesh.num_vertices();
+  const StiffnessPattern plain(mesh.tets, fixed);
+  const std::vector<std::vector<int>> couplings = {{bc.vertices[0], plain.vertex_of_free(0), n - 1}};
+  const StiffnessPattern coupled(mesh.tets, fixed, couplings);
+  EXPECT_GT(coupled.num_nonzeros(), plain.num_nonzeros());
+  // Which vertex pairs share an element or the coupling.
+  std::vector<std::vector<char>> linked(n, std::vector<char>(n, 0));
+  for (int e = 0; e < mesh.num_tets(); ++e) {
+    for (int k = 0; k < 4; ++k) {
+      for (int l = 0; l < 4; ++l) linked[mesh.tets(k, e)][mesh.tets(l, e)] = 1;
+    }
+  }
+  for (int u : couplings[0]) {
+    for (int v : couplings[0]) linked[u][v] = 1;
+  }
+  for (int u = 0; u < n; ++u) {
+    for (int v = 0; v < n; ++v) {
+      const int fu = coupled.free_index(u), fv = coupled.free_index(v);
+      for (int d = 0; d < 3; ++d) {
+        const int64_t offset = coupled.VertexBlockOffset(u, v, d);
+        if (fu < 0 || fv < 0 || fu > fv || !linked[u][v]) {
+          EXPECT_EQ(offset, -1) << u << " " << v;
+          continue;
+        }
+        ASSERT_GE(offset, 0) << u << " " << v;
+        const int rows = u == v ? d + 1 : 3;
+        for (int c = 0; c < rows; ++c) {
+          // Entry (3 fu + c, 3 fv + d): in column 3 fv + d, at row 3 fu + c.
+          EXPECT_EQ(coupled.row_indices()[offset + c], 3 * fu + c);
+          EXPECT_GE(offset + c, coupled.column_starts()[3 * fv + d]);
+          EXPECT_LT(offset + c, coupled.column_starts()[3 * fv + d + 1]);
+        }
+      }
+    }
+  }
+  // Element blocks agree with BlockOffset.
+  for (int e = 0; e < mesh.num_tets(); ++e) {
+    for (int k = 0; k < 4; ++k) {
+      for (int l = 0; l < 4; ++l) {
+        for (int d = 0; d < 3; ++d) {
+          const int64_t by_element = coupled.BlockOffset(e, k, l, d);
+          if (by_element >= 0) {
+            EXPECT_EQ(by_element, coupled.VertexBlockOffset(mesh.tets(k, e), mesh.tets(l, e), d));
+          }
+        }
+      }
+    }
+  }
+}
+
 class StiffnessAssemblyTest : public ::testing::Test {
  protected:
   StiffnessAssemblyTest()
