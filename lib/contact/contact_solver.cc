@@ -88,6 +88,12 @@ class TriangleGrid {
 
 }  // namespace
 
+QuasistaticSolverOptions DefaultContactSolverOptions() {
+  QuasistaticSolverOptions options;
+  options.newton_relative_force = 0.1;
+  return options;
+}
+
 std::string ContactReport::Summary() const {
   std::ostringstream out;
   out.precision(4);
