@@ -40,7 +40,7 @@ constexpr double kMaxOffset = 10.0;
 class TriangleGrid {
  public:
   TriangleGrid(const Eigen::Matrix3Xd& vertices, const Eigen::Matrix3Xi& triangles, double cell)
-      : cell_(cell) {
+      : cell_(cell), num_triangles_(static_cast<int>(triangles.cols())) {
     lo_ = vertices.rowwise().minCoeff().array() - cell;
     for (Eigen::Index t = 0; t < triangles.cols(); ++t) {
       Eigen::Vector3d a = vertices.col(triangles(0, t)), b = a;
@@ -57,20 +57,28 @@ class TriangleGrid {
     }
   }
 
-  // Triangles whose box comes within one cell of p (may repeat).
-  void Near(const Eigen::Vector3d& p, std::vector<int>* out) const {
+  // Triangles whose box comes within one cell of p, each once (in the order the cells
+  // list them). `marks` (one per triangle, per thread; any initial values below 0) are
+  // set to `stamp` for the triangles returned: stamps must differ between calls that
+  // share marks (e.g. the query's index).
+  void Near(const Eigen::Vector3d& p, int stamp, std::vector<int>* marks,
+            std::vector<int>* out) const {
     out->clear();
+    marks->resize(num_triangles_, -1);
     const Eigen::Vector3i c = Cell(p);
     for (int i = c.x() - 1; i <= c.x() + 1; ++i) {
       for (int j = c.y() - 1; j <= c.y() + 1; ++j) {
         for (int k = c.z() - 1; k <= c.z() + 1; ++k) {
           auto it = cells_.find(Key(i, j, k));
-          if (it != cells_.end()) out->insert(out->end(), it->second.begin(), it->second.end());
+          if (it == cells_.end()) continue;
+          for (int t : it->second) {
+            if ((*marks)[t] == stamp) continue;
+            (*marks)[t] = stamp;
+            out->push_back(t);
+          }
         }
       }
     }
-    std::sort(out->begin(), out->end());
-    out->erase(std::unique(out->begin(), out->end()), out->end());
   }
 
  private:
@@ -82,6 +90,7 @@ class TriangleGrid {
            (static_cast<int64_t>(k) * 83492791);
   }
   double cell_;
+  int num_triangles_;
   Eigen::Vector3d lo_;
   std::unordered_map<int64_t, std::vector<int>> cells_;
 };
@@ -316,10 +325,12 @@ std::vector<SelfContactPair> ContactSolver::DetectSelfContacts(const Eigen::Matr
   const TriangleGrid grid(surface, tris, reach);
   const int ns = static_cast<int>(surface.cols());
   std::vector<int> best(ns, -1);
-  ParallelFor(options_.num_threads, 0, ns, [&](int, int i) {
+  const int threads = ParallelForThreadCount(options_.num_threads, ns, 64);
+  std::vector<std::vector<int>> marks(threads), candidate_lists(threads);
+  ParallelFor(options_.num_threads, 0, ns, [&](int thread, int i) {
     if (!in_contact_[i]) return;
-    std::vector<int> candidates;
-    grid.Near(surface.col(i), &candidates);
+    std::vector<int>& candidates = candidate_lists[thread];
+    grid.Near(surface.col(i), i, &marks[thread], &candidates);
     double best_distance = reach;
     const std::vector<int>& ring = rings_[i];
     for (int t : candidates) {
@@ -380,6 +391,9 @@ std::vector<SelfContactPair> ContactSolver::DetectEdgeContacts(
     longest = std::max(longest, (surface.col(edges_(0, e)) - surface.col(edges_(1, e))).norm());
   }
   const TriangleGrid grid(surface, segments, reach + longest);
+  // Pairs keep -max_depth < s < thickness + search_radius.
+  const double distance_limit =
+      std::max(options_.max_depth, options_.thickness + options_.search_radius);
   // Edge normals at the reference: the mean of the ends' vertex normals.
   const Eigen::Matrix3Xd vertex_normals = VertexNormals(reference, model_.neutral.triangles);
   Eigen::Matrix3Xd reference_normals(3, num_edges);
@@ -394,14 +408,25 @@ std::vector<SelfContactPair> ContactSolver::DetectEdgeContacts(
     double sign;
   };
   std::vector<std::vector<Partner>> partners(num_edges);
-  ParallelFor(options_.num_threads, 0, num_edges, [&](int, int e) {
+  const int threads = ParallelForThreadCount(options_.num_threads, num_edges, 64);
+  std::vector<std::vector<int>> marks(threads), candidate_lists(threads);
+  ParallelFor(options_.num_threads, 0, num_edges, [&](int thread, int e) {
     const int a = edges_(0, e), b = edges_(1, e);
-    std::vector<int> candidates;
-    grid.Near(0.5 * (surface.col(a) + surface.col(b)), &candidates);
+    std::vector<int>& candidates = candidate_lists[thread];
+    grid.Near(0.5 * (surface.col(a) + surface.col(b)), e, &marks[thread], &candidates);
     std::vector<Partner>& found = partners[e];
+    const Eigen::Vector3d middle = 0.5 * (surface.col(a) + surface.col(b));
+    const double length = (surface.col(b) - surface.col(a)).norm();
     for (int f : candidates) {
       if (edge_normals_.col(e).dot(edge_normals_.col(f)) > options_.max_normal_alignment) continue;
       const int c = edges_(0, f), d = edges_(1, f);
+      // Closest points within margin on both edges and |s| < distance_limit put the
+      // middles at most distance_limit + (1/2 + margin) (both lengths) apart.
+      const double other_length = (surface.col(d) - surface.col(c)).norm();
+      if ((0.5 * (surface.col(c) + surface.col(d)) - middle).norm() >
+          distance_limit + (0.5 + options_.margin) * (length + other_length)) {
+        continue;
+      }
       bool excluded = false;
       for (int v : {a, b}) {
         const std::vector<int>& ring = rings_[v];
