@@ -413,6 +413,19 @@ double PairResidual(const SelfContactPair& pair, const Eigen::Vector3d points[4]
   return w * r;
 }
 
+// The residual of `pair` at positions x (3 x num_vertices) and its gradient with respect
+// to the pair's four points (3 x 4), with the points and their stencils (point, then
+// corners).
+double PairResidualAt(const SelfContactPair& pair, const Eigen::Ref<const Eigen::Matrix3Xd>& x,
+                      double thickness, double max_depth, double margin,
+                      const PointStencil* stencils[4], Eigen::Vector3d points[4],
+                      Eigen::Matrix<double, 3, 4>* gradient) {
+  stencils[0] = &pair.point;
+  for (int c = 0; c < 3; ++c) stencils[c + 1] = &pair.corner[c];
+  for (int m = 0; m < 4; ++m) points[m] = stencils[m]->Position(x);
+  return PairResidual(pair, points, thickness, max_depth, margin, gradient);
+}
+
 class SelfContactCost final : public ceres::CostFunction {
  public:
   SelfContactCost(const SelfContactPair& pair, double thickness, double max_depth, double margin)
@@ -470,11 +483,11 @@ double SelfContactTerm::AddEnergyAndGradient(const Eigen::Ref<const Eigen::Matri
                                              Eigen::Matrix3Xd* gradient) const {
   double energy = 0.0;
   for (const SelfContactPair& pair : pairs_) {
-    const PointStencil* stencils[4] = {&pair.point, &pair.corner[0], &pair.corner[1], &pair.corner[2]};
+    const PointStencil* stencils[4];
     Eigen::Vector3d points[4];
-    for (int m = 0; m < 4; ++m) points[m] = stencils[m]->Position(x);
     Eigen::Matrix<double, 3, 4> dr;
-    const double r = PairResidual(pair, points, thickness_, max_depth_, margin_, &dr);
+    const double r =
+        PairResidualAt(pair, x, thickness_, max_depth_, margin_, stencils, points, &dr);
     if (r == 0.0) continue;
     energy += 0.5 * r * r;
     for (int m = 0; m < 4; ++m) {
@@ -492,11 +505,11 @@ void SelfContactTerm::AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>& x,
                                    const StiffnessPattern& pattern,
                                    std::vector<double>* values) const {
   for (const SelfContactPair& pair : pairs_) {
-    const PointStencil* stencils[4] = {&pair.point, &pair.corner[0], &pair.corner[1], &pair.corner[2]};
+    const PointStencil* stencils[4];
     Eigen::Vector3d points[4];
-    for (int m = 0; m < 4; ++m) points[m] = stencils[m]->Position(x);
     Eigen::Matrix<double, 3, 4> dr;
-    const double r = PairResidual(pair, points, thickness_, max_depth_, margin_, &dr);
+    const double r =
+        PairResidualAt(pair, x, thickness_, max_depth_, margin_, stencils, points, &dr);
     if (r == 0.0) continue;
     // Hessian of r^2 / 2 at the points: dr dr^T + r d2r, with d2r = -sqrt(k) Hess s, or
     // for edge-edge pairs in the fade band (r = w(x) q, q = sqrt(k) (thickness + offset -

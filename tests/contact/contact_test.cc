@@ -1,6 +1,7 @@
 #include <limits>
 #include <memory>
 #include <random>
+#include <string>
 
 #include <ceres/cost_function.h>
 #include <ceres/gradient_checker.h>
@@ -533,33 +534,28 @@ TEST(ContactSolverTest, CountsNewSelfIntersectionsByTheirRestState) {
   ContactOptions options;
   options.exclusion_rings = 0;
   const ContactSolver solver(model, options);
-  const SelfIntersectionCounts at_rest = solver.CountSelfIntersections(rest);
-  EXPECT_EQ(at_rest.all, 1);
-  EXPECT_EQ(at_rest.new_pairs, 0);
+  // The counts at a state, against all / new / separated / clean.
+  auto expect_counts = [&](const Eigen::Matrix3Xd& state, const std::string& what, int all,
+                           int new_pairs, int separated, int clean) {
+    const SelfIntersectionCounts counts = solver.CountSelfIntersections(state);
+    EXPECT_EQ(counts.all, all) << what;
+    EXPECT_EQ(counts.new_pairs, new_pairs) << what;
+    EXPECT_EQ(counts.separated, separated) << what;
+    EXPECT_EQ(counts.clean, clean) << what;
+  };
+  expect_counts(rest, "at rest", 1, 0, 0, 0);
   // C moved through A (which intersects B at rest): new and apart at rest, not clean.
   Eigen::Matrix3Xd c_through_a = rest;
   c_through_a.middleCols(6, 3) << 0.3, 0.4, 0.35, 0.3, 0.3, 0.3, 0.4, 0.4, 0.6;
-  const SelfIntersectionCounts a_c = solver.CountSelfIntersections(c_through_a);
-  EXPECT_EQ(a_c.all, 2);
-  EXPECT_EQ(a_c.new_pairs, 1);
-  EXPECT_EQ(a_c.separated, 1);
-  EXPECT_EQ(a_c.clean, 0);
+  expect_counts(c_through_a, "C through A", 2, 1, 1, 0);
   // D moved through C (both clean at rest): new, apart at rest and clean.
   Eigen::Matrix3Xd d_through_c = rest;
   d_through_c.middleCols(9, 3) << 0.2, 0.25, 0.15, 0.2, 0.2, 0.2, 0.85, 0.95, 0.95;
-  const SelfIntersectionCounts c_d = solver.CountSelfIntersections(d_through_c);
-  EXPECT_EQ(c_d.all, 2);
-  EXPECT_EQ(c_d.new_pairs, 1);
-  EXPECT_EQ(c_d.separated, 1);
-  EXPECT_EQ(c_d.clean, 1);
+  expect_counts(d_through_c, "D through C", 2, 1, 1, 1);
   // E turned through D, which it touched at rest: new and clean, not separated.
   Eigen::Matrix3Xd e_through_d = rest;
   e_through_d.middleCols(12, 3) << 0.8, 0.85, 0.75, 0.2, 0.2, 0.2, 0.85, 0.95, 0.95;
-  const SelfIntersectionCounts d_e = solver.CountSelfIntersections(e_through_d);
-  EXPECT_EQ(d_e.all, 2);
-  EXPECT_EQ(d_e.new_pairs, 1);
-  EXPECT_EQ(d_e.separated, 0);
-  EXPECT_EQ(d_e.clean, 1);
+  expect_counts(e_through_d, "E through D", 2, 1, 0, 1);
 }
 
 // Two soft balls, each a lattice under a smooth embedded sphere (as faces are modelled),
