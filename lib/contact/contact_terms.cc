@@ -413,17 +413,22 @@ double PairResidual(const SelfContactPair& pair, const Eigen::Vector3d points[4]
   return w * r;
 }
 
-// The residual of `pair` at positions x (3 x num_vertices) and its gradient with respect
-// to the pair's four points (3 x 4), with the points and their stencils (point, then
-// corners).
-double PairResidualAt(const SelfContactPair& pair, const Eigen::Ref<const Eigen::Matrix3Xd>& x,
-                      double thickness, double max_depth, double margin,
-                      const PointStencil* stencils[4], Eigen::Vector3d points[4],
-                      Eigen::Matrix<double, 3, 4>* gradient) {
-  stencils[0] = &pair.point;
-  for (int c = 0; c < 3; ++c) stencils[c + 1] = &pair.corner[c];
-  for (int m = 0; m < 4; ++m) points[m] = stencils[m]->Position(x);
-  return PairResidual(pair, points, thickness, max_depth, margin, gradient);
+// Calls visit(pair, stencils, points, r, dr) for every pair of `pairs` active at positions
+// x (3 x num_vertices): its stencils and points (point, then corners), its residual r != 0
+// and r's gradient dr with respect to the four points (3 x 4).
+template <typename Visit>
+void ForEachActivePair(const std::vector<SelfContactPair>& pairs,
+                       const Eigen::Ref<const Eigen::Matrix3Xd>& x, double thickness,
+                       double max_depth, double margin, const Visit& visit) {
+  for (const SelfContactPair& pair : pairs) {
+    const PointStencil* stencils[4] = {&pair.point, &pair.corner[0], &pair.corner[1],
+                                       &pair.corner[2]};
+    Eigen::Vector3d points[4];
+    for (int m = 0; m < 4; ++m) points[m] = stencils[m]->Position(x);
+    Eigen::Matrix<double, 3, 4> dr;
+    const double r = PairResidual(pair, points, thickness, max_depth, margin, &dr);
+    if (r != 0.0) visit(pair, stencils, points, r, dr);
+  }
 }
 
 class SelfContactCost final : public ceres::CostFunction {
@@ -482,18 +487,14 @@ SelfContactTerm::SelfContactTerm(const std::vector<SelfContactPair>& pairs, doub
 double SelfContactTerm::AddEnergyAndGradient(const Eigen::Ref<const Eigen::Matrix3Xd>& x,
                                              Eigen::Matrix3Xd* gradient) const {
   double energy = 0.0;
-  for (const SelfContactPair& pair : pairs_) {
-    const PointStencil* stencils[4];
-    Eigen::Vector3d points[4];
-    Eigen::Matrix<double, 3, 4> dr;
-    const double r =
-        PairResidualAt(pair, x, thickness_, max_depth_, margin_, stencils, points, &dr);
-    if (r == 0.0) continue;
+  ForEachActivePair(pairs_, x, thickness_, max_depth_, margin_,
+                    [&](const SelfContactPair&, const PointStencil* const* stencils,
+                        const Eigen::Vector3d*, double r, const Eigen::Matrix<double, 3, 4>& dr) {
     energy += 0.5 * r * r;
     for (int m = 0; m < 4; ++m) {
       for (int j = 0; j < 4; ++j) gradient->col(stencils[m]->vertex[j]) += r * stencils[m]->weight[j] * dr.col(m);
     }
-  }
+  });
   return energy;
 }
 
@@ -504,13 +505,10 @@ void SelfContactTerm::AppendVertexCouplings(std::vector<std::vector<int>>* coupl
 void SelfContactTerm::AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>& x,
                                    const StiffnessPattern& pattern,
                                    std::vector<double>* values) const {
-  for (const SelfContactPair& pair : pairs_) {
-    const PointStencil* stencils[4];
-    Eigen::Vector3d points[4];
-    Eigen::Matrix<double, 3, 4> dr;
-    const double r =
-        PairResidualAt(pair, x, thickness_, max_depth_, margin_, stencils, points, &dr);
-    if (r == 0.0) continue;
+  ForEachActivePair(pairs_, x, thickness_, max_depth_, margin_,
+                    [&](const SelfContactPair& pair, const PointStencil* const* stencils,
+                        const Eigen::Vector3d* points, double r,
+                        const Eigen::Matrix<double, 3, 4>& dr) {
     // Hessian of r^2 / 2 at the points: dr dr^T + r d2r, with d2r = -sqrt(k) Hess s, or
     // for edge-edge pairs in the fade band (r = w(x) q, q = sqrt(k) (thickness + offset -
     // s), x = (sine - kEdgeFadeSine) / band):
@@ -562,7 +560,7 @@ void SelfContactTerm::AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>& x,
       }
     }
     AddVertexHessian(blocks.vertices, hessian, pattern, values);
-  }
+  });
 }
 
 ceres::CostFunction* SelfContactTerm::NewCostFunction(int i, std::vector<int>* block_vertices) const {

@@ -613,15 +613,23 @@ double BallsGap(const ActiveModel& model, int surface_vertices_per_ball,
   return surface.rightCols(ns).row(0).minCoeff() - surface.leftCols(ns).row(0).maxCoeff();
 }
 
+// The right ball of TwoBallsModel pushed `distance` towards the left one (its bone's
+// motion into *push) and the contact-free equilibrium there (*free); false if that does
+// not converge.
+bool PushBalls(const ActiveModel& model, double distance, RigidTransform* push,
+               Eigen::Matrix3Xd* free) {
+  push->translation = Eigen::Vector3d(-distance, 0, 0);
+  return ContactFreeEquilibrium(model, *push, free);
+}
+
 TEST(ContactSolverTest, TwoSpheresPressedTogetherFlattenWithoutIntersecting) {
   // The right ball pushed 0.3 towards the left one (0.1 gap: 0.2 of overlap without
   // contact).
   int ns = 0;
   const ActiveModel model = TwoBallsModel(&ns);
   RigidTransform push;
-  push.translation = Eigen::Vector3d(-0.3, 0, 0);
   Eigen::Matrix3Xd free;
-  ASSERT_TRUE(ContactFreeEquilibrium(model, push, &free));
+  ASSERT_TRUE(PushBalls(model, 0.3, &push, &free));
   ContactOptions options = BallsContactOptions(0.4);
   for (int path_steps : {0, 8}) {
     options.path_steps = path_steps;
@@ -658,9 +666,8 @@ TEST(ContactSolverTest, NewtonStepsOnTheContactStiffnessReachTheTolerance) {
   int ns = 0;
   const ActiveModel model = TwoBallsModel(&ns);
   RigidTransform push;
-  push.translation = Eigen::Vector3d(-0.3, 0, 0);
   Eigen::Matrix3Xd free;
-  ASSERT_TRUE(ContactFreeEquilibrium(model, push, &free));
+  ASSERT_TRUE(PushBalls(model, 0.3, &push, &free));
   const ContactOptions options = BallsContactOptions(0.4);
   const ContactSolver contact(model, options);
   std::vector<SelfContactPair> pairs =
@@ -704,9 +711,8 @@ TEST(ContactSolverTest, SpheresPushedThroughEachOtherAreSeparatedAlongThePath) {
   int ns = 0;
   const ActiveModel model = TwoBallsModel(&ns);
   RigidTransform push;
-  push.translation = Eigen::Vector3d(-0.45, 0, 0);
   Eigen::Matrix3Xd free;
-  ASSERT_TRUE(ContactFreeEquilibrium(model, push, &free));
+  ASSERT_TRUE(PushBalls(model, 0.45, &push, &free));
   ContactOptions options = BallsContactOptions(0.25);
   options.path_steps = 0;
   // (Point-triangle pairs only: edge-edge pairs keep the sides of rest without a path
