@@ -11,6 +11,9 @@ DEFINE_string(model, "", "Model directory (written by aqs_prepare, read and upda
               "later stages).");
 DEFINE_string(pose_dir, "", "Folder that relative entries of .txt pose lists (--poses, "
               "--test_poses) are resolved in (default: the list file's folder).");
+DEFINE_string(solver, "newton", "How equilibria are solved: 'newton' (projected Newton with a "
+              "line search far from equilibrium, exact Newton near it; needs fixed vertices) or "
+              "'lm' (Ceres' Levenberg-Marquardt, then exact Newton; also for free bodies).");
 DEFINE_int32(threads, 2, "Threads (per-element work, parallel poses; BLAS follows OPENBLAS_NUM_THREADS).");
 
 namespace aqs {
@@ -36,6 +39,18 @@ std::vector<std::string> SplitCommaList(const std::string& text) {
     if (!item.empty()) items.push_back(item);
   }
   return items;
+}
+
+bool SolverMethodFromFlag(QuasistaticSolverOptions* options, std::string* error) {
+  if (FLAGS_solver == "newton") {
+    options->method = EquilibriumMethod::kNewton;
+  } else if (FLAGS_solver == "lm") {
+    options->method = EquilibriumMethod::kLevenbergMarquardt;
+  } else {
+    *error = "--solver must be 'newton' or 'lm' (is '" + FLAGS_solver + "')";
+    return false;
+  }
+  return true;
 }
 
 void PrintError(const std::string& message) {

@@ -4,7 +4,13 @@
 #include <string>
 #include <vector>
 
+#include "equilibrium/quasistatic_solver.h"
+
 namespace aqs {
+
+// Sets options->method from --solver ("newton" or "lm"). Returns false with *error
+// naming the flag for any other value.
+bool SolverMethodFromFlag(QuasistaticSolverOptions* options, std::string* error);
 
 // Parses gflags (with `usage`), sets up glog to print warnings and errors on stderr.
 // Exits with status 1 and a message if positional arguments are left over.

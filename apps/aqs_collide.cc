@@ -70,6 +70,10 @@ int main(int argc, char** argv) {
   options.contact.solver.relative_force_tolerance = FLAGS_contact_tolerance;
   options.contact.num_threads = FLAGS_threads;
   std::string error;
+  if (!aqs::SolverMethodFromFlag(&options.contact.solver, &error)) {
+    aqs::PrintError(error);
+    return 1;
+  }
   if (!FLAGS_contact_vertices.empty() &&
       !aqs::ParseVertexRanges(FLAGS_contact_vertices, &options.contact.surface_vertices, &error)) {
     aqs::PrintError(error);

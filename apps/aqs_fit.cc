@@ -54,6 +54,10 @@ int main(int argc, char** argv) {
   options.fit.latent_regularization = FLAGS_fit_regularization;
   options.fit.max_iterations = FLAGS_fit_iterations;
   options.fit.solver.relative_force_tolerance = FLAGS_fit_tolerance;
+  if (!aqs::SolverMethodFromFlag(&options.fit.solver, &error)) {
+    aqs::PrintError(error);
+    return 1;
+  }
   options.fit.num_threads = FLAGS_threads;
   options.points.max_distance = FLAGS_max_distance;
   options.points.robust_scale = FLAGS_robust_scale;

@@ -30,10 +30,12 @@ DEFINE_string(loss_target, "", "Target state (tet-mesh file, same vertex count) 
 DEFINE_string(gradient, "", "Where to write dL/da (one line per element); needs --loss_target.");
 DEFINE_double(tolerance, 1e-6, "Relative force tolerance: max free-vertex force <= tolerance "
               "x (force of an element under unit strain). Down to ~1e-13 is reachable.");
-DEFINE_int32(max_iterations, 200, "Ceres iterations at most.");
+DEFINE_int32(max_iterations, 200, "Iterations at most: stiffness factorizations (--solver=newton) "
+             "or Ceres iterations plus factorizations (--solver=lm).");
 DECLARE_int32(threads);
-DEFINE_double(newton_relative_force, 1e-2, "Switch from Levenberg-Marquardt (Ceres) to exact "
-              "Newton steps once the relative force is below this (0: Ceres only).");
+DEFINE_double(newton_relative_force, 1e-2, "Steps use the exact stiffness once the relative force "
+              "is below this (--solver=newton: projected stiffness above it, 0: projected only; "
+              "--solver=lm: Ceres above it, 0: Ceres only).");
 DEFINE_bool(verbose, false, "Print Ceres' per-iteration progress.");
 
 int main(int argc, char** argv) {
@@ -61,6 +63,11 @@ int main(int argc, char** argv) {
   options.solver.num_threads = FLAGS_threads;
   options.solver.log_progress = FLAGS_verbose;
   options.solver.newton_relative_force = FLAGS_newton_relative_force;
+  std::string error;
+  if (!aqs::SolverMethodFromFlag(&options.solver, &error)) {
+    aqs::PrintError(error);
+    return 1;
+  }
   if (!(FLAGS_tolerance > 0.0) || FLAGS_max_iterations < 1 || FLAGS_threads < 1 ||
       FLAGS_newton_relative_force < 0.0) {
     aqs::PrintError("--tolerance must be > 0, --newton_relative_force >= 0, --max_iterations "

@@ -2,6 +2,8 @@
 
 #include <gflags/gflags.h>
 
+#include "app_common.h"
+
 #include "prepare/pose_files.h"
 
 DEFINE_string(test_poses, "", "Held-out pose surfaces (folder, glob, .txt list or comma list), "
@@ -40,6 +42,7 @@ bool EvaluateOptionsFromFlags(EvaluateJobOptions* options, std::string* error) {
   options->fit.latent_regularization = FLAGS_latent_regularization;
   options->fit.max_iterations = FLAGS_evaluate_fit_iterations;
   options->fit.num_threads = FLAGS_threads;
+  if (!SolverMethodFromFlag(&options->fit.solver, error)) return false;
   options->autoencoder.latent_regularization = FLAGS_latent_regularization;
   options->autoencoder.max_iterations = FLAGS_baseline_iterations;
   options->write_fields = FLAGS_write_fields;

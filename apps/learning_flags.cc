@@ -74,6 +74,7 @@ bool TrainOptionsFromFlags(TrainOptions* options, std::string* error) {
   options->max_iterations = FLAGS_train_iterations;
   options->max_seconds = 60.0 * FLAGS_train_minutes;
   options->solver.relative_force_tolerance = FLAGS_train_tolerance;
+  if (!SolverMethodFromFlag(&options->solver, error)) return false;
   options->num_threads = FLAGS_threads;
   options->checkpoint_every = FLAGS_checkpoint_every;
   options->max_restarts = FLAGS_train_restarts;

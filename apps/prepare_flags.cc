@@ -118,6 +118,7 @@ bool PrepareOptionsFromFlags(PrepareJobOptions* options, std::string* error) {
   }
   options->targets.relative_stiffness = FLAGS_attachment_stiffness;
   options->targets.solver.relative_force_tolerance = FLAGS_prepare_tolerance;
+  if (!SolverMethodFromFlag(&options->targets.solver, error)) return false;
   options->num_threads = FLAGS_threads;
   return true;
 }

@@ -321,8 +321,9 @@ double ObstacleContactTerm::AddEnergyAndGradient(const Eigen::Ref<const Eigen::M
 }
 
 void ObstacleContactTerm::AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>& x,
-                                       const StiffnessPattern& pattern,
+                                       const StiffnessPattern& pattern, StiffnessKind /*kind*/,
                                        std::vector<double>* values) const {
+  // The Gauss-Newton part (positive semi-definite) for both kinds.
   for (size_t i = 0; i < points_.size(); ++i) {
     const PointStencil& s = points_[i];
     Eigen::Vector3d g;
@@ -503,7 +504,7 @@ void SelfContactTerm::AppendVertexCouplings(std::vector<std::vector<int>>* coupl
 }
 
 void SelfContactTerm::AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>& x,
-                                   const StiffnessPattern& pattern,
+                                   const StiffnessPattern& pattern, StiffnessKind kind,
                                    std::vector<double>* values) const {
   ForEachActivePair(pairs_, x, thickness_, max_depth_, margin_,
                     [&](const SelfContactPair& pair, const PointStencil* const* stencils,
@@ -519,7 +520,8 @@ void SelfContactTerm::AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>& x,
     Eigen::Matrix<double, 12, 12> hess_s;
     double s = 0, outside = 0;
     Eigen::Matrix<double, 3, 4> ds;
-    if (SelfContactDistanceHessian(pair, points, &hess_s) &&
+    // kProjected: the Gauss-Newton part dr dr^T alone (positive semi-definite).
+    if (kind == StiffnessKind::kExact && SelfContactDistanceHessian(pair, points, &hess_s) &&
         SelfContactDistance(pair, points, &s, &ds, &outside)) {
       const double root_k = std::sqrt(pair.stiffness);
       Eigen::Matrix<double, 12, 12> d2r = -root_k * hess_s;

@@ -35,7 +35,7 @@ class ObstacleContactTerm : public EnergyTerm {
   double AddEnergyAndGradient(const Eigen::Ref<const Eigen::Matrix3Xd>& x,
                               Eigen::Matrix3Xd* gradient) const override;
   void AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>& x, const StiffnessPattern& pattern,
-                    std::vector<double>* values) const override;
+                    StiffnessKind kind, std::vector<double>* values) const override;
   void AddResidualBlocks(ceres::Problem* problem,
                          const std::vector<double*>& vertex_blocks) const override;
 
@@ -117,7 +117,7 @@ class SelfContactTerm : public EnergyTerm {
   double AddEnergyAndGradient(const Eigen::Ref<const Eigen::Matrix3Xd>& x,
                               Eigen::Matrix3Xd* gradient) const override;
   void AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>& x, const StiffnessPattern& pattern,
-                    std::vector<double>* values) const override;
+                    StiffnessKind kind, std::vector<double>* values) const override;
   void AddResidualBlocks(ceres::Problem* problem,
                          const std::vector<double*>& vertex_blocks) const override;
 

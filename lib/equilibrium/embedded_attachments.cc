@@ -83,8 +83,9 @@ double EmbeddedAttachments::AddEnergyAndGradient(const Eigen::Ref<const Eigen::M
 }
 
 void EmbeddedAttachments::AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>& x,
-                                       const StiffnessPattern& pattern,
+                                       const StiffnessPattern& pattern, StiffnessKind /*kind*/,
                                        std::vector<double>* values) const {
+  // Constant and positive semi-definite: both kinds are the exact Hessian.
   // Hessian block (j, l) of point i: k_i w_ij w_il I3 on the element's vertex pair.
   for (int i = 0; i < num_points(); ++i) {
     const int e = element_[i];

@@ -45,7 +45,8 @@ class EmbeddedAttachments : public EnergyTerm {
   double AddEnergyAndGradient(const Eigen::Ref<const Eigen::Matrix3Xd>& x,
                               Eigen::Matrix3Xd* gradient) const override;
   void AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>& x, const StiffnessPattern& pattern,
-                    std::vector<double>* values) const override;
+                    StiffnessKind kind, std::vector<double>* values) const override;
+  bool HasConstantHessian() const override { return true; }
   void AddResidualBlocks(ceres::Problem* problem,
                          const std::vector<double*>& vertex_blocks) const override;
 

@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 
 #include "physics/shape_target_model.h"
+#include "physics/stiffness_assembly.h"
 #include "sparse/stiffness_pattern.h"
 
 namespace ceres {
@@ -37,6 +38,10 @@ class EnergyTerm {
   // QuasistaticSolver with such a term uses Levenberg-Marquardt only.
   virtual bool SupportsStiffness() const { return true; }
 
+  // Whether the term's Hessian is the same at every x (a quadratic energy): then a
+  // solver may keep a factorization that includes it across solves.
+  virtual bool HasConstantHessian() const { return false; }
+
   // Appends the vertex sets (simulation vertex indices) whose pairs the term's Hessian
   // couples beyond the model's elements: the stiffness pattern then holds every pair of
   // each set. The sets must not change while a factorization built with them is in use.
@@ -44,9 +49,13 @@ class EnergyTerm {
 
   // Adds the term's Hessian at x into `values` (upper-triangle CSC of `pattern`, as
   // AssembleStiffness fills it; pattern.VertexBlockOffset finds any coupled pair).
-  // Entries of fixed vertices are dropped.
+  // Entries of fixed vertices are dropped. kExact: the Hessian itself; kProjected and
+  // kRotationFixed: a positive semi-definite approximation of it (e.g. its Gauss-Newton
+  // part), for descent steps far from equilibrium (MinimizeEnergyNewton) and the
+  // preconditioner of MinimizeEnergyLbfgs.
   virtual void AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>& x,
-                            const StiffnessPattern& pattern, std::vector<double>* values) const = 0;
+                            const StiffnessPattern& pattern, StiffnessKind kind,
+                            std::vector<double>* values) const = 0;
 
   // Adds the term's residual blocks to `problem`. vertex_block(v) is the parameter
   // block (3 doubles) of vertex v; blocks of vertices not yet in the problem may be

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include <ceres/ordered_groups.h>
@@ -9,21 +10,61 @@
 #include <ceres/solver.h>
 #include <glog/logging.h>
 
-#include "equilibrium/newton_refinement.h"
+#include "equilibrium/newton_solver.h"
+#include "equilibrium/preconditioned_lbfgs.h"
 #include "equilibrium/shape_target_cost_function.h"
 #include "sparse/vertex_ordering.h"
 #include "util/wall_timer.h"
 
 namespace aqs {
 
+bool QuasistaticSolverOptions::Validate(std::string* error) const {
+  std::ostringstream out;
+  if (!(relative_force_tolerance > 0.0) || !std::isfinite(relative_force_tolerance)) {
+    out << "relative_force_tolerance must be finite and > 0 (is " << relative_force_tolerance
+        << ")";
+  } else if (max_iterations < 1) {
+    out << "max_iterations must be >= 1 (is " << max_iterations << ")";
+  } else if (max_lbfgs_iterations < 0) {
+    out << "max_lbfgs_iterations must be >= 0 (is " << max_lbfgs_iterations << ")";
+  } else if (num_threads < 1 || num_threads > 1024) {
+    out << "num_threads must be in [1, 1024] (is " << num_threads << ")";
+  } else if (!(newton_relative_force >= 0.0) || !std::isfinite(newton_relative_force)) {
+    out << "newton_relative_force must be finite and >= 0 (is " << newton_relative_force << ")";
+  } else if (!(function_tolerance >= 0.0) || !std::isfinite(function_tolerance)) {
+    out << "function_tolerance must be finite and >= 0 (is " << function_tolerance << ")";
+  } else if (!(parameter_tolerance >= 0.0) || !std::isfinite(parameter_tolerance)) {
+    out << "parameter_tolerance must be finite and >= 0 (is " << parameter_tolerance << ")";
+  }
+  *error = out.str();
+  return error->empty();
+}
+
+std::string QuasistaticSolveReport::Path() const {
+  std::vector<std::string> parts;
+  if (lm_iterations > 0) {
+    parts.push_back("LM " + std::to_string(lm_iterations) + " iterations (" +
+                    std::to_string(successful_iterations) + " accepted)");
+  }
+  if (lbfgs_iterations > 0) parts.push_back("L-BFGS " + std::to_string(lbfgs_iterations) + " iterations");
+  if (newton_steps > 0) {
+    parts.push_back("Newton " + std::to_string(projected_steps) + " projected + " +
+                    std::to_string(exact_steps) + " exact steps");
+  }
+  std::string path = parts.empty() ? std::string("no iterations") : parts[0];
+  for (size_t i = 1; i < parts.size(); ++i) path += " + " + parts[i];
+  path += ", " + std::to_string(factorizations) + " factorizations";
+  if (shifted_factorizations > 0) path += " (" + std::to_string(shifted_factorizations) + " shifted)";
+  return path;
+}
+
 std::string QuasistaticSolveReport::Summary() const {
   std::ostringstream out;
   out.precision(4);
-  out << (converged ? "converged" : "NOT CONVERGED") << ": " << lm_iterations
-      << " LM iterations (" << successful_iterations << " accepted) + " << newton_steps
-      << " Newton steps, energy " << initial_energy << " -> "
-      << final_energy << ", max force " << initial_max_force << " -> " << final_max_force
-      << " (tolerance " << force_tolerance << "), " << seconds << " s; " << termination;
+  out << (converged ? "converged" : "NOT CONVERGED") << ": " << Path() << ", energy "
+      << initial_energy << " -> " << final_energy << ", max force " << initial_max_force
+      << " -> " << final_max_force << " (tolerance " << force_tolerance << "), " << seconds
+      << " s; " << termination;
   return out.str();
 }
 
@@ -128,25 +169,87 @@ void QuasistaticSolver::AddEnergyTerm(const EnergyTerm* term) {
   term->AppendVertexCouplings(&couplings);
   if (!couplings.empty()) {
     factorization_.reset();  // its pattern lacks the new couplings; rebuilt on next use
-  } else if (factorization_) {
-    factorization_->set_energy_terms(terms_);
+    preconditioner_.reset();
+  } else {
+    if (factorization_) factorization_->set_energy_terms(terms_);
+    if (preconditioner_) preconditioner_->set_energy_terms(terms_);
   }
+  preconditioner_current_ = false;
 }
 
-bool QuasistaticSolver::RunNewton(QuasistaticSolveReport* report) {
-  NewtonRefinementOptions newton;
+bool QuasistaticSolver::RunNewton(double exact_threshold, QuasistaticSolveReport* report) {
+  NewtonSolverOptions newton;
   newton.force_tolerance = report->force_tolerance;
-  newton.max_steps = options_.max_newton_steps;
+  newton.exact_force_threshold = exact_threshold;
+  newton.max_factorizations = std::max(1, options_.max_iterations - report->iterations);
   Eigen::Matrix3Xd x = positions();
-  const NewtonRefinementReport result =
-      RefineEquilibrium(newton, actuation(), stiffness_factorization(), &x);
+  const NewtonSolveReport result =
+      MinimizeEnergyNewton(newton, actuation(), stiffness_factorization(), &x);
   SetPositions(x);
-  report->newton_steps += result.steps;
+  report->projected_steps += result.projected_steps;
+  report->exact_steps += result.exact_steps;
+  report->newton_steps += result.projected_steps + result.exact_steps;
+  report->factorizations += result.factorizations;
+  report->shifted_factorizations += result.shifted_factorizations;
+  report->line_search_evaluations += result.energy_evaluations;
+  report->iterations += result.factorizations;
   report->final_max_force = result.final_max_force;
   report->final_energy = result.final_energy;
   if (!report->termination.empty()) report->termination += "; ";
   report->termination += "Newton: " + result.message;
   return result.converged;
+}
+
+void QuasistaticSolver::RunLbfgs(double tolerance, QuasistaticSolveReport* report) {
+  bool constant = true;
+  for (const EnergyTerm* term : terms_) constant = constant && term->HasConstantHessian();
+  if (!preconditioner_) {
+    std::vector<std::vector<int>> couplings;
+    for (const EnergyTerm* term : terms_) term->AppendVertexCouplings(&couplings);
+    preconditioner_ = std::make_unique<StiffnessFactorization>(model_, fixed_mask_,
+                                                               options_.num_threads, couplings);
+    preconditioner_->set_energy_terms(terms_);
+    preconditioner_current_ = false;
+  }
+  if (!preconditioner_current_ || !constant) {
+    std::string error;
+    preconditioner_->Assemble(positions(), actuation(), StiffnessKind::kRotationFixed);
+    ++report->factorizations;
+    ++report->iterations;
+    if (!preconditioner_->FactorizeAssembled(0.0, &error)) {
+      if (!report->termination.empty()) report->termination += "; ";
+      report->termination += "L-BFGS: no preconditioner: " + error;
+      return;  // Newton's projected steps take over
+    }
+    preconditioner_current_ = true;
+  }
+  PreconditionedLbfgsOptions lbfgs;
+  lbfgs.force_tolerance = tolerance;
+  lbfgs.max_iterations = options_.max_lbfgs_iterations;
+  Eigen::Matrix3Xd x = positions();
+  const PreconditionedLbfgsReport result =
+      MinimizeEnergyLbfgs(lbfgs, actuation(), preconditioner_.get(), &x);
+  SetPositions(x);
+  report->lbfgs_iterations += result.iterations;
+  report->line_search_evaluations += result.energy_evaluations;
+  report->final_max_force = result.final_max_force;
+  report->final_energy = result.final_energy;
+  if (!report->termination.empty()) report->termination += "; ";
+  report->termination += "L-BFGS: " + result.message;
+}
+
+std::string QuasistaticSolver::RefusalReason() const {
+  const Eigen::Map<const ActuationMatrix> a = actuation();
+  for (int e = 0; e < model_.num_elements(); ++e) {
+    if (!a.col(e).allFinite()) {
+      return "the actuation of element " + std::to_string(e) + " is not finite";
+    }
+  }
+  if (options_.method == EquilibriumMethod::kNewton && fixed_vertices_.empty()) {
+    return "the body has no fixed vertex, so its stiffness is singular (rigid motions are "
+           "free) and Newton steps are undefined: fix vertices, or use Levenberg-Marquardt";
+  }
+  return std::string();
 }
 
 void QuasistaticSolver::RunCeres(double tolerance, QuasistaticSolveReport* report) {
@@ -201,6 +304,12 @@ QuasistaticSolveReport QuasistaticSolver::Solve() {
   QuasistaticSolveReport report;
   report.force_tolerance = ForceTolerance();
   ApplyFixedPositions();
+  const std::string refusal = RefusalReason();
+  if (!refusal.empty()) {
+    report.termination = "refused: " + refusal;
+    report.seconds = timer.Seconds();
+    return report;
+  }
   report.initial_max_force = MaxFreeForce(&report.initial_energy);
   report.final_energy = report.initial_energy;
   report.final_max_force = report.initial_max_force;
@@ -215,27 +324,39 @@ QuasistaticSolveReport QuasistaticSolver::Solve() {
     report.seconds = timer.Seconds();
     return report;
   }
-  // Newton needs a positive definite K (fixed vertices must remove rigid motions) and
-  // every energy term's Hessian on the mesh's pattern.
-  bool use_newton = options_.newton_relative_force > 0.0 && !fixed_vertices_.empty();
-  for (const EnergyTerm* term : terms_) use_newton = use_newton && term->SupportsStiffness();
-  const double newton_threshold =
-      std::max(report.force_tolerance, options_.newton_relative_force * model_.force_scale());
-  bool done = false;
-  if (use_newton && report.initial_max_force <= newton_threshold) {
-    done = RunNewton(&report);  // a warm start near the answer
-  }
-  if (!done) {
-    RunCeres(use_newton ? newton_threshold : report.force_tolerance, &report);
-    done = report.final_max_force <= report.force_tolerance;
-    if (!done && use_newton && report.final_max_force <= newton_threshold) {
-      done = RunNewton(&report);
-      if (!done && report.iterations < options_.max_iterations) {
-        RunCeres(report.force_tolerance, &report);  // Newton failed: Ceres to the end
+  // Newton needs every energy term's Hessian; a free body (kLevenbergMarquardt only
+  // here) has no positive definite K.
+  bool have_stiffness = !fixed_vertices_.empty();
+  for (const EnergyTerm* term : terms_) have_stiffness = have_stiffness && term->SupportsStiffness();
+  const double newton_threshold = options_.newton_relative_force * model_.force_scale();
+  if (options_.method == EquilibriumMethod::kNewton && have_stiffness) {
+    // Far from equilibrium preconditioned L-BFGS (no factorization once its
+    // preconditioner is built), then Newton.
+    if (report.initial_max_force > std::max(report.force_tolerance, newton_threshold) &&
+        options_.max_lbfgs_iterations > 0) {
+      RunLbfgs(std::max(report.force_tolerance, newton_threshold), &report);
+    }
+    if (report.final_max_force > report.force_tolerance) RunNewton(newton_threshold, &report);
+  } else {
+    const bool use_newton = have_stiffness && options_.newton_relative_force > 0.0;
+    const double ceres_tolerance = std::max(report.force_tolerance, newton_threshold);
+    bool done = false;
+    if (use_newton && report.initial_max_force <= ceres_tolerance) {
+      done = RunNewton(std::numeric_limits<double>::infinity(), &report);  // a warm start
+    }
+    if (!done) {
+      RunCeres(use_newton ? ceres_tolerance : report.force_tolerance, &report);
+      done = report.final_max_force <= report.force_tolerance;
+      if (!done && use_newton && report.final_max_force <= ceres_tolerance &&
+          report.iterations < options_.max_iterations) {
+        done = RunNewton(std::numeric_limits<double>::infinity(), &report);
+        if (!done && report.iterations < options_.max_iterations) {
+          RunCeres(report.force_tolerance, &report);  // Newton failed: Ceres to the end
+        }
       }
     }
   }
-  report.iterations = report.lm_iterations + report.newton_steps;
+  report.iterations = report.lm_iterations + report.factorizations;
   report.converged = report.final_max_force <= report.force_tolerance &&
                      std::isfinite(report.final_energy);
   report.seconds = timer.Seconds();

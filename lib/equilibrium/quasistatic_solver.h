@@ -32,43 +32,62 @@ enum class NormalEquationsOrdering {
   kCeresDefault,
 };
 
+// How QuasistaticSolver::Solve minimizes the energy. Measured in docs/benchmarks.md.
+enum class EquilibriumMethod {
+  // Newton's method with a line search on the energy (equilibrium/newton_solver.h):
+  // steps on the PSD-projected stiffness far from equilibrium, on the exact stiffness
+  // near it (below newton_relative_force). Converges from any start in a few tens of
+  // factorizations. Needs fixed vertices (a free body's stiffness is singular) and
+  // energy terms that have a stiffness.
+  kNewton,
+  // Ceres' Levenberg-Marquardt on the least-squares form (one ShapeTargetCostFunction
+  // per element), then exact Newton steps once the largest force is below
+  // newton_relative_force. Works for free bodies and for energy terms without a
+  // stiffness; converges linearly, and can crawl far from equilibrium.
+  kLevenbergMarquardt,
+};
+
 struct QuasistaticSolverOptions {
+  EquilibriumMethod method = EquilibriumMethod::kNewton;
   // Convergence: the largest residual force on a free vertex, |dE/dx_v|, is at most
   // relative_force_tolerance * model.force_scale() (the nodal force of an element
   // under unit strain). 1e-6 means equilibrium to about 1e-6 strain.
   //
-  // Below ~1e-9 the test meets the floating-point floor of least squares: the cost
-  // changes of such small steps are round-off (~10 eps of E), so Ceres can no longer
-  // tell good steps from bad. Tighter tolerances need function_tolerance = 0 and
-  // may end NOT CONVERGED at that floor.
+  // Below ~1e-9 the test meets the floating-point floor of least squares (with
+  // kLevenbergMarquardt): the cost changes of such small steps are round-off (~10 eps
+  // of E), so Ceres can no longer tell good steps from bad. Newton steps decide on the
+  // force there and reach ~1e-13.
   double relative_force_tolerance = 1e-6;
-  // Ceres iterations (successful and rejected steps) at most.
+  // Iterations at most: stiffness factorizations (kNewton), or Ceres iterations
+  // (successful and rejected steps) plus Newton factorizations (kLevenbergMarquardt).
   int max_iterations = 200;
-  // Threads for residual/Jacobian evaluation (CHOLMOD's BLAS threads are set by
-  // OPENBLAS_NUM_THREADS).
+  // kNewton: preconditioned L-BFGS iterations at most, far from equilibrium (each one
+  // solve with a factorization kept across solves; no factorization of its own).
+  int max_lbfgs_iterations = 500;
+  // Threads for energy, stiffness and residual/Jacobian evaluation (CHOLMOD's BLAS
+  // threads are set by OPENBLAS_NUM_THREADS).
   int num_threads = 2;
-  // Print Ceres' per-iteration progress lines to stdout.
+  // Print Ceres' per-iteration progress lines to stdout (kLevenbergMarquardt).
   bool log_progress = false;
-  // Ordering of the normal equations (see NormalEquationsOrdering).
+  // Ordering of Ceres' normal equations (see NormalEquationsOrdering).
   NormalEquationsOrdering ordering = NormalEquationsOrdering::kVertexFillReducing;
   // Ceres' use_postordering (static orderings only).
   bool use_postordering = false;
-  // Exact Newton steps near equilibrium (equilibrium/newton_refinement.h). Once the
-  // largest force is below newton_relative_force x force_scale (at the start, for warm
-  // starts, or when Ceres gets there), the solve continues with Newton steps on the
-  // exact stiffness, which converge quadratically where Levenberg-Marquardt on the
-  // least-squares form converges linearly (its J^T J lacks the curvature of
-  // incompatible targets). If a Newton step fails (K not positive definite, or no
-  // force decrease), Ceres takes over again. 0 disables Newton: Ceres only (as do
-  // energy terms without a stiffness, EnergyTerm::SupportsStiffness). Contact terms
-  // (lib/contact) have one, on a pattern extended by their pairs' couplings.
+  // Exact stiffness near equilibrium: once the largest force is below
+  // newton_relative_force x force_scale, steps use the exact stiffness, which converges
+  // quadratically (Levenberg-Marquardt's J^T J lacks the curvature of incompatible
+  // targets and converges linearly). kNewton: above it steps use the projected
+  // stiffness; 0 means projected steps only. kLevenbergMarquardt: Ceres runs down to
+  // it, then Newton; 0 means Ceres only. Contact solves (lib/contact) use 0.1.
   double newton_relative_force = 1e-2;
-  int max_newton_steps = 8;
   // Ceres' relative cost-change and step-size stopping tests. function_tolerance
   // 1e-15 stops only at the round-off floor of the cost (where further iterations
   // are noise); the force test above decides whether the result counts as converged.
   double function_tolerance = 1e-15;
   double parameter_tolerance = 1e-14;
+
+  // Checks every field; false with *error naming the first bad one (by field name).
+  bool Validate(std::string* error) const;
 };
 
 struct QuasistaticSolveReport {
@@ -79,7 +98,19 @@ struct QuasistaticSolveReport {
   int iterations = 0;
   int lm_iterations = 0;
   int successful_iterations = 0;
+  // kNewton far from equilibrium: preconditioned L-BFGS iterations (one solve with the
+  // rotation-fixed stiffness each; equilibrium/preconditioned_lbfgs.h).
+  int lbfgs_iterations = 0;
+  // Newton steps taken (projected + exact), and the stiffness factorizations of the
+  // solve: Newton's (a step whose exact stiffness is rejected, or that needs a shift,
+  // factorizes more than once) plus the L-BFGS preconditioner's, when it had to be
+  // (re)built (once per solver while its energy terms have constant Hessians).
   int newton_steps = 0;
+  int projected_steps = 0;
+  int exact_steps = 0;
+  int factorizations = 0;
+  int shifted_factorizations = 0;
+  int line_search_evaluations = 0;
   double initial_energy = 0.0;
   double final_energy = 0.0;
   // Largest force norm |dE/dx_v| over free vertices, before and after.
@@ -96,7 +127,11 @@ struct QuasistaticSolveReport {
   double ceres_evaluation_seconds = 0.0;
   double ceres_linear_solver_seconds = 0.0;
 
-  // One line: converged/NOT CONVERGED, iterations, energies, forces, reason, time.
+  // The path the solve took, e.g. "Newton: 9 projected + 3 exact steps, 12
+  // factorizations" or "LM 25 iterations (20 accepted) + Newton: 2 exact steps, 2
+  // factorizations".
+  std::string Path() const;
+  // One line: converged/NOT CONVERGED, path, energies, forces, reason, time.
   std::string Summary() const;
 };
 
@@ -162,8 +197,10 @@ class QuasistaticSolver {
   void AddEnergyTerm(const EnergyTerm* term);
   const std::vector<const EnergyTerm*>& energy_terms() const { return terms_; }
 
-  // Minimizes E(., actuation()) (plus energy terms) from positions(). Returns what happened; a solve that
-  // does not reach the force tolerance says so (converged = false).
+  // Minimizes E(., actuation()) (plus energy terms) from positions() by
+  // options().method. Returns what happened; a solve that does not reach the force
+  // tolerance says so (converged = false), as does one refused before it starts
+  // (non-finite actuations; kNewton on a body without fixed vertices).
   QuasistaticSolveReport Solve();
 
   // Largest |dE/dx_v| over free vertices at the current state (and E through *energy;
@@ -181,8 +218,15 @@ class QuasistaticSolver {
   void ApplyFixedPositions();
   // Runs Ceres from the current state to the absolute force `tolerance`.
   void RunCeres(double tolerance, QuasistaticSolveReport* report);
-  // Newton steps from the current state; true if the force tolerance was reached.
-  bool RunNewton(QuasistaticSolveReport* report);
+  // Newton steps (MinimizeEnergyNewton) from the current state, exact stiffness below
+  // the absolute force `exact_threshold`; true if the force tolerance was reached.
+  bool RunNewton(double exact_threshold, QuasistaticSolveReport* report);
+  // Preconditioned L-BFGS from the current state down to the absolute force
+  // `tolerance` (builds or refreshes the preconditioner as needed).
+  void RunLbfgs(double tolerance, QuasistaticSolveReport* report);
+  // Why this solve cannot start (empty if it can): non-finite actuations, a free body
+  // for kNewton.
+  std::string RefusalReason() const;
   double* vertex(int v) { return positions_.data() + 3 * static_cast<size_t>(v); }
 
   const ShapeTargetModel& model_;
@@ -196,6 +240,10 @@ class QuasistaticSolver {
   std::vector<double> positions_;
   std::unique_ptr<ceres::Problem> problem_;
   std::unique_ptr<StiffnessFactorization> factorization_;
+  // The rotation-fixed stiffness, factorized, preconditioning L-BFGS (kNewton far from
+  // equilibrium); kept across solves while every energy term's Hessian is constant.
+  std::unique_ptr<StiffnessFactorization> preconditioner_;
+  bool preconditioner_current_ = false;
   std::vector<const EnergyTerm*> terms_;
   // Free vertices in fill-reducing order (computed on the first Solve that needs it).
   std::vector<int> vertex_order_;

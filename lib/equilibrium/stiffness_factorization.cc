@@ -24,23 +24,41 @@ StiffnessFactorization::~StiffnessFactorization() = default;
 bool StiffnessFactorization::Factorize(const ShapeTargetModel::PositionsRef& x,
                                        const ShapeTargetModel::ActuationRef& a, StiffnessKind kind,
                                        std::string* error) {
+  Assemble(x, a, kind);
+  return FactorizeAssembled(0.0, error);
+}
+
+void StiffnessFactorization::Assemble(const ShapeTargetModel::PositionsRef& x,
+                                      const ShapeTargetModel::ActuationRef& a, StiffnessKind kind) {
   timings_ = FactorizationTimings();
-  if (pattern_.num_dofs() == 0) {
-    *error = "every vertex is fixed: the stiffness has no free degrees of freedom";
-    return false;
-  }
   WallTimer timer;
   AssembleStiffness(model_, pattern_, x, a, kind, num_threads_, &values_);
   for (const EnergyTerm* term : terms_) {
     CHECK(term->SupportsStiffness()) << "an energy term without a stiffness on the mesh's pattern";
-    term->AddStiffness(x, pattern_, &values_);
+    term->AddStiffness(x, pattern_, kind, &values_);
   }
+  // The diagonal entry of column c is the last of the column (rows sorted, row <= c).
+  const std::vector<int64_t>& starts = pattern_.column_starts();
+  diagonal_.resize(pattern_.num_dofs());
+  for (int c = 0; c < pattern_.num_dofs(); ++c) diagonal_[c] = values_[starts[c + 1] - 1];
   timings_.assembly = timer.Seconds();
+}
+
+bool StiffnessFactorization::FactorizeAssembled(double relative_shift, std::string* error) {
+  CHECK_GE(relative_shift, 0.0);
+  if (pattern_.num_dofs() == 0) {
+    *error = "every vertex is fixed: the stiffness has no free degrees of freedom";
+    return false;
+  }
+  CHECK_EQ(diagonal_.size(), pattern_.num_dofs()) << "Assemble first";
+  const std::vector<int64_t>& starts = pattern_.column_starts();
+  const double shift = relative_shift * diagonal_.cwiseAbs().mean();
+  for (int c = 0; c < pattern_.num_dofs(); ++c) values_[starts[c + 1] - 1] = diagonal_[c] + shift;
   const bool first = cholesky_.factor_nonzeros() == 0.0;
   std::string cholmod_error;
   const bool ok = cholesky_.Factorize(values_, &cholmod_error);
   if (first) timings_.analysis = cholesky_.analyze_seconds();
-  timings_.factorization = cholesky_.factorize_seconds();
+  timings_.factorization += cholesky_.factorize_seconds();
   if (!ok) {
     std::ostringstream out;
     out << "the stiffness K = d2E/dx2 cannot be factorized at this state: " << cholmod_error;

@@ -55,6 +55,14 @@ class StiffnessFactorization {
   // the factorization broke down.
   bool Factorize(const ShapeTargetModel::PositionsRef& x, const ShapeTargetModel::ActuationRef& a,
                  StiffnessKind kind, std::string* error);
+  // The two halves of Factorize: Assemble fills values() with K at (x, a) (the model's
+  // stiffness of that kind plus the energy terms' Hessians of that kind);
+  // FactorizeAssembled factorizes K + shift * mean(diag K) * I (shift >= 0: 0 for K
+  // itself; a positive shift makes a singular PSD matrix definite). It may be called
+  // again with another shift without re-assembling.
+  void Assemble(const ShapeTargetModel::PositionsRef& x, const ShapeTargetModel::ActuationRef& a,
+                StiffnessKind kind);
+  bool FactorizeAssembled(double relative_shift, std::string* error);
   bool factorized() const { return cholesky_.factorized(); }
 
   // K^-1 b for per-vertex b.
@@ -80,6 +88,8 @@ class StiffnessFactorization {
   StiffnessPattern pattern_;
   SparseCholesky cholesky_;
   std::vector<double> values_;
+  // The diagonal of K as assembled, for shifted factorizations.
+  Eigen::VectorXd diagonal_;
   std::vector<const EnergyTerm*> terms_;
   FactorizationTimings timings_;
 };

@@ -6,7 +6,6 @@
 
 #include <Eigen/LU>
 
-#include "equilibrium/newton_refinement.h"
 #include "fit/latent_fit.h"
 #include "io/actuation_io.h"
 #include "model/model_io.h"
@@ -183,6 +182,13 @@ SimulateJobResult RunSimulateJob(const SimulateJobOptions& options, std::ostream
           << " vertices, but the mesh has " << mesh.num_vertices();
       return Fail(JobStatus::kBadInput, out.str());
     }
+  }
+
+  if (bc.vertices.empty() && options.solver.method == EquilibriumMethod::kNewton) {
+    return Fail(JobStatus::kBadInput,
+                "no fixed vertices (--fixed): a free body's stiffness is singular, so Newton's "
+                "method cannot solve it; fix some vertices, or use --solver=lm (the "
+                "equilibrium is then defined up to a rigid motion, with no gradient)");
   }
 
   // ---- Solve ----

@@ -34,10 +34,6 @@ struct SimulateJobOptions {
   std::string loss_target;
   std::string gradient;        // where to write dL/da (needs loss_target)
   QuasistaticSolverOptions solver;
-  // After the Ceres solve, up to this many exact Newton steps (equilibrium/newton_refinement.h)
-  // towards refinement_relative_tolerance (x the model's force scale). 0: off.
-  int newton_refinement_steps = 0;
-  double refinement_relative_tolerance = 1e-13;
 };
 
 enum class JobStatus {

@@ -20,10 +20,14 @@ void AssembleStiffness(const ShapeTargetModel& model, const StiffnessPattern& pa
                                          std::vector<double>(nnz, 0.0));
   ParallelFor(threads, 0, num_elements, [&](int t, int e) {
     double* out = t == 0 ? values->data() : extra[t - 1].data();
-    const ShapeTargetElement element = model.Element(x, a, e);
-    const Eigen::Matrix<double, 9, 9> h = kind == StiffnessKind::kExact
-                                              ? element.StressDerivative()
-                                              : element.ProjectedStressDerivative();
+    Eigen::Matrix<double, 9, 9> h;
+    if (kind == StiffnessKind::kRotationFixed) {
+      h = 2.0 * model.mu(e) * Eigen::Matrix<double, 9, 9>::Identity();
+    } else {
+      const ShapeTargetElement element = model.Element(x, a, e);
+      h = kind == StiffnessKind::kExact ? element.StressDerivative()
+                                        : element.ProjectedStressDerivative();
+    }
     const Eigen::Matrix<double, 12, 12> ke =
         ElementHessian(h, model.gradient_weights(e), model.rest_shape(e).volume);
     for (int k = 0; k < 4; ++k) {

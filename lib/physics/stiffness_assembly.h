@@ -14,6 +14,11 @@ namespace aqs {
 enum class StiffnessKind {
   kExact,      // d2E/dx2 from the exact dP/dF (what implicit differentiation needs)
   kProjected,  // from the per-element PSD-projected dP/dF (positive semi-definite)
+  // The Hessian with every element's rotation R held fixed: dP/dF = 2 mu I, i.e.
+  // sum_e 2 mu_e V_e G_e^T G_e (G_e: x -> vec F_e). Independent of x and a (the matrix
+  // of projective dynamics / as-rigid-as-possible global steps); positive definite
+  // once fixed vertices remove rigid motions.
+  kRotationFixed,
 };
 
 // Assembles the stiffness K = d2E/dx2 of `model` at positions x (3 x num_vertices) and

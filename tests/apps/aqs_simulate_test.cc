@@ -211,11 +211,23 @@ INSTANTIATE_TEST_SUITE_P(
         BadInputCase{"NotConverged",
                      "--mesh={finger}finger.msh --fixed={finger}fixed.txt "
                      "--actuation={finger}actuation.txt --output={dir}x.mesh "
-                     "--max_iterations=1 --newton_relative_force=0",
+                     "--max_iterations=1 --newton_relative_force=0 --solver=lm",
                      2, "NOT CONVERGED"},
+        BadInputCase{"NotConvergedNewton",
+                     "--mesh={finger}finger.msh --fixed={finger}fixed.txt "
+                     "--actuation={finger}actuation.txt --output={dir}x.mesh "
+                     "--max_iterations=1 --tolerance=1e-12",
+                     2, "NOT CONVERGED"},
+        BadInputCase{"BadSolver",
+                     "--mesh={finger}finger.msh --fixed={finger}fixed.txt --output={dir}x.mesh "
+                     "--solver=gauss",
+                     1, "--solver must be 'newton' or 'lm'"},
+        BadInputCase{"FreeBodyNewton",
+                     "--mesh={finger}finger.msh --output={dir}x.mesh --actuation={finger}actuation.txt",
+                     1, "no fixed vertices (--fixed)"},
         BadInputCase{"FreeBodyGradient",
                      "--mesh={finger}finger.msh --output={dir}x.mesh --loss_target={finger}finger.msh"
-                     " --gradient={dir}g.txt",
+                     " --gradient={dir}g.txt --solver=lm",
                      3, "free body"}),
     [](const ::testing::TestParamInfo<BadInputCase>& info) { return info.param.name; });
 

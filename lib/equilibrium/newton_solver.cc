@@ -1,0 +1,156 @@
+#include "equilibrium/newton_solver.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace aqs {
+namespace {
+
+// Largest |dE/dx_v| over the free vertices of `pattern`.
+double MaxFreeForce(const StiffnessPattern& pattern, const Eigen::Matrix3Xd& gradient) {
+  double max_force = 0.0;
+  for (int f = 0; f < pattern.num_free_vertices(); ++f) {
+    max_force = std::max(max_force, gradient.col(pattern.vertex_of_free(f)).norm());
+  }
+  return max_force;
+}
+
+// Relative diagonal shifts tried, in turn, when the projected stiffness is singular.
+constexpr double kFirstShift = 1e-8;
+constexpr double kShiftGrowth = 100.0;
+constexpr double kLastShift = 1e4;
+
+// Energies within this fraction of |E| of each other are equal up to round-off (the
+// energy is a sum of num_elements non-negative terms, each exact to a few ulps).
+constexpr double kEnergyNoise = 1e-12;
+
+}  // namespace
+
+bool NewtonSolverOptions::Validate(std::string* error) const {
+  std::ostringstream out;
+  if (!(force_tolerance >= 0.0) || !std::isfinite(force_tolerance)) {
+    out << "force_tolerance must be finite and >= 0 (is " << force_tolerance << ")";
+  } else if (!(exact_force_threshold >= 0.0)) {
+    out << "exact_force_threshold must be >= 0 (is " << exact_force_threshold << ")";
+  } else if (max_factorizations < 1) {
+    out << "max_factorizations must be >= 1 (is " << max_factorizations << ")";
+  } else if (max_halvings < 0 || max_halvings > 60) {
+    out << "max_halvings must be in [0, 60] (is " << max_halvings << ")";
+  } else if (!(armijo > 0.0 && armijo < 0.5)) {
+    out << "armijo must be in (0, 0.5) (is " << armijo << ")";
+  }
+  *error = out.str();
+  return error->empty();
+}
+
+NewtonSolveReport MinimizeEnergyNewton(const NewtonSolverOptions& options,
+                                       const ShapeTargetModel::ActuationRef& a,
+                                       StiffnessFactorization* factorization,
+                                       Eigen::Matrix3Xd* x) {
+  NewtonSolveReport report;
+  const StiffnessPattern& pattern = factorization->pattern();
+  Eigen::Matrix3Xd gradient, trial_gradient, trial;
+  double energy = factorization->EnergyAndGradient(*x, a, &gradient);
+  double force = MaxFreeForce(pattern, gradient);
+  report.initial_energy = energy;
+  report.initial_max_force = force;
+  // Exact steps are tried while the force is at most this: the threshold, lowered
+  // tenfold below the force of a state where the exact stiffness was rejected (so that a
+  // region of indefinite K costs one wasted factorization, not one per step).
+  double exact_limit = options.exact_force_threshold;
+  // The relative diagonal shift that last made the projected K factorizable (0: none).
+  double last_shift = 0.0;
+  bool projected_here = false;  // the exact K was rejected at the current x
+  std::ostringstream message;
+  while (true) {
+    if (!std::isfinite(energy) || !std::isfinite(force)) {
+      message << "the energy or force is not finite";
+      break;
+    }
+    if (force <= options.force_tolerance) {
+      report.converged = true;
+      message << "force tolerance reached";
+      break;
+    }
+    if (report.factorizations >= options.max_factorizations) {
+      message << "factorization limit (" << options.max_factorizations << ") reached";
+      break;
+    }
+    const bool exact = !projected_here && force <= exact_limit;
+    std::string error;
+    if (exact) {
+      factorization->Assemble(*x, a, StiffnessKind::kExact);
+      ++report.factorizations;
+      if (!factorization->FactorizeAssembled(0.0, &error)) {
+        ++report.exact_rejections;
+        projected_here = true;
+        exact_limit = std::min(exact_limit, 0.1 * force);
+        continue;
+      }
+    } else {
+      factorization->Assemble(*x, a, StiffnessKind::kProjected);
+      // Unshifted first, unless the last step needed a shift: then a tenth of it.
+      double shift = last_shift > 0.0 ? last_shift / 10.0 : 0.0;
+      bool factorized = false;
+      while (!factorized && report.factorizations < options.max_factorizations) {
+        ++report.factorizations;
+        factorized = factorization->FactorizeAssembled(shift, &error);
+        if (factorized) break;
+        shift = shift == 0.0 ? kFirstShift : shift * kShiftGrowth;
+        if (shift > kLastShift) break;
+      }
+      if (!factorized) {
+        message << "the projected stiffness could not be factorized, even shifted: " << error;
+        break;
+      }
+      if (shift > 0.0) ++report.shifted_factorizations;
+      last_shift = shift;
+    }
+    const Eigen::Matrix3Xd step = -factorization->Solve(gradient);
+    const double slope = gradient.cwiseProduct(step).sum();
+    bool accepted = false;
+    if (slope < 0.0 && std::isfinite(slope)) {
+      double t = 1.0;
+      for (int halving = 0; halving <= options.max_halvings; ++halving, t *= 0.5) {
+        trial = *x + t * step;
+        const double trial_energy = factorization->EnergyAndGradient(trial, a, &trial_gradient);
+        ++report.energy_evaluations;
+        if (!std::isfinite(trial_energy)) continue;
+        const double trial_force = MaxFreeForce(pattern, trial_gradient);
+        const bool sufficient = trial_energy <= energy + options.armijo * t * slope;
+        // Below the energy's round-off the decrease test is noise: the force decides.
+        const bool round_off = trial_energy - energy <= kEnergyNoise * std::abs(energy) &&
+                               trial_force < force;
+        if (sufficient || round_off) {
+          x->swap(trial);
+          gradient.swap(trial_gradient);
+          energy = trial_energy;
+          force = trial_force;
+          accepted = true;
+          break;
+        }
+      }
+    }
+    if (accepted) {
+      ++(exact ? report.exact_steps : report.projected_steps);
+      projected_here = false;
+      continue;
+    }
+    if (exact) {  // an exact step that does not descend: a projected one from here
+      ++report.exact_rejections;
+      projected_here = true;
+      exact_limit = std::min(exact_limit, 0.1 * force);
+      continue;
+    }
+    message << "the line search found no decrease of the energy at largest force " << force
+            << " (the round-off floor of the energy)";
+    break;
+  }
+  report.final_energy = energy;
+  report.final_max_force = force;
+  report.message = message.str();
+  return report;
+}
+
+}  // namespace aqs

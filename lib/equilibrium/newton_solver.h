@@ -1,0 +1,72 @@
+#ifndef AQS_EQUILIBRIUM_NEWTON_SOLVER_H_
+#define AQS_EQUILIBRIUM_NEWTON_SOLVER_H_
+
+#include <limits>
+#include <string>
+
+#include <Eigen/Core>
+
+#include "equilibrium/stiffness_factorization.h"
+#include "physics/actuation.h"
+
+namespace aqs {
+
+struct NewtonSolverOptions {
+  // Stop when the largest free-vertex force |dE/dx_v| is at most this (absolute).
+  double force_tolerance = 0.0;
+  // Steps use the exact stiffness once the largest force is at most this (absolute);
+  // above it, the PSD-projected one. infinity: exact from the start (a refinement of a
+  // state already near a stable equilibrium); 0: projected only.
+  double exact_force_threshold = std::numeric_limits<double>::infinity();
+  // Factorizations at most (each step factorizes once; a step whose exact stiffness is
+  // not positive definite, or needs a diagonal shift, factorizes again).
+  int max_factorizations = 100;
+  // Backtracking halvings of one line search at most.
+  int max_halvings = 30;
+  // Armijo's sufficient-decrease constant: E(x + t d) <= E(x) + armijo t g.d.
+  double armijo = 1e-4;
+
+  // Checks the fields; false with *error naming the field.
+  bool Validate(std::string* error) const;
+};
+
+struct NewtonSolveReport {
+  bool converged = false;
+  int projected_steps = 0;  // accepted steps on the PSD-projected stiffness
+  int exact_steps = 0;      // accepted steps on the exact stiffness
+  int factorizations = 0;   // CHOLMOD numeric factorizations, all kinds
+  int shifted_factorizations = 0;  // of those, with a diagonal shift (singular K)
+  int exact_rejections = 0;  // exact stiffness not positive definite, or its step failed
+  int energy_evaluations = 0;  // line-search trials
+  double initial_energy = 0.0, final_energy = 0.0;
+  double initial_max_force = 0.0, final_max_force = 0.0;
+  std::string message;  // why the solve stopped
+};
+
+// Minimizes the total energy E(x, a) (+ the factorization's energy terms) over the free
+// vertices of x (3 x num_vertices; fixed vertices are at their positions and are kept)
+// by Newton's method with a backtracking line search:
+//
+//   d = -K(x)^-1 dE/dx,   x <- x + t d,   t = 1, 1/2, 1/4, ... until
+//   E(x + t d) <= E(x) + armijo t dE/dx . d   (sufficient decrease), or, where that test
+//   is below the round-off of E, until the largest force decreases.
+//
+// Far from equilibrium (largest force above exact_force_threshold) K is the
+// PSD-projected stiffness (per-element eigenvalue clamp of dP/dF, Gauss-Newton parts of
+// the energy terms): every step descends, from any start. Near it K is the exact
+// stiffness, which converges quadratically; where the exact K is not positive definite,
+// or its step does not descend, the step is taken on the projected K instead. A
+// singular projected K (e.g. elements with no resisting mode) is shifted by a multiple
+// of its mean diagonal, growing until CHOLMOD succeeds.
+//
+// Returns with converged = true once the largest force is at most force_tolerance. The
+// factorization (built for the model, fixed vertices and energy terms of x) is left
+// holding the last factorized stiffness.
+NewtonSolveReport MinimizeEnergyNewton(const NewtonSolverOptions& options,
+                                       const ShapeTargetModel::ActuationRef& a,
+                                       StiffnessFactorization* factorization,
+                                       Eigen::Matrix3Xd* x);
+
+}  // namespace aqs
+
+#endif  // AQS_EQUILIBRIUM_NEWTON_SOLVER_H_

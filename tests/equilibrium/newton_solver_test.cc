@@ -1,0 +1,238 @@
+#include "equilibrium/newton_solver.h"
+
+#include <cmath>
+#include <limits>
+
+#include <gtest/gtest.h>
+
+#include "equilibrium/quasistatic_solver.h"
+#include "testing/test_meshes.h"
+
+namespace aqs {
+namespace {
+
+using testing::BarMesh;
+using testing::LeftFaceFixed;
+
+// Contracts the bar's fibres (x) above its middle and stretches them below, by
+// `amount`: the bar curls up, far from its rest shape (a large pose from rest).
+ActuationMatrix CurlActuation(const TetMesh& mesh, double amount) {
+  ActuationMatrix a = IdentityActuations(mesh.num_tets());
+  const double middle = 0.5 * (mesh.vertices.row(1).minCoeff() + mesh.vertices.row(1).maxCoeff());
+  for (int e = 0; e < mesh.num_tets(); ++e) {
+    double y = 0;
+    for (int k = 0; k < 4; ++k) y += 0.25 * mesh.vertices(1, mesh.tets(k, e));
+    a(0, e) = y > middle ? 1.0 - amount : 1.0 + amount;
+  }
+  return a;
+}
+
+double ExtentAngle(const Eigen::Matrix3Xd& x, const TetMesh& mesh) {
+  // The direction of the bar's free end relative to +x, in degrees.
+  Eigen::Vector3d tip = Eigen::Vector3d::Zero();
+  int count = 0;
+  const double x_max = mesh.vertices.row(0).maxCoeff();
+  for (int v = 0; v < mesh.num_vertices(); ++v) {
+    if (mesh.vertices(0, v) > x_max - 1e-9) {
+      tip += x.col(v);
+      ++count;
+    }
+  }
+  tip /= count;
+  return std::atan2(tip.y(), tip.x()) * 180.0 / M_PI;
+}
+
+NewtonSolverOptions Options(const ShapeTargetModel& model, double tolerance) {
+  NewtonSolverOptions options;
+  options.force_tolerance = tolerance * model.force_scale();
+  options.exact_force_threshold = 1e-2 * model.force_scale();
+  return options;
+}
+
+TEST(NewtonSolverTest, CurlsABarFromRestInFewFactorizations) {
+  const TetMesh mesh = BarMesh(16, 2, 2, 0.5);
+  const ShapeTargetModel model(mesh, 1.0);
+  const BoundaryConditions bc = LeftFaceFixed(mesh);
+  QuasistaticSolverOptions options;
+  options.relative_force_tolerance = 1e-10;
+  QuasistaticSolver solver(model, bc, options);
+  for (double amount : {0.25, 0.4, 0.6}) {
+    solver.actuation() = CurlActuation(mesh, amount);
+    solver.SetPositions(mesh.vertices);
+    const QuasistaticSolveReport report = solver.Solve();
+    ASSERT_TRUE(report.converged) << report.Summary();
+    // L-BFGS far from equilibrium (its preconditioner factorized in the first solve
+    // only), exact Newton near it.
+    EXPECT_GT(report.lbfgs_iterations, 0) << report.Summary();
+    EXPECT_GT(report.exact_steps, 0) << report.Summary();
+    EXPECT_LE(report.factorizations, amount == 0.25 ? 10 : 9) << report.Summary();
+    EXPECT_LT(report.final_energy, report.initial_energy);
+    // A real curl: the free end has turned.
+    EXPECT_GT(std::abs(ExtentAngle(solver.positions(), mesh)), 40.0) << amount;
+    for (int v : bc.vertices) {
+      EXPECT_EQ((solver.positions().col(v) - mesh.vertices.col(v)).norm(), 0.0);
+    }
+  }
+}
+
+TEST(NewtonSolverTest, ProjectedNewtonAloneConvergesFromRest) {
+  const TetMesh mesh = BarMesh(16, 2, 2, 0.5);
+  const ShapeTargetModel model(mesh, 1.0);
+  const BoundaryConditions bc = LeftFaceFixed(mesh);
+  StiffnessFactorization factorization(model, FixedVertexMask(bc, mesh.num_vertices()), 2);
+  Eigen::Matrix3Xd x = mesh.vertices;
+  const NewtonSolveReport report =
+      MinimizeEnergyNewton(Options(model, 1e-10), CurlActuation(mesh, 0.4), &factorization, &x);
+  ASSERT_TRUE(report.converged) << report.message;
+  EXPECT_GT(report.projected_steps, 0) << "far from equilibrium at rest";
+  EXPECT_GT(report.exact_steps, 0) << "exact near the end";
+  EXPECT_GT(std::abs(ExtentAngle(x, mesh)), 90.0);
+}
+
+TEST(NewtonSolverTest, ProjectedAndExactStepsReachTheSameEquilibrium) {
+  const TetMesh mesh = BarMesh(8, 2, 2, 0.5);
+  const ShapeTargetModel model(mesh, 1.0);
+  const BoundaryConditions bc = LeftFaceFixed(mesh);
+  const ActuationMatrix a = CurlActuation(mesh, 0.2);
+  StiffnessFactorization factorization(model, FixedVertexMask(bc, mesh.num_vertices()), 2);
+  Eigen::Matrix3Xd hybrid = mesh.vertices, projected = mesh.vertices;
+  const NewtonSolveReport report_hybrid =
+      MinimizeEnergyNewton(Options(model, 1e-11), a, &factorization, &hybrid);
+  NewtonSolverOptions projected_only = Options(model, 1e-9);
+  projected_only.exact_force_threshold = 0.0;
+  projected_only.max_factorizations = 500;
+  const NewtonSolveReport report_projected =
+      MinimizeEnergyNewton(projected_only, a, &factorization, &projected);
+  ASSERT_TRUE(report_hybrid.converged) << report_hybrid.message;
+  ASSERT_TRUE(report_projected.converged) << report_projected.message;
+  EXPECT_EQ(report_projected.exact_steps, 0);
+  EXPECT_LT(report_hybrid.factorizations, report_projected.factorizations)
+      << "exact steps converge quadratically, projected ones linearly";
+  EXPECT_LT((hybrid - projected).cwiseAbs().maxCoeff(), 1e-6);
+}
+
+TEST(NewtonSolverTest, AgreesWithLevenbergMarquardtWhereItConverges) {
+  const TetMesh mesh = BarMesh(8, 2, 2, 0.5);
+  const ShapeTargetModel model(mesh, 1.0);
+  QuasistaticSolverOptions lm;
+  lm.method = EquilibriumMethod::kLevenbergMarquardt;
+  lm.relative_force_tolerance = 1e-10;
+  lm.max_iterations = 1000;
+  QuasistaticSolverOptions newton = lm;
+  newton.method = EquilibriumMethod::kNewton;
+  QuasistaticSolver a(model, LeftFaceFixed(mesh), lm);
+  QuasistaticSolver b(model, LeftFaceFixed(mesh), newton);
+  a.actuation() = CurlActuation(mesh, 0.25);
+  b.actuation() = a.actuation();
+  const QuasistaticSolveReport report_a = a.Solve();
+  const QuasistaticSolveReport report_b = b.Solve();
+  ASSERT_TRUE(report_a.converged) << report_a.Summary();
+  ASSERT_TRUE(report_b.converged) << report_b.Summary();
+  EXPECT_EQ(report_b.lm_iterations, 0);
+  EXPECT_LT(report_b.factorizations, report_a.iterations) << report_a.Summary() << "\n"
+                                                          << report_b.Summary();
+  // The same equilibrium, to 1e-6 of the bar's length (8 x 0.5).
+  EXPECT_LT((a.positions() - b.positions()).cwiseAbs().maxCoeff(), 4e-6)
+      << report_a.Summary() << "\n" << report_b.Summary();
+}
+
+TEST(NewtonSolverTest, IndefiniteExactStiffnessFallsBackToProjectedSteps) {
+  // A bar held at both ends whose fibres want to grow by 40%: the straight bar is
+  // compressed beyond buckling, an unstable equilibrium where the exact stiffness is
+  // indefinite. From a slightly bent start the solve must buckle it.
+  const TetMesh mesh = BarMesh(12, 2, 2, 0.5);
+  const ShapeTargetModel model(mesh, 1.0);
+  BoundaryConditions bc;
+  const double length = mesh.vertices.row(0).maxCoeff();
+  for (int v = 0; v < mesh.num_vertices(); ++v) {
+    if (mesh.vertices(0, v) < 1e-9 || mesh.vertices(0, v) > length - 1e-9) bc.vertices.push_back(v);
+  }
+  ActuationMatrix a = IdentityActuations(mesh.num_tets());
+  a.row(0).setConstant(1.4);
+  StiffnessFactorization factorization(model, FixedVertexMask(bc, mesh.num_vertices()), 2);
+  std::string error;
+  ASSERT_FALSE(factorization.Factorize(mesh.vertices, a, StiffnessKind::kExact, &error))
+      << "the exact stiffness of the straight bar should be indefinite";
+  NewtonSolverOptions options = Options(model, 1e-10);
+  options.exact_force_threshold = std::numeric_limits<double>::infinity();  // exact first
+  Eigen::Matrix3Xd x = mesh.vertices;
+  for (int v = 0; v < mesh.num_vertices(); ++v) {
+    x(1, v) += 1e-3 * std::sin(M_PI * mesh.vertices(0, v) / length);
+  }
+  const NewtonSolveReport report = MinimizeEnergyNewton(options, a, &factorization, &x);
+  ASSERT_TRUE(report.converged) << report.message;
+  EXPECT_GT(report.exact_rejections, 0);
+  EXPECT_GT(report.projected_steps, 0);
+  EXPECT_GT(report.exact_steps, 0);
+  EXPECT_TRUE(factorization.Factorize(x, a, StiffnessKind::kExact, &error))
+      << "a stable (buckled) equilibrium: " << error;
+  // Buckled: the middle has moved sideways by a good fraction of the length.
+  double sideways = 0;
+  for (int v = 0; v < mesh.num_vertices(); ++v) sideways = std::max(sideways, std::abs(x(1, v) - mesh.vertices(1, v)));
+  EXPECT_GT(sideways, 0.1 * length);
+}
+
+TEST(NewtonSolverTest, ShiftsASingularProjectedStiffness) {
+  // A free body: its stiffness has six zero modes (rigid motions), so the projected
+  // stiffness needs a diagonal shift. The solve must not crash and must end finite.
+  const TetMesh mesh = BarMesh(3, 2, 2, 0.5);
+  const ShapeTargetModel model(mesh, 1.0);
+  const std::vector<bool> none(mesh.num_vertices(), false);
+  StiffnessFactorization factorization(model, none, 2);
+  factorization.Assemble(mesh.vertices, testing::SmoothActuation(mesh, 0.2),
+                         StiffnessKind::kProjected);
+  std::string error;
+  EXPECT_TRUE(factorization.FactorizeAssembled(1e-6, &error)) << error;
+  NewtonSolverOptions options = Options(model, 1e-8);
+  options.exact_force_threshold = 0.0;
+  options.max_factorizations = 50;
+  Eigen::Matrix3Xd x = mesh.vertices;
+  const NewtonSolveReport report =
+      MinimizeEnergyNewton(options, testing::SmoothActuation(mesh, 0.2), &factorization, &x);
+  EXPECT_TRUE(x.allFinite());
+  EXPECT_FALSE(report.message.empty());
+  EXPECT_LT(report.final_energy, report.initial_energy);
+}
+
+TEST(NewtonSolverTest, RefusesFreeBodiesAndNonFiniteActuations) {
+  const TetMesh mesh = BarMesh(3, 2, 2, 0.5);
+  const ShapeTargetModel model(mesh, 1.0);
+  QuasistaticSolver free_body(model, BoundaryConditions());
+  free_body.actuation() = testing::SmoothActuation(mesh, 0.2);
+  const QuasistaticSolveReport refused = free_body.Solve();
+  EXPECT_FALSE(refused.converged);
+  EXPECT_NE(refused.termination.find("no fixed vertex"), std::string::npos) << refused.Summary();
+  EXPECT_EQ(refused.factorizations, 0);
+
+  QuasistaticSolver solver(model, LeftFaceFixed(mesh));
+  solver.actuation() = testing::SmoothActuation(mesh, 0.2);
+  solver.actuation()(3, 7) = std::numeric_limits<double>::quiet_NaN();
+  const QuasistaticSolveReport nan = solver.Solve();
+  EXPECT_FALSE(nan.converged);
+  EXPECT_NE(nan.termination.find("element 7 is not finite"), std::string::npos) << nan.Summary();
+}
+
+TEST(NewtonSolverTest, OptionsAreValidated) {
+  std::string error;
+  NewtonSolverOptions options;
+  EXPECT_TRUE(options.Validate(&error)) << error;
+  options.force_tolerance = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(options.Validate(&error));
+  EXPECT_NE(error.find("force_tolerance"), std::string::npos);
+  options = NewtonSolverOptions();
+  options.max_factorizations = 0;
+  EXPECT_FALSE(options.Validate(&error));
+  EXPECT_NE(error.find("max_factorizations"), std::string::npos);
+  QuasistaticSolverOptions solver;
+  EXPECT_TRUE(solver.Validate(&error)) << error;
+  solver.relative_force_tolerance = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(solver.Validate(&error));
+  EXPECT_NE(error.find("relative_force_tolerance"), std::string::npos);
+  solver = QuasistaticSolverOptions();
+  solver.newton_relative_force = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(solver.Validate(&error));
+  EXPECT_NE(error.find("newton_relative_force"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace aqs
