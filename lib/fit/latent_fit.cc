@@ -87,6 +87,7 @@ class LatentFitter::FitCost final : public ceres::CostFunction {
     if (fit_bones_) {
       for (size_t b = 0; b < model.bones.size(); ++b) mutable_parameter_block_sizes()->push_back(6);
     }
+    for (int size : parameter_block_sizes()) parameter_count_ += size;
     double total = 0.0;
     for (int i = 0; i < k; ++i) total += target.weights.size() > 0 ? target.weights[i] : 1.0;
     CHECK_GT(total, 0.0) << "fit targets need a positive total weight";
@@ -128,20 +129,31 @@ class LatentFitter::FitCost final : public ceres::CostFunction {
     if (fit_bones_) {
       for (size_t b = 0; b < bones.size(); ++b) bones[b] = BoneTransformFromParameters(parameters[1 + b]);
     }
-    QuasistaticSolver& solver = *fitter_->solver_;
-    const Eigen::Matrix3Xd start = solver.positions();
-    solver.SetFixedPositions(ModelBoundaryConditions(model, bones).positions);
-    solver.actuation() = a;
-    QuasistaticSolveReport report = solver.Solve();
-    if (!report.converged) {
-      solver.SetPositions(model.mesh.vertices);
-      report = solver.Solve();
-      if (!report.converged) {
-        solver.SetPositions(start);
-        return false;  // Ceres treats the step as unsuccessful
-      }
+    // The equilibrium at these parameters, warm-started from that of the last accepted
+    // point (never from a rejected trial's: with a non-convex energy the branch a solve
+    // lands on depends on its start, and the cost must be a function of the parameters
+    // along the branch the fit follows). The last evaluation is remembered, so that the
+    // Jacobian evaluation at an accepted point reuses its equilibrium.
+    Eigen::VectorXd key(parameter_count_);
+    for (int b = 0, offset = 0; b < static_cast<int>(parameter_block_sizes().size()); ++b) {
+      const int size = parameter_block_sizes()[b];
+      key.segment(offset, size) = Eigen::Map<const Eigen::VectorXd>(parameters[b], size);
+      offset += size;
     }
-    const Eigen::Matrix3Xd x = solver.positions();
+    if (!(last_key_.size() == key.size() && last_key_ == key)) {
+      QuasistaticSolver& solver = *fitter_->solver_;
+      solver.SetPositions(fitter_->accepted_state_);
+      solver.SetFixedPositions(ModelBoundaryConditions(model, bones).positions);
+      solver.actuation() = a;
+      const QuasistaticSolveReport report = solver.Solve();
+      last_key_.resize(0);
+      if (!report.converged) return false;  // Ceres treats the step as unsuccessful
+      last_key_ = key;
+      last_state_ = solver.positions();
+    }
+    const Eigen::Matrix3Xd& x = last_state_;
+    // Trust-region minimizers evaluate Jacobians only at accepted points.
+    if (jacobians != nullptr) fitter_->accepted_state_ = x;
     const int k = target_.num_points();
     for (int i = 0; i < k; ++i) {
       const Stencil& s = stencils_[i];
@@ -199,10 +211,15 @@ class LatentFitter::FitCost final : public ceres::CostFunction {
   const FitTarget& target_;
   bool fit_bones_;
   std::vector<Stencil> stencils_;
+  int parameter_count_ = 0;
+  // The last evaluated parameters (all blocks, concatenated) and their equilibrium.
+  mutable Eigen::VectorXd last_key_;
+  mutable Eigen::Matrix3Xd last_state_;
 };
 
 LatentFitter::LatentFitter(const ActiveModel& model, const LatentFitOptions& options)
-    : model_(model), options_(options), bones_(RestBoneTransforms(model)) {
+    : model_(model), options_(options), bones_(RestBoneTransforms(model)),
+      accepted_state_(model.mesh.vertices) {
   CHECK(model.decoder) << "latent fitting needs a trained model";
   physics_ = std::make_unique<ShapeTargetModel>(model.mesh, model.mu);
   QuasistaticSolverOptions solver_options = options.solver;
@@ -229,7 +246,7 @@ ceres::CostFunction* LatentFitter::NewCostFunction(const FitTarget& target) {
 
 void LatentFitter::set_start_state(const Eigen::Matrix3Xd& state) {
   CHECK_EQ(state.cols(), model_.mesh.num_vertices());
-  solver_->SetPositions(state);
+  accepted_state_ = state;
 }
 
 void LatentFitter::StartFromTrainingPose(int p) {
@@ -245,10 +262,11 @@ bool LatentFitter::Simulate(const Eigen::VectorXd& z, Eigen::Matrix3Xd* state,
   ActuationMatrix a;
   DecoderWorkspace workspace;
   model_.decoder->Decode(model_.decoder_params.data(), z, &a, &workspace);
+  solver_->SetPositions(accepted_state_);
   solver_->SetFixedPositions(ModelBoundaryConditions(model_, bones_).positions);
   solver_->actuation() = a;
   QuasistaticSolveReport report = solver_->Solve();
-  if (!report.converged) {
+  if (!report.converged) {  // once more from rest
     solver_->SetPositions(model_.mesh.vertices);
     report = solver_->Solve();
   }
@@ -257,6 +275,7 @@ bool LatentFitter::Simulate(const Eigen::VectorXd& z, Eigen::Matrix3Xd* state,
     return false;
   }
   *state = solver_->positions();
+  accepted_state_ = *state;
   *surface = EmbeddedPositions(model_.embedding, model_.mesh.tets, *state);
   return true;
 }

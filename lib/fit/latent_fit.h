@@ -99,8 +99,9 @@ class LatentFitter {
   void set_bone_transforms(const std::vector<RigidTransform>& transforms);
   const std::vector<RigidTransform>& bone_transforms() const { return bones_; }
   // The state (3 x num_vertices) the next equilibrium solve starts from (default: the
-  // rest shape, then the last equilibrium). The energy is not convex: a training
-  // pose's stored equilibrium (ActiveModel::states) is the branch training saw.
+  // rest shape, then the equilibrium of the last simulated or accepted fit point; trial
+  // points of a fit that are rejected never become starts). The energy is not convex: a
+  // training pose's stored equilibrium (ActiveModel::states) is the branch training saw.
   void set_start_state(const Eigen::Matrix3Xd& state);
   // The same from training pose p's stored equilibrium, if the model has one.
   void StartFromTrainingPose(int p);
@@ -134,6 +135,8 @@ class LatentFitter {
   std::unique_ptr<QuasistaticSolver> solver_;
   std::unique_ptr<EquilibriumDifferentiator> differentiator_;
   std::vector<RigidTransform> bones_;
+  // Where equilibrium solves start (see set_start_state).
+  Eigen::Matrix3Xd accepted_state_;
 };
 
 // A bone transform from its 6 fit parameters (rotation vector, translation) and back.

@@ -78,6 +78,28 @@ TEST(LatentFitTest, CostJacobianPassesGradientChecker) {
   }
 }
 
+TEST(LatentFitTest, TrialEvaluationsDoNotChangeLaterOnes) {
+  // An evaluation without Jacobians (a trial point of Ceres' trust region, accepted or
+  // not) must not become the start of the next solve: evaluating p1, then a far p2,
+  // then p1 again gives p1's residuals bit for bit.
+  const ActiveModel model = TrainedModel(true);
+  LatentFitter fitter(model, LatentFitOptions());
+  std::vector<int> vertices = {3, 20, 41, 57, 77};
+  const FitTarget target = VertexTarget(vertices, model.neutral.vertices(Eigen::all, vertices));
+  std::unique_ptr<ceres::CostFunction> cost(fitter.NewCostFunction(target));
+  Eigen::VectorXd z1 = model.latents.col(2), z2 = model.latents.col(5);
+  double bone1[6] = {0.05, -0.03, 0.02, 0.01, 0.02, -0.01}, bone2[6] = {-0.2, 0.1, 0.0, 0.1, 0, 0};
+  const double* p1[2] = {z1.data(), bone1};
+  const double* p2[2] = {z2.data(), bone2};
+  const int n = cost->num_residuals();
+  Eigen::VectorXd first(n), far(n), again(n);
+  ASSERT_TRUE(cost->Evaluate(p1, first.data(), nullptr));
+  ASSERT_TRUE(cost->Evaluate(p2, far.data(), nullptr));
+  ASSERT_TRUE(cost->Evaluate(p1, again.data(), nullptr));
+  EXPECT_GT((far - first).norm(), 1e-3);
+  EXPECT_EQ((again - first).cwiseAbs().maxCoeff(), 0.0);
+}
+
 TEST(LatentFitTest, RecoversAKnownLatentFromAnotherStart) {
   const ActiveModel model = TrainedModel(false);
   LatentFitOptions options;
