@@ -96,7 +96,7 @@ bool MakeVolumetricTargets(const VolumetricTargetOptions& options, ActiveModel* 
     log << "  " << std::left << std::setw(22) << pose.name << std::right << " surface error mean "
         << std::setprecision(3) << pose.embedding_mean_error << " max " << pose.embedding_max_error
         << " (pose moves up to " << (pose.surface - model->neutral.vertices).colwise().norm().maxCoeff()
-        << "), " << report.lm_iterations << " LM + " << report.newton_steps << " Newton"
+        << "), " << report.Path()
         << (steps > 1 ? " in " + std::to_string(steps) + " steps" : std::string()) << ", "
         << timer.Seconds() << " s\n"
         << std::flush;
