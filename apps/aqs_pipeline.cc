@@ -32,8 +32,12 @@ int main(int argc, char** argv) {
            aqs::RunPrepareJob(options, std::cout, &error);
     } else if (stage == "pretrain") {
       aqs::PretrainOptions options;
+      aqs::PoseSimulationOptions simulation;
+      bool simulate = true;
       ok = aqs::PretrainOptionsFromFlags(&options, &error) &&
-           aqs::RunPretrainJob(FLAGS_model, options, std::cout, &error);
+           aqs::PretrainSimulationFromFlags(&simulation, &simulate, &error) &&
+           aqs::RunPretrainJob(FLAGS_model, options, simulate ? &simulation : nullptr, std::cout,
+                               &error);
     } else if (stage == "train") {
       aqs::TrainOptions options;
       ok = aqs::TrainOptionsFromFlags(&options, &error) &&

@@ -17,10 +17,14 @@ int main(int argc, char** argv) {
                "  aqs_pretrain --model=MODEL [--latent_dim=16 --hidden=128,128 ...]",
                &argc, &argv);
   aqs::PretrainOptions options;
+  aqs::PoseSimulationOptions simulation;
+  bool simulate = true;
   std::string error;
   if (FLAGS_model.empty()) error = "--model is required";
   if (!error.empty() || !aqs::PretrainOptionsFromFlags(&options, &error) ||
-      !aqs::RunPretrainJob(FLAGS_model, options, std::cout, &error)) {
+      !aqs::PretrainSimulationFromFlags(&simulation, &simulate, &error) ||
+      !aqs::RunPretrainJob(FLAGS_model, options, simulate ? &simulation : nullptr, std::cout,
+                           &error)) {
     aqs::PrintError(error);
     return 1;
   }

@@ -1,5 +1,7 @@
 #include "evaluate_flags.h"
 
+#include <filesystem>
+
 #include <gflags/gflags.h>
 
 #include "app_common.h"
@@ -16,12 +18,44 @@ DEFINE_string(error_vertices, "", "Surface vertices to measure errors on, e.g. 0
 DEFINE_int32(baseline_iterations, 500, "L-BFGS iterations of the auto-encoder baseline.");
 DEFINE_int32(evaluate_fit_iterations, 30, "Levenberg-Marquardt iterations of held-out fits.");
 DEFINE_bool(write_fields, true, "Write per-vertex error fields and fitted surfaces.");
+DEFINE_bool(error_budget, true, "Measure the error budget: the training poses' volumetric "
+            "targets simulated (the floor), the surface error after pre-training (from the "
+            "model), and the held-out poses' own volumetric targets (prepare's embedded "
+            "simulation: --attachment_stiffness, --prepare_tolerance).");
+DEFINE_bool(report, true, "Write an HTML page with the tables, the error budget, the "
+            "training curve and pictures (--output_dir/index.html, images/*.png) by the report "
+            "script, run with --python. A missing interpreter or matplotlib is reported and "
+            "leaves the tables.");
+DEFINE_string(report_script, "", "The report script (default: evaluation_report.py in "
+              "share/activeqs/ next to the executable's folder, where the build and the "
+              "install put it).");
+#ifndef AQS_PYTHON
+#define AQS_PYTHON "python3"
+#endif
+DEFINE_string(python, AQS_PYTHON, "The Python 3 interpreter that runs the report script (it "
+              "needs matplotlib and numpy; default: the one the build found).");
 DECLARE_string(model);
+DECLARE_double(attachment_stiffness);
+DECLARE_double(prepare_tolerance);
 DECLARE_string(pose_dir);
 DECLARE_int32(threads);
 DECLARE_double(latent_regularization);
 
 namespace aqs {
+namespace {
+
+// <folder of this executable>/../share/activeqs/evaluation_report.py ("" if the
+// executable's path is unknown).
+std::string DefaultReportScript() {
+  std::error_code code;
+  const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", code);
+  if (code) return "";
+  return (exe.parent_path() / ".." / "share" / "activeqs" / "evaluation_report.py")
+      .lexically_normal()
+      .string();
+}
+
+}  // namespace
 
 bool EvaluateOptionsFromFlags(EvaluateJobOptions* options, std::string* error) {
   if (FLAGS_model.empty() || FLAGS_output_dir.empty()) {
@@ -46,6 +80,26 @@ bool EvaluateOptionsFromFlags(EvaluateJobOptions* options, std::string* error) {
   options->autoencoder.latent_regularization = FLAGS_latent_regularization;
   options->autoencoder.max_iterations = FLAGS_baseline_iterations;
   options->write_fields = FLAGS_write_fields;
+  options->error_budget = FLAGS_error_budget;
+  if (!(FLAGS_attachment_stiffness > 0) || !(FLAGS_prepare_tolerance > 0)) {
+    *error = "--attachment_stiffness and --prepare_tolerance must be > 0";
+    return false;
+  }
+  options->held_out_targets.relative_stiffness = FLAGS_attachment_stiffness;
+  options->held_out_targets.solver.relative_force_tolerance = FLAGS_prepare_tolerance;
+  if (FLAGS_report) {
+    options->report_script = FLAGS_report_script.empty() ? DefaultReportScript() : FLAGS_report_script;
+    if (options->report_script.empty()) {
+      *error = "--report: the report script's default place is unknown (no /proc/self/exe); "
+               "pass --report_script or --report=false";
+      return false;
+    }
+    if (FLAGS_python.empty()) {
+      *error = "--python must name a Python 3 interpreter (or pass --report=false)";
+      return false;
+    }
+    options->python = FLAGS_python;
+  }
   options->num_threads = FLAGS_threads;
   return true;
 }

@@ -22,6 +22,10 @@ DEFINE_int32(train_iterations, 200, "L-BFGS iterations of end-to-end training (i
 DEFINE_double(train_minutes, 0.0, "Stop end-to-end training after this many minutes of this run "
               "(0: no limit).");
 DEFINE_double(train_tolerance, 1e-6, "Relative force tolerance of the training equilibria.");
+DEFINE_bool(pretrain_simulate, true, "After pre-training, simulate every pose's pre-trained "
+            "latent (from rest, at --train_tolerance): logs and stores the surface error after "
+            "pre-training (pretrain/surface_errors.*, the error budget's stage (b)) and gives "
+            "training its starting equilibria.");
 DEFINE_int32(checkpoint_every, 1, "Save the learned state every this many iterations.");
 DEFINE_int32(train_restarts, 5, "L-BFGS restarts allowed when the line search stalls before the "
              "iteration or time budget is used.");
@@ -61,6 +65,18 @@ bool PretrainOptionsFromFlags(PretrainOptions* options, std::string* error) {
   options->latent_regularization = FLAGS_latent_regularization;
   options->max_iterations = FLAGS_pretrain_iterations;
   options->seed = FLAGS_seed;
+  options->num_threads = FLAGS_threads;
+  return true;
+}
+
+bool PretrainSimulationFromFlags(PoseSimulationOptions* options, bool* enabled,
+                                 std::string* error) {
+  if (!(FLAGS_train_tolerance > 0)) {
+    *error = "--train_tolerance must be > 0";
+    return false;
+  }
+  *enabled = FLAGS_pretrain_simulate;
+  options->solver.relative_force_tolerance = FLAGS_train_tolerance;
   options->num_threads = FLAGS_threads;
   return true;
 }

@@ -3,6 +3,7 @@
 
 #include <string>
 
+#include "eval/error_budget.h"
 #include "train/pretrain.h"
 #include "train/trainer.h"
 
@@ -12,6 +13,10 @@ namespace aqs {
 // false with *error for malformed flags.
 bool PretrainOptionsFromFlags(PretrainOptions* options, std::string* error);
 bool TrainOptionsFromFlags(TrainOptions* options, std::string* error);
+// How aqs_pretrain simulates the pre-trained poses (--pretrain_simulate: *enabled;
+// --train_tolerance, --threads).
+bool PretrainSimulationFromFlags(PoseSimulationOptions* options, bool* enabled,
+                                 std::string* error);
 
 }  // namespace aqs
 

@@ -54,7 +54,9 @@ collide jawOpen+mouthClose --latent=$out/collide/jawOpen+mouthClose.txt
 
 echo
 echo "Results in $out/:"
-echo "  evaluation/evaluation.md   errors of physics vs auto-encoder vs PCA, train and held out"
+echo "  evaluation/index.html      the report: tables, error budget, pictures (open in a browser)"
+echo "  evaluation/evaluation.md   errors of physics vs auto-encoder vs PCA, train and held out,"
+echo "                             and the error budget (where the error comes from)"
 echo "  evaluation/fields/*.ply    per-vertex error fields (viridis colours; MeshLab, ParaView)"
 echo "  evaluation/fitted/*.obj    every method's surface for every pose"
 echo "  model/                     the trained model (docs/model_format.md); model/train/log.csv"

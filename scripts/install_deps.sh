@@ -9,6 +9,7 @@ packages=(
   libceres-dev libeigen3-dev libsuitesparse-dev
   libgoogle-glog-dev libgflags-dev libgtest-dev googletest
   libopenblas0-pthread libopenblas-pthread-dev
+  python3 python3-matplotlib python3-numpy
 )
 
 missing=()

@@ -3,10 +3,13 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <sstream>
 
+#include "eval/error_budget.h"
 #include "eval/surface_pca.h"
+#include "jobs/report_script.h"
 #include "mesh/mesh_io.h"
 #include "mesh/ply_io.h"
 #include "model/model_io.h"
@@ -14,6 +17,7 @@
 #include "train/progress.h"
 #include "util/atomic_file.h"
 #include "util/line_reader.h"
+#include "util/matrix_io.h"
 #include "util/wall_timer.h"
 
 namespace aqs {
@@ -98,7 +102,69 @@ std::string MarkdownTable(const std::vector<EvaluationRow>& rows, const std::str
   return out;
 }
 
+// The error budget as Markdown: per pose the mean error of each stage, then the mean
+// over poses and the largest vertex error. `columns`: (method, heading) in order; a
+// method without a row for a pose shows "n/a".
+std::string BudgetTable(const std::vector<EvaluationRow>& rows, const std::string& split,
+                        const std::vector<std::pair<std::string, std::string>>& columns) {
+  std::vector<std::string> poses;
+  std::map<std::string, std::map<std::string, EvaluationRow>> table;
+  for (const EvaluationRow& row : rows) {
+    if (row.split != split) continue;
+    if (table.find(row.pose) == table.end()) poses.push_back(row.pose);
+    table[row.pose][row.method] = row;
+  }
+  if (poses.empty()) return "";
+  std::string out = "| " + split + " pose |";
+  std::string rule = "|---|";
+  for (const auto& column : columns) {
+    out += " " + column.second + " |";
+    rule += "---:|";
+  }
+  out += "\n" + rule + "\n";
+  std::vector<double> sum(columns.size(), 0.0), worst(columns.size(), 0.0);
+  std::vector<int> count(columns.size(), 0);
+  for (const std::string& pose : poses) {
+    out += "| " + pose;
+    for (size_t c = 0; c < columns.size(); ++c) {
+      const auto it = table[pose].find(columns[c].first);
+      if (it == table[pose].end()) {
+        out += " | n/a";
+        continue;
+      }
+      out += " | " + Number(it->second.mean);
+      sum[c] += it->second.mean;
+      worst[c] = std::max(worst[c], it->second.max);
+      ++count[c];
+    }
+    out += " |\n";
+  }
+  out += "| **mean**";
+  for (size_t c = 0; c < columns.size(); ++c) {
+    out += count[c] == static_cast<int>(poses.size()) ? " | **" + Number(sum[c] / count[c]) + "**"
+                                                       : std::string(" | n/a");
+  }
+  out += " |\n| max vertex error";
+  for (size_t c = 0; c < columns.size(); ++c) {
+    out += count[c] > 0 ? " | " + Number(worst[c]) : std::string(" |");
+  }
+  out += " |\n";
+  return out;
+}
+
 }  // namespace
+
+std::string FormatVertexRanges(const std::vector<int>& vertices) {
+  std::string text;
+  for (size_t i = 0; i < vertices.size();) {
+    size_t j = i + 1;
+    while (j < vertices.size() && vertices[j] == vertices[j - 1] + 1) ++j;
+    if (!text.empty()) text += ",";
+    text += std::to_string(vertices[i]) + ":" + std::to_string(vertices[j - 1] + 1);
+    i = j;
+  }
+  return text;
+}
 
 bool ParseVertexRanges(const std::string& text, std::vector<int>* vertices, std::string* error) {
   std::stringstream in(text);
@@ -172,10 +238,11 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& log,
     *error = out + ": cannot create the output folders (" + code.message() + ")";
     return false;
   }
+  const int num_error_vertices =
+      options.error_vertices.empty() ? ns : static_cast<int>(options.error_vertices.size());
   log << "evaluate: " << model.num_poses() << " training poses, " << test_names.size()
       << " held-out poses, latent " << model.latent_dim() << ", errors over "
-      << (options.error_vertices.empty() ? ns : static_cast<int>(options.error_vertices.size()))
-      << " surface vertices\n";
+      << num_error_vertices << " surface vertices\n";
 
   // The baselines, trained on the same poses with the same latent size.
   std::vector<Eigen::Matrix3Xd> train_surfaces;
@@ -195,42 +262,107 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& log,
       << FormatDuration(timer.Seconds()) << " (rms " << autoencoder.report().rms_error << ")\n";
 
   std::vector<EvaluationRow> rows;
+  const std::vector<int>& measured = options.error_vertices;
   LatentFitter fitter(model, options.fit);
   // Training poses.
+  std::vector<Eigen::Matrix3Xd> trained_states(model.num_poses());
+  // Per training pose the budget's per-vertex errors: floor, after pre-training,
+  // trained (NaN where not measured), for the report's pictures.
+  Eigen::MatrixXd training_errors =
+      Eigen::MatrixXd::Constant(ns, 3 * model.num_poses(), std::numeric_limits<double>::quiet_NaN());
   for (int p = 0; p < model.num_poses(); ++p) {
     const Eigen::Matrix3Xd& truth = model.poses[p].surface;
-    std::vector<RigidTransform> bones;
-    for (const Bone& bone : model.bones) bones.push_back(bone.pose_transforms[p]);
-    fitter.set_bone_transforms(bones);
+    fitter.set_bone_transforms(TrainingPoseBones(model, p));
     // From the equilibrium training left for this pose (the energy is not convex: from
     // rest a large pose such as jawOpen may crawl or reach another branch).
     fitter.StartFromTrainingPose(p);
-    Eigen::Matrix3Xd state, surface;
-    if (!fitter.Simulate(model.latents.col(p), &state, &surface, error)) {
+    Eigen::Matrix3Xd surface;
+    if (!fitter.Simulate(model.latents.col(p), &trained_states[p], &surface, error)) {
       *error = "training pose '" + model.poses[p].name + "': " + *error;
       return false;
     }
     rows.push_back(Summarize("train", model.poses[p].name, kNeutral,
-                             VertexErrors(model.neutral.vertices, truth), options.error_vertices));
-    rows.push_back(Summarize("train", model.poses[p].name, "physics", VertexErrors(surface, truth),
-                             options.error_vertices));
+                             VertexErrors(model.neutral.vertices, truth), measured));
+    training_errors.col(3 * p + 2) = VertexErrors(surface, truth);
+    rows.push_back(Summarize("train", model.poses[p].name, "physics",
+                             training_errors.col(3 * p + 2), measured));
     rows.push_back(Summarize("train", model.poses[p].name, "autoencoder",
                              VertexErrors(autoencoder.Decode(autoencoder.training_latents().col(p)), truth),
-                             options.error_vertices));
+                             measured));
     rows.push_back(Summarize("train", model.poses[p].name, "pca",
-                             VertexErrors(pca.Decode(pca.Encode(truth)), truth),
-                             options.error_vertices));
+                             VertexErrors(pca.Decode(pca.Encode(truth)), truth), measured));
   }
+  // The training poses' error budget: (a) the volumetric targets simulated, (b) the
+  // record of pre-training; (c) is the physics row above.
+  PoseSimulationOptions budget_simulation;
+  budget_simulation.solver = options.fit.solver;
+  budget_simulation.num_threads = options.num_threads;
+  bool have_pretrain = false;
+  int floor_failures = 0;
+  if (options.error_budget) {
+    timer.Reset();
+    std::vector<ActuationMatrix> targets;
+    std::vector<std::vector<RigidTransform>> bones;
+    std::vector<Eigen::Matrix3Xd> starts;
+    std::vector<int> with_target;
+    for (int p = 0; p < model.num_poses(); ++p) {
+      if (model.poses[p].target.cols() == 0) continue;
+      with_target.push_back(p);
+      targets.push_back(model.poses[p].target);
+      bones.push_back(TrainingPoseBones(model, p));
+      starts.push_back(trained_states[p]);
+    }
+    const std::vector<SimulatedPose> floors =
+        SimulateActuations(model, targets, bones, starts, budget_simulation);
+    for (size_t k = 0; k < floors.size(); ++k) {
+      const int p = with_target[k];
+      if (!floors[k].converged) {
+        ++floor_failures;
+        log << "  training pose '" << model.poses[p].name
+            << "': its volumetric target's equilibrium did not converge (floor left out): "
+            << floors[k].message << "\n";
+        continue;
+      }
+      training_errors.col(3 * p) = VertexErrors(floors[k].surface, model.poses[p].surface);
+      rows.push_back(Summarize("train", model.poses[p].name, "floor", training_errors.col(3 * p),
+                               measured));
+    }
+    PretrainSurfaceErrors pretrain;
+    std::string read_error;
+    have_pretrain = ReadPretrainSurfaceErrors(options.model, model, &pretrain, &read_error);
+    if (!read_error.empty()) {
+      log << "  the pre-training record is unusable (stage (b) left out): " << read_error << "\n";
+    }
+    for (int p = 0; have_pretrain && p < model.num_poses(); ++p) {
+      if (!pretrain.converged[p]) continue;  // no equilibrium: no error to report
+      training_errors.col(3 * p + 1) = pretrain.distances.col(p);
+      rows.push_back(Summarize("train", model.poses[p].name, "pretrain",
+                               Eigen::VectorXd(pretrain.distances.col(p)), measured));
+    }
+    log << "error budget: " << targets.size() << " volumetric targets simulated in "
+        << FormatDuration(timer.Seconds()) << "; surface error after pre-training "
+        << (have_pretrain ? "from pretrain/surface_errors.*"
+                          : "not recorded in the model (pre-trained without --pretrain_simulate "
+                            "or by an older version)")
+        << "\n";
+  }
+
   // Held-out poses: fitted.
   std::vector<int> all(ns);
   for (int i = 0; i < ns; ++i) all[i] = i;
+  struct HeldOut {
+    Eigen::Matrix3Xd surfaces[4];  // physics, autoencoder, pca, floor (if made)
+    Eigen::VectorXd errors[4];
+    LatentFitResult fit;
+  };
+  std::vector<HeldOut> held_out(test_names.size());
   for (size_t t = 0; t < test_names.size(); ++t) {
     WallTimer pose_timer;
     const Eigen::Matrix3Xd& truth = test_surfaces[t];
+    HeldOut& h = held_out[t];
     fitter.set_bone_transforms(RestBoneTransforms(model));
     fitter.set_start_state(model.mesh.vertices);  // every fit from rest: order-independent
-    LatentFitResult fit;
-    if (!fitter.Fit(FullSurfaceTarget(truth), fitter.MeanLatent(), &fit, error)) {
+    if (!fitter.Fit(FullSurfaceTarget(truth), fitter.MeanLatent(), &h.fit, error)) {
       *error = "held-out pose '" + test_names[t] + "': " + *error;
       return false;
     }
@@ -241,34 +373,102 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& log,
       return false;
     }
     rows.push_back(Summarize("test", test_names[t], kNeutral,
-                             VertexErrors(model.neutral.vertices, truth), options.error_vertices));
-    const Eigen::Matrix3Xd surfaces[3] = {fit.surface, autoencoder.Decode(ae_latent),
-                                          pca.Decode(pca.Encode(truth))};
-    Eigen::VectorXd errors[3];
+                             VertexErrors(model.neutral.vertices, truth), measured));
+    h.surfaces[0] = h.fit.surface;
+    h.surfaces[1] = autoencoder.Decode(ae_latent);
+    h.surfaces[2] = pca.Decode(pca.Encode(truth));
     for (int m = 0; m < 3; ++m) {
-      errors[m] = VertexErrors(surfaces[m], truth);
-      rows.push_back(Summarize("test", test_names[t], kMethods[m], errors[m], options.error_vertices));
+      h.errors[m] = VertexErrors(h.surfaces[m], truth);
+      rows.push_back(Summarize("test", test_names[t], kMethods[m], h.errors[m], measured));
     }
     log << "  " << test_names[t] << ": fitted in " << FormatDuration(pose_timer.Seconds())
-        << " (physics " << fit.iterations << " iterations), mean error: neutral "
+        << " (physics " << h.fit.iterations << " iterations), mean error: neutral "
         << rows[rows.size() - 4].mean << ", physics "
         << rows[rows.size() - 3].mean << ", autoencoder " << rows[rows.size() - 2].mean << ", PCA "
         << rows.back().mean << "\n";
-    if (!options.write_fields) continue;
-    // One colour scale for the three methods of a pose: the 95th percentile of all
-    // their vertex errors, so that the fields compare by eye.
-    std::vector<double> pooled;
-    for (const Eigen::VectorXd& e : errors) pooled.insert(pooled.end(), e.data(), e.data() + e.size());
-    std::nth_element(pooled.begin(), pooled.begin() + pooled.size() * 95 / 100, pooled.end());
-    const double color_max = std::max(1e-12, pooled[pooled.size() * 95 / 100]);
-    for (int m = 0; m < 3; ++m) {
+  }
+  // The held-out poses' floor: their own volumetric targets (prepare's embedded
+  // simulation, bones where the physics fit put them), simulated.
+  bool have_held_out_floor = false;
+  if (options.error_budget && !test_names.empty()) {
+    timer.Reset();
+    ActiveModel held = model;
+    held.poses.clear();
+    held.states.clear();
+    for (Bone& bone : held.bones) bone.pose_transforms.clear();
+    for (size_t t = 0; t < test_names.size(); ++t) {
+      TrainingPose pose;
+      pose.name = test_names[t];
+      pose.surface = test_surfaces[t];
+      held.poses.push_back(pose);
+      for (size_t b = 0; b < held.bones.size(); ++b) {
+        held.bones[b].pose_transforms.push_back(held_out[t].fit.bones[b]);
+      }
+    }
+    std::ostringstream target_log;
+    VolumetricTargetOptions target_options = options.held_out_targets;
+    target_options.num_threads = options.num_threads;
+    std::string target_error;
+    if (!MakeVolumetricTargets(target_options, &held, target_log, &target_error)) {
+      log << "  the held-out poses' volumetric targets failed (their floor is left out): "
+          << target_error << "\n";
+    } else {
+      std::vector<ActuationMatrix> targets;
+      std::vector<std::vector<RigidTransform>> bones;
+      std::vector<Eigen::Matrix3Xd> starts;
+      for (size_t t = 0; t < test_names.size(); ++t) {
+        targets.push_back(held.poses[t].target);
+        bones.push_back(held_out[t].fit.bones);
+        starts.push_back(held_out[t].fit.state);
+      }
+      const std::vector<SimulatedPose> floors =
+          SimulateActuations(model, targets, bones, starts, budget_simulation);
+      have_held_out_floor = true;
+      for (size_t t = 0; t < test_names.size(); ++t) {
+        if (!floors[t].converged) {
+          ++floor_failures;
+          log << "  held-out pose '" << test_names[t]
+              << "': its volumetric target's equilibrium did not converge (floor left out): "
+              << floors[t].message << "\n";
+          continue;
+        }
+        held_out[t].surfaces[3] = floors[t].surface;
+        held_out[t].errors[3] = VertexErrors(floors[t].surface, test_surfaces[t]);
+        rows.push_back(Summarize("test", test_names[t], "floor", held_out[t].errors[3], measured));
+      }
+      log << "error budget: the held-out poses' volumetric targets made and simulated in "
+          << FormatDuration(timer.Seconds()) << "\n";
+    }
+  }
+  if (options.write_fields && options.error_budget) {
+    std::filesystem::create_directories(out + "/budget", code);
+    if (code || !WriteMatrixFile(out + "/budget/training_errors.bin", training_errors, error)) {
+      if (code) *error = out + "/budget: cannot create the folder (" + code.message() + ")";
+      return false;
+    }
+  }
+  if (options.write_fields) {
+    const char* const kFieldMethods[4] = {"physics", "autoencoder", "pca", "floor"};
+    for (size_t t = 0; t < test_names.size(); ++t) {
+      const HeldOut& h = held_out[t];
+      // One colour scale for the methods of a pose: the 95th percentile of all their
+      // vertex errors, so that the fields compare by eye.
+      std::vector<double> pooled;
+      for (const Eigen::VectorXd& e : h.errors) pooled.insert(pooled.end(), e.data(), e.data() + e.size());
+      std::nth_element(pooled.begin(), pooled.begin() + pooled.size() * 95 / 100, pooled.end());
+      const double color_max = std::max(1e-12, pooled[pooled.size() * 95 / 100]);
       SurfaceMesh surface = model.neutral;
-      surface.vertices = surfaces[m];
-      const std::string stem = test_names[t] + "_" + kMethods[m];
-      const std::vector<double> values(errors[m].data(), errors[m].data() + errors[m].size());
-      if (!WriteObj(out + "/fitted/" + stem + ".obj", surface, error) ||
-          !WritePlyWithScalar(out + "/fields/" + stem + ".ply", surface, values, color_max, error)) {
-        return false;
+      surface.vertices = test_surfaces[t];
+      if (!WriteObj(out + "/fitted/" + test_names[t] + "_target.obj", surface, error)) return false;
+      for (int m = 0; m < 4; ++m) {
+        if (h.surfaces[m].cols() == 0) continue;
+        surface.vertices = h.surfaces[m];
+        const std::string stem = test_names[t] + "_" + kFieldMethods[m];
+        const std::vector<double> values(h.errors[m].data(), h.errors[m].data() + h.errors[m].size());
+        if (!WriteObj(out + "/fitted/" + stem + ".obj", surface, error) ||
+            !WritePlyWithScalar(out + "/fields/" + stem + ".ply", surface, values, color_max, error)) {
+          return false;
+        }
       }
     }
   }
@@ -277,8 +477,7 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& log,
   std::ostringstream md;
   md << "# Evaluation of " << options.model << "\n\n"
      << "Vertex distances between each method's surface and the pose (model units), over "
-     << (options.error_vertices.empty() ? ns : static_cast<int>(options.error_vertices.size()))
-     << " surface vertices. **neutral**: the rest surface itself (no motion), for reference. "
+     << num_error_vertices << " surface vertices. **neutral**: the rest surface itself (no motion), for reference. "
      << "Latent size " << model.latent_dim() << " for all three methods: "
      << "**physics** (this model: training latents, or latent and bone motion fitted to the "
      << "held-out pose through the simulator), **autoencoder** (surface-only decoder with the "
@@ -288,6 +487,42 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& log,
   const std::string test_table = MarkdownTable(rows, "test");
   md << "## Training poses\n\n" << train_table << "\n";
   if (!test_table.empty()) md << "## Held-out poses\n\n" << test_table << "\n";
+  std::string budget;
+  if (options.error_budget) {
+    std::ostringstream b;
+    b << "## Error budget\n\n"
+      << "Where the physics model's error comes from (mean vertex error over the same "
+      << num_error_vertices << " vertices). **(a) floor**: the pose's own volumetric target "
+      << "(prepare's embedded simulation of the pose) simulated: what a perfect decoder could "
+      << "reach on this simulation mesh and embedding. **(b) after pre-training**: the "
+      << "pre-trained decoder's actuation of the pose's latent, simulated (pre-training fits the "
+      << "targets, not the surfaces). **(c) trained**: the end-to-end trained model simulated "
+      << "(the physics column above). (c) - (a) is what the decoder and its latent space still "
+      << "miss; (b) - (c) what end-to-end training recovered.\n\n"
+      << BudgetTable(rows, "train",
+                     {{kNeutral, "neutral"}, {"floor", "(a) floor"},
+                      {"pretrain", "(b) after pre-training"}, {"physics", "(c) trained"}});
+    if (!have_pretrain) {
+      b << "\n(b) is not recorded in this model: it is measured when pre-training ends "
+        << "(`--pretrain_simulate`, pretrain/surface_errors.* in the model directory).\n";
+    }
+    if (!test_names.empty()) {
+      b << "\nHeld-out poses: **floor**: the pose's own volumetric target, made by prepare's "
+        << "embedded simulation with the bones where the physics fit put them, simulated; "
+        << "**physics fit**: latent and bones fitted through the simulator. physics - floor is "
+        << "what the learned latent space misses of this pose.\n\n"
+        << BudgetTable(rows, "test",
+                       {{kNeutral, "neutral"}, {"floor", "floor"}, {"physics", "physics fit"},
+                        {"autoencoder", "autoencoder"}, {"pca", "PCA"}});
+      if (!have_held_out_floor) b << "\n(The held-out floor could not be made; see the log.)\n";
+    }
+    if (floor_failures > 0) {
+      b << "\n" << floor_failures << " floor equilibria did not converge and are left out "
+        << "(n/a).\n";
+    }
+    budget = b.str();
+    md << budget << "\n";
+  }
   std::string csv = "split,pose,method,mean,rms,max\n";
   for (const EvaluationRow& r : rows) {
     char line[256];
@@ -299,10 +534,19 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& log,
       !WriteFileAtomically(out + "/evaluation.csv", csv, error)) {
     return false;
   }
-  log << "\n" << train_table << "\n" << test_table << "\nwrote " << out << "/evaluation.md, "
-      << out << "/evaluation.csv" << (options.write_fields ? ", fields/*.ply, fitted/*.obj" : "")
-      << " (" << FormatDuration(total.Seconds()) << ")\n";
+  log << "\n" << train_table << "\n" << test_table << "\n" << budget << "\nwrote " << out
+      << "/evaluation.md, " << out << "/evaluation.csv"
+      << (options.write_fields ? ", fields/*.ply, fitted/*.obj" : "") << " ("
+      << FormatDuration(total.Seconds()) << ")\n";
   *rows_out = rows;
+  if (!options.report_script.empty()) {
+    std::vector<std::string> arguments = {"--evaluation", out, "--model", options.model};
+    if (!options.error_vertices.empty()) {
+      arguments.push_back("--error_vertices");
+      arguments.push_back(FormatVertexRanges(options.error_vertices));
+    }
+    RunReportScript(options.python, options.report_script, arguments, log);
+  }
   return true;
 }
 

@@ -7,6 +7,7 @@
 
 #include "eval/surface_autoencoder.h"
 #include "fit/latent_fit.h"
+#include "prepare/volumetric_targets.h"
 
 namespace aqs {
 
@@ -26,6 +27,21 @@ struct EvaluateJobOptions {
   // Write per-vertex error fields (PLY with colours and a `value` property) for each
   // held-out pose and method, and the fitted surfaces (OBJ).
   bool write_fields = true;
+  // The error budget (eval/error_budget.h): for the training poses, (a) the floor (each
+  // pose's volumetric target simulated, from rest; again from the stored training
+  // equilibrium where that fails) and (b) the surface error after pre-training (read
+  // from the model's pretrain/surface_errors.*, where recorded); for each held-out
+  // pose, the floor of its own volumetric target: prepare's embedded simulation
+  // (held_out_targets) with the bones where the physics fit put them, then the target
+  // simulated. The equilibria use fit.solver's tolerance.
+  bool error_budget = true;
+  VolumetricTargetOptions held_out_targets;
+  // The pictures and the HTML page (index.html) by an external script, run at the end
+  // as `python report_script --evaluation <output_directory> --model <model>`
+  // (scripts/evaluation_report.py). Empty report_script: none. Its failure (python or
+  // matplotlib missing, or any other) is logged; the tables are written before it.
+  std::string report_script;
+  std::string python = "python3";
   int num_threads = 2;
 };
 
@@ -33,7 +49,9 @@ struct EvaluateJobOptions {
 struct EvaluationRow {
   std::string split;   // "train" or "test"
   std::string pose;
-  std::string method;  // "neutral" (the rest surface, for reference), "physics", "autoencoder", "pca"
+  // "neutral" (the rest surface, for reference), "physics", "autoencoder", "pca"; the
+  // error budget's "floor" (training and held-out poses) and "pretrain" (training).
+  std::string method;
   double mean = 0.0, rms = 0.0, max = 0.0;
 };
 
@@ -43,15 +61,24 @@ struct EvaluationRow {
 // held-out poses (physics: latent and bone motion fitted to all vertices, LatentFitter;
 // autoencoder: latent fitted, SurfaceAutoencoder::FitLatent; PCA: projection), and
 // writes <output>/evaluation.md (a table per split with per-pose rows and means; the
-// neutral surface's error is a reference column),
+// neutral surface's error is a reference column; with error_budget, the budget tables),
 // <output>/evaluation.csv, and, with write_fields, <output>/fields/<pose>_<method>.ply
-// and <output>/fitted/<pose>_<method>.obj. Returns false with *error on bad input.
+// and <output>/fitted/<pose>_<method>.obj for the held-out poses (methods physics,
+// autoencoder, pca, and floor with error_budget; fitted/<pose>_target.obj is the pose
+// itself); with write_fields and error_budget also <output>/budget/training_errors.bin
+// (util/matrix_io.h, num_surface_vertices x 3 num_poses: per training pose in the
+// model's order the per-vertex errors of the floor, after pre-training and trained; NaN
+// where not measured). Then runs the report script if set. Returns false with *error
+// on bad input.
 bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& log,
                     std::vector<EvaluationRow>* rows, std::string* error);
 
 // Parses "a:b" (vertices a to b-1), "a-b" (a to b) or a comma list of such, e.g.
 // "0:9409". Returns false with *error.
 bool ParseVertexRanges(const std::string& text, std::vector<int>* vertices, std::string* error);
+// The inverse: runs of consecutive indices as "a:b" (a to b-1), comma-separated, in the
+// given order (e.g. "0:9409"); "" for none.
+std::string FormatVertexRanges(const std::vector<int>& vertices);
 
 }  // namespace aqs
 

@@ -2,17 +2,51 @@
 
 #include <filesystem>
 
+#include "geometry/embedding.h"
 #include "model/model_io.h"
+#include "train/progress.h"
+#include "util/wall_timer.h"
 
 namespace aqs {
 
 bool RunPretrainJob(const std::string& model_directory, const PretrainOptions& options,
-                    std::ostream& log, std::string* error) {
+                    const PoseSimulationOptions* simulation, std::ostream& log,
+                    std::string* error) {
   ActiveModel model;
   if (!LoadModel(model_directory, &model, error)) return false;
   PretrainReport report;
   if (!Pretrain(options, &model, &report, log, error)) return false;
+  PretrainSurfaceErrors surface_errors;
+  if (simulation != nullptr) {
+    // Stage (b) of the error budget: what the decoder reproduces of the targets, as
+    // surfaces. Simulated from rest, as training's first evaluation would.
+    WallTimer timer;
+    std::vector<std::vector<RigidTransform>> bones;
+    for (int p = 0; p < model.num_poses(); ++p) bones.push_back(TrainingPoseBones(model, p));
+    const std::vector<SimulatedPose> simulated =
+        SimulateActuations(model, DecodeTrainingLatents(model), bones, {}, *simulation);
+    surface_errors.distances.resize(model.num_surface_vertices(), model.num_poses());
+    model.states.assign(model.num_poses(), Eigen::Matrix3Xd());
+    for (int p = 0; p < model.num_poses(); ++p) {
+      surface_errors.distances.col(p) = VertexDistances(simulated[p].surface, model.poses[p].surface);
+      surface_errors.converged.push_back(simulated[p].converged ? 1 : 0);
+      if (simulated[p].converged) {
+        model.states[p] = simulated[p].state;
+      } else {
+        log << "  pose '" << model.poses[p].name
+            << "': the pre-trained actuation's equilibrium did not converge: "
+            << simulated[p].message << "\n";
+      }
+    }
+    log << "pretrain: the pre-trained poses simulated in " << FormatDuration(timer.Seconds())
+        << "; surface error over all surface vertices (model units):\n"
+        << TrainingBudgetTable(model, &surface_errors, {});
+  }
   if (!SaveModel(model_directory, model, error)) return false;
+  if (simulation != nullptr &&
+      !WritePretrainSurfaceErrors(model_directory, model, surface_errors, error)) {
+    return false;
+  }
   log << "wrote model " << model_directory << "\n";
   return true;
 }
@@ -28,7 +62,27 @@ bool RunTrainJob(const std::string& model_directory, const TrainOptions& options
   TrainOptions train = options;
   train.model_directory = model_directory;
   TrainReport report;
-  return TrainEndToEnd(train, &model, &report, log, error);
+  if (!TrainEndToEnd(train, &model, &report, log, error)) return false;
+  // The error budget of the training poses, from the final equilibria.
+  PretrainSurfaceErrors pretrain;
+  std::string read_error;
+  const bool have_pretrain = ReadPretrainSurfaceErrors(model_directory, model, &pretrain, &read_error);
+  if (!read_error.empty()) log << "train: the pre-training record is unusable: " << read_error << "\n";
+  std::vector<Eigen::Matrix3Xd> surfaces;
+  for (int p = 0; p < model.num_poses(); ++p) {
+    if (p >= static_cast<int>(model.states.size()) ||
+        model.states[p].cols() != model.mesh.num_vertices()) {
+      surfaces.clear();
+      break;
+    }
+    surfaces.push_back(EmbeddedPositions(model.embedding, model.mesh.tets, model.states[p]));
+  }
+  log << "train: error budget over all surface vertices (model units): (a) the volumetric "
+         "targets' embedded simulation, (b) the pre-trained decoder simulated"
+      << (have_pretrain ? "" : " (not recorded: pre-trained without the record)")
+      << ", (c) after end-to-end training\n"
+      << TrainingBudgetTable(model, have_pretrain ? &pretrain : nullptr, surfaces);
+  return true;
 }
 
 }  // namespace aqs

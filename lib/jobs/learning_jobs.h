@@ -4,6 +4,7 @@
 #include <ostream>
 #include <string>
 
+#include "eval/error_budget.h"
 #include "train/pretrain.h"
 #include "train/trainer.h"
 
@@ -11,14 +12,23 @@ namespace aqs {
 
 // aqs_pretrain as a library call: loads the model directory, pre-trains a new decoder
 // and latents (train/pretrain.h), and saves the model (any earlier training checkpoint
-// and states are discarded: they belong to the old decoder).
+// and states are discarded: they belong to the old decoder). With `simulation` (may be
+// null: skipped), every pose's pre-trained latent is then decoded and simulated from
+// rest: the surface errors, stage (b) of the error budget (eval/error_budget.h), are
+// logged per pose next to the embedding floor and written to pretrain/surface_errors.*
+// in the model directory, and the equilibria are saved as the states that end-to-end
+// training starts from (it would solve the same equilibria from rest first). A pose
+// that does not converge is reported, and gets no state.
 bool RunPretrainJob(const std::string& model_directory, const PretrainOptions& options,
-                    std::ostream& log, std::string* error);
+                    const PoseSimulationOptions* simulation, std::ostream& log,
+                    std::string* error);
 
 // aqs_train as a library call: loads the pre-trained model and trains it end to end
 // (train/trainer.h) with checkpoints in the model directory. With restart, an earlier
 // run's checkpoint count is ignored (the iterations start from 0 again; the learned
-// state in the directory is still the starting point).
+// state in the directory is still the starting point). At the end it logs the training
+// poses' error budget over all surface vertices (TrainingBudgetTable): embedding floor,
+// after pre-training (if the model directory has the record), and after training.
 bool RunTrainJob(const std::string& model_directory, const TrainOptions& options, bool restart,
                  std::ostream& log, std::string* error);
 

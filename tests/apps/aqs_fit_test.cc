@@ -75,12 +75,42 @@ TEST_F(AqsFitTest, EvaluationTablesAndFieldsAreWritten) {
   EXPECT_TRUE(std::filesystem::exists(dir_->File("evaluation/evaluation.md")));
   std::ifstream csv(dir_->File("evaluation/evaluation.csv"));
   int lines = 0;
-  for (std::string line; std::getline(csv, line);) ++lines;
-  // header, 3 methods and the neutral reference x (6 training + 2 held-out)
-  EXPECT_EQ(lines, 1 + 4 * (6 + 2));
-  for (const char* method : {"physics", "autoencoder", "pca"}) {
+  std::map<std::string, int> methods;
+  for (std::string line; std::getline(csv, line);) {
+    ++lines;
+    const size_t a = line.find(','), b = line.find(',', a + 1), c = line.find(',', b + 1);
+    if (a != std::string::npos && c != std::string::npos) {
+      ++methods[line.substr(0, a) + " " + line.substr(b + 1, c - b - 1)];
+    }
+  }
+  // header, 3 methods and the neutral reference x (6 training + 2 held-out), and the
+  // error budget: floor and after pre-training for the training poses, floor for the
+  // held-out ones
+  EXPECT_EQ(lines, 1 + 4 * (6 + 2) + 2 * 6 + 2);
+  EXPECT_EQ(methods["train floor"], 6);
+  EXPECT_EQ(methods["train pretrain"], 6);
+  EXPECT_EQ(methods["test floor"], 2);
+  for (const char* method : {"physics", "autoencoder", "pca", "floor"}) {
     EXPECT_TRUE(std::filesystem::exists(dir_->File(std::string("evaluation/fields/test0_") + method + ".ply")))
         << method;
+  }
+  EXPECT_TRUE(std::filesystem::exists(dir_->File("evaluation/fitted/test0_target.obj")));
+  EXPECT_TRUE(std::filesystem::exists(dir_->File("evaluation/budget/training_errors.bin")));
+  // The budget in the logs of pretrain, train and evaluate, and its record in the model.
+  EXPECT_NE(pipeline_output_->find("(b) after pretrain"), std::string::npos) << *pipeline_output_;
+  EXPECT_NE(pipeline_output_->find("train: error budget"), std::string::npos);
+  EXPECT_NE(pipeline_output_->find("| train pose | neutral | (a) floor | (b) after pre-training"),
+            std::string::npos);
+  EXPECT_TRUE(std::filesystem::exists(dir_->File("model/pretrain/surface_errors.txt")));
+  // The report: written, or a message that says what is missing (a Python without
+  // matplotlib); never a failed evaluation.
+  const bool written = std::filesystem::exists(dir_->File("evaluation/index.html"));
+  EXPECT_TRUE(written || pipeline_output_->find("lacks matplotlib or numpy") != std::string::npos)
+      << *pipeline_output_;
+  if (written) {
+    EXPECT_TRUE(std::filesystem::exists(dir_->File("evaluation/images/test0.png")));
+    EXPECT_TRUE(std::filesystem::exists(dir_->File("evaluation/images/training_curve.png")));
+    EXPECT_TRUE(std::filesystem::exists(dir_->File("evaluation/images/budget.png")));
   }
 }
 

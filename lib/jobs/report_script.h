@@ -1,0 +1,30 @@
+#ifndef AQS_JOBS_REPORT_SCRIPT_H_
+#define AQS_JOBS_REPORT_SCRIPT_H_
+
+#include <ostream>
+#include <string>
+#include <vector>
+
+namespace aqs {
+
+// Exit status of scripts/evaluation_report.py when a Python package it needs
+// (matplotlib, numpy) cannot be imported.
+constexpr int kReportMissingPackageStatus = 3;
+
+// Runs `python script arguments...` (found through PATH when python has no slash),
+// with the standard streams shared, and waits for it. `log` is flushed first so that
+// the script's lines follow. Returns the exit status, or -1 if the program could not
+// be started or was killed by a signal (*message says why).
+int RunProgram(const std::vector<std::string>& command, std::string* message);
+
+// Runs the report script (evaluation_report.py), whose own lines say what it wrote, and
+// otherwise logs one line that says what is missing or failed and that the tables were
+// written (python not found; matplotlib or numpy missing: install
+// python3-matplotlib and python3-numpy; the script missing; any other failure with
+// its exit status). Returns true on success; a failure is never fatal for the caller.
+bool RunReportScript(const std::string& python, const std::string& script,
+                     const std::vector<std::string>& arguments, std::ostream& log);
+
+}  // namespace aqs
+
+#endif  // AQS_JOBS_REPORT_SCRIPT_H_

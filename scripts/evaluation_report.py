@@ -1,0 +1,748 @@
+#!/usr/bin/env python3
+"""Pictures and an HTML page for an ActiveQS evaluation (aqs_evaluate's output folder).
+
+    python3 evaluation_report.py --evaluation DIR [--model MODEL] [--output DIR]
+                                 [--error_vertices 0:9409]
+
+Reads DIR/evaluation.csv (per pose and method: mean, rms, max vertex error; the error
+budget's rows `floor` and `pretrain`), the held-out poses' surfaces DIR/fitted/<pose>_target.obj
+and DIR/fitted/<pose>_<method>.obj (method: physics, autoencoder, pca, floor), and, with
+--model, the model's neutral.obj and train/log.csv (the training curve). Writes into the
+output folder (default: DIR):
+
+    images/<pose>.png        per held-out pose: front views of the pose, of each method's
+                             surface and of each method's error map, on one colour scale
+    images/budget.png        the error budget, per pose
+    images/train_<pose>.png  the budget's error maps of the training poses with the
+                             largest trained error (from DIR/budget/training_errors.bin)
+    images/training_curve.png
+    index.html               the tables, the error budget and the pictures
+
+Error maps colour the distance of every vertex to the pose (model units) on the pose's
+surface, with one scale (viridis, 0 to the 98th percentile of the methods' errors) for
+all methods of a pose; vertices outside --error_vertices (not measured) are grey.
+
+Exit status: 0 done; 1 bad input (a missing or malformed file, named); 3 matplotlib or
+numpy cannot be imported (install python3-matplotlib and python3-numpy).
+"""
+
+import argparse
+import csv
+import html
+import math
+import os
+import sys
+
+MISSING_PACKAGE_STATUS = 3
+METHODS = ["physics", "autoencoder", "pca"]
+METHOD_NAMES = {"neutral": "neutral", "physics": "physics", "autoencoder": "auto-encoder",
+                "pca": "PCA", "floor": "floor", "pretrain": "after pre-training"}
+
+
+class InputError(Exception):
+    """Bad input: the message names the file."""
+
+
+def import_plotting():
+    """Imports numpy and matplotlib (Agg backend); exits with status 3 if one is missing."""
+    try:
+        import numpy  # noqa: F401
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot  # noqa: F401
+        import matplotlib.collections  # noqa: F401
+    except ImportError as e:
+        sys.stderr.write(
+            "evaluation_report.py: %s (Python %s at %s). Install python3-matplotlib and "
+            "python3-numpy (Debian: apt-get install python3-matplotlib python3-numpy, or "
+            "scripts/install_deps.sh); the evaluation's tables were written.\n"
+            % (e, sys.version.split()[0], sys.executable))
+        sys.exit(MISSING_PACKAGE_STATUS)
+
+
+# ---------------------------------------------------------------- reading
+
+
+def read_obj(path):
+    """Vertices (N x 3) and triangles (T x 3, 0-based; polygons fanned) of an OBJ file."""
+    import numpy as np
+    vertices, triangles = [], []
+    try:
+        with open(path) as f:
+            for number, line in enumerate(f, 1):
+                parts = line.split()
+                if not parts:
+                    continue
+                try:
+                    if parts[0] == "v":
+                        vertices.append([float(x) for x in parts[1:4]])
+                    elif parts[0] == "f":
+                        corners = []
+                        for item in parts[1:]:
+                            index = int(item.split("/")[0])
+                            corners.append(index - 1 if index > 0 else len(vertices) + index)
+                        for k in range(1, len(corners) - 1):
+                            triangles.append([corners[0], corners[k], corners[k + 1]])
+                except (ValueError, IndexError):
+                    raise InputError("%s:%d: malformed '%s' line" % (path, number, parts[0]))
+    except OSError as e:
+        raise InputError("%s: cannot be read (%s)" % (path, e.strerror))
+    v = np.array(vertices, dtype=float).reshape(-1, 3)
+    t = np.array(triangles, dtype=int).reshape(-1, 3)
+    if len(t) and (t.min() < 0 or t.max() >= len(v)):
+        raise InputError("%s: a face refers to a vertex that does not exist" % path)
+    return v, t
+
+
+def read_ply_values(path):
+    """The per-vertex `value` property of an ASCII PLY (as aqs_evaluate writes)."""
+    import numpy as np
+    try:
+        with open(path) as f:
+            lines = f.read().splitlines()
+    except OSError as e:
+        raise InputError("%s: cannot be read (%s)" % (path, e.strerror))
+    count, properties, in_vertex, body = None, [], False, None
+    for number, line in enumerate(lines):
+        parts = line.split()
+        if not parts:
+            continue
+        if parts[0] == "format" and parts[1:2] != ["ascii"]:
+            raise InputError("%s: only ASCII PLY is read" % path)
+        if parts[0] == "element":
+            in_vertex = parts[1] == "vertex"
+            if in_vertex:
+                count = int(parts[2])
+        elif parts[0] == "property" and in_vertex:
+            properties.append(parts[-1])
+        elif parts[0] == "end_header":
+            body = number + 1
+            break
+    if body is None or count is None or "value" not in properties:
+        raise InputError("%s: no vertex element with a 'value' property" % path)
+    column = properties.index("value")
+    try:
+        values = [float(lines[body + i].split()[column]) for i in range(count)]
+    except (ValueError, IndexError):
+        raise InputError("%s: truncated or malformed vertex data" % path)
+    return np.array(values)
+
+
+def read_matrix(path):
+    """A util/matrix_io.h file (magic AQSMAT1, int64 rows and cols, column-major
+    little-endian doubles) as a rows x cols array."""
+    import struct
+    import numpy as np
+    try:
+        with open(path, "rb") as f:
+            data = f.read()
+    except OSError as e:
+        raise InputError("%s: cannot be read (%s)" % (path, e.strerror))
+    if data[:8] != b"AQSMAT1\n" or len(data) < 24:
+        raise InputError("%s: not a matrix file (magic AQSMAT1)" % path)
+    rows, cols = struct.unpack("<qq", data[8:24])
+    if rows < 0 or cols < 0 or len(data) != 24 + 8 * rows * cols:
+        raise InputError("%s: %d x %d does not match the file's size" % (path, rows, cols))
+    return np.frombuffer(data, dtype="<f8", offset=24).reshape(cols, rows).T
+
+
+def read_evaluation_csv(path):
+    """Rows of evaluation.csv as dicts (split, pose, method, mean, rms, max as floats)."""
+    try:
+        with open(path, newline="") as f:
+            reader = csv.DictReader(f)
+            rows = []
+            for number, row in enumerate(reader, 2):
+                try:
+                    rows.append({"split": row["split"], "pose": row["pose"],
+                                 "method": row["method"], "mean": float(row["mean"]),
+                                 "rms": float(row["rms"]), "max": float(row["max"])})
+                except (KeyError, TypeError, ValueError):
+                    raise InputError("%s:%d: expected split,pose,method,mean,rms,max" %
+                                     (path, number))
+    except OSError as e:
+        raise InputError("%s: cannot be read (%s); run aqs_evaluate first" % (path, e.strerror))
+    return rows
+
+
+def read_training_log(path):
+    """Columns of train/log.csv (iteration, loss, mean_surface_error, ...) as lists."""
+    with open(path, newline="") as f:
+        reader = csv.DictReader(f)
+        columns = {}
+        for number, row in enumerate(reader, 2):
+            try:
+                for key in ("iteration", "loss", "mean_surface_error", "max_surface_error"):
+                    columns.setdefault(key, []).append(float(row[key]))
+            except (KeyError, TypeError, ValueError):
+                raise InputError("%s:%d: expected iteration,loss,mean_surface_error,"
+                                 "max_surface_error,..." % (path, number))
+    return columns
+
+
+def parse_vertex_ranges(text, count):
+    """A boolean mask of the vertices in 'a:b,c,d-e' (a to b-1, c, d to e), or all."""
+    import numpy as np
+    if not text:
+        return np.ones(count, dtype=bool)
+    mask = np.zeros(count, dtype=bool)
+    for item in text.split(","):
+        item = item.strip()
+        if not item:
+            continue
+        try:
+            if ":" in item:
+                a, b = (int(x) for x in item.split(":"))
+            elif "-" in item[1:]:
+                a, b = (int(x) for x in item.split("-"))
+                b += 1
+            else:
+                a = int(item)
+                b = a + 1
+        except ValueError:
+            raise InputError("--error_vertices: '%s' is not a vertex range" % item)
+        mask[max(0, a):min(count, b)] = True
+    return mask
+
+
+# ---------------------------------------------------------------- rendering
+
+
+class FrontView:
+    """An orthographic front view (looking along -z, y up) of surfaces that share the
+    triangles of one mesh: back-facing triangles are dropped, the rest drawn from back
+    to front (painter's algorithm) with Lambert shading."""
+
+    def __init__(self, triangles, frame_vertices, mask):
+        import numpy as np
+        self.triangles = triangles
+        framed = frame_vertices[mask] if mask.any() else frame_vertices
+        lo, hi = framed[:, :2].min(axis=0), framed[:, :2].max(axis=0)
+        margin = 0.04 * (hi - lo).max()
+        self.xlim = (lo[0] - margin, hi[0] + margin)
+        self.ylim = (lo[1] - margin, hi[1] + margin)
+        self.mask = mask
+        self.light = np.array([-0.35, 0.45, 1.0])
+        self.light /= np.linalg.norm(self.light)
+
+    def _visible(self, vertices):
+        import numpy as np
+        corners = vertices[self.triangles]  # T x 3 x 3
+        normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+        lengths = np.linalg.norm(normals, axis=1)
+        keep = (normals[:, 2] > 0) & (lengths > 0)
+        normals = normals[keep] / lengths[keep, None]
+        order = np.argsort(corners[keep][:, :, 2].mean(axis=1))  # far (small z) first
+        shade = np.clip(normals[order] @ self.light, 0.0, 1.0)
+        return np.flatnonzero(keep)[order], corners[keep][order], shade
+
+    def draw(self, ax, vertices, values=None, cmap=None, norm=None, title=""):
+        """Draws the surface (grey, shaded) or, with values, its error map."""
+        import numpy as np
+        from matplotlib.collections import PolyCollection
+        faces, corners, shade = self._visible(vertices)
+        if values is None:
+            grey = 0.25 + 0.7 * shade
+            colors = np.stack([grey * 0.93, grey * 0.9, grey * 0.87, np.ones_like(grey)], axis=1)
+        else:
+            face_values = values[self.triangles[faces]].mean(axis=1)
+            colors = cmap(norm(face_values))
+            measured = self.mask[self.triangles[faces]].all(axis=1)
+            colors[~measured] = (0.82, 0.82, 0.82, 1.0)
+            colors[:, :3] *= (0.72 + 0.28 * shade)[:, None]
+        collection = PolyCollection(corners[:, :, :2], facecolors=colors, edgecolors=colors,
+                                    linewidths=0.15, antialiaseds=False)
+        ax.add_collection(collection)
+        ax.set_xlim(*self.xlim)
+        ax.set_ylim(*self.ylim)
+        ax.set_aspect("equal")
+        ax.set_axis_off()
+        ax.set_title(title, fontsize=10)
+
+
+def percentile_scale(arrays, mask, q=98.0):
+    import numpy as np
+    pooled = np.concatenate([a[mask] for a in arrays if a is not None])
+    top = float(np.percentile(pooled, q)) if pooled.size else 1.0
+    return top if top > 0 else 1.0
+
+
+def pose_sheet(path, pose, surfaces, errors, neutral, triangles, mask, stats):
+    """One PNG: top row the pose and each method's surface, bottom row the error maps."""
+    import numpy as np
+    import matplotlib.pyplot as plt
+    from matplotlib import colors as mcolors
+    target = surfaces["target"]
+    methods = [m for m in METHODS + ["floor"] if m in surfaces]
+    view = FrontView(triangles, target, mask)
+    vmax = percentile_scale([errors[m] for m in methods], mask)
+    norm = mcolors.Normalize(vmin=0.0, vmax=vmax)
+    cmap = plt.get_cmap("viridis")
+    columns = 1 + len(methods)
+    aspect = (view.ylim[1] - view.ylim[0]) / (view.xlim[1] - view.xlim[0])
+    width = 2.6
+    fig, axes = plt.subplots(2, columns, figsize=(width * columns + 0.9, 2 * width * aspect + 1.0),
+                             squeeze=False)
+    view.draw(axes[0][0], target, title="%s (the pose)" % pose)
+    if neutral is not None:
+        motion = np.linalg.norm(target - neutral, axis=1)
+        view.draw(axes[1][0], target, motion, cmap, norm,
+                  title="neutral: %s" % format_mean(stats.get(("neutral", pose))))
+    else:
+        axes[1][0].set_axis_off()
+    for k, method in enumerate(methods, 1):
+        view.draw(axes[0][k], surfaces[method], title=METHOD_NAMES[method])
+        view.draw(axes[1][k], target, errors[method], cmap, norm,
+                  title="%s: %s" % (METHOD_NAMES[method], format_mean(stats.get((method, pose)))))
+    fig.subplots_adjust(left=0.01, right=0.90, top=0.93, bottom=0.02, wspace=0.03, hspace=0.12)
+    bar_axes = fig.add_axes([0.915, 0.06, 0.015, 0.38])
+    bar = fig.colorbar(plt.cm.ScalarMappable(norm=norm, cmap=cmap), cax=bar_axes, extend="max")
+    bar.set_label("vertex error (model units)", fontsize=9)
+    fig.savefig(path, dpi=110, bbox_inches="tight", pad_inches=0.1)
+    plt.close(fig)
+    return vmax
+
+
+def training_sheet(path, pose, target, errors, triangles, mask, stats):
+    """One PNG for a training pose: the pose, then the error maps of the budget's stages
+    (floor, after pre-training, trained) on one scale."""
+    import numpy as np
+    import matplotlib.pyplot as plt
+    from matplotlib import colors as mcolors
+    stages = [(key, title) for key, title in (("floor", "(a) floor"),
+                                              ("pretrain", "(b) after pre-training"),
+                                              ("physics", "(c) trained"))
+              if key in errors and not np.isnan(errors[key]).any()]
+    view = FrontView(triangles, target, mask)
+    vmax = percentile_scale([errors[k] for k, _ in stages], mask)
+    norm = mcolors.Normalize(vmin=0.0, vmax=vmax)
+    cmap = plt.get_cmap("viridis")
+    aspect = (view.ylim[1] - view.ylim[0]) / (view.xlim[1] - view.xlim[0])
+    width = 2.6
+    fig, axes = plt.subplots(1, 1 + len(stages),
+                             figsize=(width * (1 + len(stages)) + 0.9, width * aspect + 0.6),
+                             squeeze=False)
+    view.draw(axes[0][0], target, title="%s (training pose)" % pose)
+    for k, (key, title) in enumerate(stages, 1):
+        view.draw(axes[0][k], target, errors[key], cmap, norm,
+                  title="%s: %s" % (title, format_mean(stats.get((key, pose)))))
+    fig.subplots_adjust(left=0.01, right=0.90, top=0.9, bottom=0.02, wspace=0.03)
+    bar_axes = fig.add_axes([0.915, 0.1, 0.015, 0.75])
+    bar = fig.colorbar(plt.cm.ScalarMappable(norm=norm, cmap=cmap), cax=bar_axes, extend="max")
+    bar.set_label("vertex error (model units)", fontsize=9)
+    fig.savefig(path, dpi=110, bbox_inches="tight", pad_inches=0.1)
+    plt.close(fig)
+    return vmax, [title for _, title in stages]
+
+
+def format_mean(row):
+    return "mean %.4f" % row["mean"] if row else "n/a"
+
+
+def read_embedding_floor(path):
+    """The mean over poses of poses.txt's embedding_mean_error (None if unreadable)."""
+    values = []
+    try:
+        with open(path) as f:
+            for line in f:
+                parts = line.split("#")[0].split()
+                if len(parts) == 4:
+                    values.append(float(parts[2]))
+    except (OSError, ValueError):
+        return None
+    return sum(values) / len(values) if values else None
+
+
+def training_curve(path, log, floor):
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(7.5, 3.6))
+    it = log["iteration"]
+    ax.plot(it, log["mean_surface_error"], color="tab:blue", label="mean surface error")
+    if floor is not None:
+        ax.axhline(floor, color="tab:green", linestyle="--", linewidth=1,
+                   label="(a) embedding floor")
+        ax.set_ylim(bottom=0)
+        ax.legend(loc="upper right", fontsize=8)
+    ax.set_xlabel("L-BFGS iteration (0: after pre-training)")
+    ax.set_ylabel("mean surface error (model units)", color="tab:blue")
+    ax.grid(True, alpha=0.3)
+    right = ax.twinx()
+    right.semilogy(it, log["loss"], color="tab:orange", label="loss")
+    right.set_ylabel("loss (log scale)", color="tab:orange")
+    ax.set_title("End-to-end training")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def budget_chart(path, rows):
+    """Grouped bars per pose: the budget's stages and the baselines, one panel per split."""
+    import numpy as np
+    import matplotlib.pyplot as plt
+    panels = []
+    for split, order in (("train", ("floor", "pretrain", "physics", "autoencoder", "pca")),
+                         ("test", ("neutral", "floor", "physics", "autoencoder", "pca"))):
+        poses = ordered_poses(rows, split)
+        present = {r["method"] for r in rows if r["split"] == split}
+        methods = [m for m in order if m in present]
+        if poses and methods:
+            panels.append((split, poses, methods))
+    if not panels:
+        return False
+    most = max(len(poses) for _, poses, _ in panels)
+    fig, axes = plt.subplots(len(panels), 1, figsize=(max(11.0, 0.55 * most), 3.6 * len(panels)),
+                             squeeze=False)
+    palette = {"neutral": "#bbbbbb", "floor": "#2a9d8f", "pretrain": "#e9c46a",
+               "physics": "#264653", "autoencoder": "#f4a261", "pca": "#e76f51"}
+    for ax, (split, poses, methods) in zip(axes[:, 0], panels):
+        stats = {(r["method"], r["pose"]): r["mean"] for r in rows if r["split"] == split}
+        width = 0.8 / len(methods)
+        x = np.arange(len(poses))
+        for k, method in enumerate(methods):
+            values = [stats.get((method, pose), np.nan) for pose in poses]
+            label = METHOD_NAMES[method]
+            if method == "physics":
+                label = "physics (trained)" if split == "train" else "physics (fit)"
+            ax.bar(x + (k - (len(methods) - 1) / 2) * width, values, width, label=label,
+                   color=palette[method])
+        ax.set_xticks(x)
+        ax.set_xticklabels(poses, rotation=30, ha="right", fontsize=8)
+        ax.set_xlim(-0.6, len(poses) - 0.4)
+        ax.set_ylabel("mean vertex error")
+        ax.set_title("training poses" if split == "train" else "held-out poses", fontsize=10)
+        ax.legend(fontsize=8, ncol=len(methods))
+        ax.grid(True, axis="y", alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return True
+
+
+# ---------------------------------------------------------------- HTML
+
+
+def html_table(headings, rows, numeric_from=1):
+    out = ["<table>", "<tr>" + "".join("<th>%s</th>" % html.escape(h) for h in headings) + "</tr>"]
+    for row in rows:
+        cells = []
+        for k, cell in enumerate(row):
+            align = ' class="num"' if k >= numeric_from else ""
+            cells.append("<td%s>%s</td>" % (align, cell))
+        out.append("<tr>" + "".join(cells) + "</tr>")
+    out.append("</table>")
+    return "\n".join(out)
+
+
+def number(value, digits=4):
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return "n/a"
+    return "%.*f" % (digits, value)
+
+
+def split_tables(rows, split):
+    """The evaluation.md table of a split: per pose neutral mean, then mean/rms/max of
+    each method; a mean row (max of max)."""
+    poses = ordered_poses(rows, split)
+    stats = {(r["method"], r["pose"]): r for r in rows if r["split"] == split}
+    body = []
+    sums = {}
+    for pose in poses:
+        cells = [html.escape(pose), number(stats.get(("neutral", pose), {}).get("mean"))]
+        for method in METHODS:
+            r = stats.get((method, pose))
+            cells += [number(r["mean"]), number(r["rms"]), number(r["max"])] if r else ["n/a"] * 3
+            if r:
+                s = sums.setdefault(method, [0.0, 0.0, 0.0, 0])
+                s[0] += r["mean"]
+                s[1] += r["rms"]
+                s[2] = max(s[2], r["max"])
+                s[3] += 1
+        body.append(cells)
+    neutral = [stats[("neutral", p)]["mean"] for p in poses if ("neutral", p) in stats]
+    mean_row = ["<b>mean</b> (max of max)",
+                number(sum(neutral) / len(neutral)) if neutral else "n/a"]
+    for method in METHODS:
+        s = sums.get(method)
+        mean_row += (["<b>%s</b>" % number(s[0] / s[3]), number(s[1] / s[3]), number(s[2])]
+                     if s else ["n/a"] * 3)
+    body.append(mean_row)
+    headings = ["pose", "neutral mean"]
+    for method in METHODS:
+        headings += ["%s mean" % METHOD_NAMES[method], "rms", "max"]
+    return html_table(headings, body)
+
+
+def budget_table(rows, split, columns):
+    poses = ordered_poses(rows, split)
+    stats = {(r["method"], r["pose"]): r for r in rows if r["split"] == split}
+    body, sums, worst = [], {}, {}
+    for pose in poses:
+        cells = [html.escape(pose)]
+        for method, _ in columns:
+            r = stats.get((method, pose))
+            cells.append(number(r["mean"]) if r else "n/a")
+            if r:
+                sums.setdefault(method, []).append(r["mean"])
+                worst[method] = max(worst.get(method, 0.0), r["max"])
+        body.append(cells)
+    body.append(["<b>mean</b>"] + ["<b>%s</b>" % number(sum(sums[m]) / len(sums[m]))
+                                   if len(sums.get(m, [])) == len(poses) else "n/a"
+                                   for m, _ in columns])
+    body.append(["max vertex error"] + [number(worst[m]) if m in worst else "" for m, _ in columns])
+    return html_table(["pose"] + [heading for _, heading in columns], body)
+
+
+def ordered_poses(rows, split):
+    poses = []
+    for r in rows:
+        if r["split"] == split and r["pose"] not in poses:
+            poses.append(r["pose"])
+    return poses
+
+
+def method_means(rows, split, method):
+    values = [r["mean"] for r in rows if r["split"] == split and r["method"] == method]
+    return sum(values) / len(values) if values else None
+
+
+STYLE = """
+body { font-family: sans-serif; max-width: 1250px; margin: 1.5em auto; padding: 0 1em;
+       color: #222; line-height: 1.4; }
+table { border-collapse: collapse; margin: 0.6em 0 1.2em; font-size: 0.9em; }
+th, td { border: 1px solid #ccc; padding: 0.2em 0.55em; }
+th { background: #f2f2f2; }
+td.num { text-align: right; font-variant-numeric: tabular-nums; }
+img { max-width: 100%; border: 1px solid #ddd; }
+figure { margin: 1em 0 2em; }
+figcaption { font-size: 0.9em; color: #444; }
+.note { color: #555; font-size: 0.9em; }
+"""
+
+
+def write_html(path, title, rows, figures, notes):
+    test_poses = ordered_poses(rows, "test")
+    parts = ["<!DOCTYPE html>", "<html><head><meta charset='utf-8'>",
+             "<title>%s</title><style>%s</style></head><body>" % (html.escape(title), STYLE),
+             "<h1>%s</h1>" % html.escape(title)]
+    # The headline: held-out means of the physics model and the baselines.
+    if test_poses:
+        means = {m: method_means(rows, "test", m) for m in ["neutral"] + METHODS}
+        if all(means[m] is not None for m in METHODS):
+            best_baseline = min(means["autoencoder"], means["pca"])
+            verdict = ("lower than both baselines" if means["physics"] < best_baseline
+                       else "not lower than both baselines")
+            stats = {(r["method"], r["pose"]): r["mean"] for r in rows if r["split"] == "test"}
+            wins = sum(1 for p in test_poses
+                       if all((m, p) in stats for m in METHODS) and
+                       stats[("physics", p)] < min(stats[("autoencoder", p)], stats[("pca", p)]))
+            parts.append(
+                "<p>On %d held-out poses the physics model's mean vertex error is <b>%s</b>: "
+                "%s (auto-encoder %s, PCA %s; the neutral face itself %s). It is lower than both "
+                "baselines on %d of the %d poses.</p>"
+                % (len(test_poses), number(means["physics"]), verdict,
+                   number(means["autoencoder"]), number(means["pca"]),
+                   number(means["neutral"]), wins, len(test_poses)))
+    parts.append("<p class='note'>All errors are distances between a method's surface and the "
+                 "pose, per vertex, in model units, over the measured vertices. Methods: "
+                 "<b>physics</b> (the learned model; held-out poses: latent and bones fitted "
+                 "through the simulator), <b>auto-encoder</b> (surface-only, same latent size "
+                 "and layers), <b>PCA</b> (same size), <b>neutral</b> (the rest face, for "
+                 "reference).</p>")
+    for note in notes:
+        parts.append("<p class='note'>%s</p>" % html.escape(note))
+    parts.append("<h2>Held-out poses</h2>")
+    if test_poses:
+        parts.append(split_tables(rows, "test"))
+    else:
+        parts.append("<p>No held-out poses were evaluated.</p>")
+    parts.append("<h2>Training poses</h2>")
+    parts.append(split_tables(rows, "train"))
+    parts.append("<h2>Error budget: where the error comes from</h2>")
+    have_budget = any(r["method"] in ("floor", "pretrain") for r in rows)
+    if have_budget:
+        parts.append(
+            "<p><b>(a) floor</b>: the pose's own volumetric target (prepare's embedded "
+            "simulation of the pose) simulated &mdash; what a perfect decoder could reach on "
+            "this simulation mesh and embedding. <b>(b) after pre-training</b>: the "
+            "pre-trained decoder's actuation of the pose's latent, simulated (pre-training fits "
+            "the volumetric targets, not the surfaces). <b>(c) trained</b>: the end-to-end "
+            "trained model, simulated. (c) &minus; (a) is what the decoder and its latent "
+            "space still miss; (b) &minus; (c) what end-to-end training recovered. For held-out "
+            "poses the floor is made with the bones where the physics fit put them.</p>")
+        parts.append("<h3>Training poses</h3>")
+        parts.append(budget_table(rows, "train", [("neutral", "neutral"), ("floor", "(a) floor"),
+                                                  ("pretrain", "(b) after pre-training"),
+                                                  ("physics", "(c) trained"),
+                                                  ("autoencoder", "auto-encoder"),
+                                                  ("pca", "PCA")]))
+        if test_poses:
+            parts.append("<h3>Held-out poses</h3>")
+            parts.append(budget_table(rows, "test", [("neutral", "neutral"), ("floor", "floor"),
+                                                     ("physics", "physics fit"),
+                                                     ("autoencoder", "auto-encoder"),
+                                                     ("pca", "PCA")]))
+    else:
+        parts.append("<p>Not measured (aqs_evaluate --error_budget=false).</p>")
+    headings = {"train": "<h3>Where on the face: training poses</h3>",
+                "curve": "<h2>Training curve</h2>", "pose": "<h2>Held-out poses, pictures</h2>"}
+    for kind in ("budget", "train", "curve", "pose"):
+        for figure in figures:
+            if figure["kind"] != kind:
+                continue
+            if kind in headings and figure is next(f for f in figures if f["kind"] == kind):
+                parts.append(headings[kind])
+            parts.append("<figure><img src='%s' alt='%s'><figcaption>%s</figcaption></figure>"
+                         % (html.escape(figure["src"]), html.escape(figure["alt"]),
+                            figure["caption"]))
+    parts.append("</body></html>")
+    temp = path + ".tmp"
+    with open(temp, "w") as f:
+        f.write("\n".join(parts) + "\n")
+    os.replace(temp, path)
+
+
+# ---------------------------------------------------------------- main
+
+
+def main(argv):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--evaluation", required=True, help="aqs_evaluate's --output_dir")
+    parser.add_argument("--model", default="", help="the model directory (training curve, "
+                        "neutral surface)")
+    parser.add_argument("--output", default="", help="where to write (default: --evaluation)")
+    parser.add_argument("--training_pictures", type=int, default=3,
+                        help="error-budget pictures of this many training poses (those "
+                        "with the largest trained error)")
+    parser.add_argument("--error_vertices", default="",
+                        help="the vertices the errors are measured on, as aqs_evaluate's "
+                        "--error_vertices (others are grey in error maps)")
+    args = parser.parse_args(argv)
+    import_plotting()
+
+    evaluation = args.evaluation
+    output = args.output or evaluation
+    images = os.path.join(output, "images")
+    os.makedirs(images, exist_ok=True)
+    rows = read_evaluation_csv(os.path.join(evaluation, "evaluation.csv"))
+    stats = {(r["method"], r["pose"]): r for r in rows if r["split"] == "test"}
+    figures, notes = [], []
+
+    neutral = None
+    if args.model:
+        neutral_path = os.path.join(args.model, "neutral.obj")
+        if os.path.exists(neutral_path):
+            neutral, _ = read_obj(neutral_path)
+    for pose in ordered_poses(rows, "test"):
+        target_path = os.path.join(evaluation, "fitted", pose + "_target.obj")
+        if not os.path.exists(target_path):
+            notes.append("No pictures of %s: %s is missing (aqs_evaluate --write_fields)."
+                         % (pose, target_path))
+            continue
+        target, triangles = read_obj(target_path)
+        surfaces, errors = {"target": target}, {}
+        for method in METHODS + ["floor"]:
+            obj = os.path.join(evaluation, "fitted", "%s_%s.obj" % (pose, method))
+            ply = os.path.join(evaluation, "fields", "%s_%s.ply" % (pose, method))
+            if not (os.path.exists(obj) and os.path.exists(ply)):
+                continue
+            surfaces[method], method_triangles = read_obj(obj)
+            errors[method] = read_ply_values(ply)
+            if len(surfaces[method]) != len(target) or len(errors[method]) != len(target):
+                raise InputError("%s: %d vertices, the pose has %d" %
+                                 (obj, len(surfaces[method]), len(target)))
+        mask = parse_vertex_ranges(args.error_vertices, len(target))
+        pose_neutral = neutral if neutral is not None and len(neutral) == len(target) else None
+        name = "".join(c if c.isalnum() or c in "-_+." else "_" for c in pose) + ".png"
+        vmax = pose_sheet(os.path.join(images, name), pose, surfaces, errors, pose_neutral,
+                          triangles, mask, stats)
+        shown = ", ".join(METHOD_NAMES[m] for m in METHODS + ["floor"] if m in surfaces)
+        figures.append({"kind": "pose", "src": "images/" + name, "alt": pose, "caption":
+                        "<b>%s</b> (held out), front view. Top: the pose and the surfaces of %s. "
+                        "Bottom: each one's distance to the pose per vertex, drawn on the pose, "
+                        "on one scale from 0 to %s (the 98th percentile of the methods' errors; "
+                        "larger values are yellow)%s; first column: the neutral face's distance "
+                        "(where the pose moves). Grey: vertices not measured."
+                        % (html.escape(pose), shown, number(vmax),
+                           "" if "floor" not in surfaces else
+                           "; floor: the pose's own volumetric target simulated"), })
+        print("evaluation_report: wrote %s" % os.path.join(images, name))
+
+    # The training poses with the largest trained error: where their error comes from.
+    errors_path = os.path.join(evaluation, "budget", "training_errors.bin")
+    train_poses = ordered_poses(rows, "train")
+    if args.model and os.path.exists(errors_path) and train_poses:
+        train_stats = {(r["method"], r["pose"]): r for r in rows if r["split"] == "train"}
+        matrix = read_matrix(errors_path)
+        if matrix.shape[1] != 3 * len(train_poses):
+            raise InputError("%s: %d columns, expected 3 per training pose (%d)"
+                             % (errors_path, matrix.shape[1], len(train_poses)))
+        _, triangles = read_obj(os.path.join(args.model, "neutral.obj"))
+        worst = sorted(range(len(train_poses)), key=lambda p: -train_stats.get(
+            ("physics", train_poses[p]), {"mean": 0.0})["mean"])[:args.training_pictures]
+        for p in worst:
+            pose = train_poses[p]
+            target = read_matrix(os.path.join(args.model, "poses", "%04d.bin" % p)).T
+            if len(target) != matrix.shape[0]:
+                raise InputError("%s: %d vertices, the evaluation has %d" % (
+                    os.path.join(args.model, "poses", "%04d.bin" % p), len(target),
+                    matrix.shape[0]))
+            errors = {"floor": matrix[:, 3 * p], "pretrain": matrix[:, 3 * p + 1],
+                      "physics": matrix[:, 3 * p + 2]}
+            mask = parse_vertex_ranges(args.error_vertices, len(target))
+            name = "train_" + "".join(c if c.isalnum() or c in "-_+." else "_" for c in pose)
+            name += ".png"
+            vmax, shown = training_sheet(os.path.join(images, name), pose, target, errors,
+                                         triangles, mask, train_stats)
+            figures.append({"kind": "train", "src": "images/" + name, "alt": pose, "caption":
+                            "<b>%s</b> (training pose, one of the %d with the largest trained "
+                            "error): where its error comes from. Per vertex, on the pose, "
+                            "on one scale from 0 to %s: %s." % (
+                                html.escape(pose), len(worst), number(vmax),
+                                ", ".join(shown))})
+            print("evaluation_report: wrote %s" % os.path.join(images, name))
+
+    budget_path = os.path.join(images, "budget.png")
+    if budget_chart(budget_path, rows):
+        figures.append({"kind": "budget", "src": "images/budget.png", "alt": "error budget",
+                        "caption": "Mean vertex error per pose. Training poses: the floor (the "
+                        "pose's volumetric target simulated), after pre-training, the trained "
+                        "physics model, and the two baselines. Held-out poses: the neutral face "
+                        "(no motion), the floor, the physics model's fit and the baselines' "
+                        "(dark bars below the grey one: better than not moving at all)."})
+        print("evaluation_report: wrote %s" % budget_path)
+
+    if args.model:
+        log_path = os.path.join(args.model, "train", "log.csv")
+        if os.path.exists(log_path):
+            log = read_training_log(log_path)
+            if log.get("iteration"):
+                curve_path = os.path.join(images, "training_curve.png")
+                floor = read_embedding_floor(os.path.join(args.model, "poses.txt"))
+                training_curve(curve_path, log, floor)
+                first, last = log["mean_surface_error"][0], log["mean_surface_error"][-1]
+                figures.append({"kind": "curve", "src": "images/training_curve.png",
+                                "alt": "training curve", "caption":
+                                "End-to-end training (%s): mean surface error over the "
+                                "training poses and all surface vertices, %s after pre-training "
+                                "(iteration 0) &rarr; %s after %d iterations, and the loss "
+                                "(right axis)%s." % (
+                                    html.escape(log_path), number(first), number(last),
+                                    int(log["iteration"][-1]),
+                                    "" if floor is None else "; dashed: the volumetric targets' "
+                                    "embedding floor over the same vertices, %s" % number(floor))})
+                print("evaluation_report: wrote %s" % curve_path)
+        else:
+            notes.append("No training curve: %s is missing." % log_path)
+    title = "Evaluation of %s" % (args.model or evaluation)
+    index = os.path.join(output, "index.html")
+    write_html(index, title, rows, figures, notes)
+    print("evaluation_report: wrote %s" % index)
+    return 0
+
+
+if __name__ == "__main__":
+    try:
+        sys.exit(main(sys.argv[1:]))
+    except InputError as e:
+        sys.stderr.write("evaluation_report.py: %s\n" % e)
+        sys.exit(1)

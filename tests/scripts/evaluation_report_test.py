@@ -1,0 +1,209 @@
+#!/usr/bin/env python3
+"""Runs scripts/evaluation_report.py on a tiny synthetic evaluation (a 4 x 3 grid of quads
+standing for the face) and checks that it writes the pictures and the HTML page, and that
+bad input gets a message naming the file.
+
+    evaluation_report_test.py SCRIPT
+
+Exit status: 0 passed; 1 failed; 77 skipped (this Python lacks matplotlib or numpy: then
+only the script's own message for that case is checked, and CTest reports the test as
+skipped, not passed).
+"""
+
+import math
+import os
+import shutil
+import struct
+import subprocess
+import sys
+import tempfile
+
+SKIP = 77
+
+
+def grid(offset):
+    """Vertices of a 5 x 4 grid in the plane z = 0 (displaced by offset(x, y)), faces up."""
+    vertices = []
+    for j in range(4):
+        for i in range(5):
+            x, y = float(i), float(j)
+            dx, dy, dz = offset(x, y)
+            vertices.append((x + dx, y + dy, dz))
+    quads = []
+    for j in range(3):
+        for i in range(4):
+            a = j * 5 + i
+            quads.append((a, a + 1, a + 6, a + 5))  # counter-clockwise seen from +z
+    return vertices, quads
+
+
+def write_obj(path, vertices, quads):
+    with open(path, "w") as f:
+        for v in vertices:
+            f.write("v %.17g %.17g %.17g\n" % v)
+        for q in quads:
+            f.write("f " + " ".join(str(k + 1) for k in q) + "\n")
+
+
+def write_ply(path, vertices, quads, values):
+    with open(path, "w") as f:
+        f.write("ply\nformat ascii 1.0\ncomment color_max 1\nelement vertex %d\n" % len(vertices))
+        for p in ("x", "y", "z"):
+            f.write("property double %s\n" % p)
+        for p in ("red", "green", "blue"):
+            f.write("property uchar %s\n" % p)
+        f.write("property double value\nelement face %d\n" % len(quads))
+        f.write("property list uchar int vertex_indices\nend_header\n")
+        for v, e in zip(vertices, values):
+            f.write("%.17g %.17g %.17g 0 0 0 %.17g\n" % (v + (e,)))
+        for q in quads:
+            f.write("4 " + " ".join(str(k) for k in q) + "\n")
+
+
+def write_matrix(path, columns):
+    """A util/matrix_io.h file whose columns are the given lists (column-major)."""
+    rows = len(columns[0])
+    with open(path, "wb") as f:
+        f.write(b"AQSMAT1\n" + struct.pack("<qq", rows, len(columns)))
+        for column in columns:
+            f.write(struct.pack("<%dd" % rows, *column))
+
+
+def make_evaluation(root):
+    evaluation = os.path.join(root, "evaluation")
+    model = os.path.join(root, "model")
+    for d in ("fitted", "fields"):
+        os.makedirs(os.path.join(evaluation, d))
+    os.makedirs(os.path.join(model, "train"))
+    neutral, quads = grid(lambda x, y: (0.0, 0.0, 0.0))
+    write_obj(os.path.join(model, "neutral.obj"), neutral, quads)
+    target, _ = grid(lambda x, y: (0.0, 0.0, 0.3 * x))
+    write_obj(os.path.join(evaluation, "fitted", "smile_target.obj"), target, quads)
+    for k, method in enumerate(("physics", "autoencoder", "pca", "floor")):
+        surface, _ = grid(lambda x, y: (0.0, 0.0, 0.3 * x + 0.02 * (k + 1) * y))
+        errors = [abs(s[2] - t[2]) for s, t in zip(surface, target)]
+        write_obj(os.path.join(evaluation, "fitted", "smile_%s.obj" % method), surface, quads)
+        write_ply(os.path.join(evaluation, "fields", "smile_%s.ply" % method), surface, quads,
+                  errors)
+    # The training poses' budget: per pose floor, after pre-training (NaN for train_0: not
+    # recorded), trained; and the pose surfaces in the model (3 x vertices each).
+    os.makedirs(os.path.join(evaluation, "budget"))
+    os.makedirs(os.path.join(model, "poses"))
+    columns = []
+    for p in range(2):
+        pose, _ = grid(lambda x, y: (0.0, 0.0, 0.1 * (p + 1) * y))
+        write_matrix(os.path.join(model, "poses", "%04d.bin" % p), pose)
+        columns += [[0.001 * x for x, _, _ in pose],
+                    [math.nan if p == 0 else 0.03 * y for _, y, _ in pose],
+                    [0.01 * (x + y) for x, y, _ in pose]]
+    write_matrix(os.path.join(evaluation, "budget", "training_errors.bin"), columns)
+    rows = ["split,pose,method,mean,rms,max"]
+    for pose in ("train_0", "train_1"):
+        for k, method in enumerate(("neutral", "physics", "autoencoder", "pca", "floor",
+                                    "pretrain")):
+            rows.append("train,%s,%s,%g,%g,%g" % (pose, method, 0.1 / (k + 1), 0.12 / (k + 1),
+                                                  0.3 / (k + 1)))
+    for k, method in enumerate(("neutral", "physics", "autoencoder", "pca", "floor")):
+        rows.append("test,smile,%s,%g,%g,%g" % (method, 0.05 * (k + 1), 0.06 * (k + 1),
+                                                0.1 * (k + 1)))
+    with open(os.path.join(evaluation, "evaluation.csv"), "w") as f:
+        f.write("\n".join(rows) + "\n")
+    with open(os.path.join(model, "train", "log.csv"), "w") as f:
+        f.write("iteration,loss,mean_surface_error,max_surface_error,gradient_norm,step_norm,"
+                "seconds,function_evaluations\n")
+        for it in range(6):
+            f.write("%d,%g,%g,%g,0.1,0.1,%d,1\n" % (it, 0.01 / (it + 1), 0.05 / (it + 1),
+                                                    0.5 / (it + 1), it))
+    return evaluation, model
+
+
+def has_plotting():
+    try:
+        import matplotlib  # noqa: F401
+        import numpy  # noqa: F401
+        return True
+    except ImportError:
+        return False
+
+
+def run(command):
+    return subprocess.run(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                          universal_newlines=True)
+
+
+def main():
+    if len(sys.argv) != 2:
+        print("usage: evaluation_report_test.py SCRIPT")
+        return 1
+    script = sys.argv[1]
+    root = tempfile.mkdtemp(prefix="aqs_report_test_")
+    failures = []
+    try:
+        evaluation, model = make_evaluation(root)
+        command = [sys.executable, script, "--evaluation", evaluation, "--model", model,
+                   "--error_vertices", "0:15"]
+        if not has_plotting():
+            result = run(command)
+            if result.returncode != 3 or "python3-matplotlib" not in result.stdout:
+                print("without matplotlib the script must exit 3 and say what to install:\n" +
+                      result.stdout)
+                return 1
+            print("SKIPPED: %s lacks matplotlib or numpy; the pictures were not checked"
+                  % sys.executable)
+            return SKIP
+        result = run(command)
+        if result.returncode != 0:
+            failures.append("the script failed (exit %d):\n%s" % (result.returncode,
+                                                                  result.stdout))
+        for name in ("images/smile.png", "images/budget.png", "images/training_curve.png",
+                     "images/train_train_0.png", "images/train_train_1.png", "index.html"):
+            path = os.path.join(evaluation, name)
+            if not os.path.isfile(path) or os.path.getsize(path) == 0:
+                failures.append("%s was not written" % name)
+            elif name.endswith(".png"):
+                with open(path, "rb") as f:
+                    if f.read(8) != b"\x89PNG\r\n\x1a\n":
+                        failures.append("%s is not a PNG file" % name)
+        index = os.path.join(evaluation, "index.html")
+        if os.path.isfile(index):
+            page = open(index).read()
+            for needle in ("images/smile.png", "images/budget.png", "images/training_curve.png",
+                           "images/train_train_1.png",
+                           "<table>", "(a) floor", "(b) after pre-training", "smile",
+                           "train_1", "0.1000"):
+                if needle not in page:
+                    failures.append("index.html lacks '%s'" % needle)
+        # Bad input: no evaluation.csv; a malformed OBJ.
+        os.remove(os.path.join(evaluation, "evaluation.csv"))
+        result = run(command)
+        if result.returncode != 1 or "evaluation.csv" not in result.stdout:
+            failures.append("a missing evaluation.csv must exit 1 naming it, got %d:\n%s"
+                            % (result.returncode, result.stdout))
+        evaluation2, model2 = make_evaluation(os.path.join(root, "second"))
+        with open(os.path.join(evaluation2, "fitted", "smile_pca.obj"), "a") as f:
+            f.write("v 1 two 3\n")
+        result = run([sys.executable, script, "--evaluation", evaluation2, "--model", model2])
+        if result.returncode != 1 or "smile_pca.obj:" not in result.stdout:
+            failures.append("a malformed OBJ must exit 1 naming file and line, got %d:\n%s"
+                            % (result.returncode, result.stdout))
+        evaluation3, model3 = make_evaluation(os.path.join(root, "third"))
+        with open(os.path.join(evaluation3, "budget", "training_errors.bin"), "ab") as f:
+            f.write(b"\0\0\0")
+        result = run([sys.executable, script, "--evaluation", evaluation3, "--model", model3])
+        if result.returncode != 1 or "training_errors.bin" not in result.stdout:
+            failures.append("a truncated matrix file must exit 1 naming it, got %d:\n%s"
+                            % (result.returncode, result.stdout))
+    finally:
+        if os.environ.get("AQS_KEEP_TEST_FILES", "0") not in ("", "0"):
+            print("kept " + root)
+        else:
+            shutil.rmtree(root, ignore_errors=True)
+    for failure in failures:
+        print("FAILED: " + failure)
+    if not failures:
+        print("evaluation_report.py: pictures, page and bad-input messages checked")
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
