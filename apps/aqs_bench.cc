@@ -63,6 +63,7 @@ struct Row {
   double lm_solve = 0, lm_warm = 0;      // Levenberg-Marquardt only
   int lm_solve_iterations = 0, lm_warm_iterations = 0;
   double solve = 0, warm = 0;            // hybrid (default)
+  // Default method: L-BFGS iterations and factorizations (all kinds).
   int solve_lm = 0, solve_newton = 0, warm_lm = 0, warm_newton = 0;
   double gradient = 0;
   double gradient_assembly = 0, gradient_factorization = 0, gradient_solve = 0,
@@ -78,6 +79,7 @@ double OneIterationSeconds(const ShapeTargetModel& model, const BoundaryConditio
                            const ActuationMatrix& a, NormalEquationsOrdering ordering,
                            bool postordering) {
   QuasistaticSolverOptions options;
+  options.method = EquilibriumMethod::kLevenbergMarquardt;
   options.ordering = ordering;
   options.use_postordering = postordering;
   options.max_iterations = 2;
@@ -132,12 +134,15 @@ Row Measure(int n) {
   const ActuationMatrix changed = identity + 1.01 * (actuation - identity);
 
   // Solve from rest, then warm re-solve after a 1% change: Levenberg-Marquardt only,
-  // then the default hybrid (LM far from equilibrium, exact Newton near it).
+  // then the default method (L-BFGS far from equilibrium, Newton near it).
   for (const bool newton : {false, true}) {
     QuasistaticSolverOptions options;
     options.relative_force_tolerance = FLAGS_tolerance;
     options.num_threads = FLAGS_threads;
-    if (!newton) options.newton_relative_force = 0.0;
+    if (!newton) {
+      options.method = EquilibriumMethod::kLevenbergMarquardt;
+      options.newton_relative_force = 0.0;
+    }
     QuasistaticSolver solver(model, bc, options);
     solver.actuation() = actuation;
     const QuasistaticSolveReport cold = solver.Solve();
@@ -156,11 +161,11 @@ Row Measure(int n) {
       continue;
     }
     row.solve = cold.seconds;
-    row.solve_lm = cold.lm_iterations;
-    row.solve_newton = cold.newton_steps;
+    row.solve_lm = cold.lbfgs_iterations;
+    row.solve_newton = cold.factorizations;
     row.warm = warm.seconds;
-    row.warm_lm = warm.lm_iterations;
-    row.warm_newton = warm.newton_steps;
+    row.warm_lm = warm.lbfgs_iterations;
+    row.warm_newton = warm.factorizations;
 
     // One adjoint gradient of L = 1/2 |x - X|^2 at the solution, sharing the solver's
     // stiffness factorization (its symbolic analysis is already done).
@@ -207,7 +212,7 @@ int main(int argc, char** argv) {
   std::vector<aqs::Row> rows;
   std::printf("%8s %8s %9s %7s | %7s %12s %12s | %12s %12s %8s | %7s %7s %7s | %7s\n",
               "elements", "dofs", "L_nnz", "unit_s", "lm_iter", "LM:solve(it)", "LM:warm(it)",
-              "solve(lm+nt)", "warm(lm+nt)", "gradient", "ceres", "c+post", "dynamic",
+              "solve(lb+f)", "warm(lb+f)", "gradient", "ceres", "c+post", "dynamic",
               "peak_GB");
   for (const std::string& item : aqs::SplitCommaList(FLAGS_cubes)) {
     const int n = std::atoi(item.c_str());
@@ -247,13 +252,13 @@ int main(int argc, char** argv) {
   }
   std::printf("Ratios are to 'unit', one CHOLMOD numeric factorization of the same rest stiffness "
               "(best of 2), measured in this run.\nLM: Levenberg-Marquardt (Ceres) only; "
-              "solve/warm: the default hybrid, (LM iterations + Newton steps).\n%s\n",
+              "solve/warm: the default method, (L-BFGS iterations + factorizations).\n%s\n",
               aqs::BlasDescription().c_str());
   if (!FLAGS_csv.empty()) {
     std::string csv =
         "elements,dofs,factor_nonzeros,ordering,analysis_s,unit_s,lm_iteration_s,lm_solve_s,"
-        "lm_solve_iterations,lm_warm_s,lm_warm_iterations,solve_s,solve_lm_iterations,"
-        "solve_newton_steps,warm_s,warm_lm_iterations,warm_newton_steps,gradient_s,"
+        "lm_solve_iterations,lm_warm_s,lm_warm_iterations,solve_s,solve_lbfgs_iterations,"
+        "solve_factorizations,warm_s,warm_lbfgs_iterations,warm_factorizations,gradient_s,"
         "gradient_assembly_s,"
         "gradient_factorization_s,gradient_solve_s,gradient_accumulation_s,"
         "ceres_default_lm_iteration_s,ceres_default_postordered_lm_iteration_s,"

@@ -10,7 +10,8 @@
 //   model poses   with --model: each pose of --poses (training poses by name: the
 //                 decoded latent of a trained model, else the pose's volumetric target;
 //                 the bones at the pose's motion) and of --latents (NAME=latent file of
-//                 aqs_fit, bones at rest), solved from the rest shape.
+//                 aqs_fit, bones at rest), solved from the rest shape; with --springs,
+//                 prepare's embedded simulation of each pose of --poses instead.
 // Printed per case and method: converged, factorizations (all kinds), L-BFGS
 // iterations, Newton steps (projected + exact), LM iterations, seconds and seconds in
 // factorizations, and the largest vertex distance from the first method's result
@@ -18,6 +19,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -25,7 +27,9 @@
 
 #include "app_common.h"
 #include "equilibrium/quasistatic_solver.h"
+#include "equilibrium/embedded_attachments.h"
 #include "jobs/model_pose.h"
+#include "prepare/volumetric_targets.h"
 #include "mesh/lattice.h"
 #include "model/model_io.h"
 #include "util/atomic_file.h"
@@ -37,6 +41,9 @@ DEFINE_double(curl, 0.4, "Fibre contraction (above the middle) and stretch (belo
 DEFINE_string(poses, "", "With --model: training poses to solve from rest (comma-separated).");
 DEFINE_string(latents, "", "With --model: NAME=FILE pairs (comma-separated) of latent files to "
               "decode and solve from rest, bones at rest.");
+DEFINE_bool(springs, false, "With --poses: solve prepare's embedded simulation instead (the passive "
+            "body, S = I, pulled by springs onto the pose's surface; see aqs_prepare).");
+DEFINE_double(attachment_stiffness, 100.0, "With --springs: the springs' relative stiffness.");
 DEFINE_string(methods, "newton,lm", "Solver methods to compare (the first is the reference).");
 DEFINE_double(tolerance, 1e-6, "Relative force tolerance of the solves.");
 DEFINE_int32(max_iterations, 1000, "Iterations at most per solve (factorizations or LM iterations).");
@@ -53,6 +60,9 @@ struct Case {
   BoundaryConditions bc;
   ActuationMatrix actuation;
   Eigen::Matrix3Xd rest;
+  // With --springs: prepare's embedded-simulation springs and their targets.
+  std::shared_ptr<EmbeddedAttachments> springs;
+  Eigen::Matrix3Xd spring_targets;
 };
 
 struct Row {
@@ -97,6 +107,10 @@ void RunCase(const Case& c, const std::vector<std::string>& methods, std::vector
     options.max_iterations = FLAGS_max_iterations;
     options.num_threads = FLAGS_threads;
     QuasistaticSolver solver(*c.physics, c.bc, options);
+    if (c.springs) {
+      c.springs->targets() = c.spring_targets;
+      solver.AddEnergyTerm(c.springs.get());
+    }
     solver.actuation() = c.actuation;
     solver.SetPositions(c.rest);
     Row row;
@@ -187,7 +201,14 @@ int Main() {
       c.physics = &physics;
       c.rest = model.mesh.vertices;
       c.bc = PoseBoundaryConditions(model, p);
-      if (model.decoder) {
+      if (FLAGS_springs) {
+        c.name += "(springs)";
+        c.actuation = IdentityActuations(model.mesh.num_tets());
+        c.springs = std::make_shared<EmbeddedAttachments>(
+            model.mesh.tets, model.embedding.element, model.embedding.weights,
+            AttachmentStiffness(model, FLAGS_attachment_stiffness), model.mesh.vertices);
+        c.spring_targets = model.poses[p].surface - model.embedding.offsets;
+      } else if (model.decoder) {
         DecoderWorkspace workspace;
         model.decoder->Decode(model.decoder_params.data(), model.latents.col(p), &c.actuation,
                               &workspace);

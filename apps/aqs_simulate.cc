@@ -17,6 +17,8 @@ DEFINE_string(mesh, "", "Tet mesh: .mesh (MEDIT), .node/.ele (TetGen) or .msh (G
 DECLARE_string(model);
 DEFINE_string(latent, "", "With --model: a latent file (as aqs_fit writes) to decode and simulate.");
 DEFINE_string(pose, "", "With --model: simulate this training pose (its latent and bone motion).");
+DEFINE_bool(from_rest, false, "With --pose: solve from the rest shape, not from the pose's stored "
+            "training equilibrium.");
 DEFINE_string(fixed, "", "Fixed vertices: one per line, 'i' (at rest) or 'i x y z' (prescribed).");
 DEFINE_string(actuation, "", "Actuation: one line per element, 'sxx syy szz sxy sxz syz'. "
               "Default: S = I everywhere.");
@@ -49,6 +51,7 @@ int main(int argc, char** argv) {
   options.model = FLAGS_model;
   options.latent = FLAGS_latent;
   options.pose = FLAGS_pose;
+  options.from_rest = FLAGS_from_rest;
   options.mesh = FLAGS_mesh;
   options.fixed = FLAGS_fixed;
   options.actuation = FLAGS_actuation;

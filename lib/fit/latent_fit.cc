@@ -270,6 +270,7 @@ bool LatentFitter::Simulate(const Eigen::VectorXd& z, Eigen::Matrix3Xd* state,
     solver_->SetPositions(model_.mesh.vertices);
     report = solver_->Solve();
   }
+  last_simulate_report_ = report;
   if (!report.converged) {
     *error = "the equilibrium was not reached: " + report.Summary();
     return false;

@@ -119,6 +119,9 @@ class LatentFitter {
   bool Simulate(const Eigen::VectorXd& z, Eigen::Matrix3Xd* state, Eigen::Matrix3Xd* surface,
                 std::string* error);
 
+  // The report of Simulate's last equilibrium solve.
+  const QuasistaticSolveReport& last_simulate_report() const { return last_simulate_report_; }
+
   // The mean of the training latents (a neutral starting point).
   Eigen::VectorXd MeanLatent() const;
 
@@ -135,6 +138,7 @@ class LatentFitter {
   std::unique_ptr<QuasistaticSolver> solver_;
   std::unique_ptr<EquilibriumDifferentiator> differentiator_;
   std::vector<RigidTransform> bones_;
+  QuasistaticSolveReport last_simulate_report_;
   // Where equilibrium solves start (see set_start_state).
   Eigen::Matrix3Xd accepted_state_;
 };

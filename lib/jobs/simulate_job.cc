@@ -76,7 +76,7 @@ SimulateJobResult RunModelSimulateJob(const SimulateJobOptions& options, std::os
   fitter.set_bone_transforms(pose.bones);
   // A training pose starts from the equilibrium training left (the energy is not convex;
   // from rest the solve may take another branch or crawl).
-  if (pose.training_pose >= 0) fitter.StartFromTrainingPose(pose.training_pose);
+  if (pose.training_pose >= 0 && !options.from_rest) fitter.StartFromTrainingPose(pose.training_pose);
   Eigen::Matrix3Xd state, surface;
   SimulateJobResult result;
   if (!fitter.Simulate(pose.latent, &state, &surface, &error)) {
@@ -84,7 +84,8 @@ SimulateJobResult RunModelSimulateJob(const SimulateJobOptions& options, std::os
   }
   log << "simulated the model " << options.model << " ("
       << (options.pose.empty() ? "latent " + options.latent : "pose " + options.pose) << "): "
-      << model.mesh.num_tets() << " elements\n";
+      << model.mesh.num_tets() << " elements\nsolve: " << fitter.last_simulate_report().Summary()
+      << "\n";
   ActuationMatrix a;
   DecoderWorkspace workspace;
   model.decoder->Decode(model.decoder_params.data(), pose.latent, &a, &workspace);

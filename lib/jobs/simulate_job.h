@@ -22,6 +22,9 @@ struct SimulateJobOptions {
   std::string model;
   std::string latent;
   std::string pose;
+  // With --pose: start from the rest shape instead of the pose's stored training
+  // equilibrium.
+  bool from_rest = false;
   std::string mesh;            // tet mesh (.mesh, .node/.ele, .msh); required without model
   std::string fixed;           // fixed-vertex file (io/vertex_list_io.h); empty: none
   std::string actuation;       // actuation file (io/actuation_io.h); empty: S = I

@@ -22,18 +22,22 @@ Eigen::Matrix3d SymmetricPolarFactor(const Eigen::Matrix3d& f) {
   return 0.5 * (s + s.transpose());
 }
 
-bool MakeVolumetricTargets(const VolumetricTargetOptions& options, ActiveModel* model,
-                           std::ostream& log, std::string* error) {
-  const ShapeTargetModel physics(model->mesh, model->mu);
-  const int num_poses = model->num_poses();
+Eigen::VectorXd AttachmentStiffness(const ActiveModel& model, double relative_stiffness) {
   // Springs: per unit area as stiff as relative_stiffness layers of elements. Surface
   // vertices with no area (isolated) get the mean.
-  Eigen::VectorXd stiffness = VertexAreas(model->neutral.vertices, model->neutral.triangles);
+  Eigen::VectorXd stiffness = VertexAreas(model.neutral.vertices, model.neutral.triangles);
   const double mean_area = stiffness.sum() / std::max<Eigen::Index>(1, stiffness.size());
   for (Eigen::Index i = 0; i < stiffness.size(); ++i) {
     if (!(stiffness[i] > 0)) stiffness[i] = mean_area;
   }
-  stiffness *= options.relative_stiffness * model->mu.mean() / MeanEdgeLength(model->mesh);
+  return stiffness * (relative_stiffness * model.mu.mean() / MeanEdgeLength(model.mesh));
+}
+
+bool MakeVolumetricTargets(const VolumetricTargetOptions& options, ActiveModel* model,
+                           std::ostream& log, std::string* error) {
+  const ShapeTargetModel physics(model->mesh, model->mu);
+  const int num_poses = model->num_poses();
+  const Eigen::VectorXd stiffness = AttachmentStiffness(*model, options.relative_stiffness);
 
   const int threads = std::max(1, std::min(options.num_threads, num_poses));
   struct Worker {

@@ -36,6 +36,11 @@ struct VolumetricTargetOptions {
 bool MakeVolumetricTargets(const VolumetricTargetOptions& options, ActiveModel* model,
                            std::ostream& log, std::string* error);
 
+// The spring stiffness of MakeVolumetricTargets per neutral surface vertex
+// (num_surface_vertices): relative_stiffness * mean(mu) * A_i / h (see
+// VolumetricTargetOptions); vertices with no area get the mean area.
+Eigen::VectorXd AttachmentStiffness(const ActiveModel& model, double relative_stiffness);
+
 // sqrt(F^T F), the symmetric positive semi-definite polar factor of F.
 Eigen::Matrix3d SymmetricPolarFactor(const Eigen::Matrix3d& f);
 
