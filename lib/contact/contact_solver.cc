@@ -100,6 +100,10 @@ class TriangleGrid {
 QuasistaticSolverOptions DefaultContactSolverOptions() {
   QuasistaticSolverOptions options;
   options.newton_relative_force = 0.1;
+  // Every solve of a contact round has its own active pairs: a factor of another round is
+  // a poor preconditioner, and inexact steps let crossed edges slip through (the
+  // crossed-ridges test).
+  options.factor_reuse.max_iterations = 0;
   return options;
 }
 

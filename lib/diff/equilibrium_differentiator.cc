@@ -31,6 +31,13 @@ bool EquilibriumDifferentiator::Prepare(const ShapeTargetModel::PositionsRef& x,
   timings_ = DifferentiationTimings();
   x_ = x;
   a_ = a;
+  deferred_ = options_.reuse.max_iterations > 0;
+  if (deferred_) {
+    factorization_->Assemble(x_, a_, StiffnessKind::kExact);
+    timings_.assembly = factorization_->timings().assembly;
+    prepared_ = true;
+    return true;
+  }
   const bool ok = factorization_->Factorize(x_, a_, StiffnessKind::kExact, error);
   const FactorizationTimings& t = factorization_->timings();
   timings_.assembly = t.assembly;
@@ -42,13 +49,46 @@ bool EquilibriumDifferentiator::Prepare(const ShapeTargetModel::PositionsRef& x,
 
 Eigen::Matrix3Xd EquilibriumDifferentiator::SolveAdjoint(const Eigen::Matrix3Xd& dl_dx) {
   CHECK(prepared_) << "call Prepare() successfully first";
+  CHECK(!deferred_) << "with options().reuse, use the overloads that return false on failure";
   Eigen::Matrix3Xd lambda = factorization_->Solve(dl_dx);
   timings_.solve = factorization_->timings().solve;
   return lambda;
 }
 
+bool EquilibriumDifferentiator::SolveAdjoint(const Eigen::Matrix3Xd& dl_dx, Eigen::Matrix3Xd* lambda,
+                                             std::string* error) {
+  CHECK(prepared_) << "call Prepare() successfully first";
+  if (!deferred_) {
+    *lambda = SolveAdjoint(dl_dx);
+    return true;
+  }
+  Eigen::MatrixXd free;
+  const int factorizations = factorization_->counters().factorizations;
+  if (!factorization_->SolveAssembled(factorization_->GatherFree(dl_dx), options_.reuse, &free,
+                                      error)) {
+    return false;
+  }
+  if (factorization_->counters().factorizations > factorizations) {
+    timings_.factorization = factorization_->timings().factorization;
+  }
+  timings_.solve = factorization_->timings().solve;
+  *lambda = factorization_->ScatterFree(free.data());
+  return true;
+}
+
+bool EquilibriumDifferentiator::LossGradient(const Eigen::Matrix3Xd& dl_dx, ActuationMatrix* gradient,
+                                             std::string* error) {
+  Eigen::Matrix3Xd lambda;
+  if (!SolveAdjoint(dl_dx, &lambda, error)) return false;
+  *gradient = GradientFromAdjoint(lambda);
+  return true;
+}
+
 ActuationMatrix EquilibriumDifferentiator::LossGradient(const Eigen::Matrix3Xd& dl_dx) {
-  const Eigen::Matrix3Xd lambda = SolveAdjoint(dl_dx);
+  return GradientFromAdjoint(SolveAdjoint(dl_dx));
+}
+
+ActuationMatrix EquilibriumDifferentiator::GradientFromAdjoint(const Eigen::Matrix3Xd& lambda) {
   WallTimer timer;
   ActuationMatrix gradient(6, model_.num_elements());
   const Eigen::Matrix4Xi& tets = model_.tets();
@@ -68,6 +108,7 @@ ActuationMatrix EquilibriumDifferentiator::LossGradient(const Eigen::Matrix3Xd& 
 Eigen::MatrixXd EquilibriumDifferentiator::ActuationJacobianProduct(
     const Eigen::MatrixXd& directions) {
   CHECK(prepared_) << "call Prepare() successfully first";
+  CHECK(!deferred_) << "Jacobian products need Prepare without options().reuse";
   CHECK_EQ(directions.rows(), 6 * static_cast<Eigen::Index>(model_.num_elements()));
   const int k = static_cast<int>(directions.cols());
   const int num_elements = model_.num_elements();
@@ -113,6 +154,7 @@ namespace aqs {
 
 Eigen::MatrixXd EquilibriumDifferentiator::FixedVertexJacobianProduct(const Eigen::MatrixXd& motion) {
   CHECK(prepared_) << "call Prepare() successfully first";
+  CHECK(!deferred_) << "Jacobian products need Prepare without options().reuse";
   CHECK(factorization_->energy_terms().empty())
       << "fixed-vertex products ignore energy terms; the system has some";
   const int n = model_.num_vertices();

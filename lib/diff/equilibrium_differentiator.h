@@ -16,6 +16,12 @@ namespace aqs {
 struct EquilibriumDifferentiatorOptions {
   // Threads for stiffness assembly and per-element accumulation.
   int num_threads = 2;
+  // With reuse.max_iterations > 0, Prepare only assembles K, and the adjoint solves
+  // (the bool overloads of SolveAdjoint and LossGradient) first try conjugate gradients
+  // preconditioned by the factor the shared StiffnessFactorization holds from an earlier
+  // state, e.g. the last Newton step of the solve that found x: then one factorization
+  // serves the equilibrium and its gradient. 0 (default): Prepare factorizes K.
+  FactorReuseOptions reuse = {0, 1e-10, 6, 1e-2, 1};
 };
 
 // Timings of the last Prepare() and gradient/JVP call, in seconds.
@@ -82,6 +88,10 @@ class EquilibriumDifferentiator {
   // The adjoint solve alone: lambda = K^-1 g on free DOFs for g = dL/dx
   // (3 x num_vertices); returns 3 x num_vertices with zeros on fixed vertices.
   Eigen::Matrix3Xd SolveAdjoint(const Eigen::Matrix3Xd& dl_dx);
+  // The same two with options().reuse (Prepare may have deferred the factorization):
+  // false with *error if K had to be factorized and is not positive definite.
+  bool SolveAdjoint(const Eigen::Matrix3Xd& dl_dx, Eigen::Matrix3Xd* lambda, std::string* error);
+  bool LossGradient(const Eigen::Matrix3Xd& dl_dx, ActuationMatrix* gradient, std::string* error);
 
   const ShapeTargetModel& model() const { return model_; }
   const EquilibriumDifferentiatorOptions& options() const { return options_; }
@@ -96,6 +106,9 @@ class EquilibriumDifferentiator {
   Eigen::Matrix3Xd x_;
   ActuationMatrix a_;
   bool prepared_ = false;
+  bool deferred_ = false;  // Prepare assembled K without factorizing it (options_.reuse)
+  // dL/da from the adjoint lambda (3 x num_vertices) at the prepared state.
+  ActuationMatrix GradientFromAdjoint(const Eigen::Matrix3Xd& lambda);
   DifferentiationTimings timings_;
 };
 

@@ -62,6 +62,7 @@ NewtonSolveReport MinimizeEnergyNewton(const NewtonSolverOptions& options,
   // The relative diagonal shift that last made the projected K factorizable (0: none).
   double last_shift = 0.0;
   bool projected_here = false;  // the exact K was rejected at the current x
+  bool no_reuse_here = false;   // a step by CG on an earlier factor failed at the current x
   std::ostringstream message;
   while (true) {
     if (!std::isfinite(energy) || !std::isfinite(force)) {
@@ -79,14 +80,25 @@ NewtonSolveReport MinimizeEnergyNewton(const NewtonSolverOptions& options,
     }
     const bool exact = !projected_here && force <= exact_limit;
     std::string error;
+    Eigen::Matrix3Xd step;
+    bool reused = false;
     if (exact) {
       factorization->Assemble(*x, a, StiffnessKind::kExact);
-      ++report.factorizations;
-      if (!factorization->FactorizeAssembled(0.0, &error)) {
-        ++report.exact_rejections;
-        projected_here = true;
-        exact_limit = std::min(exact_limit, 0.1 * force);
-        continue;
+      // An inexact Newton step by CG on the factor of an earlier state, if it converges.
+      Eigen::MatrixXd free_step;
+      if (!no_reuse_here &&
+          factorization->SolveReusingFactor(factorization->GatherFree(gradient), options.reuse,
+                                            &free_step)) {
+        reused = true;
+        step = -factorization->ScatterFree(free_step.data());
+      } else {
+        ++report.factorizations;
+        if (!factorization->FactorizeAssembled(0.0, &error)) {
+          ++report.exact_rejections;
+          projected_here = true;
+          exact_limit = std::min(exact_limit, 0.1 * force);
+          continue;
+        }
       }
     } else {
       factorization->Assemble(*x, a, StiffnessKind::kProjected);
@@ -107,7 +119,7 @@ NewtonSolveReport MinimizeEnergyNewton(const NewtonSolverOptions& options,
       if (shift > 0.0) ++report.shifted_factorizations;
       last_shift = shift;
     }
-    const Eigen::Matrix3Xd step = -factorization->Solve(gradient);
+    if (!reused) step = -factorization->Solve(gradient);
     const double slope = gradient.cwiseProduct(step).sum();
     bool accepted = false;
     if (slope < 0.0 && std::isfinite(slope)) {
@@ -134,7 +146,13 @@ NewtonSolveReport MinimizeEnergyNewton(const NewtonSolverOptions& options,
     }
     if (accepted) {
       ++(exact ? report.exact_steps : report.projected_steps);
+      if (reused) ++report.reused_steps;
       projected_here = false;
+      no_reuse_here = false;
+      continue;
+    }
+    if (reused) {  // the inexact step failed: an exact one from a fresh factorization
+      no_reuse_here = true;
       continue;
     }
     if (exact) {  // an exact step that does not descend: a projected one from here

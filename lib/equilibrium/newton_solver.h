@@ -25,6 +25,10 @@ struct NewtonSolverOptions {
   int max_halvings = 30;
   // Armijo's sufficient-decrease constant: E(x + t d) <= E(x) + armijo t g.d.
   double armijo = 1e-4;
+  // Exact steps first try conjugate gradients on the current stiffness preconditioned by
+  // the factor the factorization holds from an earlier state (a warm start's, the last
+  // step's), with no factorization (an inexact Newton step); max_iterations = 0 disables.
+  FactorReuseOptions reuse = {20, 1e-6, 6, 1e-2, 1};
 
   // Checks the fields; false with *error naming the field.
   bool Validate(std::string* error) const;
@@ -34,6 +38,7 @@ struct NewtonSolveReport {
   bool converged = false;
   int projected_steps = 0;  // accepted steps on the PSD-projected stiffness
   int exact_steps = 0;      // accepted steps on the exact stiffness
+  int reused_steps = 0;     // of those, solved by CG on an earlier factor (no factorization)
   int factorizations = 0;   // CHOLMOD numeric factorizations, all kinds
   int shifted_factorizations = 0;  // of those, with a diagonal shift (singular K)
   int exact_rejections = 0;  // exact stiffness not positive definite, or its step failed

@@ -31,6 +31,9 @@ bool QuasistaticSolverOptions::Validate(std::string* error) const {
     out << "num_threads must be in [1, 1024] (is " << num_threads << ")";
   } else if (!(newton_relative_force >= 0.0) || !std::isfinite(newton_relative_force)) {
     out << "newton_relative_force must be finite and >= 0 (is " << newton_relative_force << ")";
+  } else if (factor_reuse.max_iterations < 0 || !(factor_reuse.relative_tolerance > 0.0) ||
+             factor_reuse.max_columns < 1) {
+    out << "factor_reuse needs max_iterations >= 0, relative_tolerance > 0 and max_columns >= 1";
   } else if (!(function_tolerance >= 0.0) || !std::isfinite(function_tolerance)) {
     out << "function_tolerance must be finite and >= 0 (is " << function_tolerance << ")";
   } else if (!(parameter_tolerance >= 0.0) || !std::isfinite(parameter_tolerance)) {
@@ -48,8 +51,10 @@ std::string QuasistaticSolveReport::Path() const {
   }
   if (lbfgs_iterations > 0) parts.push_back("L-BFGS " + std::to_string(lbfgs_iterations) + " iterations");
   if (newton_steps > 0) {
-    parts.push_back("Newton " + std::to_string(projected_steps) + " projected + " +
-                    std::to_string(exact_steps) + " exact steps");
+    std::string newton = "Newton " + std::to_string(projected_steps) + " projected + " +
+                         std::to_string(exact_steps) + " exact steps";
+    if (reused_steps > 0) newton += " (" + std::to_string(reused_steps) + " by CG on an earlier factor)";
+    parts.push_back(newton);
   }
   std::string path = parts.empty() ? std::string("no iterations") : parts[0];
   for (size_t i = 1; i < parts.size(); ++i) path += " + " + parts[i];
@@ -90,24 +95,33 @@ QuasistaticSolver::QuasistaticSolver(const ShapeTargetModel& model, const Bounda
     fixed_positions_ = bc.positions;
   }
   ApplyFixedPositions();
+}
 
+QuasistaticSolver::~QuasistaticSolver() = default;
+
+ceres::Problem* QuasistaticSolver::problem() {
+  if (problem_) return problem_.get();
+  // One ShapeTargetCostFunction per element over its four vertex blocks, then the energy
+  // terms' blocks; fixed vertices constant. Built on first use (Levenberg-Marquardt only).
   ceres::Problem::Options problem_options;
   problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
   problem_ = std::make_unique<ceres::Problem>(problem_options);
-  const Eigen::Matrix4Xi& tets = model.tets();
-  for (int e = 0; e < model.num_elements(); ++e) {
-    auto* cost = new ShapeTargetCostFunction(model.gradient_weights(e), model.rest_shape(e).volume,
-                                             model.mu(e), actuation_.data() + 6 * static_cast<size_t>(e));
+  const Eigen::Matrix4Xi& tets = model_.tets();
+  for (int e = 0; e < model_.num_elements(); ++e) {
+    auto* cost = new ShapeTargetCostFunction(model_.gradient_weights(e), model_.rest_shape(e).volume,
+                                             model_.mu(e), actuation_.data() + 6 * static_cast<size_t>(e));
     problem_->AddResidualBlock(cost, nullptr, vertex(tets(0, e)), vertex(tets(1, e)),
                                vertex(tets(2, e)), vertex(tets(3, e)));
   }
+  std::vector<double*> blocks(model_.num_vertices());
+  for (int v = 0; v < model_.num_vertices(); ++v) blocks[v] = vertex(v);
+  for (const EnergyTerm* term : terms_) term->AddResidualBlocks(problem_.get(), blocks);
   for (int v : fixed_vertices_) {
     double* block = vertex(v);
     if (problem_->HasParameterBlock(block)) problem_->SetParameterBlockConstant(block);
   }
+  return problem_.get();
 }
-
-QuasistaticSolver::~QuasistaticSolver() = default;
 
 void QuasistaticSolver::ApplyFixedPositions() {
   for (size_t i = 0; i < fixed_vertices_.size(); ++i) {
@@ -157,12 +171,15 @@ StiffnessFactorization* QuasistaticSolver::stiffness_factorization() {
 
 void QuasistaticSolver::AddEnergyTerm(const EnergyTerm* term) {
   CHECK(term != nullptr);
-  std::vector<double*> blocks(model_.num_vertices());
-  for (int v = 0; v < model_.num_vertices(); ++v) blocks[v] = vertex(v);
-  term->AddResidualBlocks(problem_.get(), blocks);
-  // Blocks a term added for vertices in no element: keep fixed ones constant.
-  for (int v : fixed_vertices_) {
-    if (problem_->HasParameterBlock(vertex(v))) problem_->SetParameterBlockConstant(vertex(v));
+  // The Ceres problem, if already built, gets the term's blocks too (fixed vertices'
+  // blocks a term added for vertices in no element stay constant).
+  if (problem_) {
+    std::vector<double*> blocks(model_.num_vertices());
+    for (int v = 0; v < model_.num_vertices(); ++v) blocks[v] = vertex(v);
+    term->AddResidualBlocks(problem_.get(), blocks);
+    for (int v : fixed_vertices_) {
+      if (problem_->HasParameterBlock(vertex(v))) problem_->SetParameterBlockConstant(vertex(v));
+    }
   }
   terms_.push_back(term);
   std::vector<std::vector<int>> couplings;
@@ -182,12 +199,14 @@ bool QuasistaticSolver::RunNewton(double exact_threshold, QuasistaticSolveReport
   newton.force_tolerance = report->force_tolerance;
   newton.exact_force_threshold = exact_threshold;
   newton.max_factorizations = std::max(1, options_.max_iterations - report->iterations);
+  newton.reuse = options_.factor_reuse;
   Eigen::Matrix3Xd x = positions();
   const NewtonSolveReport result =
       MinimizeEnergyNewton(newton, actuation(), stiffness_factorization(), &x);
   SetPositions(x);
   report->projected_steps += result.projected_steps;
   report->exact_steps += result.exact_steps;
+  report->reused_steps += result.reused_steps;
   report->newton_steps += result.projected_steps + result.exact_steps;
   report->factorizations += result.factorizations;
   report->shifted_factorizations += result.shifted_factorizations;
@@ -258,17 +277,18 @@ void QuasistaticSolver::RunCeres(double tolerance, QuasistaticSolveReport* repor
   solver_options.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
   solver_options.dynamic_sparsity = options_.ordering == NormalEquationsOrdering::kDynamic;
   solver_options.use_postordering = options_.use_postordering;
+  ceres::Problem* problem = this->problem();
   if (options_.ordering == NormalEquationsOrdering::kVertexFillReducing) {
     if (vertex_order_.empty()) vertex_order_ = FillReducingVertexOrder(model_.tets(), fixed_mask_);
     auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
     int group = 0;
     for (int v : vertex_order_) {
       double* block = vertex(v);
-      if (problem_->HasParameterBlock(block)) ordering->AddElementToGroup(block, group++);
+      if (problem->HasParameterBlock(block)) ordering->AddElementToGroup(block, group++);
     }
     for (int v : fixed_vertices_) {
       double* block = vertex(v);
-      if (problem_->HasParameterBlock(block)) ordering->AddElementToGroup(block, group);
+      if (problem->HasParameterBlock(block)) ordering->AddElementToGroup(block, group);
     }
     solver_options.linear_solver_ordering = ordering;
   }
@@ -282,7 +302,7 @@ void QuasistaticSolver::RunCeres(double tolerance, QuasistaticSolveReport* repor
   solver_options.function_tolerance = options_.function_tolerance;
   solver_options.parameter_tolerance = options_.parameter_tolerance;
   ceres::Solver::Summary summary;
-  ceres::Solve(solver_options, problem_.get(), &summary);
+  ceres::Solve(solver_options, problem, &summary);
 
   const int iterations = std::max(0, static_cast<int>(summary.iterations.size()) - 1);
   report->lm_iterations += iterations;

@@ -80,6 +80,10 @@ struct QuasistaticSolverOptions {
   // stiffness; 0 means projected steps only. kLevenbergMarquardt: Ceres runs down to
   // it, then Newton; 0 means Ceres only. Contact solves (lib/contact) use 0.1.
   double newton_relative_force = 1e-2;
+  // Exact Newton steps (kNewton) first try conjugate gradients preconditioned by the
+  // factor of an earlier state (see NewtonSolverOptions::reuse): a warm re-solve after a
+  // small change of the actuation then needs no factorization. max_iterations = 0: off.
+  FactorReuseOptions factor_reuse = {20, 1e-6, 6, 1e-2, 1};
   // Ceres' relative cost-change and step-size stopping tests. function_tolerance
   // 1e-15 stops only at the round-off floor of the cost (where further iterations
   // are noise); the force test above decides whether the result counts as converged.
@@ -108,6 +112,7 @@ struct QuasistaticSolveReport {
   int newton_steps = 0;
   int projected_steps = 0;
   int exact_steps = 0;
+  int reused_steps = 0;  // exact steps solved by CG on an earlier factor (no factorization)
   int factorizations = 0;
   int shifted_factorizations = 0;
   int line_search_evaluations = 0;
@@ -216,6 +221,8 @@ class QuasistaticSolver {
 
  private:
   void ApplyFixedPositions();
+  // The Ceres problem (built on first use: only Levenberg-Marquardt needs it).
+  ceres::Problem* problem();
   // Runs Ceres from the current state to the absolute force `tolerance`.
   void RunCeres(double tolerance, QuasistaticSolveReport* report);
   // Newton steps (MinimizeEnergyNewton) from the current state, exact stiffness below

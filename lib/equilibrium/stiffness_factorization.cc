@@ -41,6 +41,7 @@ void StiffnessFactorization::Assemble(const ShapeTargetModel::PositionsRef& x,
   const std::vector<int64_t>& starts = pattern_.column_starts();
   diagonal_.resize(pattern_.num_dofs());
   for (int c = 0; c < pattern_.num_dofs(); ++c) diagonal_[c] = values_[starts[c + 1] - 1];
+  factor_current_ = false;
   timings_.assembly = timer.Seconds();
 }
 
@@ -56,7 +57,11 @@ bool StiffnessFactorization::FactorizeAssembled(double relative_shift, std::stri
   for (int c = 0; c < pattern_.num_dofs(); ++c) values_[starts[c + 1] - 1] = diagonal_[c] + shift;
   const bool first = cholesky_.factor_nonzeros() == 0.0;
   std::string cholmod_error;
+  ++counters_.factorizations;
   const bool ok = cholesky_.Factorize(values_, &cholmod_error);
+  // values() stay K itself (unshifted) for products and later shifts.
+  for (int c = 0; c < pattern_.num_dofs(); ++c) values_[starts[c + 1] - 1] = diagonal_[c];
+  factor_current_ = ok && relative_shift == 0.0;
   if (first) timings_.analysis = cholesky_.analyze_seconds();
   timings_.factorization += cholesky_.factorize_seconds();
   if (!ok) {
@@ -96,6 +101,93 @@ Eigen::Matrix3Xd StiffnessFactorization::ScatterFree(const double* free_values) 
     out.col(pattern_.vertex_of_free(f)) = Eigen::Map<const Eigen::Vector3d>(free_values + 3 * f);
   }
   return out;
+}
+
+Eigen::VectorXd StiffnessFactorization::MultiplyAssembled(const Eigen::VectorXd& v) const {
+  // Upper-triangle CSC of a symmetric matrix: each stored (i, j), i < j, acts twice.
+  const std::vector<int64_t>& starts = pattern_.column_starts();
+  const std::vector<int64_t>& rows = pattern_.row_indices();
+  const int n = pattern_.num_dofs();
+  CHECK_EQ(v.size(), n);
+  Eigen::VectorXd out = Eigen::VectorXd::Zero(n);
+  for (int j = 0; j < n; ++j) {
+    double sum = 0.0;
+    const double vj = v[j];
+    for (int64_t p = starts[j]; p < starts[j + 1]; ++p) {
+      const int64_t i = rows[p];
+      const double value = values_[p];
+      if (i == j) {
+        sum += value * vj;
+      } else {
+        out[i] += value * vj;
+        sum += value * v[i];
+      }
+    }
+    out[j] += sum;
+  }
+  return out;
+}
+
+bool StiffnessFactorization::SolveReusingFactor(const Eigen::MatrixXd& b,
+                                                const FactorReuseOptions& reuse,
+                                                Eigen::MatrixXd* x) {
+  if (!cholesky_.factorized() || reuse.max_iterations <= 0 || b.cols() > reuse.max_columns) {
+    return false;
+  }
+  CHECK_EQ(b.rows(), pattern_.num_dofs());
+  WallTimer timer;
+  x->setZero(b.rows(), b.cols());
+  int iterations = 0;
+  bool ok = true;
+  for (Eigen::Index c = 0; c < b.cols() && ok; ++c) {
+    const double b_norm = b.col(c).norm();
+    if (b_norm == 0.0) continue;
+    // Preconditioned CG from x = 0 (r = b).
+    Eigen::VectorXd solution = Eigen::VectorXd::Zero(b.rows());
+    Eigen::VectorXd r = b.col(c);
+    Eigen::VectorXd z = cholesky_.Solve(r);
+    Eigen::VectorXd p = z;
+    double rz = r.dot(z);
+    ok = false;
+    for (int k = 1; k <= reuse.max_iterations; ++k) {
+      ++iterations;
+      const Eigen::VectorXd q = MultiplyAssembled(p);
+      const double curvature = p.dot(q);
+      if (!(curvature > 0.0)) break;  // K not positive definite along p
+      const double alpha = rz / curvature;
+      solution += alpha * p;
+      r -= alpha * q;
+      const double residual = r.norm() / b_norm;
+      if (residual <= reuse.relative_tolerance) {
+        ok = true;
+        break;
+      }
+      if (k == reuse.probe_iterations && residual > reuse.probe_tolerance) break;
+      z = cholesky_.Solve(r);
+      const double rz_next = r.dot(z);
+      p = z + (rz_next / rz) * p;
+      rz = rz_next;
+    }
+    if (ok) x->col(c) = solution;
+  }
+  counters_.cg_iterations += iterations;
+  if (ok) {
+    counters_.reused_solves += static_cast<int>(b.cols());
+  } else {
+    ++counters_.failed_reuses;
+  }
+  timings_.solve = timer.Seconds();
+  return ok;
+}
+
+bool StiffnessFactorization::SolveAssembled(const Eigen::MatrixXd& b, const FactorReuseOptions& reuse,
+                                            Eigen::MatrixXd* x, std::string* error) {
+  if (!factor_current_) {
+    if (SolveReusingFactor(b, reuse, x)) return true;
+    if (!FactorizeAssembled(0.0, error)) return false;
+  }
+  *x = SolveFree(b);
+  return true;
 }
 
 Eigen::MatrixXd StiffnessFactorization::SolveFree(const Eigen::MatrixXd& b) {

@@ -16,6 +16,30 @@
 
 namespace aqs {
 
+// How SolveAssembled may reuse the factor of an earlier state: as the preconditioner of
+// conjugate gradients on the current K.
+struct FactorReuseOptions {
+  // CG iterations at most per right-hand side (0: never reuse, always factorize).
+  int max_iterations = 20;
+  // Converged when |K x - b| <= relative_tolerance |b| for every column.
+  double relative_tolerance = 1e-10;
+  // Give up early (and factorize) when the residual is still above this fraction of |b|
+  // after `probe_iterations` iterations: a poor preconditioner (another pose's factor,
+  // a large change of state).
+  int probe_iterations = 6;
+  double probe_tolerance = 1e-2;
+  // Right-hand sides beyond which factorizing is cheaper than CG on each.
+  int max_columns = 2;
+};
+
+// What the factorization did since the last ResetCounters().
+struct FactorizationCounters {
+  int factorizations = 0;  // numeric factorizations (successful or not)
+  int reused_solves = 0;   // right-hand sides solved by CG on an earlier state's factor
+  int cg_iterations = 0;   // their iterations (one solve with the factor and one K v each)
+  int failed_reuses = 0;   // CG attempts abandoned (then factorized)
+};
+
 // Seconds spent by the last Factorize() and Solve() calls.
 struct FactorizationTimings {
   double assembly = 0.0;
@@ -64,6 +88,26 @@ class StiffnessFactorization {
                 StiffnessKind kind);
   bool FactorizeAssembled(double relative_shift, std::string* error);
   bool factorized() const { return cholesky_.factorized(); }
+  // Whether the factor is of values() as assembled (unshifted), so that Solve is exact.
+  bool factor_current() const { return factor_current_; }
+
+  // K x = b for K = values() as last assembled, b (free DOFs, k columns; see SolveFree).
+  // With the factor current: a direct solve. Otherwise, when a factor of an earlier
+  // state exists, K is close enough to it (CG converges within reuse's limits) and there
+  // are at most reuse.max_columns columns: preconditioned conjugate gradients, without a
+  // factorization. Otherwise values() is factorized first; false with *error if that
+  // fails (K not positive definite).
+  bool SolveAssembled(const Eigen::MatrixXd& b, const FactorReuseOptions& reuse, Eigen::MatrixXd* x,
+                      std::string* error);
+  // The CG half of SolveAssembled alone: false (x unspecified, nothing factorized) if
+  // there is no factor, CG meets non-positive curvature or does not converge in time.
+  bool SolveReusingFactor(const Eigen::MatrixXd& b, const FactorReuseOptions& reuse,
+                          Eigen::MatrixXd* x);
+  // K v for K = values() (free DOFs).
+  Eigen::VectorXd MultiplyAssembled(const Eigen::VectorXd& v) const;
+
+  const FactorizationCounters& counters() const { return counters_; }
+  void ResetCounters() { counters_ = FactorizationCounters(); }
 
   // K^-1 b for per-vertex b.
   Eigen::Matrix3Xd Solve(const Eigen::Matrix3Xd& b);
@@ -90,6 +134,8 @@ class StiffnessFactorization {
   std::vector<double> values_;
   // The diagonal of K as assembled, for shifted factorizations.
   Eigen::VectorXd diagonal_;
+  bool factor_current_ = false;
+  FactorizationCounters counters_;
   std::vector<const EnergyTerm*> terms_;
   FactorizationTimings timings_;
 };
