@@ -3,17 +3,39 @@
 #include <filesystem>
 
 #include "geometry/embedding.h"
+#include "model/model_directory.h"
 #include "model/model_io.h"
 #include "train/progress.h"
 #include "util/wall_timer.h"
 
 namespace aqs {
+namespace {
+
+// Takes the model's writers' lock (cleaning up after killed writers) and loads it. A
+// model whose folder does not exist fails with LoadModel's message.
+bool LockAndLoad(const std::string& model_directory, std::ostream& log, PathLock* lock,
+                 ActiveModel* model, std::string* error) {
+  std::string path = model_directory;
+  while (path.size() > 1 && path.back() == '/') path.pop_back();
+  std::error_code code;
+  const std::filesystem::path parent =
+      std::filesystem::absolute(path, code).lexically_normal().parent_path();
+  if (!std::filesystem::is_directory(parent, code)) {
+    LoadModel(model_directory, model, error);
+    return false;
+  }
+  return LockModelForWriting(model_directory, &log, lock, error) &&
+         LoadModel(model_directory, model, error);
+}
+
+}  // namespace
 
 bool RunPretrainJob(const std::string& model_directory, const PretrainOptions& options,
                     const PoseSimulationOptions* simulation, std::ostream& log,
                     std::string* error) {
+  PathLock lock;
   ActiveModel model;
-  if (!LoadModel(model_directory, &model, error)) return false;
+  if (!LockAndLoad(model_directory, log, &lock, &model, error)) return false;
   PretrainReport report;
   if (!Pretrain(options, &model, &report, log, error)) return false;
   PretrainSurfaceErrors surface_errors;
@@ -53,11 +75,14 @@ bool RunPretrainJob(const std::string& model_directory, const PretrainOptions& o
 
 bool RunTrainJob(const std::string& model_directory, const TrainOptions& options, bool restart,
                  std::ostream& log, std::string* error) {
+  PathLock lock;
   ActiveModel model;
-  if (!LoadModel(model_directory, &model, error)) return false;
-  if (restart) {
-    std::error_code code;
-    std::filesystem::remove(model_directory + "/train/checkpoint.txt", code);
+  if (!LockAndLoad(model_directory, log, &lock, &model, error)) return false;
+  if (restart && model.checkpoint.iterations > 0) {
+    // Saved before training starts, so that a run killed before its first checkpoint
+    // does not resume the old count next to a new log.
+    model.checkpoint = TrainingCheckpoint();
+    if (!SaveLearnedState(model_directory, model, error)) return false;
   }
   TrainOptions train = options;
   train.model_directory = model_directory;
