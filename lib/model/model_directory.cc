@@ -62,6 +62,37 @@ bool IsModelFileName(const std::string& folder, const std::string& name) {
   return true;
 }
 
+// Entries of the model folders `folders` ("" is the model's top) that are not part of
+// the model format, as "folder/name".
+std::vector<std::string> UnknownEntries(const std::string& dir,
+                                        const std::vector<std::string>& folders) {
+  static const std::set<std::string> kTopFolders = {"poses",   "targets", "states",
+                                                    "learned", "train",   "pretrain"};
+  std::vector<std::string> unknown;
+  for (const std::string& folder : folders) {
+    const std::string where = folder.empty() ? dir : dir + "/" + folder;
+    std::error_code code;
+    for (const fs::directory_entry& entry : fs::directory_iterator(where, code)) {
+      const std::string name = entry.path().filename().string();
+      const bool is_directory = entry.is_directory(code) && !entry.is_symlink(code);
+      if (is_directory && ((folder.empty() && kTopFolders.count(name) > 0) ||
+                           (folder == "learned" && name == "states"))) {
+        continue;
+      }
+      if (!is_directory && entry.is_regular_file(code) && IsModelFileName(folder, name)) continue;
+      unknown.push_back(folder.empty() ? name : folder + "/" + name);
+    }
+  }
+  return unknown;
+}
+
+std::string ListSome(const std::vector<std::string>& names) {
+  std::string list;
+  for (size_t i = 0; i < names.size() && i < 3; ++i) list += (i ? ", " : "") + names[i];
+  if (names.size() > 3) list += ", ... (" + std::to_string(names.size()) + " in all)";
+  return list;
+}
+
 // Directories of ActiveQS before format 2 beside the model: "DIR.old<pid>" (the old
 // model moved aside) and "DIR.tmp<pid>" (the new one being written).
 bool CleanLegacySiblings(const std::string& target, std::vector<std::string>* actions,
@@ -131,6 +162,16 @@ bool CleanTemporaryFiles(const std::string& dir, std::vector<std::string>* actio
 
 }  // namespace
 
+std::string ResolveModelPath(const std::string& dir) {
+  const std::string path = WithoutTrailingSlashes(dir);
+  std::error_code code;
+  if (fs::is_symlink(fs::symlink_status(path, code))) {
+    const fs::path resolved = fs::canonical(path, code);
+    if (!code) return resolved.string();
+  }
+  return path;
+}
+
 int ModelFormatVersion(const std::string& dir) {
   std::error_code code;
   if (!fs::is_regular_file(dir + "/model.txt", code)) return 0;
@@ -153,7 +194,16 @@ bool CheckModelDestination(const std::string& path, bool overwrite, std::string*
     if (!fs::exists(fs::symlink_status(path, code))) return true;  // missing
   } else if (fs::is_directory(status)) {
     if (fs::is_empty(path, code) && !code) return true;
-    if (ModelFormatVersion(path) > 0) return true;
+    if (ModelFormatVersion(path) > 0) {
+      const std::vector<std::string> unknown = UnknownEntries(
+          path, {"", "train", "pretrain", "poses", "targets", "states", "learned",
+                 "learned/states"});
+      if (unknown.empty() || overwrite) return true;
+      *error = "model " + path + " holds files that are not part of an ActiveQS model (" +
+               ListSome(unknown) + "); replacing the model would delete them: move them out "
+               "first";
+      return false;
+    }
   }
   if (overwrite) return true;
   *error = path +
@@ -165,10 +215,18 @@ bool CheckModelDestination(const std::string& path, bool overwrite, std::string*
   return false;
 }
 
+bool CheckLearnedStateDestination(const std::string& dir, std::string* error) {
+  const std::vector<std::string> unknown = UnknownEntries(dir, {"learned", "learned/states"});
+  if (unknown.empty()) return true;
+  *error = "model " + dir + " holds files that are not part of an ActiveQS model (" +
+           ListSome(unknown) + "); a checkpoint would delete them: move them out first";
+  return false;
+}
+
 bool LockModelForWriting(const std::string& dir, std::ostream* log, PathLock* lock,
                          std::string* error) {
-  const std::string target = WithoutTrailingSlashes(dir);
-  if (!lock->Acquire(target, error, "model " + target)) return false;
+  const std::string target = ResolveModelPath(dir);
+  if (!lock->Acquire(target, error, "model " + WithoutTrailingSlashes(dir))) return false;
   if (!lock->first()) return true;
   std::vector<std::string> actions;
   const bool ok = CleanModelLeftovers(target, &actions, error);

@@ -13,14 +13,24 @@ namespace aqs {
 // "Writing"): what may be replaced, the writers' lock, and the cleanup of what killed
 // writers left.
 
+// The path writers replace for the model at `dir`: trailing slashes removed, and a
+// symbolic link resolved (the link's target is replaced, not the link).
+std::string ResolveModelPath(const std::string& dir);
+
 // The format version in <dir>/model.txt (its "format N" line), or 0 if `dir` is not an
 // ActiveQS model (no readable model.txt with such a line).
 int ModelFormatVersion(const std::string& dir);
 
 // Whether a model may be written at `path`: a missing path, an empty directory and an
-// ActiveQS model (ModelFormatVersion > 0) may be replaced; anything else (another
-// directory, a file) only with `overwrite`. Returns false with *error naming `path`.
+// ActiveQS model (ModelFormatVersion > 0) holding only files of the model format may be
+// replaced; anything else (another directory, a file, a model with other files in it,
+// which the replacement would delete) only with `overwrite`. Returns false with *error
+// naming `path` (and the foreign files).
 bool CheckModelDestination(const std::string& path, bool overwrite, std::string* error);
+
+// Whether the learned state of the model at `dir` (learned/) may be replaced: it holds
+// only files of the model format. Returns false with *error naming the others.
+bool CheckLearnedStateDestination(const std::string& dir, std::string* error);
 
 // Takes the writers' lock of the model at `dir` (util/path_lock.h: the lock file
 // "<dir>.aqs-lock" beside it; the parent folder must exist). Taken afresh by this

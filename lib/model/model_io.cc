@@ -216,19 +216,6 @@ bool ReadManifest(const std::string& path, int* version, std::string* error) {
   return true;
 }
 
-// The model's path with symbolic links resolved (the link's target is replaced, not
-// the link) and trailing slashes removed.
-std::string ResolvedModelPath(const std::string& directory) {
-  std::string path = directory;
-  while (path.size() > 1 && path.back() == '/') path.pop_back();
-  std::error_code code;
-  if (fs::is_symlink(fs::symlink_status(path, code))) {
-    const fs::path resolved = fs::canonical(path, code);
-    if (!code) return resolved.string();
-  }
-  return path;
-}
-
 // Holds the model's lock for a save, unless the caller does already.
 bool LockForSave(const std::string& directory, PathLock* lock, std::string* error) {
   return LockModelForWriting(directory, nullptr, lock, error);
@@ -304,7 +291,7 @@ bool SaveModel(const std::string& directory, const ActiveModel& model, std::stri
 bool SaveModel(const std::string& directory, const ActiveModel& model,
                const SaveModelOptions& options, std::string* error) {
   if (!ValidateModel(model, directory, error)) return false;
-  const std::string target = ResolvedModelPath(directory);
+  const std::string target = ResolveModelPath(directory);
   const fs::path parent = fs::path(target).parent_path();
   if (!parent.empty() && !MakeDirectory(parent.string(), error)) return false;
   PathLock lock;
@@ -335,7 +322,7 @@ bool SaveModel(const std::string& directory, const ActiveModel& model,
 
 bool SaveLearnedState(const std::string& directory, const ActiveModel& model, std::string* error) {
   if (!ValidateModel(model, directory, error)) return false;
-  const std::string target = ResolvedModelPath(directory);
+  const std::string target = ResolveModelPath(directory);
   PathLock lock;
   if (!LockForSave(target, &lock, error)) return false;
   const int version = ModelFormatVersion(target);
@@ -349,6 +336,7 @@ bool SaveLearnedState(const std::string& directory, const ActiveModel& model, st
              "' (save the whole model first)";
     return false;
   }
+  if (!CheckLearnedStateDestination(target, error)) return false;
   const std::string learned = target + "/" + kLearned;
   const std::string staging = StagingPathOf(learned);
   if (!CreateStagingDirectory(staging, error)) return false;

@@ -222,6 +222,25 @@ TEST(ModelIoTest, OnlyModelsEmptyDirectoriesAndMissingPathsAreReplaced) {
   EXPECT_TRUE(LoadModel(folder, &back, &error)) << error;
   EXPECT_TRUE(LoadModel(file, &back, &error)) << error;
   EXPECT_EQ(Entries(dir.path()), std::set<std::string>({"a", "empty", "file", "folder"}));
+  // A model with files of the user's in it: replacing it would delete them.
+  dir.Write("folder/notes.txt", "my notes");
+  EXPECT_FALSE(SaveModel(folder, model, &error));
+  EXPECT_NE(error.find("holds files that are not part of an ActiveQS model (notes.txt)"),
+            std::string::npos) << error;
+  fs::remove(folder + "/notes.txt");
+  dir.Write("folder/learned/plot.png", "png");
+  EXPECT_FALSE(SaveLearnedState(folder, model, &error));
+  EXPECT_NE(error.find("learned/plot.png"), std::string::npos) << error;
+  EXPECT_FALSE(SaveModel(folder, model, &error));
+  EXPECT_EQ(ReadAll(folder + "/learned/plot.png"), "png");
+  ASSERT_TRUE(SaveModel(folder, model, overwrite, &error)) << error;
+  EXPECT_FALSE(fs::exists(folder + "/learned/plot.png"));
+  // Through a symbolic link, the link's target is replaced and the link stays.
+  fs::create_directory_symlink(folder, dir.File("link"));
+  ASSERT_TRUE(SaveModel(dir.File("link/"), model, &error)) << error;
+  EXPECT_TRUE(fs::is_symlink(dir.File("link")));
+  EXPECT_TRUE(LoadModel(dir.File("link"), &back, &error)) << error;
+  EXPECT_EQ(Entries(dir.path()), std::set<std::string>({"a", "empty", "file", "folder", "link"}));
 }
 
 // kill -9 at every step of SaveModel over an existing model: the path always holds the
