@@ -302,13 +302,16 @@ bool SaveModel(const std::string& directory, const ActiveModel& model,
   const std::string staging = StagingPathOf(target);
   if (!CreateStagingDirectory(staging, error)) return false;
   bool ok = WriteAll(staging, model, error);
-  const std::string log = target + "/train/log.csv";
-  if (ok && options.keep_training_log && fs::exists(log)) {
+  for (const char* record : {"train/log.csv", "pretrain/surface_errors.bin",
+                             "pretrain/surface_errors.txt"}) {
+    const std::string from = target + "/" + record;
+    if (!ok || !options.keep_records || !fs::exists(from)) continue;
+    const std::string to = staging + "/" + record;
     std::error_code code;
-    ok = MakeDirectory(staging + "/train", error);
-    if (ok) fs::copy_file(log, staging + "/train/log.csv", code);
+    ok = MakeDirectory(fs::path(to).parent_path().string(), error);
+    if (ok) fs::copy_file(from, to, code);
     if (ok && code) {
-      *error = log + ": cannot copy into the new model (" + code.message() + ")";
+      *error = from + ": cannot copy into the new model (" + code.message() + ")";
       ok = false;
     }
   }
@@ -328,7 +331,7 @@ bool SaveLearnedState(const std::string& directory, const ActiveModel& model, st
   const int version = ModelFormatVersion(target);
   if (version == 1) {
     SaveModelOptions upgrade;
-    upgrade.keep_training_log = true;
+    upgrade.keep_records = true;
     return SaveModel(target, model, upgrade, error);
   }
   if (version != kFormatVersion) {

@@ -38,8 +38,9 @@ struct SaveModelOptions {
   // Replace whatever is at the directory; without it only a missing path, an empty
   // directory or an ActiveQS model is replaced (CheckModelDestination).
   bool overwrite = false;
-  // Carry the training log (train/log.csv) of the model being replaced over.
-  bool keep_training_log = false;
+  // Carry the records of the model being replaced over: the training log
+  // (train/log.csv) and the pre-training record (pretrain/, eval/error_budget.h).
+  bool keep_records = false;
 };
 
 // Writes the whole model to `directory`: into a staging directory beside it, which then
@@ -53,7 +54,7 @@ bool SaveModel(const std::string& directory, const ActiveModel& model, std::stri
 // Replaces the learned state of a saved model (learned/: decoder, latents, states and
 // the checkpoint) as one unit, for training checkpoints: written into
 // "learned.aqs-tmp<pid>" and exchanged with learned/ in one step. A format-1 model is
-// rewritten whole as format 2 (its training log kept).
+// rewritten whole as format 2 (its training log and pre-training record kept).
 bool SaveLearnedState(const std::string& directory, const ActiveModel& model, std::string* error);
 
 // Reads and validates (ValidateModel) a model directory (format 1 or 2). Errors name the
