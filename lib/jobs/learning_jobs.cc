@@ -28,6 +28,14 @@ bool LockAndLoad(const std::string& model_directory, std::ostream& log, PathLock
          LoadModel(model_directory, model, error);
 }
 
+// Whether the job's saves may replace what they replace (checked before the work): the
+// whole model, or (training a format-2 model) its learned state.
+bool CheckReplaceable(const std::string& model_directory, bool whole, std::string* error) {
+  const std::string path = ResolveModelPath(model_directory);
+  if (whole || ModelFormatVersion(path) == 1) return CheckModelDestination(path, false, error);
+  return CheckLearnedStateDestination(path, error);
+}
+
 }  // namespace
 
 bool RunPretrainJob(const std::string& model_directory, const PretrainOptions& options,
@@ -35,7 +43,10 @@ bool RunPretrainJob(const std::string& model_directory, const PretrainOptions& o
                     std::string* error) {
   PathLock lock;
   ActiveModel model;
-  if (!LockAndLoad(model_directory, log, &lock, &model, error)) return false;
+  if (!LockAndLoad(model_directory, log, &lock, &model, error) ||
+      !CheckReplaceable(model_directory, true, error)) {
+    return false;
+  }
   PretrainReport report;
   if (!Pretrain(options, &model, &report, log, error)) return false;
   PretrainSurfaceErrors surface_errors;
@@ -77,7 +88,10 @@ bool RunTrainJob(const std::string& model_directory, const TrainOptions& options
                  std::ostream& log, std::string* error) {
   PathLock lock;
   ActiveModel model;
-  if (!LockAndLoad(model_directory, log, &lock, &model, error)) return false;
+  if (!LockAndLoad(model_directory, log, &lock, &model, error) ||
+      !CheckReplaceable(model_directory, false, error)) {
+    return false;
+  }
   if (restart && model.checkpoint.iterations > 0) {
     // Saved before training starts, so that a run killed before its first checkpoint
     // does not resume the old count next to a new log.

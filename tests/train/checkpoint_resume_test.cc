@@ -198,5 +198,26 @@ TEST_F(CheckpointResumeTest, EmptyCheckpointDoesNotTruncateTheLog) {
   EXPECT_TRUE(RowsAreZeroTo(LogRows(LogPath()), 1));
 }
 
+// A file of the user's inside learned/, which a checkpoint would delete, stops training
+// before any work; pre-training likewise refuses a model holding foreign files.
+TEST_F(CheckpointResumeTest, ForeignFilesStopTheJobsBeforeTheWork) {
+  ASSERT_TRUE(Train(1));
+  std::ofstream(path_ + "/learned/notes.txt") << "mine";
+  TrainOptions options = options_;
+  options.max_iterations = 3;
+  std::ostringstream log;
+  std::string error;
+  EXPECT_FALSE(RunTrainJob(path_, options, false, log, &error));
+  EXPECT_NE(error.find("(learned/notes.txt); a checkpoint would delete them"), std::string::npos)
+      << error;
+  EXPECT_EQ(log.str().find("train:"), std::string::npos) << log.str();
+  EXPECT_FALSE(RunPretrainJob(path_, PretrainOptions(), nullptr, log, &error));
+  EXPECT_NE(error.find("(learned/notes.txt); replacing the model would delete them"),
+            std::string::npos) << error;
+  EXPECT_EQ(log.str().find("pretrain:"), std::string::npos) << log.str();
+  EXPECT_TRUE(fs::exists(path_ + "/learned/notes.txt"));
+  EXPECT_TRUE(RowsAreZeroTo(LogRows(LogPath()), 1));
+}
+
 }  // namespace
 }  // namespace aqs
