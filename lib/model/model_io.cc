@@ -12,7 +12,6 @@
 #include "mesh/mesh_io.h"
 #include "model/model_directory.h"
 #include "util/atomic_file.h"
-#include "util/fault_injection.h"
 #include "util/line_reader.h"
 #include "util/matrix_io.h"
 #include "util/number_format.h"
