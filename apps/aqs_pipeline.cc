@@ -1,6 +1,7 @@
 // aqs_pipeline: the stages from one flagfile: prepare, pre-train, train, evaluate. Every stage's flags are accepted; --stages picks which run.
 // A stage that fails stops the pipeline with its message and exit status 1.
 
+#include <filesystem>
 #include <iostream>
 
 #include <gflags/gflags.h>
@@ -9,6 +10,7 @@
 #include "jobs/learning_jobs.h"
 #include "evaluate_flags.h"
 #include "learning_flags.h"
+#include "model/model_directory.h"
 #include "prepare_flags.h"
 #include "util/wall_timer.h"
 
@@ -22,7 +24,28 @@ int main(int argc, char** argv) {
                &argc, &argv);
   aqs::WallTimer total;
   std::string error;
-  for (const std::string& stage : aqs::SplitCommaList(FLAGS_stages)) {
+  const std::vector<std::string> stages = aqs::SplitCommaList(FLAGS_stages);
+  // The stages that write the model run under one hold of its writers' lock.
+  bool writes = false, prepares = false;
+  for (const std::string& stage : stages) {
+    writes |= stage == "prepare" || stage == "pretrain" || stage == "train";
+    prepares |= stage == "prepare";
+  }
+  aqs::PathLock lock;
+  if (writes && !FLAGS_model.empty()) {
+    std::string model = FLAGS_model;
+    while (model.size() > 1 && model.back() == '/') model.pop_back();
+    const std::filesystem::path parent =
+        std::filesystem::absolute(model).lexically_normal().parent_path();
+    std::error_code code;
+    if (prepares) std::filesystem::create_directories(parent, code);
+    if (std::filesystem::is_directory(parent, code) &&
+        !aqs::LockModelForWriting(model, &std::cout, &lock, &error)) {
+      aqs::PrintError(error);
+      return 1;
+    }
+  }
+  for (const std::string& stage : stages) {
     std::cout << "=== " << stage << "\n" << std::flush;
     aqs::WallTimer timer;
     bool ok = false;

@@ -1,7 +1,10 @@
 // aqs_prepare: from a neutral surface and pose surfaces, build a model directory:
 // simulation mesh, boundary conditions (static and bone-driven), the embedding of the
 // surface, and per-pose volumetric targets by embedded simulation.
-// Exit status: 0 done; 1 bad input (the message says which file or flag).
+// It replaces only a missing path, an empty folder or an ActiveQS model unless
+// --overwrite, and holds the model's writers' lock (docs/model_format.md, "Writing").
+// Exit status: 0 done; 1 bad input (the message says which file or flag), an output
+// that is not a model, or a model another process is writing.
 
 #include <iostream>
 
@@ -15,7 +18,8 @@ int main(int argc, char** argv) {
       "Prepare an active model from surface poses.\n"
       "  aqs_prepare --neutral=N.obj --poses=DIR --model=MODEL --spacing=H [--shell=T]\n"
       "              [--fixed_depth=D | --fixed_box=... | --fixed_inside=... | --fixed_list=...]\n"
-      "              [--bone_mesh=B.obj --bone_poses=DIR/{pose}.b.obj --bone_region=BOX]",
+      "              [--bone_mesh=B.obj --bone_poses=DIR/{pose}.b.obj --bone_region=BOX]\n"
+      "              [--overwrite]",
       &argc, &argv);
   aqs::PrepareJobOptions options;
   std::string error;

@@ -1,6 +1,8 @@
 // aqs_pretrain: a decoder and one latent per pose fitted to a prepared model's
 // volumetric targets (supervised), to start end-to-end training from.
-// Exit status: 0 done; 1 bad input.
+// It holds the model's writers' lock and replaces the model as a whole
+// (docs/model_format.md, "Writing").
+// Exit status: 0 done; 1 bad input or a model another process is writing.
 
 #include <iostream>
 

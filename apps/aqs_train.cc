@@ -1,7 +1,9 @@
 // aqs_train: end-to-end training of a pre-trained model through the simulator, with
 // progress lines, a CSV log (MODEL/train/log.csv) and checkpoints in the model
-// directory: run it again after a kill to resume.
-// Exit status: 0 done; 1 bad input or a model that cannot be simulated.
+// directory: run it again after a kill (kill -9 included) to resume from the last
+// checkpoint. It holds the model's writers' lock (docs/model_format.md, "Writing").
+// Exit status: 0 done; 1 bad input, a model another process is writing, or a model
+// that cannot be simulated.
 
 #include <iostream>
 
@@ -12,7 +14,8 @@
 #include "learning_flags.h"
 
 DECLARE_string(model);
-DEFINE_bool(restart, false, "Ignore an earlier run's iteration count (start counting at 0).");
+DEFINE_bool(restart, false, "Ignore an earlier run's iteration count (start counting at 0, "
+            "with a new log).");
 
 int main(int argc, char** argv) {
   aqs::InitApp("Train a pre-trained model end to end.\n"

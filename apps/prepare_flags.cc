@@ -36,6 +36,9 @@ DEFINE_double(bone_moving_fraction, 0.1, "Fit the bone's motion to its vertices 
               "than this fraction of the largest motion.");
 DEFINE_double(attachment_stiffness, 100.0, "Springs pulling the embedded surface to each pose, "
               "per unit area, relative to one layer of elements.");
+DEFINE_bool(overwrite, false, "Replace whatever is at --model. Without it, only a missing path, "
+            "an empty directory or an ActiveQS model is replaced; anything else is refused "
+            "(exit 1) before any work.");
 DEFINE_double(prepare_tolerance, 1e-6, "Relative force tolerance of the embedded simulations.");
 DECLARE_int32(threads);
 DECLARE_string(model);
@@ -70,6 +73,7 @@ bool PrepareOptionsFromFlags(PrepareJobOptions* options, std::string* error) {
     return false;
   }
   options->output = FLAGS_model;
+  options->overwrite = FLAGS_overwrite;
   options->tet_mesh = FLAGS_tet_mesh;
   if (FLAGS_tet_mesh.empty() && !(FLAGS_spacing > 0)) {
     *error = "--spacing (the lattice cube edge, > 0) is required without --tet_mesh";

@@ -3,17 +3,50 @@
 #include <filesystem>
 
 #include "geometry/embedding.h"
+#include "model/model_directory.h"
 #include "model/model_io.h"
 #include "train/progress.h"
 #include "util/wall_timer.h"
 
 namespace aqs {
+namespace {
+
+// Takes the model's writers' lock (cleaning up after killed writers) and loads it. A
+// model whose folder does not exist fails with LoadModel's message.
+bool LockAndLoad(const std::string& model_directory, std::ostream& log, PathLock* lock,
+                 ActiveModel* model, std::string* error) {
+  std::string path = model_directory;
+  while (path.size() > 1 && path.back() == '/') path.pop_back();
+  std::error_code code;
+  const std::filesystem::path parent =
+      std::filesystem::absolute(path, code).lexically_normal().parent_path();
+  if (!std::filesystem::is_directory(parent, code)) {
+    LoadModel(model_directory, model, error);
+    return false;
+  }
+  return LockModelForWriting(model_directory, &log, lock, error) &&
+         LoadModel(model_directory, model, error);
+}
+
+// Whether the job's saves may replace what they replace (checked before the work): the
+// whole model, or (training a format-2 model) its learned state.
+bool CheckReplaceable(const std::string& model_directory, bool whole, std::string* error) {
+  const std::string path = ResolveModelPath(model_directory);
+  if (whole || ModelFormatVersion(path) == 1) return CheckModelDestination(path, false, error);
+  return CheckLearnedStateDestination(path, error);
+}
+
+}  // namespace
 
 bool RunPretrainJob(const std::string& model_directory, const PretrainOptions& options,
                     const PoseSimulationOptions* simulation, std::ostream& log,
                     std::string* error) {
+  PathLock lock;
   ActiveModel model;
-  if (!LoadModel(model_directory, &model, error)) return false;
+  if (!LockAndLoad(model_directory, log, &lock, &model, error) ||
+      !CheckReplaceable(model_directory, true, error)) {
+    return false;
+  }
   PretrainReport report;
   if (!Pretrain(options, &model, &report, log, error)) return false;
   PretrainSurfaceErrors surface_errors;
@@ -53,11 +86,17 @@ bool RunPretrainJob(const std::string& model_directory, const PretrainOptions& o
 
 bool RunTrainJob(const std::string& model_directory, const TrainOptions& options, bool restart,
                  std::ostream& log, std::string* error) {
+  PathLock lock;
   ActiveModel model;
-  if (!LoadModel(model_directory, &model, error)) return false;
-  if (restart) {
-    std::error_code code;
-    std::filesystem::remove(model_directory + "/train/checkpoint.txt", code);
+  if (!LockAndLoad(model_directory, log, &lock, &model, error) ||
+      !CheckReplaceable(model_directory, false, error)) {
+    return false;
+  }
+  if (restart && model.checkpoint.iterations > 0) {
+    // Saved before training starts, so that a run killed before its first checkpoint
+    // does not resume the old count next to a new log.
+    model.checkpoint = TrainingCheckpoint();
+    if (!SaveLearnedState(model_directory, model, error)) return false;
   }
   TrainOptions train = options;
   train.model_directory = model_directory;

@@ -10,25 +10,28 @@
 
 namespace aqs {
 
-// aqs_pretrain as a library call: loads the model directory, pre-trains a new decoder
-// and latents (train/pretrain.h), and saves the model (any earlier training checkpoint
-// and states are discarded: they belong to the old decoder). With `simulation` (may be
-// null: skipped), every pose's pre-trained latent is then decoded and simulated from
-// rest: the surface errors, stage (b) of the error budget (eval/error_budget.h), are
-// logged per pose next to the embedding floor and written to pretrain/surface_errors.*
-// in the model directory, and the equilibria are saved as the states that end-to-end
-// training starts from (it would solve the same equilibria from rest first). A pose
-// that does not converge is reported, and gets no state.
+// aqs_pretrain as a library call: takes the model's writers' lock
+// (model/model_directory.h; it fails with "model DIR is in use by process PID" while
+// another process writes the model), loads the model directory, pre-trains a new
+// decoder and latents (train/pretrain.h), and saves the model (any earlier training
+// checkpoint, states and log are discarded: they belong to the old decoder). With
+// `simulation` (may be null: skipped), every pose's pre-trained latent is then decoded
+// and simulated from rest: the surface errors, stage (b) of the error budget
+// (eval/error_budget.h), are logged per pose next to the embedding floor and written to
+// pretrain/surface_errors.* in the model directory, and the equilibria are saved as the
+// states that end-to-end training starts from (it would solve the same equilibria from
+// rest first). A pose that does not converge is reported, and gets no state.
 bool RunPretrainJob(const std::string& model_directory, const PretrainOptions& options,
                     const PoseSimulationOptions* simulation, std::ostream& log,
                     std::string* error);
 
-// aqs_train as a library call: loads the pre-trained model and trains it end to end
-// (train/trainer.h) with checkpoints in the model directory. With restart, an earlier
-// run's checkpoint count is ignored (the iterations start from 0 again; the learned
-// state in the directory is still the starting point). At the end it logs the training
-// poses' error budget over all surface vertices (TrainingBudgetTable): embedding floor,
-// after pre-training (if the model directory has the record), and after training.
+// aqs_train as a library call: takes the model's writers' lock, loads the pre-trained
+// model and trains it end to end (train/trainer.h) with checkpoints in the model
+// directory, resuming after the checkpoint's iterations. With restart, the checkpoint's
+// count is reset to 0 first (the iterations and the log start again; the learned state
+// in the directory is still the starting point). At the end it logs the training poses'
+// error budget over all surface vertices (TrainingBudgetTable): embedding floor, after
+// pre-training (if the model directory has the record), and after training.
 bool RunTrainJob(const std::string& model_directory, const TrainOptions& options, bool restart,
                  std::ostream& log, std::string* error);
 

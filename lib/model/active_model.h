@@ -1,6 +1,7 @@
 #ifndef AQS_MODEL_ACTIVE_MODEL_H_
 #define AQS_MODEL_ACTIVE_MODEL_H_
 
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -36,6 +37,14 @@ struct TrainingPose {
   double embedding_max_error = 0.0;
 };
 
+// How far end-to-end training has brought the learned state (the model's
+// learned/checkpoint.txt): L-BFGS iterations done in all, and the training loss after
+// the last of them (NaN if none), as logged in train/log.csv.
+struct TrainingCheckpoint {
+  int iterations = 0;
+  double loss = std::numeric_limits<double>::quiet_NaN();
+};
+
 // An active model: the simulation mesh with its material and boundary conditions, the
 // surface embedded in it, the training poses, and (once trained) the decoder with one
 // latent vector per pose. The on-disk layout is in docs/model_format.md.
@@ -53,6 +62,7 @@ struct ActiveModel {
   Eigen::VectorXd decoder_params;
   Eigen::MatrixXd latents;            // latent_dim x num_poses
   std::vector<Eigen::Matrix3Xd> states;  // per pose: last equilibrium (empty if none)
+  TrainingCheckpoint checkpoint;         // training progress of this learned state
 
   int num_poses() const { return static_cast<int>(poses.size()); }
   int num_surface_vertices() const { return neutral.num_vertices(); }

@@ -1,23 +1,30 @@
 #include "model/model_io.h"
 
-#include <unistd.h>
+#include <sys/stat.h>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <sstream>
 
+#include <glog/logging.h>
+
 #include "mesh/mesh_io.h"
+#include "model/model_directory.h"
 #include "util/atomic_file.h"
 #include "util/line_reader.h"
 #include "util/matrix_io.h"
 #include "util/number_format.h"
+#include "util/path_lock.h"
+#include "util/staged_directory.h"
 
 namespace aqs {
 namespace {
 
 namespace fs = std::filesystem;
 
-constexpr int kFormatVersion = 1;
+constexpr int kFormatVersion = 2;
+constexpr char kLearned[] = "learned";
 
 std::string PoseFile(const std::string& folder, int p) {
   char name[32];
@@ -39,6 +46,49 @@ bool WriteText(const std::string& path, const std::string& text, std::string* er
   return WriteFileAtomically(path, text, error);
 }
 
+std::string CheckpointText(const TrainingCheckpoint& checkpoint) {
+  std::string text =
+      "# ActiveQS learned state: end-to-end training iterations done, loss after the last\n"
+      "iterations " + std::to_string(checkpoint.iterations) + "\n";
+  if (std::isfinite(checkpoint.loss)) {
+    text += "loss ";
+    AppendDouble(checkpoint.loss, &text);
+    text += "\n";
+  }
+  return text;
+}
+
+// Reads a checkpoint file ("iterations N", optional "loss L"). A missing file is no
+// checkpoint (0 iterations); an empty or malformed one is an error naming it.
+bool ReadCheckpoint(const std::string& path, TrainingCheckpoint* checkpoint, std::string* error) {
+  *checkpoint = TrainingCheckpoint();
+  std::error_code code;
+  if (!fs::exists(path, code)) return true;
+  LineReader reader(path);
+  if (!reader.ok()) {
+    *error = reader.error();
+    return false;
+  }
+  std::vector<std::string> t;
+  bool have_iterations = false;
+  while (reader.NextTokens(&t)) {
+    if (t.size() == 2 && t[0] == "iterations" && ParseInt(t[1], &checkpoint->iterations) &&
+        checkpoint->iterations >= 0) {
+      have_iterations = true;
+    } else if (!(t.size() == 2 && t[0] == "loss" && ParseDouble(t[1], &checkpoint->loss))) {
+      *error = reader.Where("expected 'iterations N' (N >= 0) or 'loss L'");
+      return false;
+    }
+  }
+  if (!have_iterations) {
+    *error = path + ": no 'iterations N' line (the file is empty or damaged; delete it to "
+                    "count training iterations from 0 again)";
+    return false;
+  }
+  return true;
+}
+
+// The learned unit's files into `dir` (learned/ or its staging directory).
 bool WriteLearned(const std::string& dir, const ActiveModel& model, std::string* error) {
   if (model.decoder) {
     if (!SaveDecoder(dir + "/decoder.txt", model.decoder->spec(),
@@ -54,8 +104,12 @@ bool WriteLearned(const std::string& dir, const ActiveModel& model, std::string*
       if (!WriteMatrixFile(PoseFile(dir + "/states", p), model.states[p], error)) return false;
     }
   }
-  return true;
+  // Written last, though the unit is only seen whole: its identity file
+  // (util/staged_directory.h).
+  return WriteText(dir + "/checkpoint.txt", CheckpointText(model.checkpoint), error);
 }
+
+bool HasLearnedState(const ActiveModel& model) { return model.decoder || !model.states.empty(); }
 
 bool WriteAll(const std::string& dir, const ActiveModel& model, std::string* error) {
   std::ostringstream manifest;
@@ -136,7 +190,9 @@ bool WriteAll(const std::string& dir, const ActiveModel& model, std::string* err
       return false;
     }
   }
-  return WriteLearned(dir, model, error);
+  if (!HasLearnedState(model)) return true;
+  return MakeDirectory(dir + "/" + kLearned, error) &&
+         WriteLearned(dir + "/" + kLearned, model, error);
 }
 
 // Reads "key value" lines of model.txt.
@@ -151,47 +207,147 @@ bool ReadManifest(const std::string& path, int* version, std::string* error) {
   while (reader.NextTokens(&tokens)) {
     if (tokens.size() == 2 && tokens[0] == "format" && ParseInt(tokens[1], version)) break;
   }
-  if (*version != kFormatVersion) {
-    *error = path + ": expected 'format " + std::to_string(kFormatVersion) + "'";
+  if (*version != 1 && *version != kFormatVersion) {
+    *error = path + ": expected 'format 1' or 'format " + std::to_string(kFormatVersion) +
+             "' (a model of another ActiveQS version?)";
     return false;
   }
   return true;
+}
+
+// Holds the model's lock for a save, unless the caller does already.
+bool LockForSave(const std::string& directory, PathLock* lock, std::string* error) {
+  return LockModelForWriting(directory, nullptr, lock, error);
+}
+
+// Puts a filled staging directory at `target`; a failure to remove the replaced
+// content is only logged (the next writer removes it).
+bool Install(const std::string& staging, const std::string& target, std::string* error) {
+  std::string warning;
+  if (!InstallStagingDirectory(staging, target, &warning, error)) {
+    std::string ignored;
+    RemoveTemporaryTree(staging, &ignored);
+    return false;
+  }
+  if (!warning.empty()) LOG(WARNING) << target << ": " << warning;
+  return true;
+}
+
+// Reads the learned unit at `dir` (format 2: learned/; format 1: the model's top,
+// with the checkpoint in train/checkpoint.txt) into `model`.
+bool ReadLearned(const std::string& dir, const std::string& checkpoint_path, ActiveModel* model,
+                 std::string* error) {
+  model->decoder.reset();
+  model->decoder_params.resize(0);
+  model->latents.resize(0, 0);
+  model->states.clear();
+  if (!ReadCheckpoint(checkpoint_path, &model->checkpoint, error)) return false;
+  Eigen::MatrixXd matrix;
+  if (fs::exists(dir + "/decoder.txt")) {
+    DecoderSpec spec;
+    GridFieldDescription description;
+    Eigen::VectorXd params;
+    if (!LoadDecoder(dir + "/decoder.txt", &spec, &description, &params, error)) return false;
+    GridActuationField field;
+    if (!GridActuationField::FromDescription(model->mesh, description, dir + "/decoder.txt",
+                                             &field, error)) {
+      return false;
+    }
+    model->decoder = std::make_shared<ActuationDecoder>(spec, std::move(field));
+    model->decoder_params = params;
+    if (!ReadMatrixFile(dir + "/latents.bin", spec.latent_dim, model->num_poses(), &matrix,
+                        error)) {
+      return false;
+    }
+    model->latents = matrix;
+  }
+  if (fs::exists(dir + "/states")) {
+    const int nv = model->mesh.num_vertices();
+    model->states.resize(model->num_poses());
+    for (int p = 0; p < model->num_poses(); ++p) {
+      const std::string path = PoseFile(dir + "/states", p);
+      if (!fs::exists(path)) continue;
+      if (!ReadMatrixFile(path, 3, nv, &matrix, error)) return false;
+      model->states[p] = matrix;
+    }
+  }
+  return true;
+}
+
+// Identity of the directory at `path` (device, inode); zeros if missing.
+std::pair<dev_t, ino_t> DirectoryIdentity(const std::string& path) {
+  struct stat st;
+  if (::stat(path.c_str(), &st) != 0) return {0, 0};
+  return {st.st_dev, st.st_ino};
 }
 
 }  // namespace
 
 bool SaveModel(const std::string& directory, const ActiveModel& model, std::string* error) {
+  return SaveModel(directory, model, SaveModelOptions(), error);
+}
+
+bool SaveModel(const std::string& directory, const ActiveModel& model,
+               const SaveModelOptions& options, std::string* error) {
   if (!ValidateModel(model, directory, error)) return false;
-  const std::string temp = directory + ".tmp" + std::to_string(static_cast<long>(::getpid()));
-  const std::string old = directory + ".old" + std::to_string(static_cast<long>(::getpid()));
-  std::error_code code;
-  fs::remove_all(temp, code);
-  if (!MakeDirectory(temp, error) || !WriteAll(temp, model, error)) {
-    fs::remove_all(temp, code);
+  const std::string target = ResolveModelPath(directory);
+  const fs::path parent = fs::path(target).parent_path();
+  if (!parent.empty() && !MakeDirectory(parent.string(), error)) return false;
+  PathLock lock;
+  if (!LockForSave(target, &lock, error) ||
+      !CheckModelDestination(target, options.overwrite, error)) {
     return false;
   }
-  const bool existed = fs::exists(directory);
-  if (existed) {
-    fs::rename(directory, old, code);
-    if (code) {
-      *error = directory + ": cannot move the existing model aside (" + code.message() + ")";
-      fs::remove_all(temp, code);
-      return false;
+  const std::string staging = StagingPathOf(target);
+  if (!CreateStagingDirectory(staging, error)) return false;
+  bool ok = WriteAll(staging, model, error);
+  for (const char* record : {"train/log.csv", "pretrain/surface_errors.bin",
+                             "pretrain/surface_errors.txt"}) {
+    const std::string from = target + "/" + record;
+    if (!ok || !options.keep_records || !fs::exists(from)) continue;
+    const std::string to = staging + "/" + record;
+    std::error_code code;
+    ok = MakeDirectory(fs::path(to).parent_path().string(), error);
+    if (ok) fs::copy_file(from, to, code);
+    if (ok && code) {
+      *error = from + ": cannot copy into the new model (" + code.message() + ")";
+      ok = false;
     }
   }
-  fs::rename(temp, directory, code);
-  if (code) {
-    *error = directory + ": cannot move the new model into place (" + code.message() + ")";
-    if (existed) fs::rename(old, directory, code);
+  if (!ok) {
+    std::string ignored;
+    RemoveTemporaryTree(staging, &ignored);
     return false;
   }
-  if (existed) fs::remove_all(old, code);
-  return true;
+  return Install(staging, target, error);
 }
 
 bool SaveLearnedState(const std::string& directory, const ActiveModel& model, std::string* error) {
   if (!ValidateModel(model, directory, error)) return false;
-  return WriteLearned(directory, model, error);
+  const std::string target = ResolveModelPath(directory);
+  PathLock lock;
+  if (!LockForSave(target, &lock, error)) return false;
+  const int version = ModelFormatVersion(target);
+  if (version == 1) {
+    SaveModelOptions upgrade;
+    upgrade.keep_records = true;
+    return SaveModel(target, model, upgrade, error);
+  }
+  if (version != kFormatVersion) {
+    *error = target + "/model.txt: expected 'format " + std::to_string(kFormatVersion) +
+             "' (save the whole model first)";
+    return false;
+  }
+  if (!CheckLearnedStateDestination(target, error)) return false;
+  const std::string learned = target + "/" + kLearned;
+  const std::string staging = StagingPathOf(learned);
+  if (!CreateStagingDirectory(staging, error)) return false;
+  if (!WriteLearned(staging, model, error)) {
+    std::string ignored;
+    RemoveTemporaryTree(staging, &ignored);
+    return false;
+  }
+  return Install(staging, learned, error);
 }
 
 bool LoadModel(const std::string& directory, ActiveModel* model_out, std::string* error) {
@@ -339,31 +495,24 @@ bool LoadModel(const std::string& directory, ActiveModel* model_out, std::string
     }
   }
 
-  // The learned part.
-  if (fs::exists(dir + "/decoder.txt")) {
-    DecoderSpec spec;
-    GridFieldDescription description;
-    Eigen::VectorXd params;
-    if (!LoadDecoder(dir + "/decoder.txt", &spec, &description, &params, error)) return false;
-    GridActuationField field;
-    if (!GridActuationField::FromDescription(model.mesh, description, dir + "/decoder.txt", &field,
-                                             error)) {
-      return false;
-    }
-    model.decoder = std::make_shared<ActuationDecoder>(spec, std::move(field));
-    model.decoder_params = params;
-    if (!ReadMatrixFile(dir + "/latents.bin", spec.latent_dim, model.num_poses(), &matrix, error)) {
-      return false;
-    }
-    model.latents = matrix;
-  }
-  if (fs::exists(dir + "/states")) {
-    model.states.resize(model.num_poses());
-    for (int p = 0; p < model.num_poses(); ++p) {
-      const std::string path = PoseFile(dir + "/states", p);
-      if (!fs::exists(path)) continue;
-      if (!ReadMatrixFile(path, 3, nv, &matrix, error)) return false;
-      model.states[p] = matrix;
+  // The learned part, read as one unit: read again if a writer replaced learned/
+  // meanwhile (its directory is then another one).
+  if (version == 1) {
+    if (!ReadLearned(dir, dir + "/train/checkpoint.txt", &model, error)) return false;
+  } else {
+    const std::string learned = dir + "/" + kLearned;
+    for (int attempt = 0;; ++attempt) {
+      const auto before = DirectoryIdentity(learned);
+      if (before.second == 0) break;  // not pre-trained
+      const bool read = ReadLearned(learned, learned + "/checkpoint.txt", &model, error);
+      if (DirectoryIdentity(learned) == before) {
+        if (!read) return false;
+        break;
+      }
+      if (attempt == 5) {
+        *error = learned + ": replaced by a writer every time it was read; try again";
+        return false;
+      }
     }
   }
   if (!ValidateModel(model, dir, error)) return false;

@@ -7,7 +7,7 @@
 
 namespace aqs {
 
-// A model is a directory (docs/model_format.md):
+// A model is a directory (docs/model_format.md), format 2:
 //
 //   model.txt         manifest: format version and counts (text)
 //   mesh.mesh         simulation tet mesh at rest (MEDIT)
@@ -20,23 +20,47 @@ namespace aqs {
 //   poses.txt         per training pose: "<index> <name> <mean error> <max error>"
 //   poses/NNNN.bin    pose surfaces (3 x num_surface_vertices)
 //   targets/NNNN.bin  volumetric targets (6 x num_elements), where made
-//   decoder.txt       the decoder (learn/decoder.h), once pre-trained
-//   latents.bin       latent_dim x num_poses, with the decoder
-//   states/NNNN.bin   last equilibrium per pose (3 x num_vertices), where known
+//   learned/          the learned state, replaced as one unit (once pre-trained):
+//     decoder.txt       the decoder (learn/decoder.h)
+//     latents.bin       latent_dim x num_poses
+//     states/NNNN.bin   last equilibrium per pose (3 x num_vertices), where known
+//     checkpoint.txt    "iterations N" and "loss L": the model's TrainingCheckpoint
+//   train/log.csv     end-to-end training log (train/trainer.h)
 //
-// Binary files use util/matrix_io.h. NNNN is the zero-padded pose index.
+// Binary files use util/matrix_io.h. NNNN is the zero-padded pose index. Format 1 had
+// decoder.txt, latents.bin and states/ at the top and the checkpoint in
+// train/checkpoint.txt; it is still read, and rewritten as format 2 by the next save.
+//
+// Writers hold the model's lock (model/model_directory.h); SaveModel and
+// SaveLearnedState take it themselves if the caller does not hold it already.
 
-// Writes the whole model to `directory`: first into a sibling temporary directory,
-// which then replaces `directory` (an existing model there is moved aside and removed
-// only after the new one is in place). Returns false with *error on failure.
+struct SaveModelOptions {
+  // Replace whatever is at the directory; without it only a missing path, an empty
+  // directory or an ActiveQS model is replaced (CheckModelDestination).
+  bool overwrite = false;
+  // Carry the records of the model being replaced over: the training log
+  // (train/log.csv) and the pre-training record (pretrain/, eval/error_budget.h).
+  bool keep_records = false;
+};
+
+// Writes the whole model to `directory`: into a staging directory beside it, which then
+// takes its place in one step (util/staged_directory.h), so that a process killed at
+// any moment leaves the old or the new model there. Creates missing parent folders.
+// Returns false with *error on failure (nothing replaced).
+bool SaveModel(const std::string& directory, const ActiveModel& model,
+               const SaveModelOptions& options, std::string* error);
 bool SaveModel(const std::string& directory, const ActiveModel& model, std::string* error);
 
-// Rewrites only the learned part of a saved model in place (decoder.txt, latents.bin,
-// states/): each file atomically, for training checkpoints.
+// Replaces the learned state of a saved model (learned/: decoder, latents, states and
+// the checkpoint) as one unit, for training checkpoints: written into
+// "learned.aqs-tmp<pid>" and exchanged with learned/ in one step. A format-1 model is
+// rewritten whole as format 2 (its training log and pre-training record kept).
 bool SaveLearnedState(const std::string& directory, const ActiveModel& model, std::string* error);
 
-// Reads and validates (ValidateModel) a model directory. Errors name the file (and
-// line) that is missing or malformed.
+// Reads and validates (ValidateModel) a model directory (format 1 or 2). Errors name the
+// file (and line) that is missing or malformed, including an empty or malformed
+// checkpoint.txt. The learned state is read as one unit: if a writer replaced it while
+// it was read, it is read again.
 bool LoadModel(const std::string& directory, ActiveModel* model, std::string* error);
 
 }  // namespace aqs

@@ -1,9 +1,11 @@
 #include "prepare/prepare_job.h"
 
+#include <filesystem>
 #include <sstream>
 
 #include "geometry/embedding.h"
 #include "mesh/mesh_io.h"
+#include "model/model_directory.h"
 #include "model/model_io.h"
 #include "prepare/pose_files.h"
 #include "util/wall_timer.h"
@@ -60,6 +62,24 @@ bool RunPrepareJob(const PrepareJobOptions& options, std::ostream& log, std::str
   }
   if (!(options.mu > 0)) {
     *error = "mu must be positive";
+    return false;
+  }
+  // The output: locked, and checked before the work.
+  std::string output = options.output;
+  while (output.size() > 1 && output.back() == '/') output.pop_back();
+  {
+    const std::filesystem::path parent = std::filesystem::path(output).parent_path();
+    std::error_code code;
+    if (!parent.empty()) std::filesystem::create_directories(parent, code);
+    if (code) {
+      *error = parent.string() + ": cannot create directory (" + code.message() + ")";
+      return false;
+    }
+  }
+  PathLock lock;
+  if (!LockModelForWriting(output, &log, &lock, error)) return false;
+  if (!CheckModelDestination(output, options.overwrite, error)) {
+    *error += " (--overwrite replaces it)";
     return false;
   }
   ActiveModel model;
@@ -160,7 +180,9 @@ bool RunPrepareJob(const PrepareJobOptions& options, std::ostream& log, std::str
   }
   log << "targets: mean surface error " << mean << ", max " << worst << " (" << timer.Seconds()
       << " s)\n";
-  if (!SaveModel(options.output, model, error)) return false;
+  SaveModelOptions save;
+  save.overwrite = options.overwrite;
+  if (!SaveModel(output, model, save, error)) return false;
   log << "wrote model " << options.output << " (" << total.Seconds() << " s in all)\n";
   return true;
 }

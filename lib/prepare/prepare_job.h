@@ -36,12 +36,18 @@ struct PrepareJobOptions {
   BoundaryRuleOptions boundary;
   VolumetricTargetOptions targets;
   std::string output;                   // model directory; required
+  // Replace whatever is at `output`; without it, only a missing path, an empty
+  // directory or an ActiveQS model is replaced, and anything else is refused at once.
+  bool overwrite = false;
   int num_threads = 2;
 };
 
-// Runs the job, logging progress to `log`. Returns false with *error on bad input
-// (unreadable files, poses with another vertex count, a surface that encloses nothing,
-// no fixed vertices, an empty pose set, ...).
+// Runs the job, logging progress to `log`. It holds the output model's writers' lock
+// (model/model_directory.h) from the start, and checks before any work that `output`
+// may be replaced. Returns false with *error on bad input (unreadable files, poses with
+// another vertex count, a surface that encloses nothing, no fixed vertices, an empty
+// pose set, an output that is not a model without overwrite, a model in use by another
+// process, ...).
 bool RunPrepareJob(const PrepareJobOptions& options, std::ostream& log, std::string* error);
 
 }  // namespace aqs

@@ -145,6 +145,7 @@ bool Pretrain(const PretrainOptions& options, ActiveModel* model, PretrainReport
   model->decoder_params = parameters.head(np);
   model->latents = Eigen::Map<const Eigen::MatrixXd>(parameters.data() + np, d, p);
   model->states.clear();
+  model->checkpoint = TrainingCheckpoint();  // a new decoder: no training done yet
   return true;
 }
 

@@ -43,7 +43,8 @@ struct PretrainReport {
 // with w_e = V_e / sum V (|.|_F the Frobenius norm of the 3x3 matrices), by Ceres'
 // L-BFGS (GradientProblemSolver). Latents start at the whitened principal components
 // of the targets, parameters at random (small outputs). Every pose needs a target.
-// Sets model->decoder, decoder_params and latents. Progress lines go to `log`.
+// Sets model->decoder, decoder_params and latents, and clears the states and the
+// training checkpoint (they belonged to the old decoder). Progress lines go to `log`.
 bool Pretrain(const PretrainOptions& options, ActiveModel* model, PretrainReport* report,
               std::ostream& log, std::string* error);
 

@@ -16,7 +16,6 @@
 #include "train/progress.h"
 #include "util/atomic_file.h"
 #include "util/blas.h"
-#include "util/line_reader.h"
 #include "util/parallel_for.h"
 #include "util/wall_timer.h"
 
@@ -25,25 +24,31 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string CheckpointPath(const std::string& dir) { return dir + "/train/checkpoint.txt"; }
 std::string LogPath(const std::string& dir) { return dir + "/train/log.csv"; }
 constexpr char kLogHeader[] =
     "iteration,loss,mean_surface_error,max_surface_error,gradient_norm,step_norm,seconds,"
     "function_evaluations\n";
 
-// Keeps the CSV log's lines up to `iteration` (a killed run may have logged further
-// than it saved), or starts it.
-void PrepareLog(const std::string& dir, int iteration) {
+// Prepares the CSV log for a run that continues after `iteration` iterations: keeps the
+// rows of iterations 0..iteration (a killed run may have logged further than it saved;
+// a row repeated by an earlier version is kept once), or starts a new log when there is
+// no checkpoint (iteration 0: the run logs its row 0 again). Replaced atomically.
+bool PrepareLog(const std::string& dir, int iteration, std::string* error) {
   std::string kept = kLogHeader;
-  std::ifstream in(LogPath(dir));
-  std::string line;
-  std::getline(in, line);  // header
-  while (std::getline(in, line)) {
-    int it = -1;
-    if (std::sscanf(line.c_str(), "%d,", &it) == 1 && it <= iteration) kept += line + "\n";
+  if (iteration > 0) {
+    std::ifstream in(LogPath(dir));
+    std::string line;
+    std::getline(in, line);  // header
+    int last = -1;
+    while (std::getline(in, line)) {
+      int it = -1;
+      if (std::sscanf(line.c_str(), "%d,", &it) == 1 && it > last && it <= iteration) {
+        kept += line + "\n";
+        last = it;
+      }
+    }
   }
-  std::string error;
-  WriteFileAtomically(LogPath(dir), kept, &error);
+  return WriteFileAtomically(LogPath(dir), kept, error);
 }
 
 class TrainingCallback final : public ceres::IterationCallback {
@@ -84,6 +89,8 @@ class TrainingCallback final : public ceres::IterationCallback {
       std::snprintf(row, sizeof(row), "%d,%.17g,%.17g,%.17g,%.17g,%.17g,%.6f,%d\n", iteration,
                     s.cost, objective_.mean_surface_error(), objective_.max_surface_error(),
                     s.gradient_norm, s.step_norm, elapsed, s.line_search_function_evaluations);
+      // Appended before the checkpoint of this iteration: a kill in between leaves one
+      // row more than the checkpoint, which the next run drops (PrepareLog).
       std::ofstream(LogPath(options_.model_directory), std::ios::app) << row;
       const bool checkpoint = options_.checkpoint_every > 0 &&
                               s.iteration > 0 && s.iteration % options_.checkpoint_every == 0;
@@ -97,15 +104,14 @@ class TrainingCallback final : public ceres::IterationCallback {
     return ceres::SOLVER_CONTINUE;
   }
 
-  // Copies the current parameters and states into the model and saves them.
+  // Copies the current parameters and states into the model and saves them with the
+  // checkpoint (iterations done, loss), as one unit (SaveLearnedState).
   bool Save(int iteration, double loss) {
     CopyToModel();
+    model_->checkpoint.iterations = iteration;
+    model_->checkpoint.loss = loss;
     std::string error;
-    std::ostringstream checkpoint;
-    checkpoint << "# end-to-end training checkpoint\niterations " << iteration << "\nloss "
-               << loss << "\n";
-    if (!SaveLearnedState(options_.model_directory, *model_, &error) ||
-        !WriteFileAtomically(CheckpointPath(options_.model_directory), checkpoint.str(), &error)) {
+    if (!SaveLearnedState(options_.model_directory, *model_, &error)) {
       log_ << "  checkpoint failed: " << error << "\n";
       return false;
     }
@@ -138,17 +144,6 @@ class TrainingCallback final : public ceres::IterationCallback {
 
 }  // namespace
 
-int CheckpointIterations(const std::string& model_directory) {
-  LineReader reader(CheckpointPath(model_directory));
-  if (!reader.ok()) return 0;
-  std::vector<std::string> tokens;
-  int iterations = 0;
-  while (reader.NextTokens(&tokens)) {
-    if (tokens.size() == 2 && tokens[0] == "iterations") ParseInt(tokens[1], &iterations);
-  }
-  return iterations;
-}
-
 bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport* report,
                    std::ostream& log, std::string* error) {
   WallTimer timer;
@@ -161,12 +156,12 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
     return false;
   }
   report->iterations_before =
-      options.model_directory.empty() ? 0 : CheckpointIterations(options.model_directory);
+      options.model_directory.empty() ? 0 : model->checkpoint.iterations;
   const int remaining = options.max_iterations - report->iterations_before;
   if (!options.model_directory.empty()) {
     std::error_code code;
     fs::create_directories(options.model_directory + "/train", code);
-    PrepareLog(options.model_directory, report->iterations_before);
+    if (!PrepareLog(options.model_directory, report->iterations_before, error)) return false;
   }
   // Poses run in parallel with one thread each: keep BLAS single-threaded meanwhile.
   const int blas_threads = BlasThreads();
@@ -184,9 +179,11 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
   }
   report->initial_loss = cost;
   report->initial_mean_surface_error = objective->mean_surface_error();
+  char start_loss[32];
+  std::snprintf(start_loss, sizeof(start_loss), "%.12g", cost);
   log << "train: " << model->num_poses() << " poses, " << np << " decoder parameters + "
-      << model->latent_dim() << " x " << model->num_poses() << " latents; start loss " << cost
-      << ", surface error mean " << objective->mean_surface_error() << " max "
+      << model->latent_dim() << " x " << model->num_poses() << " latents; start loss "
+      << start_loss << ", surface error mean " << objective->mean_surface_error() << " max "
       << objective->max_surface_error();
   if (report->iterations_before > 0) {
     log << " (resuming after " << report->iterations_before << " iterations)";

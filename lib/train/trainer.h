@@ -22,8 +22,9 @@ struct TrainOptions {
   QuasistaticSolverOptions solver;
   int num_threads = 2;  // poses solved in parallel
   // Checkpoints and logs: the model directory the learned state is saved into every
-  // checkpoint_every iterations (decoder.txt, latents.bin, states/), with
-  // train/checkpoint.txt (iterations done) and train/log.csv. Empty: no saving.
+  // checkpoint_every iterations, as one unit (SaveLearnedState: decoder, latents,
+  // states and the checkpoint, model/model_io.h), and train/log.csv. The caller should
+  // hold the model's lock (model/model_directory.h). Empty: no saving.
   std::string model_directory;
   int checkpoint_every = 1;
   // L-BFGS restarts (empty memory) allowed after the line search stalls; see
@@ -60,17 +61,18 @@ struct TrainReport {
 // pre-trained (decoder and latents set); its states are used as warm starts and updated.
 //
 // Progress lines (iteration, loss, mean surface error, gradient norm, time, ETA) go to
-// `log`; with model_directory set, every checkpoint saves the learned state so that a
-// killed run resumes by loading the model and calling this again (the L-BFGS memory
-// restarts empty). When the line search stalls (the loss is only as smooth as the
+// `log`; with model_directory set, every checkpoint saves the learned state with
+// model->checkpoint (iterations done, loss), so that a killed run resumes by loading
+// the model and calling this again: it continues after model->checkpoint.iterations
+// (the L-BFGS memory restarts empty), and its start loss is the logged loss of that
+// iteration (the saved equilibria are those of the logged point). train/log.csv gets
+// one row per iteration; a resumed run first cuts it to the rows up to its checkpoint,
+// a run without a checkpoint starts it anew. When the line search stalls (the loss is only as smooth as the
 // equilibria are converged) before the iteration or time budget is used, L-BFGS
 // restarts from the current point, up to max_restarts times while restarts progress. Returns false with *error if the poses' equilibria cannot be solved
 // at the starting point.
 bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport* report,
                    std::ostream& log, std::string* error);
-
-// Iterations recorded in <model_directory>/train/checkpoint.txt (0 if none).
-int CheckpointIterations(const std::string& model_directory);
 
 }  // namespace aqs
 

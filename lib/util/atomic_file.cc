@@ -1,12 +1,28 @@
 #include "util/atomic_file.h"
 
+#include <fcntl.h>
 #include <unistd.h>
 
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
 
+#include "util/fault_injection.h"
+
 namespace aqs {
+namespace {
+
+// Flushes the file's data to the disk (so that a crash of the machine after the rename
+// cannot leave an empty or partial file under the final name). Returns errno or 0.
+int SyncFile(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return errno;
+  const int result = ::fsync(fd) == 0 ? 0 : errno;
+  ::close(fd);
+  return result;
+}
+
+}  // namespace
 
 AtomicFileWriter::AtomicFileWriter(const std::string& path)
     : path_(path),
@@ -35,6 +51,13 @@ bool AtomicFileWriter::Commit(std::string* error) {
     committed_ = true;
     return false;
   }
+  if (const int code = SyncFile(temp_path_); code != 0) {
+    *error = path_ + ": cannot flush " + temp_path_ + " to disk (" + std::strerror(code) + ")";
+    std::remove(temp_path_.c_str());
+    committed_ = true;
+    return false;
+  }
+  FaultPoint("atomic_file:written");
   if (std::rename(temp_path_.c_str(), path_.c_str()) != 0) {
     *error = path_ + ": cannot move temporary file into place (" + std::strerror(errno) + ")";
     std::remove(temp_path_.c_str());
@@ -42,6 +65,7 @@ bool AtomicFileWriter::Commit(std::string* error) {
     return false;
   }
   committed_ = true;
+  FaultPoint("atomic_file:renamed");
   return true;
 }
 

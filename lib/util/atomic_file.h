@@ -6,9 +6,11 @@
 
 namespace aqs {
 
-// Writes a file atomically: the content goes to a temporary file next to `path`, which
-// replaces `path` (rename) only on Commit(). A crash or an early return leaves any
-// existing `path` untouched and removes the temporary file.
+// Writes a file atomically: the content goes to a temporary file next to `path`
+// ("<path>.tmp<pid>"), which is flushed to disk (fsync) and replaces `path` (rename) only
+// on Commit(). An early return or any failure leaves an existing `path` untouched and
+// removes the temporary file; a killed process leaves `path` old or new and at most the
+// temporary file, which the model writers remove later (model/model_directory.h).
 //
 //   AtomicFileWriter writer(path);
 //   writer.stream() << ...;

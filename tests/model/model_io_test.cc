@@ -1,13 +1,21 @@
 #include "model/model_io.h"
 
+#include <unistd.h>
+
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 
+#include <set>
+
 #include <gtest/gtest.h>
 
+#include "model/model_directory.h"
 #include "prepare/volumetric_targets.h"
+#include "testing/fault_kill.h"
 #include "testing/temp_dir.h"
+#include "util/staged_directory.h"
 #include "train/pretrain.h"
 #include "train/synthetic_muscles.h"
 
@@ -81,13 +89,16 @@ TEST(ModelIoTest, RoundTripIsExact) {
   model.decoder->Decode(model.decoder_params.data(), model.latents.col(0), &a, &w);
   back.decoder->Decode(back.decoder_params.data(), back.latents.col(0), &b, &w);
   EXPECT_EQ(a, b);
-  // No temporary directories are left behind.
+  // No temporary directories or lock files are left behind.
   int entries = 0;
   for (const auto& entry : std::filesystem::directory_iterator(dir.path())) {
     (void)entry;
     ++entries;
   }
   EXPECT_EQ(entries, 1);
+  EXPECT_EQ(ModelFormatVersion(path), 2);
+  EXPECT_TRUE(std::filesystem::exists(path + "/learned/decoder.txt"));
+  EXPECT_EQ(back.checkpoint.iterations, 0);
 }
 
 TEST(ModelIoTest, DamagedModelsFailNamingTheFile) {
@@ -116,6 +127,334 @@ TEST(ModelIoTest, DamagedModelsFailNamingTheFile) {
   }
   EXPECT_FALSE(LoadModel(path, &back, &error));
   EXPECT_NE(error.find("refers to bone 7"), std::string::npos) << error;
+}
+
+namespace fs = std::filesystem;
+
+std::set<std::string> Entries(const std::string& dir) {
+  std::set<std::string> names;
+  for (const auto& entry : fs::directory_iterator(dir)) names.insert(entry.path().filename());
+  return names;
+}
+
+std::string ReadAll(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  return buffer.str();
+}
+
+// Every file below `dir`, relative to it.
+std::set<std::string> FilesBelow(const std::string& dir) {
+  std::set<std::string> names;
+  for (const auto& entry : fs::recursive_directory_iterator(dir)) {
+    names.insert(fs::relative(entry.path(), dir).string());
+  }
+  return names;
+}
+
+// `model` with every learned number changed, a checkpoint, and another stiffness.
+ActiveModel Changed(const ActiveModel& model) {
+  ActiveModel changed = model;
+  changed.decoder_params.array() += 0.5;
+  changed.latents *= 2.0;
+  changed.states[1] *= 1.5;
+  changed.states[2] = model.mesh.vertices;
+  changed.checkpoint.iterations = 7;
+  changed.checkpoint.loss = 0.25;
+  changed.mu *= 2.0;
+  return changed;
+}
+
+// Which of `a` and `b` the loaded model `m` is: "a", "b" or "mixed" (each part compared
+// on its own).
+std::string WhichOf(const ActiveModel& m, const ActiveModel& a, const ActiveModel& b,
+                    bool static_part) {
+  std::set<std::string> parts;
+  const auto part = [&](bool is_a, bool is_b) { parts.insert(is_a ? "a" : is_b ? "b" : "neither"); };
+  part(m.decoder_params == a.decoder_params, m.decoder_params == b.decoder_params);
+  part(m.latents == a.latents, m.latents == b.latents);
+  part(m.states.size() == a.states.size() && m.states[1] == a.states[1] && m.states[2].cols() == a.states[2].cols(),
+       m.states.size() == b.states.size() && m.states[1] == b.states[1] && m.states[2] == b.states[2]);
+  part(m.checkpoint.iterations == a.checkpoint.iterations,
+       m.checkpoint.iterations == b.checkpoint.iterations &&
+           m.checkpoint.loss == b.checkpoint.loss);
+  if (static_part) part(m.mu == a.mu, m.mu == b.mu);
+  return parts.size() == 1 ? *parts.begin() : "mixed";
+}
+
+// Replaces `path` by a copy of `pristine` (faster than saving: no fsync).
+void RestoreCopy(const std::string& pristine, const std::string& path) {
+  fs::remove_all(path);
+  fs::copy(pristine, path, fs::copy_options::recursive);
+}
+
+// Takes and releases the model's lock, which cleans up after killed writers.
+void CleanUp(const std::string& path) {
+  PathLock lock;
+  std::string error;
+  std::ostringstream log;
+  ASSERT_TRUE(LockModelForWriting(path, &log, &lock, &error)) << error;
+}
+
+TEST(ModelIoTest, OnlyModelsEmptyDirectoriesAndMissingPathsAreReplaced) {
+  const ActiveModel model = TrainedSyntheticModel();
+  testing::TempDir dir;
+  std::string error;
+  // A folder that is not a model: refused, nothing deleted.
+  const std::string folder = dir.File("folder");
+  fs::create_directories(folder + "/sub");
+  dir.Write("folder/notes.txt", "my notes");
+  EXPECT_FALSE(SaveModel(folder, model, &error));
+  EXPECT_NE(error.find(folder + " is a directory that is not an ActiveQS model"),
+            std::string::npos) << error;
+  EXPECT_EQ(Entries(folder), std::set<std::string>({"notes.txt", "sub"}));
+  // A plain file: refused, unchanged.
+  const std::string file = dir.Write("file", "data");
+  EXPECT_FALSE(SaveModel(file, model, &error));
+  EXPECT_NE(error.find(file + " exists and is not an ActiveQS model directory"),
+            std::string::npos) << error;
+  EXPECT_EQ(ReadAll(file), "data");
+  // An empty folder and a missing path (with missing parents) are written.
+  fs::create_directories(dir.File("empty"));
+  ASSERT_TRUE(SaveModel(dir.File("empty"), model, &error)) << error;
+  ASSERT_TRUE(SaveModel(dir.File("a/b/m"), model, &error)) << error;
+  // With overwrite, anything is replaced.
+  SaveModelOptions overwrite;
+  overwrite.overwrite = true;
+  ASSERT_TRUE(SaveModel(folder, model, overwrite, &error)) << error;
+  ASSERT_TRUE(SaveModel(file, model, overwrite, &error)) << error;
+  ActiveModel back;
+  EXPECT_TRUE(LoadModel(folder, &back, &error)) << error;
+  EXPECT_TRUE(LoadModel(file, &back, &error)) << error;
+  EXPECT_EQ(Entries(dir.path()), std::set<std::string>({"a", "empty", "file", "folder"}));
+  // A model with files of the user's in it: replacing it would delete them.
+  dir.Write("folder/notes.txt", "my notes");
+  EXPECT_FALSE(SaveModel(folder, model, &error));
+  EXPECT_NE(error.find("holds files that are not part of an ActiveQS model (notes.txt)"),
+            std::string::npos) << error;
+  fs::remove(folder + "/notes.txt");
+  dir.Write("folder/learned/plot.png", "png");
+  EXPECT_FALSE(SaveLearnedState(folder, model, &error));
+  EXPECT_NE(error.find("learned/plot.png"), std::string::npos) << error;
+  EXPECT_FALSE(SaveModel(folder, model, &error));
+  EXPECT_EQ(ReadAll(folder + "/learned/plot.png"), "png");
+  ASSERT_TRUE(SaveModel(folder, model, overwrite, &error)) << error;
+  EXPECT_FALSE(fs::exists(folder + "/learned/plot.png"));
+  // Through a symbolic link, the link's target is replaced and the link stays.
+  fs::create_directory_symlink(folder, dir.File("link"));
+  ASSERT_TRUE(SaveModel(dir.File("link/"), model, &error)) << error;
+  EXPECT_TRUE(fs::is_symlink(dir.File("link")));
+  EXPECT_TRUE(LoadModel(dir.File("link"), &back, &error)) << error;
+  EXPECT_EQ(Entries(dir.path()), std::set<std::string>({"a", "empty", "file", "folder", "link"}));
+}
+
+// kill -9 at every step of SaveModel over an existing model: the path always holds the
+// old or the new model, complete; the next writer's cleanup leaves nothing else.
+TEST(ModelIoTest, KillAtEveryStepOfSaveModelLeavesTheOldOrTheNewModel) {
+  const ActiveModel a = TrainedSyntheticModel();
+  const ActiveModel b = Changed(a);
+  for (bool exchange : {true, false}) {
+    testing::TempDir dir;
+    const std::string path = dir.File("m");
+    std::string error;
+    ASSERT_TRUE(SaveModel(path, b, &error)) << error;
+    const std::set<std::string> files_b = FilesBelow(path);
+    ASSERT_TRUE(SaveModel(path, a, &error)) << error;
+    ASSERT_TRUE(SaveModel(dir.File("pristine"), a, &error)) << error;
+    const std::set<std::string> files_a = FilesBelow(path);
+    const auto save = [&] {
+      DisableExchangeForTesting(!exchange);
+      std::string e;
+      return SaveModel(path, b, &e);
+    };
+    const std::vector<std::string> points = testing::FaultPointsOf([&] { save(); });
+    DisableExchangeForTesting(false);
+    ASSERT_GT(points.size(), 30u);
+    std::printf("SaveModel of the test model: %zu fault points\n", points.size());
+    std::set<std::string> seen;
+    for (int n = 0; n < static_cast<int>(points.size()); ++n) {
+      // The steps of writing files into the staging directory (38 here) are alike, and
+      // so are those of removing entries of the old model (11): every seventh of them
+      // is enough; without exchange only putting the model in place differs.
+      const bool file_step = points[n].rfind("atomic_file:", 0) == 0;
+      if ((file_step || points[n] == "remove:entry") && (n % 7 != 0 || (file_step && !exchange))) {
+        continue;
+      }
+      SCOPED_TRACE("exchange " + std::to_string(exchange) + ", killed at " + std::to_string(n) +
+                   " " + points[n]);
+      RestoreCopy(dir.File("pristine"), path);
+      ASSERT_EQ(testing::RunInChildKilledAt(n, save), "killed");
+      ActiveModel back;
+      if (exchange) {  // no instant without a model
+        ASSERT_TRUE(LoadModel(path, &back, &error)) << error;
+        const std::string which = WhichOf(back, a, b, true);
+        EXPECT_NE(which, "mixed");
+      }
+      CleanUp(path);
+      ASSERT_TRUE(LoadModel(path, &back, &error)) << error;
+      const std::string which = WhichOf(back, a, b, true);
+      EXPECT_NE(which, "mixed");
+      seen.insert(which);
+      EXPECT_EQ(Entries(dir.path()), std::set<std::string>({"m", "pristine"}));
+      EXPECT_EQ(FilesBelow(path), which == "a" ? files_a : files_b);
+    }
+    EXPECT_EQ(seen, std::set<std::string>({"a", "b"}));
+  }
+}
+
+// kill -9 at every step of a training checkpoint: the learned state is the old or the
+// new one as a whole (decoder, latents, states and checkpoint together).
+TEST(ModelIoTest, KillAtEveryStepOfACheckpointLeavesOneWholeLearnedState) {
+  const ActiveModel a = TrainedSyntheticModel();
+  ActiveModel b = Changed(a);
+  b.mu = a.mu;
+  for (bool exchange : {true, false}) {
+    testing::TempDir dir;
+    const std::string path = dir.File("m");
+    std::string error;
+    ASSERT_TRUE(SaveModel(path, a, &error)) << error;
+    ASSERT_TRUE(SaveModel(dir.File("pristine"), a, &error)) << error;
+    const auto save = [&] {
+      DisableExchangeForTesting(!exchange);
+      std::string e;
+      return SaveLearnedState(path, b, &e);
+    };
+    const std::vector<std::string> points = testing::FaultPointsOf([&] { save(); });
+    DisableExchangeForTesting(false);
+    ASSERT_GT(points.size(), 10u);
+    std::set<std::string> seen;
+    for (int n = 0; n < static_cast<int>(points.size()); ++n) {
+      const bool file_step = points[n].rfind("atomic_file:", 0) == 0;
+      if ((file_step || points[n] == "remove:entry") && (n % 3 != 0 || (file_step && !exchange))) {
+        continue;
+      }
+      SCOPED_TRACE("exchange " + std::to_string(exchange) + ", killed at " + std::to_string(n) +
+                   " " + points[n]);
+      RestoreCopy(dir.File("pristine"), path);
+      const std::set<std::string> files_a = FilesBelow(path);
+      ASSERT_EQ(testing::RunInChildKilledAt(n, save), "killed");
+      ActiveModel back;
+      if (exchange) {
+        ASSERT_TRUE(LoadModel(path, &back, &error)) << error;
+        EXPECT_NE(WhichOf(back, a, b, false), "mixed");
+      }
+      CleanUp(path);
+      ASSERT_TRUE(LoadModel(path, &back, &error)) << error;
+      const std::string which = WhichOf(back, a, b, false);
+      EXPECT_NE(which, "mixed");
+      seen.insert(which);
+      EXPECT_EQ(Entries(dir.path()), std::set<std::string>({"m", "pristine"}));
+      if (which == "a") {
+        EXPECT_EQ(FilesBelow(path), files_a);
+      }
+    }
+    EXPECT_EQ(seen, std::set<std::string>({"a", "b"}));
+  }
+}
+
+TEST(ModelIoTest, DamagedCheckpointFailsNamingTheFile) {
+  const ActiveModel model = TrainedSyntheticModel();
+  testing::TempDir dir;
+  const std::string path = dir.File("m");
+  std::string error;
+  ASSERT_TRUE(SaveModel(path, model, &error)) << error;
+  ActiveModel back;
+  for (const char* content : {"", "# nothing\n", "iterations\n", "iterations -3\n",
+                              "iterations 4\nloss x\n"}) {
+    std::ofstream(path + "/learned/checkpoint.txt") << content;
+    EXPECT_FALSE(LoadModel(path, &back, &error)) << content;
+    EXPECT_NE(error.find(path + "/learned/checkpoint.txt"), std::string::npos) << error;
+  }
+  std::ofstream(path + "/learned/checkpoint.txt") << "iterations 4\nloss 0.5\n";
+  ASSERT_TRUE(LoadModel(path, &back, &error)) << error;
+  EXPECT_EQ(back.checkpoint.iterations, 4);
+  EXPECT_EQ(back.checkpoint.loss, 0.5);
+}
+
+// Format 1 (learned files at the top, train/checkpoint.txt) is read, and the first
+// checkpoint rewrites the model as format 2, keeping the training log and the
+// pre-training record.
+TEST(ModelIoTest, FormatOneIsReadAndUpgradedByACheckpoint) {
+  const ActiveModel model = TrainedSyntheticModel();
+  testing::TempDir dir;
+  const std::string path = dir.File("m");
+  std::string error;
+  ASSERT_TRUE(SaveModel(path, model, &error)) << error;
+  for (const char* name : {"decoder.txt", "latents.bin", "states"}) {
+    fs::rename(path + "/learned/" + std::string(name), path + "/" + std::string(name));
+  }
+  fs::remove_all(path + "/learned");
+  fs::create_directories(path + "/train");
+  std::ofstream(path + "/train/checkpoint.txt") << "# end-to-end training checkpoint\n"
+                                                   "iterations 3\nloss 0.0123457\n";
+  std::ofstream(path + "/train/log.csv") << "iteration,loss\n0,1\n1,0.5\n";
+  fs::create_directories(path + "/pretrain");
+  std::ofstream(path + "/pretrain/surface_errors.txt") << "record\n";
+  std::string manifest = ReadAll(path + "/model.txt");
+  manifest.replace(manifest.find("format 2"), 8, "format 1");
+  std::ofstream(path + "/model.txt") << manifest;
+  ActiveModel back;
+  ASSERT_TRUE(LoadModel(path, &back, &error)) << error;
+  EXPECT_EQ(back.decoder_params, model.decoder_params);
+  EXPECT_EQ(back.states[1], model.states[1]);
+  EXPECT_EQ(back.checkpoint.iterations, 3);
+  back.checkpoint.iterations = 4;
+  ASSERT_TRUE(SaveLearnedState(path, back, &error)) << error;
+  EXPECT_EQ(ModelFormatVersion(path), 2);
+  EXPECT_EQ(ReadAll(path + "/train/log.csv"), "iteration,loss\n0,1\n1,0.5\n");
+  EXPECT_EQ(ReadAll(path + "/pretrain/surface_errors.txt"), "record\n");
+  EXPECT_FALSE(fs::exists(path + "/decoder.txt"));
+  ActiveModel upgraded;
+  ASSERT_TRUE(LoadModel(path, &upgraded, &error)) << error;
+  EXPECT_EQ(upgraded.decoder_params, model.decoder_params);
+  EXPECT_EQ(upgraded.checkpoint.iterations, 4);
+}
+
+// What earlier versions and killed writers left: a model moved aside is recovered,
+// temporary files of model files are removed, everything else is kept.
+TEST(ModelIoTest, CleanupRecoversAndRemovesOnlyActiveQsLeftovers) {
+  const ActiveModel model = TrainedSyntheticModel();
+  testing::TempDir dir;
+  const std::string path = dir.File("m");
+  const std::string dead = std::to_string(testing::DeadPid());
+  std::string error;
+  // Before format 2: the old model moved aside and the new one half written.
+  ASSERT_TRUE(SaveModel(dir.File("m.old" + dead), model, &error)) << error;
+  fs::create_directories(dir.File("m.tmp" + dead));
+  dir.Write("m.tmp" + dead + "/model.txt", "format 1\n");
+  CleanUp(path);
+  ActiveModel back;
+  ASSERT_TRUE(LoadModel(path, &back, &error)) << error;
+  EXPECT_EQ(Entries(dir.path()), std::set<std::string>({"m", "m.tmp" + dead}));
+  // Temporary files of model files (14 MB each for the face) are removed; a file that
+  // is not a model file is kept even with such a name; so is one of a live process.
+  const std::string live = std::to_string(static_cast<long>(getppid()));
+  for (const std::string& name : {"learned/decoder.txt.tmp" + dead, "decoder.txt.tmp" + dead,
+                                  "learned/states/0001.bin.tmp" + dead, "poses/0000.bin.tmp" + dead,
+                                  "train/log.csv.tmp" + dead, "model.txt.tmp" + dead,
+                                  "pretrain/surface_errors.bin.tmp" + dead,
+                                  "notes.txt.tmp" + dead, "mu.bin.tmp" + live}) {
+    fs::create_directories(fs::path(path + "/" + name).parent_path());
+    dir.Write("m/" + name, "x");
+  }
+  CleanUp(path);
+  EXPECT_FALSE(fs::exists(path + "/learned/decoder.txt.tmp" + dead));
+  EXPECT_FALSE(fs::exists(path + "/learned/states/0001.bin.tmp" + dead));
+  EXPECT_FALSE(fs::exists(path + "/poses/0000.bin.tmp" + dead));
+  EXPECT_FALSE(fs::exists(path + "/train/log.csv.tmp" + dead));
+  EXPECT_FALSE(fs::exists(path + "/decoder.txt.tmp" + dead));
+  EXPECT_FALSE(fs::exists(path + "/model.txt.tmp" + dead));
+  EXPECT_TRUE(fs::exists(path + "/notes.txt.tmp" + dead));
+  EXPECT_TRUE(fs::exists(path + "/mu.bin.tmp" + live));
+  EXPECT_FALSE(fs::exists(path + "/pretrain/surface_errors.bin.tmp" + dead));
+  ASSERT_TRUE(LoadModel(path, &back, &error)) << error;
+  // The model's own records do not stop a replacement; the user's files do.
+  fs::remove(path + "/notes.txt.tmp" + dead);
+  fs::remove(path + "/mu.bin.tmp" + live);
+  dir.Write("m/pretrain/surface_errors.txt", "record");
+  dir.Write("m/train/log.csv", "iteration\n");
+  EXPECT_TRUE(SaveModel(path, model, &error)) << error;
 }
 
 }  // namespace

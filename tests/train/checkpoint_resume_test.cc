@@ -1,0 +1,223 @@
+// Training checkpoints under kill -9: the learned state on disk is always one whole
+// checkpoint, a resumed run starts at the logged loss of the iteration it resumes from,
+// and train/log.csv keeps one row per iteration.
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include <gtest/gtest.h>
+
+#include "jobs/learning_jobs.h"
+#include "model/model_directory.h"
+#include "model/model_io.h"
+#include "prepare/volumetric_targets.h"
+#include "testing/fault_kill.h"
+#include "testing/temp_dir.h"
+#include "train/pretrain.h"
+#include "train/synthetic_muscles.h"
+#include "train/trainer.h"
+
+namespace aqs {
+namespace {
+
+namespace fs = std::filesystem;
+
+// The rows of a training log: iteration and loss, in file order.
+std::vector<std::pair<int, double>> LogRows(const std::string& path) {
+  std::vector<std::pair<int, double>> rows;
+  std::ifstream in(path);
+  std::string line;
+  std::getline(in, line);
+  while (std::getline(in, line)) {
+    int iteration = -1;
+    double loss = 0;
+    if (std::sscanf(line.c_str(), "%d,%lf", &iteration, &loss) == 2) rows.emplace_back(iteration, loss);
+  }
+  return rows;
+}
+
+// True if the log has exactly the rows 0..last, once each, in order.
+::testing::AssertionResult RowsAreZeroTo(const std::vector<std::pair<int, double>>& rows, int last) {
+  std::string got;
+  for (const auto& row : rows) got += std::to_string(row.first) + " ";
+  bool ok = static_cast<int>(rows.size()) == last + 1;
+  for (int i = 0; ok && i <= last; ++i) ok = rows[i].first == i;
+  if (ok) return ::testing::AssertionSuccess();
+  return ::testing::AssertionFailure() << "log rows " << got << "; expected 0.." << last;
+}
+
+class CheckpointResumeTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    testing::SyntheticMuscles data = testing::MakeSyntheticMuscles(3, 0, 0.3, 11);
+    ActiveModel& model = data.model;
+    std::ostringstream log;
+    std::string error;
+    ASSERT_TRUE(MakeVolumetricTargets(VolumetricTargetOptions(), &model, log, &error)) << error;
+    PretrainOptions pretrain;
+    pretrain.spec.latent_dim = 2;
+    pretrain.spec.hidden_dims = {8};
+    pretrain.field.node_spacing = 0.5;
+    pretrain.max_iterations = 20;
+    pretrain.log_every = 0;
+    PretrainReport report;
+    ASSERT_TRUE(Pretrain(pretrain, &model, &report, log, &error)) << error;
+    path_ = dir_.File("m");
+    ASSERT_TRUE(SaveModel(path_, model, &error)) << error;
+    options_.num_threads = 1;
+    options_.log_every = 0;
+    options_.model_directory = path_;
+  }
+
+  // aqs_train's library call up to `iterations` in all.
+  bool Train(int iterations, bool restart = false) {
+    TrainOptions options = options_;
+    options.max_iterations = iterations;
+    std::ostringstream log;
+    std::string error;
+    const bool ok = RunTrainJob(path_, options, restart, log, &error);
+    EXPECT_TRUE(ok) << error << "\n" << log.str();
+    return ok;
+  }
+
+  // Resumes training (taking the lock cleans up after the killed run) and returns the
+  // report: its initial loss is the resumed start loss.
+  TrainReport Resume(int iterations) {
+    PathLock lock;
+    std::ostringstream log;
+    std::string error;
+    TrainReport report;
+    EXPECT_TRUE(LockModelForWriting(path_, &log, &lock, &error)) << error;
+    ActiveModel model;
+    EXPECT_TRUE(LoadModel(path_, &model, &error)) << error;
+    TrainOptions options = options_;
+    options.max_iterations = iterations;
+    EXPECT_TRUE(TrainEndToEnd(options, &model, &report, log, &error)) << error;
+    return report;
+  }
+
+  int SavedIterations() {
+    ActiveModel model;
+    std::string error;
+    EXPECT_TRUE(LoadModel(path_, &model, &error)) << error;
+    return model.checkpoint.iterations;
+  }
+
+  std::string LogPath() const { return path_ + "/train/log.csv"; }
+
+  // Trains up to `iterations` in a fresh process killed (SIGKILL) at the
+  // `occurrence`-th time it reaches `point` (tests/train/kill_at_main.cc).
+  std::string TrainKilledAt(const std::string& point, int occurrence, int iterations) {
+    return testing::RunProgram({AQS_KILL_AT, point, std::to_string(occurrence), path_,
+                                std::to_string(iterations)});
+  }
+
+  testing::TempDir dir_;
+  std::string path_;
+  TrainOptions options_;
+};
+
+// Killed inside the checkpoint of iteration 3 (writing its files, before and after its
+// learned state is put in place): the model holds checkpoint 2 or 3, and the resumed
+// run starts at the loss logged for that iteration. (From checkpoint 1, the run writes
+// the log once, then 6 files per checkpoint: decoder, latents, 3 states, checkpoint.txt.)
+TEST_F(CheckpointResumeTest, ResumeAfterKillStartsAtTheLoggedLoss) {
+  for (const char* point : {"atomic_file:written", "staging:filled", "staging:exchanged"}) {
+    SCOPED_TRACE(point);
+    ASSERT_TRUE(Train(1, /*restart=*/true));
+    const int occurrence = std::string(point) == "atomic_file:written" ? 9 : 1;
+    ASSERT_EQ(TrainKilledAt(point, occurrence, 8), "killed");
+    const int saved = SavedIterations();
+    EXPECT_GE(saved, 2);
+    EXPECT_LE(saved, 3);
+    const std::vector<std::pair<int, double>> rows = LogRows(LogPath());
+    ASSERT_GT(static_cast<int>(rows.size()), saved);
+    const double logged = rows[saved].second;
+    const TrainReport report = Resume(saved + 2);
+    EXPECT_EQ(report.iterations_before, saved);
+    std::printf("killed at %s: resumed after %d iterations, start loss %.17g, logged %.17g "
+                "(relative difference %.1e)\n",
+                point, saved, report.initial_loss, logged,
+                std::abs(report.initial_loss - logged) / logged);
+    EXPECT_NEAR(report.initial_loss, logged, 1e-9 * logged);
+    EXPECT_TRUE(RowsAreZeroTo(LogRows(LogPath()), saved + 2));
+    EXPECT_EQ(fs::directory_iterator(dir_.path())->path().filename(), "m");
+    EXPECT_EQ(std::distance(fs::directory_iterator(dir_.path()), fs::directory_iterator()), 1);
+    EXPECT_FALSE(fs::exists(path_ + "/learned.aqs-tmp" + std::to_string(getpid())));
+  }
+}
+
+// A run that ended normally saved its last point; the next run resumes at its logged loss.
+TEST_F(CheckpointResumeTest, ResumeAfterAFinishedRunStartsAtTheLoggedLoss) {
+  ASSERT_TRUE(Train(3));
+  const std::vector<std::pair<int, double>> rows = LogRows(LogPath());
+  ASSERT_TRUE(RowsAreZeroTo(rows, 3));
+  const TrainReport report = Resume(5);
+  EXPECT_EQ(report.iterations_before, 3);
+  std::printf("resumed after a finished run: start loss %.17g, logged %.17g\n",
+              report.initial_loss, rows[3].second);
+  EXPECT_NEAR(report.initial_loss, rows[3].second, 1e-9 * rows[3].second);
+  EXPECT_TRUE(RowsAreZeroTo(LogRows(LogPath()), 5));
+}
+
+// Killed before the first checkpoint: no duplicated row 0 after the next run.
+TEST_F(CheckpointResumeTest, KillBeforeTheFirstCheckpointDoesNotDuplicateRowZero) {
+  ASSERT_EQ(TrainKilledAt("staging:created", 0, 5), "killed");
+  EXPECT_EQ(SavedIterations(), 0);
+  EXPECT_TRUE(RowsAreZeroTo(LogRows(LogPath()), 1));  // rows 0 and 1, no checkpoint yet
+  ASSERT_TRUE(Train(3));
+  EXPECT_TRUE(RowsAreZeroTo(LogRows(LogPath()), 3));
+}
+
+// An empty (damaged) checkpoint.txt stops training with a message naming it and leaves
+// the log alone; --restart starts the count and the log again.
+TEST_F(CheckpointResumeTest, EmptyCheckpointDoesNotTruncateTheLog) {
+  ASSERT_TRUE(Train(3));
+  std::ifstream before_in(LogPath());
+  const std::string before((std::istreambuf_iterator<char>(before_in)), {});
+  std::ofstream(path_ + "/learned/checkpoint.txt").close();
+  TrainOptions options = options_;
+  options.max_iterations = 6;
+  std::ostringstream log;
+  std::string error;
+  EXPECT_FALSE(RunTrainJob(path_, options, false, log, &error));
+  EXPECT_NE(error.find(path_ + "/learned/checkpoint.txt: no 'iterations N' line"),
+            std::string::npos) << error;
+  std::ifstream after_in(LogPath());
+  EXPECT_EQ(std::string((std::istreambuf_iterator<char>(after_in)), {}), before);
+  // Deleting the damaged file counts from 0 again, with a new log.
+  fs::remove(path_ + "/learned/checkpoint.txt");
+  ASSERT_TRUE(Train(2));
+  EXPECT_TRUE(RowsAreZeroTo(LogRows(LogPath()), 2));
+  ASSERT_TRUE(Train(1, /*restart=*/true));
+  EXPECT_TRUE(RowsAreZeroTo(LogRows(LogPath()), 1));
+}
+
+// A file of the user's inside learned/, which a checkpoint would delete, stops training
+// before any work; pre-training likewise refuses a model holding foreign files.
+TEST_F(CheckpointResumeTest, ForeignFilesStopTheJobsBeforeTheWork) {
+  ASSERT_TRUE(Train(1));
+  std::ofstream(path_ + "/learned/notes.txt") << "mine";
+  TrainOptions options = options_;
+  options.max_iterations = 3;
+  std::ostringstream log;
+  std::string error;
+  EXPECT_FALSE(RunTrainJob(path_, options, false, log, &error));
+  EXPECT_NE(error.find("(learned/notes.txt); a checkpoint would delete them"), std::string::npos)
+      << error;
+  EXPECT_EQ(log.str().find("train:"), std::string::npos) << log.str();
+  EXPECT_FALSE(RunPretrainJob(path_, PretrainOptions(), nullptr, log, &error));
+  EXPECT_NE(error.find("(learned/notes.txt); replacing the model would delete them"),
+            std::string::npos) << error;
+  EXPECT_EQ(log.str().find("pretrain:"), std::string::npos) << log.str();
+  EXPECT_TRUE(fs::exists(path_ + "/learned/notes.txt"));
+  EXPECT_TRUE(RowsAreZeroTo(LogRows(LogPath()), 1));
+}
+
+}  // namespace
+}  // namespace aqs
