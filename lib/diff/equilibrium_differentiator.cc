@@ -1,5 +1,7 @@
 #include "diff/equilibrium_differentiator.h"
 
+#include "diff/actuation_force_products.h"
+
 #include <glog/logging.h>
 
 #include "util/parallel_for.h"
@@ -111,32 +113,9 @@ Eigen::MatrixXd EquilibriumDifferentiator::ActuationJacobianProduct(
   CHECK(!deferred_) << "Jacobian products need Prepare without options().reuse";
   CHECK_EQ(directions.rows(), 6 * static_cast<Eigen::Index>(model_.num_elements()));
   const int k = static_cast<int>(directions.cols());
-  const int num_elements = model_.num_elements();
-  const Eigen::Matrix4Xi& tets = model_.tets();
-  const StiffnessPattern& pattern = factorization_->pattern();
   WallTimer timer;
-  // B v for every direction: per element, V (dP/dS [dS_e]) b_j at its vertex j. The
-  // element terms are formed in parallel, then scattered serially (cheap).
-  std::vector<Eigen::Matrix<double, 3, 4>> nodal(static_cast<size_t>(num_elements) * k);
-  ParallelFor(options_.num_threads, 0, num_elements, [&](int, int e) {
-    const ShapeTargetElement element = model_.Element(x_, a_, e);
-    const double volume = model_.rest_shape(e).volume;
-    for (int c = 0; c < k; ++c) {
-      const Eigen::Matrix3d ds = SymmetricFromActuation(directions.col(c).data() + 6 * e);
-      nodal[static_cast<size_t>(e) * k + c] =
-          volume * element.StressActuationDirectional(ds) * model_.gradient_weights(e);
-    }
-  });
-  Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(pattern.num_dofs(), k);
-  for (int e = 0; e < num_elements; ++e) {
-    for (int j = 0; j < 4; ++j) {
-      const int f = pattern.free_index(tets(j, e));
-      if (f < 0) continue;
-      for (int c = 0; c < k; ++c) {
-        rhs.block<3, 1>(3 * f, c) -= nodal[static_cast<size_t>(e) * k + c].col(j);
-      }
-    }
-  }
+  const Eigen::MatrixXd rhs = ActuationForceProducts(model_, factorization_->pattern(), x_, a_,
+                                                     directions, options_.num_threads);
   timings_.accumulation = timer.Seconds();
   const Eigen::MatrixXd dx_free = factorization_->SolveFree(rhs);
   timings_.solve = factorization_->timings().solve;

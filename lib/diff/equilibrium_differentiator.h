@@ -21,7 +21,7 @@ struct EquilibriumDifferentiatorOptions {
   // preconditioned by the factor the shared StiffnessFactorization holds from an earlier
   // state, e.g. the last Newton step of the solve that found x: then one factorization
   // serves the equilibrium and its gradient. 0 (default): Prepare factorizes K.
-  FactorReuseOptions reuse = {0, 1e-10, 6, 1e-2, 1};
+  FactorReuseOptions reuse = {0, 1e-10, 6, 1e-2, 1, 8};
 };
 
 // Timings of the last Prepare() and gradient/JVP call, in seconds.

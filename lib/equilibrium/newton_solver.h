@@ -28,7 +28,7 @@ struct NewtonSolverOptions {
   // Exact steps first try conjugate gradients on the current stiffness preconditioned by
   // the factor the factorization holds from an earlier state (a warm start's, the last
   // step's), with no factorization (an inexact Newton step); max_iterations = 0 disables.
-  FactorReuseOptions reuse = {20, 1e-6, 6, 1e-2, 1};
+  FactorReuseOptions reuse = {20, 1e-6, 6, 1e-2, 1, 8};
 
   // Checks the fields; false with *error naming the field.
   bool Validate(std::string* error) const;

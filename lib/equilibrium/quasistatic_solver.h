@@ -83,7 +83,7 @@ struct QuasistaticSolverOptions {
   // Exact Newton steps (kNewton) first try conjugate gradients preconditioned by the
   // factor of an earlier state (see NewtonSolverOptions::reuse): a warm re-solve after a
   // small change of the actuation then needs no factorization. max_iterations = 0: off.
-  FactorReuseOptions factor_reuse = {20, 1e-6, 6, 1e-2, 1};
+  FactorReuseOptions factor_reuse = {20, 1e-6, 6, 1e-2, 1, 8};
   // Ceres' relative cost-change and step-size stopping tests. function_tolerance
   // 1e-15 stops only at the round-off floor of the cost (where further iterations
   // are noise); the force test above decides whether the result counts as converged.

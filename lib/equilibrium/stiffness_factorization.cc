@@ -62,6 +62,7 @@ bool StiffnessFactorization::FactorizeAssembled(double relative_shift, std::stri
   // values() stay K itself (unshifted) for products and later shifts.
   for (int c = 0; c < pattern_.num_dofs(); ++c) values_[starts[c + 1] - 1] = diagonal_[c];
   factor_current_ = ok && relative_shift == 0.0;
+  refresh_requested_ = false;
   if (first) timings_.analysis = cholesky_.analyze_seconds();
   timings_.factorization += cholesky_.factorize_seconds();
   if (!ok) {
@@ -131,7 +132,8 @@ Eigen::VectorXd StiffnessFactorization::MultiplyAssembled(const Eigen::VectorXd&
 bool StiffnessFactorization::SolveReusingFactor(const Eigen::MatrixXd& b,
                                                 const FactorReuseOptions& reuse,
                                                 Eigen::MatrixXd* x) {
-  if (!cholesky_.factorized() || reuse.max_iterations <= 0 || b.cols() > reuse.max_columns) {
+  if (!cholesky_.factorized() || reuse.max_iterations <= 0 || b.cols() > reuse.max_columns ||
+      refresh_requested_) {
     return false;
   }
   CHECK_EQ(b.rows(), pattern_.num_dofs());
@@ -173,6 +175,9 @@ bool StiffnessFactorization::SolveReusingFactor(const Eigen::MatrixXd& b,
   counters_.cg_iterations += iterations;
   if (ok) {
     counters_.reused_solves += static_cast<int>(b.cols());
+    if (reuse.refresh_iterations > 0 && iterations > reuse.refresh_iterations * b.cols()) {
+      refresh_requested_ = true;
+    }
   } else {
     ++counters_.failed_reuses;
   }

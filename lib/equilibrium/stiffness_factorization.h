@@ -30,6 +30,9 @@ struct FactorReuseOptions {
   double probe_tolerance = 1e-2;
   // Right-hand sides beyond which factorizing is cheaper than CG on each.
   int max_columns = 2;
+  // A CG solve that needed more iterations than this shows the factor has aged: the next
+  // solve at another state factorizes afresh (0: never).
+  int refresh_iterations = 8;
 };
 
 // What the factorization did since the last ResetCounters().
@@ -88,6 +91,9 @@ class StiffnessFactorization {
                 StiffnessKind kind);
   bool FactorizeAssembled(double relative_shift, std::string* error);
   bool factorized() const { return cholesky_.factorized(); }
+  // Runs CHOLMOD's symbolic analysis now (it otherwise runs in the first factorization),
+  // e.g. to read the factor's size (cholesky().factor_nonzeros()) before factorizing.
+  void Analyze() { cholesky_.Analyze(); }
   // Whether the factor is of values() as assembled (unshifted), so that Solve is exact.
   bool factor_current() const { return factor_current_; }
 
@@ -135,6 +141,7 @@ class StiffnessFactorization {
   // The diagonal of K as assembled, for shifted factorizations.
   Eigen::VectorXd diagonal_;
   bool factor_current_ = false;
+  bool refresh_requested_ = false;  // the last reuse took long: factorize next time
   FactorizationCounters counters_;
   std::vector<const EnergyTerm*> terms_;
   FactorizationTimings timings_;

@@ -12,6 +12,7 @@
 #include "diff/equilibrium_differentiator.h"
 #include "equilibrium/quasistatic_solver.h"
 #include "model/active_model.h"
+#include "train/evaluation_counters.h"
 #include "train/trainer.h"
 #include "util/wall_timer.h"
 
@@ -72,6 +73,13 @@ class EndToEndObjective final : public ceres::FirstOrderFunction {
   bool UseStatesOf(const double* parameters);
   const std::string& last_failure() const { return last_failure_; }
 
+  // What the last evaluation cost (summed over its poses), and all evaluations so far.
+  using Counters = EvaluationCounters;
+  const Counters& last_counters() const { return last_counters_; }
+  const Counters& total_counters() const { return total_counters_; }
+  // Whether each pose has its own solver and factor (TrainOptions::max_factor_cache_gb).
+  bool solver_per_pose() const { return solver_per_pose_; }
+
  private:
   struct Worker {
     std::unique_ptr<QuasistaticSolver> solver;
@@ -84,8 +92,17 @@ class EndToEndObjective final : public ceres::FirstOrderFunction {
   const int num_params_, latent_dim_, num_poses_;
   std::vector<Eigen::Matrix3Xd> fixed_positions_;
   // Evaluation is logically const for Ceres; these caches change.
-  mutable std::vector<Worker> workers_;
+  mutable std::vector<Worker> workers_;  // one per pose, or one per thread
+  bool solver_per_pose_ = false;
+  mutable Counters last_counters_, total_counters_;
   mutable std::vector<Eigen::Matrix3Xd> states_;
+  // With a solver per pose: the actuation each state is the equilibrium of (empty: not
+  // known), for the first-order prediction of the next evaluation's start.
+  mutable std::vector<ActuationMatrix> state_actuations_;
+  // Moves pose p's solver from states_[p] to x + dx*/da (a - a_state), the equilibrium
+  // predicted to first order for the solver's new actuation a, using the pose's last
+  // factor; keeps the warm start where the prediction does not lower the largest force.
+  void PredictState(int p, Worker* worker) const;
   mutable std::vector<double> pose_loss_, pose_mean_, pose_max_;
   mutable std::vector<std::string> failures_;
   mutable std::vector<char> converged_once_;  // per pose, in this objective's life

@@ -195,6 +195,7 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
 
   // The budget counts from here; a line search past it fails at once.
   objective->set_time_limit(options.max_seconds);
+  const EvaluationCounters cost_before = objective->total_counters();
   WallTimer budget_timer;
   ceres::GradientProblem problem(objective);  // owns the objective
   TrainingCallback callback(options, model, *objective, parameters, report->iterations_before, log);
@@ -243,6 +244,7 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
   }
   SetBlasThreads(blas_threads);
   // Final state: evaluate the returned parameters (also refreshes states and errors).
+  report->iteration_cost = objective->total_counters().Since(cost_before);
   objective->set_time_limit(0.0);
   objective->AllowRetryFromRest();
   objective->UseStatesOf(parameters.data());  // the accepted point's equilibria

@@ -6,6 +6,7 @@
 
 #include "equilibrium/quasistatic_solver.h"
 #include "model/active_model.h"
+#include "train/evaluation_counters.h"
 
 namespace aqs {
 
@@ -21,6 +22,12 @@ struct TrainOptions {
   // parallel instead).
   QuasistaticSolverOptions solver;
   int num_threads = 2;  // poses solved in parallel
+  // Keep one solver, with its stiffness factor, per pose while all the factors together
+  // take at most this many GB (estimated from CHOLMOD's symbolic analysis): each pose's
+  // factor then preconditions its next evaluation's Newton steps and adjoint by CG,
+  // which mostly needs no factorization. Above it, one solver per thread (every
+  // evaluation factorizes; its adjoint still reuses the solve's last factor).
+  double max_factor_cache_gb = 4.0;
   // Checkpoints and logs: the model directory the learned state is saved into every
   // checkpoint_every iterations, as one unit (SaveLearnedState: decoder, latents,
   // states and the checkpoint, model/model_io.h), and train/log.csv. The caller should
@@ -46,6 +53,9 @@ struct TrainReport {
   double seconds = 0.0;
   int restarts = 0;  // L-BFGS restarts after a stalled line search
   std::string termination;
+  // What this run's L-BFGS iterations cost (their evaluations, line-search trials
+  // included; not the start and final evaluations).
+  EvaluationCounters iteration_cost;
 };
 
 // End-to-end training through the simulator: decoder parameters and per-pose latents

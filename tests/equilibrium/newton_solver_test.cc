@@ -2,10 +2,12 @@
 
 #include <cmath>
 #include <limits>
+#include <random>
 
 #include <gtest/gtest.h>
 
 #include "equilibrium/quasistatic_solver.h"
+#include "physics/stiffness_assembly.h"
 #include "testing/test_meshes.h"
 
 namespace aqs {
@@ -232,6 +234,78 @@ TEST(NewtonSolverTest, OptionsAreValidated) {
   solver.newton_relative_force = std::numeric_limits<double>::quiet_NaN();
   EXPECT_FALSE(solver.Validate(&error));
   EXPECT_NE(error.find("newton_relative_force"), std::string::npos);
+}
+
+TEST(NewtonSolverTest, FactorOfANearbyStateSolvesByConjugateGradients) {
+  const TetMesh mesh = BarMesh(8, 2, 2, 0.5);
+  const ShapeTargetModel model(mesh, 1.0);
+  const BoundaryConditions bc = LeftFaceFixed(mesh);
+  QuasistaticSolver solver(model, bc);
+  solver.actuation() = CurlActuation(mesh, 0.2);
+  ASSERT_TRUE(solver.Solve().converged);
+  StiffnessFactorization factorization(model, FixedVertexMask(bc, mesh.num_vertices()), 2);
+  std::string error;
+  ASSERT_TRUE(factorization.Factorize(solver.positions(), solver.actuation(), StiffnessKind::kExact,
+                                      &error));
+  // K at a nearby state (the actuation changed by 1%), solved with the old factor.
+  const ActuationMatrix changed = IdentityActuations(mesh.num_tets()) +
+                                  1.01 * (solver.actuation() - IdentityActuations(mesh.num_tets()));
+  factorization.Assemble(solver.positions(), changed, StiffnessKind::kExact);
+  EXPECT_FALSE(factorization.factor_current());
+  std::mt19937 rng(3);
+  std::normal_distribution<double> normal;
+  Eigen::MatrixXd b(factorization.pattern().num_dofs(), 1);
+  for (int i = 0; i < b.rows(); ++i) b(i, 0) = normal(rng);
+  const Eigen::MatrixXd k =
+      DenseFromUpperCsc(factorization.pattern(), factorization.values());
+  // MultiplyAssembled is K v.
+  EXPECT_LT((factorization.MultiplyAssembled(b.col(0)) - k * b.col(0)).norm(),
+            1e-12 * (k * b.col(0)).norm());
+  FactorReuseOptions reuse;
+  reuse.relative_tolerance = 1e-10;
+  Eigen::MatrixXd x;
+  ASSERT_TRUE(factorization.SolveReusingFactor(b, reuse, &x));
+  EXPECT_LE((k * x - b).norm(), 1e-10 * b.norm() * 1.0001);
+  EXPECT_EQ(factorization.counters().reused_solves, 1);
+  EXPECT_EQ(factorization.counters().factorizations, 1);
+  EXPECT_GT(factorization.counters().cg_iterations, 0);
+  EXPECT_LE(factorization.counters().cg_iterations, 8) << "a 1% change: a few iterations";
+  // Another actuation, and too few iterations allowed: CG gives up, SolveAssembled
+  // factorizes.
+  factorization.Assemble(solver.positions(), CurlActuation(mesh, -0.3), StiffnessKind::kProjected);
+  reuse.max_iterations = 2;
+  EXPECT_FALSE(factorization.SolveReusingFactor(b, reuse, &x));
+  EXPECT_EQ(factorization.counters().failed_reuses, 1);
+  ASSERT_TRUE(factorization.SolveAssembled(b, reuse, &x, &error)) << error;
+  EXPECT_TRUE(factorization.factor_current());
+  const Eigen::MatrixXd k_far = DenseFromUpperCsc(factorization.pattern(), factorization.values());
+  EXPECT_LT((k_far * x - b).norm(), 1e-9 * b.norm());
+  EXPECT_EQ(factorization.counters().factorizations, 2);
+}
+
+TEST(NewtonSolverTest, WarmResolveReusesTheFactor) {
+  const TetMesh mesh = BarMesh(8, 2, 2, 0.5);
+  const ShapeTargetModel model(mesh, 1.0);
+  QuasistaticSolverOptions options;
+  options.relative_force_tolerance = 1e-10;
+  QuasistaticSolver solver(model, LeftFaceFixed(mesh), options);
+  solver.actuation() = CurlActuation(mesh, 0.2);
+  ASSERT_TRUE(solver.Solve().converged);
+  const Eigen::Matrix3Xd first = solver.positions();
+  solver.actuation() = IdentityActuations(mesh.num_tets()) +
+                       1.01 * (solver.actuation() - IdentityActuations(mesh.num_tets()));
+  const QuasistaticSolveReport warm = solver.Solve();
+  ASSERT_TRUE(warm.converged) << warm.Summary();
+  EXPECT_GT(warm.reused_steps, 0) << warm.Summary();
+  EXPECT_EQ(warm.factorizations, 0) << warm.Summary();
+  // The same equilibrium as a solve with fresh factorizations.
+  QuasistaticSolverOptions fresh = options;
+  fresh.factor_reuse.max_iterations = 0;
+  QuasistaticSolver reference(model, LeftFaceFixed(mesh), fresh);
+  reference.actuation() = solver.actuation();
+  reference.SetPositions(first);
+  ASSERT_TRUE(reference.Solve().converged);
+  EXPECT_LT((reference.positions() - solver.positions()).cwiseAbs().maxCoeff(), 1e-8);
 }
 
 }  // namespace

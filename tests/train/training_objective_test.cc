@@ -78,6 +78,39 @@ TEST(EndToEndObjectiveTest, GradientMatchesCentralDifferencesOfResolvedObjective
               indices.size(), worst);
 }
 
+// One solver and factor per pose (factors reused by CG, states predicted to first
+// order) and one solver per thread give the same objective and gradient.
+TEST(EndToEndObjectiveTest, SolverLayoutsAgree) {
+  testing::SyntheticMuscles data = PretrainedBar();
+  ActiveModel& model = data.model;
+  TrainOptions options;
+  options.solver.relative_force_tolerance = 1e-11;
+  TrainOptions shared = options;
+  shared.max_factor_cache_gb = 0.0;
+  EndToEndObjective per_pose_objective(options, model), shared_objective(shared, model);
+  ASSERT_TRUE(per_pose_objective.solver_per_pose());
+  ASSERT_FALSE(shared_objective.solver_per_pose());
+  Eigen::VectorXd x = per_pose_objective.ModelParameters();
+  std::mt19937 rng(5);
+  std::normal_distribution<double> normal(0.0, 1e-3);
+  for (int step = 0; step < 3; ++step) {
+    if (step > 0) {
+      for (int i = 0; i < x.size(); ++i) x[i] += normal(rng);
+    }
+    double c1 = 0, c2 = 0;
+    Eigen::VectorXd g1(x.size()), g2(x.size());
+    ASSERT_TRUE(per_pose_objective.Evaluate(x.data(), &c1, g1.data()))
+        << per_pose_objective.last_failure();
+    ASSERT_TRUE(shared_objective.Evaluate(x.data(), &c2, g2.data())) << shared_objective.last_failure();
+    EXPECT_NEAR(c1, c2, 1e-9 * c2) << "step " << step;
+    EXPECT_LT((g1 - g2).cwiseAbs().maxCoeff(), 1e-6 * g2.cwiseAbs().maxCoeff()) << "step " << step;
+  }
+  // After the first evaluation the per-pose factors serve later solves and adjoints.
+  EXPECT_GT(per_pose_objective.total_counters().reused_solves, 0);
+  EXPECT_LT(per_pose_objective.total_counters().factorizations,
+            shared_objective.total_counters().factorizations);
+}
+
 // Past its time limit an evaluation fails at once (a failed line-search step), and
 // lifting the limit restores the same value.
 TEST(EndToEndObjectiveTest, TimeLimitFailsEvaluationsUntilLifted) {

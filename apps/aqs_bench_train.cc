@@ -1,0 +1,149 @@
+// aqs_bench_train: the cost of end-to-end training iterations on a model, per pose and
+// per iteration, as a ratio to one CHOLMOD factorization of the same stiffness measured
+// in the same run.
+//
+// Runs TrainEndToEnd (the training aqs_train does, nothing saved) for --iterations
+// L-BFGS iterations on a copy of the model, once with one solver and factor per pose
+// (each pose's factor preconditions its next solves: TrainOptions::max_factor_cache_gb)
+// and once with one solver per thread (--modes). Printed per mode:
+//   seconds per iteration (wall), and per pose per iteration over the unit;
+//   evaluations per iteration (1 + the line search's extra trials);
+//   factorizations per pose per iteration (solves and adjoints), and how many Newton
+//   steps and adjoints were solved by CG on an earlier factor instead;
+//   the parts, per pose per iteration over the unit: equilibrium solves, adjoints
+//   (thread time), the decoder (wall time over poses).
+// The unit: the median of three numeric factorizations of the exact stiffness of pose 0
+// at its stored equilibrium.
+
+#include <algorithm>
+#include <cstdio>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <gflags/gflags.h>
+
+#include "app_common.h"
+#include "learn/decoder.h"
+#include "model/model_io.h"
+#include "train/trainer.h"
+#include "util/wall_timer.h"
+
+DEFINE_int32(iterations, 10, "L-BFGS iterations per mode.");
+DEFINE_string(modes, "per_pose,shared", "Solver layouts to measure: per_pose (one solver and "
+              "factor per pose) and/or shared (one per thread).");
+DEFINE_double(tolerance, 1e-6, "Relative force tolerance of the training equilibria.");
+DECLARE_int32(threads);
+DECLARE_string(model);
+
+namespace aqs {
+namespace {
+
+double UnitSeconds(const ActiveModel& model) {
+  const ShapeTargetModel physics(model.mesh, model.mu);
+  const BoundaryConditions bc = PoseBoundaryConditions(model, 0);
+  StiffnessFactorization factorization(physics, FixedVertexMask(bc, model.mesh.num_vertices()), 1);
+  ActuationMatrix a;
+  DecoderWorkspace workspace;
+  model.decoder->Decode(model.decoder_params.data(), model.latents.col(0), &a, &workspace);
+  const Eigen::Matrix3Xd x =
+      model.states.size() > 0 && model.states[0].cols() == model.mesh.num_vertices()
+          ? model.states[0]
+          : model.mesh.vertices;
+  factorization.Assemble(x, a, StiffnessKind::kExact);
+  std::vector<double> seconds;
+  std::string error;
+  for (int i = 0; i < 4; ++i) {
+    WallTimer timer;
+    if (!factorization.FactorizeAssembled(0.0, &error)) {
+      // Not positive definite at the stored state: time the projected stiffness instead.
+      factorization.Assemble(x, a, StiffnessKind::kProjected);
+      continue;
+    }
+    if (i > 0) seconds.push_back(timer.Seconds());  // the first includes the analysis
+  }
+  if (seconds.empty()) return 0.0;
+  std::sort(seconds.begin(), seconds.end());
+  return seconds[seconds.size() / 2];
+}
+
+int Main() {
+  if (FLAGS_model.empty() || FLAGS_iterations < 1 || FLAGS_threads < 1 || !(FLAGS_tolerance > 0)) {
+    PrintError("--model is required; --iterations and --threads must be >= 1, --tolerance > 0");
+    return 1;
+  }
+  ActiveModel model;
+  std::string error;
+  if (!LoadModel(FLAGS_model, &model, &error)) {
+    PrintError(error);
+    return 1;
+  }
+  if (!model.decoder) {
+    PrintError(FLAGS_model + ": the model is not pre-trained (no decoder)");
+    return 1;
+  }
+  const double unit = UnitSeconds(model);
+  std::printf("model %s: %d elements, %d poses, %d decoder parameters; unit (one factorization) "
+              "%.4f s; %d threads\n",
+              FLAGS_model.c_str(), model.mesh.num_tets(), model.num_poses(),
+              model.decoder->num_parameters(), unit, FLAGS_threads);
+  std::printf("%-9s %6s %8s %9s %7s %9s %8s %8s %8s %8s %8s %8s %8s %8s\n", "mode", "iters",
+              "s/iter", "pose/unit", "evals", "fact/pose", "reused", "cg/pose", "newton", "lbfgs",
+              "solve", "adjoint", "decoder", "loss");
+  for (const std::string& mode : SplitCommaList(FLAGS_modes)) {
+    if (mode != "per_pose" && mode != "shared") {
+      PrintError("--modes: '" + mode + "' is not per_pose or shared");
+      return 1;
+    }
+    ActiveModel copy = model;
+    TrainOptions options;
+    options.max_iterations = FLAGS_iterations;
+    options.num_threads = FLAGS_threads;
+    options.solver.relative_force_tolerance = FLAGS_tolerance;
+    if (!SolverMethodFromFlag(&options.solver, &error)) {
+      PrintError(error);
+      return 1;
+    }
+    options.max_factor_cache_gb = mode == "per_pose" ? 1e9 : 0.0;
+    options.max_restarts = 0;
+    options.log_every = 0;
+    TrainReport report;
+    std::ostringstream log;
+    if (!TrainEndToEnd(options, &copy, &report, log, &error)) {
+      PrintError(error);
+      return 2;
+    }
+    const EvaluationCounters& c = report.iteration_cost;
+    const int iterations = std::max(1, report.iterations - report.iterations_before);
+    const double per_pose_iteration = 1.0 / (static_cast<double>(iterations) * model.num_poses());
+    const double u = unit > 0 ? unit : 1.0;
+    std::printf("%-9s %6d %8.3f %9.2f %7.2f %9.2f %8.2f %8.1f %8.2f %8.2f %8.2f %8.2f %8.2f %8.3e\n",
+                mode.c_str(), iterations, c.seconds / iterations,
+                c.seconds * per_pose_iteration / u, c.evaluations / static_cast<double>(iterations),
+                c.factorizations * per_pose_iteration, c.reused_solves * per_pose_iteration,
+                c.cg_iterations * per_pose_iteration, c.newton_steps * per_pose_iteration,
+                c.lbfgs_iterations * per_pose_iteration, c.solve_seconds * per_pose_iteration / u,
+                c.adjoint_seconds * per_pose_iteration / u,
+                c.decoder_seconds * per_pose_iteration / u, report.final_loss);
+    std::fflush(stdout);
+  }
+  std::printf(
+      "pose/unit: wall seconds per pose per iteration over the unit; evals: evaluations per "
+      "iteration (1 + line-search trials);\nfact/pose, reused, cg/pose: factorizations, CG "
+      "solves on an earlier factor, and CG iterations per pose per iteration;\nnewton, lbfgs: "
+      "Newton steps and L-BFGS iterations per pose per iteration; solve, "
+      "adjoint: thread seconds per pose per iteration over the unit; decoder: wall seconds "
+      "per pose per iteration over the unit.\n");
+  return 0;
+}
+
+}  // namespace
+}  // namespace aqs
+
+int main(int argc, char** argv) {
+  aqs::InitApp(
+      "Cost of end-to-end training iterations, per pose, in factorizations.\n"
+      "  aqs_bench_train --model=DIR [--iterations=10] [--modes=per_pose,shared]",
+      &argc, &argv);
+  return aqs::Main();
+}
