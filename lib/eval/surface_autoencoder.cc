@@ -35,7 +35,8 @@ class SurfaceFitCost final : public ceres::CostFunction {
                  const Eigen::Matrix3Xd& neutral, const std::vector<int>& vertices,
                  const Eigen::Matrix3Xd& positions)
       : mlp_(MlpSpec{mlp.input_dim(), mlp.spec().hidden_dims,
-                     3 * static_cast<int>(vertices.size()), mlp.spec().activation}),
+                     3 * static_cast<int>(vertices.size()), mlp.spec().activation,
+                     mlp.spec().zero_at_origin}),
         parameters_(mlp_.num_parameters()),
         output_scale_(output_scale),
         residual_scale_(std::sqrt(1.0 / static_cast<double>(vertices.size()))),
@@ -214,7 +215,8 @@ bool SurfaceAutoencoder::Train(const Eigen::Matrix3Xd& neutral,
 
   const int d = options.latent_dim;
   auto mlp = std::make_unique<Mlp>(
-      MlpSpec{d, options.hidden_dims, static_cast<int>(3 * n), options.activation});
+      MlpSpec{d, options.hidden_dims, static_cast<int>(3 * n), options.activation,
+              options.anchored});
   const int np = mlp->num_parameters();
   Eigen::VectorXd x(static_cast<Eigen::Index>(np) + static_cast<Eigen::Index>(d) * p);
   mlp->InitializeParameters(options.seed, x.data());

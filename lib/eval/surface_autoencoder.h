@@ -25,6 +25,9 @@ struct SurfaceAutoencoderOptions {
   // The MLP's outputs are multiplied by output_scale to give displacements in model
   // units: surface(z) = neutral + output_scale * mlp(z).
   double output_scale = 1.0;
+  // Anchored at the origin: surface(z) = neutral + output_scale (mlp(z) - mlp(0)), so that
+  // z = 0 decodes to the neutral exactly (as the physics decoder's anchored option).
+  bool anchored = false;
   // Weight lambda of the latent regularizer lambda (1/P) sum_p |z_p|^2 in training, and
   // of the prior residual sqrt(lambda) z in FitLatent.
   double latent_regularization = 1e-3;

@@ -253,6 +253,7 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& log,
   ae_options.latent_dim = model.latent_dim();
   ae_options.hidden_dims = model.decoder->spec().hidden_dims;
   ae_options.activation = model.decoder->spec().activation;
+  ae_options.anchored = model.decoder->spec().anchored;
   SurfaceAutoencoder autoencoder;
   if (!autoencoder.Train(model.neutral.vertices, train_surfaces, ae_options, log, error)) {
     *error = "the auto-encoder baseline: " + *error;

@@ -34,6 +34,7 @@ MlpSpec DecoderMlpSpec(const DecoderSpec& spec, int num_nodes) {
   mlp.hidden_dims = spec.hidden_dims;
   mlp.output_dim = 6 * num_nodes;
   mlp.activation = spec.activation;
+  mlp.zero_at_origin = spec.anchored;
   return mlp;
 }
 
@@ -177,6 +178,7 @@ bool SaveDecoder(const std::string& path, const DecoderSpec& spec,
   for (int width : spec.hidden_dims) text += " " + std::to_string(width);
   text += "\nactivation " + ActivationName(spec.activation) + "\noutput_scale ";
   AppendDouble(spec.output_scale, &text);
+  text += spec.anchored ? "\nanchored 1" : "\nanchored 0";
   text += "\nfield ";
   text += field.per_element ? "per_element" : "grid";
   text += "\nnum_elements " + std::to_string(field.num_elements) + "\n";
@@ -244,6 +246,12 @@ class DecoderReader {
           << " value(s), got " << values->size();
       return Fail(out.str());
     }
+    return true;
+  }
+
+  // The next line's tokens, whatever they are (`expected` names it on end of file).
+  bool Line(const std::string& expected, std::vector<std::string>* tokens) {
+    if (!reader_.NextTokens(tokens)) return EndOfFile(expected);
     return true;
   }
 
@@ -353,8 +361,23 @@ bool LoadDecoder(const std::string& path, DecoderSpec* spec, GridFieldDescriptio
     return fail();
   }
 
+  // Optional (files before it have none): "anchored 0|1", then "field <kind>".
+  std::vector<std::string> tokens;
+  if (!in.Line("'field'", &tokens)) return fail();
+  if (tokens[0] == "anchored") {
+    if (tokens.size() != 2 || (tokens[1] != "0" && tokens[1] != "1")) {
+      in.Fail("'anchored' takes 0 or 1");
+      return fail();
+    }
+    s.anchored = tokens[1] == "1";
+    if (!in.Line("'field'", &tokens)) return fail();
+  }
+  if (tokens[0] != "field" || tokens.size() != 2) {
+    in.Fail("expected 'field grid' or 'field per_element'");
+    return fail();
+  }
+  v.assign(tokens.begin() + 1, tokens.end());
   GridFieldDescription f;
-  if (!in.Keyword("field", 1, &v)) return fail();
   if (v[0] == "per_element") {
     f.per_element = true;
   } else if (v[0] != "grid") {

@@ -25,6 +25,10 @@ struct DecoderSpec {
   // same scale as its hidden units, which keeps the output-layer weights and their
   // gradients on the scale of the others (better conditioned for L-BFGS).
   double output_scale = 0.1;
+  // Anchored at the origin: a(z) = I + field(output_scale (mlp(z) - mlp(0))), so that
+  // z = 0 decodes to the identity actuation exactly (the rest shape: the neutral, for a
+  // face) and the latent prior pulls towards it (MlpSpec::zero_at_origin).
+  bool anchored = false;
 };
 
 // What Decode()/DecodeBatch() keep for Backward(): the MLP's workspace and the node

@@ -118,7 +118,14 @@ void Mlp::Forward(const double* params, const Eigen::Ref<const Eigen::MatrixXd>&
   const int num_hidden = num_layers() - 1;
   workspace->layer_inputs.resize(num_layers());
   workspace->activation_derivatives.resize(num_hidden);
-  workspace->layer_inputs[0] = inputs;
+  workspace->extra_columns = spec_.zero_at_origin ? 1 : 0;
+  if (spec_.zero_at_origin) {  // the zero input as the last column
+    workspace->layer_inputs[0].resize(inputs.rows(), inputs.cols() + 1);
+    workspace->layer_inputs[0].leftCols(inputs.cols()) = inputs;
+    workspace->layer_inputs[0].rightCols(1).setZero();
+  } else {
+    workspace->layer_inputs[0] = inputs;
+  }
   for (int l = 0; l < num_hidden; ++l) {
     const ConstMatrixMap w(params + weight_offset(l), widths_[l + 1], widths_[l]);
     const ConstVectorMap b(params + bias_offset(l), widths_[l + 1]);
@@ -132,6 +139,12 @@ void Mlp::Forward(const double* params, const Eigen::Ref<const Eigen::MatrixXd>&
   const ConstVectorMap b(params + bias_offset(last), widths_[last + 1]);
   outputs->noalias() = w * workspace->layer_inputs[last];
   outputs->colwise() += b;
+  if (spec_.zero_at_origin) {
+    const Eigen::VectorXd origin = outputs->rightCols(1);
+    const Eigen::Index samples = outputs->cols() - 1;
+    outputs->conservativeResize(Eigen::NoChange, samples);
+    outputs->colwise() -= origin;
+  }
 }
 
 void Mlp::Backward(const double* params, const MlpWorkspace& workspace,
@@ -141,12 +154,23 @@ void Mlp::Backward(const double* params, const MlpWorkspace& workspace,
       << "call Forward() with this workspace first";
   CHECK_EQ(output_gradient.rows(), output_dim());
   CHECK_EQ(output_gradient.cols(), workspace.batch_size());
+  // An anchored network's outputs are y(x_p) - y(0): the zero column gets minus the sum
+  // of the samples' output gradients.
+  Eigen::MatrixXd extended;
+  if (workspace.extra_columns > 0) {
+    extended.resize(output_gradient.rows(), output_gradient.cols() + 1);
+    extended.leftCols(output_gradient.cols()) = output_gradient;
+    extended.rightCols(1) = -output_gradient.rowwise().sum();
+  }
   // gradient: dL/d(output of layer l), starting with the given one at the top.
   Eigen::MatrixXd gradient;
   Eigen::MatrixXd below;
   for (int l = num_layers() - 1; l >= 0; --l) {
     const Eigen::Ref<const Eigen::MatrixXd> g =
-        (l == num_layers() - 1) ? output_gradient : Eigen::Ref<const Eigen::MatrixXd>(gradient);
+        (l == num_layers() - 1)
+            ? (workspace.extra_columns > 0 ? Eigen::Ref<const Eigen::MatrixXd>(extended)
+                                           : output_gradient)
+            : Eigen::Ref<const Eigen::MatrixXd>(gradient);
     const Eigen::MatrixXd& h = workspace.layer_inputs[l];
     MatrixMap dw(param_gradient + weight_offset(l), widths_[l + 1], widths_[l]);
     VectorMap db(param_gradient + bias_offset(l), widths_[l + 1]);
@@ -159,7 +183,7 @@ void Mlp::Backward(const double* params, const MlpWorkspace& workspace,
       below.array() *= workspace.activation_derivatives[l - 1].array();
       gradient.swap(below);
     } else {
-      *input_gradient = std::move(below);
+      *input_gradient = below.leftCols(below.cols() - workspace.extra_columns);
     }
   }
 }
@@ -190,7 +214,25 @@ void Mlp::InputJacobian(const double* params, const Eigen::Ref<const Eigen::Vect
     const ConstVectorMap b(params + bias_offset(last), widths_[last + 1]);
     output->noalias() = w * h.col(0);
     *output += b;
+    if (spec_.zero_at_origin) *output -= UnanchoredOutput(params, Eigen::VectorXd::Zero(input_dim()));
   }
+}
+
+Eigen::VectorXd Mlp::UnanchoredOutput(const double* params, const Eigen::VectorXd& input) const {
+  Eigen::MatrixXd h = input;
+  Eigen::MatrixXd derivative;
+  for (int l = 0; l + 1 < num_layers(); ++l) {
+    const ConstMatrixMap w(params + weight_offset(l), widths_[l + 1], widths_[l]);
+    const ConstVectorMap b(params + bias_offset(l), widths_[l + 1]);
+    Eigen::MatrixXd next = w * h;
+    next.colwise() += b;
+    ApplyActivation(spec_.activation, &next, &derivative);
+    h.swap(next);
+  }
+  const int last = num_layers() - 1;
+  const ConstMatrixMap w(params + weight_offset(last), widths_[last + 1], widths_[last]);
+  const ConstVectorMap b(params + bias_offset(last), widths_[last + 1]);
+  return w * h.col(0) + b;
 }
 
 }  // namespace aqs

@@ -26,6 +26,12 @@ struct MlpSpec {
   std::vector<int> hidden_dims;
   int output_dim = 0;
   Activation activation = Activation::kElu;
+  // The network anchored at the origin: y(x) - y(0) instead of y(x), so that the zero
+  // input gives exactly zero (an auto-decoder's zero latent then decodes to its rest:
+  // the neutral surface, the identity actuation). The output bias then cancels (its
+  // gradient is zero). Forward and Backward evaluate the zero input as one extra
+  // column of the batch.
+  bool zero_at_origin = false;
 };
 
 // What Forward() keeps for Backward(): per layer l (0-based, num_layers() of them),
@@ -36,8 +42,10 @@ struct MlpSpec {
 struct MlpWorkspace {
   std::vector<Eigen::MatrixXd> layer_inputs;            // num_layers entries
   std::vector<Eigen::MatrixXd> activation_derivatives;  // num_layers - 1 entries
+  // 1 when the last column is the zero input of an anchored network (not a sample).
+  int extra_columns = 0;
   int batch_size() const {
-    return layer_inputs.empty() ? 0 : static_cast<int>(layer_inputs[0].cols());
+    return layer_inputs.empty() ? 0 : static_cast<int>(layer_inputs[0].cols()) - extra_columns;
   }
 };
 
@@ -114,6 +122,9 @@ class Mlp {
                      Eigen::MatrixXd* jacobian, Eigen::VectorXd* output = nullptr) const;
 
  private:
+  // y(input) of the plain network (no anchoring), for one input.
+  Eigen::VectorXd UnanchoredOutput(const double* params, const Eigen::VectorXd& input) const;
+
   MlpSpec spec_;
   std::vector<int> widths_;
   std::vector<Eigen::Index> offsets_;  // num_layers + 1 entries; back() = total

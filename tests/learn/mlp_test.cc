@@ -3,6 +3,7 @@
 #include <cmath>
 #include <ostream>
 #include <random>
+#include <tuple>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -32,7 +33,8 @@ Eigen::VectorXd ForwardFlat(const Mlp& mlp, const Eigen::VectorXd& params,
   return Eigen::Map<const Eigen::VectorXd>(outputs.data(), outputs.size());
 }
 
-class MlpActivationTest : public ::testing::TestWithParam<Activation> {
+// Every activation, plain and anchored at the origin (MlpSpec::zero_at_origin).
+class MlpActivationTest : public ::testing::TestWithParam<std::tuple<Activation, bool>> {
  protected:
   // Three layers with uneven widths, so that any mix-up of rows and columns shows.
   MlpSpec Spec() const {
@@ -40,7 +42,8 @@ class MlpActivationTest : public ::testing::TestWithParam<Activation> {
     spec.input_dim = 3;
     spec.hidden_dims = {5, 4};
     spec.output_dim = 7;
-    spec.activation = GetParam();
+    spec.activation = std::get<0>(GetParam());
+    spec.zero_at_origin = std::get<1>(GetParam());
     return spec;
   }
 };
@@ -131,11 +134,37 @@ TEST_P(MlpActivationTest, BatchColumnsAreIndependentSamples) {
   }
 }
 
+TEST_P(MlpActivationTest, AnchoredNetworksVanishAtTheOrigin) {
+  const Mlp mlp(Spec());
+  std::mt19937 rng(7);
+  const Eigen::VectorXd params = RandomMatrix(mlp.num_parameters(), 1, 0.7, &rng);
+  const Eigen::VectorXd at_origin = ForwardFlat(mlp, params, Eigen::VectorXd::Zero(mlp.input_dim()));
+  if (mlp.spec().zero_at_origin) {
+    EXPECT_EQ(at_origin.cwiseAbs().maxCoeff(), 0.0);
+    // The output bias cancels: its gradient is zero.
+    MlpWorkspace workspace;
+    Eigen::MatrixXd outputs;
+    const Eigen::MatrixXd inputs = RandomMatrix(mlp.input_dim(), 3, 1.0, &rng);
+    mlp.Forward(params.data(), inputs, &outputs, &workspace);
+    EXPECT_EQ(workspace.batch_size(), 3);
+    Eigen::VectorXd gradient = Eigen::VectorXd::Zero(mlp.num_parameters());
+    mlp.Backward(params.data(), workspace, RandomMatrix(mlp.output_dim(), 3, 1.0, &rng),
+                 gradient.data(), nullptr);
+    const int last = mlp.num_layers() - 1;
+    EXPECT_LT(gradient.segment(mlp.bias_offset(last), mlp.output_dim()).cwiseAbs().maxCoeff(),
+              1e-13);
+  } else {
+    EXPECT_GT(at_origin.norm(), 1e-3);
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(AllActivations, MlpActivationTest,
-                         ::testing::Values(Activation::kElu, Activation::kTanh,
-                                           Activation::kSoftplus),
-                         [](const ::testing::TestParamInfo<Activation>& info) {
-                           return ActivationName(info.param);
+                         ::testing::Combine(::testing::Values(Activation::kElu, Activation::kTanh,
+                                                              Activation::kSoftplus),
+                                            ::testing::Bool()),
+                         [](const ::testing::TestParamInfo<std::tuple<Activation, bool>>& info) {
+                           return ActivationName(std::get<0>(info.param)) +
+                                  (std::get<1>(info.param) ? "_anchored" : "");
                          });
 
 TEST(MlpTest, ParameterLayoutIsWeightsColumnMajorThenBias) {
