@@ -6,7 +6,8 @@
 
 namespace aqs {
 
-SurfacePca::SurfacePca(const std::vector<Eigen::Matrix3Xd>& surfaces, int k) {
+SurfacePca::SurfacePca(const std::vector<Eigen::Matrix3Xd>& surfaces, int k,
+                       const Eigen::Matrix3Xd* center) {
   CHECK(!surfaces.empty());
   const Eigen::Index n = surfaces[0].size();
   const Eigen::Index p = static_cast<Eigen::Index>(surfaces.size());
@@ -15,7 +16,12 @@ SurfacePca::SurfacePca(const std::vector<Eigen::Matrix3Xd>& surfaces, int k) {
     CHECK_EQ(surfaces[i].size(), n);
     x.col(i) = Eigen::Map<const Eigen::VectorXd>(surfaces[i].data(), n);
   }
-  mean_ = x.rowwise().mean();
+  if (center != nullptr) {
+    CHECK_EQ(center->size(), n);
+    mean_ = Eigen::Map<const Eigen::VectorXd>(center->data(), n);
+  } else {
+    mean_ = x.rowwise().mean();
+  }
   x.colwise() -= mean_;
   // Through the P x P Gram matrix: X = U S V^T, U = X V S^-1.
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(x.transpose() * x);

@@ -7,13 +7,18 @@
 
 namespace aqs {
 
-// Linear PCA of surface poses: pose ~ mean + basis * c, with c in R^k.
+// Linear PCA of surface poses: pose ~ center + basis * c, with c in R^k. The center is the
+// mean of the poses (classic PCA), or a given surface such as the neutral (PCA of the
+// displacements from it, uncentered: then the zero coefficients give that surface
+// exactly, as an anchored auto-decoder's zero latent does).
 // Surfaces are 3 x N (the same vertex order); internally flattened to 3N vectors.
 class SurfacePca {
  public:
-  // The k leading components of the training surfaces (k <= number of poses - 1;
-  // extra components are dropped).
-  SurfacePca(const std::vector<Eigen::Matrix3Xd>& surfaces, int k);
+  // The k leading components of the training surfaces about their mean (k <= number of
+  // poses - 1), or about `center` if given (k <= number of poses); extra components are
+  // dropped.
+  SurfacePca(const std::vector<Eigen::Matrix3Xd>& surfaces, int k,
+             const Eigen::Matrix3Xd* center = nullptr);
 
   int num_components() const { return static_cast<int>(basis_.cols()); }
   const Eigen::VectorXd& mean() const { return mean_; }

@@ -23,7 +23,9 @@
 namespace aqs {
 namespace {
 
-const char* const kMethods[3] = {"physics", "autoencoder", "pca"};
+// pca_neutral: PCA about the neutral (uncentered displacements), the linear model whose
+// zero is the rest, like an anchored decoder's (SurfacePca).
+const char* const kMethods[4] = {"physics", "autoencoder", "pca", "pca_neutral"};
 // The reference row of every pose: the neutral surface itself (no motion).
 const char* const kNeutral = "neutral";
 
@@ -74,8 +76,8 @@ std::string MarkdownTable(const std::vector<EvaluationRow>& rows, const std::str
   }
   if (poses.empty()) return "";
   std::string out = "| " + split + " pose | neutral mean | physics mean | rms | max | autoencoder mean | "
-                    "rms | max | PCA mean | rms | max |\n"
-                    "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+                    "rms | max | PCA mean | rms | max | PCA (neutral) mean | rms | max |\n"
+                    "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   std::map<std::string, EvaluationRow> average;
   double neutral_average = 0;
   for (const std::string& pose : poses) {
@@ -249,6 +251,7 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& log,
   for (const TrainingPose& pose : model.poses) train_surfaces.push_back(pose.surface);
   WallTimer timer;
   const SurfacePca pca(train_surfaces, model.latent_dim());
+  const SurfacePca pca_neutral(train_surfaces, model.latent_dim(), &model.neutral.vertices);
   SurfaceAutoencoderOptions ae_options = options.autoencoder;
   ae_options.latent_dim = model.latent_dim();
   ae_options.hidden_dims = model.decoder->spec().hidden_dims;
@@ -292,6 +295,9 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& log,
                              measured));
     rows.push_back(Summarize("train", model.poses[p].name, "pca",
                              VertexErrors(pca.Decode(pca.Encode(truth)), truth), measured));
+    rows.push_back(Summarize("train", model.poses[p].name, "pca_neutral",
+                             VertexErrors(pca_neutral.Decode(pca_neutral.Encode(truth)), truth),
+                             measured));
   }
   // The training poses' error budget: (a) the volumetric targets simulated, (b) the
   // record of pre-training; (c) is the physics row above.
@@ -352,8 +358,9 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& log,
   std::vector<int> all(ns);
   for (int i = 0; i < ns; ++i) all[i] = i;
   struct HeldOut {
-    Eigen::Matrix3Xd surfaces[4];  // physics, autoencoder, pca, floor (if made)
-    Eigen::VectorXd errors[4];
+    // physics, autoencoder, pca, pca_neutral, floor (if made)
+    Eigen::Matrix3Xd surfaces[5];
+    Eigen::VectorXd errors[5];
     LatentFitResult fit;
   };
   std::vector<HeldOut> held_out(test_names.size());
@@ -378,15 +385,16 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& log,
     h.surfaces[0] = h.fit.surface;
     h.surfaces[1] = autoencoder.Decode(ae_latent);
     h.surfaces[2] = pca.Decode(pca.Encode(truth));
-    for (int m = 0; m < 3; ++m) {
+    h.surfaces[3] = pca_neutral.Decode(pca_neutral.Encode(truth));
+    for (int m = 0; m < 4; ++m) {
       h.errors[m] = VertexErrors(h.surfaces[m], truth);
       rows.push_back(Summarize("test", test_names[t], kMethods[m], h.errors[m], measured));
     }
     log << "  " << test_names[t] << ": fitted in " << FormatDuration(pose_timer.Seconds())
         << " (physics " << h.fit.iterations << " iterations), mean error: neutral "
-        << rows[rows.size() - 4].mean << ", physics "
-        << rows[rows.size() - 3].mean << ", autoencoder " << rows[rows.size() - 2].mean << ", PCA "
-        << rows.back().mean << "\n";
+        << rows[rows.size() - 5].mean << ", physics "
+        << rows[rows.size() - 4].mean << ", autoencoder " << rows[rows.size() - 3].mean << ", PCA "
+        << rows[rows.size() - 2].mean << ", PCA about the neutral " << rows.back().mean << "\n";
   }
   // The held-out poses' floor: their own volumetric targets (prepare's embedded
   // simulation, bones where the physics fit put them), simulated.
@@ -433,9 +441,9 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& log,
               << floors[t].message << "\n";
           continue;
         }
-        held_out[t].surfaces[3] = floors[t].surface;
-        held_out[t].errors[3] = VertexErrors(floors[t].surface, test_surfaces[t]);
-        rows.push_back(Summarize("test", test_names[t], "floor", held_out[t].errors[3], measured));
+        held_out[t].surfaces[4] = floors[t].surface;
+        held_out[t].errors[4] = VertexErrors(floors[t].surface, test_surfaces[t]);
+        rows.push_back(Summarize("test", test_names[t], "floor", held_out[t].errors[4], measured));
       }
       log << "error budget: the held-out poses' volumetric targets made and simulated in "
           << FormatDuration(timer.Seconds()) << "\n";
@@ -449,7 +457,7 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& log,
     }
   }
   if (options.write_fields) {
-    const char* const kFieldMethods[4] = {"physics", "autoencoder", "pca", "floor"};
+    const char* const kFieldMethods[5] = {"physics", "autoencoder", "pca", "pca_neutral", "floor"};
     for (size_t t = 0; t < test_names.size(); ++t) {
       const HeldOut& h = held_out[t];
       // One colour scale for the methods of a pose: the 95th percentile of all their
@@ -461,7 +469,7 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& log,
       SurfaceMesh surface = model.neutral;
       surface.vertices = test_surfaces[t];
       if (!WriteObj(out + "/fitted/" + test_names[t] + "_target.obj", surface, error)) return false;
-      for (int m = 0; m < 4; ++m) {
+      for (int m = 0; m < 5; ++m) {
         if (h.surfaces[m].cols() == 0) continue;
         surface.vertices = h.surfaces[m];
         const std::string stem = test_names[t] + "_" + kFieldMethods[m];
@@ -479,11 +487,15 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& log,
   md << "# Evaluation of " << options.model << "\n\n"
      << "Vertex distances between each method's surface and the pose (model units), over "
      << num_error_vertices << " surface vertices. **neutral**: the rest surface itself (no motion), for reference. "
-     << "Latent size " << model.latent_dim() << " for all three methods: "
+     << "Latent size " << model.latent_dim() << " for every method: "
      << "**physics** (this model: training latents, or latent and bone motion fitted to the "
      << "held-out pose through the simulator), **autoencoder** (surface-only decoder with the "
-     << "same network layout, trained on the same poses, latent fitted), **PCA** (linear, "
-     << pca.num_components() << " components, projection).\n\n";
+     << "same network layout" << (model.decoder->spec().anchored ? " and the same anchoring" : "")
+     << ", trained on the same poses, latent fitted), **PCA** (linear, "
+     << pca.num_components() << " components about the training poses' mean, projection), "
+     << "**PCA (neutral)** (linear, " << pca_neutral.num_components()
+     << " components of the displacements from the neutral, uncentered: its zero is the "
+     << "neutral, like an anchored decoder's zero latent).\n\n";
   const std::string train_table = MarkdownTable(rows, "train");
   const std::string test_table = MarkdownTable(rows, "test");
   md << "## Training poses\n\n" << train_table << "\n";
@@ -514,7 +526,8 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& log,
         << "what the learned latent space misses of this pose.\n\n"
         << BudgetTable(rows, "test",
                        {{kNeutral, "neutral"}, {"floor", "floor"}, {"physics", "physics fit"},
-                        {"autoencoder", "autoencoder"}, {"pca", "PCA"}});
+                        {"autoencoder", "autoencoder"}, {"pca", "PCA"},
+                        {"pca_neutral", "PCA (neutral)"}});
       if (!have_held_out_floor) b << "\n(The held-out floor could not be made; see the log.)\n";
     }
     if (floor_failures > 0) {

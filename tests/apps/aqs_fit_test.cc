@@ -83,14 +83,15 @@ TEST_F(AqsFitTest, EvaluationTablesAndFieldsAreWritten) {
       ++methods[line.substr(0, a) + " " + line.substr(b + 1, c - b - 1)];
     }
   }
-  // header, 3 methods and the neutral reference x (6 training + 2 held-out), and the
-  // error budget: floor and after pre-training for the training poses, floor for the
-  // held-out ones
-  EXPECT_EQ(lines, 1 + 4 * (6 + 2) + 2 * 6 + 2);
+  // header, 4 methods (physics, auto-encoder, PCA about the mean and about the neutral)
+  // and the neutral reference x (6 training + 2 held-out), and the error budget: floor
+  // and after pre-training for the training poses, floor for the held-out ones
+  EXPECT_EQ(lines, 1 + 5 * (6 + 2) + 2 * 6 + 2);
+  EXPECT_EQ(methods["test pca_neutral"], 2);
   EXPECT_EQ(methods["train floor"], 6);
   EXPECT_EQ(methods["train pretrain"], 6);
   EXPECT_EQ(methods["test floor"], 2);
-  for (const char* method : {"physics", "autoencoder", "pca", "floor"}) {
+  for (const char* method : {"physics", "autoencoder", "pca", "pca_neutral", "floor"}) {
     EXPECT_TRUE(std::filesystem::exists(dir_->File(std::string("evaluation/fields/test0_") + method + ".ply")))
         << method;
   }
