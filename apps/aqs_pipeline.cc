@@ -1,8 +1,12 @@
 // aqs_pipeline: the stages from one flagfile: prepare, pre-train, train, evaluate. Every stage's flags are accepted; --stages picks which run.
-// A stage that fails stops the pipeline with its message and exit status 1.
+// A stage that fails stops the pipeline with its message and exit status 1. Under
+// mpirun (or with --mpi; docs/distributed.md) rank 0 prepares and pre-trains while the
+// others wait, training shares the poses among all ranks, and the evaluation's fits of
+// held-out poses are shared too; rank 0 alone logs and writes.
 
 #include <filesystem>
 #include <iostream>
+#include <sstream>
 
 #include <gflags/gflags.h>
 
@@ -10,6 +14,7 @@
 #include "jobs/learning_jobs.h"
 #include "evaluate_flags.h"
 #include "learning_flags.h"
+#include "mpi_flags.h"
 #include "model/model_directory.h"
 #include "prepare_flags.h"
 #include "util/wall_timer.h"
@@ -22,6 +27,10 @@ int main(int argc, char** argv) {
   aqs::InitApp("Run the ActiveQS stages from one flagfile.\n"
                "  aqs_pipeline --flagfile=configs/face_demo.flags [--stages=prepare,pretrain,train]",
                &argc, &argv);
+  const std::unique_ptr<aqs::Communicator> ranks = aqs::StartRanks(&argc, &argv);
+  const bool root = ranks == nullptr || ranks->is_root();
+  std::ostringstream quiet;  // the other ranks' log
+  std::ostream& out = root ? std::cout : quiet;
   aqs::WallTimer total;
   std::string error;
   const std::vector<std::string> stages = aqs::SplitCommaList(FLAGS_stages);
@@ -32,24 +41,29 @@ int main(int argc, char** argv) {
     prepares |= stage == "prepare";
   }
   aqs::PathLock lock;
-  if (writes && !FLAGS_model.empty()) {
+  bool locked = true;
+  if (root && writes && !FLAGS_model.empty()) {
     std::string model = FLAGS_model;
     while (model.size() > 1 && model.back() == '/') model.pop_back();
     const std::filesystem::path parent =
         std::filesystem::absolute(model).lexically_normal().parent_path();
     std::error_code code;
     if (prepares) std::filesystem::create_directories(parent, code);
-    if (std::filesystem::is_directory(parent, code) &&
-        !aqs::LockModelForWriting(model, &std::cout, &lock, &error)) {
-      aqs::PrintError(error);
-      return 1;
-    }
+    locked = !std::filesystem::is_directory(parent, code) ||
+             aqs::LockModelForWriting(model, &std::cout, &lock, &error);
+  }
+  if (ranks != nullptr) locked = ranks->Agree(locked, &error);
+  if (!locked) {
+    aqs::PrintRankError(ranks.get(), error);
+    return 1;
   }
   for (const std::string& stage : stages) {
-    std::cout << "=== " << stage << "\n" << std::flush;
+    out << "=== " << stage << "\n" << std::flush;
     aqs::WallTimer timer;
     bool ok = false;
-    if (stage == "prepare") {
+    if (!root && (stage == "prepare" || stage == "pretrain")) {
+      ok = true;  // rank 0's work: wait for its status below
+    } else if (stage == "prepare") {
       aqs::PrepareJobOptions options;
       ok = aqs::PrepareOptionsFromFlags(&options, &error) &&
            aqs::RunPrepareJob(options, std::cout, &error);
@@ -63,22 +77,27 @@ int main(int argc, char** argv) {
                                &error);
     } else if (stage == "train") {
       aqs::TrainOptions options;
+      options.communicator = ranks.get();
       ok = aqs::TrainOptionsFromFlags(&options, &error) &&
-           aqs::RunTrainJob(FLAGS_model, options, FLAGS_restart, std::cout, &error);
+           aqs::RunTrainJob(FLAGS_model, options, FLAGS_restart, out, &error);
     } else if (stage == "evaluate") {
       aqs::EvaluateJobOptions options;
       std::vector<aqs::EvaluationRow> rows;
-      ok = aqs::EvaluateOptionsFromFlags(&options, &error) &&
-           aqs::RunEvaluateJob(options, std::cout, &rows, &error);
+      ok = aqs::EvaluateOptionsFromFlags(&options, &error);
+      options.communicator = ranks.get();
+      ok = ok && aqs::RunEvaluateJob(options, out, &rows, &error);
     } else {
       error = "unknown stage '" + stage + "' (known: prepare, pretrain, train, evaluate)";
     }
+    // Every rank stops where one fails (train and evaluate agree inside; prepare and
+    // pretrain report rank 0's status here).
+    if (ranks != nullptr) ok = ranks->Agree(ok, &error);
     if (!ok) {
-      aqs::PrintError(stage + ": " + error);
+      aqs::PrintRankError(ranks.get(), stage + ": " + error);
       return 1;
     }
-    std::cout << "=== " << stage << " done in " << timer.Seconds() << " s\n";
+    out << "=== " << stage << " done in " << timer.Seconds() << " s\n";
   }
-  std::cout << "pipeline done in " << total.Seconds() << " s\n";
+  out << "pipeline done in " << total.Seconds() << " s\n";
   return 0;
 }

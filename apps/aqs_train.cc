@@ -2,8 +2,10 @@
 // progress lines, a CSV log (MODEL/train/log.csv) and checkpoints in the model
 // directory: run it again after a kill (kill -9 included) to resume from the last
 // checkpoint. It holds the model's writers' lock (docs/model_format.md, "Writing").
-// Exit status: 0 done; 1 bad input, a model another process is writing, or a model
-// that cannot be simulated.
+// Under mpirun (or with --mpi) the poses are shared among the ranks
+// (docs/distributed.md); rank 0 logs and writes. Exit status: 0 done; 1 bad input, a
+// model another process is writing, a model that cannot be simulated, or MPI wanted
+// but not built.
 
 #include <iostream>
 
@@ -12,6 +14,7 @@
 #include "app_common.h"
 #include "jobs/learning_jobs.h"
 #include "learning_flags.h"
+#include "mpi_flags.h"
 
 DECLARE_string(model);
 DEFINE_bool(restart, false, "Ignore an earlier run's iteration count (start counting at 0, "
@@ -19,14 +22,17 @@ DEFINE_bool(restart, false, "Ignore an earlier run's iteration count (start coun
 
 int main(int argc, char** argv) {
   aqs::InitApp("Train a pre-trained model end to end.\n"
-               "  aqs_train --model=MODEL [--train_iterations=200 --train_minutes=0 ...]",
+               "  aqs_train --model=MODEL [--train_iterations=200 --train_minutes=0 ...]\n"
+               "  mpirun -np N aqs_train --model=MODEL ...   (poses shared among N ranks)",
                &argc, &argv);
+  const std::unique_ptr<aqs::Communicator> ranks = aqs::StartRanks(&argc, &argv);
   aqs::TrainOptions options;
   std::string error;
   if (FLAGS_model.empty()) error = "--model is required";
+  options.communicator = ranks.get();
   if (!error.empty() || !aqs::TrainOptionsFromFlags(&options, &error) ||
       !aqs::RunTrainJob(FLAGS_model, options, FLAGS_restart, std::cout, &error)) {
-    aqs::PrintError(error);
+    aqs::PrintRankError(ranks.get(), error);
     return 1;
   }
   return 0;

@@ -7,6 +7,8 @@
 #include <map>
 #include <sstream>
 
+#include "dist/communicator.h"
+#include "dist/model_sharing.h"
 #include "eval/error_budget.h"
 #include "eval/surface_pca.h"
 #include "jobs/report_script.h"
@@ -154,6 +156,98 @@ std::string BudgetTable(const std::vector<EvaluationRow>& rows, const std::strin
   return out;
 }
 
+// The physics fits of the held-out poses (each from rest, with a fitter of its own),
+// shared among the ranks of `communicator` (null: one process): pose t is fitted by
+// rank t % size, and rank 0 receives every result (*fits, *seconds: each fit's wall
+// time on its rank). Collective; false with *error on every rank if a fit fails (the
+// first failing pose's message).
+bool FitHeldOutPoses(const ActiveModel& model, const LatentFitOptions& options,
+                     const std::vector<std::string>& names,
+                     const std::vector<Eigen::Matrix3Xd>& surfaces,
+                     const Communicator* communicator, std::vector<LatentFitResult>* fits,
+                     std::vector<double>* seconds, std::string* error) {
+  const int count = static_cast<int>(names.size());
+  const int rank = communicator == nullptr ? 0 : communicator->rank();
+  const int size = communicator == nullptr ? 1 : communicator->size();
+  fits->assign(count, LatentFitResult());
+  seconds->assign(count, 0.0);
+  int first_failure = count;
+  std::string failure;
+  for (int t : OwnedIndices(count, rank, size)) {
+    WallTimer timer;
+    LatentFitter fitter(model, options);
+    fitter.set_bone_transforms(RestBoneTransforms(model));
+    fitter.set_start_state(model.mesh.vertices);  // from rest: order-independent
+    if (!fitter.Fit(FullSurfaceTarget(surfaces[t]), fitter.MeanLatent(), &(*fits)[t], &failure)) {
+      failure = "held-out pose '" + names[t] + "': " + failure;
+      first_failure = t;
+      break;
+    }
+    (*seconds)[t] = timer.Seconds();
+  }
+  if (size == 1) {
+    if (first_failure < count) *error = failure;
+    return first_failure == count;
+  }
+  communicator->MinToAll(&first_failure, 1);
+  if (first_failure < count) {
+    communicator->BroadcastText(&failure, first_failure % size);
+    *error = failure;
+    return false;
+  }
+  // Rank 0 gathers every fit: latent, bones, state, surface, errors, counts, seconds.
+  const int d = model.latent_dim();
+  const int nb = static_cast<int>(model.bones.size());
+  const int nv = model.mesh.num_vertices();
+  const int ns = model.num_surface_vertices();
+  const int block = d + 12 * nb + 3 * nv + 3 * ns + 7;
+  std::vector<double> send;
+  for (int t : OwnedIndices(count, rank, size)) {
+    const LatentFitResult& f = (*fits)[t];
+    send.insert(send.end(), f.latent.data(), f.latent.data() + d);
+    for (const RigidTransform& b : f.bones) {
+      send.insert(send.end(), b.rotation.data(), b.rotation.data() + 9);
+      send.insert(send.end(), b.translation.data(), b.translation.data() + 3);
+    }
+    send.insert(send.end(), f.state.data(), f.state.data() + 3 * nv);
+    send.insert(send.end(), f.surface.data(), f.surface.data() + 3 * ns);
+    send.insert(send.end(), {f.rms_error, f.mean_error, f.max_error, double(f.iterations),
+                             double(f.used_points), f.converged ? 1.0 : 0.0, (*seconds)[t]});
+  }
+  std::vector<int> counts(size);
+  for (int r = 0; r < size; ++r) counts[r] = block * static_cast<int>(OwnedIndices(count, r, size).size());
+  std::vector<double> received(rank == 0 ? static_cast<size_t>(block) * count : 0);
+  communicator->GatherToRoot(send.data(), counts, received.data());
+  if (rank != 0) return true;
+  const double* x = received.data();
+  for (int r = 0; r < size; ++r) {
+    for (int t : OwnedIndices(count, r, size)) {
+      LatentFitResult& f = (*fits)[t];
+      f.latent = Eigen::Map<const Eigen::VectorXd>(x, d);
+      x += d;
+      f.bones.assign(nb, RigidTransform());
+      for (RigidTransform& b : f.bones) {
+        b.rotation = Eigen::Map<const Eigen::Matrix3d>(x);
+        b.translation = Eigen::Map<const Eigen::Vector3d>(x + 9);
+        x += 12;
+      }
+      f.state = Eigen::Map<const Eigen::Matrix3Xd>(x, 3, nv);
+      x += 3 * nv;
+      f.surface = Eigen::Map<const Eigen::Matrix3Xd>(x, 3, ns);
+      x += 3 * ns;
+      f.rms_error = x[0];
+      f.mean_error = x[1];
+      f.max_error = x[2];
+      f.iterations = static_cast<int>(x[3]);
+      f.used_points = static_cast<int>(x[4]);
+      f.converged = x[5] != 0.0;
+      (*seconds)[t] = x[6];
+      x += 7;
+    }
+  }
+  return true;
+}
+
 }  // namespace
 
 std::string FormatVertexRanges(const std::vector<int>& vertices) {
@@ -204,19 +298,26 @@ bool ParseVertexRanges(const std::string& text, std::vector<int>* vertices, std:
   return true;
 }
 
-bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& log,
+bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
                     std::vector<EvaluationRow>* rows_out, std::string* error) {
   WallTimer total;
+  const Communicator* communicator = options.communicator;
+  const bool distributed = communicator != nullptr && communicator->size() > 1;
+  const bool root = !distributed || communicator->is_root();
+  std::ostringstream quiet;  // the other ranks' log
+  std::ostream& log = root ? job_log : quiet;
   if (options.model.empty() || options.output_directory.empty()) {
     *error = "--model and --output_dir are required";
     return false;
   }
   ActiveModel model;
-  if (!LoadModel(options.model, &model, error)) return false;
-  if (!model.decoder) {
+  bool ok = LoadModel(options.model, &model, error);
+  if (ok && !model.decoder) {
     *error = options.model + ": the model is not trained (no decoder)";
-    return false;
+    ok = false;
   }
+  if (distributed) ok = ShareModel(*communicator, options.model, ok, &model, error);
+  if (!ok) return false;
   const int ns = model.num_surface_vertices();
   for (int v : options.error_vertices) {
     if (v >= ns) {
@@ -227,29 +328,45 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& log,
   }
   std::vector<std::string> test_names;
   std::vector<Eigen::Matrix3Xd> test_surfaces;
-  if (!options.test_paths.empty() &&
-      !ReadPoseSurfaces(options.test_paths, ns, options.num_threads, &test_names, &test_surfaces,
-                        error)) {
-    return false;
-  }
+  ok = options.test_paths.empty() ||
+       ReadPoseSurfaces(options.test_paths, ns, options.num_threads, &test_names, &test_surfaces,
+                        error);
+  if (distributed) ok = communicator->Agree(ok, error);
+  if (!ok) return false;
   std::error_code code;
   const std::string out = options.output_directory;
-  std::filesystem::create_directories(out + "/fields", code);
-  std::filesystem::create_directories(out + "/fitted", code);
-  if (code) {
-    *error = out + ": cannot create the output folders (" + code.message() + ")";
-    return false;
+  if (root) {
+    std::filesystem::create_directories(out + "/fields", code);
+    std::filesystem::create_directories(out + "/fitted", code);
+    if (code) *error = out + ": cannot create the output folders (" + code.message() + ")";
   }
+  ok = !code;
+  if (distributed) ok = communicator->Agree(ok, error);
+  if (!ok) return false;
   const int num_error_vertices =
       options.error_vertices.empty() ? ns : static_cast<int>(options.error_vertices.size());
   log << "evaluate: " << model.num_poses() << " training poses, " << test_names.size()
       << " held-out poses, latent " << model.latent_dim() << ", errors over "
       << num_error_vertices << " surface vertices\n";
+  // The physics fits of the held-out poses first: the part shared among ranks.
+  WallTimer timer;
+  std::vector<LatentFitResult> fits;
+  std::vector<double> fit_seconds;
+  if (!FitHeldOutPoses(model, options.fit, test_names, test_surfaces, communicator, &fits,
+                       &fit_seconds, error)) {
+    return false;
+  }
+  if (!test_names.empty()) {
+    log << "held-out poses: " << test_names.size() << " physics fits in "
+        << FormatDuration(timer.Seconds())
+        << (distributed ? " over " + communicator->Description() : std::string()) << "\n";
+  }
+  if (!root) return true;
 
   // The baselines, trained on the same poses with the same latent size.
   std::vector<Eigen::Matrix3Xd> train_surfaces;
   for (const TrainingPose& pose : model.poses) train_surfaces.push_back(pose.surface);
-  WallTimer timer;
+  timer.Reset();
   const SurfacePca pca(train_surfaces, model.latent_dim());
   const SurfacePca pca_neutral(train_surfaces, model.latent_dim(), &model.neutral.vertices);
   SurfaceAutoencoderOptions ae_options = options.autoencoder;
@@ -368,12 +485,7 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& log,
     WallTimer pose_timer;
     const Eigen::Matrix3Xd& truth = test_surfaces[t];
     HeldOut& h = held_out[t];
-    fitter.set_bone_transforms(RestBoneTransforms(model));
-    fitter.set_start_state(model.mesh.vertices);  // every fit from rest: order-independent
-    if (!fitter.Fit(FullSurfaceTarget(truth), fitter.MeanLatent(), &h.fit, error)) {
-      *error = "held-out pose '" + test_names[t] + "': " + *error;
-      return false;
-    }
+    h.fit = fits[t];
     Eigen::VectorXd ae_latent;
     double ae_rms = 0;
     if (!autoencoder.FitLatent(all, truth, autoencoder.MeanLatent(), &ae_latent, &ae_rms)) {
@@ -390,7 +502,8 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& log,
       h.errors[m] = VertexErrors(h.surfaces[m], truth);
       rows.push_back(Summarize("test", test_names[t], kMethods[m], h.errors[m], measured));
     }
-    log << "  " << test_names[t] << ": fitted in " << FormatDuration(pose_timer.Seconds())
+    log << "  " << test_names[t] << ": fitted in "
+        << FormatDuration(fit_seconds[t] + pose_timer.Seconds())
         << " (physics " << h.fit.iterations << " iterations), mean error: neutral "
         << rows[rows.size() - 5].mean << ", physics "
         << rows[rows.size() - 4].mean << ", autoencoder " << rows[rows.size() - 3].mean << ", PCA "

@@ -11,6 +11,8 @@
 
 namespace aqs {
 
+class Communicator;
+
 // What aqs_evaluate does: compare, on the training poses and on held-out ones, the
 // physics-based model with two surface-only baselines of the same latent size.
 struct EvaluateJobOptions {
@@ -43,6 +45,11 @@ struct EvaluateJobOptions {
   std::string report_script;
   std::string python = "python3";
   int num_threads = 2;
+  // Distributed evaluation (docs/distributed.md): every rank of the communicator calls
+  // RunEvaluateJob with the same options; the physics fits of the held-out poses are
+  // shared among the ranks (pose t on rank t % size), and rank 0 does the rest and
+  // writes every output. Null (or one rank): one process.
+  const Communicator* communicator = nullptr;
 };
 
 // One row of the evaluation: the vertex distances of one method on one pose.
@@ -69,7 +76,12 @@ struct EvaluationRow {
 // (util/matrix_io.h, num_surface_vertices x 3 num_poses: per training pose in the
 // model's order the per-vertex errors of the floor, after pre-training and trained; NaN
 // where not measured). Then runs the report script if set. Returns false with *error
-// on bad input.
+// on bad input. Each held-out pose's physics fit starts from rest with a fitter of its
+// own, so its result does not depend on the other poses nor on which rank fits it: a
+// distributed run writes the same outputs as one process with the same thread counts.
+// Distributed: rank 0 logs and writes; every rank returns the same status, with
+// *error on every rank (naming the rank) for failures up to the fits and on rank 0
+// after them.
 bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& log,
                     std::vector<EvaluationRow>* rows, std::string* error);
 

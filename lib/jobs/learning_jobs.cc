@@ -1,7 +1,10 @@
 #include "jobs/learning_jobs.h"
 
 #include <filesystem>
+#include <sstream>
 
+#include "dist/communicator.h"
+#include "dist/model_sharing.h"
 #include "geometry/embedding.h"
 #include "model/model_directory.h"
 #include "model/model_io.h"
@@ -86,22 +89,37 @@ bool RunPretrainJob(const std::string& model_directory, const PretrainOptions& o
 
 bool RunTrainJob(const std::string& model_directory, const TrainOptions& options, bool restart,
                  std::ostream& log, std::string* error) {
+  const Communicator* communicator = options.communicator;
+  const bool distributed = communicator != nullptr && communicator->size() > 1;
+  const bool root = !distributed || communicator->is_root();
   PathLock lock;
   ActiveModel model;
-  if (!LockAndLoad(model_directory, log, &lock, &model, error) ||
-      !CheckReplaceable(model_directory, false, error)) {
-    return false;
+  bool ok = true;
+  if (root) {
+    ok = LockAndLoad(model_directory, log, &lock, &model, error) &&
+         CheckReplaceable(model_directory, false, error);
+    if (ok && restart && model.checkpoint.iterations > 0) {
+      // Saved before training starts, so that a run killed before its first checkpoint
+      // does not resume the old count next to a new log.
+      model.checkpoint = TrainingCheckpoint();
+      ok = SaveLearnedState(model_directory, model, error);
+    }
   }
-  if (restart && model.checkpoint.iterations > 0) {
-    // Saved before training starts, so that a run killed before its first checkpoint
-    // does not resume the old count next to a new log.
-    model.checkpoint = TrainingCheckpoint();
-    if (!SaveLearnedState(model_directory, model, error)) return false;
+  if (distributed) {
+    // The other ranks read the model once rank 0 holds the lock (and has cleaned up
+    // after killed writers), then take rank 0's learned state.
+    if (!communicator->Agree(ok, error)) return false;
+    if (!root) ok = LoadModel(model_directory, &model, error);
+    if (!ShareModel(*communicator, model_directory, ok, &model, error)) return false;
   }
+  if (!ok) return false;
   TrainOptions train = options;
-  train.model_directory = model_directory;
+  // Only rank 0 writes checkpoints and the log.
+  train.model_directory = root ? model_directory : std::string();
   TrainReport report;
-  if (!TrainEndToEnd(train, &model, &report, log, error)) return false;
+  std::ostringstream quiet;
+  if (!TrainEndToEnd(train, &model, &report, root ? log : quiet, error)) return false;
+  if (!root) return true;
   // The error budget of the training poses, from the final equilibria.
   PretrainSurfaceErrors pretrain;
   std::string read_error;

@@ -32,6 +32,13 @@ bool RunPretrainJob(const std::string& model_directory, const PretrainOptions& o
 // in the directory is still the starting point). At the end it logs the training poses'
 // error budget over all surface vertices (TrainingBudgetTable): embedding floor, after
 // pre-training (if the model directory has the record), and after training.
+//
+// With options.communicator spanning several ranks, every rank calls it with the same
+// arguments (docs/distributed.md): rank 0 takes the lock, loads the model and logs;
+// the others load the model too once rank 0 holds the lock (ShareModel: it must be the
+// same model; rank 0's learned state is used) and never write it. Every rank returns
+// the same status; *error is set on every rank for failures before training (naming the
+// rank that failed) and on rank 0 for the others.
 bool RunTrainJob(const std::string& model_directory, const TrainOptions& options, bool restart,
                  std::ostream& log, std::string* error);
 

@@ -11,6 +11,7 @@
 
 #include "mesh/mesh_io.h"
 #include "model/model_directory.h"
+#include "model/model_fingerprint.h"
 #include "util/atomic_file.h"
 #include "util/line_reader.h"
 #include "util/matrix_io.h"
@@ -46,22 +47,27 @@ bool WriteText(const std::string& path, const std::string& text, std::string* er
   return WriteFileAtomically(path, text, error);
 }
 
-std::string CheckpointText(const TrainingCheckpoint& checkpoint) {
+std::string CheckpointText(const TrainingCheckpoint& checkpoint, uint64_t fingerprint) {
   std::string text =
-      "# ActiveQS learned state: end-to-end training iterations done, loss after the last\n"
+      "# ActiveQS learned state: end-to-end training iterations done, loss after the last,\n"
+      "# fingerprint of the model it belongs to (model/model_fingerprint.h)\n"
       "iterations " + std::to_string(checkpoint.iterations) + "\n";
   if (std::isfinite(checkpoint.loss)) {
     text += "loss ";
     AppendDouble(checkpoint.loss, &text);
     text += "\n";
   }
+  text += "model " + FingerprintText(fingerprint) + "\n";
   return text;
 }
 
-// Reads a checkpoint file ("iterations N", optional "loss L"). A missing file is no
-// checkpoint (0 iterations); an empty or malformed one is an error naming it.
-bool ReadCheckpoint(const std::string& path, TrainingCheckpoint* checkpoint, std::string* error) {
+// Reads a checkpoint file ("iterations N", optional "loss L" and "model F"; *fingerprint
+// is F, or "" without that line). A missing file is no checkpoint (0 iterations); an
+// empty or malformed one is an error naming it.
+bool ReadCheckpoint(const std::string& path, TrainingCheckpoint* checkpoint,
+                    std::string* fingerprint, std::string* error) {
   *checkpoint = TrainingCheckpoint();
+  fingerprint->clear();
   std::error_code code;
   if (!fs::exists(path, code)) return true;
   LineReader reader(path);
@@ -71,12 +77,16 @@ bool ReadCheckpoint(const std::string& path, TrainingCheckpoint* checkpoint, std
   }
   std::vector<std::string> t;
   bool have_iterations = false;
+  uint64_t value = 0;
   while (reader.NextTokens(&t)) {
     if (t.size() == 2 && t[0] == "iterations" && ParseInt(t[1], &checkpoint->iterations) &&
         checkpoint->iterations >= 0) {
       have_iterations = true;
+    } else if (t.size() == 2 && t[0] == "model" && ParseFingerprint(t[1], &value)) {
+      *fingerprint = FingerprintText(value);
     } else if (!(t.size() == 2 && t[0] == "loss" && ParseDouble(t[1], &checkpoint->loss))) {
-      *error = reader.Where("expected 'iterations N' (N >= 0) or 'loss L'");
+      *error = reader.Where("expected 'iterations N' (N >= 0), 'loss L' or 'model F' (F: 16 "
+                            "hexadecimal digits)");
       return false;
     }
   }
@@ -106,7 +116,8 @@ bool WriteLearned(const std::string& dir, const ActiveModel& model, std::string*
   }
   // Written last, though the unit is only seen whole: its identity file
   // (util/staged_directory.h).
-  return WriteText(dir + "/checkpoint.txt", CheckpointText(model.checkpoint), error);
+  return WriteText(dir + "/checkpoint.txt",
+                   CheckpointText(model.checkpoint, ModelFingerprint(model)), error);
 }
 
 bool HasLearnedState(const ActiveModel& model) { return model.decoder || !model.states.empty(); }
@@ -235,13 +246,24 @@ bool Install(const std::string& staging, const std::string& target, std::string*
 
 // Reads the learned unit at `dir` (format 2: learned/; format 1: the model's top,
 // with the checkpoint in train/checkpoint.txt) into `model`.
+// A checkpoint that names another model's fingerprint fails (the learned state was
+// copied from another model).
 bool ReadLearned(const std::string& dir, const std::string& checkpoint_path, ActiveModel* model,
                  std::string* error) {
   model->decoder.reset();
   model->decoder_params.resize(0);
   model->latents.resize(0, 0);
   model->states.clear();
-  if (!ReadCheckpoint(checkpoint_path, &model->checkpoint, error)) return false;
+  std::string fingerprint;
+  if (!ReadCheckpoint(checkpoint_path, &model->checkpoint, &fingerprint, error)) return false;
+  const std::string own = fingerprint.empty() ? "" : FingerprintText(ModelFingerprint(*model));
+  if (fingerprint != own) {
+    *error = checkpoint_path + ": the learned state belongs to another model (made for model " +
+             fingerprint + "; this directory's mesh, poses and embedding are model " + own +
+             "): copy whole model directories, not learned/ alone, or pre-train this model "
+             "again (aqs_pretrain)";
+    return false;
+  }
   Eigen::MatrixXd matrix;
   if (fs::exists(dir + "/decoder.txt")) {
     DecoderSpec spec;

@@ -1,7 +1,12 @@
 #include "train/end_to_end_objective.h"
 
+#include <limits>
+
+#include <glog/logging.h>
+
 #include "diff/actuation_force_products.h"
 #include "geometry/embedding.h"
+#include "util/fault_injection.h"
 #include "util/parallel_for.h"
 
 namespace aqs {
@@ -9,6 +14,7 @@ namespace aqs {
 EndToEndObjective::EndToEndObjective(const TrainOptions& options, const ActiveModel& model)
     : options_(options),
       model_(model),
+      communicator_(options.communicator),
       physics_(model.mesh, model.mu),
       num_params_(model.decoder->num_parameters()),
       latent_dim_(model.decoder->latent_dim()),
@@ -21,6 +27,19 @@ EndToEndObjective::EndToEndObjective(const TrainOptions& options, const ActiveMo
   for (int p = 0; p < num_poses_; ++p) {
     fixed_positions_.push_back(PoseBoundaryConditions(model_, p).positions);
   }
+  if (communicator_ != nullptr) {
+    rank_ = communicator_->rank();
+    size_ = communicator_->size();
+  }
+  owned_ = OwnedIndices(num_poses_, rank_, size_);
+  state_actuations_.resize(num_poses_);
+  pose_loss_.resize(num_poses_);
+  pose_mean_.resize(num_poses_);
+  pose_max_.resize(num_poses_);
+  failures_.resize(num_poses_);
+  converged_once_.assign(num_poses_, 0);
+  const int num_owned = static_cast<int>(owned_.size());
+  if (num_owned == 0) return;  // a spare rank: no solver
   QuasistaticSolverOptions solver_options = options.solver;
   solver_options.num_threads = 1;
   const BoundaryConditions bc = PoseBoundaryConditions(model_, 0);
@@ -29,7 +48,9 @@ EndToEndObjective::EndToEndObjective(const TrainOptions& options, const ActiveMo
   auto first = std::make_unique<QuasistaticSolver>(physics_, bc, solver_options);
   first->stiffness_factorization()->Analyze();
   const double factor_gb = 8.0 * first->stiffness_factorization()->cholesky().factor_nonzeros() / 1e9;
-  solver_per_pose_ = num_poses_ > 1 && factor_gb * num_poses_ <= options.max_factor_cache_gb;
+  // (The budget is per process; the choice also depends on the pose count in all, so
+  // that a rank owning one pose of many keeps its factor as one process would.)
+  solver_per_pose_ = num_poses_ > 1 && factor_gb * num_owned <= options.max_factor_cache_gb;
   // A factor of another pose is a poor preconditioner: with shared solvers the Newton
   // steps factorize (the adjoint still reuses the factor of its own pose's solve).
   if (!solver_per_pose_) solver_options.factor_reuse.max_iterations = 0;
@@ -37,7 +58,7 @@ EndToEndObjective::EndToEndObjective(const TrainOptions& options, const ActiveMo
   EquilibriumDifferentiatorOptions differentiator_options;
   differentiator_options.num_threads = 1;
   differentiator_options.reuse = {20, 1e-10, 6, 1e-2, 1, 8};
-  workers_.resize(solver_per_pose_ ? num_poses_ : std::max(1, std::min(options.num_threads, num_poses_)));
+  workers_.resize(solver_per_pose_ ? num_owned : std::max(1, std::min(options.num_threads, num_owned)));
   for (size_t i = 0; i < workers_.size(); ++i) {
     Worker& w = workers_[i];
     w.solver = i == 0 ? std::move(first)
@@ -45,15 +66,66 @@ EndToEndObjective::EndToEndObjective(const TrainOptions& options, const ActiveMo
     w.differentiator = std::make_unique<EquilibriumDifferentiator>(
         w.solver->stiffness_factorization(), differentiator_options);
   }
-  state_actuations_.resize(num_poses_);
-  pose_loss_.resize(num_poses_);
-  pose_mean_.resize(num_poses_);
-  pose_max_.resize(num_poses_);
-  failures_.resize(num_poses_);
-  converged_once_.assign(num_poses_, 0);
 }
 
-EndToEndObjective::~EndToEndObjective() = default;
+EndToEndObjective::~EndToEndObjective() { StopWorkers(false); }
+
+void EndToEndObjective::SendCommand(Command command, const double* parameters, int value) const {
+  CHECK_EQ(rank_, 0) << "only rank 0 commands";
+  int message[2] = {command, value};
+  communicator_->Broadcast(message, 2, 0);
+  if (command == kEvaluate || command == kEvaluateWithGradient || command == kUseStatesOf ||
+      command == kCollectStates) {
+    // Rank 0's buffer is only read.
+    communicator_->Broadcast(const_cast<double*>(parameters), NumParameters(), 0);
+  }
+}
+
+void EndToEndObjective::StopWorkers(bool ok) {
+  if (!distributed() || rank_ != 0 || stopped_) return;
+  stopped_ = true;
+  SendCommand(kStop, nullptr, ok ? 1 : 0);
+}
+
+bool EndToEndObjective::Serve() {
+  CHECK_NE(rank_, 0) << "rank 0 drives; the others serve";
+  Eigen::VectorXd parameters(NumParameters());
+  Eigen::VectorXd gradient(NumParameters());
+  std::vector<Eigen::Matrix3Xd> unused;
+  for (;;) {
+    int message[2] = {0, 0};
+    communicator_->Broadcast(message, 2, 0);
+    const Command command = static_cast<Command>(message[0]);
+    if (command == kStop) return message[1] != 0;
+    if (command == kAllowRetryFromRest) {
+      converged_once_.assign(num_poses_, 0);
+      continue;
+    }
+    communicator_->Broadcast(parameters.data(), NumParameters(), 0);
+    double cost = 0;
+    switch (command) {
+      case kEvaluate:
+        EvaluateHere(parameters.data(), &cost, nullptr);
+        break;
+      case kEvaluateWithGradient:
+        EvaluateHere(parameters.data(), &cost, gradient.data());
+        break;
+      case kUseStatesOf:
+        UseStatesOf(parameters.data());
+        break;
+      case kCollectStates:
+        CollectStatesHere(parameters.data(), &unused);
+        break;
+      default:
+        LOG(FATAL) << "unknown command " << message[0] << " from rank 0";
+    }
+  }
+}
+
+void EndToEndObjective::AllowRetryFromRest() {
+  if (distributed() && rank_ == 0) SendCommand(kAllowRetryFromRest, nullptr);
+  converged_once_.assign(num_poses_, 0);
+}
 
 int EndToEndObjective::NumParameters() const { return num_params_ + latent_dim_ * num_poses_; }
 
@@ -99,9 +171,53 @@ bool EndToEndObjective::StatesAt(const double* parameters,
 }
 
 bool EndToEndObjective::UseStatesOf(const double* parameters) {
+  if (distributed() && rank_ == 0) SendCommand(kUseStatesOf, parameters);
   // The states' actuations are not remembered: no prediction from them.
   for (ActuationMatrix& a : state_actuations_) a.resize(6, 0);
   return StatesAt(parameters, &states_);
+}
+
+void EndToEndObjective::CollectStates(const double* parameters,
+                                      std::vector<Eigen::Matrix3Xd>* states) const {
+  if (distributed()) SendCommand(kCollectStates, parameters);
+  CollectStatesHere(parameters, states);
+}
+
+void EndToEndObjective::CollectStatesHere(const double* parameters,
+                                          std::vector<Eigen::Matrix3Xd>* states) const {
+  if (!StatesAt(parameters, states)) *states = states_;
+  if (!distributed()) return;
+  // Every rank sends its own poses' states (3 x vertices each, in pose order); rank 0
+  // puts them in place. A pose without a state (never converged) is sent as the rest
+  // shape's size of NaN and comes back empty.
+  const int nv = model_.mesh.num_vertices();
+  const int block = 3 * nv;
+  std::vector<double> send;
+  send.reserve(owned_.size() * block);
+  for (int p : owned_) {
+    const Eigen::Matrix3Xd& x = (*states)[p];
+    if (x.cols() == nv) {
+      send.insert(send.end(), x.data(), x.data() + block);
+    } else {
+      send.insert(send.end(), block, std::numeric_limits<double>::quiet_NaN());
+    }
+  }
+  std::vector<int> counts(size_);
+  for (int r = 0; r < size_; ++r) {
+    counts[r] = block * static_cast<int>(OwnedIndices(num_poses_, r, size_).size());
+  }
+  std::vector<double> received(rank_ == 0 ? static_cast<size_t>(block) * num_poses_ : 0);
+  communicator_->GatherToRoot(send.data(), counts, received.data());
+  if (rank_ != 0) return;
+  states->assign(num_poses_, Eigen::Matrix3Xd());
+  size_t offset = 0;
+  for (int r = 0; r < size_; ++r) {
+    for (int p : OwnedIndices(num_poses_, r, size_)) {
+      const Eigen::Map<const Eigen::Matrix3Xd> x(received.data() + offset, 3, nv);
+      offset += block;
+      if (x.allFinite()) (*states)[p] = x;
+    }
+  }
 }
 
 void EndToEndObjective::PredictState(int p, Worker* worker) const {
@@ -127,26 +243,38 @@ bool EndToEndObjective::Evaluate(const double* parameters, double* cost, double*
     last_failure_ = "the time limit has passed";
     return false;
   }
+  if (distributed()) {
+    SendCommand(gradient != nullptr ? kEvaluateWithGradient : kEvaluate, parameters);
+  }
+  return EvaluateHere(parameters, cost, gradient);
+}
+
+bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
+                                     double* gradient) const {
   WallTimer evaluation_timer;
   const Eigen::Map<const Eigen::MatrixXd> latents(parameters + num_params_, latent_dim_,
                                                   num_poses_);
+  const int num_owned = static_cast<int>(owned_.size());
+  Eigen::MatrixXd owned_latents(latent_dim_, num_owned);
+  for (int k = 0; k < num_owned; ++k) owned_latents.col(k) = latents.col(owned_[k]);
   std::vector<ActuationMatrix> a;
   DecoderWorkspace workspace;
-  model_.decoder->DecodeBatch(parameters, latents, &a, &workspace);
+  if (num_owned > 0) model_.decoder->DecodeBatch(parameters, owned_latents, &a, &workspace);
   double decoder_seconds = evaluation_timer.Seconds();
   const int n = model_.num_surface_vertices();
   const double scale = 1.0 / (static_cast<double>(num_poses_) * n);
-  std::vector<ActuationMatrix> dl_da(num_poses_);
-  std::vector<Counters> pose_counters(num_poses_);
-  const int threads = std::max(1, std::min(options_.num_threads, num_poses_));
-  ParallelFor(threads, 0, num_poses_, [&](int t, int p) {
+  std::vector<ActuationMatrix> dl_da(num_owned);
+  std::vector<Counters> pose_counters(num_owned);
+  const int threads = std::max(1, std::min(options_.num_threads, num_owned));
+  ParallelFor(threads, 0, num_owned, [&](int t, int k) {
+    const int p = owned_[k];
     failures_[p].clear();
-    Worker& w = workers_[solver_per_pose_ ? p : t];
-    Counters& counters = pose_counters[p];
+    Worker& w = workers_[solver_per_pose_ ? k : t];
+    Counters& counters = pose_counters[k];
     const int cg_start = w.solver->stiffness_factorization()->counters().cg_iterations;
     WallTimer solve_timer;
     w.solver->SetFixedPositions(fixed_positions_[p]);
-    w.solver->actuation() = a[p];
+    w.solver->actuation() = a[k];
     w.solver->SetPositions(states_[p]);
     if (solver_per_pose_) PredictState(p, &w);
     QuasistaticSolveReport report = w.solver->Solve();
@@ -170,7 +298,7 @@ bool EndToEndObjective::Evaluate(const double* parameters, double* cost, double*
     }
     const Eigen::Matrix3Xd x = w.solver->positions();
     states_[p] = x;
-    if (solver_per_pose_) state_actuations_[p] = a[p];
+    if (solver_per_pose_) state_actuations_[p] = a[k];
     converged_once_[p] = 1;
     const Eigen::Matrix3Xd diff =
         EmbeddedPositions(model_.embedding, model_.mesh.tets, x) - model_.poses[p].surface;
@@ -191,8 +319,8 @@ bool EndToEndObjective::Evaluate(const double* parameters, double* cost, double*
     StiffnessFactorization& factorization = *w.solver->stiffness_factorization();
     const FactorizationCounters before = factorization.counters();
     std::string error;
-    if (!w.differentiator->Prepare(x, a[p], &error) ||
-        !w.differentiator->LossGradient(dl_dx, &dl_da[p], &error)) {
+    if (!w.differentiator->Prepare(x, a[k], &error) ||
+        !w.differentiator->LossGradient(dl_dx, &dl_da[k], &error)) {
       failures_[p] = "pose '" + model_.poses[p].name + "': " + error;
       return;
     }
@@ -203,33 +331,85 @@ bool EndToEndObjective::Evaluate(const double* parameters, double* cost, double*
     counters.adjoint_seconds = adjoint_timer.Seconds();
     counters.cg_iterations = after.cg_iterations - cg_start;
   }, 1);
+  FaultPoint("objective:solved");
   Counters total;
   for (const Counters& c : pose_counters) total.Add(c);
+  // The first failing pose (in pose order, as in one process), over all ranks.
+  int first_failure = num_poses_;
+  for (int p : owned_) {
+    if (!failures_[p].empty()) {
+      first_failure = p;
+      break;
+    }
+  }
+  if (distributed()) {
+    communicator_->MinToAll(&first_failure, 1);
+    double sums[9] = {double(total.factorizations), double(total.adjoint_factorizations),
+                      double(total.reused_solves),  double(total.cg_iterations),
+                      double(total.lbfgs_iterations), double(total.newton_steps),
+                      double(total.retries_from_rest), total.solve_seconds,
+                      total.adjoint_seconds};
+    communicator_->SumToRoot(sums, 9);
+    total.factorizations = static_cast<int>(sums[0]);
+    total.adjoint_factorizations = static_cast<int>(sums[1]);
+    total.reused_solves = static_cast<int>(sums[2]);
+    total.cg_iterations = static_cast<int>(sums[3]);
+    total.lbfgs_iterations = static_cast<int>(sums[4]);
+    total.newton_steps = static_cast<int>(sums[5]);
+    total.retries_from_rest = static_cast<int>(sums[6]);
+    total.solve_seconds = sums[7];
+    total.adjoint_seconds = sums[8];
+  }
   total.evaluations = 1;
   total.decoder_seconds = decoder_seconds;
-  for (const std::string& failure : failures_) {
-    if (!failure.empty()) {
-      last_failure_ = failure;
-      total.seconds = evaluation_timer.Seconds();
-      last_counters_ = total;
-      total_counters_.Add(total);  // a failed evaluation costs too
-      return false;
-    }
+  if (first_failure < num_poses_) {
+    std::string failure = failures_[first_failure];
+    if (distributed()) communicator_->BroadcastText(&failure, first_failure % size_);
+    last_failure_ = failure;
+    total.seconds = evaluation_timer.Seconds();
+    last_counters_ = total;
+    total_counters_.Add(total);  // a failed evaluation costs too
+    return false;
   }
   if (static_cast<int>(remembered_.size()) == kRememberedEvaluations) {
     remembered_.erase(remembered_.begin());
   }
   remembered_.push_back({Key(parameters), states_});
+  if (distributed()) {
+    // Per pose loss, mean and max error on rank 0: each is non-zero on its owner only,
+    // so the sums are exact.
+    std::vector<double> per_pose(3 * num_poses_, 0.0);
+    for (int p : owned_) {
+      per_pose[p] = pose_loss_[p];
+      per_pose[num_poses_ + p] = pose_mean_[p];
+      per_pose[2 * num_poses_ + p] = pose_max_[p];
+    }
+    communicator_->SumToRoot(per_pose.data(), 3 * num_poses_);
+    if (rank_ == 0) {
+      for (int p = 0; p < num_poses_; ++p) {
+        pose_loss_[p] = per_pose[p];
+        pose_mean_[p] = per_pose[num_poses_ + p];
+        pose_max_[p] = per_pose[2 * num_poses_ + p];
+      }
+    }
+  }
   double data = 0;
   for (double l : pose_loss_) data += l;
   *cost = data + options_.latent_regularization * latents.squaredNorm() / num_poses_;
   if (gradient != nullptr) {
     WallTimer backward_timer;
-    Eigen::Map<Eigen::VectorXd>(gradient, NumParameters()).setZero();
-    Eigen::MatrixXd latent_gradient;
-    model_.decoder->Backward(parameters, workspace, dl_da, gradient, &latent_gradient);
-    Eigen::Map<Eigen::MatrixXd>(gradient + num_params_, latent_dim_, num_poses_) =
-        latent_gradient + (2.0 * options_.latent_regularization / num_poses_) * latents;
+    Eigen::Map<Eigen::VectorXd> g(gradient, NumParameters());
+    g.setZero();
+    Eigen::Map<Eigen::MatrixXd> g_latents(gradient + num_params_, latent_dim_, num_poses_);
+    if (num_owned > 0) {
+      Eigen::MatrixXd latent_gradient;
+      model_.decoder->Backward(parameters, workspace, dl_da, gradient, &latent_gradient);
+      for (int k = 0; k < num_owned; ++k) g_latents.col(owned_[k]) = latent_gradient.col(k);
+    }
+    // The decoder parameters' gradient summed over ranks; each latent's comes from the
+    // rank that owns its pose (the others add zeros).
+    if (distributed()) communicator_->SumToRoot(gradient, NumParameters());
+    g_latents += (2.0 * options_.latent_regularization / num_poses_) * latents;
     decoder_seconds += backward_timer.Seconds();
   }
   total.decoder_seconds = decoder_seconds;

@@ -10,6 +10,7 @@
 #include <Eigen/Core>
 
 #include "diff/equilibrium_differentiator.h"
+#include "dist/communicator.h"
 #include "equilibrium/quasistatic_solver.h"
 #include "model/active_model.h"
 #include "train/evaluation_counters.h"
@@ -33,15 +34,39 @@ namespace aqs {
 // branch training follows (retrying from rest would cost a long solve and could jump
 // to another branch of the non-convex energy). Not thread-safe (Ceres calls it from
 // one thread).
+//
+// Distributed (TrainOptions::communicator with more than one rank; docs/distributed.md):
+// every rank constructs the objective from the same model; rank r owns the poses p
+// with p % size == r (OwnedIndices) and keeps their solvers and warm starts. Rank 0
+// alone is called by Ceres: each of its calls to Evaluate, UseStatesOf,
+// AllowRetryFromRest and CollectStates first sends the command (and the parameters)
+// to the other ranks, which wait in Serve() and carry it out on their poses. An
+// evaluation decodes and solves each rank's own poses, back-propagates them through
+// the decoder, and sums cost and gradient on rank 0 (the per-pose losses exactly, the
+// decoder gradient to round-off); a failing pose fails the evaluation on rank 0 with
+// its name and reason, as in one process. Ranks without poses take part with zeros.
+// Rank 0 ends Serve() on the others with StopWorkers (or its destructor).
 class EndToEndObjective final : public ceres::FirstOrderFunction {
  public:
   // The model (pre-trained: decoder set) must outlive the objective; its states seed
   // the warm starts.
   EndToEndObjective(const TrainOptions& options, const ActiveModel& model);
+  // On rank 0 of a distributed run, stops the other ranks (StopWorkers(false)) unless
+  // StopWorkers was called.
   ~EndToEndObjective() override;
 
   int NumParameters() const override;
+  // Rank 0 only (in a distributed run: collective with the others' Serve()).
   bool Evaluate(const double* parameters, double* cost, double* gradient) const override;
+
+  // Ranks other than 0 of a distributed run: carries out rank 0's commands until it
+  // stops them; returns the status rank 0 passed to StopWorkers.
+  bool Serve();
+  // Rank 0: ends the other ranks' Serve() with `ok` (once; later calls do nothing).
+  void StopWorkers(bool ok);
+  // Whether this objective spans several ranks, and the poses this rank owns.
+  bool distributed() const { return size_ > 1; }
+  const std::vector<int>& owned_poses() const { return owned_; }
 
   // Evaluate() fails at once once this many seconds have passed from this call (0:
   // never), so that a line search overruns a training budget by one evaluation at most.
@@ -51,13 +76,14 @@ class EndToEndObjective final : public ceres::FirstOrderFunction {
 
   // Lets the next evaluation retry every pose from rest again if its warm start fails
   // (for a final evaluation, which must not fail where a line-search trial may).
-  void AllowRetryFromRest() { converged_once_.assign(num_poses_, 0); }
+  void AllowRetryFromRest();
 
   // The model's current [params; latents] as a flat vector.
   Eigen::VectorXd ModelParameters() const;
 
   // At the last evaluated point: surface errors (mean and max distance over poses and
-  // surface vertices), the per-pose equilibria, and why an evaluation failed.
+  // surface vertices; on rank 0), the per-pose equilibria (of this rank's poses), and
+  // why an evaluation failed.
   double mean_surface_error() const;
   double max_surface_error() const;
   const std::vector<Eigen::Matrix3Xd>& states() const { return states_; }
@@ -69,11 +95,18 @@ class EndToEndObjective final : public ceres::FirstOrderFunction {
   // StatesAt returns false if no remembered evaluation was at these parameters;
   // UseStatesOf makes them the warm starts of the next evaluation.
   static constexpr int kRememberedEvaluations = 3;
+  // Both are local to this rank (StatesAt: its own poses' states); UseStatesOf, on rank
+  // 0, also commands the other ranks to use theirs.
   bool StatesAt(const double* parameters, std::vector<Eigen::Matrix3Xd>* states) const;
   bool UseStatesOf(const double* parameters);
+  // Rank 0: every pose's equilibrium at `parameters` (those of the remembered
+  // evaluation there, else the last ones), gathered from the ranks that own them: what
+  // a checkpoint saves. One process: StatesAt, else states().
+  void CollectStates(const double* parameters, std::vector<Eigen::Matrix3Xd>* states) const;
   const std::string& last_failure() const { return last_failure_; }
 
-  // What the last evaluation cost (summed over its poses), and all evaluations so far.
+  // What the last evaluation cost (summed over its poses, of all ranks), and all
+  // evaluations so far (on rank 0).
   using Counters = EvaluationCounters;
   const Counters& last_counters() const { return last_counters_; }
   const Counters& total_counters() const { return total_counters_; }
@@ -86,13 +119,33 @@ class EndToEndObjective final : public ceres::FirstOrderFunction {
     std::unique_ptr<EquilibriumDifferentiator> differentiator;
   };
 
+  enum Command : int {
+    kEvaluate = 1,
+    kEvaluateWithGradient,
+    kUseStatesOf,
+    kAllowRetryFromRest,
+    kCollectStates,
+    kStop,
+  };
+  // Rank 0: sends a command (with `value`: the status of kStop) and, for commands that
+  // take them, the parameters to the other ranks.
+  void SendCommand(Command command, const double* parameters, int value = 0) const;
+  // The evaluation on this rank's poses and the reductions (collective when
+  // distributed). cost and gradient receive the totals on rank 0.
+  bool EvaluateHere(const double* parameters, double* cost, double* gradient) const;
+  void CollectStatesHere(const double* parameters, std::vector<Eigen::Matrix3Xd>* states) const;
+
   const TrainOptions options_;
   const ActiveModel& model_;
+  const Communicator* communicator_;  // null: one process
+  int rank_ = 0, size_ = 1;
+  std::vector<int> owned_;  // poses of this rank, ascending
+  bool stopped_ = false;    // rank 0: StopWorkers was called
   const ShapeTargetModel physics_;
   const int num_params_, latent_dim_, num_poses_;
   std::vector<Eigen::Matrix3Xd> fixed_positions_;
   // Evaluation is logically const for Ceres; these caches change.
-  mutable std::vector<Worker> workers_;  // one per pose, or one per thread
+  mutable std::vector<Worker> workers_;  // one per owned pose, or one per thread
   bool solver_per_pose_ = false;
   mutable Counters last_counters_, total_counters_;
   mutable std::vector<Eigen::Matrix3Xd> states_;

@@ -11,6 +11,7 @@
 #include <ceres/gradient_problem_solver.h>
 #include <ceres/iteration_callback.h>
 
+#include "dist/communicator.h"
 #include "model/model_io.h"
 #include "train/end_to_end_objective.h"
 #include "train/progress.h"
@@ -124,10 +125,8 @@ class TrainingCallback final : public ceres::IterationCallback {
     model_->latents = Eigen::Map<const Eigen::MatrixXd>(parameters_.data() + np,
                                                         model_->latent_dim(), model_->num_poses());
     // The equilibria of the accepted point (the line search may have evaluated others
-    // after it).
-    if (!objective_.StatesAt(parameters_.data(), &model_->states)) {
-      model_->states = objective_.states();
-    }
+    // after it), from the ranks that own them.
+    objective_.CollectStates(parameters_.data(), &model_->states);
   }
 
  private:
@@ -155,26 +154,39 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
     *error = "the model has no training poses";
     return false;
   }
+  // Poses run in parallel with one thread each: keep BLAS single-threaded meanwhile.
+  const int blas_threads = BlasThreads();
+  if (options.num_threads > 1) SetBlasThreads(1);
+  const Communicator* communicator = options.communicator;
+  if (communicator != nullptr && communicator->size() > 1 && !communicator->is_root()) {
+    // Another rank: evaluations of its poses, as rank 0 commands.
+    EndToEndObjective objective(options, *model);
+    const bool ok = objective.Serve();
+    SetBlasThreads(blas_threads);
+    error->clear();
+    return ok;
+  }
+  // Rank 0 (or the one process). The objective stops the other ranks when it is
+  // destroyed, whichever way this function returns.
+  auto owned_objective = std::make_unique<EndToEndObjective>(options, *model);
+  EndToEndObjective* objective = owned_objective.get();
   report->iterations_before =
       options.model_directory.empty() ? 0 : model->checkpoint.iterations;
   const int remaining = options.max_iterations - report->iterations_before;
   if (!options.model_directory.empty()) {
     std::error_code code;
     fs::create_directories(options.model_directory + "/train", code);
-    if (!PrepareLog(options.model_directory, report->iterations_before, error)) return false;
+    if (!PrepareLog(options.model_directory, report->iterations_before, error)) {
+      SetBlasThreads(blas_threads);
+      return false;
+    }
   }
-  // Poses run in parallel with one thread each: keep BLAS single-threaded meanwhile.
-  const int blas_threads = BlasThreads();
-  if (options.num_threads > 1) SetBlasThreads(1);
-
-  auto* objective = new EndToEndObjective(options, *model);
   Eigen::VectorXd parameters = objective->ModelParameters();
   const int np = model->decoder->num_parameters();
   double cost = 0;
   if (!objective->Evaluate(parameters.data(), &cost, nullptr)) {
     *error = "the starting point cannot be simulated: " + objective->last_failure();
     SetBlasThreads(blas_threads);
-    delete objective;
     return false;
   }
   report->initial_loss = cost;
@@ -189,6 +201,17 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
     log << " (resuming after " << report->iterations_before << " iterations)";
   }
   log << "\n";
+  if (objective->distributed()) {
+    log << "train: poses over " << communicator->Description() << ", per rank:";
+    for (int r = 0; r < communicator->size(); ++r) {
+      log << " " << OwnedIndices(model->num_poses(), r, communicator->size()).size();
+    }
+    if (communicator->size() > model->num_poses()) {
+      log << " (ranks " << model->num_poses() << " to " << communicator->size() - 1
+          << " have no pose and stay idle)";
+    }
+    log << "\n";
+  }
   if (remaining <= 0) {
     log << "train: all " << options.max_iterations << " iterations are done already\n";
   }
@@ -197,7 +220,7 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
   objective->set_time_limit(options.max_seconds);
   const EvaluationCounters cost_before = objective->total_counters();
   WallTimer budget_timer;
-  ceres::GradientProblem problem(objective);  // owns the objective
+  ceres::GradientProblem problem(owned_objective.release());  // owns the objective
   TrainingCallback callback(options, model, *objective, parameters, report->iterations_before, log);
   int done = report->iterations_before;
   if (remaining > 0) {
@@ -261,6 +284,7 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
     *error = "could not save the trained state to " + options.model_directory;
     return false;
   }
+  objective->StopWorkers(true);
   report->seconds = timer.Seconds();
   log << "train: " << report->iterations << " iterations, loss " << report->initial_loss << " -> "
       << report->final_loss << ", surface error mean " << report->mean_surface_error << " max "

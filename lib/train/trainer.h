@@ -10,6 +10,8 @@
 
 namespace aqs {
 
+class Communicator;
+
 struct TrainOptions {
   // Weight of the latent regularizer (1/P) sum_p |z_p|^2.
   double latent_regularization = 1e-3;
@@ -38,6 +40,13 @@ struct TrainOptions {
   // TrainEndToEnd.
   int max_restarts = 5;
   int log_every = 1;  // progress lines
+  // Distributed training (docs/distributed.md): every rank of the communicator calls
+  // TrainEndToEnd with the same options and the same model (dist/model_sharing.h); rank
+  // r owns the poses p with p % size == r (their equilibria, warm starts and decoder
+  // back-propagation), rank 0 runs L-BFGS, logs, and alone writes checkpoints and the
+  // log. num_threads and max_factor_cache_gb are per rank. Null (or one rank): one
+  // process.
+  const Communicator* communicator = nullptr;
 };
 
 struct TrainReport {
@@ -81,6 +90,12 @@ struct TrainReport {
 // equilibria are converged) before the iteration or time budget is used, L-BFGS
 // restarts from the current point, up to max_restarts times while restarts progress. Returns false with *error if the poses' equilibria cannot be solved
 // at the starting point.
+//
+// With options.communicator spanning several ranks, every rank calls it: rank 0 as
+// above (its report and log), the others serve rank 0's evaluations on their poses and
+// return what rank 0 returned, with an empty *error (rank 0 reports) and no report.
+// Checkpoints hold every pose's equilibrium (gathered to rank 0), so a run resumes
+// with any number of ranks.
 bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport* report,
                    std::ostream& log, std::string* error);
 

@@ -1,0 +1,86 @@
+#include "dist/model_sharing.h"
+
+#include <algorithm>
+#include <cstdint>
+#include <vector>
+
+#include "model/model_fingerprint.h"
+
+namespace aqs {
+namespace {
+
+// The decoder's architecture as a hash (0: no decoder).
+uint64_t DecoderArchitecture(const ActiveModel& model) {
+  if (!model.decoder) return 0;
+  const ActuationDecoder& d = *model.decoder;
+  std::vector<double> numbers = {static_cast<double>(d.latent_dim()),
+                                 static_cast<double>(d.spec().activation),
+                                 d.spec().output_scale,
+                                 static_cast<double>(d.num_nodes()),
+                                 static_cast<double>(d.num_elements()),
+                                 static_cast<double>(d.num_parameters())};
+  for (int width : d.spec().hidden_dims) numbers.push_back(width);
+  return Fnv1a(numbers.data(), sizeof(double) * numbers.size(), kFnvOffsetBasis) | 1;
+}
+
+void Split(uint64_t value, int* words) {
+  words[0] = static_cast<int>(static_cast<uint32_t>(value >> 32));
+  words[1] = static_cast<int>(static_cast<uint32_t>(value));
+}
+
+}  // namespace
+
+bool ShareModel(const Communicator& comm, const std::string& directory, bool loaded,
+                ActiveModel* model, std::string* error) {
+  if (!comm.Agree(loaded, error)) return false;
+  if (comm.size() == 1) return true;
+  // Identity: rank 0's fingerprint and decoder architecture against each rank's.
+  int own[4], root[4];
+  Split(ModelFingerprint(*model), own);
+  Split(DecoderArchitecture(*model), own + 2);
+  std::copy(own, own + 4, root);
+  comm.Broadcast(root, 4, 0);
+  std::string mismatch;
+  if (own[0] != root[0] || own[1] != root[1]) {
+    mismatch = "the model at " + directory + " is another model than rank 0's (another mesh, "
+               "fixed vertices, bones, embedding or pose set): every rank must read the same "
+               "model (copy the whole directory to every machine)";
+  } else if (own[2] != root[2] || own[3] != root[3]) {
+    mismatch = "the model at " + directory + " has another decoder than rank 0's (its copy of "
+               "learned/ is from another pre-training): copy the whole directory to every "
+               "machine again";
+  }
+  if (!mismatch.empty()) *error = mismatch;
+  if (!comm.Agree(mismatch.empty(), error)) return false;
+  if (!model->decoder) return true;  // the same on every rank: nothing learned to share
+  // Rank 0's learned numbers.
+  comm.Broadcast(model->decoder_params.data(), static_cast<int>(model->decoder_params.size()), 0);
+  comm.Broadcast(model->latents.data(), static_cast<int>(model->latents.size()), 0);
+  int iterations = model->checkpoint.iterations;
+  double loss = model->checkpoint.loss;
+  comm.Broadcast(&iterations, 1, 0);
+  comm.Broadcast(&loss, 1, 0);
+  model->checkpoint.iterations = iterations;
+  model->checkpoint.loss = loss;
+  const int num_poses = model->num_poses();
+  const int nv = model->mesh.num_vertices();
+  std::vector<int> have(num_poses, 0);
+  if (comm.is_root()) {
+    for (int p = 0; p < num_poses && p < static_cast<int>(model->states.size()); ++p) {
+      have[p] = model->states[p].cols() == nv ? 1 : 0;
+    }
+  }
+  comm.Broadcast(have.data(), num_poses, 0);
+  model->states.resize(num_poses);
+  for (int p = 0; p < num_poses; ++p) {
+    if (!have[p]) {
+      model->states[p].resize(3, 0);
+      continue;
+    }
+    model->states[p].resize(3, nv);
+    comm.Broadcast(model->states[p].data(), 3 * nv, 0);
+  }
+  return true;
+}
+
+}  // namespace aqs

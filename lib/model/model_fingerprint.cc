@@ -1,0 +1,92 @@
+#include "model/model_fingerprint.h"
+
+#include <cstdio>
+
+namespace aqs {
+
+uint64_t Fnv1a(const void* data, size_t bytes, uint64_t hash) {
+  const auto* p = static_cast<const unsigned char*>(data);
+  for (size_t i = 0; i < bytes; ++i) hash = (hash ^ p[i]) * 1099511628211ull;
+  return hash;
+}
+
+namespace {
+
+class Hasher {
+ public:
+  template <typename Scalar>
+  void Add(const Scalar* data, size_t count) {
+    AddCount(count);
+    hash_ = Fnv1a(data, sizeof(Scalar) * count, hash_);
+  }
+  template <typename Matrix>
+  void AddMatrix(const Matrix& m) {
+    AddCount(static_cast<size_t>(m.rows()));
+    Add(m.data(), static_cast<size_t>(m.size()));
+  }
+  void Add(const std::string& text) { Add(text.data(), text.size()); }
+  uint64_t hash() const { return hash_; }
+
+ private:
+  // Sizes go in too, so that moving numbers between arrays changes the fingerprint.
+  void AddCount(size_t count) {
+    const uint64_t n = count;
+    hash_ = Fnv1a(&n, sizeof(n), hash_);
+  }
+  uint64_t hash_ = kFnvOffsetBasis;
+};
+
+}  // namespace
+
+uint64_t ModelFingerprint(const ActiveModel& model) {
+  Hasher h;
+  h.AddMatrix(model.mesh.vertices);
+  h.AddMatrix(model.mesh.tets);
+  h.AddMatrix(model.mu);
+  h.Add(model.static_vertices.data(), model.static_vertices.size());
+  for (const Bone& bone : model.bones) {
+    h.Add(bone.name);
+    h.Add(bone.vertices.data(), bone.vertices.size());
+    for (const RigidTransform& t : bone.pose_transforms) {
+      h.AddMatrix(t.rotation);
+      h.AddMatrix(t.translation);
+    }
+  }
+  h.AddMatrix(model.neutral.vertices);
+  h.Add(model.embedding.element.data(), model.embedding.element.size());
+  h.AddMatrix(model.embedding.weights);
+  h.AddMatrix(model.embedding.offsets);
+  for (const TrainingPose& pose : model.poses) {
+    h.Add(pose.name);
+    h.AddMatrix(pose.surface);
+  }
+  return h.hash();
+}
+
+std::string FingerprintText(uint64_t fingerprint) {
+  char text[17];
+  std::snprintf(text, sizeof(text), "%016llx", static_cast<unsigned long long>(fingerprint));
+  return text;
+}
+
+bool ParseFingerprint(const std::string& text, uint64_t* fingerprint) {
+  if (text.empty() || text.size() > 16) return false;
+  uint64_t value = 0;
+  for (char c : text) {
+    int digit = 0;
+    if (c >= '0' && c <= '9') {
+      digit = c - '0';
+    } else if (c >= 'a' && c <= 'f') {
+      digit = c - 'a' + 10;
+    } else if (c >= 'A' && c <= 'F') {
+      digit = c - 'A' + 10;
+    } else {
+      return false;
+    }
+    value = value * 16 + digit;
+  }
+  *fingerprint = value;
+  return true;
+}
+
+}  // namespace aqs

@@ -1,0 +1,32 @@
+#ifndef AQS_MODEL_MODEL_FINGERPRINT_H_
+#define AQS_MODEL_MODEL_FINGERPRINT_H_
+
+#include <cstdint>
+#include <string>
+
+#include "model/active_model.h"
+
+namespace aqs {
+
+// A 64-bit fingerprint of what aqs_prepare made of a model, which its learned state
+// belongs to: the simulation mesh (rest positions and elements), mu, the fixed
+// vertices and bones (vertices, names, per-pose transforms), the neutral surface's
+// vertices, the embedding, and the training poses (names and surfaces). Not the
+// volumetric targets nor anything learned. FNV-1a over the numbers' bytes, so it is
+// the same for a model and the model saved and loaded again (the files keep every
+// double exactly), and differs for another mesh, pose set, pose order or embedding.
+uint64_t ModelFingerprint(const ActiveModel& model);
+
+// The fingerprint as 16 lowercase hexadecimal digits, and back (false if `text` is
+// not 1 to 16 hexadecimal digits).
+std::string FingerprintText(uint64_t fingerprint);
+bool ParseFingerprint(const std::string& text, uint64_t* fingerprint);
+
+// FNV-1a, 64 bits, of `bytes` bytes at `data`, continuing from `hash` (start with
+// kFnvOffsetBasis).
+constexpr uint64_t kFnvOffsetBasis = 1469598103934665603ull;
+uint64_t Fnv1a(const void* data, size_t bytes, uint64_t hash);
+
+}  // namespace aqs
+
+#endif  // AQS_MODEL_MODEL_FINGERPRINT_H_
