@@ -206,7 +206,10 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
     for (int r = 0; r < communicator->size(); ++r) {
       log << " " << OwnedIndices(model->num_poses(), r, communicator->size()).size();
     }
-    if (communicator->size() > model->num_poses()) {
+    const int spare = communicator->size() - model->num_poses();
+    if (spare == 1) {
+      log << " (rank " << model->num_poses() << " has no pose and stays idle)";
+    } else if (spare > 1) {
       log << " (ranks " << model->num_poses() << " to " << communicator->size() - 1
           << " have no pose and stay idle)";
     }

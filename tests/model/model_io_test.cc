@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include "model/model_directory.h"
+#include "model/model_fingerprint.h"
 #include "prepare/volumetric_targets.h"
 #include "testing/fault_kill.h"
 #include "testing/temp_dir.h"
@@ -370,6 +371,43 @@ TEST(ModelIoTest, DamagedCheckpointFailsNamingTheFile) {
   ASSERT_TRUE(LoadModel(path, &back, &error)) << error;
   EXPECT_EQ(back.checkpoint.iterations, 4);
   EXPECT_EQ(back.checkpoint.loss, 0.5);
+}
+
+// The checkpoint names the fingerprint of the model its learned state belongs to: the
+// fingerprint survives saving and loading, a learned/ copied from another model (same
+// mesh, other poses) is refused naming the file, and a checkpoint without the line (an
+// older version's) is accepted.
+TEST(ModelIoTest, LearnedStateOfAnotherModelIsRefused) {
+  const ActiveModel model = TrainedSyntheticModel();
+  testing::TempDir dir;
+  std::string error;
+  ASSERT_TRUE(SaveModel(dir.File("a"), model, &error)) << error;
+  const std::string checkpoint = ReadAll(dir.File("a/learned/checkpoint.txt"));
+  EXPECT_NE(checkpoint.find("model " + FingerprintText(ModelFingerprint(model)) + "\n"),
+            std::string::npos) << checkpoint;
+  ActiveModel back;
+  ASSERT_TRUE(LoadModel(dir.File("a"), &back, &error)) << error;
+  EXPECT_EQ(ModelFingerprint(back), ModelFingerprint(model));
+  // Another model: the same bar and decoder, one pose moved by 1e-9.
+  ActiveModel other = model;
+  other.poses[2].surface(1, 7) += 1e-9;
+  EXPECT_NE(ModelFingerprint(other), ModelFingerprint(model));
+  ASSERT_TRUE(SaveModel(dir.File("b"), other, &error)) << error;
+  fs::remove_all(dir.File("a/learned"));
+  fs::copy(dir.File("b/learned"), dir.File("a/learned"), fs::copy_options::recursive);
+  EXPECT_FALSE(LoadModel(dir.File("a"), &back, &error));
+  EXPECT_NE(error.find(dir.File("a/learned/checkpoint.txt") +
+                       ": the learned state belongs to another model (made for model " +
+                       FingerprintText(ModelFingerprint(other)) + "; this directory's mesh, "
+                       "poses and embedding are model " +
+                       FingerprintText(ModelFingerprint(model)) + ")"),
+            std::string::npos) << error;
+  // Without the fingerprint line, as written before it existed: loaded.
+  std::ofstream(dir.File("a/learned/checkpoint.txt")) << "iterations 2\nloss 0.5\n";
+  ASSERT_TRUE(LoadModel(dir.File("a"), &back, &error)) << error;
+  std::ofstream(dir.File("a/learned/checkpoint.txt")) << "iterations 2\nmodel xyz\n";
+  EXPECT_FALSE(LoadModel(dir.File("a"), &back, &error));
+  EXPECT_NE(error.find("'model F' (F: 16 hexadecimal digits)"), std::string::npos) << error;
 }
 
 // Format 1 (learned files at the top, train/checkpoint.txt) is read, and the first

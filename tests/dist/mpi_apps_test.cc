@@ -1,0 +1,243 @@
+// The apps over MPI, run by mpirun from this (ordinary) test: aqs_train on 2 ranks and
+// resumed on 1, spare ranks, a rank killed with SIGKILL mid-run (the job stops, the
+// checkpoint resumes), aqs_evaluate's outputs against one process, aqs_pipeline, and
+// bad input stopping every rank with one message.
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <gtest/gtest.h>
+
+#include "apps/run_command.h"
+#include "mesh/mesh_io.h"
+#include "model/model_io.h"
+#include "prepare/volumetric_targets.h"
+#include "testing/temp_dir.h"
+#include "train/pretrain.h"
+#include "train/synthetic_muscles.h"
+
+namespace aqs {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::AppPath;
+using testing::CommandResult;
+using testing::RunCommand;
+
+// `command` run by mpirun on `ranks` processes of this machine (as root too, shared
+// memory only), stopped after 240 s (exit code 124: a hang).
+CommandResult MpiRun(int ranks, const std::string& command) {
+  return RunCommand(
+      "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_btl=self,vader "
+      "OPENBLAS_NUM_THREADS=1 timeout -k 10 240 " AQS_MPIEXEC " " AQS_MPIEXEC_NUMPROC_FLAG " " +
+      std::to_string(ranks) + " " AQS_MPIEXEC_PREFLAGS " " + command);
+}
+
+std::string ReadAll(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  return buffer.str();
+}
+
+int Count(const std::string& text, const std::string& what) {
+  int n = 0;
+  for (size_t at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;
+  return n;
+}
+
+std::vector<std::pair<int, double>> LogRows(const std::string& path) {
+  std::vector<std::pair<int, double>> rows;
+  std::ifstream in(path);
+  std::string line;
+  std::getline(in, line);
+  while (std::getline(in, line)) {
+    int iteration = -1;
+    double loss = 0;
+    if (std::sscanf(line.c_str(), "%d,%lf", &iteration, &loss) == 2) rows.emplace_back(iteration, loss);
+  }
+  return rows;
+}
+
+// The start loss aqs_train prints ("start loss X", 12 significant digits), or -1.
+double StartLoss(const std::string& output) {
+  const size_t at = output.find("start loss ");
+  return at == std::string::npos ? -1.0 : std::atof(output.c_str() + at + 11);
+}
+
+int SavedIterations(const std::string& path) {
+  ActiveModel model;
+  std::string error;
+  EXPECT_TRUE(LoadModel(path, &model, &error)) << error;
+  return model.checkpoint.iterations;
+}
+
+// A small pre-trained model of the synthetic bar with `poses` poses at `path`.
+void WritePretrainedModel(const std::string& path, int poses) {
+  testing::SyntheticMuscles data = testing::MakeSyntheticMuscles(poses, 0, 0.3, 5);
+  std::ostringstream log;
+  std::string error;
+  ASSERT_TRUE(MakeVolumetricTargets(VolumetricTargetOptions(), &data.model, log, &error)) << error;
+  PretrainOptions pretrain;
+  pretrain.spec.latent_dim = 2;
+  pretrain.spec.hidden_dims = {8};
+  pretrain.field.node_spacing = 0.5;
+  pretrain.max_iterations = 20;
+  pretrain.log_every = 0;
+  PretrainReport report;
+  ASSERT_TRUE(Pretrain(pretrain, &data.model, &report, log, &error)) << error;
+  ASSERT_TRUE(SaveModel(path, data.model, &error)) << error;
+}
+
+TEST(MpiAppsTest, TrainsOnTwoRanksAndResumesInOneProcess) {
+  testing::TempDir dir;
+  const std::string model = dir.File("m");
+  WritePretrainedModel(model, 3);
+  CommandResult run = MpiRun(2, AppPath("aqs_train") + " --model=" + model + " --train_iterations=3");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_EQ(Count(run.output, "train: 3 poses"), 1) << run.output;  // rank 0 logs alone
+  EXPECT_NE(run.output.find("per rank: 2 1"), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find("train iter     3/3"), std::string::npos) << run.output;
+  auto rows = LogRows(model + "/train/log.csv");
+  ASSERT_EQ(rows.size(), 4u);
+  EXPECT_EQ(SavedIterations(model), 3);
+  run = RunCommand(AppPath("aqs_train") + " --model=" + model + " --train_iterations=4 --threads=1");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("resuming after 3 iterations"), std::string::npos) << run.output;
+  EXPECT_NEAR(StartLoss(run.output), rows[3].second, 1e-10 * rows[3].second) << run.output;
+  EXPECT_EQ(LogRows(model + "/train/log.csv").size(), 5u);
+}
+
+TEST(MpiAppsTest, MoreRanksThanPosesLeavesTheSpareRanksIdle) {
+  testing::TempDir dir;
+  const std::string model = dir.File("m");
+  WritePretrainedModel(model, 2);
+  const CommandResult run =
+      MpiRun(3, AppPath("aqs_train") + " --model=" + model + " --train_iterations=2");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("per rank: 1 1 0 (rank 2 has no pose and stays idle)"),
+            std::string::npos) << run.output;
+  EXPECT_EQ(SavedIterations(model), 2);
+}
+
+// kill -9 of rank 1 while it solves its poses: mpirun ends the whole job (no hang), the
+// model holds rank 0's last checkpoint, and training resumes there at the logged loss,
+// on 2 ranks; then rank 0 killed while writing a checkpoint, resumed by one process.
+TEST(MpiAppsTest, AKilledRankStopsTheJobAndItsCheckpointResumes) {
+  testing::TempDir dir;
+  const std::string model = dir.File("m");
+  WritePretrainedModel(model, 3);
+  CommandResult run = MpiRun(2, std::string(AQS_MPI_KILL_AT) + " objective:solved 12 1 " + model + " 60");
+  EXPECT_NE(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.exit_code, 124) << "mpirun hung: " << run.output;
+  EXPECT_NE(run.output.find("signal 9"), std::string::npos) << run.output;
+  int saved = SavedIterations(model);
+  std::printf("rank 1 killed at its 13th evaluation: checkpoint of iteration %d\n", saved);
+  ASSERT_GE(saved, 1) << run.output;
+  auto rows = LogRows(model + "/train/log.csv");
+  ASSERT_GT(static_cast<int>(rows.size()), saved);
+  run = MpiRun(2, AppPath("aqs_train") + " --model=" + model +
+                      " --train_iterations=" + std::to_string(saved + 2));
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("resuming after " + std::to_string(saved) + " iterations"),
+            std::string::npos) << run.output;
+  EXPECT_NEAR(StartLoss(run.output), rows[saved].second, 1e-10 * rows[saved].second) << run.output;
+  rows = LogRows(model + "/train/log.csv");
+  ASSERT_EQ(static_cast<int>(rows.size()), saved + 3);
+  for (int i = 0; i <= saved + 2; ++i) EXPECT_EQ(rows[i].first, i);
+
+  // Rank 0 killed inside its second checkpoint of this run, between writing the new
+  // learned state and putting it in place.
+  const int before = saved + 2;
+  run = MpiRun(2, std::string(AQS_MPI_KILL_AT) + " staging:filled 1 0 " + model + " 60");
+  EXPECT_NE(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.exit_code, 124) << "mpirun hung: " << run.output;
+  saved = SavedIterations(model);
+  EXPECT_EQ(saved, before + 1) << run.output;
+  rows = LogRows(model + "/train/log.csv");
+  ASSERT_GT(static_cast<int>(rows.size()), saved);
+  run = RunCommand(AppPath("aqs_train") + " --model=" + model + " --threads=1 --train_iterations=" +
+                   std::to_string(saved + 1));
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("cleanup: "), std::string::npos) << run.output;  // the staging dir
+  EXPECT_NEAR(StartLoss(run.output), rows[saved].second, 1e-10 * rows[saved].second) << run.output;
+  EXPECT_EQ(static_cast<int>(LogRows(model + "/train/log.csv").size()), saved + 2);
+}
+
+TEST(MpiAppsTest, EvaluateOnTwoRanksWritesWhatOneProcessWrites) {
+  testing::TempDir dir;
+  const std::string model = dir.File("m");
+  WritePretrainedModel(model, 3);
+  const testing::SyntheticMuscles held_out = testing::MakeSyntheticMuscles(1, 3, 0.3, 9);
+  std::string list, error;
+  for (size_t t = 0; t < held_out.test_surfaces.size(); ++t) {
+    SurfaceMesh surface = held_out.model.neutral;
+    surface.vertices = held_out.test_surfaces[t];
+    const std::string path = dir.File("held_" + std::to_string(t) + ".obj");
+    ASSERT_TRUE(WriteObj(path, surface, &error)) << error;
+    list += (list.empty() ? "" : ",") + path;
+  }
+  const std::string flags = " --model=" + model + " --test_poses=" + list +
+                            " --baseline_iterations=20 --evaluate_fit_iterations=5 --error_budget=false "
+                            "--report=false --threads=1";
+  CommandResult run = RunCommand("OPENBLAS_NUM_THREADS=1 " + AppPath("aqs_evaluate") + flags +
+                                 " --output_dir=" + dir.File("one"));
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  run = MpiRun(2, AppPath("aqs_evaluate") + flags + " --output_dir=" + dir.File("many"));
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("3 physics fits in"), std::string::npos) << run.output;
+  EXPECT_EQ(Count(run.output, "wrote "), 1) << run.output;
+  EXPECT_EQ(ReadAll(dir.File("many/evaluation.csv")), ReadAll(dir.File("one/evaluation.csv")));
+  EXPECT_EQ(ReadAll(dir.File("many/evaluation.md")), ReadAll(dir.File("one/evaluation.md")));
+}
+
+TEST(MpiAppsTest, PipelineRunsEveryStageOverTheRanks) {
+  testing::TempDir dir;
+  testing::SyntheticMuscles data = testing::MakeSyntheticMuscles(3, 2, 0.3, 3);
+  std::string error;
+  ASSERT_TRUE(WriteObj(dir.File("neutral.obj"), data.model.neutral, &error)) << error;
+  fs::create_directories(dir.File("poses"));
+  for (const TrainingPose& pose : data.model.poses) {
+    SurfaceMesh surface = data.model.neutral;
+    surface.vertices = pose.surface;
+    ASSERT_TRUE(WriteObj(dir.File("poses/" + pose.name + ".obj"), surface, &error)) << error;
+  }
+  SurfaceMesh held = data.model.neutral;
+  held.vertices = data.test_surfaces[0];
+  ASSERT_TRUE(WriteObj(dir.File("held.obj"), held, &error)) << error;
+  const CommandResult run = MpiRun(
+      2, AppPath("aqs_pipeline") + " --neutral=" + dir.File("neutral.obj") + " --poses=" +
+             dir.File("poses") + " --model=" + dir.File("model") +
+             " --spacing=0.2 --lattice=kuhn --fixed_box=-1,-1,-1,0.01,1,1 --latent_dim=2 "
+             "--hidden=8 --grid_spacing=0.3 --pretrain_iterations=20 --train_iterations=2 "
+             "--test_poses=" + dir.File("held.obj") + " --output_dir=" + dir.File("eval") +
+             " --baseline_iterations=20 --evaluate_fit_iterations=5 --report=false");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  for (const char* stage : {"=== prepare done", "=== pretrain done", "=== train done",
+                            "=== evaluate done", "pipeline done"}) {
+    EXPECT_EQ(Count(run.output, stage), 1) << stage << "\n" << run.output;
+  }
+  EXPECT_EQ(SavedIterations(dir.File("model")), 2);
+  EXPECT_TRUE(fs::exists(dir.File("eval/evaluation.csv")));
+}
+
+TEST(MpiAppsTest, BadInputStopsEveryRankWithOneMessage) {
+  testing::TempDir dir;
+  CommandResult run = MpiRun(2, AppPath("aqs_train") + " --model=" + dir.File("missing/model"));
+  EXPECT_EQ(run.exit_code, 1) << run.output;
+  EXPECT_EQ(Count(run.output, "aqs_train: error: "), 1) << run.output;
+  EXPECT_NE(run.output.find(dir.File("missing/model")), std::string::npos) << run.output;
+  // A model that is not pre-trained: every rank stops, rank 0 says why.
+  testing::SyntheticMuscles data = testing::MakeSyntheticMuscles(2, 0, 0.3, 5);
+  std::string error;
+  ASSERT_TRUE(SaveModel(dir.File("raw"), data.model, &error)) << error;
+  run = MpiRun(2, AppPath("aqs_train") + " --model=" + dir.File("raw"));
+  EXPECT_EQ(run.exit_code, 1) << run.output;
+  EXPECT_EQ(Count(run.output, "aqs_train: error: "), 1) << run.output;
+  EXPECT_NE(run.output.find("pre-train it first"), std::string::npos) << run.output;
+}
+
+}  // namespace
+}  // namespace aqs

@@ -1,0 +1,86 @@
+// The evaluation's held-out fits over MPI (run by mpirun with 2 ranks): the same
+// tables and fitted surfaces as one process, bit for bit.
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <gtest/gtest.h>
+
+#include "dist/mpi_world.h"
+#include "jobs/evaluate_job.h"
+#include "mesh/mesh_io.h"
+#include "model/model_io.h"
+#include "train/synthetic_muscles.h"
+
+namespace aqs {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::World;
+
+std::string ReadAll(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  return buffer.str();
+}
+
+TEST(MpiEvaluationTest, HeldOutFitsGiveTheOutputsOfOneProcess) {
+  const Communicator& world = World();
+  testing::SharedTempDir dir;
+  EvaluateJobOptions options;
+  options.model = dir.File("m");
+  options.error_budget = false;
+  options.autoencoder.max_iterations = 40;
+  options.num_threads = 1;
+  options.fit.num_threads = 1;
+  options.fit.max_iterations = 10;
+  // Five held-out poses of the same bar (three on rank 0, two on rank 1).
+  const testing::SyntheticMuscles held_out = testing::MakeSyntheticMuscles(1, 5, 0.3, 23);
+  for (size_t t = 0; t < held_out.test_surfaces.size(); ++t) {
+    options.test_paths.push_back(dir.File("held_out_" + std::to_string(t) + ".obj"));
+  }
+  std::string error;
+  if (world.is_root()) {
+    EXPECT_TRUE(SaveModel(options.model, testing::PretrainedBar(3), &error)) << error;
+    for (size_t t = 0; t < held_out.test_surfaces.size(); ++t) {
+      SurfaceMesh surface = held_out.model.neutral;
+      surface.vertices = held_out.test_surfaces[t];
+      EXPECT_TRUE(WriteObj(options.test_paths[t], surface, &error)) << error;
+    }
+  }
+  world.Barrier();
+  std::ostringstream log;
+  std::vector<EvaluationRow> one_rows, rows;
+  if (world.is_root()) {
+    EvaluateJobOptions one = options;
+    one.output_directory = dir.File("one");
+    EXPECT_TRUE(RunEvaluateJob(one, log, &one_rows, &error)) << error;
+  }
+  options.output_directory = dir.File("many");
+  options.communicator = &world;
+  EXPECT_TRUE(RunEvaluateJob(options, log, &rows, &error)) << error;
+  if (!world.is_root()) {
+    EXPECT_TRUE(rows.empty());  // the other ranks write nothing and return no rows
+    EXPECT_FALSE(fs::exists(options.output_directory + "/evaluation.csv"));
+    return;
+  }
+  EXPECT_EQ(rows.size(), one_rows.size());
+  const std::string csv = ReadAll(dir.File("many/evaluation.csv"));
+  EXPECT_FALSE(csv.empty());
+  EXPECT_EQ(csv, ReadAll(dir.File("one/evaluation.csv")));
+  int compared = 0;
+  for (const auto& entry : fs::directory_iterator(dir.File("one/fitted"))) {
+    const std::string name = entry.path().filename();
+    EXPECT_EQ(ReadAll(dir.File("many/fitted/" + name)), ReadAll(entry.path())) << name;
+    ++compared;
+  }
+  EXPECT_EQ(compared, 5 * 4);  // target, physics, autoencoder, PCA per pose
+  std::printf("%d held-out fits over %d ranks: evaluation.csv and %d fitted surfaces identical "
+              "to one process\n",
+              5, world.size(), compared);
+}
+
+}  // namespace
+}  // namespace aqs

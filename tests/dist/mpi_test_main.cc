@@ -1,0 +1,66 @@
+// The main of the tests run under mpirun (tests/dist/CMakeLists.txt): starts MPI,
+// runs every test on every rank (the ranks other than 0 print only failures), and
+// exits non-zero on any rank that saw a failure (then mpirun does too).
+
+#include <cstdio>
+#include <sstream>
+
+#include <gtest/gtest.h>
+
+#include "dist/mpi_runtime.h"
+#include "dist/mpi_world.h"
+#include "prepare/volumetric_targets.h"
+#include "train/pretrain.h"
+#include "train/synthetic_muscles.h"
+
+namespace aqs {
+namespace testing {
+Communicator* g_world = nullptr;  // set by main
+
+const Communicator& World() { return *g_world; }
+
+SharedTempDir::SharedTempDir() {
+  if (World().is_root()) {
+    dir_ = std::make_unique<TempDir>();
+    path_ = dir_->path();
+  }
+  World().BroadcastText(&path_, 0);
+}
+
+ActiveModel PretrainedBar(int num_poses) {
+  SyntheticMuscles data = MakeSyntheticMuscles(num_poses, 0, 0.3, 11);
+  std::ostringstream log;
+  std::string error;
+  VolumetricTargetOptions targets;
+  targets.num_threads = 1;
+  EXPECT_TRUE(MakeVolumetricTargets(targets, &data.model, log, &error)) << error;
+  PretrainOptions pretrain;
+  pretrain.spec.latent_dim = 2;
+  pretrain.spec.hidden_dims = {8};
+  pretrain.spec.activation = Activation::kTanh;
+  pretrain.field.node_spacing = 0.35;
+  pretrain.max_iterations = 30;
+  pretrain.log_every = 0;
+  pretrain.num_threads = 1;
+  PretrainReport report;
+  EXPECT_TRUE(Pretrain(pretrain, &data.model, &report, log, &error)) << error;
+  return data.model;
+}
+
+}  // namespace testing
+}  // namespace aqs
+
+int main(int argc, char** argv) {
+  ::testing::InitGoogleTest(&argc, argv);
+  std::string error;
+  std::unique_ptr<aqs::Communicator> world = aqs::StartMpi(&argc, &argv, &error);
+  if (!world) {
+    std::fprintf(stderr, "aqs_mpi_test: %s\n", error.c_str());
+    return 1;
+  }
+  aqs::testing::g_world = world.get();
+  if (world->rank() != 0) GTEST_FLAG_SET(brief, true);
+  const int status = RUN_ALL_TESTS();
+  world->Barrier();
+  return status;
+}
