@@ -10,6 +10,7 @@ packages=(
   libgoogle-glog-dev libgflags-dev libgtest-dev googletest
   libopenblas0-pthread libopenblas-pthread-dev
   python3 python3-matplotlib python3-numpy
+  libopenmpi-dev openmpi-bin
 )
 
 missing=()

@@ -43,48 +43,60 @@ void Wait(MPI_Request* request) {
   }
 }
 
+// Every collective first waits, asleep, until all ranks have reached it (a
+// non-blocking barrier and Wait), then runs as the blocking MPI collective: the ranks
+// are then together, so it finishes at once. (A non-blocking collective only advances
+// inside MPI calls, and a large one needs many: polled between sleeps, reducing 10 MB
+// took 1.5 s instead of 0.01 s.)
 class MpiWorld final : public Communicator {
  public:
   MpiWorld() {
     MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
     MPI_Comm_size(MPI_COMM_WORLD, &size_);
   }
-  ~MpiWorld() override { MPI_Finalize(); }
+  // Waits (asleep) for every rank to get here, then finalizes: MPI_Finalize itself
+  // may wait by spinning, which would take a core from a rank still working (rank 0
+  // writing the evaluation while the others are done).
+  ~MpiWorld() override {
+    Barrier();
+    MPI_Finalize();
+  }
 
   int rank() const override { return rank_; }
   int size() const override { return size_; }
 
   void Broadcast(double* data, int count, int root) const override {
-    MPI_Request request;
-    MPI_Ibcast(data, count, MPI_DOUBLE, root, MPI_COMM_WORLD, &request);
-    Wait(&request);
+    Barrier();
+    MPI_Bcast(data, count, MPI_DOUBLE, root, MPI_COMM_WORLD);
   }
   void Broadcast(int* data, int count, int root) const override {
-    MPI_Request request;
-    MPI_Ibcast(data, count, MPI_INT, root, MPI_COMM_WORLD, &request);
-    Wait(&request);
+    Barrier();
+    MPI_Bcast(data, count, MPI_INT, root, MPI_COMM_WORLD);
   }
   void SumToRoot(double* data, int count) const override {
-    MPI_Request request;
-    MPI_Ireduce(rank_ == 0 ? MPI_IN_PLACE : data, data, count, MPI_DOUBLE, MPI_SUM, 0,
-                MPI_COMM_WORLD, &request);
-    Wait(&request);
+    Barrier();
+    MPI_Reduce(rank_ == 0 ? MPI_IN_PLACE : data, data, count, MPI_DOUBLE, MPI_SUM, 0,
+               MPI_COMM_WORLD);
   }
   void SumToAll(double* data, int count) const override {
-    AllReduce(data, count, MPI_DOUBLE, MPI_SUM);
+    Barrier();
+    MPI_Allreduce(MPI_IN_PLACE, data, count, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
   }
   void MaxToAll(double* data, int count) const override {
-    AllReduce(data, count, MPI_DOUBLE, MPI_MAX);
+    Barrier();
+    MPI_Allreduce(MPI_IN_PLACE, data, count, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
   }
-  void MinToAll(int* data, int count) const override { AllReduce(data, count, MPI_INT, MPI_MIN); }
+  void MinToAll(int* data, int count) const override {
+    Barrier();
+    MPI_Allreduce(MPI_IN_PLACE, data, count, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+  }
   void GatherToRoot(const double* send, const std::vector<int>& counts,
                     double* recv) const override {
     std::vector<int> offsets(size_, 0);
     for (int r = 1; r < size_; ++r) offsets[r] = offsets[r - 1] + counts[r - 1];
-    MPI_Request request;
-    MPI_Igatherv(send, counts[rank_], MPI_DOUBLE, recv, counts.data(), offsets.data(), MPI_DOUBLE,
-                 0, MPI_COMM_WORLD, &request);
-    Wait(&request);
+    Barrier();
+    MPI_Gatherv(send, counts[rank_], MPI_DOUBLE, recv, counts.data(), offsets.data(), MPI_DOUBLE,
+                0, MPI_COMM_WORLD);
   }
   void Barrier() const override {
     MPI_Request request;
@@ -101,12 +113,6 @@ class MpiWorld final : public Communicator {
   }
 
  private:
-  void AllReduce(void* data, int count, MPI_Datatype type, MPI_Op op) const {
-    MPI_Request request;
-    MPI_Iallreduce(MPI_IN_PLACE, data, count, type, op, MPI_COMM_WORLD, &request);
-    Wait(&request);
-  }
-
   int rank_ = 0, size_ = 1;
 };
 

@@ -23,12 +23,13 @@ int LauncherWorldSize();
 
 // Starts MPI (MPI_Init_thread with MPI_THREAD_FUNNELED: only the calling thread makes
 // MPI calls) and returns the communicator of all the job's processes (MPI_COMM_WORLD);
-// destroying it finalizes MPI. Once per process. Its collectives wait by polling with
-// sleeps of up to 1 ms (non-blocking MPI collectives and MPI_Test), so that a rank
-// waiting for others (for rank 0's checkpoint, a slower rank's poses, the other stages
-// of a pipeline) leaves the processor to them, also when ranks share cores. MPI errors
-// abort the whole job (MPI's default handler): never a hang. Returns null with *error
-// if MPI is not built in or does not start.
+// destroying it waits (asleep) for every rank to destroy theirs, then finalizes MPI.
+// Once per process. Each collective first waits for all ranks by polling a
+// non-blocking barrier with sleeps of up to 1 ms, then runs the blocking MPI
+// collective, so that a rank waiting for others (for rank 0's checkpoint, a slower
+// rank's poses, the other stages of a pipeline) leaves the processor to them, also
+// when ranks share cores. MPI errors abort the whole job (MPI's default handler):
+// never a hang. Returns null with *error if MPI is not built in or does not start.
 std::unique_ptr<Communicator> StartMpi(int* argc, char*** argv, std::string* error);
 
 }  // namespace aqs
