@@ -16,6 +16,7 @@ uint64_t DecoderArchitecture(const ActiveModel& model) {
   std::vector<double> numbers = {static_cast<double>(d.latent_dim()),
                                  static_cast<double>(d.spec().activation),
                                  d.spec().output_scale,
+                                 d.spec().anchored ? 1.0 : 0.0,
                                  static_cast<double>(d.num_nodes()),
                                  static_cast<double>(d.num_elements()),
                                  static_cast<double>(d.num_parameters())};

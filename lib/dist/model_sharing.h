@@ -13,9 +13,9 @@ namespace aqs {
 // load it (`loaded`; *error says why not). Collective. Checks, on every rank, that
 //   - every rank loaded it (else all fail with the lowest failing rank's message);
 //   - every rank has rank 0's model: the same ModelFingerprint (mesh, fixed vertices,
-//     bones, embedding, poses) and the same decoder architecture (latent size, layers,
-//     activation, control grid, parameter count); else all fail with a message naming
-//     the rank;
+//     bones, embedding, poses) and the same decoder architecture (latent size,
+//     layers, activation, anchoring, control grid, parameter count); else all fail
+//     with a message naming the rank;
 // then copies rank 0's learned numbers (decoder parameters, latents, per-pose
 // equilibria, checkpoint) to every rank, so that all ranks start from the state rank 0
 // read (another machine's copy of the directory may hold an older learned state: only
