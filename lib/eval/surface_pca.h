@@ -23,6 +23,9 @@ class SurfacePca {
   int num_components() const { return static_cast<int>(basis_.cols()); }
   const Eigen::VectorXd& mean() const { return mean_; }
   const Eigen::MatrixXd& basis() const { return basis_; }  // 3N x k, orthonormal columns
+  // The training surfaces' variance along each component (k): its squared singular
+  // value divided by the number of surfaces.
+  const Eigen::VectorXd& variances() const { return variances_; }
 
   // Least-squares coefficients of a surface (projection onto the basis).
   Eigen::VectorXd Encode(const Eigen::Matrix3Xd& surface) const;
@@ -31,11 +34,33 @@ class SurfacePca {
   // those rows only; the full surface.
   Eigen::Matrix3Xd FitToVertices(const std::vector<int>& vertices,
                                  const Eigen::Matrix3Xd& positions) const;
+  // The same with a ridge penalty on the whitened coefficients (a Gaussian prior of
+  // the training spread):  min_c |A c - b|^2 + ridge sum_j c_j^2 / variances_j,  A the
+  // basis rows of the given vertices and b their positions minus the mean (3K numbers).
+  // ridge is a squared length (per coordinate); 0: plain least squares.
+  Eigen::Matrix3Xd FitToVerticesRidge(const std::vector<int>& vertices,
+                                      const Eigen::Matrix3Xd& positions, double ridge) const;
 
  private:
   Eigen::VectorXd mean_;
+  Eigen::VectorXd variances_;
   Eigen::MatrixXd basis_;
 };
+
+// Ridge-regularized PCA for markers, with its weight chosen by leave-one-out over the
+// training surfaces: for each candidate ridge, each training surface p is fitted by a
+// PCA of the others (k components, at most P - 2) from its marker vertices alone, and
+// the mean vertex distance over error_vertices (empty: all) is averaged over p. The
+// candidate with the smallest average wins (the first on ties).
+struct RidgeChoice {
+  double ridge = 0.0;
+  double loo_error = 0.0;
+  std::vector<double> candidates, errors;  // the whole curve, for the log
+};
+RidgeChoice ChooseRidgeLeaveOneOut(const std::vector<Eigen::Matrix3Xd>& surfaces, int k,
+                                   const std::vector<int>& marker_vertices,
+                                   const std::vector<int>& error_vertices,
+                                   const std::vector<double>& candidates);
 
 }  // namespace aqs
 

@@ -1,6 +1,7 @@
 #include "fit/latent_fit.h"
 
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include <ceres/cost_function.h>
@@ -11,9 +12,11 @@
 #include <Eigen/Geometry>
 #include <glog/logging.h>
 
+#include "fit/gaussian_prior_cost.h"
 #include "fit/latent_prior.h"
 #include "geometry/embedding.h"
 #include "geometry/triangle_bvh.h"
+#include "util/wall_timer.h"
 
 namespace aqs {
 
@@ -72,22 +75,101 @@ Eigen::Matrix3d RotatedPointJacobian(const double* omega, const Eigen::Vector3d&
   return jacobian;
 }
 
+double TotalWeight(const FitTarget& target) {
+  if (target.weights.size() == 0) return target.num_points();
+  return target.weights.sum();
+}
+
+// W of the priors' weights: the total weight, capped.
+double PriorPoints(const FitTarget& target, double cap) {
+  const double total = TotalWeight(target);
+  return cap > 0 ? std::min(total, cap) : total;
+}
+
+// The target points on a surface (3 x K).
+Eigen::Matrix3Xd TargetPointsOn(const FitTarget& target, const Eigen::Matrix3Xd& surface) {
+  Eigen::Matrix3Xd p = Eigen::Matrix3Xd::Zero(3, target.num_points());
+  for (int i = 0; i < target.num_points(); ++i) {
+    for (int c = 0; c < 3; ++c) p.col(i) += target.barycentric(c, i) * surface.col(target.vertices(c, i));
+  }
+  return p;
+}
+
+// Each scan point matched to the closest point of `surface` (triangles of the
+// neutral), with robust weights: the target of one matching round.
+FitTarget MatchPointCloud(const Eigen::Matrix3Xd& points, const Eigen::Matrix3Xd& surface,
+                          const Eigen::Matrix3Xi& triangles, const PointCloudFitOptions& options,
+                          int num_threads, int* used, double* mean_distance) {
+  const TriangleBvh bvh(surface, triangles);
+  const std::vector<ClosestPointResult> closest = bvh.ClosestPoints(points, num_threads);
+  FitTarget target;
+  const Eigen::Index m = points.cols();
+  target.vertices.resize(3, m);
+  target.barycentric.resize(3, m);
+  target.positions = points;
+  target.weights.resize(m);
+  if (options.tangential_weight < 1.0) {
+    target.normals.resize(3, m);
+    target.tangential_weight = std::max(options.tangential_weight, 0.0);
+  }
+  *used = 0;
+  double sum = 0.0;
+  for (Eigen::Index i = 0; i < m; ++i) {
+    const ClosestPointResult& c = closest[i];
+    target.vertices.col(i) = triangles.col(c.triangle);
+    target.barycentric.col(i) = c.barycentric;
+    if (target.normals.cols() == m) {
+      const Eigen::Vector3i t = triangles.col(c.triangle);
+      const Eigen::Vector3d n = (surface.col(t[1]) - surface.col(t[0]))
+                                    .cross(surface.col(t[2]) - surface.col(t[0]));
+      const double length = n.norm();
+      target.normals.col(i) = length > 0 ? Eigen::Vector3d(n / length) : Eigen::Vector3d::Zero();
+    }
+    double w = 1.0;
+    if (options.max_distance > 0 && c.distance > options.max_distance) w = 0.0;
+    if (w > 0 && options.robust_scale > 0) {
+      const double r = c.distance / options.robust_scale;
+      w = 1.0 / (1.0 + r * r);
+    }
+    target.weights[i] = w;
+    if (w > 0) {
+      ++*used;
+      sum += c.distance;
+    }
+  }
+  *mean_distance = *used > 0 ? sum / *used : 0.0;
+  return target;
+}
+
 }  // namespace
 
 // Residuals sqrt(w_k / sum w) (p_k(x*) - y_k) (3 K) over the blocks z and, if fitted,
 // one 6-number block per bone.
 class LatentFitter::FitCost final : public ceres::CostFunction {
  public:
+  // A point cloud without correspondence: one residual per scan point, its robust
+  // distance to the simulated surface, re-matched (closest points) at every evaluation:
+  //   r_i = sqrt(1/M) R(d_i),  R(d) = d / sqrt(1 + (d/s)^2)  (s = robust_scale; R(d) = d
+  // for s <= 0), d_i the distance signed by the side of the matched triangle, clamped
+  // to +-max_distance (beyond it the residual is constant). The derivative of a
+  // closest-point distance is u^T dp (u the unit direction from the scan point to its
+  // closest point, signed likewise; the closest point's sliding is second order), so
+  // dr_i = sqrt(1/M) R'(d_i) u_i^T dp_i, exact wherever the matching is unique.
+  FitCost(LatentFitter* fitter, const Eigen::Matrix3Xd& cloud, const PointCloudFitOptions& options,
+          bool fit_bones)
+      : fitter_(fitter), target_(&own_target_), fit_bones_(fit_bones), cloud_(&cloud),
+        cloud_options_(options) {
+    CHECK_GT(cloud.cols(), 0);
+    set_num_residuals(static_cast<int>(cloud.cols()));
+    AddParameterBlocks();
+  }
+
   FitCost(LatentFitter* fitter, const FitTarget& target, bool fit_bones)
-      : fitter_(fitter), target_(target), fit_bones_(fit_bones) {
+      : fitter_(fitter), target_(&target), fit_bones_(fit_bones) {
     const ActiveModel& model = fitter->model_;
     const int k = target.num_points();
     set_num_residuals(3 * k);
-    mutable_parameter_block_sizes()->push_back(model.latent_dim());
-    if (fit_bones_) {
-      for (size_t b = 0; b < model.bones.size(); ++b) mutable_parameter_block_sizes()->push_back(6);
-    }
-    for (int size : parameter_block_sizes()) parameter_count_ += size;
+    AddParameterBlocks();
     double total = 0.0;
     for (int i = 0; i < k; ++i) total += target.weights.size() > 0 ? target.weights[i] : 1.0;
     CHECK_GT(total, 0.0) << "fit targets need a positive total weight";
@@ -97,6 +179,12 @@ class LatentFitter::FitCost final : public ceres::CostFunction {
       Stencil& s = stencils_[i];
       const double w = target.weights.size() > 0 ? target.weights[i] : 1.0;
       s.scale = std::sqrt(w / total);
+      s.projector = s.scale * Eigen::Matrix3d::Identity();
+      if (target.normals.cols() == k) {
+        const Eigen::Vector3d n = target.normals.col(i);
+        const Eigen::Matrix3d nn = n * n.transpose();
+        s.projector = s.scale * (nn + target.tangential_weight * (Eigen::Matrix3d::Identity() - nn));
+      }
       s.offset.setZero();
       for (int c = 0; c < 3; ++c) {
         const int v = target.vertices(c, i);
@@ -108,6 +196,73 @@ class LatentFitter::FitCost final : public ceres::CostFunction {
           s.weight[4 * c + j] = beta * model.embedding.weights(j, v);
         }
       }
+    }
+  }
+
+  void AddParameterBlocks() {
+    const ActiveModel& model = fitter_->model_;
+    mutable_parameter_block_sizes()->push_back(model.latent_dim());
+    if (fit_bones_) {
+      for (size_t b = 0; b < model.bones.size(); ++b) mutable_parameter_block_sizes()->push_back(6);
+    }
+    for (int size : parameter_block_sizes()) parameter_count_ += size;
+  }
+
+  // Cloud mode: matches the scan to the surface of state x; sets the stencils of the
+  // matched points, the residuals and the gradient rows (R'(d) u / sqrt(M)).
+  void MatchCloud(const Eigen::Matrix3Xd& x, double* residuals) const {
+    const ActiveModel& model = fitter_->model_;
+    const Eigen::Matrix3Xd surface = EmbeddedPositions(model.embedding, model.mesh.tets, x);
+    const Eigen::Matrix3Xi& triangles = model.neutral.triangles;
+    const TriangleBvh bvh(surface, triangles);
+    const std::vector<ClosestPointResult> closest =
+        bvh.ClosestPoints(*cloud_, fitter_->options_.num_threads);
+    const Eigen::Index m = cloud_->cols();
+    const double scale = 1.0 / std::sqrt(static_cast<double>(m));
+    const double s = cloud_options_.robust_scale;
+    const double cap = cloud_options_.max_distance;
+    stencils_.resize(m);
+    cloud_rows_.resize(3, m);
+    for (Eigen::Index i = 0; i < m; ++i) {
+      const ClosestPointResult& c = closest[i];
+      Stencil& st = stencils_[i];
+      st.offset.setZero();
+      const Eigen::Vector3i t = triangles.col(c.triangle);
+      for (int k = 0; k < 3; ++k) {
+        const int v = t[k];
+        st.offset += c.barycentric[k] * model.embedding.offsets.col(v);
+        for (int j = 0; j < 4; ++j) {
+          st.vertex[4 * k + j] = model.mesh.tets(j, model.embedding.element[v]);
+          st.weight[4 * k + j] = c.barycentric[k] * model.embedding.weights(j, v);
+        }
+      }
+      // Signed by the side of the triangle: sigma = sign(v . n) |v|, v = p - y, whose
+      // gradient sign(v . n) v / |v| is n itself for a closest point inside a triangle,
+      // so the residual is smooth where the surface passes through a scan point.
+      Eigen::Vector3d n =
+          (surface.col(t[1]) - surface.col(t[0])).cross(surface.col(t[2]) - surface.col(t[0]));
+      const double length = n.norm();
+      n = length > 0 ? Eigen::Vector3d(n / length) : Eigen::Vector3d::Zero();
+      const Eigen::Vector3d v = c.point - cloud_->col(i);
+      double d = c.distance;
+      Eigen::Vector3d u = d > 1e-12 ? Eigen::Vector3d(v / d) : n;
+      if (u.dot(n) < 0) {
+        u = -u;
+        d = -d;
+      }
+      bool clamped = false;
+      if (cap > 0 && std::abs(d) > cap) {
+        d = d > 0 ? cap : -cap;
+        clamped = true;
+      }
+      double value = d, slope = 1.0;
+      if (s > 0) {
+        const double q = 1.0 + (d / s) * (d / s);
+        value = d / std::sqrt(q);
+        slope = 1.0 / (q * std::sqrt(q));
+      }
+      residuals[i] = scale * value;
+      cloud_rows_.col(i) = clamped ? Eigen::Vector3d::Zero() : Eigen::Vector3d(scale * slope * u);
     }
   }
 
@@ -145,7 +300,11 @@ class LatentFitter::FitCost final : public ceres::CostFunction {
       solver.SetPositions(fitter_->accepted_state_);
       solver.SetFixedPositions(ModelBoundaryConditions(model, bones).positions);
       solver.actuation() = a;
+      WallTimer timer;
       const QuasistaticSolveReport report = solver.Solve();
+      fitter_->stats_.solves += 1;
+      fitter_->stats_.solve_factorizations += report.factorizations;
+      fitter_->stats_.solve_seconds += timer.Seconds();
       last_key_.resize(0);
       if (!report.converged) return false;  // Ceres treats the step as unsuccessful
       last_key_ = key;
@@ -154,18 +313,29 @@ class LatentFitter::FitCost final : public ceres::CostFunction {
     const Eigen::Matrix3Xd& x = last_state_;
     // Trust-region minimizers evaluate Jacobians only at accepted points.
     if (jacobians != nullptr) fitter_->accepted_state_ = x;
-    const int k = target_.num_points();
-    for (int i = 0; i < k; ++i) {
-      const Stencil& s = stencils_[i];
-      Eigen::Vector3d p = s.offset;
-      for (int j = 0; j < 12; ++j) p += s.weight[j] * x.col(s.vertex[j]);
-      Eigen::Map<Eigen::Vector3d>(residuals + 3 * i) = s.scale * (p - target_.positions.col(i));
+    if (cloud_ != nullptr) {
+      MatchCloud(x, residuals);
+    } else {
+      const int k = target_->num_points();
+      for (int i = 0; i < k; ++i) {
+        const Stencil& s = stencils_[i];
+        Eigen::Vector3d p = s.offset;
+        for (int j = 0; j < 12; ++j) p += s.weight[j] * x.col(s.vertex[j]);
+        Eigen::Map<Eigen::Vector3d>(residuals + 3 * i) = s.projector * (p - target_->positions.col(i));
+      }
     }
     if (jacobians == nullptr) return true;
     bool want_bones = false;
     for (size_t b = 0; fit_bones_ && b < bones.size(); ++b) want_bones |= jacobians[1 + b] != nullptr;
     if (!want_z && !want_bones) return true;
     std::string error;
+    WallTimer timer;
+    fitter_->stats_.jacobians += 1;
+    struct AddTime {
+      WallTimer& t;
+      double& sum;
+      ~AddTime() { sum += t.Seconds(); }
+    } add_time{timer, fitter_->stats_.jacobian_seconds};
     if (!fitter_->differentiator_->Prepare(x, a, &error)) return false;
     if (want_z) {
       const Eigen::MatrixXd dx_dz = fitter_->differentiator_->ActuationJacobianProduct(da_dz);
@@ -190,27 +360,51 @@ class LatentFitter::FitCost final : public ceres::CostFunction {
     double weight[12];
     Eigen::Vector3d offset;
     double scale;
+    Eigen::Matrix3d projector;  // scale * P_k (identity scaled for point-to-point)
   };
 
   // Row-major (3K x columns) Jacobian of the residuals from dx (3 num_vertices x columns).
   void FillJacobian(const Eigen::MatrixXd& dx, double* out) const {
     const Eigen::Index columns = dx.cols();
+    if (cloud_ != nullptr) {  // one row per scan point: g_i^T dp_i
+      Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> jac(
+          out, cloud_->cols(), columns);
+      for (Eigen::Index i = 0; i < cloud_->cols(); ++i) {
+        const Stencil& s = stencils_[i];
+        Eigen::RowVectorXd row = Eigen::RowVectorXd::Zero(columns);
+        if (cloud_rows_.col(i).squaredNorm() > 0) {
+          for (int j = 0; j < 12; ++j) {
+            if (s.weight[j] != 0.0) {
+              row += s.weight[j] * (cloud_rows_.col(i).transpose() *
+                                    dx.middleRows(3 * static_cast<Eigen::Index>(s.vertex[j]), 3));
+            }
+          }
+        }
+        jac.row(i) = row;
+      }
+      return;
+    }
     Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> jac(
-        out, 3 * target_.num_points(), columns);
-    for (int i = 0; i < target_.num_points(); ++i) {
+        out, 3 * target_->num_points(), columns);
+    for (int i = 0; i < target_->num_points(); ++i) {
       const Stencil& s = stencils_[i];
       Eigen::MatrixXd dp = Eigen::MatrixXd::Zero(3, columns);
       for (int j = 0; j < 12; ++j) {
         if (s.weight[j] != 0.0) dp += s.weight[j] * dx.middleRows(3 * static_cast<Eigen::Index>(s.vertex[j]), 3);
       }
-      jac.middleRows(3 * i, 3) = s.scale * dp;
+      jac.middleRows(3 * i, 3) = s.projector * dp;
     }
   }
 
   LatentFitter* fitter_;
-  const FitTarget& target_;
+  FitTarget own_target_;  // empty: cloud mode
+  const FitTarget* target_;
   bool fit_bones_;
-  std::vector<Stencil> stencils_;
+  const Eigen::Matrix3Xd* cloud_ = nullptr;
+  PointCloudFitOptions cloud_options_;
+  // Per target point: fixed, or (cloud mode) of the last matching.
+  mutable std::vector<Stencil> stencils_;
+  mutable Eigen::Matrix3Xd cloud_rows_;
   int parameter_count_ = 0;
   // The last evaluated parameters (all blocks, concatenated) and their equilibrium.
   mutable Eigen::VectorXd last_key_;
@@ -221,6 +415,9 @@ LatentFitter::LatentFitter(const ActiveModel& model, const LatentFitOptions& opt
     : model_(model), options_(options), bones_(RestBoneTransforms(model)),
       accepted_state_(model.mesh.vertices) {
   CHECK(model.decoder) << "latent fitting needs a trained model";
+  prior_ = model.fit_prior.empty() ? LearnFitPrior(model) : model.fit_prior;
+  CHECK_EQ(prior_.latent.size(), model.latent_dim());
+  CHECK_EQ(prior_.bones.size(), model.bones.size());
   physics_ = std::make_unique<ShapeTargetModel>(model.mesh, model.mu);
   QuasistaticSolverOptions solver_options = options.solver;
   solver_options.num_threads = options.num_threads;
@@ -244,6 +441,11 @@ ceres::CostFunction* LatentFitter::NewCostFunction(const FitTarget& target) {
   return new FitCost(this, target, options_.fit_bones && !model_.bones.empty());
 }
 
+ceres::CostFunction* LatentFitter::NewCloudCostFunction(const Eigen::Matrix3Xd& points,
+                                                       const PointCloudFitOptions& options) {
+  return new FitCost(this, points, options, options_.fit_bones && !model_.bones.empty());
+}
+
 void LatentFitter::set_start_state(const Eigen::Matrix3Xd& state) {
   CHECK_EQ(state.cols(), model_.mesh.num_vertices());
   accepted_state_ = state;
@@ -265,12 +467,18 @@ bool LatentFitter::Simulate(const Eigen::VectorXd& z, Eigen::Matrix3Xd* state,
   solver_->SetPositions(accepted_state_);
   solver_->SetFixedPositions(ModelBoundaryConditions(model_, bones_).positions);
   solver_->actuation() = a;
+  WallTimer timer;
   QuasistaticSolveReport report = solver_->Solve();
+  stats_.solves += 1;
+  stats_.solve_factorizations += report.factorizations;
   if (!report.converged) {  // once more from rest
     solver_->SetPositions(model_.mesh.vertices);
     report = solver_->Solve();
+    stats_.solves += 1;
+    stats_.solve_factorizations += report.factorizations;
   }
   last_simulate_report_ = report;
+  stats_.solve_seconds += timer.Seconds();
   if (!report.converged) {
     *error = "the equilibrium was not reached: " + report.Summary();
     return false;
@@ -289,6 +497,7 @@ bool LatentFitter::Fit(const FitTarget& target, const Eigen::VectorXd& initial,
   CHECK_EQ(target.barycentric.cols(), target.positions.cols());
   Eigen::VectorXd z = initial;
   Eigen::Matrix3Xd state, surface;
+  stats_ = LatentFitResult();
   if (!Simulate(z, &state, &surface, error)) {
     *error = "at the initial latent: " + *error;
     return false;
@@ -303,16 +512,37 @@ bool LatentFitter::Fit(const FitTarget& target, const Eigen::VectorXd& initial,
   if (fit_bones) {
     for (auto& p : bone_parameters) blocks.push_back(p.data());
   }
-  problem.AddResidualBlock(new FitCost(this, target, fit_bones), nullptr, blocks);
+  double total_weight = 0.0;
+  if (direct_cloud_ != nullptr) {
+    problem.AddResidualBlock(new FitCost(this, *direct_cloud_, direct_cloud_options_, fit_bones),
+                             nullptr, blocks);
+    total_weight = static_cast<double>(direct_cloud_->cols());
+    if (options_.prior_points_cap > 0) total_weight = std::min(total_weight, options_.prior_points_cap);
+  } else {
+    problem.AddResidualBlock(new FitCost(this, target, fit_bones), nullptr, blocks);
+    total_weight = PriorPoints(target, options_.prior_points_cap);
+  }
   if (options_.latent_regularization > 0) {
     problem.AddResidualBlock(new LatentPrior(d, options_.latent_regularization), nullptr, z.data());
+  }
+  if (options_.latent_prior > 0) {
+    problem.AddResidualBlock(new GaussianPriorCost(prior_.latent.mean, prior_.latent.whitening,
+                                                   options_.latent_prior / total_weight),
+                             nullptr, z.data());
+  }
+  if (fit_bones && options_.bone_prior > 0) {
+    for (size_t b = 0; b < model_.bones.size(); ++b) {
+      problem.AddResidualBlock(new GaussianPriorCost(prior_.bones[b].mean, prior_.bones[b].whitening,
+                                                     options_.bone_prior / total_weight),
+                               nullptr, bone_parameters[b].data());
+    }
   }
   ceres::Solver::Options solver_options;
   solver_options.linear_solver_type = ceres::DENSE_QR;
   solver_options.max_num_iterations = options_.max_iterations;
-  solver_options.function_tolerance = 1e-10;
+  solver_options.function_tolerance = options_.function_tolerance;
   solver_options.gradient_tolerance = 1e-14;
-  solver_options.parameter_tolerance = 1e-10;
+  solver_options.parameter_tolerance = options_.parameter_tolerance;
   solver_options.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
   ceres::Solve(solver_options, &problem, &summary);
@@ -345,6 +575,11 @@ bool LatentFitter::Fit(const FitTarget& target, const Eigen::VectorXd& initial,
   result->rms_error = used > 0 ? std::sqrt(sum_squares / used) : 0.0;
   result->max_error = worst;
   result->iterations = static_cast<int>(summary.iterations.size()) - 1;
+  result->solves = stats_.solves;
+  result->solve_factorizations = stats_.solve_factorizations;
+  result->solve_seconds = stats_.solve_seconds;
+  result->jacobians = stats_.jacobians;
+  result->jacobian_seconds = stats_.jacobian_seconds;
   result->converged = summary.termination_type == ceres::CONVERGENCE;
   result->message = summary.message;
   return true;
@@ -362,46 +597,34 @@ bool LatentFitter::FitPointCloud(const Eigen::Matrix3Xd& points,
   Eigen::Matrix3Xd state, surface;
   if (!Simulate(z, &state, &surface, error)) return false;
   const Eigen::Matrix3Xi& triangles = model_.neutral.triangles;
+  if (cloud_options.rematch_every_evaluation) {
+    // One Levenberg-Marquardt solve of the robust closest-point distances.
+    direct_cloud_ = &points;
+    direct_cloud_options_ = cloud_options;
+    const bool ok = Fit(FitTarget(), z, result, error);
+    direct_cloud_ = nullptr;
+    if (!ok) return false;
+    result->round_distances.clear();
+  } else {
   double previous_mean = -1.0;
   int total_iterations = 0;
+  LatentFitResult totals;
+  std::vector<double> round_distances;
   LatentFitOptions saved = options_;
   options_.max_iterations = cloud_options.iterations_per_round;
   bool ok = true;
   for (int round = 0; round < cloud_options.max_rounds; ++round) {
-    // Match every scan point to the closest point of the current surface.
-    const TriangleBvh bvh(surface, triangles);
-    const std::vector<ClosestPointResult> closest = bvh.ClosestPoints(points, options_.num_threads);
-    FitTarget target;
-    const Eigen::Index m = points.cols();
-    target.vertices.resize(3, m);
-    target.barycentric.resize(3, m);
-    target.positions = points;
-    target.weights.resize(m);
     int used = 0;
     double mean = 0.0;
-    for (Eigen::Index i = 0; i < m; ++i) {
-      const ClosestPointResult& c = closest[i];
-      target.vertices.col(i) = triangles.col(c.triangle);
-      target.barycentric.col(i) = c.barycentric;
-      double w = 1.0;
-      if (cloud_options.max_distance > 0 && c.distance > cloud_options.max_distance) w = 0.0;
-      if (w > 0 && cloud_options.robust_scale > 0) {
-        const double r = c.distance / cloud_options.robust_scale;
-        w = 1.0 / (1.0 + r * r);
-      }
-      target.weights[i] = w;
-      if (w > 0) {
-        ++used;
-        mean += c.distance;
-      }
-    }
+    const FitTarget target = MatchPointCloud(points, surface, triangles, cloud_options,
+                                             options_.num_threads, &used, &mean);
     if (used < 3) {
       *error = "fewer than 3 scan points lie within --max_distance of the model's surface: is "
                "the scan in the model's frame and units?";
       ok = false;
       break;
     }
-    mean /= used;
+    round_distances.push_back(mean);
     if (previous_mean >= 0 &&
         std::abs(previous_mean - mean) <= cloud_options.relative_tolerance * previous_mean) {
       break;
@@ -412,12 +635,24 @@ bool LatentFitter::FitPointCloud(const Eigen::Matrix3Xd& points,
       break;
     }
     total_iterations += result->iterations;
+    totals.solves += result->solves;
+    totals.solve_factorizations += result->solve_factorizations;
+    totals.solve_seconds += result->solve_seconds;
+    totals.jacobians += result->jacobians;
+    totals.jacobian_seconds += result->jacobian_seconds;
     z = result->latent;
     surface = result->surface;
   }
   options_ = saved;
   if (!ok) return false;
   result->iterations = total_iterations;
+  result->round_distances = round_distances;
+  result->solves = totals.solves;
+  result->solve_factorizations = totals.solve_factorizations;
+  result->solve_seconds = totals.solve_seconds;
+  result->jacobians = totals.jacobians;
+  result->jacobian_seconds = totals.jacobian_seconds;
+  }
   // Final distances from the scan to the fitted surface (closest points).
   const TriangleBvh bvh(result->surface, triangles);
   const std::vector<ClosestPointResult> closest = bvh.ClosestPoints(points, options_.num_threads);
@@ -431,9 +666,115 @@ bool LatentFitter::FitPointCloud(const Eigen::Matrix3Xd& points,
     worst = std::max(worst, c.distance);
   }
   result->used_points = used;
+  result->matched_fraction = static_cast<double>(used) / static_cast<double>(points.cols());
   result->mean_error = used > 0 ? sum / used : 0.0;
   result->rms_error = used > 0 ? std::sqrt(sum_squares / used) : 0.0;
   result->max_error = worst;
+  return true;
+}
+
+double LatentFitter::Objective(const FitTarget& target, const Eigen::Matrix3Xd& surface,
+                               const Eigen::VectorXd& z) const {
+  const double total = TotalWeight(target);
+  const Eigen::Matrix3Xd p = TargetPointsOn(target, surface);
+  double data = 0.0;
+  for (int i = 0; i < target.num_points(); ++i) {
+    const double w = target.weights.size() > 0 ? target.weights[i] : 1.0;
+    Eigen::Vector3d d = p.col(i) - target.positions.col(i);
+    if (target.normals.cols() == target.num_points()) {
+      const Eigen::Vector3d n = target.normals.col(i);
+      const Eigen::Vector3d normal_part = n.dot(d) * n;
+      d = normal_part + target.tangential_weight * (d - normal_part);
+    }
+    data += w * d.squaredNorm();
+  }
+  double cost = data / total + options_.latent_regularization * z.squaredNorm();
+  const double prior_points = PriorPoints(target, options_.prior_points_cap);
+  if (options_.latent_prior > 0) {
+    cost += options_.latent_prior / prior_points * prior_.latent.SquaredMahalanobis(z);
+  }
+  if (options_.fit_bones && options_.bone_prior > 0) {
+    for (size_t b = 0; b < bones_.size(); ++b) {
+      Eigen::VectorXd parameters(6);
+      BoneTransformToParameters(bones_[b], parameters.data());
+      cost += options_.bone_prior / prior_points * prior_.bones[b].SquaredMahalanobis(parameters);
+    }
+  }
+  return cost;
+}
+
+bool LatentFitter::ChooseStart(const FitTarget* target, const Eigen::Matrix3Xd* points,
+                               const PointCloudFitOptions& cloud_options,
+                               const FitStartOptions& options, Eigen::VectorXd* z,
+                               std::string* name, std::string* error) {
+  CHECK((target != nullptr) != (points != nullptr));
+  CHECK_EQ(z->size(), model_.latent_dim());
+  // The objective of a candidate surface; for clouds with the matching it induces.
+  auto score = [&](const Eigen::Matrix3Xd& surface, const Eigen::VectorXd& latent) {
+    if (target != nullptr) return Objective(*target, surface, latent);
+    int used = 0;
+    double mean = 0.0;
+    const FitTarget matched = MatchPointCloud(*points, surface, model_.neutral.triangles,
+                                              cloud_options, options_.num_threads, &used, &mean);
+    if (used < 3) return std::numeric_limits<double>::infinity();
+    return Objective(matched, surface, latent);
+  };
+  double best = std::numeric_limits<double>::infinity();
+  Eigen::VectorXd best_z = *z;
+  std::vector<RigidTransform> best_bones = bones_;
+  Eigen::Matrix3Xd best_state;
+  std::string best_name;
+  // The given start is a training pose's (e.g. the prior's centre, the neutral): that
+  // candidate covers it, with its stored equilibrium instead of a solve.
+  bool given_is_training_pose = false;
+  for (int p = 0; options.training_poses && p < model_.num_poses(); ++p) {
+    bool same = p < static_cast<int>(model_.states.size()) &&
+                model_.states[p].cols() == model_.mesh.num_vertices() &&
+                *z == Eigen::VectorXd(model_.latents.col(p));
+    for (size_t b = 0; same && b < bones_.size(); ++b) {
+      same = bones_[b].rotation == model_.bones[b].pose_transforms[p].rotation &&
+             bones_[b].translation == model_.bones[b].pose_transforms[p].translation;
+    }
+    given_is_training_pose |= same;
+  }
+  if (!given_is_training_pose) {
+    Eigen::Matrix3Xd state, surface;
+    std::string simulate_error;
+    if (Simulate(*z, &state, &surface, &simulate_error)) {
+      best = score(surface, *z);
+      best_state = state;
+      best_name = "given";
+    } else {
+      *error = simulate_error;
+    }
+  }
+  const std::vector<RigidTransform> given_bones = bones_;
+  for (int p = 0; options.training_poses && p < model_.num_poses(); ++p) {
+    if (p >= static_cast<int>(model_.states.size()) ||
+        model_.states[p].cols() != model_.mesh.num_vertices()) {
+      continue;
+    }
+    for (size_t b = 0; b < bones_.size(); ++b) bones_[b] = model_.bones[b].pose_transforms[p];
+    const Eigen::Matrix3Xd surface =
+        EmbeddedPositions(model_.embedding, model_.mesh.tets, model_.states[p]);
+    const double s = score(surface, model_.latents.col(p));
+    if (s < best) {
+      best = s;
+      best_z = model_.latents.col(p);
+      best_bones = bones_;
+      best_state = model_.states[p];
+      best_name = model_.poses[p].name;
+    }
+  }
+  bones_ = given_bones;
+  if (best_name.empty()) {
+    *error = "no start: " + *error;
+    return false;
+  }
+  set_bone_transforms(best_bones);
+  set_start_state(best_state);
+  *z = best_z;
+  *name = best_name;
   return true;
 }
 

@@ -18,15 +18,34 @@ class CostFunction;
 namespace aqs {
 
 struct LatentFitOptions {
-  // Residual sqrt(latent_regularization) z added to the data residuals (the prior the
-  // latents were trained with, in the same units: the data term is the weighted mean
-  // squared distance over the target points).
-  double latent_regularization = 1e-3;
+  // The priors of the model (ActiveModel::fit_prior, learned from its training poses if
+  // it has none): Gaussians over the latent and over each bone's 6 motion parameters,
+  // centred on the neutral. Each adds residuals sqrt(weight / W) L^-1 (x - mean) to the
+  // data residuals sqrt(w_k / W) (p_k - y_k), W = sum_k w_k (the number of target
+  // points for markers and poses; the matched weight for scans). The weights are
+  // squared lengths in model units: the squared distance per target point that one
+  // standard deviation of the prior is worth. So the priors weigh less against many
+  // points than against a few markers, as a Bayesian posterior with that per-point
+  // noise variance would (up to prior_points_cap). 0: off.
+  double latent_prior = 0.03;
+  double bone_prior = 0.03;
+  // W in the priors' weights is at most this many points: target points are not
+  // independent observations (the model's errors are correlated over the surface), so
+  // thousands of scan or pose points must not make the priors vanish. <= 0: no cap.
+  double prior_points_cap = 200;
+  // Legacy isotropic prior: residual sqrt(latent_regularization) z (not scaled by the
+  // number of points; what the latents were trained with). 0: off.
+  double latent_regularization = 0.0;
   // Also fit the rigid motion of each bone of the model (6 numbers each: a rotation
   // vector and a translation of the bone's rest position). Otherwise bones stay where
   // set_bone_transforms put them.
   bool fit_bones = true;
   int max_iterations = 50;
+  // Levenberg-Marquardt stops when the cost changes by less than this fraction in an
+  // iteration (Ceres' function_tolerance) or the step is below parameter_tolerance
+  // relative to the parameters.
+  double function_tolerance = 1e-4;
+  double parameter_tolerance = 1e-10;
   QuasistaticSolverOptions solver;
   int num_threads = 2;
 };
@@ -40,6 +59,12 @@ struct FitTarget {
   Eigen::Matrix3Xd barycentric;
   Eigen::Matrix3Xd positions;
   Eigen::VectorXd weights;
+  // Optional unit normals (3 x K; empty: point-to-point). With them the residual of
+  // point k is P_k (p_k - y_k), P_k = n n^T + tangential_weight (I - n n^T): the
+  // distance to the target's tangent plane plus a fraction of the distance along it
+  // (point-to-plane matching of scans, which lets surfaces slide).
+  Eigen::Matrix3Xd normals;
+  double tangential_weight = 1.0;
 
   int num_points() const { return static_cast<int>(positions.cols()); }
 };
@@ -60,6 +85,16 @@ struct LatentFitResult {
   double rms_error = 0.0, mean_error = 0.0, max_error = 0.0;
   int iterations = 0;  // Levenberg-Marquardt iterations (summed over re-matchings)
   int used_points = 0;  // points with non-zero weight
+  // Point clouds: the fraction of scan points within max_distance of the fitted surface
+  // (mean_error etc. are their matched distances).
+  double matched_fraction = 1.0;
+  // Point clouds: the mean matched distance at the start of each matching round.
+  std::vector<double> round_distances;
+  std::string start;  // where the fit started (ChooseStart), "" if not chosen
+  // Where the time went: equilibrium solves (count, stiffness factorizations, seconds)
+  // and Jacobians (count, seconds: one factorization and the products each).
+  int solves = 0, solve_factorizations = 0, jacobians = 0;
+  double solve_seconds = 0.0, jacobian_seconds = 0.0;
   bool converged = false;
   std::string message;
 };
@@ -78,6 +113,25 @@ struct PointCloudFitOptions {
   double robust_scale = 0.2;
   // Stop when the mean matched distance changes by less than this fraction.
   double relative_tolerance = 1e-3;
+  // Point-to-plane residuals (FitTarget::normals, the matched triangle's normal) with
+  // this weight on the tangential part; >= 1: point-to-point. (Matching rounds only.)
+  double tangential_weight = 0.2;
+  // One Levenberg-Marquardt solve whose residuals are the scan points' robust
+  // distances to the surface, re-matched at every evaluation (see FitPointCloud),
+  // instead of matching rounds with fixed correspondences.
+  bool rematch_every_evaluation = true;
+};
+
+// Where fits start (LatentFitter::ChooseStart).
+struct FitStartOptions {
+  // Consider the training poses with a stored equilibrium (their latent, bone motions
+  // and equilibrium) besides the given start, and start from whichever has the
+  // smallest objective (the fit's data term plus priors; for scans, with the matching
+  // of the first round).
+  bool training_poses = true;
+  // The given start of aqs_fit and the benchmark: the mean of the training latents
+  // (what fits did before priors) instead of the latent prior's centre.
+  bool mean_latent = false;
 };
 
 // Fits the latent (and bone motions) of a trained model to targets with the decoder
@@ -111,7 +165,12 @@ class LatentFitter {
   bool Fit(const FitTarget& target, const Eigen::VectorXd& initial, LatentFitResult* result,
            std::string* error);
 
-  // Fits to a point cloud (3 x M, in the model's frame) by re-matched closest points.
+  // Fits to a point cloud (3 x M, in the model's frame) by re-matched closest points:
+  // with rematch_every_evaluation, minimizes
+  //   (1/M) sum_i R(min(d_i, max_distance))^2 + priors,  R(d) = d / sqrt(1 + (d/s)^2),
+  // d_i the distance of scan point i to the simulated surface (its closest point found
+  // at every evaluation, s = robust_scale: the Cauchy-weighted squared distance of the
+  // rounds); otherwise rounds of matching, then fitting with fixed correspondences.
   bool FitPointCloud(const Eigen::Matrix3Xd& points, const PointCloudFitOptions& cloud_options,
                      const Eigen::VectorXd& initial, LatentFitResult* result, std::string* error);
 
@@ -122,13 +181,35 @@ class LatentFitter {
   // The report of Simulate's last equilibrium solve.
   const QuasistaticSolveReport& last_simulate_report() const { return last_simulate_report_; }
 
-  // The mean of the training latents (a neutral starting point).
+  // The mean of the training latents.
   Eigen::VectorXd MeanLatent() const;
+  // The centre of the latent prior (the neutral's latent when the neutral is a
+  // training pose): the default start of fits.
+  Eigen::VectorXd PriorLatent() const { return prior_.latent.mean; }
+  const FitPrior& prior() const { return prior_; }
+
+  // Chooses the start of a fit to `target` (or, with a non-null `points`, to that point
+  // cloud): among latent *z with the current bone transforms and start state, and (with
+  // options.training_poses) each training pose's latent, bones and stored equilibrium,
+  // the one with the smallest objective. Sets the bones and start state, *z and
+  // *name ("given" or the pose's name). Returns false with *error if the given start
+  // cannot be simulated and no training pose is available.
+  bool ChooseStart(const FitTarget* target, const Eigen::Matrix3Xd* points,
+                   const PointCloudFitOptions& cloud_options, const FitStartOptions& options,
+                   Eigen::VectorXd* z, std::string* name, std::string* error);
+
+  // The objective of Fit at a simulated surface (3 x num_surface_vertices), latent z
+  // and the current bone transforms: data term plus priors.
+  double Objective(const FitTarget& target, const Eigen::Matrix3Xd& surface,
+                   const Eigen::VectorXd& z) const;
 
   // The data cost Fit minimizes, as a Ceres cost function (parameter blocks: z, then 6
   // numbers per bone if bones are fitted), for derivative tests. `target` must outlive
   // it; it uses this fitter's solver.
   ceres::CostFunction* NewCostFunction(const FitTarget& target);
+  // The same for a point cloud's re-matched robust distances (`points` must outlive it).
+  ceres::CostFunction* NewCloudCostFunction(const Eigen::Matrix3Xd& points,
+                                            const PointCloudFitOptions& options);
 
  private:
   class FitCost;
@@ -139,6 +220,12 @@ class LatentFitter {
   std::unique_ptr<EquilibriumDifferentiator> differentiator_;
   std::vector<RigidTransform> bones_;
   QuasistaticSolveReport last_simulate_report_;
+  FitPrior prior_;
+  // Counters of the current fit (LatentFitResult's solves ... jacobian_seconds).
+  LatentFitResult stats_;
+  // Set by FitPointCloud while Fit solves the re-matched closest-point problem.
+  const Eigen::Matrix3Xd* direct_cloud_ = nullptr;
+  PointCloudFitOptions direct_cloud_options_;
   // Where equilibrium solves start (see set_start_state).
   Eigen::Matrix3Xd accepted_state_;
 };

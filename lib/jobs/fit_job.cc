@@ -152,7 +152,7 @@ FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log) {
       << (kind == "points" ? cloud.cols() : target.num_points()) << " points)\n";
 
   LatentFitter fitter(model, options.fit);
-  Eigen::VectorXd initial = fitter.MeanLatent();
+  Eigen::VectorXd initial = options.start.mean_latent ? fitter.MeanLatent() : fitter.PriorLatent();
   if (!options.initial_latent.empty()) {
     std::vector<RigidTransform> bones;
     if (!ReadLatentFile(options.initial_latent, model.latent_dim(), BoneNames(model), &initial,
@@ -163,6 +163,14 @@ FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log) {
   }
   FitJobResult result;
   result.kind = kind;
+  std::string start;
+  if (!fitter.ChooseStart(kind == "points" ? nullptr : &target, kind == "points" ? &cloud : nullptr,
+                          options.points, options.start, &initial, &start, &error)) {
+    result.status = JobStatus::kNotConverged;
+    result.message = error;
+    return result;
+  }
+  log << "start: " << start << "\n";
   const bool ok = kind == "points"
                       ? fitter.FitPointCloud(cloud, options.points, initial, &result.fit, &error)
                       : fitter.Fit(target, initial, &result.fit, &error);
@@ -174,7 +182,15 @@ FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log) {
   const LatentFitResult& fit = result.fit;
   log << std::setprecision(6) << "fit: " << fit.iterations << " iterations, error mean "
       << fit.mean_error << " rms " << fit.rms_error << " max " << fit.max_error << " over "
-      << fit.used_points << " points (" << fit.message << ")\nlatent:";
+      << fit.used_points << " points (" << fit.message << ")\n";
+  if (kind == "points") {
+    log << "scan: " << fit.used_points << " of " << cloud.cols() << " points matched ("
+        << 100.0 * fit.matched_fraction << "%), matched distance mean " << fit.mean_error
+        << " rms " << fit.rms_error << "; at each matching round:";
+    for (double d : fit.round_distances) log << ' ' << d;
+    log << "\n";
+  }
+  log << "latent:";
   for (Eigen::Index i = 0; i < fit.latent.size(); ++i) log << ' ' << fit.latent[i];
   log << "\n";
   for (size_t b = 0; b < model.bones.size(); ++b) {

@@ -31,6 +31,7 @@ struct FitJobOptions {
   std::vector<int> compare_vertices;
   LatentFitOptions fit;
   PointCloudFitOptions points;
+  FitStartOptions start;
 };
 
 struct FitJobResult {

@@ -12,6 +12,7 @@
 #include "geometry/embedding.h"
 #include "geometry/rigid_transform.h"
 #include "learn/decoder.h"
+#include "model/fit_prior.h"
 #include "mesh/surface_mesh.h"
 #include "mesh/tet_mesh.h"
 #include "physics/actuation.h"
@@ -63,6 +64,9 @@ struct ActiveModel {
   Eigen::MatrixXd latents;            // latent_dim x num_poses
   std::vector<Eigen::Matrix3Xd> states;  // per pose: last equilibrium (empty if none)
   TrainingCheckpoint checkpoint;         // training progress of this learned state
+  // The priors of fits (prior.txt; learned from latents and bones when the model has no
+  // such file; empty before pre-training).
+  FitPrior fit_prior;
 
   int num_poses() const { return static_cast<int>(poses.size()); }
   int num_surface_vertices() const { return neutral.num_vertices(); }

@@ -98,12 +98,20 @@ bool ReadCheckpoint(const std::string& path, TrainingCheckpoint* checkpoint,
   return true;
 }
 
-// The learned unit's files into `dir` (learned/ or its staging directory).
+std::vector<std::string> BoneNames(const ActiveModel& model) {
+  std::vector<std::string> names;
+  for (const Bone& bone : model.bones) names.push_back(bone.name);
+  return names;
+}
+
+// The learned unit's files into `dir` (learned/ or its staging directory). The fit
+// prior is learned from the latents being written, so it always belongs to them.
 bool WriteLearned(const std::string& dir, const ActiveModel& model, std::string* error) {
   if (model.decoder) {
     if (!SaveDecoder(dir + "/decoder.txt", model.decoder->spec(),
                      model.decoder->field().description(), model.decoder_params, error) ||
-        !WriteMatrixFile(dir + "/latents.bin", model.latents, error)) {
+        !WriteMatrixFile(dir + "/latents.bin", model.latents, error) ||
+        !WriteFitPrior(dir + "/prior.txt", LearnFitPrior(model), BoneNames(model), error)) {
       return false;
     }
   }
@@ -254,6 +262,7 @@ bool ReadLearned(const std::string& dir, const std::string& checkpoint_path, Act
   model->decoder_params.resize(0);
   model->latents.resize(0, 0);
   model->states.clear();
+  model->fit_prior = FitPrior();
   std::string fingerprint;
   if (!ReadCheckpoint(checkpoint_path, &model->checkpoint, &fingerprint, error)) return false;
   const std::string own = fingerprint.empty() ? "" : FingerprintText(ModelFingerprint(*model));
@@ -282,6 +291,12 @@ bool ReadLearned(const std::string& dir, const std::string& checkpoint_path, Act
       return false;
     }
     model->latents = matrix;
+    // The fit prior, if the unit has one (else learned once the model is validated).
+    if (fs::exists(dir + "/prior.txt") &&
+        !ReadFitPrior(dir + "/prior.txt", spec.latent_dim, BoneNames(*model), &model->fit_prior,
+                      error)) {
+      return false;
+    }
   }
   if (fs::exists(dir + "/states")) {
     const int nv = model->mesh.num_vertices();
@@ -538,6 +553,7 @@ bool LoadModel(const std::string& directory, ActiveModel* model_out, std::string
     }
   }
   if (!ValidateModel(model, dir, error)) return false;
+  if (model.decoder && model.fit_prior.empty()) model.fit_prior = LearnFitPrior(model);
   *model_out = std::move(model);
   return true;
 }

@@ -181,6 +181,117 @@ TEST_F(AqsFitTest, MarkersAndPointCloudTargets) {
   EXPECT_NE(run.output.find(": points"), std::string::npos) << run.output;
 }
 
+// Writes a markers file of `surface` on every 8th surface vertex.
+void WriteMarkers(const std::string& path, const Eigen::Matrix3Xd& surface) {
+  std::ofstream out(path);
+  for (int v = 0; v < surface.cols(); v += 8) {
+    out << v << " " << surface(0, v) << " " << surface(1, v) << " " << surface(2, v) << "\n";
+  }
+}
+
+std::vector<std::string> ReadLines(const std::string& path) {
+  std::ifstream in(path);
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  return lines;
+}
+
+TEST_F(AqsFitTest, MarkerSequenceWritesEveryFrameAndResumesAfterAKill) {
+  namespace fs = std::filesystem;
+  const std::string seq = dir_->File("seq"), out = dir_->File("seq_out");
+  fs::create_directories(seq);
+  for (int f = 0; f < 4; ++f) {
+    WriteMarkers(seq + "/frame_" + std::to_string(f) + ".txt", data_->model.poses[f].surface);
+  }
+  const std::string command = Fit("--sequence=" + seq + " --output_dir=" + out);
+  testing::CommandResult run = RunCommand(command);
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("frames/s, ETA"), std::string::npos) << run.output;
+  for (int f = 0; f < 4; ++f) {
+    EXPECT_TRUE(fs::exists(out + "/frame_" + std::to_string(f) + ".obj")) << f;
+  }
+  EXPECT_TRUE(fs::exists(out + "/latents.bin"));
+  std::vector<std::string> rows = ReadLines(out + "/frames.csv");
+  ASSERT_EQ(rows.size(), 5u) << "a header and a row per frame";
+  EXPECT_EQ(rows[4].rfind("3,frame_3,markers,", 0), 0u) << rows[4];
+  // A kill after frame 3's OBJ was written but before its row: the row is missing.
+  {
+    std::ofstream csv(out + "/frames.csv");
+    for (int i = 0; i < 4; ++i) csv << rows[i] << "\n";
+  }
+  run = RunCommand(command);
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("resuming at frame 3 (frame_3): 3 frames done"), std::string::npos)
+      << run.output;
+  EXPECT_NE(run.output.find("fitted 1 frames"), std::string::npos) << run.output;
+  EXPECT_EQ(ReadLines(out + "/frames.csv").size(), 5u);
+  // A kill while frame 2's OBJ was being written: its row is there (from before) but the
+  // OBJ is not; frames 2 and 3 are fitted again.
+  fs::remove(out + "/frame_2.obj");
+  run = RunCommand(command);
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("resuming at frame 2"), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find("fitted 2 frames"), std::string::npos) << run.output;
+  // Nothing left to do.
+  run = RunCommand(command);
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("all 4 frames were done already"), std::string::npos) << run.output;
+  // Another sequence into the same folder is refused.
+  const std::string other = dir_->File("seq_other");
+  fs::create_directories(other);
+  WriteMarkers(other + "/a.txt", data_->model.poses[0].surface);
+  run = RunCommand(Fit("--sequence=" + other + " --output_dir=" + out));
+  EXPECT_EQ(run.exit_code, 1) << run.output;
+  EXPECT_NE(run.output.find("frames.csv:2: frame 0 is 'frame_0', but this sequence's is 'a'"),
+            std::string::npos) << run.output;
+}
+
+TEST_F(AqsFitTest, BadSequencesFailNamingTheFileAndLine) {
+  namespace fs = std::filesystem;
+  const std::string d = dir_->File("bad_seq");
+  fs::create_directories(d);
+  WriteMarkers(d + "/good.txt", data_->model.poses[0].surface);
+  std::ofstream(d + "/repeated.txt") << "3 0 0 0\n# comment\n3 1 1 1\n";
+  std::ofstream(d + "/outside.txt") << "5 0 0 0\n99999 0 0 0\n";
+  std::ofstream(d + "/empty.ply") << "ply\nformat ascii 1.0\nelement vertex 0\n"
+                                     "property float x\nproperty float y\nproperty float z\n"
+                                     "end_header\n";
+  std::ofstream(d + "/scan.ply") << "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+                                    "property float y\nproperty float z\nend_header\n"
+                                    "0 0 0\n1 0 0\n0 1 0\n";
+  SurfaceMesh small;
+  small.vertices = Eigen::Matrix3Xd::Random(3, 10);
+  std::string error;
+  ASSERT_TRUE(WriteObj(d + "/small.obj", small, &error));
+  std::ofstream(d + "/mixed.txt") << "# frames\ngood.txt\nscan.ply\n";
+  std::ofstream(d + "/poses.txt") << dir_->File("test0.obj") << "\nsmall.obj\n";
+  const std::string out = " --output_dir=" + dir_->File("bad_seq_out");
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"--sequence=" + d + "/good.txt," + d + "/repeated.txt",
+       "repeated.txt:3: vertex 3 is given again (first on line 1)"},
+      {"--sequence=" + d + "/good.txt," + d + "/outside.txt",
+       "outside.txt:2: surface vertex 99999 is outside"},
+      {"--sequence=" + d + "/mixed.txt",
+       "mixed.txt:3: " + d + "/scan.ply: a points target, but the sequence's first frame " + d +
+           "/good.txt is a markers target"},
+      {"--sequence=" + d + "/poses.txt",
+       "poses.txt:2: " + d + "/small.obj: 10 vertices, but the model's surface (and the first "
+       "frame's) has"},
+      {"--sequence=" + d + "/poses.txt --target_kind=pose",
+       "poses.txt:2: " + d + "/small.obj: 10 vertices, but the model's surface (and the first "
+       "frame's) has"},
+      {"--sequence=" + d + "/scan.ply," + d + "/empty.ply", "empty.ply: the file has no points"},
+      {"--sequence=" + d + "/nothing*.txt", "matches no target files"},
+      {"--sequence=" + d + "/good.txt", "--output_dir are required"},
+  };
+  for (const auto& [flags, message] : cases) {
+    const std::string command = Fit(flags + (message.find("output_dir") == std::string::npos ? out : ""));
+    const testing::CommandResult run = RunCommand(command);
+    EXPECT_EQ(run.exit_code, 1) << command << "\n" << run.output;
+    EXPECT_NE(run.output.find(message), std::string::npos) << command << "\n" << run.output;
+  }
+}
+
 TEST_F(AqsFitTest, MalformedTargetsFailClearly) {
   std::ofstream(dir_->File("bad_markers.txt")) << "3 0.1 0.2\n";
   std::ofstream(dir_->File("far_markers.txt")) << "99999 0 0 0\n";

@@ -10,6 +10,7 @@
 #include <ceres/manifold.h>
 #include <gtest/gtest.h>
 
+#include "geometry/embedding.h"
 #include "prepare/volumetric_targets.h"
 #include "testing/finite_difference.h"
 #include "train/pretrain.h"
@@ -57,7 +58,12 @@ TEST(LatentFitTest, CostJacobianPassesGradientChecker) {
   std::vector<int> vertices = {3, 20, 41, 57, 77};
   Eigen::Matrix3Xd positions = model.neutral.vertices(Eigen::all, vertices);
   const FitTarget target = VertexTarget(vertices, positions);
-  std::unique_ptr<ceres::CostFunction> cost(fitter.NewCostFunction(target));
+  // Point-to-point, and point-to-plane with normals as scans use.
+  FitTarget plane_target = target;
+  plane_target.normals = Eigen::Matrix3Xd::Random(3, 5).colwise().normalized();
+  plane_target.tangential_weight = 0.2;
+  for (const FitTarget* checked : std::vector<const FitTarget*>{&target, &plane_target}) {
+  std::unique_ptr<ceres::CostFunction> cost(fitter.NewCostFunction(*checked));
   ASSERT_EQ(cost->parameter_block_sizes().size(), 2u);
   Eigen::VectorXd z = model.latents.col(2);
   double bone[6] = {0.05, -0.03, 0.02, 0.01, 0.02, -0.01};
@@ -74,6 +80,51 @@ TEST(LatentFitTest, CostJacobianPassesGradientChecker) {
   for (int block = 0; block < 2; ++block) {
     EXPECT_LT(testing::RelativeError(results.jacobians[block], results.numeric_jacobians[block]),
               1e-6)
+        << "block " << block << "\n" << results.error_log;
+  }
+  }
+}
+
+TEST(LatentFitTest, CloudCostJacobianPassesGradientChecker) {
+  // The re-matched robust closest-point distances of a scan: points off a deformed
+  // surface (noise along the normals and sideways), some beyond the robust scale.
+  const ActiveModel model = TrainedModel(true);
+  LatentFitOptions options;
+  options.solver.relative_force_tolerance = 1e-12;
+  LatentFitter fitter(model, options);
+  // The surface at the probed parameters, so that the points sit where intended.
+  Eigen::VectorXd z = model.latents.col(2);
+  double bone[6] = {0.02, -0.01, 0.01, 0.01, 0.0, -0.01};
+  fitter.set_bone_transforms({BoneTransformFromParameters(bone)});
+  Eigen::Matrix3Xd state, surface;
+  std::string error;
+  ASSERT_TRUE(fitter.Simulate(z, &state, &surface, &error)) << error;
+  // Off triangle interiors along their outward normals, at 0.005 to 0.02 (generic
+  // points: a unique closest point inside the triangle).
+  Eigen::Matrix3Xd points(3, 40);
+  for (int i = 0; i < 40; ++i) {
+    const Eigen::Vector3i t = model.neutral.triangles.col((7 * i) % model.neutral.triangles.cols());
+    const Eigen::Vector3d a = surface.col(t[0]), b = surface.col(t[1]), c = surface.col(t[2]);
+    const Eigen::Vector3d n = (b - a).cross(c - a).normalized();
+    const double offset = 0.005 + 0.015 * (i % 7) / 6.0;
+    points.col(i) = (a + b + 2 * c) / 4 + offset * n;
+  }
+  PointCloudFitOptions cloud;
+  cloud.robust_scale = 0.03;
+  cloud.max_distance = 1.0;
+  std::unique_ptr<ceres::CostFunction> cost(fitter.NewCloudCostFunction(points, cloud));
+  ASSERT_EQ(cost->num_residuals(), 40);
+  const double* parameters[2] = {z.data(), bone};
+  ceres::NumericDiffOptions numeric_options;
+  numeric_options.ridders_relative_initial_step_size = 1e-3;
+  const std::vector<const ceres::Manifold*>* no_manifolds = nullptr;
+  ceres::GradientChecker checker(cost.get(), no_manifolds, numeric_options);
+  ceres::GradientChecker::ProbeResults results;
+  checker.Probe(parameters, 1e-6, &results);
+  ASSERT_EQ(results.jacobians.size(), 2u);
+  for (int block = 0; block < 2; ++block) {
+    EXPECT_LT(testing::RelativeError(results.jacobians[block], results.numeric_jacobians[block]),
+              1e-5)
         << "block " << block << "\n" << results.error_log;
   }
 }
@@ -103,7 +154,7 @@ TEST(LatentFitTest, TrialEvaluationsDoNotChangeLaterOnes) {
 TEST(LatentFitTest, RecoversAKnownLatentFromAnotherStart) {
   const ActiveModel model = TrainedModel(false);
   LatentFitOptions options;
-  options.latent_regularization = 0.0;
+  options.latent_prior = options.bone_prior = 0.0;  // the data term's own optimum
   options.solver.relative_force_tolerance = 1e-10;
   LatentFitter fitter(model, options);
   const Eigen::VectorXd truth = 0.5 * (model.latents.col(1) + model.latents.col(4));
@@ -119,7 +170,7 @@ TEST(LatentFitTest, RecoversAKnownLatentFromAnotherStart) {
 TEST(LatentFitTest, RecoversLatentAndBoneMotion) {
   const ActiveModel model = TrainedModel(true);
   LatentFitOptions options;
-  options.latent_regularization = 0.0;
+  options.latent_prior = options.bone_prior = 0.0;  // the data term's own optimum
   options.solver.relative_force_tolerance = 1e-10;
   LatentFitter fitter(model, options);
   RigidTransform moved;
@@ -182,6 +233,95 @@ TEST(LatentFitTest, PointCloudFitRecoversPoseFromPartialNoisyShuffledScan) {
   const double motion = (surface - model.neutral.vertices).colwise().norm().mean();
   EXPECT_LT(vertex_error, 0.1 * motion) << "mean vertex error " << vertex_error << " vs motion " << motion;
   EXPECT_LT(fit.mean_error, 0.01);
+}
+
+TEST(LatentFitTest, BoneWithoutDataNearItEndsAtThePriorMean) {
+  // A bone of one corner vertex of the fixed end; markers only on the far half of the
+  // bar, which the corner's motion barely moves. With the bone prior the fit puts the
+  // bone at the prior's mean (10 standard deviations from the start at rest); without
+  // it the bone stays near its start.
+  ActiveModel model = TrainedModel(false);
+  int corner = model.static_vertices[0];
+  for (int v : model.static_vertices) {
+    if (model.mesh.vertices.col(v).sum() < model.mesh.vertices.col(corner).sum()) corner = v;
+  }
+  model.static_vertices.erase(
+      std::find(model.static_vertices.begin(), model.static_vertices.end(), corner));
+  Bone bone;
+  bone.name = "corner";
+  bone.vertices = {corner};
+  bone.pose_transforms.assign(model.num_poses(), RigidTransform());
+  model.bones.push_back(bone);
+  model.fit_prior = LearnFitPrior(model);
+  Eigen::VectorXd mean(6);
+  const double translation_std = std::sqrt(model.fit_prior.bones[0].covariance(4, 4));
+  mean << 0, 0, 0, 0, 10 * translation_std, 0;
+  model.fit_prior.bones[0].mean = mean;
+  std::vector<int> vertices;
+  for (int v = 0; v < model.num_surface_vertices(); ++v) {
+    if (model.neutral.vertices(0, v) > 1.0) vertices.push_back(v);
+  }
+  Eigen::Matrix3Xd state, surface;
+  std::string error;
+  {
+    LatentFitter truth(model, LatentFitOptions());
+    ASSERT_TRUE(truth.Simulate(model.latents.col(3), &state, &surface, &error)) << error;
+  }
+  const FitTarget target = VertexTarget(vertices, surface(Eigen::all, vertices));
+  for (const double bone_prior : {0.01, 0.0}) {
+    LatentFitOptions options;
+    options.bone_prior = bone_prior;
+    options.latent_prior = 0.0;  // the latent explains the data exactly
+    options.solver.relative_force_tolerance = 1e-10;
+    LatentFitter fitter(model, options);
+    LatentFitResult fit;
+    ASSERT_TRUE(fitter.Fit(target, fitter.PriorLatent(), &fit, &error)) << error;
+    Eigen::VectorXd p(6);
+    BoneTransformToParameters(fit.bones[0], p.data());
+    const double distance = std::sqrt(model.fit_prior.bones[0].SquaredMahalanobis(p));
+    if (bone_prior > 0) {
+      EXPECT_LT(distance, 0.05) << "bone parameters " << p.transpose();
+      // The markers were made with the bone at rest; the corner moved to the mean shifts
+      // the far half a little, which the latent takes up.
+      EXPECT_LT(fit.mean_error, 0.01);
+    } else {
+      EXPECT_GT(distance, 5.0) << "without the prior nothing pulls the bone to its mean";
+    }
+  }
+}
+
+TEST(LatentFitTest, StartIsTheTrainingPoseClosestToTheTarget) {
+  ActiveModel model = TrainedModel(true);
+  std::string error;
+  {
+    LatentFitter simulator(model, LatentFitOptions());
+    model.states.assign(model.num_poses(), Eigen::Matrix3Xd());
+    for (int p = 0; p < model.num_poses(); ++p) {
+      Eigen::Matrix3Xd surface;
+      ASSERT_TRUE(simulator.Simulate(model.latents.col(p), &model.states[p], &surface, &error));
+    }
+  }
+  LatentFitter fitter(model, LatentFitOptions());
+  const int chosen_pose = 4;
+  const Eigen::Matrix3Xd surface =
+      EmbeddedPositions(model.embedding, model.mesh.tets, model.states[chosen_pose]);
+  Eigen::VectorXd z = fitter.PriorLatent();
+  std::string name;
+  const FitTarget target = FullSurfaceTarget(surface);
+  ASSERT_TRUE(fitter.ChooseStart(&target, nullptr, PointCloudFitOptions(), FitStartOptions(), &z,
+                                 &name, &error)) << error;
+  EXPECT_EQ(name, model.poses[chosen_pose].name);
+  EXPECT_EQ(z, Eigen::VectorXd(model.latents.col(chosen_pose)));
+  // A scan of it (its vertices, no correspondence) picks it too.
+  z = fitter.PriorLatent();
+  ASSERT_TRUE(fitter.ChooseStart(nullptr, &surface, PointCloudFitOptions(), FitStartOptions(), &z,
+                                 &name, &error)) << error;
+  EXPECT_EQ(name, model.poses[chosen_pose].name);
+  // Without the training poses the given start stays.
+  FitStartOptions given;
+  given.training_poses = false;
+  ASSERT_TRUE(fitter.ChooseStart(&target, nullptr, PointCloudFitOptions(), given, &z, &name, &error));
+  EXPECT_EQ(name, "given");
 }
 
 }  // namespace

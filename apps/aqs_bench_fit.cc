@@ -1,0 +1,69 @@
+// aqs_bench_fit: fits a trained model to a test set made by scripts/make_fit_tests.py
+// (sparse markers, full poses, scans, a marker sequence) and compares with ridge PCA
+// and the neutral face; prints per-fit lines and summary tables, writes
+// fit_benchmark.csv and fit_benchmark.md. A benchmark, not a test (docs/fitting.md).
+// Exit status: 0 done; 1 bad input.
+
+#include <iostream>
+
+#include <gflags/gflags.h>
+
+#include "app_common.h"
+#include "fit_flags.h"
+#include "jobs/evaluate_job.h"
+#include "jobs/fit_benchmark.h"
+
+DECLARE_string(model);
+DEFINE_string(test_set, "", "The test-set folder (scripts/make_fit_tests.py --out).");
+DEFINE_string(output_dir, "", "Where fit_benchmark.csv and fit_benchmark.md go.");
+DEFINE_string(error_vertices, "0:9409", "Surface vertices measured (the ICT face region).");
+DEFINE_string(marker_counts, "20,60", "Marker sets to fit (markers/mix_NNN_mK.txt).");
+DEFINE_string(parts, "markers,poses,scans,sequence", "What to run: markers, poses, scans, sequence.");
+DEFINE_int32(max_mixes, -1, "Only the first N mixes (< 0: all).");
+DEFINE_int32(sequence_frames, -1, "Only the first N sequence frames (< 0: all).");
+
+int main(int argc, char** argv) {
+  aqs::InitApp("Benchmark fits against ridge PCA and the neutral.\n"
+               "  aqs_bench_fit --model=MODEL --test_set=DIR --output_dir=OUT",
+               &argc, &argv);
+  aqs::FitBenchmarkOptions options;
+  options.model = FLAGS_model;
+  options.test_set = FLAGS_test_set;
+  options.output_dir = FLAGS_output_dir;
+  options.max_mixes = FLAGS_max_mixes;
+  options.sequence_frames = FLAGS_sequence_frames;
+  std::string error;
+  if (!aqs::FitOptionsFromFlags(&options.fit, &options.points, &options.start, &error) ||
+      (!FLAGS_error_vertices.empty() &&
+       !aqs::ParseVertexRanges(FLAGS_error_vertices, &options.error_vertices, &error))) {
+    aqs::PrintError(error);
+    return 1;
+  }
+  options.marker_counts.clear();
+  for (const std::string& k : aqs::SplitCommaList(FLAGS_marker_counts)) {
+    try {
+      options.marker_counts.push_back(std::stoi(k));
+    } catch (...) {
+      aqs::PrintError("--marker_counts: '" + k + "' is not a number");
+      return 1;
+    }
+  }
+  options.markers = options.poses = options.scans = options.sequence = false;
+  for (const std::string& part : aqs::SplitCommaList(FLAGS_parts)) {
+    if (part == "markers") {
+      options.markers = true;
+    } else if (part == "poses") {
+      options.poses = true;
+    } else if (part == "scans") {
+      options.scans = true;
+    } else if (part == "sequence") {
+      options.sequence = true;
+    } else {
+      aqs::PrintError("--parts: unknown part '" + part + "' (markers, poses, scans, sequence)");
+      return 1;
+    }
+  }
+  const aqs::JobStatus status = aqs::RunFitBenchmark(options, std::cout, &error);
+  if (status != aqs::JobStatus::kOk) aqs::PrintError(error);
+  return status == aqs::JobStatus::kOk ? 0 : 1;
+}

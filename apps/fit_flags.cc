@@ -1,0 +1,82 @@
+#include "fit_flags.h"
+
+#include <algorithm>
+
+#include <gflags/gflags.h>
+
+#include "app_common.h"
+
+DEFINE_bool(fit_bones, true, "Also fit the model's bone motions (e.g. the jaw).");
+DEFINE_double(latent_prior, 0.03, "Weight of the latent prior (the model's prior.txt: a Gaussian "
+              "of the training latents, centred on the neutral): the squared distance per target "
+              "point (model units^2) that one standard deviation is worth. 0: off.");
+DEFINE_double(bone_prior, 0.03, "Weight of the bone-motion prior (prior.txt: a Gaussian of the "
+              "training poses' bone motions, centred on rest), in the same units. 0: off.");
+DEFINE_double(prior_points_cap, 200, "The priors' weights are divided by the number of target "
+              "points, at most this many (correlated points must not make them vanish). 0: no cap.");
+DEFINE_double(fit_regularization, 0.0, "Legacy isotropic latent prior |z|^2 (not scaled by the "
+              "number of target points). 0: off.");
+DEFINE_int32(fit_iterations, 50, "Levenberg-Marquardt iterations (per matching round for points).");
+DEFINE_double(fit_function_tolerance, 1e-4, "Levenberg-Marquardt stops when an iteration changes "
+              "the cost by less than this fraction.");
+DEFINE_double(max_distance, 1.0, "Points: ignore scan points farther than this from the surface.");
+DEFINE_double(robust_scale, 0.2, "Points: Cauchy scale of the robust weights (0: none).");
+DEFINE_int32(rounds, 8, "Points: matching rounds.");
+DEFINE_double(tangential_weight, 0.2, "Points: weight of the distance along the matched "
+              "triangle's plane (point-to-plane matching; 1: point-to-point).");
+DEFINE_double(round_tolerance, 1e-3, "Points: stop when a round changes the mean matched distance "
+              "by less than this fraction.");
+DEFINE_int32(round_iterations, 6, "Points: Levenberg-Marquardt iterations per matching round.");
+DEFINE_double(fit_tolerance, 1e-6, "Relative force tolerance of the equilibria.");
+DEFINE_bool(choose_start, true, "Start from the best of the given start (prior centre or "
+            "--initial_latent) and the training poses, by the fit's objective.");
+DEFINE_string(start_latent, "prior", "The given start: 'prior' (the latent prior's centre) or "
+              "'mean' (the mean training latent).");
+DECLARE_int32(threads);
+
+namespace aqs {
+
+bool FitOptionsFromFlags(LatentFitOptions* fit, PointCloudFitOptions* points,
+                         FitStartOptions* start, std::string* error) {
+  if (FLAGS_latent_prior < 0 || FLAGS_bone_prior < 0 || FLAGS_fit_regularization < 0) {
+    *error = "--latent_prior, --bone_prior and --fit_regularization must be >= 0";
+    return false;
+  }
+  if (FLAGS_fit_iterations < 1 || FLAGS_rounds < 1 || FLAGS_round_iterations < 1) {
+    *error = "--fit_iterations, --rounds and --round_iterations must be >= 1";
+    return false;
+  }
+  if (!(FLAGS_fit_function_tolerance > 0) || !(FLAGS_fit_tolerance > 0)) {
+    *error = "--fit_function_tolerance and --fit_tolerance must be > 0";
+    return false;
+  }
+  fit->fit_bones = FLAGS_fit_bones;
+  fit->latent_prior = FLAGS_latent_prior;
+  fit->bone_prior = FLAGS_bone_prior;
+  fit->latent_regularization = FLAGS_fit_regularization;
+  fit->prior_points_cap = FLAGS_prior_points_cap;
+  fit->max_iterations = FLAGS_fit_iterations;
+  fit->function_tolerance = FLAGS_fit_function_tolerance;
+  fit->solver.relative_force_tolerance = FLAGS_fit_tolerance;
+  if (!SolverMethodFromFlag(&fit->solver, error)) return false;
+  fit->num_threads = FLAGS_threads;
+  points->max_distance = FLAGS_max_distance;
+  points->robust_scale = FLAGS_robust_scale;
+  points->max_rounds = FLAGS_rounds;
+  points->tangential_weight = FLAGS_tangential_weight;
+  points->relative_tolerance = FLAGS_round_tolerance;
+  if (FLAGS_tangential_weight < 0 || FLAGS_round_tolerance < 0) {
+    *error = "--tangential_weight and --round_tolerance must be >= 0";
+    return false;
+  }
+  points->iterations_per_round = FLAGS_round_iterations;
+  start->training_poses = FLAGS_choose_start;
+  if (FLAGS_start_latent != "prior" && FLAGS_start_latent != "mean") {
+    *error = "--start_latent must be prior or mean, got '" + FLAGS_start_latent + "'";
+    return false;
+  }
+  start->mean_latent = FLAGS_start_latent == "mean";
+  return true;
+}
+
+}  // namespace aqs

@@ -1,0 +1,17 @@
+#ifndef AQS_APPS_FIT_FLAGS_H_
+#define AQS_APPS_FIT_FLAGS_H_
+
+#include <string>
+
+#include "fit/latent_fit.h"
+
+namespace aqs {
+
+// The fit options of aqs_fit and aqs_bench_fit from their shared flags (fit_flags.cc).
+// Returns false with *error naming the flag for a bad value.
+bool FitOptionsFromFlags(LatentFitOptions* fit, PointCloudFitOptions* points,
+                         FitStartOptions* start, std::string* error);
+
+}  // namespace aqs
+
+#endif  // AQS_APPS_FIT_FLAGS_H_

@@ -1,0 +1,431 @@
+#include "jobs/fit_benchmark.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <iomanip>
+#include <map>
+#include <sstream>
+
+#include <Eigen/Geometry>
+
+#include "equilibrium/stiffness_factorization.h"
+#include "eval/surface_pca.h"
+#include "io/vertex_list_io.h"
+#include "jobs/fit_sequence.h"
+#include "mesh/mesh_io.h"
+#include "mesh/ply_io.h"
+#include "model/model_io.h"
+#include "util/atomic_file.h"
+#include "util/line_reader.h"
+#include "util/wall_timer.h"
+
+namespace aqs {
+namespace {
+
+namespace fs = std::filesystem;
+
+// One measured fit.
+struct Row {
+  std::string mix, method;
+  int markers = 0;
+  double mean = 0, max = 0, seconds = 0;
+  int iterations = 0;
+  bool converged = true;
+  double jaw_degrees = 0;  // the first bone's rotation angle (physics fits)
+  double matched_fraction = 0, matched_distance = 0;  // scans
+  std::string start;
+  int solves = 0, factorizations = 0, jacobians = 0;
+  double solve_seconds = 0, jacobian_seconds = 0;
+};
+
+Row MakeRow(const std::string& mix, const std::string& method, int markers) {
+  Row r;
+  r.mix = mix;
+  r.method = method;
+  r.markers = markers;
+  return r;
+}
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+double Mean(const std::vector<double>& v) {
+  double s = 0;
+  for (double x : v) s += x;
+  return v.empty() ? 0 : s / v.size();
+}
+
+void Errors(const Eigen::Matrix3Xd& surface, const Eigen::Matrix3Xd& truth,
+            const std::vector<int>& vertices, double* mean, double* max) {
+  double sum = 0, worst = 0;
+  for (int v : vertices) {
+    const double d = (surface.col(v) - truth.col(v)).norm();
+    sum += d;
+    worst = std::max(worst, d);
+  }
+  *mean = sum / vertices.size();
+  *max = worst;
+}
+
+// The mix names of mixes.csv (first column after the header).
+bool ReadMixes(const std::string& path, std::vector<std::string>* mixes, std::string* error) {
+  LineReader reader(path);
+  if (!reader.ok()) {
+    *error = reader.error() + " (make the test set with scripts/make_fit_tests.py)";
+    return false;
+  }
+  while (reader.NextLine()) {
+    if (reader.line_number() == 1 || reader.line().empty()) continue;
+    const std::string name = reader.line().substr(0, reader.line().find(','));
+    if (name.empty()) {
+      *error = reader.Where("expected 'mix,expressions'");
+      return false;
+    }
+    mixes->push_back(name);
+  }
+  return true;
+}
+
+std::string Fixed(double value, int digits) {
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(digits) << value;
+  return s.str();
+}
+
+double JawDegrees(const std::vector<RigidTransform>& bones) {
+  if (bones.empty()) return 0.0;
+  return Eigen::AngleAxisd(bones[0].rotation).angle() * 180.0 / M_PI;
+}
+
+// Median seconds of numeric factorizations of the model's exact stiffness at rest: the
+// unit fit times are also given in (load-independent work; docs/benchmarks.md).
+double FactorizationUnit(const ActiveModel& model, int threads) {
+  const ShapeTargetModel physics(model.mesh, model.mu);
+  const BoundaryConditions bc = ModelBoundaryConditions(model, RestBoneTransforms(model));
+  StiffnessFactorization factorization(physics, FixedVertexMask(bc, physics.num_vertices()), threads);
+  factorization.Assemble(model.mesh.vertices, IdentityActuations(physics.num_elements()),
+                         StiffnessKind::kExact);
+  std::vector<double> seconds;
+  std::string error;
+  for (int i = 0; i < 6; ++i) {
+    WallTimer timer;
+    if (!factorization.FactorizeAssembled(0.0, &error)) return 0.0;
+    if (i > 0) seconds.push_back(timer.Seconds());  // the first one includes the analysis
+  }
+  return Median(seconds);
+}
+
+}  // namespace
+
+JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
+                          std::string* error) {
+  if (options.model.empty() || options.test_set.empty() || options.output_dir.empty()) {
+    *error = "--model, --test_set and --output_dir are required";
+    return JobStatus::kBadInput;
+  }
+  ActiveModel model;
+  if (!LoadModel(options.model, &model, error)) return JobStatus::kBadInput;
+  if (!model.decoder) {
+    *error = options.model + ": the model is not trained";
+    return JobStatus::kBadInput;
+  }
+  const int ns = model.num_surface_vertices();
+  std::vector<int> measured = options.error_vertices;
+  if (measured.empty()) {
+    for (int v = 0; v < ns; ++v) measured.push_back(v);
+  }
+  for (int v : measured) {
+    if (v < 0 || v >= ns) {
+      *error = "error vertex " + std::to_string(v) + " is outside the surface's " +
+               std::to_string(ns) + " vertices";
+      return JobStatus::kBadInput;
+    }
+  }
+  std::vector<std::string> mixes;
+  if (!ReadMixes(options.test_set + "/mixes.csv", &mixes, error)) return JobStatus::kBadInput;
+  if (options.max_mixes >= 0 && static_cast<int>(mixes.size()) > options.max_mixes) {
+    mixes.resize(options.max_mixes);
+  }
+  std::error_code code;
+  fs::create_directories(options.output_dir, code);
+
+  // The PCA baseline: the model's own training surfaces, the model's latent size, a
+  // ridge weight per marker set chosen by leave-one-out over those surfaces.
+  std::vector<Eigen::Matrix3Xd> training;
+  for (const TrainingPose& pose : model.poses) training.push_back(pose.surface);
+  const SurfacePca pca(training, model.latent_dim());
+  std::map<int, std::vector<int>> marker_sets;
+  std::map<int, double> ridge;
+  if (options.markers) {
+    for (int k : options.marker_counts) {
+      const std::string path = options.test_set + "/marker_sets/m" + std::to_string(k) + ".txt";
+      if (!ReadVertexList(path, ns, &marker_sets[k], error)) return JobStatus::kBadInput;
+      const RidgeChoice choice = ChooseRidgeLeaveOneOut(training, model.latent_dim(), marker_sets[k],
+                                                        measured, options.ridge_candidates);
+      ridge[k] = choice.ridge;
+      log << "ridge PCA, " << k << " markers: leave-one-out over " << training.size()
+          << " training poses (PCA of the others, " << std::min(model.latent_dim(), model.num_poses() - 2)
+          << " components):";
+      for (size_t c = 0; c < choice.candidates.size(); ++c) {
+        log << " " << choice.candidates[c] << ":" << Fixed(choice.errors[c], 4);
+      }
+      log << " -> ridge " << choice.ridge << "\n";
+    }
+  }
+  log << "PCA: " << pca.num_components() << " components of the " << training.size()
+      << " training poses\n";
+
+  const double unit_before = FactorizationUnit(model, options.fit.num_threads);
+  log << "one factorization of the stiffness at rest: " << Fixed(unit_before, 4) << " s\n";
+  LatentFitter fitter(model, options.fit);
+  const std::vector<RigidTransform> rest = RestBoneTransforms(model);
+  // Every fit from the same start: the prior's centre, bones at rest, the rest shape
+  // (then ChooseStart as aqs_fit does).
+  auto reset = [&]() {
+    fitter.set_bone_transforms(rest);
+    fitter.set_start_state(model.mesh.vertices);
+  };
+  std::vector<Row> rows;
+  auto print = [&](const Row& r) {
+    log << std::left << std::setw(8) << r.mix << " " << std::setw(16)
+        << (r.method + (r.markers > 0 ? "_m" + std::to_string(r.markers) : "")) << std::right
+        << " mean " << Fixed(r.mean, 4) << " max " << Fixed(r.max, 3);
+    if (r.method.rfind("physics", 0) == 0) {
+      log << "  " << Fixed(r.seconds, 2) << " s (solves " << r.solves << "/" << r.factorizations
+          << " fact. " << Fixed(r.solve_seconds, 2) << " s, jacobians " << r.jacobians << " "
+          << Fixed(r.jacobian_seconds, 2) << " s), " << r.iterations << " it, jaw "
+          << Fixed(r.jaw_degrees, 1) << " deg" << (r.converged ? "" : ", not converged")
+          << ", start " << r.start;
+    }
+    if (r.method == "physics_scan") {
+      log << ", matched " << Fixed(100 * r.matched_fraction, 1) << "% at "
+          << Fixed(r.matched_distance, 4);
+    }
+    log << std::endl;  // progress of a long run
+  };
+  // A physics fit to a target or a cloud, timed from the start choice to the result.
+  auto physics = [&](const std::string& mix, const std::string& method, int markers,
+                     const FitTarget* target, const Eigen::Matrix3Xd* cloud,
+                     const Eigen::Matrix3Xd& truth) {
+    reset();
+    WallTimer timer;
+    Eigen::VectorXd z = options.start.mean_latent ? fitter.MeanLatent() : fitter.PriorLatent();
+    std::string start, fit_error;
+    LatentFitResult fit;
+    Row r = MakeRow(mix, method, markers);
+    bool ok = fitter.ChooseStart(target, cloud, options.points, options.start, &z, &start, &fit_error);
+    ok = ok && (cloud != nullptr ? fitter.FitPointCloud(*cloud, options.points, z, &fit, &fit_error)
+                                 : fitter.Fit(*target, z, &fit, &fit_error));
+    r.seconds = timer.Seconds();
+    r.start = start;
+    if (!ok) {
+      r.converged = false;
+      r.mean = r.max = std::nan("");
+      log << mix << " " << method << ": " << fit_error << "\n";
+    } else {
+      Errors(fit.surface, truth, measured, &r.mean, &r.max);
+      r.iterations = fit.iterations;
+      r.converged = fit.converged;
+      r.jaw_degrees = JawDegrees(fit.bones);
+      r.matched_fraction = fit.matched_fraction;
+      r.matched_distance = fit.mean_error;
+      r.solves = fit.solves;
+      r.factorizations = fit.solve_factorizations;
+      r.solve_seconds = fit.solve_seconds;
+      r.jacobians = fit.jacobians;
+      r.jacobian_seconds = fit.jacobian_seconds;
+    }
+    rows.push_back(r);
+    print(r);
+  };
+
+  for (const std::string& mix : mixes) {
+    SurfaceMesh truth;
+    const std::string pose_path = options.test_set + "/poses/" + mix + ".obj";
+    if (!ReadObj(pose_path, &truth, error)) return JobStatus::kBadInput;
+    if (truth.num_vertices() != ns) {
+      *error = pose_path + ": " + std::to_string(truth.num_vertices()) + " vertices, the model has " +
+               std::to_string(ns);
+      return JobStatus::kBadInput;
+    }
+    Row neutral = MakeRow(mix, "neutral", 0);
+    Errors(model.neutral.vertices, truth.vertices, measured, &neutral.mean, &neutral.max);
+    rows.push_back(neutral);
+    print(neutral);
+    if (options.markers) {
+      for (int k : options.marker_counts) {
+        const std::string path =
+            options.test_set + "/markers/" + mix + "_m" + std::to_string(k) + ".txt";
+        std::vector<int> vertices;
+        Eigen::Matrix3Xd positions;
+        if (!ReadMarkers(path, ns, &vertices, &positions, error)) return JobStatus::kBadInput;
+        Row p = MakeRow(mix, "pca", k);
+        Errors(pca.FitToVerticesRidge(vertices, positions, ridge[k]), truth.vertices, measured,
+               &p.mean, &p.max);
+        rows.push_back(p);
+        print(p);
+        const FitTarget target = VertexTarget(vertices, positions);
+        physics(mix, "physics", k, &target, nullptr, truth.vertices);
+      }
+    }
+    if (options.poses) {
+      Row p = MakeRow(mix, "pca_pose", 0);
+      Errors(pca.Decode(pca.Encode(truth.vertices)), truth.vertices, measured, &p.mean, &p.max);
+      rows.push_back(p);
+      print(p);
+      const FitTarget target = FullSurfaceTarget(truth.vertices);
+      physics(mix, "physics_pose", 0, &target, nullptr, truth.vertices);
+    }
+    if (options.scans) {
+      Eigen::Matrix3Xd cloud;
+      const std::string path = options.test_set + "/scans/" + mix + ".ply";
+      if (!ReadPointCloud(path, &cloud, error)) return JobStatus::kBadInput;
+      physics(mix, "physics_scan", 0, nullptr, &cloud, truth.vertices);
+    }
+  }
+
+  // Summary.
+  auto select = [&](const std::string& method, int markers) {
+    std::map<std::string, Row> by_mix;
+    for (const Row& r : rows) {
+      if (r.method == method && r.markers == markers) by_mix[r.mix] = r;
+    }
+    return by_mix;
+  };
+  std::ostringstream md;
+  const std::map<std::string, Row> neutral = select("neutral", 0);
+  md << "Test set " << options.test_set << ": " << mixes.size() << " mixes; errors in model units "
+     << "(mean vertex distance over " << measured.size() << " vertices).\n\n";
+  if (options.markers) {
+    md << "| markers | neutral | ridge PCA | physics | physics < PCA | PCA > neutral | physics > "
+          "neutral | physics worst / neutral | fit s median | max | factorizations median |\n"
+       << "| ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n";
+    for (int k : options.marker_counts) {
+      const auto p = select("pca", k), f = select("physics", k);
+      std::vector<double> n_err, p_err, f_err, secs, work;
+      int better = 0, pca_worse = 0, phys_worse = 0;
+      double worst_ratio = 0;
+      for (const auto& [mix, row] : f) {
+        n_err.push_back(neutral.at(mix).mean);
+        p_err.push_back(p.at(mix).mean);
+        f_err.push_back(row.mean);
+        secs.push_back(row.seconds);
+        work.push_back(row.factorizations + row.jacobians);
+        better += row.mean < p.at(mix).mean;
+        pca_worse += p.at(mix).mean > neutral.at(mix).mean;
+        phys_worse += !(row.mean <= neutral.at(mix).mean);
+        worst_ratio = std::max(worst_ratio, row.mean / neutral.at(mix).mean);
+      }
+      const int n = static_cast<int>(f.size());
+      md << "| " << k << " | " << Fixed(Mean(n_err), 4) << " | " << Fixed(Mean(p_err), 4) << " | "
+         << Fixed(Mean(f_err), 4) << " | " << better << " of " << n << " | " << pca_worse << " | "
+         << phys_worse << " | " << Fixed(worst_ratio, 2) << " | " << Fixed(Median(secs), 2)
+         << " | " << Fixed(*std::max_element(secs.begin(), secs.end()), 2) << " | "
+         << Fixed(Median(work), 0) << " |\n";
+    }
+    md << "\n";
+  }
+  if (options.poses || options.scans) {
+    const auto pose = select("physics_pose", 0), scan = select("physics_scan", 0),
+               pca_pose = select("pca_pose", 0);
+    md << "| fit | mean error | max of mean errors | seconds median | max | iterations median | "
+          "factorizations median |\n"
+       << "| --- | ---: | ---: | ---: | ---: | ---: | ---: |\n";
+    for (const auto& [name, set] : {std::make_pair(std::string("full correspondence"), pose),
+                                    std::make_pair(std::string("scan"), scan)}) {
+      if (set.empty()) continue;
+      std::vector<double> err, secs, its, work;
+      for (const auto& [mix, row] : set) {
+        err.push_back(row.mean);
+        secs.push_back(row.seconds);
+        its.push_back(row.iterations);
+        work.push_back(row.factorizations + row.jacobians);
+      }
+      md << "| " << name << " | " << Fixed(Mean(err), 4) << " | "
+         << Fixed(*std::max_element(err.begin(), err.end()), 4) << " | " << Fixed(Median(secs), 2)
+         << " | " << Fixed(*std::max_element(secs.begin(), secs.end()), 2) << " | "
+         << Fixed(Median(its), 0) << " | " << Fixed(Median(work), 0) << " |\n";
+    }
+    if (!pca_pose.empty()) {
+      std::vector<double> err;
+      for (const auto& [mix, row] : pca_pose) err.push_back(row.mean);
+      md << "| PCA projection (reference) | " << Fixed(Mean(err), 4) << " | "
+         << Fixed(*std::max_element(err.begin(), err.end()), 4) << " | | | | |\n";
+    }
+    if (!pose.empty() && !scan.empty()) {
+      int within = 0;
+      double worst = 0, fraction = 0, distance = 0;
+      for (const auto& [mix, row] : scan) {
+        const double ratio = row.mean / pose.at(mix).mean;
+        within += ratio <= 1.2;
+        worst = std::max(worst, ratio);
+        fraction += row.matched_fraction / scan.size();
+        distance += row.matched_distance / scan.size();
+      }
+      md << "\nScans within 1.2x of the fit with correspondence: " << within << " of "
+         << scan.size() << "; worst ratio " << Fixed(worst, 2) << "; matched points "
+         << Fixed(100 * fraction, 1) << "% on average, matched distance " << Fixed(distance, 4)
+         << " on average.\n";
+    }
+  }
+  if (options.sequence) {
+    FitSequenceOptions sequence;
+    sequence.sequence = options.test_set + "/sequence/markers";
+    sequence.output_dir = options.output_dir + "/sequence";
+    sequence.model = options.model;
+    sequence.fit = options.fit;
+    sequence.points = options.points;
+    sequence.start = options.start;
+    sequence.max_frames = options.sequence_frames;
+    fs::remove_all(sequence.output_dir, code);
+    FitSequenceResult result = RunFitSequence(sequence, model, log);
+    if (result.status != JobStatus::kOk) {
+      *error = result.message;
+      return result.status;
+    }
+    // Errors against the truth frames.
+    std::vector<double> err;
+    for (size_t f = 0; f < result.frame_names.size(); ++f) {
+      SurfaceMesh truth, fitted;
+      const std::string truth_path =
+          options.test_set + "/sequence/truth/" + result.frame_names[f] + ".obj";
+      if (!ReadObj(truth_path, &truth, error) ||
+          !ReadObj(sequence.output_dir + "/" + result.frame_names[f] + ".obj", &fitted, error)) {
+        return JobStatus::kBadInput;
+      }
+      double mean = 0, max = 0;
+      Errors(fitted.vertices, truth.vertices, measured, &mean, &max);
+      err.push_back(mean);
+    }
+    md << "\nMarker sequence (" << result.frame_names.size() << " frames): "
+       << Fixed(result.frames_per_second, 2) << " frames/s (" << Fixed(result.seconds, 1)
+       << " s), mean error " << Fixed(Mean(err), 4) << ", max of frames "
+       << Fixed(*std::max_element(err.begin(), err.end()), 4) << ".\n";
+  }
+  const double unit_after = FactorizationUnit(model, options.fit.num_threads);
+  md << "\nOne factorization of the stiffness at rest (the unit of solver work): "
+     << Fixed(unit_before, 4) << " s before the fits, " << Fixed(unit_after, 4)
+     << " s after them (the machine's load shows in the difference).\n";
+  log << "\n" << md.str();
+  std::ostringstream csv;
+  csv << "mix,method,markers,mean_error,max_error,seconds,iterations,converged,jaw_degrees,"
+         "matched_fraction,matched_distance,start\n";
+  for (const Row& r : rows) {
+    csv << r.mix << ',' << r.method << ',' << r.markers << ',' << r.mean << ',' << r.max << ','
+        << r.seconds << ',' << r.iterations << ',' << r.converged << ',' << r.jaw_degrees << ','
+        << r.matched_fraction << ',' << r.matched_distance << ',' << r.start << '\n';
+  }
+  if (!WriteFileAtomically(options.output_dir + "/fit_benchmark.csv", csv.str(), error) ||
+      !WriteFileAtomically(options.output_dir + "/fit_benchmark.md", md.str(), error)) {
+    return JobStatus::kBadInput;
+  }
+  log << "wrote " << options.output_dir << "/fit_benchmark.csv and fit_benchmark.md\n";
+  return JobStatus::kOk;
+}
+
+}  // namespace aqs

@@ -1,0 +1,40 @@
+#ifndef AQS_JOBS_FIT_BENCHMARK_H_
+#define AQS_JOBS_FIT_BENCHMARK_H_
+
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "jobs/fit_job.h"
+
+namespace aqs {
+
+// What aqs_bench_fit does: fits a trained model to a test set made by
+// scripts/make_fit_tests.py (mixes.csv, poses/, marker_sets/, markers/, scans/,
+// sequence/) and compares with ridge PCA and the neutral face.
+struct FitBenchmarkOptions {
+  std::string model;     // trained model directory; required
+  std::string test_set;  // the generator's output folder; required
+  std::string output_dir;  // fit_benchmark.csv and fit_benchmark.md (atomic); required
+  std::vector<int> error_vertices;  // surface vertices measured (empty: all)
+  std::vector<int> marker_counts = {20, 60};  // markers/mix_NNN_mK.txt for each K
+  bool markers = true, poses = true, scans = true, sequence = false;
+  int max_mixes = -1;       // < 0: all
+  int sequence_frames = -1;  // < 0: all frames of sequence/markers
+  // Candidate ridge weights (squared lengths) of the PCA baseline, chosen by
+  // leave-one-out over the model's training poses per marker set.
+  std::vector<double> ridge_candidates = {0,    1e-6, 3e-6, 1e-5, 3e-5, 1e-4, 3e-4, 1e-3,
+                                          3e-3, 1e-2, 3e-2, 0.1,  0.3,  1,    3,    10};
+  LatentFitOptions fit;
+  PointCloudFitOptions points;
+  FitStartOptions start;
+};
+
+// Returns kOk, or kBadInput with a message naming the file at fault. Prints per-fit
+// lines and the summary tables to `log`.
+JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
+                          std::string* error);
+
+}  // namespace aqs
+
+#endif  // AQS_JOBS_FIT_BENCHMARK_H_

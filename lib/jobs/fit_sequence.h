@@ -1,0 +1,76 @@
+#ifndef AQS_JOBS_FIT_SEQUENCE_H_
+#define AQS_JOBS_FIT_SEQUENCE_H_
+
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "fit/latent_fit.h"
+#include "jobs/simulate_job.h"
+#include "model/active_model.h"
+
+namespace aqs {
+
+// What aqs_fit --sequence does: fits an ordered sequence of targets frame after frame,
+// each warm-started from the previous frame's latent, bones and equilibrium (the first
+// from the start FitStartOptions chooses).
+struct FitSequenceOptions {
+  std::string model;  // model directory (RunFitSequenceJob loads it)
+  // The frames: a folder (its .obj, .txt and .ply files, sorted by name), a glob
+  // (sorted), a .txt list (one path per line, in that order, relative to the list's
+  // folder) or a comma-separated list (in that order).
+  std::string sequence;
+  std::string target_kind = "auto";  // as FitJobOptions::target_kind; one kind for all
+  // Outputs (all atomic): <frame>.obj per frame (<frame>: the target's file name
+  // without extension), frames.csv (one row per frame: errors, iterations, seconds,
+  // where it started, stiffness factorizations (solves and Jacobians), latent, bone
+  // motion),
+  // latents.bin (latent_dim x frames, util/matrix_io.h). A frame is done when its row is
+  // in frames.csv (written last); a rerun resumes at the first frame not done.
+  std::string output_dir;
+  int max_frames = -1;  // < 0: all
+  LatentFitOptions fit;
+  PointCloudFitOptions points;
+  FitStartOptions start;
+};
+
+struct FitSequenceResult {
+  JobStatus status = JobStatus::kOk;
+  std::string message;
+  std::vector<std::string> frame_names;  // all frames, in order
+  int frames_fitted = 0;   // in this run
+  int frames_resumed = 0;  // found done in output_dir
+  double seconds = 0.0;    // fitting time of this run (after reading the targets)
+  double frames_per_second = 0.0;
+};
+
+// One frame's target, read and checked.
+struct SequenceFrame {
+  std::string path, name, kind;
+  std::string origin;  // where it was listed ("list.txt:3") or the path
+  FitTarget target;            // markers and poses
+  Eigen::Matrix3Xd cloud;      // points
+};
+
+// Resolves and reads the frames of `options.sequence` for a model with
+// num_surface_vertices surface vertices. Errors (false, *error) name the file and line:
+// no frames, a missing file, an unreadable target (markers: repeated or out-of-range
+// vertices at path:line; scans: no points), kinds that differ from the first frame's,
+// a pose with another vertex count, two frames with the same name.
+bool ReadSequenceFrames(const FitSequenceOptions& options, int num_surface_vertices,
+                        std::vector<SequenceFrame>* frames, std::string* error);
+
+// Fits the frames with `model` (which must be the one options.model names, for the
+// messages) and writes the outputs. Progress lines with frames per second and an ETA go
+// to `log`.
+FitSequenceResult RunFitSequence(const FitSequenceOptions& options, const ActiveModel& model,
+                                 std::ostream& log);
+
+// Loads options.model, then RunFitSequence.
+FitSequenceResult RunFitSequenceJob(const FitSequenceOptions& options, std::ostream& log);
+
+}  // namespace aqs
+
+#endif  // AQS_JOBS_FIT_SEQUENCE_H_

@@ -1,0 +1,224 @@
+#!/usr/bin/python3
+"""Makes held-out test sets for fitting (aqs_bench_fit, aqs_fit) from the ICT face data:
+random sparse blendshape mixes, marker subsets of them, partial noisy scans of them, and
+a smooth marker sequence.
+
+Usage: /usr/bin/python3 scripts/make_fit_tests.py --ict ../shared/data/ict-face --out DIR
+       [--seed 1] [--mixes 20] [--min_expressions 2] [--max_expressions 5]
+       [--min_weight 0.3] [--max_weight 1.0] [--markers 20,60] [--marker_noise 0.01]
+       [--scan_points 4000] [--scan_noise 0.02] [--scan_min_z 8] [--scan_outliers 0]
+       [--frames 100] [--sequence_markers 60] [--sequence_expressions 6]
+
+Every mix is target = neutral + sum_i w_i (pose_i - neutral) over 2 to 5 of the 55
+expressions (uniform), weights uniform in [min_weight, max_weight] (ICT blendshapes are
+linear). Written into DIR (made if absent; files are replaced):
+
+  mixes.csv                  mix,expressions   (e.g. "mix_000,jawOpen:0.52 mouthSmile_L:0.9")
+  poses/mix_NNN.obj          the mix (v records only, the neutral's vertex order)
+  marker_sets/mK.txt         the K marker vertices (one index per line): farthest-point
+                             samples of the front of the face (vertices 0:9409 whose
+                             neutral z >= 6 cm), the first K of one ordering, so the sets
+                             are nested
+  markers/mix_NNN_mK.txt     "vertex x y z" lines: the mix at those vertices plus Gaussian
+                             noise of marker_noise cm per coordinate
+  scans/mix_NNN.ply          scan_points points uniform by area on the mix's triangles whose
+                             corners all have z >= scan_min_z (the front, as one depth
+                             camera sees it), noise scan_noise cm per coordinate, shuffled,
+                             plus scan_outliers points 1 to 3 cm off the surface
+  sequence/markers/frame_NNNN.txt, sequence/truth/frame_NNNN.obj, sequence/weights.csv:
+                             a smooth sequence of `frames` frames (30 per second): each of
+                             sequence_expressions expressions (jawOpen always among them)
+                             follows w(t) = clip(a sin(2 pi f t + phase), 0, 1), f 0.3 to
+                             0.8 Hz; markers on the sequence_markers set
+
+Fixed seed: the same arguments give the same files. Needs numpy (Debian's python3).
+A development-time tool; the project's tests do not run it."""
+import argparse
+import os
+import sys
+
+import numpy as np
+
+FACE_VERTICES = 9409  # the ICT face region is vertices [0, 9409)
+MARKER_MIN_Z = 6.0
+
+
+def read_vertices(path):
+    try:
+        with open(path) as src:
+            rows = [line.split()[1:4] for line in src if line.startswith("v ")]
+    except OSError as e:
+        sys.exit("make_fit_tests.py: error: %s: %s" % (path, e.strerror))
+    return np.array(rows, dtype=float)
+
+
+def read_triangles(path):
+    triangles = []
+    with open(path) as src:
+        for line in src:
+            if line.startswith("f "):
+                corners = [int(token.split("/")[0]) - 1 for token in line.split()[1:]]
+                for k in range(1, len(corners) - 1):
+                    triangles.append((corners[0], corners[k], corners[k + 1]))
+    return np.array(triangles, dtype=int)
+
+
+def write_atomically(path, text):
+    temp = path + ".tmp%d" % os.getpid()
+    with open(temp, "w") as out:
+        out.write(text)
+    os.replace(temp, path)
+
+
+def obj_text(vertices, comment):
+    lines = ["# %s\n" % comment]
+    lines += ["v %.6f %.6f %.6f\n" % tuple(v) for v in vertices]
+    return "".join(lines)
+
+
+def markers_text(vertices, positions, comment):
+    lines = ["# %s\n# vertex x y z\n" % comment]
+    lines += ["%d %.6f %.6f %.6f\n" % (v, p[0], p[1], p[2]) for v, p in zip(vertices, positions)]
+    return "".join(lines)
+
+
+def farthest_point_order(points, count, rng):
+    """Indices into points: a random first one, then each the farthest from those chosen."""
+    chosen = [int(rng.integers(len(points)))]
+    distance = np.linalg.norm(points - points[chosen[0]], axis=1)
+    while len(chosen) < count:
+        nxt = int(np.argmax(distance))
+        chosen.append(nxt)
+        distance = np.minimum(distance, np.linalg.norm(points - points[nxt], axis=1))
+    return chosen
+
+
+def scan(surface, triangles, count, noise, min_z, outliers, rng):
+    front = triangles[np.all(surface[triangles][:, :, 2] >= min_z, axis=1)]
+    a, b, c = (surface[front[:, k]] for k in range(3))
+    area = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
+    pick = rng.choice(len(front), size=count, p=area / area.sum())
+    u, v = rng.random(count), rng.random(count)
+    flip = u + v > 1
+    u[flip], v[flip] = 1 - u[flip], 1 - v[flip]
+    points = a[pick] + u[:, None] * (b[pick] - a[pick]) + v[:, None] * (c[pick] - a[pick])
+    points += rng.normal(0.0, noise, points.shape)
+    if outliers > 0:
+        normal = np.cross(b - a, c - a)
+        normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-12)
+        where = rng.choice(len(front), size=outliers)
+        base = (a[where] + b[where] + c[where]) / 3
+        offset = rng.uniform(1.0, 3.0, outliers) * rng.choice([-1.0, 1.0], outliers)
+        points = np.vstack([points, base + offset[:, None] * normal[where]])
+    rng.shuffle(points)
+    return points
+
+
+def ply_text(points, comment):
+    head = ("ply\nformat ascii 1.0\ncomment %s\nelement vertex %d\nproperty float x\n"
+            "property float y\nproperty float z\nend_header\n" % (comment, len(points)))
+    return head + "".join("%.5f %.5f %.5f\n" % tuple(p) for p in points)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--ict", required=True, help="the ICT face folder (skin_neutral.obj, poses/)")
+    parser.add_argument("--out", required=True)
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--mixes", type=int, default=20)
+    parser.add_argument("--min_expressions", type=int, default=2)
+    parser.add_argument("--max_expressions", type=int, default=5)
+    parser.add_argument("--min_weight", type=float, default=0.3)
+    parser.add_argument("--max_weight", type=float, default=1.0)
+    parser.add_argument("--markers", default="20,60")
+    parser.add_argument("--marker_noise", type=float, default=0.01)
+    parser.add_argument("--scan_points", type=int, default=4000)
+    parser.add_argument("--scan_noise", type=float, default=0.02)
+    parser.add_argument("--scan_min_z", type=float, default=8.0)
+    parser.add_argument("--scan_outliers", type=int, default=0)
+    parser.add_argument("--frames", type=int, default=100)
+    parser.add_argument("--sequence_markers", type=int, default=60)
+    parser.add_argument("--sequence_expressions", type=int, default=6)
+    args = parser.parse_args()
+    marker_counts = [int(k) for k in args.markers.split(",") if k]
+    if args.frames > 0 and args.sequence_markers not in marker_counts:
+        marker_counts.append(args.sequence_markers)
+    rng = np.random.default_rng(args.seed)
+
+    neutral = read_vertices(os.path.join(args.ict, "skin_neutral.obj"))
+    triangles = read_triangles(os.path.join(args.ict, "skin_neutral.obj"))
+    pose_dir = os.path.join(args.ict, "poses")
+    names = sorted(f[:-4] for f in os.listdir(pose_dir) if f.endswith(".obj") and ".teeth" not in f)
+    deltas = {}
+    for name in names:
+        pose = read_vertices(os.path.join(pose_dir, name + ".obj"))
+        if pose.shape != neutral.shape:
+            sys.exit("make_fit_tests.py: error: %s: %d vertices, the neutral has %d"
+                     % (os.path.join(pose_dir, name + ".obj"), len(pose), len(neutral)))
+        deltas[name] = pose - neutral
+
+    for sub in ["poses", "marker_sets", "markers", "scans", "sequence/markers", "sequence/truth"]:
+        os.makedirs(os.path.join(args.out, sub), exist_ok=True)
+
+    # Marker layouts: one farthest-point ordering of the front of the face.
+    candidates = np.array([v for v in range(FACE_VERTICES) if neutral[v, 2] >= MARKER_MIN_Z])
+    order = candidates[farthest_point_order(neutral[candidates], max(marker_counts), rng)]
+    marker_sets = {}
+    for k in marker_counts:
+        marker_sets[k] = order[:k]
+        write_atomically(os.path.join(args.out, "marker_sets", "m%d.txt" % k),
+                         "# %d marker vertices (farthest-point samples of the face front)\n" % k
+                         + "".join("%d\n" % v for v in order[:k]))
+
+    manifest = ["mix,expressions\n"]
+    for m in range(args.mixes):
+        count = int(rng.integers(args.min_expressions, args.max_expressions + 1))
+        chosen = sorted(rng.choice(len(names), size=count, replace=False))
+        weights = rng.uniform(args.min_weight, args.max_weight, count)
+        surface = neutral.copy()
+        for i, w in zip(chosen, weights):
+            surface += w * deltas[names[i]]
+        label = "mix_%03d" % m
+        recipe = " ".join("%s:%.3f" % (names[i], w) for i, w in zip(chosen, weights))
+        manifest.append("%s,%s\n" % (label, recipe))
+        write_atomically(os.path.join(args.out, "poses", label + ".obj"), obj_text(surface, recipe))
+        for k, vertices in marker_sets.items():
+            positions = surface[vertices] + rng.normal(0.0, args.marker_noise, (len(vertices), 3))
+            write_atomically(os.path.join(args.out, "markers", "%s_m%d.txt" % (label, k)),
+                             markers_text(vertices, positions, "%s: %s" % (label, recipe)))
+        points = scan(surface, triangles, args.scan_points, args.scan_noise, args.scan_min_z,
+                      args.scan_outliers, rng)
+        write_atomically(os.path.join(args.out, "scans", label + ".ply"),
+                         ply_text(points, "scan of %s: %s" % (label, recipe)))
+    write_atomically(os.path.join(args.out, "mixes.csv"), "".join(manifest))
+
+    if args.frames > 0:
+        others = [n for n in names if n != "jawOpen"]
+        chosen = ["jawOpen"] + list(rng.choice(others, size=args.sequence_expressions - 1,
+                                               replace=False))
+        amplitude = rng.uniform(0.5, 1.3, len(chosen))
+        frequency = rng.uniform(0.3, 0.8, len(chosen))
+        phase = rng.uniform(0, 2 * np.pi, len(chosen))
+        rows = ["frame," + ",".join(chosen) + "\n"]
+        vertices = marker_sets[args.sequence_markers]
+        for f in range(args.frames):
+            t = f / 30.0
+            w = np.clip(amplitude * np.sin(2 * np.pi * frequency * t + phase), 0.0, 1.0)
+            surface = neutral.copy()
+            for name, weight in zip(chosen, w):
+                surface += weight * deltas[name]
+            rows.append("%d," % f + ",".join("%.4f" % x for x in w) + "\n")
+            recipe = " ".join("%s:%.3f" % (n, x) for n, x in zip(chosen, w))
+            label = "frame_%04d" % f
+            write_atomically(os.path.join(args.out, "sequence", "truth", label + ".obj"),
+                             obj_text(surface, recipe))
+            positions = surface[vertices] + rng.normal(0.0, args.marker_noise, (len(vertices), 3))
+            write_atomically(os.path.join(args.out, "sequence", "markers", label + ".txt"),
+                             markers_text(vertices, positions, "%s: %s" % (label, recipe)))
+        write_atomically(os.path.join(args.out, "sequence", "weights.csv"), "".join(rows))
+    print("wrote %d mixes (%s markers), scans and a %d-frame sequence to %s"
+          % (args.mixes, ",".join(str(k) for k in marker_counts), args.frames, args.out))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,124 @@
+// The fit prior: learned from the training latents and bone motions, centred on the
+// neutral; its file round-trips, is learned when absent, and bad files name file:line.
+
+#include "model/fit_prior.h"
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <Eigen/Geometry>
+#include <gtest/gtest.h>
+
+#include "model/model_io.h"
+#include "prepare/volumetric_targets.h"
+#include "testing/temp_dir.h"
+#include "train/pretrain.h"
+#include "train/synthetic_muscles.h"
+
+namespace aqs {
+namespace {
+
+// A pre-trained synthetic bar whose last pose is the neutral, with a bone "tip" that
+// moves in every pose but the neutral.
+ActiveModel ModelWithNeutralPose() {
+  testing::SyntheticMuscles data = testing::MakeSyntheticMuscles(4, 0, 0.3, 5);
+  ActiveModel model = data.model;
+  TrainingPose neutral;
+  neutral.name = "neutral";
+  neutral.surface = model.neutral.vertices;
+  model.poses.push_back(neutral);
+  std::ostringstream log;
+  std::string error;
+  EXPECT_TRUE(MakeVolumetricTargets(VolumetricTargetOptions(), &model, log, &error)) << error;
+  Bone bone;
+  bone.name = "tip";
+  bone.vertices = {model.mesh.num_vertices() - 1};
+  for (int p = 0; p < model.num_poses(); ++p) {
+    RigidTransform t;
+    if (p + 1 < model.num_poses()) {
+      t.rotation = Eigen::AngleAxisd(0.1 * (p + 1), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+      t.translation = Eigen::Vector3d(0.02 * p, -0.01 * p, 0.0);
+    }
+    bone.pose_transforms.push_back(t);
+  }
+  model.bones.push_back(bone);
+  PretrainOptions pretrain;
+  pretrain.spec.latent_dim = 3;
+  pretrain.spec.hidden_dims = {6};
+  pretrain.field.node_spacing = 0.5;
+  pretrain.max_iterations = 5;
+  pretrain.log_every = 0;
+  PretrainReport report;
+  EXPECT_TRUE(Pretrain(pretrain, &model, &report, log, &error)) << error;
+  return model;
+}
+
+TEST(FitPriorTest, CentredOnTheNeutralWithTheTrainingSpread) {
+  const ActiveModel model = ModelWithNeutralPose();
+  const FitPriorOptions options;
+  const FitPrior prior = LearnFitPrior(model, options);
+  EXPECT_EQ(prior.center, "neutral");
+  const int neutral = model.num_poses() - 1;
+  EXPECT_EQ(prior.latent.mean, Eigen::VectorXd(model.latents.col(neutral)));
+  // Latent covariance: the second moment about the neutral's latent plus the floor.
+  const Eigen::MatrixXd centred = model.latents.colwise() - prior.latent.mean;
+  Eigen::MatrixXd expected = centred * centred.transpose() / model.num_poses();
+  expected.diagonal().array() += options.latent_floor * expected.trace() / model.latent_dim();
+  EXPECT_LT((prior.latent.covariance - expected).norm(), 1e-12 * expected.norm());
+  // W^T W is the inverse covariance.
+  EXPECT_LT((prior.latent.whitening.transpose() * prior.latent.whitening * prior.latent.covariance -
+             Eigen::MatrixXd::Identity(3, 3)).norm(), 1e-9);
+  // The bone: mean at rest (the neutral's), z rotations spread, floors elsewhere.
+  ASSERT_EQ(prior.bones.size(), 1u);
+  EXPECT_LT(prior.bones[0].mean.norm(), 1e-15);
+  const Eigen::MatrixXd& c = prior.bones[0].covariance;
+  double rz = 0;
+  for (int p = 0; p + 1 < model.num_poses(); ++p) rz += std::pow(0.1 * (p + 1), 2);
+  rz /= model.num_poses();
+  const double rotation_floor = std::max(options.rotation_floor, options.rotation_floor_fraction * std::sqrt(rz));
+  EXPECT_NEAR(c(2, 2), rz + rotation_floor * rotation_floor, 1e-12);
+  EXPECT_NEAR(c(0, 0), rotation_floor * rotation_floor, 1e-12);
+  EXPECT_GT(c(1, 1), 0.0);
+}
+
+TEST(FitPriorTest, FileRoundTripsIsLearnedWhenAbsentAndBadFilesNameTheLine) {
+  const ActiveModel model = ModelWithNeutralPose();
+  testing::TempDir dir;
+  std::string error;
+  const std::string path = dir.File("m");
+  ASSERT_TRUE(SaveModel(path, model, &error)) << error;
+  ASSERT_TRUE(std::filesystem::exists(path + "/learned/prior.txt"));
+  const FitPrior learned = LearnFitPrior(model);
+  ActiveModel back;
+  ASSERT_TRUE(LoadModel(path, &back, &error)) << error;
+  EXPECT_EQ(back.fit_prior.center, "neutral");
+  EXPECT_EQ(back.fit_prior.latent.mean, learned.latent.mean);
+  EXPECT_EQ(back.fit_prior.latent.covariance, learned.latent.covariance);
+  EXPECT_EQ(back.fit_prior.bones[0].covariance, learned.bones[0].covariance);
+  // A model saved before priors existed: learned at load, the same.
+  std::filesystem::remove(path + "/learned/prior.txt");
+  ActiveModel old;
+  ASSERT_TRUE(LoadModel(path, &old, &error)) << error;
+  EXPECT_EQ(old.fit_prior.latent.covariance, learned.latent.covariance);
+  EXPECT_EQ(old.fit_prior.bones[0].mean, learned.bones[0].mean);
+  // Damaged files.
+  const std::vector<std::string> names = {"tip"};
+  FitPrior bad = learned;
+  bad.latent.covariance(0, 0) = -1.0;  // not positive definite (written as is)
+  ASSERT_TRUE(WriteFitPrior(path + "/learned/prior.txt", bad, names, &error)) << error;
+  EXPECT_FALSE(LoadModel(path, &back, &error));
+  EXPECT_NE(error.find("prior.txt:7: the covariance of the latent is not symmetric positive definite"),
+            std::string::npos) << error;
+  ASSERT_TRUE(WriteFitPrior(path + "/learned/prior.txt", learned, names, &error)) << error;
+  std::ofstream(path + "/learned/prior.txt", std::ios::app) << "bone jaw mean 0 0 0 0 0 0\n";
+  EXPECT_FALSE(LoadModel(path, &back, &error));
+  EXPECT_NE(error.find("prior.txt:15: the model has no bone 'jaw'"), std::string::npos) << error;
+  ASSERT_TRUE(WriteFitPrior(path + "/learned/prior.txt", learned, names, &error)) << error;
+  std::ofstream(path + "/learned/prior.txt", std::ios::app) << "latent_mean 1 2\n";
+  EXPECT_FALSE(LoadModel(path, &back, &error));
+  EXPECT_NE(error.find("prior.txt:15: expected 3 finite numbers"), std::string::npos) << error;
+}
+
+}  // namespace
+}  // namespace aqs
