@@ -45,9 +45,10 @@ long StalePid(const std::string& name, const std::string& stem, const std::strin
 bool IsModelFileName(const std::string& folder, const std::string& name) {
   static const std::set<std::string> kTop = {
       "model.txt", "mesh.mesh", "mu.bin",  "fixed.txt",   "bones.txt",
-      "neutral.obj", "embedding.txt", "poses.txt", "decoder.txt", "latents.bin"};
+      "neutral.obj", "embedding.txt", "poses.txt", "decoder.txt", "latents.bin", "prior.txt"};
   static const std::set<std::string> kTrain = {"checkpoint.txt", "log.csv"};
-  static const std::set<std::string> kLearned = {"decoder.txt", "latents.bin", "checkpoint.txt"};
+  static const std::set<std::string> kLearned = {"decoder.txt", "latents.bin", "prior.txt",
+                                                 "checkpoint.txt"};
   // eval/error_budget.h: what pre-training reached.
   static const std::set<std::string> kPretrain = {"surface_errors.bin", "surface_errors.txt"};
   if (folder.empty()) return kTop.count(name) > 0;
