@@ -409,6 +409,19 @@ class LatentFitter::FitCost final : public ceres::CostFunction {
   // The last evaluated parameters (all blocks, concatenated) and their equilibrium.
   mutable Eigen::VectorXd last_key_;
   mutable Eigen::Matrix3Xd last_state_;
+
+ public:
+  // Seeds the remembered evaluation: `state` is the equilibrium at parameters `key`
+  // (all blocks, concatenated), so that evaluating there solves nothing.
+  void Seed(const Eigen::VectorXd& key, const Eigen::Matrix3Xd& state) {
+    CHECK_EQ(key.size(), parameter_count_);
+    last_key_ = key;
+    last_state_ = state;
+  }
+  // The equilibrium at `key` if it is the last evaluated point, else nullptr.
+  const Eigen::Matrix3Xd* StateAt(const Eigen::VectorXd& key) const {
+    return last_key_.size() == key.size() && last_key_ == key ? &last_state_ : nullptr;
+  }
 };
 
 LatentFitter::LatentFitter(const ActiveModel& model, const LatentFitOptions& options)
@@ -513,15 +526,26 @@ bool LatentFitter::Fit(const FitTarget& target, const Eigen::VectorXd& initial,
     for (auto& p : bone_parameters) blocks.push_back(p.data());
   }
   double total_weight = 0.0;
+  FitCost* data_cost = nullptr;
   if (direct_cloud_ != nullptr) {
-    problem.AddResidualBlock(new FitCost(this, *direct_cloud_, direct_cloud_options_, fit_bones),
-                             nullptr, blocks);
+    data_cost = new FitCost(this, *direct_cloud_, direct_cloud_options_, fit_bones);
     total_weight = static_cast<double>(direct_cloud_->cols());
     if (options_.prior_points_cap > 0) total_weight = std::min(total_weight, options_.prior_points_cap);
   } else {
-    problem.AddResidualBlock(new FitCost(this, target, fit_bones), nullptr, blocks);
+    data_cost = new FitCost(this, target, fit_bones);
     total_weight = PriorPoints(target, options_.prior_points_cap);
   }
+  problem.AddResidualBlock(data_cost, nullptr, blocks);
+  // The parameters, all blocks concatenated (FitCost's key).
+  auto key = [&]() {
+    Eigen::VectorXd k(z.size() + (fit_bones ? 6 * static_cast<Eigen::Index>(bone_parameters.size()) : 0));
+    k.head(z.size()) = z;
+    for (size_t b = 0; fit_bones && b < bone_parameters.size(); ++b) {
+      k.segment(z.size() + 6 * static_cast<Eigen::Index>(b), 6) = bone_parameters[b];
+    }
+    return k;
+  };
+  data_cost->Seed(key(), state);  // the start's equilibrium is known
   if (options_.latent_regularization > 0) {
     problem.AddResidualBlock(new LatentPrior(d, options_.latent_regularization), nullptr, z.data());
   }
@@ -551,7 +575,15 @@ bool LatentFitter::Fit(const FitTarget& target, const Eigen::VectorXd& initial,
       bones_[b] = BoneTransformFromParameters(bone_parameters[b].data());
     }
   }
-  if (!Simulate(z, &state, &surface, error)) return false;
+  // The final point's equilibrium: the last evaluation's when that was the final point
+  // (Ceres ends on an accepted point), else solved again.
+  if (const Eigen::Matrix3Xd* known = data_cost->StateAt(key())) {
+    state = *known;
+    accepted_state_ = state;
+    surface = EmbeddedPositions(model_.embedding, model_.mesh.tets, state);
+  } else if (!Simulate(z, &state, &surface, error)) {
+    return false;
+  }
   result->latent = z;
   result->bones = bones_;
   result->state = state;
