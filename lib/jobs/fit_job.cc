@@ -186,8 +186,11 @@ FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log) {
   if (kind == "points") {
     log << "scan: " << fit.used_points << " of " << cloud.cols() << " points matched ("
         << 100.0 * fit.matched_fraction << "%), matched distance mean " << fit.mean_error
-        << " rms " << fit.rms_error << "; at each matching round:";
-    for (double d : fit.round_distances) log << ' ' << d;
+        << " rms " << fit.rms_error;
+    if (!fit.round_distances.empty()) {
+      log << "; at each matching round:";
+      for (double d : fit.round_distances) log << ' ' << d;
+    }
     log << "\n";
   }
   log << "latent:";
