@@ -7,14 +7,6 @@
 namespace aqs {
 namespace {
 
-// Largest |dE/dx_v| over the free vertices of `pattern`.
-double MaxFreeForce(const StiffnessPattern& pattern, const Eigen::Matrix3Xd& gradient) {
-  double max_force = 0.0;
-  for (int f = 0; f < pattern.num_free_vertices(); ++f) {
-    max_force = std::max(max_force, gradient.col(pattern.vertex_of_free(f)).norm());
-  }
-  return max_force;
-}
 
 // Relative diagonal shifts tried, in turn, when the projected stiffness is singular.
 constexpr double kFirstShift = 1e-8;
@@ -35,13 +27,9 @@ bool NewtonSolverOptions::Validate(std::string* error) const {
     out << "exact_force_threshold must be >= 0 (is " << exact_force_threshold << ")";
   } else if (max_factorizations < 1) {
     out << "max_factorizations must be >= 1 (is " << max_factorizations << ")";
-  } else if (max_halvings < 0 || max_halvings > 60) {
-    out << "max_halvings must be in [0, 60] (is " << max_halvings << ")";
-  } else if (!(armijo > 0.0 && armijo < 0.5)) {
-    out << "armijo must be in (0, 0.5) (is " << armijo << ")";
   }
   *error = out.str();
-  return error->empty();
+  return error->empty() && line_search.Validate(error);
 }
 
 NewtonSolveReport MinimizeEnergyNewton(const NewtonSolverOptions& options,
@@ -52,7 +40,7 @@ NewtonSolveReport MinimizeEnergyNewton(const NewtonSolverOptions& options,
   const StiffnessPattern& pattern = factorization->pattern();
   Eigen::Matrix3Xd gradient, trial_gradient, trial;
   double energy = factorization->EnergyAndGradient(*x, a, &gradient);
-  double force = MaxFreeForce(pattern, gradient);
+  double force = MaxFreeVertexNorm(pattern, gradient);
   report.initial_energy = energy;
   report.initial_max_force = force;
   // Exact steps are tried while the force is at most this: the threshold, lowered
@@ -124,13 +112,13 @@ NewtonSolveReport MinimizeEnergyNewton(const NewtonSolverOptions& options,
     bool accepted = false;
     if (slope < 0.0 && std::isfinite(slope)) {
       double t = 1.0;
-      for (int halving = 0; halving <= options.max_halvings; ++halving, t *= 0.5) {
+      for (int halving = 0; halving <= options.line_search.max_halvings; ++halving, t *= 0.5) {
         trial = *x + t * step;
         const double trial_energy = factorization->EnergyAndGradient(trial, a, &trial_gradient);
         ++report.energy_evaluations;
         if (!std::isfinite(trial_energy)) continue;
-        const double trial_force = MaxFreeForce(pattern, trial_gradient);
-        const bool sufficient = trial_energy <= energy + options.armijo * t * slope;
+        const double trial_force = MaxFreeVertexNorm(pattern, trial_gradient);
+        const bool sufficient = options.line_search.SufficientDecrease(energy, trial_energy, t, slope);
         // Below the energy's round-off the decrease test is noise: the force decides.
         const bool round_off = trial_energy - energy <= kEnergyNoise * std::abs(energy) &&
                                trial_force < force;

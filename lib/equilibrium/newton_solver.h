@@ -6,6 +6,7 @@
 
 #include <Eigen/Core>
 
+#include "equilibrium/line_search.h"
 #include "equilibrium/stiffness_factorization.h"
 #include "physics/actuation.h"
 
@@ -21,10 +22,7 @@ struct NewtonSolverOptions {
   // Factorizations at most (each step factorizes once; a step whose exact stiffness is
   // not positive definite, or needs a diagonal shift, factorizes again).
   int max_factorizations = 100;
-  // Backtracking halvings of one line search at most.
-  int max_halvings = 30;
-  // Armijo's sufficient-decrease constant: E(x + t d) <= E(x) + armijo t g.d.
-  double armijo = 1e-4;
+  ArmijoLineSearch line_search;
   // Exact steps first try conjugate gradients on the current stiffness preconditioned by
   // the factor the factorization holds from an earlier state (a warm start's, the last
   // step's), with no factorization (an inexact Newton step); max_iterations = 0 disables.

@@ -9,13 +9,6 @@
 namespace aqs {
 namespace {
 
-double MaxFreeForce(const StiffnessPattern& pattern, const Eigen::Matrix3Xd& gradient) {
-  double max_force = 0.0;
-  for (int f = 0; f < pattern.num_free_vertices(); ++f) {
-    max_force = std::max(max_force, gradient.col(pattern.vertex_of_free(f)).norm());
-  }
-  return max_force;
-}
 
 // One correction pair (free-DOF vectors): s = x_{k+1} - x_k, y = g_{k+1} - g_k.
 struct Correction {
@@ -49,13 +42,9 @@ bool PreconditionedLbfgsOptions::Validate(std::string* error) const {
     out << "max_iterations must be >= 0 (is " << max_iterations << ")";
   } else if (memory < 0 || memory > 1000) {
     out << "memory must be in [0, 1000] (is " << memory << ")";
-  } else if (max_halvings < 0 || max_halvings > 60) {
-    out << "max_halvings must be in [0, 60] (is " << max_halvings << ")";
-  } else if (!(armijo > 0.0 && armijo < 0.5)) {
-    out << "armijo must be in (0, 0.5) (is " << armijo << ")";
   }
   *error = out.str();
-  return error->empty();
+  return error->empty() && line_search.Validate(error);
 }
 
 PreconditionedLbfgsReport MinimizeEnergyLbfgs(const PreconditionedLbfgsOptions& options,
@@ -67,7 +56,7 @@ PreconditionedLbfgsReport MinimizeEnergyLbfgs(const PreconditionedLbfgsOptions& 
   const StiffnessPattern& pattern = preconditioner->pattern();
   Eigen::Matrix3Xd gradient, trial_gradient, trial;
   double energy = preconditioner->EnergyAndGradient(*x, a, &gradient);
-  double force = MaxFreeForce(pattern, gradient);
+  double force = MaxFreeVertexNorm(pattern, gradient);
   report.initial_energy = energy;
   report.initial_max_force = force;
   std::deque<Correction> pairs;
@@ -102,11 +91,11 @@ PreconditionedLbfgsReport MinimizeEnergyLbfgs(const PreconditionedLbfgsOptions& 
     const Eigen::Matrix3Xd step = preconditioner->ScatterFree(direction.data());
     bool accepted = false;
     double t = 1.0, trial_energy = 0.0;
-    for (int halving = 0; halving <= options.max_halvings; ++halving, t *= 0.5) {
+    for (int halving = 0; halving <= options.line_search.max_halvings; ++halving, t *= 0.5) {
       trial = *x + t * step;
       trial_energy = preconditioner->EnergyAndGradient(trial, a, &trial_gradient);
       ++report.energy_evaluations;
-      if (std::isfinite(trial_energy) && trial_energy <= energy + options.armijo * t * slope) {
+      if (std::isfinite(trial_energy) && options.line_search.SufficientDecrease(energy, trial_energy, t, slope)) {
         accepted = true;
         break;
       }
@@ -133,7 +122,7 @@ PreconditionedLbfgsReport MinimizeEnergyLbfgs(const PreconditionedLbfgsOptions& 
     gradient.swap(trial_gradient);
     g = trial_g;
     energy = trial_energy;
-    force = MaxFreeForce(pattern, gradient);
+    force = MaxFreeVertexNorm(pattern, gradient);
     ++report.iterations;
   }
   report.final_energy = energy;

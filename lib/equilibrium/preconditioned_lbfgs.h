@@ -5,6 +5,7 @@
 
 #include <Eigen/Core>
 
+#include "equilibrium/line_search.h"
 #include "equilibrium/stiffness_factorization.h"
 #include "physics/actuation.h"
 
@@ -16,10 +17,7 @@ struct PreconditionedLbfgsOptions {
   int max_iterations = 500;
   // Correction pairs kept (L-BFGS memory).
   int memory = 10;
-  // Backtracking halvings of one line search at most.
-  int max_halvings = 30;
-  // Armijo's sufficient-decrease constant.
-  double armijo = 1e-4;
+  ArmijoLineSearch line_search;
 
   // Checks the fields; false with *error naming the field.
   bool Validate(std::string* error) const;

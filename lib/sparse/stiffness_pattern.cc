@@ -129,4 +129,12 @@ void AddVertexHessian(const std::vector<int>& vertices, const Eigen::MatrixXd& h
   }
 }
 
+double MaxFreeVertexNorm(const StiffnessPattern& pattern, const Eigen::Matrix3Xd& per_vertex) {
+  double largest = 0.0;
+  for (int f = 0; f < pattern.num_free_vertices(); ++f) {
+    largest = std::max(largest, per_vertex.col(pattern.vertex_of_free(f)).norm());
+  }
+  return largest;
+}
+
 }  // namespace aqs

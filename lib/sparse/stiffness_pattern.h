@@ -60,6 +60,10 @@ class StiffnessPattern {
   Eigen::Matrix4Xi tets_;
 };
 
+// The largest column norm of a per-vertex field (3 x num_vertices) over the free vertices
+// of `pattern`: for a gradient dE/dx, the largest residual force.
+double MaxFreeVertexNorm(const StiffnessPattern& pattern, const Eigen::Matrix3Xd& per_vertex);
+
 // Adds a dense symmetric Hessian over `vertices` (3 n x 3 n, vertex i's DOFs at rows
 // 3 i .. 3 i + 2; vertices distinct) into `values` (upper-triangle CSC of `pattern`).
 // Blocks of fixed vertices are dropped; every pair of free vertices must be in the

@@ -22,34 +22,24 @@ struct EvaluationCounters {
   // These counters minus `before` (an earlier reading of the same totals).
   EvaluationCounters Since(const EvaluationCounters& before) const {
     EvaluationCounters d = *this;
-    d.evaluations -= before.evaluations;
-    d.factorizations -= before.factorizations;
-    d.adjoint_factorizations -= before.adjoint_factorizations;
-    d.reused_solves -= before.reused_solves;
-    d.cg_iterations -= before.cg_iterations;
-    d.lbfgs_iterations -= before.lbfgs_iterations;
-    d.newton_steps -= before.newton_steps;
-    d.retries_from_rest -= before.retries_from_rest;
-    d.solve_seconds -= before.solve_seconds;
-    d.adjoint_seconds -= before.adjoint_seconds;
-    d.decoder_seconds -= before.decoder_seconds;
-    d.seconds -= before.seconds;
+    d.Add(before, -1);
     return d;
   }
 
-  void Add(const EvaluationCounters& other) {
-    evaluations += other.evaluations;
-    factorizations += other.factorizations;
-    adjoint_factorizations += other.adjoint_factorizations;
-    reused_solves += other.reused_solves;
-    cg_iterations += other.cg_iterations;
-    lbfgs_iterations += other.lbfgs_iterations;
-    newton_steps += other.newton_steps;
-    retries_from_rest += other.retries_from_rest;
-    solve_seconds += other.solve_seconds;
-    adjoint_seconds += other.adjoint_seconds;
-    decoder_seconds += other.decoder_seconds;
-    seconds += other.seconds;
+  // Adds sign x other, field by field.
+  void Add(const EvaluationCounters& other, int sign = 1) {
+    evaluations += sign * other.evaluations;
+    factorizations += sign * other.factorizations;
+    adjoint_factorizations += sign * other.adjoint_factorizations;
+    reused_solves += sign * other.reused_solves;
+    cg_iterations += sign * other.cg_iterations;
+    lbfgs_iterations += sign * other.lbfgs_iterations;
+    newton_steps += sign * other.newton_steps;
+    retries_from_rest += sign * other.retries_from_rest;
+    solve_seconds += sign * other.solve_seconds;
+    adjoint_seconds += sign * other.adjoint_seconds;
+    decoder_seconds += sign * other.decoder_seconds;
+    seconds += sign * other.seconds;
   }
 };
 
