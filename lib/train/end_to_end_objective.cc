@@ -265,6 +265,9 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
   const double scale = 1.0 / (static_cast<double>(num_poses_) * n);
   std::vector<ActuationMatrix> dl_da(num_owned);
   std::vector<Counters> pose_counters(num_owned);
+  // The equilibria found; they become the warm starts only if the whole evaluation
+  // succeeds (a failed line-search trial must not move any pose's warm start).
+  std::vector<Eigen::Matrix3Xd> solved(num_owned);
   const int threads = std::max(1, std::min(options_.num_threads, num_owned));
   ParallelFor(threads, 0, num_owned, [&](int t, int k) {
     const int p = owned_[k];
@@ -296,9 +299,8 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
       failures_[p] = "pose '" + model_.poses[p].name + "': " + report.Summary();
       return;
     }
-    const Eigen::Matrix3Xd x = w.solver->positions();
-    states_[p] = x;
-    if (solver_per_pose_) state_actuations_[p] = a[k];
+    solved[k] = w.solver->positions();
+    const Eigen::Matrix3Xd& x = solved[k];
     converged_once_[p] = 1;
     const Eigen::Matrix3Xd diff =
         EmbeddedPositions(model_.embedding, model_.mesh.tets, x) - model_.poses[p].surface;
@@ -370,6 +372,10 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
     last_counters_ = total;
     total_counters_.Add(total);  // a failed evaluation costs too
     return false;
+  }
+  for (int k = 0; k < num_owned; ++k) {
+    states_[owned_[k]] = std::move(solved[k]);
+    if (solver_per_pose_) state_actuations_[owned_[k]] = a[k];
   }
   if (static_cast<int>(remembered_.size()) == kRememberedEvaluations) {
     remembered_.erase(remembered_.begin());

@@ -9,6 +9,14 @@ work=$3
 rm -rf "$work"
 mkdir -p "$work"
 cmake --install "$build_dir" --prefix "$work/prefix" > "$work/install.log"
+# The curated header set: entry points installed, internal helpers not.
+include="$work/prefix/include/activeqs"
+for header in equilibrium/quasistatic_solver.h diff/equilibrium_differentiator.h model/model_io.h; do
+  [ -f "$include/$header" ] || { echo "missing public header $header"; exit 1; }
+done
+for header in geometry/disjoint_sets.h mesh/text_io_util.h util/atomic_file.h; do
+  [ -f "$include/$header" ] && { echo "private header $header was installed"; exit 1; }
+done
 cmake -S "$source_dir" -B "$work/build" -DCMAKE_BUILD_TYPE=Release \
       -DCMAKE_PREFIX_PATH="$work/prefix" > "$work/configure.log"
 cmake --build "$work/build" -j2 > "$work/build.log"

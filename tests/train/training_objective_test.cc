@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cstdio>
+#include <limits>
 #include <random>
 #include <thread>
 
@@ -109,6 +110,26 @@ TEST(EndToEndObjectiveTest, SolverLayoutsAgree) {
   EXPECT_GT(per_pose_objective.total_counters().reused_solves, 0);
   EXPECT_LT(per_pose_objective.total_counters().factorizations,
             shared_objective.total_counters().factorizations);
+}
+
+// An evaluation that fails (one pose's equilibrium not reached) keeps every pose's warm
+// start, also those of the poses that did converge.
+TEST(EndToEndObjectiveTest, FailedEvaluationKeepsEveryWarmStart) {
+  testing::SyntheticMuscles data = PretrainedBar();
+  ActiveModel& model = data.model;
+  EndToEndObjective objective(TrainOptions(), model);
+  Eigen::VectorXd x = objective.ModelParameters();
+  double cost = 0;
+  ASSERT_TRUE(objective.Evaluate(x.data(), &cost, nullptr)) << objective.last_failure();
+  const std::vector<Eigen::Matrix3Xd> before = objective.states();
+  const int np = model.decoder->num_parameters(), d = model.latent_dim();
+  x.segment(np, d) *= 1.001;            // pose 0: a small change, solved
+  x[np + d] = std::numeric_limits<double>::quiet_NaN();  // pose 1: actuations refused
+  EXPECT_FALSE(objective.Evaluate(x.data(), &cost, nullptr));
+  ASSERT_EQ(objective.states().size(), before.size());
+  for (size_t p = 0; p < before.size(); ++p) {
+    EXPECT_EQ((objective.states()[p] - before[p]).cwiseAbs().maxCoeff(), 0.0) << "pose " << p;
+  }
 }
 
 // Past its time limit an evaluation fails at once (a failed line-search step), and

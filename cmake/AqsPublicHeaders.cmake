@@ -1,0 +1,28 @@
+# The installed header set: the public entry headers and every project header they
+# include, transitively (quoted includes "module/file.h" resolved under lib/). Headers
+# that no public header needs stay private (not installed).
+#
+#   aqs_public_header_closure(<out_var> <lib_dir> <entry headers relative to lib_dir>...)
+function(aqs_public_header_closure out_var lib_dir)
+  set(pending ${ARGN})
+  set(closure "")
+  while(pending)
+    list(POP_FRONT pending header)
+    if(header IN_LIST closure)
+      continue()
+    endif()
+    if(NOT EXISTS "${lib_dir}/${header}")
+      message(FATAL_ERROR "public header ${header} does not exist under ${lib_dir}")
+    endif()
+    list(APPEND closure ${header})
+    file(STRINGS "${lib_dir}/${header}" lines REGEX "^#include \"[^\"]+\"")
+    foreach(line ${lines})
+      string(REGEX REPLACE "^#include \"([^\"]+)\".*" "\\1" included "${line}")
+      if(EXISTS "${lib_dir}/${included}" AND NOT included IN_LIST closure)
+        list(APPEND pending ${included})
+      endif()
+    endforeach()
+  endwhile()
+  list(SORT closure)
+  set(${out_var} ${closure} PARENT_SCOPE)
+endfunction()
