@@ -13,7 +13,11 @@
 //   the parts, per pose per iteration over the unit: equilibrium solves, adjoints
 //   (thread time), the decoder (wall time over poses).
 // The unit: the median of three numeric factorizations of the exact stiffness of pose 0
-// at its stored equilibrium.
+// at its stored equilibrium. Also printed: the size of one factor (CHOLMOD's symbolic
+// analysis: non-zeros of L, in GB of doubles, the figure TrainOptions::max_factor_cache_gb
+// is compared with), the stiffness' non-zeros, the resident memory with the model loaded,
+// and per mode the peak resident memory of the process so far (run one mode per process,
+// --modes=shared then --modes=per_pose, for each mode's own peak).
 
 #include <algorithm>
 #include <cstdio>
@@ -27,6 +31,8 @@
 #include "learn/decoder.h"
 #include "model/model_io.h"
 #include "train/trainer.h"
+#include "util/blas.h"
+#include "util/process_memory.h"
 #include "util/wall_timer.h"
 
 DEFINE_int32(iterations, 10, "L-BFGS iterations per mode.");
@@ -39,7 +45,15 @@ DECLARE_string(model);
 namespace aqs {
 namespace {
 
-double UnitSeconds(const ActiveModel& model) {
+struct Unit {
+  double seconds = 0.0;          // one numeric factorization (median), BLAS as configured
+  double seconds_one_thread = 0.0;  // the same with one BLAS thread
+  double factor_nonzeros = 0.0;  // of L
+  double stiffness_nonzeros = 0.0;
+  int dofs = 0;
+};
+
+Unit MeasureUnit(const ActiveModel& model) {
   const ShapeTargetModel physics(model.mesh, model.mu);
   const BoundaryConditions bc = PoseBoundaryConditions(model, 0);
   StiffnessFactorization factorization(physics, FixedVertexMask(bc, model.mesh.num_vertices()), 1);
@@ -51,6 +65,11 @@ double UnitSeconds(const ActiveModel& model) {
           ? model.states[0]
           : model.mesh.vertices;
   factorization.Assemble(x, a, StiffnessKind::kExact);
+  Unit unit;
+  factorization.Analyze();
+  unit.factor_nonzeros = factorization.cholesky().factor_nonzeros();
+  unit.stiffness_nonzeros = static_cast<double>(factorization.pattern().num_nonzeros());
+  unit.dofs = factorization.cholesky().size();
   std::vector<double> seconds;
   std::string error;
   for (int i = 0; i < 4; ++i) {
@@ -62,9 +81,23 @@ double UnitSeconds(const ActiveModel& model) {
     }
     if (i > 0) seconds.push_back(timer.Seconds());  // the first includes the analysis
   }
-  if (seconds.empty()) return 0.0;
+  if (seconds.empty()) return unit;
   std::sort(seconds.begin(), seconds.end());
-  return seconds[seconds.size() / 2];
+  unit.seconds = seconds[seconds.size() / 2];
+  // Training runs one pose per thread with one BLAS thread each (TrainEndToEnd).
+  const int blas_threads = BlasThreads();
+  SetBlasThreads(1);
+  seconds.clear();
+  for (int i = 0; i < 3; ++i) {
+    WallTimer timer;
+    if (factorization.FactorizeAssembled(0.0, &error)) seconds.push_back(timer.Seconds());
+  }
+  SetBlasThreads(blas_threads);
+  if (!seconds.empty()) {
+    std::sort(seconds.begin(), seconds.end());
+    unit.seconds_one_thread = seconds[seconds.size() / 2];
+  }
+  return unit;
 }
 
 int Main() {
@@ -82,14 +115,23 @@ int Main() {
     PrintError(FLAGS_model + ": the model is not pre-trained (no decoder)");
     return 1;
   }
-  const double unit = UnitSeconds(model);
+  const Unit measured = MeasureUnit(model);
+  const double unit = measured.seconds;
   std::printf("model %s: %d elements, %d poses, %d decoder parameters; unit (one factorization) "
               "%.4f s; %d threads\n",
               FLAGS_model.c_str(), model.mesh.num_tets(), model.num_poses(),
               model.decoder->num_parameters(), unit, FLAGS_threads);
-  std::printf("%-9s %6s %8s %9s %7s %9s %8s %8s %8s %8s %8s %8s %8s %8s\n", "mode", "iters",
+  std::printf("unit with one BLAS thread (as each training thread factorizes): %.4f s\n",
+              measured.seconds_one_thread);
+  std::printf("stiffness: %d free DOFs, %.4g non-zeros (upper triangle); factor: %.4g non-zeros "
+              "= %.3f GB (x %d poses = %.2f GB); resident with the model loaded %.2f GB\n",
+              measured.dofs, measured.stiffness_nonzeros, measured.factor_nonzeros,
+              8.0 * measured.factor_nonzeros / 1e9, model.num_poses(),
+              8.0 * measured.factor_nonzeros * model.num_poses() / 1e9,
+              CurrentResidentBytes() / 1e9);
+  std::printf("%-9s %6s %8s %9s %7s %9s %8s %8s %8s %8s %8s %8s %8s %8s %8s\n", "mode", "iters",
               "s/iter", "pose/unit", "evals", "fact/pose", "reused", "cg/pose", "newton", "lbfgs",
-              "solve", "adjoint", "decoder", "loss");
+              "solve", "adjoint", "decoder", "loss", "peak_GB");
   for (const std::string& mode : SplitCommaList(FLAGS_modes)) {
     if (mode != "per_pose" && mode != "shared") {
       PrintError("--modes: '" + mode + "' is not per_pose or shared");
@@ -117,14 +159,15 @@ int Main() {
     const int iterations = std::max(1, report.iterations - report.iterations_before);
     const double per_pose_iteration = 1.0 / (static_cast<double>(iterations) * model.num_poses());
     const double u = unit > 0 ? unit : 1.0;
-    std::printf("%-9s %6d %8.3f %9.2f %7.2f %9.2f %8.2f %8.1f %8.2f %8.2f %8.2f %8.2f %8.2f %8.3e\n",
+    std::printf("%-9s %6d %8.3f %9.2f %7.2f %9.2f %8.2f %8.1f %8.2f %8.2f %8.2f %8.2f %8.2f %8.3e %8.2f\n",
                 mode.c_str(), iterations, c.seconds / iterations,
                 c.seconds * per_pose_iteration / u, c.evaluations / static_cast<double>(iterations),
                 c.factorizations * per_pose_iteration, c.reused_solves * per_pose_iteration,
                 c.cg_iterations * per_pose_iteration, c.newton_steps * per_pose_iteration,
                 c.lbfgs_iterations * per_pose_iteration, c.solve_seconds * per_pose_iteration / u,
                 c.adjoint_seconds * per_pose_iteration / u,
-                c.decoder_seconds * per_pose_iteration / u, report.final_loss);
+                c.decoder_seconds * per_pose_iteration / u, report.final_loss,
+                PeakResidentBytes() / 1e9);
     std::fflush(stdout);
   }
   std::printf(
@@ -133,7 +176,8 @@ int Main() {
       "solves on an earlier factor, and CG iterations per pose per iteration;\nnewton, lbfgs: "
       "Newton steps and L-BFGS iterations per pose per iteration; solve, "
       "adjoint: thread seconds per pose per iteration over the unit; decoder: wall seconds "
-      "per pose per iteration over the unit.\n");
+      "per pose per iteration over the unit;\npeak_GB: the process's peak resident memory so far "
+      "(one mode per process for each mode's own peak).\n");
   return 0;
 }
 

@@ -1,5 +1,8 @@
 #include "learning_flags.h"
 
+#include <cmath>
+#include <string>
+
 #include <gflags/gflags.h>
 
 #include "app_common.h"
@@ -30,6 +33,9 @@ DEFINE_bool(pretrain_simulate, true, "After pre-training, simulate every pose's 
             "pre-training (pretrain/surface_errors.*, the error budget's stage (b)) and gives "
             "training its starting equilibria.");
 DEFINE_int32(checkpoint_every, 1, "Save the learned state every this many iterations.");
+DEFINE_double(factor_cache_gb, 4.0, "End-to-end training keeps one stiffness factor per pose (far "
+              "fewer factorizations) while the poses' factors take at most this many GB in all "
+              "(per process), else one solver per thread.");
 DEFINE_int32(train_restarts, 5, "L-BFGS restarts allowed when the line search stalls before the "
              "iteration or time budget is used.");
 DECLARE_int32(threads);
@@ -90,6 +96,12 @@ bool TrainOptionsFromFlags(TrainOptions* options, std::string* error) {
     *error = "--train_iterations and --train_restarts must be >= 0 and --train_tolerance > 0";
     return false;
   }
+  if (!(FLAGS_factor_cache_gb >= 0) || !std::isfinite(FLAGS_factor_cache_gb)) {
+    *error = "--factor_cache_gb must be a finite number of GB >= 0, got " +
+             std::to_string(FLAGS_factor_cache_gb);
+    return false;
+  }
+  options->max_factor_cache_gb = FLAGS_factor_cache_gb;
   options->latent_regularization = FLAGS_latent_regularization;
   options->max_iterations = FLAGS_train_iterations;
   options->max_seconds = 60.0 * FLAGS_train_minutes;

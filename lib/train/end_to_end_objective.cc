@@ -47,10 +47,10 @@ EndToEndObjective::EndToEndObjective(const TrainOptions& options, const ActiveMo
   // symbolic analysis gives the factor's size.
   auto first = std::make_unique<QuasistaticSolver>(physics_, bc, solver_options);
   first->stiffness_factorization()->Analyze();
-  const double factor_gb = 8.0 * first->stiffness_factorization()->cholesky().factor_nonzeros() / 1e9;
+  factor_gb_ = 8.0 * first->stiffness_factorization()->cholesky().factor_nonzeros() / 1e9;
   // (The budget is per process; the choice also depends on the pose count in all, so
   // that a rank owning one pose of many keeps its factor as one process would.)
-  solver_per_pose_ = num_poses_ > 1 && factor_gb * num_owned <= options.max_factor_cache_gb;
+  solver_per_pose_ = num_poses_ > 1 && factor_gb_ * num_owned <= options.max_factor_cache_gb;
   // A factor of another pose is a poor preconditioner: with shared solvers the Newton
   // steps factorize (the adjoint still reuses the factor of its own pose's solve).
   if (!solver_per_pose_) solver_options.factor_reuse.max_iterations = 0;

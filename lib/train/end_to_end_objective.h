@@ -110,8 +110,11 @@ class EndToEndObjective final : public ceres::FirstOrderFunction {
   using Counters = EvaluationCounters;
   const Counters& last_counters() const { return last_counters_; }
   const Counters& total_counters() const { return total_counters_; }
-  // Whether each pose has its own solver and factor (TrainOptions::max_factor_cache_gb).
+  // Whether each pose has its own solver and factor (TrainOptions::max_factor_cache_gb),
+  // and the size of one factor that choice was made on (GB: 8 bytes per non-zero of L
+  // from CHOLMOD's symbolic analysis; 0 on a rank without poses).
   bool solver_per_pose() const { return solver_per_pose_; }
+  double factor_gb() const { return factor_gb_; }
 
  private:
   struct Worker {
@@ -147,6 +150,7 @@ class EndToEndObjective final : public ceres::FirstOrderFunction {
   // Evaluation is logically const for Ceres; these caches change.
   mutable std::vector<Worker> workers_;  // one per owned pose, or one per thread
   bool solver_per_pose_ = false;
+  double factor_gb_ = 0.0;
   mutable Counters last_counters_, total_counters_;
   mutable std::vector<Eigen::Matrix3Xd> states_;
   // With a solver per pose: the actuation each state is the equilibrium of (empty: not

@@ -215,6 +215,26 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
     }
     log << "\n";
   }
+  {
+    // The solver layout (TrainOptions::max_factor_cache_gb), for this rank's poses.
+    const size_t owned = objective->owned_poses().size();
+    const double gb = objective->factor_gb(), total = owned * gb;
+    char layout[256];
+    if (objective->solver_per_pose()) {
+      std::snprintf(layout, sizeof(layout),
+                    "train: one solver and stiffness factor per pose (%zu x %.3g GB = %.3g GB, "
+                    "within the factor cache of %.3g GB)\n",
+                    owned, gb, total, options.max_factor_cache_gb);
+    } else if (total > options.max_factor_cache_gb) {
+      std::snprintf(layout, sizeof(layout),
+                    "train: one solver per thread (the factors of %zu poses, %zu x %.3g GB = "
+                    "%.3g GB, exceed the factor cache of %.3g GB)\n",
+                    owned, owned, gb, total, options.max_factor_cache_gb);
+    } else {
+      std::snprintf(layout, sizeof(layout), "train: one solver per thread\n");
+    }
+    log << layout;
+  }
   if (remaining <= 0) {
     log << "train: all " << options.max_iterations << " iterations are done already\n";
   }

@@ -65,6 +65,18 @@ TEST(AqsPipelineTest, PreparesPretrainsTrainsAndResumes) {
   ASSERT_EQ(again.exit_code, 0) << again.output;
   EXPECT_NE(again.output.find("resuming after 4 iterations"), std::string::npos) << again.output;
   EXPECT_NE(again.output.find("train iter     5/6"), std::string::npos) << again.output;
+  // The solver layout follows --factor_cache_gb: the bar's small factors fit the default
+  // cache (above: one per pose); with no cache, one solver per thread.
+  EXPECT_NE(run.output.find("train: one solver and stiffness factor per pose (5 x "),
+            std::string::npos) << run.output;
+  again = RunCommand(AppPath("aqs_train") + " --flagfile=" + dir.File("run.flags") +
+                     " --train_iterations=7 --factor_cache_gb=0");
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  EXPECT_NE(again.output.find("train: one solver per thread (the factors of 5 poses, 5 x "),
+            std::string::npos) << again.output;
+  EXPECT_NE(again.output.find("exceed the factor cache of 0 GB)"), std::string::npos)
+      << again.output;
+  EXPECT_NE(again.output.find("train iter     7/7"), std::string::npos) << again.output;
 }
 
 TEST(AqsPipelineTest, MissingFlagsAndBadStagesFail) {
@@ -78,6 +90,12 @@ TEST(AqsPipelineTest, MissingFlagsAndBadStagesFail) {
   run = RunCommand(AppPath("aqs_train") + " --model=/nonexistent/model");
   EXPECT_EQ(run.exit_code, 1);
   EXPECT_NE(run.output.find("/nonexistent/model/model.txt"), std::string::npos) << run.output;
+  for (const char* bad : {"-1", "nan", "inf"}) {
+    run = RunCommand(AppPath("aqs_train") + " --model=/nonexistent/model --factor_cache_gb=" + bad);
+    EXPECT_EQ(run.exit_code, 1) << bad;
+    EXPECT_NE(run.output.find("--factor_cache_gb must be a finite number of GB >= 0"),
+              std::string::npos) << run.output;
+  }
 }
 
 }  // namespace
