@@ -49,6 +49,27 @@ bool EquilibriumDifferentiator::Prepare(const ShapeTargetModel::PositionsRef& x,
   return ok;
 }
 
+bool EquilibriumDifferentiator::PrepareShifted(const ShapeTargetModel::PositionsRef& x,
+                                               const ShapeTargetModel::ActuationRef& a,
+                                               double relative_shift, std::string* error) {
+  CHECK_EQ(x.cols(), model_.num_vertices());
+  CHECK_EQ(a.cols(), model_.num_elements());
+  CHECK_GT(relative_shift, 0.0);
+  prepared_ = false;
+  deferred_ = false;
+  timings_ = DifferentiationTimings();
+  x_ = x;
+  a_ = a;
+  factorization_->Assemble(x_, a_, StiffnessKind::kExact);
+  const bool ok = factorization_->FactorizeAssembled(relative_shift, error);
+  const FactorizationTimings& t = factorization_->timings();
+  timings_.assembly = t.assembly;
+  timings_.analysis = t.analysis;
+  timings_.factorization = t.factorization;
+  prepared_ = ok;
+  return ok;
+}
+
 Eigen::Matrix3Xd EquilibriumDifferentiator::SolveAdjoint(const Eigen::Matrix3Xd& dl_dx) {
   CHECK(prepared_) << "call Prepare() successfully first";
   CHECK(!deferred_) << "with options().reuse, use the overloads that return false on failure";

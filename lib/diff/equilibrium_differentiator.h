@@ -63,6 +63,15 @@ class EquilibriumDifferentiator {
   bool Prepare(const ShapeTargetModel::PositionsRef& x, const ShapeTargetModel::ActuationRef& a,
                std::string* error);
 
+  // As Prepare, but factorizes K + relative_shift x mean(diag K) x I (relative_shift >
+  // 0), never deferred: the regularized adjoint of a state whose exact K is singular or
+  // not positive definite. The gradients that follow are those of the shifted system
+  // (approximate, accurate where K's spectrum is far above the shift). false with
+  // *error if even the shifted K cannot be factorized.
+  bool PrepareShifted(const ShapeTargetModel::PositionsRef& x,
+                      const ShapeTargetModel::ActuationRef& a, double relative_shift,
+                      std::string* error);
+
   // dL/da (6 x num_elements) for a loss L(x) whose gradient with respect to the
   // positions is dl_dx (3 x num_vertices; entries of fixed vertices are ignored since
   // fixed positions do not depend on a).

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <random>
 #include <sstream>
 
 #include <ceres/ordered_groups.h>
@@ -133,6 +134,24 @@ void QuasistaticSolver::SetPositions(const Eigen::Matrix3Xd& positions) {
   CHECK_EQ(positions.cols(), model_.num_vertices());
   std::copy(positions.data(), positions.data() + positions.size(), positions_.data());
   ApplyFixedPositions();
+}
+
+void QuasistaticSolver::PerturbFreeVertices(double relative_size, unsigned seed) {
+  const Eigen::Matrix3Xd& rest = model_.rest_positions();
+  const Eigen::Matrix4Xi& tets = model_.tets();
+  double edge_sum = 0.0;
+  for (int e = 0; e < tets.cols(); ++e) {
+    for (int i = 0; i < 4; ++i) {
+      for (int j = i + 1; j < 4; ++j) edge_sum += (rest.col(tets(i, e)) - rest.col(tets(j, e))).norm();
+    }
+  }
+  const double size = relative_size * edge_sum / std::max<Eigen::Index>(1, 6 * tets.cols());
+  std::mt19937 generator(seed);
+  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+  for (int v = 0; v < model_.num_vertices(); ++v) {
+    if (fixed_mask_[v]) continue;
+    for (int c = 0; c < 3; ++c) positions_[3 * v + c] += size * uniform(generator);
+  }
 }
 
 void QuasistaticSolver::SetFixedPositions(const Eigen::Matrix3Xd& fixed_positions) {
@@ -317,6 +336,33 @@ void QuasistaticSolver::RunCeres(double tolerance, QuasistaticSolveReport* repor
   if (!report->termination.empty()) report->termination += "; ";
   report->termination += "Ceres: " + summary.message;
   report->final_max_force = MaxFreeForce(&report->final_energy);
+}
+
+QuasistaticSolveReport QuasistaticSolver::LeaveUnstableEquilibrium(double relative_size,
+                                                                   unsigned seed) {
+  WallTimer timer;
+  QuasistaticSolveReport report;
+  report.force_tolerance = ForceTolerance();
+  ApplyFixedPositions();
+  bool have_stiffness = !fixed_vertices_.empty();
+  for (const EnergyTerm* term : terms_) have_stiffness = have_stiffness && term->SupportsStiffness();
+  std::string refusal = RefusalReason();
+  if (refusal.empty() && !have_stiffness) {
+    refusal = "leaving an unstable equilibrium needs fixed vertices and every term's stiffness";
+  }
+  if (!refusal.empty()) {
+    report.termination = "refused: " + refusal;
+    report.seconds = timer.Seconds();
+    return report;
+  }
+  PerturbFreeVertices(relative_size, seed);
+  report.initial_max_force = MaxFreeForce(&report.initial_energy);
+  report.final_energy = report.initial_energy;
+  report.final_max_force = report.initial_max_force;
+  report.converged = report.initial_max_force <= report.force_tolerance ||
+                     RunNewton(0.0, &report);  // projected steps only
+  report.seconds = timer.Seconds();
+  return report;
 }
 
 QuasistaticSolveReport QuasistaticSolver::Solve() {

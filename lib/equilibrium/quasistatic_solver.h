@@ -187,6 +187,12 @@ class QuasistaticSolver {
   }
   // Sets the warm start. Fixed vertices are reset to their prescribed positions.
   void SetPositions(const Eigen::Matrix3Xd& positions);
+  // Moves every free vertex of the state by a deterministic pseudo-random displacement,
+  // each coordinate uniform in [-1, 1] x relative_size x the mesh's mean rest edge
+  // length (a generator seeded by `seed`). For leaving an unstable equilibrium (a
+  // saddle: zero force, but an exact stiffness that is not positive definite), from
+  // which Solve() then descends to a stable one.
+  void PerturbFreeVertices(double relative_size, unsigned seed);
   // New prescribed positions of the fixed vertices (3 x bc.vertices.size(), in the
   // order of bc.vertices); applied to the state immediately.
   void SetFixedPositions(const Eigen::Matrix3Xd& fixed_positions);
@@ -201,6 +207,14 @@ class QuasistaticSolver {
   // taking stiffness_factorization(): a term with vertex couplings replaces it.
   void AddEnergyTerm(const EnergyTerm* term);
   const std::vector<const EnergyTerm*>& energy_terms() const { return terms_; }
+
+  // Leaves an unstable equilibrium (zero force, but an exact stiffness that is not
+  // positive definite: a saddle of the energy, which an adjoint cannot use and a pose
+  // would not keep): PerturbFreeVertices(relative_size, seed), then Newton steps on the
+  // PSD-projected stiffness only, down to the force tolerance (exact Newton steps would
+  // be drawn back to the saddle). Bodies without fixed vertices, or energy terms
+  // without a stiffness, are refused (converged = false, termination says why).
+  QuasistaticSolveReport LeaveUnstableEquilibrium(double relative_size, unsigned seed);
 
   // Minimizes E(., actuation()) (plus energy terms) from positions() by
   // options().method. Returns what happened; a solve that does not reach the force

@@ -299,37 +299,73 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
       failures_[p] = "pose '" + model_.poses[p].name + "': " + report.Summary();
       return;
     }
-    solved[k] = w.solver->positions();
-    const Eigen::Matrix3Xd& x = solved[k];
-    converged_once_[p] = 1;
-    const Eigen::Matrix3Xd diff =
-        EmbeddedPositions(model_.embedding, model_.mesh.tets, x) - model_.poses[p].surface;
-    pose_loss_[p] = diff.squaredNorm() * scale;
-    const Eigen::VectorXd distance = diff.colwise().norm();
-    pose_mean_[p] = distance.mean();
-    pose_max_[p] = distance.maxCoeff();
-    if (gradient == nullptr) return;
-    // dL/dx: the embedding's transpose applied to dL/dp_i = 2 scale diff_i.
-    Eigen::Matrix3Xd dl_dx = Eigen::Matrix3Xd::Zero(3, x.cols());
-    for (int i = 0; i < n; ++i) {
-      for (int k = 0; k < 4; ++k) {
-        dl_dx.col(model_.mesh.tets(k, model_.embedding.element[i])) +=
-            2.0 * scale * model_.embedding.weights(k, i) * diff.col(i);
-      }
-    }
     WallTimer adjoint_timer;
     StiffnessFactorization& factorization = *w.solver->stiffness_factorization();
     const FactorizationCounters before = factorization.counters();
-    std::string error;
-    if (!w.differentiator->Prepare(x, a[k], &error) ||
-        !w.differentiator->LossGradient(dl_dx, &dl_da[k], &error)) {
-      failures_[p] = "pose '" + model_.poses[p].name + "': " + error;
-      return;
+    int escape_factorizations = 0, escape_reused = 0;  // the escapes' solves, counted there
+    // An equilibrium whose exact stiffness is not positive definite is unstable (a
+    // saddle of the energy): the adjoint cannot use it and the pose would not stay
+    // there. Leave it by a small perturbation and solve again, at most kMaxEscapes times.
+    for (int escape = 0;; ++escape) {
+      solved[k] = w.solver->positions();
+      const Eigen::Matrix3Xd& x = solved[k];
+      converged_once_[p] = 1;
+      const Eigen::Matrix3Xd diff =
+          EmbeddedPositions(model_.embedding, model_.mesh.tets, x) - model_.poses[p].surface;
+      pose_loss_[p] = diff.squaredNorm() * scale;
+      const Eigen::VectorXd distance = diff.colwise().norm();
+      pose_mean_[p] = distance.mean();
+      pose_max_[p] = distance.maxCoeff();
+      if (gradient == nullptr) return;
+      // dL/dx: the embedding's transpose applied to dL/dp_i = 2 scale diff_i.
+      Eigen::Matrix3Xd dl_dx = Eigen::Matrix3Xd::Zero(3, x.cols());
+      for (int i = 0; i < n; ++i) {
+        for (int j = 0; j < 4; ++j) {
+          dl_dx.col(model_.mesh.tets(j, model_.embedding.element[i])) +=
+              2.0 * scale * model_.embedding.weights(j, i) * diff.col(i);
+        }
+      }
+      std::string error;
+      if (w.differentiator->Prepare(x, a[k], &error) &&
+          w.differentiator->LossGradient(dl_dx, &dl_da[k], &error)) {
+        break;
+      }
+      if (escape == kMaxEscapes) {
+        // Still not positive definite (a singular or degenerate K, not a saddle that a
+        // perturbation leaves): the regularized adjoint, with the smallest shift that
+        // factorizes.
+        bool shifted = false;
+        for (double shift = kFirstAdjointShift; !shifted && shift <= kLastAdjointShift;
+             shift *= 100.0) {
+          std::string shift_error;
+          shifted = w.differentiator->PrepareShifted(x, a[k], shift, &shift_error) &&
+                    w.differentiator->LossGradient(dl_dx, &dl_da[k], &shift_error);
+        }
+        if (shifted) {
+          ++counters.shifted_adjoints;
+          break;
+        }
+        failures_[p] = "pose '" + model_.poses[p].name + "': " + error;
+        return;
+      }
+      ++counters.unstable_escapes;
+      const FactorizationCounters escape_before = factorization.counters();
+      const QuasistaticSolveReport again = w.solver->LeaveUnstableEquilibrium(
+          kEscapeRelativeSize, 7919u * static_cast<unsigned>(p) + escape);
+      count(again);
+      escape_factorizations += factorization.counters().factorizations - escape_before.factorizations;
+      escape_reused += factorization.counters().reused_solves - escape_before.reused_solves;
+      if (!again.converged) {
+        failures_[p] = "pose '" + model_.poses[p].name + "': leaving an unstable equilibrium (" +
+                       error + "): " + again.Summary();
+        return;
+      }
     }
     const FactorizationCounters& after = factorization.counters();
-    counters.adjoint_factorizations = after.factorizations - before.factorizations;
+    counters.adjoint_factorizations =
+        after.factorizations - before.factorizations - escape_factorizations;
     counters.factorizations += counters.adjoint_factorizations;
-    counters.reused_solves += after.reused_solves - before.reused_solves;
+    counters.reused_solves += after.reused_solves - before.reused_solves - escape_reused;
     counters.adjoint_seconds = adjoint_timer.Seconds();
     counters.cg_iterations = after.cg_iterations - cg_start;
   }, 1);
@@ -346,12 +382,13 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
   }
   if (distributed()) {
     communicator_->MinToAll(&first_failure, 1);
-    double sums[9] = {double(total.factorizations), double(total.adjoint_factorizations),
+    double sums[11] = {double(total.factorizations), double(total.adjoint_factorizations),
                       double(total.reused_solves),  double(total.cg_iterations),
                       double(total.lbfgs_iterations), double(total.newton_steps),
                       double(total.retries_from_rest), total.solve_seconds,
-                      total.adjoint_seconds};
-    communicator_->SumToRoot(sums, 9);
+                      total.adjoint_seconds, double(total.unstable_escapes),
+                      double(total.shifted_adjoints)};
+    communicator_->SumToRoot(sums, 11);
     total.factorizations = static_cast<int>(sums[0]);
     total.adjoint_factorizations = static_cast<int>(sums[1]);
     total.reused_solves = static_cast<int>(sums[2]);
@@ -361,6 +398,8 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
     total.retries_from_rest = static_cast<int>(sums[6]);
     total.solve_seconds = sums[7];
     total.adjoint_seconds = sums[8];
+    total.unstable_escapes = static_cast<int>(sums[9]);
+    total.shifted_adjoints = static_cast<int>(sums[10]);
   }
   total.evaluations = 1;
   total.decoder_seconds = decoder_seconds;

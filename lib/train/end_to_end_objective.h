@@ -95,6 +95,15 @@ class EndToEndObjective final : public ceres::FirstOrderFunction {
   // StatesAt returns false if no remembered evaluation was at these parameters;
   // UseStatesOf makes them the warm starts of the next evaluation.
   static constexpr int kRememberedEvaluations = 3;
+  // Unstable equilibria (exact stiffness not positive definite) are left at most this
+  // many times per pose and evaluation, each by a perturbation of this size relative to
+  // the mean rest edge length (QuasistaticSolver::LeaveUnstableEquilibrium).
+  static constexpr int kMaxEscapes = 2;
+  static constexpr double kEscapeRelativeSize = 1e-2;
+  // Then the adjoint of K + shift mean(diag K) I, shifts from the first to the last by
+  // factors of 100 (EquilibriumDifferentiator::PrepareShifted).
+  static constexpr double kFirstAdjointShift = 1e-10;
+  static constexpr double kLastAdjointShift = 1e-4;
   // Both are local to this rank (StatesAt: its own poses' states); UseStatesOf, on rank
   // 0, also commands the other ranks to use theirs.
   bool StatesAt(const double* parameters, std::vector<Eigen::Matrix3Xd>* states) const;

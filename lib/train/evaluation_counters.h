@@ -14,6 +14,8 @@ struct EvaluationCounters {
   int lbfgs_iterations = 0;  // the solver's L-BFGS, far from equilibrium
   int newton_steps = 0;
   int retries_from_rest = 0;
+  int unstable_escapes = 0;  // unstable equilibria left by a perturbation and a new solve
+  int shifted_adjoints = 0;  // adjoints of a shifted K (K not positive definite even then)
   double solve_seconds = 0;    // equilibria (summed over poses: thread time)
   double adjoint_seconds = 0;  // adjoint solves and dL/da (thread time)
   double decoder_seconds = 0;  // decoding and back-propagation (wall)
@@ -36,6 +38,8 @@ struct EvaluationCounters {
     lbfgs_iterations += sign * other.lbfgs_iterations;
     newton_steps += sign * other.newton_steps;
     retries_from_rest += sign * other.retries_from_rest;
+    unstable_escapes += sign * other.unstable_escapes;
+    shifted_adjoints += sign * other.shifted_adjoints;
     solve_seconds += sign * other.solve_seconds;
     adjoint_seconds += sign * other.adjoint_seconds;
     decoder_seconds += sign * other.decoder_seconds;

@@ -268,6 +268,10 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
       const int steps = std::max(0, static_cast<int>(summary.iterations.size()) - 1);
       done += steps;
       report->termination = summary.message;
+      if (summary.termination_type == ceres::FAILURE && !objective->last_failure().empty()) {
+        // Name the pose and the cause of the failed evaluation (Ceres' message does not).
+        report->termination += " (" + objective->last_failure() + ")";
+      }
       const bool stalled = summary.termination_type == ceres::CONVERGENCE ||
                            summary.termination_type == ceres::FAILURE;
       const bool out_of_time =

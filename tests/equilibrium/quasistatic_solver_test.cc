@@ -236,5 +236,53 @@ TEST(QuasistaticSolverTest, MovingFixedVerticesBetweenSolves) {
   EXPECT_LT((solver.positions() - expected).cwiseAbs().maxCoeff(), 1e-7);
 }
 
+// A bar held at both ends whose elements want to be 1.6 times longer: compressed, the
+// straight state is an equilibrium that the solve from rest can reach by symmetry, and
+// beyond the buckling load it is unstable. LeaveUnstableEquilibrium must then find a
+// stable (buckled) equilibrium of lower energy; from a stable one it stays there.
+TEST(QuasistaticSolverTest, LeavesUnstableEquilibriaForStableOnes) {
+  const TetMesh mesh = BarMesh(16, 1, 1, 0.25);
+  const ShapeTargetModel model(mesh, Eigen::VectorXd::Ones(mesh.num_tets()));
+  BoundaryConditions ends;
+  const double length = mesh.vertices.row(0).maxCoeff();
+  for (int v = 0; v < mesh.num_vertices(); ++v) {
+    const double x = mesh.vertices(0, v);
+    if (x < 1e-9 || x > length - 1e-9) ends.vertices.push_back(v);
+  }
+  QuasistaticSolver solver(model, ends, TightOptions());
+  ActuationMatrix a(6, mesh.num_tets());
+  for (int e = 0; e < mesh.num_tets(); ++e) a.col(e) << 1.6, 1, 1, 0, 0, 0;  // Sxx Syy Szz ...
+  solver.actuation() = a;
+  QuasistaticSolveReport report = solver.Solve();
+  ASSERT_TRUE(report.converged) << report.Summary();
+  StiffnessFactorization& factorization = *solver.stiffness_factorization();
+  std::string error;
+  const bool straight_stable =
+      factorization.Factorize(solver.positions(), a, StiffnessKind::kExact, &error);
+  const double straight_energy = report.final_energy;
+  const Eigen::Matrix3Xd straight = solver.positions();
+  EXPECT_FALSE(straight_stable) << "the compressed straight bar should be unstable";
+  if (!straight_stable) {
+    report = solver.LeaveUnstableEquilibrium(1e-2, 3);
+    ASSERT_TRUE(report.converged) << report.Summary();
+    EXPECT_EQ(report.exact_steps, 0) << "projected steps only";
+    EXPECT_LT(report.final_energy, straight_energy * (1.0 - 1e-6));
+    EXPECT_TRUE(factorization.Factorize(solver.positions(), a, StiffnessKind::kExact, &error))
+        << error;
+    EXPECT_GT((solver.positions() - straight).colwise().norm().maxCoeff(), 0.1 * 0.25);
+  }
+  // From a stable equilibrium it returns to the same one.
+  const Eigen::Matrix3Xd stable = solver.positions();
+  const double stable_energy = solver.Solve().final_energy;
+  report = solver.LeaveUnstableEquilibrium(1e-3, 4);
+  ASSERT_TRUE(report.converged) << report.Summary();
+  EXPECT_NEAR(report.final_energy, stable_energy, 1e-9 * std::abs(stable_energy));
+  EXPECT_LT((solver.positions() - stable).cwiseAbs().maxCoeff(), 1e-5);
+  // Fixed vertices never move.
+  for (size_t i = 0; i < ends.vertices.size(); ++i) {
+    EXPECT_EQ((solver.positions().col(ends.vertices[i]) - mesh.vertices.col(ends.vertices[i])).norm(), 0.0);
+  }
+}
+
 }  // namespace
 }  // namespace aqs
