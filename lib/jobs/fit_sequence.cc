@@ -20,6 +20,7 @@
 #include "util/matrix_io.h"
 #include "util/number_format.h"
 #include "util/wall_timer.h"
+#include "util/option_checks.h"
 
 namespace aqs {
 namespace {
@@ -421,6 +422,20 @@ FitSequenceResult RunFitSequence(const FitSequenceOptions& options, const Active
 
 FitSequenceResult RunFitSequenceJob(const FitSequenceOptions& options, std::ostream& log) {
   FitSequenceResult result;
+  std::string fit_error, points_error;
+  const bool fit_ok = options.fit.Validate(&fit_error);
+  const bool points_ok = options.points.Validate(&points_error);
+  if (!OptionChecks()
+           .Require(options.target_kind == "auto" || options.target_kind == "pose" ||
+                        options.target_kind == "markers" || options.target_kind == "points",
+                    "target_kind must be auto, pose, markers or points (is '" +
+                        options.target_kind + "')")
+           .Nested("fit", fit_ok, fit_error)
+           .Nested("points", points_ok, points_error)
+           .Done(&result.message)) {
+    result.status = JobStatus::kBadInput;
+    return result;
+  }
   if (options.model.empty() || options.sequence.empty() || options.output_dir.empty()) {
     result.status = JobStatus::kBadInput;
     result.message = "--model, --sequence and --output_dir are required";
