@@ -33,16 +33,14 @@ int main(int argc, char** argv) {
   options.max_mixes = FLAGS_max_mixes;
   options.sequence_frames = FLAGS_sequence_frames;
   std::string error;
-  std::string points_error;
   if (!aqs::FitOptionsFromFlags(&options.fit, &options.points, &options.start, &error) ||
       (!FLAGS_error_vertices.empty() &&
        !aqs::ParseVertexRanges(FLAGS_error_vertices, &options.error_vertices, &error))) {
     aqs::PrintError(error);
     return 1;
   }
-  if (!options.fit.Validate(&error) || !options.points.Validate(&points_error)) {
-    aqs::PrintError(aqs::FlagError(error.empty() ? "points." + points_error : "fit." + error,
-                                   aqs::FitFlagNames()));
+  if (!options.Validate(&error)) {
+    aqs::PrintError(aqs::FlagError(error, aqs::FitFlagNames()));
     return 1;
   }
   options.marker_counts.clear();
