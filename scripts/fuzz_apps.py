@@ -14,8 +14,11 @@ memory limit (RLIMIT_AS) and is classified:
 
   exit 0      ok, and its outputs and its log are checked for nan/inf: if any, the case
               is "nonfinite 0" (a silent non-finite result: a failure)
-  exit 1      a clean refusal, if the app printed "error:" or gflags "ERROR: illegal
-              value" (else "silent 1": a failure)
+  exit 1      a clean refusal, if the output has a line "<app>: error: <message>" (the
+              apps' own refusals) or one of gflags' refusals of a flag ("ERROR: unknown
+              command line flag 'f'", "ERROR: illegal value 'x' specified for double flag
+              'f'", "ERROR: flag '--f' is missing its argument", ...); else "silent 1": a
+              failure
   exit 2, 3   a solve did not converge / no gradient (allowed)
   crash       killed by a signal (an abort, a segfault): a failure
   hang        the timeout was reached: a failure
@@ -81,6 +84,13 @@ FLAGS = {
 }
 HIDDEN_VALUES = ["0", "-1", "1000000", "100000,100000", "8,,8", "abc", "2147483647"]
 WORD_VALUES = ["pose", "markers", "points", "scan", ""]
+
+# gflags' refusals of a flag (it then exits with status 1): each names the flag.
+GFLAGS_REFUSAL = re.compile(
+    r"^ERROR: (unknown command line flag '[^']+'|illegal value '.*' specified for \w+ flag "
+    r"'[^']+'|flag '--[^']+' is missing its argument|boolean value \(\w+\) specified for "
+    r"\w+ command line flag|failed validation of new value '.*' for flag '[^']+')",
+    re.MULTILINE)
 
 NONFINITE = re.compile(r"(?<![A-Za-z_])[-+]?(nan|inf|infinity)(?![A-Za-z_])", re.IGNORECASE)
 
@@ -271,6 +281,12 @@ def mutate_file(path, rng):
     return what
 
 
+# Flags gflags itself must refuse (exit 1 naming the flag, never an abort): an unknown
+# name, a missing value, a boolean form of a numeric flag.
+def gflags_mutation(flag, rng):
+    return rng.choice(["--%s_typo=1" % flag, "--%s" % flag, "--no%s" % flag])
+
+
 def flag_value(kind, rng):
     if kind == "count":
         return rng.choice(COUNT_VALUES)
@@ -369,8 +385,8 @@ def nonfinite_in_file(path):
     return None
 
 
-def classify(code, output, case_dir, outputs):
-    """(outcome, detail)."""
+def classify(app, code, output, case_dir, outputs):
+    """(outcome, detail) of a run of `app`."""
     if code is None:
         return "hang", "timeout"
     if code < 0:
@@ -391,9 +407,10 @@ def classify(code, output, case_dir, outputs):
                 return "nonfinite 0", found
         return "exit 0", ""
     if code == 1:
-        # The apps print "<app>: error: ..."; gflags "ERROR: illegal value 'x' specified for
-        # double flag 'f'" (both name what is wrong).
-        if "error:" not in output and "ERROR: " not in output:
+        # The apps print "<app>: error: ..." (apps/app_common.h, PrintError); gflags names
+        # the flag it refuses. Anything else (a bare exit 1, a glog line) is silent.
+        own = re.search(r"^%s: error: \S" % re.escape(app), output, re.MULTILINE)
+        if own is None and GFLAGS_REFUSAL.search(output) is None:
             return "silent 1", output.strip()[-200:]
         return "exit 1", ""
     if code in (2, 3):
@@ -455,16 +472,19 @@ def main():
                 mutations.append("%s: %s" % (target, mutate_file(os.path.join(case_dir, target), rng)))
         if what >= 0.45:
             flag, kind = rng.choice(FLAGS[app])
-            value = flag_value(kind, rng)
-            flags = [f for f in flags if not f.startswith("--%s=" % flag)] + ["--%s=%s" % (flag, value)]
-            mutations.append("--%s=%s" % (flag, value))
+            if rng.random() < 0.1:
+                mutated = gflags_mutation(flag, rng)
+            else:
+                mutated = "--%s=%s" % (flag, flag_value(kind, rng))
+            flags = [f for f in flags if not f.startswith("--%s=" % flag)] + [mutated]
+            mutations.append(mutated)
         if not any(f.startswith("--max_memory_gb=") for f in flags):
             flags.append(memory_flag)
         if not any(f.startswith("--threads=") for f in flags):
             flags.append("--threads=1")
         command = [os.path.join(apps, app)] + flags
         code, output, seconds = run(command, case_dir, args.timeout, memory_bytes)
-        outcome, detail = classify(code, output, case_dir, outputs)
+        outcome, detail = classify(app, code, output, case_dir, outputs)
         row = table.setdefault(name, {})
         row[outcome] = row.get(outcome, 0) + 1
         if outcome in FAILURES:

@@ -72,6 +72,29 @@ std::string ReadAll(const std::string& path) {
 }
 
 // ---------------------------------------------------------------------------------
+// Flags gflags itself refuses (unknown, ill-typed, out of the type's range, missing
+// value): exit 1 with gflags' message naming the flag, in every app, before any work.
+
+TEST(AqsValidationTest, EveryAppRefusesUnknownAndIllTypedFlags) {
+  const std::vector<std::string> apps = {
+      "aqs_simulate", "aqs_prepare",  "aqs_pretrain", "aqs_train",       "aqs_pipeline",
+      "aqs_evaluate", "aqs_fit",      "aqs_collide",  "aqs_bench",       "aqs_bench_solve",
+      "aqs_bench_train", "aqs_bench_fit", "aqs_bench_mpi"};
+  const std::vector<Case> cases = {
+      {"--no_such_flag=1", 1, "ERROR: unknown command line flag 'no_such_flag'"},
+      {"--threads=abc", 1, "ERROR: illegal value 'abc' specified for int32 flag 'threads'"},
+      {"--threads=9999999999", 1,
+       "ERROR: illegal value '9999999999' specified for int32 flag 'threads'"},
+      {"--threads=1.5", 1, "ERROR: illegal value '1.5' specified for int32 flag 'threads'"},
+      {"--max_memory_gb=", 1, "ERROR: illegal value '' specified for double flag 'max_memory_gb'"},
+      {"--max_memory_gb=1e400", 1,
+       "ERROR: illegal value '1e400' specified for double flag 'max_memory_gb'"},
+      {"--threads", 1, "ERROR: flag '--threads' is missing its argument"},
+  };
+  for (const std::string& app : apps) ExpectCases(app, "", cases, "");
+}
+
+// ---------------------------------------------------------------------------------
 // aqs_simulate on meshes (no model).
 
 TEST(AqsValidationTest, SimulateRefusesBadFlagsAndInputs) {
@@ -239,6 +262,26 @@ TEST_F(AqsValidationModelTest, FitRefusesBadFlagsTargetsAndOutputs) {
   extra.vertices.conservativeResize(3, pose.num_vertices() + 1);
   extra.vertices.col(pose.num_vertices()) = pose.vertices.col(0);
   ASSERT_TRUE(WriteObj(dir.File("extra.obj"), extra, &error)) << error;
+  // One vertex too few: the last one dropped, with the faces that use it.
+  {
+    std::istringstream in(ReadAll(pose_path));
+    const std::string last = std::to_string(pose.num_vertices());
+    std::string text, line;
+    int vertices = 0;
+    while (std::getline(in, line)) {
+      if (line.rfind("v ", 0) == 0 && ++vertices == pose.num_vertices()) continue;
+      if (line.rfind("f ", 0) == 0) {
+        std::istringstream face(line.substr(2));
+        bool uses_last = false;
+        for (std::string corner; face >> corner;) {
+          uses_last |= corner.substr(0, corner.find('/')) == last;
+        }
+        if (uses_last) continue;
+      }
+      text += line + "\n";
+    }
+    dir.Write("fewer.obj", text);
+  }
   // A scan whose PLY header counts fewer points than it holds.
   std::string ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
                     "property float z\nend_header\n0 0 1\n0 0 2\n0 0 3\n0 0 4\n";
@@ -264,6 +307,8 @@ TEST_F(AqsValidationModelTest, FitRefusesBadFlagsTargetsAndOutputs) {
                   {" --target={dir}extra.obj", 1,
                    "extra.obj: a surface with 1099 vertices, but the model's surface has 1098"},
                   {" --target={dir}extra.obj", 1, "pass --target_kind=points"},
+                  {" --target={dir}fewer.obj", 1,
+                   "fewer.obj: a surface with 1097 vertices, but the model's surface has 1098"},
                   {" --target={dir}extra.ply", 1, "extra.ply:11: data after the last of the header's elements"},
               },
               dir.path());
