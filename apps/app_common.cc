@@ -15,6 +15,9 @@ DEFINE_string(solver, "newton", "How equilibria are solved: 'newton' (projected 
               "line search far from equilibrium, exact Newton near it; needs fixed vertices) or "
               "'lm' (Ceres' Levenberg-Marquardt, then exact Newton; also for free bodies).");
 DEFINE_int32(threads, 2, "Threads (per-element work, parallel poses; BLAS follows OPENBLAS_NUM_THREADS).");
+DEFINE_double(max_memory_gb, 8.0, "Memory limit in GB: the work whose memory is estimated before "
+              "it is allocated (prepare's lattice and simulations, pre-training's decoder) is "
+              "refused with exit status 1 and the estimate above it.");
 
 namespace aqs {
 
@@ -56,5 +59,59 @@ bool SolverMethodFromFlag(QuasistaticSolverOptions* options, std::string* error)
 void PrintError(const std::string& message) {
   std::fprintf(stderr, "%s: error: %s\n", gflags::ProgramInvocationShortName(), message.c_str());
 }
+
+int ExitStatus(JobStatus status) {
+  switch (status) {
+    case JobStatus::kOk:
+      return 0;
+    case JobStatus::kBadInput:
+      return 1;
+    case JobStatus::kNotConverged:
+      return 2;
+    case JobStatus::kDifferentiationFailed:
+      return 3;
+  }
+  return 1;
+}
+
+FlagNames CommonFlagNames(const std::string& prefix) {
+  return {{prefix + "num_threads", "--threads"},
+          {prefix + "solver.num_threads", "--threads"},
+          {"max_memory_bytes", "--max_memory_gb"},
+          {prefix + "max_memory_bytes", "--max_memory_gb"}};
+}
+
+std::string FlagError(const std::string& message, const FlagNames& flags) {
+  std::string text = message;
+  auto is_end = [](const std::string& s, size_t pos, const std::string& ends) {
+    return pos == s.size() || ends.find(s[pos]) != std::string::npos;
+  };
+  // At the start: the longest field followed by an end character.
+  size_t best = 0;
+  const std::string* flag = nullptr;
+  for (const auto& [field, name] : flags) {
+    if (field.size() > best && text.compare(0, field.size(), field) == 0 &&
+        is_end(text, field.size(), " .:,=")) {
+      best = field.size();
+      flag = &name;
+    }
+  }
+  if (flag != nullptr) text = *flag + text.substr(best);
+  // In parentheses.
+  for (const auto& [field, name] : flags) {
+    const std::string quoted = "(" + field + ")";
+    for (size_t pos; (pos = text.find(quoted)) != std::string::npos;) {
+      text.replace(pos, quoted.size(), "(" + name + ")");
+    }
+  }
+  return text;
+}
+
+int FinishJob(JobStatus status, const std::string& message, const FlagNames& flags) {
+  if (status != JobStatus::kOk) PrintError(FlagError(message, flags));
+  return ExitStatus(status);
+}
+
+double MaxMemoryBytes() { return FLAGS_max_memory_gb * 1e9; }
 
 }  // namespace aqs

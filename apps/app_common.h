@@ -2,9 +2,11 @@
 #define AQS_APPS_APP_COMMON_H_
 
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "equilibrium/quasistatic_solver.h"
+#include "util/job_status.h"
 
 namespace aqs {
 
@@ -21,6 +23,33 @@ std::vector<std::string> SplitCommaList(const std::string& text);
 
 // Prints "<program>: error: <message>" to stderr.
 void PrintError(const std::string& message);
+
+// The one exit-status convention of the apps (README, "Workflow and apps"): 0 done;
+// 1 bad input (a file, a flag, an output that cannot be written, work above a resource
+// limit); 2 a solve did not converge (the outputs are written for inspection); 3 no
+// gradient (aqs_simulate).
+int ExitStatus(JobStatus status);
+
+// Option fields as the library's Validate() names them ("solver.num_threads",
+// "max_memory_bytes") and the app's flag that sets each ("--threads",
+// "--max_memory_gb").
+using FlagNames = std::vector<std::pair<std::string, std::string>>;
+
+// The flags every app shares (--threads, --max_memory_gb), with `prefix` before the
+// field names (e.g. "solver." or "fit.").
+FlagNames CommonFlagNames(const std::string& prefix = "");
+
+// `message` with option field names turned into the app's flags: a field at the start
+// of the message (followed by a space, '.', ':', ',' or '=') or in parentheses "(field)".
+// The longest matching field wins; other text is unchanged.
+std::string FlagError(const std::string& message, const FlagNames& flags);
+
+// Ends a job: prints its message (FlagError) unless status is kOk, and returns
+// ExitStatus(status).
+int FinishJob(JobStatus status, const std::string& message, const FlagNames& flags);
+
+// --max_memory_gb in bytes (any value; the jobs' Validate checks it).
+double MaxMemoryBytes();
 
 }  // namespace aqs
 

@@ -39,6 +39,10 @@ int main(int argc, char** argv) {
     aqs::PrintError(error);
     return 1;
   }
+  if (!options.Validate(&error)) {
+    aqs::PrintError(aqs::FlagError(error, aqs::FitFlagNames()));
+    return 1;
+  }
   options.marker_counts.clear();
   for (const std::string& k : aqs::SplitCommaList(FLAGS_marker_counts)) {
     try {

@@ -79,7 +79,16 @@ int main(int argc, char** argv) {
     aqs::PrintError(error);
     return 1;
   }
+  aqs::FlagNames flags = aqs::CommonFlagNames("contact.");
+  flags.insert(flags.end(),
+               {{"contact.thickness", "--thickness"},
+                {"contact.relative_stiffness", "--contact_stiffness"},
+                {"contact.search_radius", "--search_radius"},
+                {"contact.exclusion_rings", "--exclusion_rings"},
+                {"contact.max_depth", "--max_depth"},
+                {"contact.max_rounds", "--contact_rounds"},
+                {"contact.path_steps", "--path_steps"},
+                {"contact.solver.relative_force_tolerance", "--contact_tolerance"}});
   const aqs::CollideJobResult result = aqs::RunCollideJob(options, std::cout);
-  if (result.status != aqs::JobStatus::kOk) aqs::PrintError(result.message);
-  return result.status == aqs::JobStatus::kOk ? 0 : (result.status == aqs::JobStatus::kBadInput ? 1 : 2);
+  return aqs::FinishJob(result.status, result.message, flags);
 }

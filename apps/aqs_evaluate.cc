@@ -24,9 +24,11 @@ int main(int argc, char** argv) {
   std::string error;
   bool ok = aqs::EvaluateOptionsFromFlags(&options, &error);
   options.communicator = ranks.get();
-  if (!ok || !aqs::RunEvaluateJob(options, std::cout, &rows, &error)) {
+  if (!ok) {
     aqs::PrintRankError(ranks.get(), error);
     return 1;
   }
-  return 0;
+  ok = aqs::RunEvaluateJob(options, std::cout, &rows, &error);
+  if (!ok) aqs::PrintRankError(ranks.get(), aqs::FlagError(error, aqs::EvaluateFlagNames()));
+  return aqs::ExitStatus(ok ? aqs::JobStatus::kOk : aqs::JobStatus::kBadInput);
 }

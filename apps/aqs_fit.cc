@@ -58,10 +58,7 @@ int main(int argc, char** argv) {
     options.points = points;
     options.start = start;
     const aqs::FitSequenceResult result = aqs::RunFitSequenceJob(options, std::cout);
-    if (result.status != aqs::JobStatus::kOk) aqs::PrintError(result.message);
-    return result.status == aqs::JobStatus::kOk
-               ? 0
-               : (result.status == aqs::JobStatus::kBadInput ? 1 : 2);
+    return aqs::FinishJob(result.status, result.message, aqs::FitFlagNames());
   }
   aqs::FitJobOptions options;
   options.model = FLAGS_model;
@@ -81,6 +78,5 @@ int main(int argc, char** argv) {
   options.points = points;
   options.start = start;
   const aqs::FitJobResult result = aqs::RunFitJob(options, std::cout);
-  if (result.status != aqs::JobStatus::kOk) aqs::PrintError(result.message);
-  return result.status == aqs::JobStatus::kOk ? 0 : (result.status == aqs::JobStatus::kBadInput ? 1 : 2);
+  return aqs::FinishJob(result.status, result.message, aqs::FitFlagNames());
 }

@@ -1,5 +1,6 @@
 // aqs_pipeline: the stages from one flagfile: prepare, pre-train, train, evaluate. Every stage's flags are accepted; --stages picks which run.
-// A stage that fails stops the pipeline with its message and exit status 1. Under
+// A stage that fails stops the pipeline with its message and its exit status: 1 bad
+// input, 2 prepare's embedded simulation did not converge (its model is written). Under
 // mpirun (or with --mpi; docs/distributed.md) rank 0 prepares and pre-trains while the
 // others wait, training shares the poses among all ranks, and the evaluation's fits of
 // held-out poses are shared too; rank 0 alone logs and writes.
@@ -61,28 +62,36 @@ int main(int argc, char** argv) {
     out << "=== " << stage << "\n" << std::flush;
     aqs::WallTimer timer;
     bool ok = false;
+    aqs::JobStatus status = aqs::JobStatus::kBadInput;  // when not ok
+    aqs::FlagNames flags;
     if (!root && (stage == "prepare" || stage == "pretrain")) {
       ok = true;  // rank 0's work: wait for its status below
     } else if (stage == "prepare") {
       aqs::PrepareJobOptions options;
+      flags = aqs::PrepareFlagNames();
       ok = aqs::PrepareOptionsFromFlags(&options, &error) &&
-           aqs::RunPrepareJob(options, std::cout, &error);
+           aqs::RunPrepareJob(options, std::cout, &error, &status);
     } else if (stage == "pretrain") {
       aqs::PretrainOptions options;
       aqs::PoseSimulationOptions simulation;
       bool simulate = true;
+      flags = aqs::PretrainFlagNames();
       ok = aqs::PretrainOptionsFromFlags(&options, &error) &&
            aqs::PretrainSimulationFromFlags(&simulation, &simulate, &error) &&
            aqs::RunPretrainJob(FLAGS_model, options, simulate ? &simulation : nullptr, std::cout,
                                &error);
     } else if (stage == "train") {
       aqs::TrainOptions options;
+      aqs::ExpectedDecoder expected;
+      flags = aqs::TrainFlagNames();
       options.communicator = ranks.get();
       ok = aqs::TrainOptionsFromFlags(&options, &error) &&
-           aqs::RunTrainJob(FLAGS_model, options, FLAGS_restart, out, &error);
+           aqs::ExpectedDecoderFromFlags(&expected, &error) &&
+           aqs::RunTrainJob(FLAGS_model, options, FLAGS_restart, out, &error, expected);
     } else if (stage == "evaluate") {
       aqs::EvaluateJobOptions options;
       std::vector<aqs::EvaluationRow> rows;
+      flags = aqs::EvaluateFlagNames();
       ok = aqs::EvaluateOptionsFromFlags(&options, &error);
       options.communicator = ranks.get();
       ok = ok && aqs::RunEvaluateJob(options, out, &rows, &error);
@@ -93,8 +102,10 @@ int main(int argc, char** argv) {
     // pretrain report rank 0's status here).
     if (ranks != nullptr) ok = ranks->Agree(ok, &error);
     if (!ok) {
-      aqs::PrintRankError(ranks.get(), stage + ": " + error);
-      return 1;
+      // A stage that did not converge (prepare: exit 2, its model written) stops the
+      // later ones too: they would build on it.
+      aqs::PrintRankError(ranks.get(), stage + ": " + aqs::FlagError(error, flags));
+      return aqs::ExitStatus(status == aqs::JobStatus::kOk ? aqs::JobStatus::kBadInput : status);
     }
     out << "=== " << stage << " done in " << timer.Seconds() << " s\n";
   }

@@ -4,7 +4,9 @@
 // It replaces only a missing path, an empty folder or an ActiveQS model unless
 // --overwrite, and holds the model's writers' lock (docs/model_format.md, "Writing").
 // Exit status: 0 done; 1 bad input (the message says which file or flag), an output
-// that is not a model, or a model another process is writing.
+// that is not a model, a model another process is writing, or a lattice or simulation
+// above --max_memory_gb; 2 the embedded simulation of some poses did not converge (the
+// model is written, for inspection).
 
 #include <iostream>
 
@@ -23,10 +25,11 @@ int main(int argc, char** argv) {
       &argc, &argv);
   aqs::PrepareJobOptions options;
   std::string error;
-  if (!aqs::PrepareOptionsFromFlags(&options, &error) ||
-      !aqs::RunPrepareJob(options, std::cout, &error)) {
+  if (!aqs::PrepareOptionsFromFlags(&options, &error)) {
     aqs::PrintError(error);
     return 1;
   }
-  return 0;
+  aqs::JobStatus status = aqs::JobStatus::kOk;
+  aqs::RunPrepareJob(options, std::cout, &error, &status);
+  return aqs::FinishJob(status, error, aqs::PrepareFlagNames());
 }

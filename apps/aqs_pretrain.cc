@@ -2,7 +2,8 @@
 // volumetric targets (supervised), to start end-to-end training from.
 // It holds the model's writers' lock and replaces the model as a whole
 // (docs/model_format.md, "Writing").
-// Exit status: 0 done; 1 bad input or a model another process is writing.
+// Exit status: 0 done; 1 bad input (a file, a flag, a decoder whose memory estimate is
+// above --max_memory_gb) or a model another process is writing.
 
 #include <iostream>
 
@@ -24,11 +25,12 @@ int main(int argc, char** argv) {
   std::string error;
   if (FLAGS_model.empty()) error = "--model is required";
   if (!error.empty() || !aqs::PretrainOptionsFromFlags(&options, &error) ||
-      !aqs::PretrainSimulationFromFlags(&simulation, &simulate, &error) ||
-      !aqs::RunPretrainJob(FLAGS_model, options, simulate ? &simulation : nullptr, std::cout,
-                           &error)) {
+      !aqs::PretrainSimulationFromFlags(&simulation, &simulate, &error)) {
     aqs::PrintError(error);
     return 1;
   }
-  return 0;
+  const bool ok = aqs::RunPretrainJob(FLAGS_model, options, simulate ? &simulation : nullptr,
+                                      std::cout, &error);
+  return aqs::FinishJob(ok ? aqs::JobStatus::kOk : aqs::JobStatus::kBadInput, error,
+                        aqs::PretrainFlagNames());
 }

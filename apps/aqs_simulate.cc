@@ -71,13 +71,11 @@ int main(int argc, char** argv) {
     aqs::PrintError(error);
     return 1;
   }
-  if (!(FLAGS_tolerance > 0.0) || FLAGS_max_iterations < 1 || FLAGS_threads < 1 ||
-      FLAGS_newton_relative_force < 0.0) {
-    aqs::PrintError("--tolerance must be > 0, --newton_relative_force >= 0, --max_iterations "
-                    "and --threads >= 1");
-    return 1;
-  }
+  aqs::FlagNames flags = aqs::CommonFlagNames();
+  flags.insert(flags.end(), {{"mu", "--mu"},
+                             {"solver.relative_force_tolerance", "--tolerance"},
+                             {"solver.max_iterations", "--max_iterations"},
+                             {"solver.newton_relative_force", "--newton_relative_force"}});
   const aqs::SimulateJobResult result = aqs::RunSimulateJob(options, std::cout);
-  if (result.status != aqs::JobStatus::kOk) aqs::PrintError(result.message);
-  return static_cast<int>(result.status);
+  return aqs::FinishJob(result.status, result.message, flags);
 }

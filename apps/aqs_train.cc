@@ -3,9 +3,10 @@
 // directory: run it again after a kill (kill -9 included) to resume from the last
 // checkpoint. It holds the model's writers' lock (docs/model_format.md, "Writing").
 // Under mpirun (or with --mpi) the poses are shared among the ranks
-// (docs/distributed.md); rank 0 logs and writes. Exit status: 0 done; 1 bad input, a
-// model another process is writing, a model that cannot be simulated, or MPI wanted
-// but not built.
+// (docs/distributed.md); rank 0 logs and writes. Exit status: 0 done; 1 bad input (a
+// file, a flag; --latent_dim, --hidden or --activation given and other than the
+// model's), a model another process is writing, a model that cannot be simulated, or
+// MPI wanted but not built.
 
 #include <iostream>
 
@@ -27,13 +28,17 @@ int main(int argc, char** argv) {
                &argc, &argv);
   const std::unique_ptr<aqs::Communicator> ranks = aqs::StartRanks(&argc, &argv);
   aqs::TrainOptions options;
+  aqs::ExpectedDecoder expected;
   std::string error;
   if (FLAGS_model.empty()) error = "--model is required";
   options.communicator = ranks.get();
   if (!error.empty() || !aqs::TrainOptionsFromFlags(&options, &error) ||
-      !aqs::RunTrainJob(FLAGS_model, options, FLAGS_restart, std::cout, &error)) {
+      !aqs::ExpectedDecoderFromFlags(&expected, &error)) {
     aqs::PrintRankError(ranks.get(), error);
     return 1;
   }
-  return 0;
+  const bool ok =
+      aqs::RunTrainJob(FLAGS_model, options, FLAGS_restart, std::cout, &error, expected);
+  if (!ok) aqs::PrintRankError(ranks.get(), aqs::FlagError(error, aqs::TrainFlagNames()));
+  return aqs::ExitStatus(ok ? aqs::JobStatus::kOk : aqs::JobStatus::kBadInput);
 }

@@ -81,10 +81,6 @@ bool EvaluateOptionsFromFlags(EvaluateJobOptions* options, std::string* error) {
   options->autoencoder.max_iterations = FLAGS_baseline_iterations;
   options->write_fields = FLAGS_write_fields;
   options->error_budget = FLAGS_error_budget;
-  if (!(FLAGS_attachment_stiffness > 0) || !(FLAGS_prepare_tolerance > 0)) {
-    *error = "--attachment_stiffness and --prepare_tolerance must be > 0";
-    return false;
-  }
   options->held_out_targets.relative_stiffness = FLAGS_attachment_stiffness;
   options->held_out_targets.solver.relative_force_tolerance = FLAGS_prepare_tolerance;
   if (FLAGS_report) {
@@ -101,7 +97,24 @@ bool EvaluateOptionsFromFlags(EvaluateJobOptions* options, std::string* error) {
     options->python = FLAGS_python;
   }
   options->num_threads = FLAGS_threads;
+  options->held_out_targets.num_threads = FLAGS_threads;
   return true;
+}
+
+FlagNames EvaluateFlagNames() {
+  FlagNames flags = CommonFlagNames();
+  for (const char* prefix : {"fit.", "held_out_targets."}) {
+    const FlagNames nested = CommonFlagNames(prefix);
+    flags.insert(flags.end(), nested.begin(), nested.end());
+  }
+  flags.insert(flags.end(),
+               {{"fit.latent_regularization", "--latent_regularization"},
+                {"fit.max_iterations", "--evaluate_fit_iterations"},
+                {"autoencoder.latent_regularization", "--latent_regularization"},
+                {"autoencoder.max_iterations", "--baseline_iterations"},
+                {"held_out_targets.relative_stiffness", "--attachment_stiffness"},
+                {"held_out_targets.solver.relative_force_tolerance", "--prepare_tolerance"}});
+  return flags;
 }
 
 }  // namespace aqs

@@ -3,12 +3,16 @@
 
 #include <string>
 
+#include "app_common.h"
 #include "jobs/evaluate_job.h"
 
 namespace aqs {
 
 // EvaluateJobOptions from the aqs_evaluate flags (evaluate_flags.cc).
 bool EvaluateOptionsFromFlags(EvaluateJobOptions* options, std::string* error);
+
+// EvaluateJobOptions' fields and the aqs_evaluate flags that set them (for FlagError).
+FlagNames EvaluateFlagNames();
 
 }  // namespace aqs
 

@@ -38,18 +38,8 @@ namespace aqs {
 
 bool FitOptionsFromFlags(LatentFitOptions* fit, PointCloudFitOptions* points,
                          FitStartOptions* start, std::string* error) {
-  if (FLAGS_latent_prior < 0 || FLAGS_bone_prior < 0 || FLAGS_fit_regularization < 0) {
-    *error = "--latent_prior, --bone_prior and --fit_regularization must be >= 0";
-    return false;
-  }
-  if (FLAGS_fit_iterations < 1 || FLAGS_rounds < 1 || FLAGS_round_iterations < 1) {
-    *error = "--fit_iterations, --rounds and --round_iterations must be >= 1";
-    return false;
-  }
-  if (!(FLAGS_fit_function_tolerance > 0) || !(FLAGS_fit_tolerance > 0)) {
-    *error = "--fit_function_tolerance and --fit_tolerance must be > 0";
-    return false;
-  }
+  // The values are checked by the options' Validate (the jobs call it; FitFlagNames
+  // names the flags in its messages).
   fit->fit_bones = FLAGS_fit_bones;
   fit->latent_prior = FLAGS_latent_prior;
   fit->bone_prior = FLAGS_bone_prior;
@@ -65,10 +55,6 @@ bool FitOptionsFromFlags(LatentFitOptions* fit, PointCloudFitOptions* points,
   points->max_rounds = FLAGS_rounds;
   points->tangential_weight = FLAGS_tangential_weight;
   points->relative_tolerance = FLAGS_round_tolerance;
-  if (FLAGS_tangential_weight < 0 || FLAGS_round_tolerance < 0) {
-    *error = "--tangential_weight and --round_tolerance must be >= 0";
-    return false;
-  }
   points->iterations_per_round = FLAGS_round_iterations;
   start->training_poses = FLAGS_choose_start;
   if (FLAGS_start_latent != "prior" && FLAGS_start_latent != "mean") {
@@ -77,6 +63,25 @@ bool FitOptionsFromFlags(LatentFitOptions* fit, PointCloudFitOptions* points,
   }
   start->mean_latent = FLAGS_start_latent == "mean";
   return true;
+}
+
+FlagNames FitFlagNames() {
+  FlagNames flags = CommonFlagNames("fit.");
+  flags.insert(flags.end(), {{"target_kind", "--target_kind"},
+                             {"fit.latent_prior", "--latent_prior"},
+                             {"fit.bone_prior", "--bone_prior"},
+                             {"fit.prior_points_cap", "--prior_points_cap"},
+                             {"fit.latent_regularization", "--fit_regularization"},
+                             {"fit.max_iterations", "--fit_iterations"},
+                             {"fit.function_tolerance", "--fit_function_tolerance"},
+                             {"fit.solver.relative_force_tolerance", "--fit_tolerance"},
+                             {"points.max_distance", "--max_distance"},
+                             {"points.robust_scale", "--robust_scale"},
+                             {"points.max_rounds", "--rounds"},
+                             {"points.iterations_per_round", "--round_iterations"},
+                             {"points.relative_tolerance", "--round_tolerance"},
+                             {"points.tangential_weight", "--tangential_weight"}});
+  return flags;
 }
 
 }  // namespace aqs

@@ -3,6 +3,7 @@
 
 #include <string>
 
+#include "app_common.h"
 #include "fit/latent_fit.h"
 
 namespace aqs {
@@ -11,6 +12,10 @@ namespace aqs {
 // Returns false with *error naming the flag for a bad value.
 bool FitOptionsFromFlags(LatentFitOptions* fit, PointCloudFitOptions* points,
                          FitStartOptions* start, std::string* error);
+
+// The fit jobs' option fields ("fit.", "points.", FitJobOptions' and
+// FitSequenceOptions') and the flags that set them (for FlagError).
+FlagNames FitFlagNames();
 
 }  // namespace aqs
 

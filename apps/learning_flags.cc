@@ -42,29 +42,37 @@ DECLARE_int32(threads);
 
 namespace aqs {
 
-bool PretrainOptionsFromFlags(PretrainOptions* options, std::string* error) {
-  if (FLAGS_latent_dim < 1) {
-    *error = "--latent_dim must be at least 1";
-    return false;
-  }
-  options->spec.latent_dim = FLAGS_latent_dim;
-  options->spec.hidden_dims.clear();
+namespace {
+
+bool HiddenFromFlag(std::vector<int>* widths, std::string* error) {
+  widths->clear();
   for (const std::string& item : SplitCommaList(FLAGS_hidden)) {
     int width = 0;
     if (!ParseInt(item, &width) || width < 1) {
       *error = "--hidden takes positive widths, got '" + item + "'";
       return false;
     }
-    options->spec.hidden_dims.push_back(width);
+    widths->push_back(width);
   }
-  if (FLAGS_activation == "elu") {
-    options->spec.activation = Activation::kElu;
-  } else if (FLAGS_activation == "tanh") {
-    options->spec.activation = Activation::kTanh;
-  } else if (FLAGS_activation == "softplus") {
-    options->spec.activation = Activation::kSoftplus;
-  } else {
+  return true;
+}
+
+bool ActivationFromFlag(Activation* activation, std::string* error) {
+  if (!ActivationFromName(FLAGS_activation, activation)) {
     *error = "--activation must be elu, tanh or softplus, got '" + FLAGS_activation + "'";
+    return false;
+  }
+  return true;
+}
+
+bool IsDefault(const char* flag) { return gflags::GetCommandLineFlagInfoOrDie(flag).is_default; }
+
+}  // namespace
+
+bool PretrainOptionsFromFlags(PretrainOptions* options, std::string* error) {
+  options->spec.latent_dim = FLAGS_latent_dim;
+  if (!HiddenFromFlag(&options->spec.hidden_dims, error) ||
+      !ActivationFromFlag(&options->spec.activation, error)) {
     return false;
   }
   options->spec.output_scale = FLAGS_output_scale;
@@ -76,31 +84,62 @@ bool PretrainOptionsFromFlags(PretrainOptions* options, std::string* error) {
   options->max_iterations = FLAGS_pretrain_iterations;
   options->seed = FLAGS_seed;
   options->num_threads = FLAGS_threads;
+  options->max_memory_bytes = MaxMemoryBytes();
   return true;
 }
 
 bool PretrainSimulationFromFlags(PoseSimulationOptions* options, bool* enabled,
                                  std::string* error) {
-  if (!(FLAGS_train_tolerance > 0)) {
-    *error = "--train_tolerance must be > 0";
-    return false;
-  }
   *enabled = FLAGS_pretrain_simulate;
   options->solver.relative_force_tolerance = FLAGS_train_tolerance;
   options->num_threads = FLAGS_threads;
+  return SolverMethodFromFlag(&options->solver, error);
+}
+
+bool ExpectedDecoderFromFlags(ExpectedDecoder* expected, std::string* error) {
+  *expected = ExpectedDecoder();
+  if (!IsDefault("latent_dim")) expected->latent_dim = FLAGS_latent_dim;
+  if (!IsDefault("hidden") && !HiddenFromFlag(&expected->hidden_dims, error)) return false;
+  if (!IsDefault("activation")) {
+    Activation activation;
+    if (!ActivationFromFlag(&activation, error)) return false;
+    expected->activation = ActivationName(activation);
+  }
   return true;
 }
 
+FlagNames PretrainFlagNames() {
+  FlagNames flags = CommonFlagNames();
+  const FlagNames simulation = CommonFlagNames("simulation.");
+  flags.insert(flags.end(), simulation.begin(), simulation.end());
+  flags.insert(flags.end(),
+               {{"spec.latent_dim", "--latent_dim"},
+                {"spec.hidden_dims", "--hidden"},
+                {"spec.output_scale", "--output_scale"},
+                {"field.node_spacing", "--grid_spacing"},
+                {"field.node_spacing_factor", "--grid_spacing_factor"},
+                {"latent_regularization", "--latent_regularization"},
+                {"max_iterations", "--pretrain_iterations"},
+                {"simulation.solver.relative_force_tolerance", "--train_tolerance"}});
+  return flags;
+}
+
+FlagNames TrainFlagNames() {
+  FlagNames flags = CommonFlagNames();
+  flags.insert(flags.end(), {{"latent_regularization", "--latent_regularization"},
+                             {"max_iterations", "--train_iterations"},
+                             {"max_seconds", "--train_minutes"},
+                             {"solver.relative_force_tolerance", "--train_tolerance"},
+                             {"checkpoint_every", "--checkpoint_every"},
+                             {"max_restarts", "--train_restarts"},
+                             {"max_factor_cache_gb", "--factor_cache_gb"},
+                             {"latent_dim", "--latent_dim"},
+                             {"hidden_dims", "--hidden"},
+                             {"activation", "--activation"}});
+  return flags;
+}
+
 bool TrainOptionsFromFlags(TrainOptions* options, std::string* error) {
-  if (FLAGS_train_iterations < 0 || !(FLAGS_train_tolerance > 0) || FLAGS_train_restarts < 0) {
-    *error = "--train_iterations and --train_restarts must be >= 0 and --train_tolerance > 0";
-    return false;
-  }
-  if (!(FLAGS_factor_cache_gb >= 0) || !std::isfinite(FLAGS_factor_cache_gb)) {
-    *error = "--factor_cache_gb must be a finite number of GB >= 0, got " +
-             std::to_string(FLAGS_factor_cache_gb);
-    return false;
-  }
   options->max_factor_cache_gb = FLAGS_factor_cache_gb;
   options->latent_regularization = FLAGS_latent_regularization;
   options->max_iterations = FLAGS_train_iterations;

@@ -3,7 +3,9 @@
 
 #include <string>
 
+#include "app_common.h"
 #include "eval/error_budget.h"
+#include "jobs/learning_jobs.h"
 #include "train/pretrain.h"
 #include "train/trainer.h"
 
@@ -17,6 +19,15 @@ bool TrainOptionsFromFlags(TrainOptions* options, std::string* error);
 // --train_tolerance, --threads).
 bool PretrainSimulationFromFlags(PoseSimulationOptions* options, bool* enabled,
                                  std::string* error);
+// The decoder aqs_train expects: --latent_dim, --hidden and --activation where given on
+// the command line or in a flagfile (not left at their defaults).
+bool ExpectedDecoderFromFlags(ExpectedDecoder* expected, std::string* error);
+
+// The options' fields and the flags that set them (for FlagError): RunPretrainJob's
+// (PretrainOptions and "simulation." PoseSimulationOptions) and RunTrainJob's
+// (TrainOptions and the expected decoder).
+FlagNames PretrainFlagNames();
+FlagNames TrainFlagNames();
 
 }  // namespace aqs
 

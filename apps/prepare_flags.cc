@@ -75,7 +75,7 @@ bool PrepareOptionsFromFlags(PrepareJobOptions* options, std::string* error) {
   options->output = FLAGS_model;
   options->overwrite = FLAGS_overwrite;
   options->tet_mesh = FLAGS_tet_mesh;
-  if (FLAGS_tet_mesh.empty() && !(FLAGS_spacing > 0)) {
+  if (FLAGS_tet_mesh.empty() && FLAGS_spacing == 0.0) {
     *error = "--spacing (the lattice cube edge, > 0) is required without --tet_mesh";
     return false;
   }
@@ -118,13 +118,44 @@ bool PrepareOptionsFromFlags(PrepareJobOptions* options, std::string* error) {
       *error = "--bone_mesh needs --bone_region (the boxes of fixed vertices it drives)";
       return false;
     }
+    if (bone.pose_mesh_pattern.empty()) {
+      *error = "--bone_mesh needs --bone_poses (the bone's pose surfaces, with {pose} for the "
+               "pose name)";
+      return false;
+    }
     options->boundary.bones.push_back(bone);
   }
   options->targets.relative_stiffness = FLAGS_attachment_stiffness;
   options->targets.solver.relative_force_tolerance = FLAGS_prepare_tolerance;
   if (!SolverMethodFromFlag(&options->targets.solver, error)) return false;
   options->num_threads = FLAGS_threads;
+  options->meshing.num_threads = FLAGS_threads;
+  options->boundary.num_threads = FLAGS_threads;
+  options->targets.num_threads = FLAGS_threads;
+  options->max_memory_bytes = MaxMemoryBytes();
   return true;
+}
+
+FlagNames PrepareFlagNames() {
+  FlagNames flags = CommonFlagNames();
+  for (const char* prefix : {"meshing.", "boundary.", "targets."}) {
+    const FlagNames nested = CommonFlagNames(prefix);
+    flags.insert(flags.end(), nested.begin(), nested.end());
+  }
+  flags.insert(flags.end(),
+               {{"meshing.spacing", "--spacing"},
+                {"meshing.shell_thickness", "--shell"},
+                {"cut_margin", "--cut_margin"},
+                {"cuts", "--cut"},
+                {"mu", "--mu"},
+                {"boundary.fixed_depth", "--fixed_depth"},
+                {"boundary.bones.name", "--bone_name"},
+                {"boundary.bones.moving_fraction", "--bone_moving_fraction"},
+                {"boundary.bones.pose_mesh_pattern", "--bone_poses"},
+                {"boundary.bones.region_boxes", "--bone_region"},
+                {"targets.relative_stiffness", "--attachment_stiffness"},
+                {"targets.solver.relative_force_tolerance", "--prepare_tolerance"}});
+  return flags;
 }
 
 }  // namespace aqs

@@ -3,6 +3,7 @@
 
 #include <string>
 
+#include "app_common.h"
 #include "prepare/prepare_job.h"
 
 namespace aqs {
@@ -10,6 +11,9 @@ namespace aqs {
 // PrepareJobOptions from the aqs_prepare flags (defined in prepare_flags.cc). Returns
 // false with *error for missing or malformed flags.
 bool PrepareOptionsFromFlags(PrepareJobOptions* options, std::string* error);
+
+// PrepareJobOptions' fields and the aqs_prepare flags that set them (for FlagError).
+FlagNames PrepareFlagNames();
 
 }  // namespace aqs
 

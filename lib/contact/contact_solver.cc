@@ -17,6 +17,7 @@
 #include "mesh/mesh_measures.h"
 #include "physics/actuation.h"
 #include "util/parallel_for.h"
+#include "util/option_checks.h"
 
 namespace aqs {
 namespace {
@@ -96,6 +97,29 @@ class TriangleGrid {
 };
 
 }  // namespace
+
+bool ContactOptions::Validate(std::string* error) const {
+  std::string solver_error;
+  const bool solver_ok = solver.Validate(&solver_error);
+  return OptionChecks()
+      .Positive("thickness", thickness)
+      .Positive("relative_stiffness", relative_stiffness)
+      .Positive("search_radius", search_radius)
+      .IntInRange("exclusion_rings", exclusion_rings, 0, 100)
+      .NonNegative("rest_tolerance", rest_tolerance)
+      .Positive("max_depth", max_depth)
+      .NonNegative("margin", margin)
+      .InRange("max_normal_alignment", max_normal_alignment, -1.0, 1.0)
+      .IntInRange("max_rounds", max_rounds, 1, kMaxContactRounds)
+      .IntInRange("path_steps", path_steps, 0, kMaxPathSteps)
+      .IntInRange("max_step_halvings", max_step_halvings, 0, 10)
+      .Positive("path_relative_force_tolerance", path_relative_force_tolerance)
+      .ReachableTolerance("path_relative_force_tolerance", path_relative_force_tolerance)
+      .Nested("solver", solver_ok, solver_error)
+      .ReachableTolerance("solver.relative_force_tolerance", solver.relative_force_tolerance)
+      .IntInRange("num_threads", num_threads, 1, 1024)
+      .Done(error);
+}
 
 QuasistaticSolverOptions DefaultContactSolverOptions() {
   QuasistaticSolverOptions options;

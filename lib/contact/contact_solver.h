@@ -93,7 +93,18 @@ struct ContactOptions {
   // the contact terms' Hessians (solver.newton_relative_force; 0: LM only).
   QuasistaticSolverOptions solver = DefaultContactSolverOptions();
   int num_threads = 2;
+
+  // Checks every field; false with *error naming the first bad one. Bounds the work:
+  // path_steps <= kMaxPathSteps, max_rounds <= kMaxContactRounds, max_step_halvings
+  // <= 10.
+  bool Validate(std::string* error) const;
 };
+
+// The most path steps and rounds per step a contact solve takes (ContactOptions::Validate):
+// each round is an equilibrium solve, so these bound the work of one aqs_collide run to
+// kMaxPathSteps x 2^max_step_halvings x kMaxContactRounds solves.
+constexpr int kMaxPathSteps = 256;
+constexpr int kMaxContactRounds = 64;
 
 // Intersecting triangle pairs of a surface with itself (ContactSolver's contact
 // triangles), by how they relate to the rest surface.

@@ -14,8 +14,19 @@
 #include "util/line_reader.h"
 #include "util/matrix_io.h"
 #include "util/parallel_for.h"
+#include "util/option_checks.h"
 
 namespace aqs {
+
+bool PoseSimulationOptions::Validate(std::string* error) const {
+  std::string solver_error;
+  const bool solver_ok = solver.Validate(&solver_error);
+  return OptionChecks()
+      .Nested("solver", solver_ok, solver_error)
+      .ReachableTolerance("solver.relative_force_tolerance", solver.relative_force_tolerance)
+      .IntInRange("num_threads", num_threads, 1, 1024)
+      .Done(error);
+}
 namespace {
 
 std::string BinaryPath(const std::string& dir) { return dir + "/pretrain/surface_errors.bin"; }
@@ -161,6 +172,10 @@ bool ReadPretrainSurfaceErrors(const std::string& model_directory, const ActiveM
     }
     read.converged.push_back(converged);
     ++p;
+  }
+  if (!reader.ok()) {
+    *error = reader.error();
+    return false;
   }
   if (p != model.num_poses()) {
     *error = text_path + ": " + std::to_string(p) + " poses, the model has " +

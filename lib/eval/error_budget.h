@@ -39,6 +39,9 @@ DistanceSummary SummarizeDistances(const Eigen::VectorXd& distances,
 struct PoseSimulationOptions {
   QuasistaticSolverOptions solver;  // num_threads is set to 1: poses run in parallel
   int num_threads = 2;
+
+  // Checks every field; false with *error naming the first bad one (util/option_checks.h).
+  bool Validate(std::string* error) const;
 };
 
 // One simulated pose.

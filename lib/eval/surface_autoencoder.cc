@@ -17,6 +17,7 @@
 #include "train/latent_init.h"
 #include "train/progress.h"
 #include "util/wall_timer.h"
+#include "util/option_checks.h"
 
 namespace aqs {
 namespace {
@@ -163,6 +164,19 @@ bool SurfaceAutoencoderObjective::Evaluate(const double* parameters, double* cos
                                            double* gradient) const {
   *cost = Loss(parameters, gradient);
   return std::isfinite(*cost);
+}
+
+bool SurfaceAutoencoderOptions::Validate(std::string* error) const {
+  bool widths_ok = true;
+  for (int width : hidden_dims) widths_ok = widths_ok && width >= 1;
+  return OptionChecks()
+      .IntAtLeast("latent_dim", latent_dim, 1)
+      .Require(widths_ok, "hidden_dims must be positive widths")
+      .Positive("output_scale", output_scale)
+      .InRange("latent_regularization", latent_regularization, 0.0, kMaxRegularization)
+      .IntAtLeast("max_iterations", max_iterations, 0)
+      .IntAtLeast("log_every", log_every, 0)
+      .Done(error);
 }
 
 SurfaceAutoencoder::SurfaceAutoencoder() = default;

@@ -36,6 +36,9 @@ struct SurfaceAutoencoderOptions {
   unsigned seed = 1;
   // Progress line every this many L-BFGS iterations (0: none).
   int log_every = 0;
+
+  // Checks every field; false with *error naming the first bad one (util/option_checks.h).
+  bool Validate(std::string* error) const;
 };
 
 struct SurfaceAutoencoderReport {

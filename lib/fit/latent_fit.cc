@@ -60,6 +60,10 @@ void BoneTransformToParameters(const RigidTransform& transform, double* paramete
 
 namespace {
 
+// The largest actuation entry a fit's trial point may ask for (io/actuation_io.h's
+// kMaxActuationStretch): beyond, the step counts as unsuccessful.
+constexpr double kMaxFitActuationEntry = 1e3;
+
 // d (R(omega) X) / d omega (3x3) at omega, for the rotation-vector parameterization,
 // by forward-mode differentiation of Ceres' AngleAxisRotatePoint.
 Eigen::Matrix3d RotatedPointJacobian(const double* omega, const Eigen::Vector3d& point) {
@@ -296,6 +300,9 @@ class LatentFitter::FitCost final : public ceres::CostFunction {
       offset += size;
     }
     if (!(last_key_.size() == key.size() && last_key_ == key)) {
+      // A trial latent far outside the training latents (absurd actuations): an
+      // unsuccessful step, not a long solve after absurd targets.
+      if (!(a.cwiseAbs().maxCoeff() <= kMaxFitActuationEntry)) return false;
       QuasistaticSolver& solver = *fitter_->solver_;
       solver.SetPositions(fitter_->accepted_state_);
       solver.SetFixedPositions(ModelBoundaryConditions(model, bones).positions);
@@ -494,6 +501,8 @@ bool LatentFitter::Simulate(const Eigen::VectorXd& z, Eigen::Matrix3Xd* state,
   stats_.solve_seconds += timer.Seconds();
   if (!report.converged) {
     *error = "the equilibrium was not reached: " + report.Summary();
+    *state = solver_->positions();
+    *surface = EmbeddedPositions(model_.embedding, model_.mesh.tets, *state);
     return false;
   }
   *state = solver_->positions();
@@ -513,6 +522,10 @@ bool LatentFitter::Fit(const FitTarget& target, const Eigen::VectorXd& initial,
   stats_ = LatentFitResult();
   if (!Simulate(z, &state, &surface, error)) {
     *error = "at the initial latent: " + *error;
+    result->latent = z;
+    result->bones = bones_;
+    result->state = state;
+    result->surface = surface;
     return false;
   }
   const bool fit_bones = options_.fit_bones && !model_.bones.empty();
@@ -577,17 +590,19 @@ bool LatentFitter::Fit(const FitTarget& target, const Eigen::VectorXd& initial,
   }
   // The final point's equilibrium: the last evaluation's when that was the final point
   // (Ceres ends on an accepted point), else solved again.
+  bool simulated = true;
   if (const Eigen::Matrix3Xd* known = data_cost->StateAt(key())) {
     state = *known;
     accepted_state_ = state;
     surface = EmbeddedPositions(model_.embedding, model_.mesh.tets, state);
-  } else if (!Simulate(z, &state, &surface, error)) {
-    return false;
+  } else {
+    simulated = Simulate(z, &state, &surface, error);
   }
   result->latent = z;
   result->bones = bones_;
   result->state = state;
   result->surface = surface;
+  if (!simulated) return false;
   const int k = target.num_points();
   Eigen::VectorXd distance(k);
   int used = 0;
@@ -613,6 +628,7 @@ bool LatentFitter::Fit(const FitTarget& target, const Eigen::VectorXd& initial,
   result->jacobians = stats_.jacobians;
   result->jacobian_seconds = stats_.jacobian_seconds;
   result->converged = summary.termination_type == ceres::CONVERGENCE;
+  result->failed = summary.termination_type == ceres::FAILURE;
   result->message = summary.message;
   return true;
 }
@@ -627,7 +643,13 @@ bool LatentFitter::FitPointCloud(const Eigen::Matrix3Xd& points,
   }
   Eigen::VectorXd z = initial;
   Eigen::Matrix3Xd state, surface;
-  if (!Simulate(z, &state, &surface, error)) return false;
+  if (!Simulate(z, &state, &surface, error)) {
+    result->latent = z;
+    result->bones = bones_;
+    result->state = state;
+    result->surface = surface;
+    return false;
+  }
   const Eigen::Matrix3Xi& triangles = model_.neutral.triangles;
   if (cloud_options.rematch_every_evaluation) {
     // One Levenberg-Marquardt solve of the robust closest-point distances.

@@ -48,6 +48,9 @@ struct LatentFitOptions {
   double parameter_tolerance = 1e-10;
   QuasistaticSolverOptions solver;
   int num_threads = 2;
+
+  // Checks every field (fit/fit_options.cc); false with *error naming the first bad one.
+  bool Validate(std::string* error) const;
 };
 
 // What to fit: K target points, each a point of the model's surface given as a
@@ -96,6 +99,9 @@ struct LatentFitResult {
   int solves = 0, solve_factorizations = 0, jacobians = 0;
   double solve_seconds = 0.0, jacobian_seconds = 0.0;
   bool converged = false;
+  // Levenberg-Marquardt stopped with a failure (Ceres' FAILURE: e.g. the residuals or
+  // Jacobian could not be evaluated at the start), not for an iteration limit.
+  bool failed = false;
   std::string message;
 };
 
@@ -120,6 +126,9 @@ struct PointCloudFitOptions {
   // distances to the surface, re-matched at every evaluation (see FitPointCloud),
   // instead of matching rounds with fixed correspondences.
   bool rematch_every_evaluation = true;
+
+  // Checks every field (fit/fit_options.cc); false with *error naming the first bad one.
+  bool Validate(std::string* error) const;
 };
 
 // Where fits start (LatentFitter::ChooseStart).
@@ -161,7 +170,9 @@ class LatentFitter {
   void StartFromTrainingPose(int p);
 
   // Fits from latent `initial` (latent_dim) and the current bone transforms. Returns
-  // false with *error if the equilibrium cannot be computed at the start.
+  // false with *error if the equilibrium cannot be computed at the start or at the end;
+  // result's latent, bones, state and surface are then those of the unconverged
+  // equilibrium there, for inspection.
   bool Fit(const FitTarget& target, const Eigen::VectorXd& initial, LatentFitResult* result,
            std::string* error);
 
@@ -174,7 +185,9 @@ class LatentFitter {
   bool FitPointCloud(const Eigen::Matrix3Xd& points, const PointCloudFitOptions& cloud_options,
                      const Eigen::VectorXd& initial, LatentFitResult* result, std::string* error);
 
-  // The equilibrium and surface for latent z with the current bone transforms.
+  // The equilibrium and surface for latent z with the current bone transforms. Returns
+  // false with *error if the solve did not converge (from the start state, then from
+  // rest); *state and *surface then hold the state it ended in, for inspection.
   bool Simulate(const Eigen::VectorXd& z, Eigen::Matrix3Xd* state, Eigen::Matrix3Xd* surface,
                 std::string* error);
 

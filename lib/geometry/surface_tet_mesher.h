@@ -22,7 +22,19 @@ struct SurfaceTetMeshOptions {
   bool connect_touching_components = true;  // join components that touch only at vertices
                                             // or edges through shared faces (see below)
   int num_threads = 2;
+
+  // Checks every field; false with *error naming the first bad one.
+  bool Validate(std::string* error) const;
 };
+
+// The memory MeshSurfaceInterior needs for the lattice over a surface with this
+// bounding box (lower and upper corners) and `options` (bytes; an estimate from the
+// lattice's element count, 250 bytes per lattice element: measured 126 to 140 on a
+// body that fills 40% of its lattice), and that element count (*lattice_elements, may
+// be null). Infinite for a spacing that is not positive and finite.
+double SurfaceTetMeshMemoryBytes(const Eigen::Vector3d& lower, const Eigen::Vector3d& upper,
+                                 const SurfaceTetMeshOptions& options,
+                                 double* lattice_elements = nullptr);
 
 // What MeshSurfaceInterior did.
 struct SurfaceTetMeshStats {

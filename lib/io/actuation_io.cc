@@ -3,6 +3,8 @@
 #include <sstream>
 #include <vector>
 
+#include <Eigen/Eigenvalues>
+
 #include "util/atomic_file.h"
 #include "util/line_reader.h"
 #include "util/number_format.h"
@@ -10,9 +12,11 @@
 namespace aqs {
 namespace {
 
-// Reads `count` lines of `width` numbers each into a column-major width x count block.
+// Reads `count` lines of `width` numbers each into a column-major width x count block;
+// *lines (if not null) receives each row's line number.
 bool ReadFixedWidthRows(const std::string& path, int count, int width, const char* what,
-                        std::vector<double>* values, std::string* error) {
+                        std::vector<double>* values, std::string* error,
+                        std::vector<int>* lines = nullptr) {
   LineReader reader(path);
   if (!reader.ok()) {
     *error = reader.error();
@@ -42,7 +46,12 @@ bool ReadFixedWidthRows(const std::string& path, int count, int width, const cha
         return false;
       }
     }
+    if (lines != nullptr) lines->push_back(reader.line_number());
     ++row;
+  }
+  if (!reader.ok()) {
+    *error = reader.error();
+    return false;
   }
   if (row != count) {
     std::ostringstream out;
@@ -64,6 +73,55 @@ bool ReadActuation(const std::string& path, int num_elements, ActuationMatrix* a
   }
   *a = Eigen::Map<const ActuationMatrix>(values.data(), 6, num_elements);
   return true;
+}
+
+bool ReadActuationTargets(const std::string& path, int num_elements, ActuationMatrix* a,
+                          std::string* error) {
+  std::vector<double> values;
+  std::vector<int> lines;
+  if (!ReadFixedWidthRows(path, num_elements, 6, "sxx syy szz sxy sxz syz", &values, error,
+                          &lines)) {
+    return false;
+  }
+  const Eigen::Map<const ActuationMatrix> read(values.data(), 6, num_elements);
+  int bad = 0, first = -1;
+  Eigen::Vector3d first_eigenvalues = Eigen::Vector3d::Zero();
+  for (int e = 0; e < num_elements; ++e) {
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(
+        SymmetricFromActuation(read.col(e).data()), Eigen::EigenvaluesOnly);
+    const Eigen::Vector3d lambda = eigen.eigenvalues();  // increasing
+    if (lambda[0] >= kMinActuationStretch && lambda[2] <= kMaxActuationStretch) continue;
+    if (bad++ == 0) {
+      first = e;
+      first_eigenvalues = lambda;
+    }
+  }
+  if (bad > 0) {
+    std::ostringstream out;
+    out.precision(6);
+    out << path << ":" << lines[first] << ": " << bad << " of " << num_elements
+        << " actuations are not positive definite with principal stretches in ["
+        << kMinActuationStretch << ", " << kMaxActuationStretch << "]; the first, element "
+        << first << ", has eigenvalues " << first_eigenvalues[0] << ", " << first_eigenvalues[1]
+        << ", " << first_eigenvalues[2]
+        << " (S = I is rest; such a target asks the element to collapse, invert or blow up)";
+    *error = out.str();
+    return false;
+  }
+  *a = read;
+  return true;
+}
+
+int CountNonPositiveDefinite(const ActuationMatrix& a, int* first) {
+  int count = 0;
+  if (first != nullptr) *first = -1;
+  for (Eigen::Index e = 0; e < a.cols(); ++e) {
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(
+        SymmetricFromActuation(a.col(e).data()), Eigen::EigenvaluesOnly);
+    if (eigen.eigenvalues()[0] > 0.0) continue;
+    if (count++ == 0 && first != nullptr) *first = static_cast<int>(e);
+  }
+  return count;
 }
 
 bool WriteActuation(const std::string& path, const ActuationMatrix& values,

@@ -17,6 +17,30 @@ namespace aqs {
 bool ReadActuation(const std::string& path, int num_elements, ActuationMatrix* a,
                    std::string* error);
 
+// Bounds of the principal stretches (eigenvalues) of an actuation target S that
+// ReadActuationTargets accepts: S must be positive definite, stretching by at least
+// 1e-3 and at most 1e3 along every direction. Outside, an element is asked to collapse
+// (S = 1e-12 I), turn inside out (S = -I) or blow up, and the "equilibrium" is one with
+// inverted or degenerate elements, which is never what a user meant.
+constexpr double kMinActuationStretch = 1e-3;
+constexpr double kMaxActuationStretch = 1e3;
+
+// The largest ratio of the stiffest to the softest element's mu that the jobs accept
+// (per-element stiffness files, model files): beyond it the stiffness matrix is too
+// ill-conditioned for double precision.
+constexpr double kMaxStiffnessContrast = 1e12;
+
+// ReadActuation for actuations that drive a simulation (aqs_simulate --actuation): also
+// every S must be positive definite with eigenvalues in [kMinActuationStretch,
+// kMaxActuationStretch]. Otherwise false with *error giving how many elements are out
+// of range, and the first one's line, element and eigenvalues.
+bool ReadActuationTargets(const std::string& path, int num_elements, ActuationMatrix* a,
+                          std::string* error);
+
+// The number of elements of `a` whose S is not positive definite (smallest eigenvalue
+// <= 0). *first (may be null) receives the first such element, or -1.
+int CountNonPositiveDefinite(const ActuationMatrix& a, int* first = nullptr);
+
 // Writes `values` (6 x num_elements) in the same format, 17 significant digits, after
 // '#' comment lines `header` (may be empty; may contain several lines). Used for
 // actuations and for gradients dL/d(sxx syy szz sxy sxz syz).

@@ -106,6 +106,10 @@ bool ReadLatentFile(const std::string& path, int latent_dim,
       return false;
     }
   }
+  if (!reader.ok()) {
+    *error = reader.error();
+    return false;
+  }
   if (!have_latent) {
     *error = path + ": no 'latent' line";
     return false;

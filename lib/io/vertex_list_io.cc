@@ -67,6 +67,10 @@ bool ReadFixedVertices(const std::string& path, const Eigen::Matrix3Xd& rest_pos
     vertices.push_back(v);
     positions.push_back(p);
   }
+  if (!reader.ok()) {
+    *error = reader.error();
+    return false;
+  }
   bc->vertices = vertices;
   bc->positions.resize(3, vertices.size());
   for (size_t i = 0; i < positions.size(); ++i) bc->positions.col(i) = positions[i];
@@ -92,6 +96,10 @@ bool ReadVertexList(const std::string& path, int num_vertices, std::vector<int>*
     int v = 0;
     if (!ParseVertexIndex(reader, tokens[0], num_vertices, &first_line, &v, error)) return false;
     out.push_back(v);
+  }
+  if (!reader.ok()) {
+    *error = reader.error();
+    return false;
   }
   *vertices = out;
   return true;

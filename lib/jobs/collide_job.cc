@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <memory>
+#include <sstream>
 
 #include "fit/latent_fit.h"
 #include "jobs/deformed_output.h"
@@ -10,7 +11,10 @@
 #include "mesh/mesh_io.h"
 #include "mesh/ply_io.h"
 #include "model/model_io.h"
+#include "prepare/pose_files.h"
 #include "util/atomic_file.h"
+#include "util/input_file.h"
+#include "util/option_checks.h"
 #include "util/wall_timer.h"
 
 namespace aqs {
@@ -25,28 +29,55 @@ CollideJobResult Fail(JobStatus status, const std::string& message) {
 
 }  // namespace
 
+bool CollideJobOptions::Validate(std::string* error) const {
+  std::string contact_error;
+  const bool contact_ok = contact.Validate(&contact_error);
+  return OptionChecks().Nested("contact", contact_ok, contact_error).Done(error);
+}
+
 CollideJobResult RunCollideJob(const CollideJobOptions& options, std::ostream& log) {
   WallTimer timer;
   std::string error;
+  if (!options.Validate(&error)) return Fail(JobStatus::kBadInput, error);
   if (options.model.empty() || options.output.empty()) {
     return Fail(JobStatus::kBadInput, "--model and --output are required");
   }
   if (options.latent.empty() == options.pose.empty()) {
     return Fail(JobStatus::kBadInput, "give either --latent=Z.txt or --pose=NAME");
   }
-  if (!(options.contact.thickness > 0) || !(options.contact.relative_stiffness > 0) ||
-      !(options.contact.max_depth > 0) || !(options.contact.search_radius > 0)) {
+  if (!options.output_volume.empty() && !IsDeformedMeshOutputPath(options.output_volume)) {
     return Fail(JobStatus::kBadInput,
-                "the contact thickness, stiffness, max depth and search radius must be positive");
+                options.output_volume + ": unknown output extension; known: .mesh, .vtu, .obj");
   }
-  if (options.contact.max_rounds < 1 || options.contact.exclusion_rings < 0 ||
-      options.contact.path_steps < 0 || options.contact.max_step_halvings < 0) {
-    return Fail(JobStatus::kBadInput,
-                "--contact_rounds must be >= 1, and --exclusion_rings and --path_steps >= 0");
+  for (const std::string* output : {&options.output, &options.output_before, &options.output_volume,
+                                    &options.output_intersections, &options.report}) {
+    if (!output->empty() && !CheckOutputFile(*output, &error)) {
+      return Fail(JobStatus::kBadInput, error);
+    }
   }
   ActiveModel model;
   if (!LoadModel(options.model, &model, &error)) return Fail(JobStatus::kBadInput, error);
   if (!model.decoder) return Fail(JobStatus::kBadInput, options.model + ": the model is not trained");
+  {
+    // Contact distances beyond the model's scale mean a unit mistake, and make the
+    // candidate search and the report's "far" distances meaningless.
+    const double size = (model.neutral.vertices.rowwise().maxCoeff() -
+                         model.neutral.vertices.rowwise().minCoeff()).norm();
+    const double limit = kMaxDistanceInModelSizes * size;
+    for (const auto& [field, value] :
+         {std::pair<const char*, double>{"contact.thickness", options.contact.thickness},
+          {"contact.search_radius", options.contact.search_radius},
+          {"contact.max_depth", options.contact.max_depth},
+          {"contact.rest_tolerance", options.contact.rest_tolerance},
+          {"contact.margin", options.contact.margin}}) {
+      if (!(value <= limit)) {
+        std::ostringstream out;
+        out << field << " (" << value << ") is more than " << kMaxDistanceInModelSizes
+            << " times the model's size (" << size << ")";
+        return Fail(JobStatus::kBadInput, out.str());
+      }
+    }
+  }
   for (int v : options.contact.surface_vertices) {
     if (v >= model.num_surface_vertices()) {
       return Fail(JobStatus::kBadInput, "contact vertex " + std::to_string(v) +
@@ -94,7 +125,17 @@ CollideJobResult RunCollideJob(const CollideJobOptions& options, std::ostream& l
   if (pose.training_pose >= 0) fitter.StartFromTrainingPose(pose.training_pose);
   Eigen::Matrix3Xd start, surface_before;
   if (!fitter.Simulate(pose.latent, &start, &surface_before, &error)) {
-    return Fail(JobStatus::kNotConverged, error);
+    // No contact without the pose; its unconverged surface, for inspection.
+    std::string write_error;
+    if (!options.output_before.empty() && surface_before.allFinite() &&
+        surface_before.cols() == model.num_surface_vertices()) {
+      SurfaceMesh before = model.neutral;
+      before.vertices = surface_before;
+      if (WriteObj(options.output_before, before, &write_error)) {
+        log << "wrote " << options.output_before << " (NOT CONVERGED, for inspection)\n";
+      }
+    }
+    return Fail(JobStatus::kNotConverged, "the pose without contact: " + error);
   }
   ActuationMatrix a;
   DecoderWorkspace workspace;

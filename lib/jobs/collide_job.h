@@ -26,6 +26,9 @@ struct CollideJobOptions {
   // self-intersecting triangle pairs (not intersecting at rest) it is part of.
   std::string output_intersections;
   ContactOptions contact;
+
+  // Checks every field; false with *error naming the first bad one (util/option_checks.h).
+  bool Validate(std::string* error) const;
 };
 
 struct CollideJobResult {

@@ -21,6 +21,7 @@
 #include "util/line_reader.h"
 #include "util/matrix_io.h"
 #include "util/wall_timer.h"
+#include "util/option_checks.h"
 
 namespace aqs {
 namespace {
@@ -298,9 +299,24 @@ bool ParseVertexRanges(const std::string& text, std::vector<int>* vertices, std:
   return true;
 }
 
+bool EvaluateJobOptions::Validate(std::string* error) const {
+  std::string fit_error, autoencoder_error, targets_error;
+  const bool fit_ok = fit.Validate(&fit_error);
+  const bool autoencoder_ok = autoencoder.Validate(&autoencoder_error);
+  const bool targets_ok = held_out_targets.Validate(&targets_error);
+  return OptionChecks()
+      .Nested("fit", fit_ok, fit_error)
+      .Nested("autoencoder", autoencoder_ok, autoencoder_error)
+      .Nested("held_out_targets", targets_ok, targets_error)
+      .IntInRange("num_threads", num_threads, 1, 1024)
+      .Done(error);
+}
+
 bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
                     std::vector<EvaluationRow>* rows_out, std::string* error) {
   WallTimer total;
+  // The same options on every rank: each refuses them alike, before any collective.
+  if (!options.Validate(error)) return false;
   const Communicator* communicator = options.communicator;
   const bool distributed = communicator != nullptr && communicator->size() > 1;
   const bool root = !distributed || communicator->is_root();
@@ -331,6 +347,10 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
   ok = options.test_paths.empty() ||
        ReadPoseSurfaces(options.test_paths, ns, options.num_threads, &test_names, &test_surfaces,
                         error);
+  for (size_t t = 0; ok && t < test_surfaces.size(); ++t) {
+    ok = CheckPointsNearModel(options.test_paths[t], model.neutral.vertices, test_surfaces[t],
+                              error);
+  }
   if (distributed) ok = communicator->Agree(ok, error);
   if (!ok) return false;
   std::error_code code;

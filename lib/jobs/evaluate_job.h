@@ -50,6 +50,9 @@ struct EvaluateJobOptions {
   // shared among the ranks (pose t on rank t % size), and rank 0 does the rest and
   // writes every output. Null (or one rank): one process.
   const Communicator* communicator = nullptr;
+
+  // Checks every field; false with *error naming the first bad one (util/option_checks.h).
+  bool Validate(std::string* error) const;
 };
 
 // One row of the evaluation: the vertex distances of one method on one pose.

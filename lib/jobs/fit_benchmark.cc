@@ -19,6 +19,7 @@
 #include "util/atomic_file.h"
 #include "util/line_reader.h"
 #include "util/wall_timer.h"
+#include "util/option_checks.h"
 
 namespace aqs {
 namespace {
@@ -88,6 +89,10 @@ bool ReadMixes(const std::string& path, std::vector<std::string>* mixes, std::st
     }
     mixes->push_back(name);
   }
+  if (!reader.ok()) {
+    *error = reader.error();
+    return false;
+  }
   return true;
 }
 
@@ -122,8 +127,25 @@ double FactorizationUnit(const ActiveModel& model, int threads) {
 
 }  // namespace
 
+bool FitBenchmarkOptions::Validate(std::string* error) const {
+  std::string fit_error, points_error;
+  const bool fit_ok = fit.Validate(&fit_error);
+  const bool points_ok = points.Validate(&points_error);
+  bool ridges_ok = !ridge_candidates.empty();
+  for (double r : ridge_candidates) ridges_ok = ridges_ok && std::isfinite(r) && r >= 0;
+  bool counts_ok = true;
+  for (int k : marker_counts) counts_ok = counts_ok && k >= 1;
+  return OptionChecks()
+      .Require(ridges_ok, "ridge_candidates must be finite and >= 0")
+      .Require(counts_ok, "marker_counts must be >= 1")
+      .Nested("fit", fit_ok, fit_error)
+      .Nested("points", points_ok, points_error)
+      .Done(error);
+}
+
 JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
                           std::string* error) {
+  if (!options.Validate(error)) return JobStatus::kBadInput;
   if (options.model.empty() || options.test_set.empty() || options.output_dir.empty()) {
     *error = "--model, --test_set and --output_dir are required";
     return JobStatus::kBadInput;

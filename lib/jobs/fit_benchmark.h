@@ -28,6 +28,9 @@ struct FitBenchmarkOptions {
   LatentFitOptions fit;
   PointCloudFitOptions points;
   FitStartOptions start;
+
+  // Checks every field; false with *error naming the first bad one (util/option_checks.h).
+  bool Validate(std::string* error) const;
 };
 
 // Returns kOk, or kBadInput with a message naming the file at fault. Prints per-fit

@@ -10,10 +10,14 @@
 
 #include "io/latent_io.h"
 #include "jobs/deformed_output.h"
+#include "jobs/model_pose.h"
 #include "mesh/mesh_io.h"
 #include "mesh/ply_io.h"
 #include "model/model_io.h"
+#include "prepare/pose_files.h"
+#include "util/input_file.h"
 #include "util/line_reader.h"
+#include "util/option_checks.h"
 #include "util/wall_timer.h"
 
 namespace aqs {
@@ -38,7 +42,70 @@ std::vector<std::string> BoneNames(const ActiveModel& model) {
   return names;
 }
 
+// The fit's outputs (the surface, and optionally the latent and the volume).
+bool WriteFitOutputs(const FitJobOptions& options, const ActiveModel& model,
+                     const LatentFitResult& fit, const std::string& note, std::ostream& log,
+                     std::string* error) {
+  SurfaceMesh surface = model.neutral;
+  surface.vertices = fit.surface;
+  if (!WriteObj(options.output, surface, error)) return false;
+  log << "wrote " << options.output << note << "\n";
+  if (!options.latent_output.empty()) {
+    if (!WriteLatentFile(options.latent_output, fit.latent, BoneNames(model), fit.bones,
+                         "fitted to " + options.target + note, error)) {
+      return false;
+    }
+    log << "wrote " << options.latent_output << note << "\n";
+  }
+  if (!options.output_volume.empty()) {
+    ActuationMatrix a;
+    DecoderWorkspace workspace;
+    model.decoder->Decode(model.decoder_params.data(), fit.latent, &a, &workspace);
+    const std::vector<VtuField> point_fields = {MakeVtuField("displacement", fit.state - model.mesh.vertices)};
+    const std::vector<VtuField> cell_fields = {MakeVtuField("actuation", a)};
+    if (!WriteDeformedMesh(options.output_volume, model.mesh, fit.state, point_fields, cell_fields,
+                           error)) {
+      return false;
+    }
+    log << "wrote " << options.output_volume << note << "\n";
+  }
+  return true;
+}
+
+// A fit that did not end well: its outputs are written for inspection when they are
+// finite, and the status is kNotConverged with `message`.
+FitJobResult NotConverged(const FitJobOptions& options, const ActiveModel& model,
+                          FitJobResult result, const std::string& message, std::ostream& log) {
+  result.status = JobStatus::kNotConverged;
+  result.message = message;
+  const LatentFitResult& fit = result.fit;
+  if (fit.surface.cols() == model.num_surface_vertices() && fit.surface.allFinite() &&
+      fit.state.cols() == model.mesh.num_vertices() && fit.state.allFinite() &&
+      fit.latent.size() == model.latent_dim() && fit.latent.allFinite()) {
+    std::string error;
+    if (!WriteFitOutputs(options, model, fit, " (NOT CONVERGED, for inspection)", log, &error)) {
+      result.message += "; " + error;
+    }
+  } else {
+    result.message += " (no finite state: nothing written)";
+  }
+  return result;
+}
+
 }  // namespace
+
+bool FitJobOptions::Validate(std::string* error) const {
+  std::string fit_error, points_error;
+  const bool fit_ok = fit.Validate(&fit_error);
+  const bool points_ok = points.Validate(&points_error);
+  return OptionChecks()
+      .Require(target_kind == "auto" || target_kind == "pose" || target_kind == "markers" ||
+                   target_kind == "points",
+               "target_kind must be auto, pose, markers or points (is '" + target_kind + "')")
+      .Nested("fit", fit_ok, fit_error)
+      .Nested("points", points_ok, points_error)
+      .Done(error);
+}
 
 bool ReadMarkers(const std::string& path, int num_surface_vertices, std::vector<int>* vertices,
                  Eigen::Matrix3Xd* positions, std::string* error) {
@@ -72,6 +139,10 @@ bool ReadMarkers(const std::string& path, int num_surface_vertices, std::vector<
     read.push_back(v);
     points.push_back(p);
   }
+  if (!reader.ok()) {
+    *error = reader.error();
+    return false;
+  }
   if (read.empty()) {
     *error = path + ": no markers";
     return false;
@@ -84,12 +155,19 @@ bool ReadMarkers(const std::string& path, int num_surface_vertices, std::vector<
 
 FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log) {
   WallTimer timer;
+  std::string error;
+  if (!options.Validate(&error)) return Fail(error);
   if (options.model.empty() || options.target.empty() || options.output.empty()) {
     return Fail("--model, --target and --output are required");
   }
   if (Extension(options.output) != ".obj") return Fail(options.output + ": --output must be an .obj");
+  if (!options.output_volume.empty() && !IsDeformedMeshOutputPath(options.output_volume)) {
+    return Fail(options.output_volume + ": unknown output extension; known: .mesh, .vtu, .obj");
+  }
+  for (const std::string* output : {&options.output, &options.output_volume, &options.latent_output}) {
+    if (!output->empty() && !CheckOutputFile(*output, &error)) return Fail(error);
+  }
   ActiveModel model;
-  std::string error;
   if (!LoadModel(options.model, &model, &error)) return Fail(error);
   if (!model.decoder) return Fail(options.model + ": the model is not trained (no decoder)");
   const int ns = model.num_surface_vertices();
@@ -105,7 +183,19 @@ FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log) {
       kind = "points";
     } else if (ext == ".obj") {
       if (!ReadObj(options.target, &target_surface, &error)) return Fail(error);
-      kind = target_surface.num_vertices() == ns ? "pose" : "points";
+      if (target_surface.num_vertices() == ns) {
+        kind = "pose";
+      } else if (target_surface.num_triangles() > 0) {
+        // A surface with faces and nearly the neutral's vertex count is far more likely
+        // a broken pose than a scan: say so rather than fit it as points.
+        return Fail(options.target + ": a surface with " +
+                    std::to_string(target_surface.num_vertices()) +
+                    " vertices, but the model's surface has " + std::to_string(ns) +
+                    ": a pose target needs the neutral's vertex order; to fit the file as a "
+                    "point cloud (a scan), pass --target_kind=points");
+      } else {
+        kind = "points";
+      }
     } else {
       return Fail(options.target + ": cannot tell the target kind from the extension; give "
                   "--target_kind=pose|markers|points");
@@ -122,21 +212,29 @@ FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log) {
                   " vertices, but the model's surface has " + std::to_string(ns) +
                   " (a pose target needs the neutral's vertex order)");
     }
+    if (!CheckPointsNearModel(options.target, model.neutral.vertices, target_surface.vertices, &error)) {
+      return Fail(error);
+    }
     target = FullSurfaceTarget(target_surface.vertices);
   } else if (kind == "markers") {
     std::vector<int> vertices;
     Eigen::Matrix3Xd positions;
     if (!ReadMarkers(options.target, ns, &vertices, &positions, &error)) return Fail(error);
+    if (!CheckPointsNearModel(options.target, model.neutral.vertices, positions, &error)) return Fail(error);
     target = VertexTarget(vertices, positions);
   } else if (kind == "points") {
     if (!ReadPointCloud(options.target, &cloud, &error)) return Fail(error);
     if (cloud.cols() < 3) return Fail(options.target + ": fewer than 3 points");
+    if (!CheckPointsNearModel(options.target, model.neutral.vertices, cloud, &error)) return Fail(error);
   } else {
     return Fail("--target_kind must be auto, pose, markers or points, got '" + kind + "'");
   }
   SurfaceMesh truth;
   if (!options.compare_to.empty()) {
-    if (!ReadObj(options.compare_to, &truth, &error)) return Fail(error);
+    if (!ReadObj(options.compare_to, &truth, &error) ||
+        !CheckPointsNearModel(options.compare_to, model.neutral.vertices, truth.vertices, &error)) {
+      return Fail(error);
+    }
     if (truth.num_vertices() != ns) {
       return Fail(options.compare_to + ": " + std::to_string(truth.num_vertices()) +
                   " vertices, but the model's surface has " + std::to_string(ns));
@@ -156,7 +254,8 @@ FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log) {
   if (!options.initial_latent.empty()) {
     std::vector<RigidTransform> bones;
     if (!ReadLatentFile(options.initial_latent, model.latent_dim(), BoneNames(model), &initial,
-                        &bones, &error)) {
+                        &bones, &error) ||
+        !CheckLatentActuations(model, initial, options.initial_latent, &error)) {
       return Fail(error);
     }
     fitter.set_bone_transforms(bones);
@@ -174,11 +273,7 @@ FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log) {
   const bool ok = kind == "points"
                       ? fitter.FitPointCloud(cloud, options.points, initial, &result.fit, &error)
                       : fitter.Fit(target, initial, &result.fit, &error);
-  if (!ok) {
-    result.status = JobStatus::kNotConverged;
-    result.message = error;
-    return result;
-  }
+  if (!ok) return NotConverged(options, model, result, error, log);
   const LatentFitResult& fit = result.fit;
   log << std::setprecision(6) << "fit: " << fit.iterations << " iterations, error mean "
       << fit.mean_error << " rms " << fit.rms_error << " max " << fit.max_error << " over "
@@ -221,29 +316,14 @@ FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log) {
         << result.compare_max << " (the neutral surface: mean " << rest_sum / vertices.size()
         << ")\n";
   }
-  SurfaceMesh surface = model.neutral;
-  surface.vertices = fit.surface;
-  if (!WriteObj(options.output, surface, &error)) return Fail(error);
-  log << "wrote " << options.output << "\n";
-  if (!options.latent_output.empty()) {
-    if (!WriteLatentFile(options.latent_output, fit.latent, BoneNames(model), fit.bones,
-                         "fitted to " + options.target, &error)) {
-      return Fail(error);
-    }
-    log << "wrote " << options.latent_output << "\n";
+  if (fit.failed || !std::isfinite(fit.mean_error) || !std::isfinite(fit.rms_error) ||
+      !std::isfinite(fit.max_error)) {
+    return NotConverged(options, model, result,
+                        fit.failed ? "the fit failed: " + fit.message
+                                   : "the fit's error is not finite (" + fit.message + ")",
+                        log);
   }
-  if (!options.output_volume.empty()) {
-    ActuationMatrix a;
-    DecoderWorkspace workspace;
-    model.decoder->Decode(model.decoder_params.data(), fit.latent, &a, &workspace);
-    const std::vector<VtuField> point_fields = {MakeVtuField("displacement", fit.state - model.mesh.vertices)};
-    const std::vector<VtuField> cell_fields = {MakeVtuField("actuation", a)};
-    if (!WriteDeformedMesh(options.output_volume, model.mesh, fit.state, point_fields, cell_fields,
-                           &error)) {
-      return Fail(error);
-    }
-    log << "wrote " << options.output_volume << "\n";
-  }
+  if (!WriteFitOutputs(options, model, fit, "", log, &error)) return Fail(error);
   log << "total " << timer.Seconds() << " s\n";
   return result;
 }

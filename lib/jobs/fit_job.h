@@ -32,6 +32,9 @@ struct FitJobOptions {
   LatentFitOptions fit;
   PointCloudFitOptions points;
   FitStartOptions start;
+
+  // Checks every field; false with *error naming the first bad one (util/option_checks.h).
+  bool Validate(std::string* error) const;
 };
 
 struct FitJobResult {

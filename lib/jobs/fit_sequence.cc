@@ -20,6 +20,7 @@
 #include "util/matrix_io.h"
 #include "util/number_format.h"
 #include "util/wall_timer.h"
+#include "util/option_checks.h"
 
 namespace aqs {
 namespace {
@@ -77,6 +78,10 @@ bool ResolveFrames(const std::string& spec, std::vector<std::pair<std::string, s
         return false;
       }
       out->emplace_back(resolved, spec + ":" + std::to_string(reader.line_number()));
+    }
+    if (!reader.ok()) {
+      *error = reader.error();
+      return false;
     }
   } else {
     std::stringstream list(spec);
@@ -183,6 +188,10 @@ bool ReadDone(const std::string& csv, const std::string& output_dir, const Activ
       return false;
     }
     done->push_back(row);
+  }
+  if (!reader.ok()) {
+    *error = reader.error();
+    return false;
   }
   return true;
 }
@@ -419,8 +428,25 @@ FitSequenceResult RunFitSequence(const FitSequenceOptions& options, const Active
   return result;
 }
 
+bool FitSequenceOptions::Validate(std::string* error) const {
+  std::string fit_error, points_error;
+  const bool fit_ok = fit.Validate(&fit_error);
+  const bool points_ok = points.Validate(&points_error);
+  return OptionChecks()
+      .Require(target_kind == "auto" || target_kind == "pose" || target_kind == "markers" ||
+                   target_kind == "points",
+               "target_kind must be auto, pose, markers or points (is '" + target_kind + "')")
+      .Nested("fit", fit_ok, fit_error)
+      .Nested("points", points_ok, points_error)
+      .Done(error);
+}
+
 FitSequenceResult RunFitSequenceJob(const FitSequenceOptions& options, std::ostream& log) {
   FitSequenceResult result;
+  if (!options.Validate(&result.message)) {
+    result.status = JobStatus::kBadInput;
+    return result;
+  }
   if (options.model.empty() || options.sequence.empty() || options.output_dir.empty()) {
     result.status = JobStatus::kBadInput;
     result.message = "--model, --sequence and --output_dir are required";

@@ -34,6 +34,9 @@ struct FitSequenceOptions {
   LatentFitOptions fit;
   PointCloudFitOptions points;
   FitStartOptions start;
+
+  // Checks every field; false with *error naming the first bad one (util/option_checks.h).
+  bool Validate(std::string* error) const;
 };
 
 struct FitSequenceResult {

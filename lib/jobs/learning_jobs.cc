@@ -39,11 +39,46 @@ bool CheckReplaceable(const std::string& model_directory, bool whole, std::strin
   return CheckLearnedStateDestination(path, error);
 }
 
+// The model's decoder against what the caller expects; false with *error naming both.
+bool CheckExpectedDecoder(const std::string& model_directory, const ActiveModel& model,
+                          const ExpectedDecoder& expected, std::string* error) {
+  if (!model.decoder) return true;  // TrainEndToEnd says the model is not pre-trained
+  const DecoderSpec& spec = model.decoder->spec();
+  auto widths = [](const std::vector<int>& dims) {
+    std::string text;
+    for (size_t i = 0; i < dims.size(); ++i) text += (i > 0 ? "," : "") + std::to_string(dims[i]);
+    return text.empty() ? std::string("none") : text;
+  };
+  std::string mismatch;
+  if (expected.latent_dim > 0 && expected.latent_dim != spec.latent_dim) {
+    mismatch = "latent_dim=" + std::to_string(expected.latent_dim) + " was asked for, but the " +
+               "model's decoder has latent_dim=" + std::to_string(spec.latent_dim);
+  } else if (!expected.hidden_dims.empty() && expected.hidden_dims != spec.hidden_dims) {
+    mismatch = "hidden_dims=" + widths(expected.hidden_dims) + " was asked for, but the " +
+               "model's decoder has hidden_dims=" + widths(spec.hidden_dims);
+  } else if (!expected.activation.empty() && expected.activation != ActivationName(spec.activation)) {
+    mismatch = "activation=" + expected.activation + " was asked for, but the model's decoder "
+               "has activation=" + ActivationName(spec.activation);
+  }
+  if (mismatch.empty()) return true;
+  *error = mismatch + " (model " + model_directory + "): the architecture is "
+           "set by pre-training, which training continues; pre-train again to change it";
+  return false;
+}
+
 }  // namespace
 
 bool RunPretrainJob(const std::string& model_directory, const PretrainOptions& options,
                     const PoseSimulationOptions* simulation, std::ostream& log,
                     std::string* error) {
+  if (!options.Validate(error)) return false;
+  if (simulation != nullptr) {
+    std::string simulation_error;
+    if (!simulation->Validate(&simulation_error)) {
+      *error = "simulation." + simulation_error;
+      return false;
+    }
+  }
   PathLock lock;
   ActiveModel model;
   if (!LockAndLoad(model_directory, log, &lock, &model, error) ||
@@ -88,7 +123,9 @@ bool RunPretrainJob(const std::string& model_directory, const PretrainOptions& o
 }
 
 bool RunTrainJob(const std::string& model_directory, const TrainOptions& options, bool restart,
-                 std::ostream& log, std::string* error) {
+                 std::ostream& log, std::string* error, const ExpectedDecoder& expected) {
+  // The same options on every rank: each refuses them alike, before any collective.
+  if (!options.Validate(error)) return false;
   const Communicator* communicator = options.communicator;
   const bool distributed = communicator != nullptr && communicator->size() > 1;
   const bool root = !distributed || communicator->is_root();
@@ -97,7 +134,8 @@ bool RunTrainJob(const std::string& model_directory, const TrainOptions& options
   bool ok = true;
   if (root) {
     ok = LockAndLoad(model_directory, log, &lock, &model, error) &&
-         CheckReplaceable(model_directory, false, error);
+         CheckReplaceable(model_directory, false, error) &&
+         CheckExpectedDecoder(model_directory, model, expected, error);
     if (ok && restart && model.checkpoint.iterations > 0) {
       // Saved before training starts, so that a run killed before its first checkpoint
       // does not resume the old count next to a new log.

@@ -3,6 +3,7 @@
 
 #include <ostream>
 #include <string>
+#include <vector>
 
 #include "eval/error_budget.h"
 #include "train/pretrain.h"
@@ -21,9 +22,22 @@ namespace aqs {
 // pretrain/surface_errors.* in the model directory, and the equilibria are saved as the
 // states that end-to-end training starts from (it would solve the same equilibria from
 // rest first). A pose that does not converge is reported, and gets no state.
+// Invalid options (Validate) and a memory estimate above options.max_memory_bytes
+// (PretrainMemoryBytes) fail before the model is touched; messages start with the
+// options' field names ("spec.latent_dim ...", "simulation.solver.num_threads ...").
 bool RunPretrainJob(const std::string& model_directory, const PretrainOptions& options,
                     const PoseSimulationOptions* simulation, std::ostream& log,
                     std::string* error);
+
+// What the caller of RunTrainJob expects of the model's decoder (aqs_train's
+// --latent_dim, --hidden and --activation when given): training cannot change the
+// architecture, so a mismatch is an error rather than a silently ignored flag.
+// 0, empty: anything.
+struct ExpectedDecoder {
+  int latent_dim = 0;
+  std::vector<int> hidden_dims;
+  std::string activation;  // "elu", "tanh", "softplus" or empty
+};
 
 // aqs_train as a library call: takes the model's writers' lock, loads the pre-trained
 // model and trains it end to end (train/trainer.h) with checkpoints in the model
@@ -39,8 +53,11 @@ bool RunPretrainJob(const std::string& model_directory, const PretrainOptions& o
 // same model; rank 0's learned state is used) and never write it. Every rank returns
 // the same status; *error is set on every rank for failures before training (naming the
 // rank that failed) and on rank 0 for the others.
+// Invalid options (TrainOptions::Validate) fail before the model is touched; a decoder
+// other than `expected` fails after loading it, before training.
 bool RunTrainJob(const std::string& model_directory, const TrainOptions& options, bool restart,
-                 std::ostream& log, std::string* error);
+                 std::ostream& log, std::string* error,
+                 const ExpectedDecoder& expected = ExpectedDecoder());
 
 }  // namespace aqs
 

@@ -1,5 +1,8 @@
 #include "jobs/model_pose.h"
 
+#include <sstream>
+
+#include "io/actuation_io.h"
 #include "io/latent_io.h"
 
 namespace aqs {
@@ -11,7 +14,8 @@ bool ResolveModelPose(const ActiveModel& model, const std::string& latent_file,
     std::vector<std::string> names;
     for (const Bone& bone : model.bones) names.push_back(bone.name);
     return ReadLatentFile(latent_file, model.latent_dim(), names, &pose->latent, &pose->bones,
-                          error);
+                          error) &&
+           CheckLatentActuations(model, pose->latent, latent_file, error);
   }
   const int p = model.PoseIndex(pose_name);
   if (p < 0) {
@@ -24,6 +28,22 @@ bool ResolveModelPose(const ActiveModel& model, const std::string& latent_file,
   pose->latent = model.latents.col(p);
   for (const Bone& bone : model.bones) pose->bones.push_back(bone.pose_transforms[p]);
   return true;
+}
+
+bool CheckLatentActuations(const ActiveModel& model, const Eigen::VectorXd& z,
+                           const std::string& source, std::string* error) {
+  if (!model.decoder) return true;
+  ActuationMatrix a;
+  DecoderWorkspace workspace;
+  model.decoder->Decode(model.decoder_params.data(), z, &a, &workspace);
+  const double largest = a.cwiseAbs().maxCoeff();
+  if (largest <= kMaxActuationStretch) return true;
+  std::ostringstream out;
+  out << source << ": the latent decodes to actuations with entries up to " << largest
+      << " (more than " << kMaxActuationStretch
+      << "): it is far outside the model's training latents";
+  *error = out.str();
+  return false;
 }
 
 }  // namespace aqs

@@ -22,9 +22,16 @@ struct ModelPose {
 
 // Exactly one of latent_file and pose_name must be non-empty (the caller checks).
 // Returns false with *error naming the file and line, or the unknown pose and the
-// model's poses.
+// model's poses, or a latent whose actuations are absurd (CheckLatentActuations).
 bool ResolveModelPose(const ActiveModel& model, const std::string& latent_file,
                       const std::string& pose_name, ModelPose* pose, std::string* error);
+
+// Checks that latent z of a trained model decodes to actuations a simulation can use:
+// entries of at most kMaxActuationStretch (io/actuation_io.h) in magnitude. Returns false
+// with *error naming `source` (the latent file) and the largest entry: a latent far
+// outside the training latents, whose solve would chase absurd targets.
+bool CheckLatentActuations(const ActiveModel& model, const Eigen::VectorXd& z,
+                           const std::string& source, std::string* error);
 
 }  // namespace aqs
 

@@ -1,5 +1,6 @@
 #include "jobs/simulate_job.h"
 
+#include <cmath>
 #include <filesystem>
 #include <iomanip>
 #include <sstream>
@@ -13,6 +14,8 @@
 #include "jobs/deformed_output.h"
 #include "jobs/model_pose.h"
 #include "mesh/mesh_io.h"
+#include "util/input_file.h"
+#include "util/option_checks.h"
 #include "util/wall_timer.h"
 
 namespace aqs {
@@ -29,6 +32,30 @@ SimulateJobResult Fail(JobStatus status, const std::string& message) {
   result.status = status;
   result.message = message;
   return result;
+}
+
+// Every output path (and the gradient's) can be written: checked before any work.
+bool CheckOutputs(const SimulateJobOptions& options, std::string* error) {
+  for (const std::string& output : options.outputs) {
+    if (!CheckOutputFile(output, error)) return false;
+  }
+  return options.gradient.empty() || CheckOutputFile(options.gradient, error);
+}
+
+// A warning line if elements are inverted or flat (det F <= 0) at the state x: an
+// "equilibrium" with inverted elements is rarely what was meant.
+void WarnInvertedElements(const ShapeTargetModel& model, const Eigen::Matrix3Xd& x,
+                          std::ostream& log) {
+  int inverted = 0, first = -1;
+  for (int e = 0; e < model.num_elements(); ++e) {
+    if (model.DeformationGradient(x, e).determinant() > 0.0) continue;
+    if (inverted++ == 0) first = e;
+  }
+  if (inverted > 0) {
+    log << "warning: " << inverted << " of " << model.num_elements()
+        << " elements are inverted or flat (det F <= 0) in the result (the first is element "
+        << first << ")\n";
+  }
 }
 
 // Per-element fields for the VTU output: actuation, energy density, det F.
@@ -60,6 +87,13 @@ SimulateJobResult RunModelSimulateJob(const SimulateJobOptions& options, std::os
     return Fail(JobStatus::kBadInput, "with --model, give either --latent=Z.txt or --pose=NAME");
   }
   if (options.outputs.empty()) return Fail(JobStatus::kBadInput, "no output given (--output)");
+  for (const std::string& output : options.outputs) {
+    if (!IsDeformedMeshOutputPath(output)) {
+      return Fail(JobStatus::kBadInput,
+                  output + ": unknown output extension; known: .mesh, .vtu, .obj");
+    }
+  }
+  if (!CheckOutputs(options, &error)) return Fail(JobStatus::kBadInput, error);
   ActiveModel model;
   if (!LoadModel(options.model, &model, &error)) return Fail(JobStatus::kBadInput, error);
   if (!model.decoder) {
@@ -79,17 +113,33 @@ SimulateJobResult RunModelSimulateJob(const SimulateJobOptions& options, std::os
   if (pose.training_pose >= 0 && !options.from_rest) fitter.StartFromTrainingPose(pose.training_pose);
   Eigen::Matrix3Xd state, surface;
   SimulateJobResult result;
-  if (!fitter.Simulate(pose.latent, &state, &surface, &error)) {
-    return Fail(JobStatus::kNotConverged, error);
-  }
-  log << "simulated the model " << options.model << " ("
-      << (options.pose.empty() ? "latent " + options.latent : "pose " + options.pose) << "): "
-      << model.mesh.num_tets() << " elements\nsolve: " << fitter.last_simulate_report().Summary()
-      << "\n";
   ActuationMatrix a;
   DecoderWorkspace workspace;
   model.decoder->Decode(model.decoder_params.data(), pose.latent, &a, &workspace);
+  int first_bad = -1;
+  const int not_positive = CountNonPositiveDefinite(a, &first_bad);
+  if (not_positive > 0) {
+    log << "warning: the decoded actuation of " << not_positive << " of " << a.cols()
+        << " elements is not positive definite (the first is element " << first_bad
+        << "): the latent is far from the training latents?\n";
+  }
+  if (!fitter.Simulate(pose.latent, &state, &surface, &error)) {
+    result.status = JobStatus::kNotConverged;
+    result.message = error;
+  }
+  result.solve = fitter.last_simulate_report();
+  log << "simulated the model " << options.model << " ("
+      << (options.pose.empty() ? "latent " + options.latent : "pose " + options.pose) << "): "
+      << model.mesh.num_tets() << " elements\nsolve: " << result.solve.Summary() << "\n";
+  if (!state.allFinite()) {
+    // Nothing to inspect: no output rather than a file of NaNs.
+    result.status = JobStatus::kNotConverged;
+    result.message = "the equilibrium was not reached and the state is not finite; no output "
+                     "written: " + result.solve.Summary();
+    return result;
+  }
   const ShapeTargetModel physics(model.mesh, model.mu);
+  WarnInvertedElements(physics, state, log);
   std::vector<VtuField> point_fields = {MakeVtuField("displacement", state - model.mesh.vertices)};
   std::vector<VtuField> cell_fields;
   ElementFields(physics, state, a, &cell_fields);
@@ -101,7 +151,8 @@ SimulateJobResult RunModelSimulateJob(const SimulateJobOptions& options, std::os
     } else if (!WriteDeformedMesh(output, model.mesh, state, point_fields, cell_fields, &error)) {
       return Fail(JobStatus::kBadInput, error);
     }
-    log << "wrote " << output << "\n";
+    log << "wrote " << output << (result.status == JobStatus::kOk ? "" : " (NOT CONVERGED)")
+        << "\n";
   }
   log << "total " << total.Seconds() << " s\n";
   return result;
@@ -109,10 +160,21 @@ SimulateJobResult RunModelSimulateJob(const SimulateJobOptions& options, std::os
 
 }  // namespace
 
+bool SimulateJobOptions::Validate(std::string* error) const {
+  std::string solver_error;
+  const bool solver_ok = solver.Validate(&solver_error);
+  return OptionChecks()
+      .Positive("mu", mu)
+      .Nested("solver", solver_ok, solver_error)
+      .ReachableTolerance("solver.relative_force_tolerance", solver.relative_force_tolerance)
+      .Done(error);
+}
+
 SimulateJobResult RunSimulateJob(const SimulateJobOptions& options, std::ostream& log) {
+  std::string error;
+  if (!options.Validate(&error)) return Fail(JobStatus::kBadInput, error);
   if (!options.model.empty()) return RunModelSimulateJob(options, log);
   WallTimer total;
-  std::string error;
   // ---- Inputs (all checked before any work) ----
   if (options.mesh.empty()) return Fail(JobStatus::kBadInput, "no mesh given (--mesh)");
   if (options.outputs.empty()) return Fail(JobStatus::kBadInput, "no output given (--output)");
@@ -125,20 +187,24 @@ SimulateJobResult RunSimulateJob(const SimulateJobOptions& options, std::ostream
   if (!options.gradient.empty() && options.loss_target.empty()) {
     return Fail(JobStatus::kBadInput, "--gradient needs --loss_target (the loss to differentiate)");
   }
-  if (!(options.mu > 0.0)) {
-    std::ostringstream out;
-    out << "mu must be positive, got " << options.mu;
-    return Fail(JobStatus::kBadInput, out.str());
-  }
+  if (!CheckOutputs(options, &error)) return Fail(JobStatus::kBadInput, error);
   TetMesh mesh;
   if (!ReadTetMesh(options.mesh, &mesh, &error)) return Fail(JobStatus::kBadInput, error);
   log << "mesh " << options.mesh << ": " << mesh.num_vertices() << " vertices, "
       << mesh.num_tets() << " elements\n";
 
   Eigen::VectorXd mu = Eigen::VectorXd::Constant(mesh.num_tets(), options.mu);
-  if (!options.mu_per_element.empty() &&
-      !ReadScalarsPerLine(options.mu_per_element, mesh.num_tets(), true, &mu, &error)) {
-    return Fail(JobStatus::kBadInput, error);
+  if (!options.mu_per_element.empty()) {
+    if (!ReadScalarsPerLine(options.mu_per_element, mesh.num_tets(), true, &mu, &error)) {
+      return Fail(JobStatus::kBadInput, error);
+    }
+    if (!(mu.maxCoeff() / mu.minCoeff() <= kMaxStiffnessContrast)) {
+      std::ostringstream out;
+      out << options.mu_per_element << ": the stiffness ranges from " << mu.minCoeff() << " to "
+          << mu.maxCoeff() << ", a contrast above " << kMaxStiffnessContrast
+          << " that no solve resolves in double precision";
+      return Fail(JobStatus::kBadInput, out.str());
+    }
   }
   BoundaryConditions bc;
   if (!options.fixed.empty()) {
@@ -155,7 +221,7 @@ SimulateJobResult RunSimulateJob(const SimulateJobOptions& options, std::ostream
   }
   ActuationMatrix actuation = IdentityActuations(mesh.num_tets());
   if (!options.actuation.empty()) {
-    if (!ReadActuation(options.actuation, mesh.num_tets(), &actuation, &error)) {
+    if (!ReadActuationTargets(options.actuation, mesh.num_tets(), &actuation, &error)) {
       return Fail(JobStatus::kBadInput, error);
     }
     log << "actuation " << options.actuation << "\n";
@@ -194,6 +260,13 @@ SimulateJobResult RunSimulateJob(const SimulateJobOptions& options, std::ostream
 
   // ---- Solve ----
   const ShapeTargetModel model(mesh, mu);
+  if (!(std::isfinite(model.force_scale()) && model.force_scale() > 0.0)) {
+    std::ostringstream out;
+    out << "the force scale 2 mean(mu V^(2/3)) of the mesh is " << model.force_scale()
+        << ": mu (" << (options.mu_per_element.empty() ? "mu" : options.mu_per_element)
+        << ") or the mesh's size is so large or small that the forces overflow";
+    return Fail(JobStatus::kBadInput, out.str());
+  }
   QuasistaticSolver solver(model, bc, options.solver);
   solver.actuation() = actuation;
   solver.SetPositions(initial);
@@ -206,6 +279,11 @@ SimulateJobResult RunSimulateJob(const SimulateJobOptions& options, std::ostream
     result.status = JobStatus::kNotConverged;
     result.message = "the equilibrium was not reached: " + result.solve.Summary();
   }
+  if (!x.allFinite()) {
+    result.message += "; the state is not finite: no output written";
+    return result;
+  }
+  WarnInvertedElements(model, x, log);
 
   // ---- Loss and gradient ----
   std::vector<VtuField> point_fields, cell_fields;

@@ -7,6 +7,7 @@
 
 #include "diff/equilibrium_differentiator.h"
 #include "equilibrium/quasistatic_solver.h"
+#include "util/job_status.h"
 
 namespace aqs {
 
@@ -37,14 +38,11 @@ struct SimulateJobOptions {
   std::string loss_target;
   std::string gradient;        // where to write dL/da (needs loss_target)
   QuasistaticSolverOptions solver;
+
+  // Checks every field; false with *error naming the first bad one (util/option_checks.h).
+  bool Validate(std::string* error) const;
 };
 
-enum class JobStatus {
-  kOk = 0,
-  kBadInput = 1,              // unreadable or invalid input, or an output write failed
-  kNotConverged = 2,          // the equilibrium was not reached (outputs still written)
-  kDifferentiationFailed = 3  // K not positive definite: no gradient
-};
 
 struct SimulateJobResult {
   JobStatus status = JobStatus::kOk;

@@ -12,6 +12,7 @@
 #include "util/atomic_file.h"
 #include "util/line_reader.h"
 #include "util/number_format.h"
+#include "util/option_checks.h"
 
 namespace aqs {
 namespace {
@@ -22,6 +23,17 @@ constexpr int kVersion = 1;
 using ConstNodeValueMap = Eigen::Map<const NodeValueMatrix>;
 
 }  // namespace
+
+bool DecoderSpec::Validate(std::string* error) const {
+  OptionChecks checks;
+  checks.IntInRange("latent_dim", latent_dim, 1, kMaxLatentDim)
+      .Positive("output_scale", output_scale);
+  for (int width : hidden_dims) {
+    checks.Require(width >= 1, "hidden_dims must be positive widths (has " +
+                                   std::to_string(width) + ")");
+  }
+  return checks.Done(error);
+}
 
 MlpSpec DecoderMlpSpec(const DecoderSpec& spec, int num_nodes) {
   CHECK_GT(spec.latent_dim, 0);
@@ -123,9 +135,13 @@ Eigen::MatrixXd ActuationDecoder::ActuationJacobian(const double* params,
 
 DecoderMemory DecoderMemoryBytes(const DecoderSpec& spec, const GridFieldDescription& field,
                                  int batch_size) {
+  return DecoderMemoryBytes(spec, field.num_elements, field.num_nodes(), field.per_element,
+                            batch_size);
+}
+
+DecoderMemory DecoderMemoryBytes(const DecoderSpec& spec, double num_elements, double num_nodes,
+                                 bool per_element, double batch_size, double* num_parameters) {
   constexpr double kDouble = sizeof(double);
-  const double num_elements = field.num_elements;
-  const double num_nodes = field.num_nodes();
   const double outputs = 6.0 * num_nodes;
   const double d = spec.latent_dim;
   const double batch = batch_size;
@@ -140,17 +156,18 @@ DecoderMemory DecoderMemoryBytes(const DecoderSpec& spec, const GridFieldDescrip
     fan_in = width;
   }
   parameters += outputs * (fan_in + 1.0);
+  if (num_parameters != nullptr) *num_parameters = parameters;
 
   DecoderMemory memory;
   memory.parameters = kDouble * parameters;
-  memory.field = field.per_element ? 0.0 : num_elements * 8.0 * (sizeof(int32_t) + kDouble);
+  memory.field = per_element ? 0.0 : num_elements * 8.0 * (sizeof(int32_t) + kDouble);
   // Workspace: layer inputs (d + hidden widths) and derivatives (hidden) per pose, node
   // values per pose; Backward: the output gradient, a node gradient, two hidden blocks.
   memory.workspace = kDouble * (batch * (d + 2.0 * hidden_sum + outputs) +
                                 batch * outputs + outputs + 2.0 * batch * widest_hidden);
   memory.actuations = kDouble * 2.0 * batch * 6.0 * num_elements;
   // The result, the MLP-level Jacobian and the forward-mode directions, one column of a.
-  const double grid_scratch = field.per_element ? 0.0 : outputs * d + 6.0 * num_elements;
+  const double grid_scratch = per_element ? 0.0 : outputs * d + 6.0 * num_elements;
   memory.actuation_jacobian =
       kDouble * (6.0 * num_elements * d + grid_scratch + 2.0 * widest_hidden * d);
   memory.total = memory.parameters + memory.field + memory.workspace + memory.actuations +
@@ -286,6 +303,10 @@ class DecoderReader {
   bool AtEnd() {
     std::vector<std::string> tokens;
     if (reader_.NextTokens(&tokens)) return Fail("unexpected content after the parameters");
+    if (!reader_.ok()) {
+      error_ = reader_.error();
+      return false;
+    }
     return true;
   }
 
@@ -300,6 +321,10 @@ class DecoderReader {
   }
 
   bool EndOfFile(const std::string& expected) {
+    if (!reader_.ok()) {
+      error_ = reader_.error();
+      return false;
+    }
     return Fail("unexpected end of file, expected " + expected);
   }
 

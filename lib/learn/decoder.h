@@ -12,6 +12,10 @@
 
 namespace aqs {
 
+// The largest latent dimension DecoderSpec::Validate accepts (a latent describes a pose
+// by a few numbers; the demo uses 8).
+constexpr int kMaxLatentDim = 65536;
+
 // Architecture of an ActuationDecoder (saved in decoder files together with the field
 // description and the parameters).
 struct DecoderSpec {
@@ -29,6 +33,9 @@ struct DecoderSpec {
   // z = 0 decodes to the identity actuation exactly (the rest shape: the neutral, for a
   // face) and the latent prior pulls towards it (MlpSpec::zero_at_origin).
   bool anchored = false;
+
+  // Checks every field; false with *error naming the first bad one (util/option_checks.h).
+  bool Validate(std::string* error) const;
 };
 
 // What Decode()/DecodeBatch() keep for Backward(): the MLP's workspace and the node
@@ -146,6 +153,13 @@ class ActuationDecoder {
 // Eigen's small temporaries.
 DecoderMemory DecoderMemoryBytes(const DecoderSpec& spec, const GridFieldDescription& field,
                                  int batch_size);
+// The same from the counts alone (for planning, before a field exists): a field with
+// num_elements elements and num_nodes control nodes (per_element: num_nodes =
+// num_elements, no tables). Arithmetic in doubles: no overflow for any spec. The
+// parameter count is *num_parameters (may be null).
+DecoderMemory DecoderMemoryBytes(const DecoderSpec& spec, double num_elements, double num_nodes,
+                                 bool per_element, double batch_size,
+                                 double* num_parameters = nullptr);
 
 // Decoder files (text; '#' starts a comment; blank lines are skipped). In order:
 //

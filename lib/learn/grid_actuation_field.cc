@@ -1,4 +1,5 @@
 #include "learn/grid_actuation_field.h"
+#include "util/option_checks.h"
 
 #include <algorithm>
 #include <cmath>
@@ -51,6 +52,51 @@ bool CellWeights(const GridFieldDescription& grid, const Eigen::Vector3d& p,
 }
 
 }  // namespace
+
+bool GridActuationFieldOptions::Validate(std::string* error) const {
+  return OptionChecks()
+      .NonNegative("node_spacing", node_spacing)
+      .Positive("node_spacing_factor", node_spacing_factor)
+      .Done(error);
+}
+
+bool PlanGridActuationField(const TetMesh& mesh, const GridActuationFieldOptions& options,
+                            double* max_nodes, std::string* error) {
+  if (!options.Validate(error)) return false;
+  const double num_elements = mesh.num_tets();
+  if (options.per_element) {
+    if (max_nodes != nullptr) *max_nodes = num_elements;
+    return true;
+  }
+  const bool by_factor = !(options.node_spacing > 0.0);
+  const double spacing = by_factor ? options.node_spacing_factor * MeanEdgeLength(mesh)
+                                   : options.node_spacing;
+  const char* field = by_factor ? "node_spacing_factor" : "node_spacing";
+  const double value = by_factor ? options.node_spacing_factor : options.node_spacing;
+  if (!(spacing > 0.0) || !std::isfinite(spacing)) {
+    *error = std::string(field) + " " + OptionValue(value) + " gives the control grid a spacing of " +
+             OptionValue(spacing) + "; it must be positive and finite";
+    return false;
+  }
+  const Eigen::Vector3d lower = mesh.vertices.rowwise().minCoeff();
+  const Eigen::Vector3d upper = mesh.vertices.rowwise().maxCoeff();
+  double grid_nodes = 1.0;
+  for (int a = 0; a < 3; ++a) {
+    const double cells = std::max(1.0, std::ceil((upper[a] - lower[a]) / spacing));
+    if (!(cells < 1e6)) {
+      std::ostringstream out;
+      out << field << " " << OptionValue(value) << " gives the control grid a spacing of "
+          << OptionValue(spacing) << ", " << OptionValue(cells) << " cells along "
+          << "xyz"[a] << " for a mesh extent of " << OptionValue(upper[a] - lower[a])
+          << " (at most 1e6 per axis); use a larger spacing";
+      *error = out.str();
+      return false;
+    }
+    grid_nodes *= cells + 1.0;
+  }
+  if (max_nodes != nullptr) *max_nodes = std::min(grid_nodes, 8.0 * num_elements);
+  return true;
+}
 
 GridActuationField::GridActuationField(const TetMesh& mesh,
                                        const GridActuationFieldOptions& options) {

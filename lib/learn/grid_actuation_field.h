@@ -25,6 +25,9 @@ struct GridActuationFieldOptions {
   double node_spacing_factor = 4.0;
   // Skip the grid: one node per element (node e = element e, identity interpolation).
   bool per_element = false;
+
+  // Checks every field; false with *error naming the first bad one (util/option_checks.h).
+  bool Validate(std::string* error) const;
 };
 
 // Everything needed to rebuild a field for a mesh (what decoder files store):
@@ -44,6 +47,16 @@ struct GridFieldDescription {
 
   int num_nodes() const { return per_element ? num_elements : static_cast<int>(nodes.cols()); }
 };
+
+// The grid GridActuationField(mesh, options) would build, planned without building it:
+// *max_nodes (may be null) is an upper bound of its control nodes (the element count
+// for per_element; else the smaller of the grid's node count and 8 per element).
+// Returns false with *error, naming the option that sets the spacing (node_spacing, or
+// node_spacing_factor when node_spacing is 0), if the spacing is not positive and
+// finite or the grid would need 1e6 cells or more along an axis (which the constructor
+// CHECKs). `mesh` needs at least one element.
+bool PlanGridActuationField(const TetMesh& mesh, const GridActuationFieldOptions& options,
+                            double* max_nodes, std::string* error);
 
 // A linear map from a few control-node values to all element actuations, written
 // around the identity:

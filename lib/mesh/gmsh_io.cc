@@ -84,7 +84,9 @@ class GmshReader {
   template <typename What>
   bool NextLine(const What& what) {
     if (!mesh_internal::NextLineTokens(reader_, '\0', &tokens_)) {
-      return Fail("expected " + what() + ", found the end of the file");
+      *error_ = mesh_internal::EndOfFileError(*reader_, "expected " + what() +
+                                                            ", found the end of the file");
+      return false;
     }
     return true;
   }
@@ -469,6 +471,10 @@ bool GmshReader::SkipSection(const std::string& name) {
       }
     }
   }
+  if (!reader_->ok()) {
+    *error_ = reader_->error();
+    return false;
+  }
   *error_ = path_ + ":" + std::to_string(start_line) + ": section " + name + " is not closed: no " +
             end_marker + " before the end of the file";
   return false;
@@ -501,6 +507,10 @@ bool GmshReader::Read(TetMesh* mesh, std::string* error) {
     } else {
       if (!SkipSection(name)) return false;
     }
+  }
+  if (!reader_->ok()) {
+    *error = reader_->error();
+    return false;
   }
   if (!have_format_) {
     *error = path_ + ": empty file (expected a Gmsh mesh starting with $MeshFormat)";

@@ -64,7 +64,10 @@ class MeditReader {
   template <typename What>
   const std::string* Expect(const What& what) {
     const std::string* token = tokens_.Next();
-    if (token == nullptr) Fail("expected " + what() + ", found the end of the file");
+    if (token == nullptr) {
+      *error_ = mesh_internal::EndOfFileError(*reader_, "expected " + what() +
+                                                            ", found the end of the file");
+    }
     return token;
   }
   template <typename What>
@@ -211,7 +214,13 @@ bool MeditReader::Read(TetMesh* mesh, std::string* error) {
   bool saw_end = false;
   while (!saw_end) {
     const std::string* token = tokens_.Next();
-    if (token == nullptr) break;  // A missing End is tolerated.
+    if (token == nullptr) {
+      if (!reader_->ok()) {
+        *error = reader_->error();
+        return false;
+      }
+      break;  // A missing End is tolerated.
+    }
     const std::string& keyword = *token;
     if (keyword == "MeshVersionFormatted") {
       long long version = 0;

@@ -15,7 +15,10 @@ namespace aqs {
 // Readers only parse: they check indices are in range but do not judge geometry
 // (ReadTetMesh does, through ValidateTetMesh). On failure the output is left unchanged.
 // Header counts that are negative or larger than the file can hold are errors (no
-// allocation is made for them). Readers take linear time in the file size.
+// allocation is made for them). Readers take linear time in the file size. Only
+// regular files are read (a FIFO or a device is refused, util/input_file.h), lines are
+// at most kMaxLineBytes (1 MiB) long, and numbers are decimal (no hexadecimal, nan or
+// inf; util/line_reader.h's ParseDouble).
 
 // MEDIT ASCII .mesh (keywords MeshVersionFormatted, Dimension 3, Vertices,
 // Tetrahedra; the sections Triangles, Edges, Corners, Ridges, RequiredVertices,
@@ -31,9 +34,11 @@ bool ReadMeditMesh(const std::string& path, TetMesh* mesh, std::string* error);
 
 // TetGen .node/.ele. `path` may name the .node file, the .ele file or their common
 // stem; both files must exist. Index base (0 or 1) is taken from the first .node
-// entry as TetGen does; attributes and boundary markers are read past. 10-node
-// elements keep their 4 corner nodes. Points must be numbered consecutively from the
-// base; '#' starts a comment. Point lines may omit trailing attributes/markers.
+// entry as TetGen does; attributes and boundary markers are parsed (finite numbers) and
+// not used. 10-node elements keep their 4 corner nodes. Points and tetrahedra must be
+// numbered consecutively from the base, node indices must name points of the .node
+// file, and nothing but comments may follow the records the headers count; '#' starts
+// a comment. Point lines may omit trailing attributes/markers.
 bool ReadTetgenMesh(const std::string& path, TetMesh* mesh, std::string* error);
 
 // Gmsh .msh ASCII, format 2.2 or 4.1 (read from $MeshFormat). Node tags may be any

@@ -129,6 +129,10 @@ bool ReadObj(const std::string& path, SurfaceMesh* surface, std::string* error) 
     }
     // Everything else (vt, vn, g, o, s, usemtl, mtllib, l, ...) is ignored.
   }
+  if (!reader.ok()) {
+    *error = reader.error();
+    return false;
+  }
   const long long num_vertices = static_cast<long long>(coordinates.size() / 3);
   for (const PendingIndex& p : pending) {
     if (p.index > num_vertices) {

@@ -6,6 +6,7 @@
 #include <glog/logging.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -17,6 +18,7 @@
 #include "mesh/mesh_io.h"
 #include "mesh/text_io_util.h"
 #include "util/atomic_file.h"
+#include "util/input_file.h"
 #include "util/line_reader.h"
 #include "util/number_format.h"
 
@@ -81,6 +83,61 @@ int PlyTypeSize(PlyType type) {
 
 bool IsIntegerType(PlyType type) { return type != PlyType::kFloat32 && type != PlyType::kFloat64; }
 
+// The range of an integer type.
+void IntegerRange(PlyType type, long long* lowest, long long* highest) {
+  switch (type) {
+    case PlyType::kInt8: *lowest = -128; *highest = 127; return;
+    case PlyType::kUint8: *lowest = 0; *highest = 255; return;
+    case PlyType::kInt16: *lowest = -32768; *highest = 32767; return;
+    case PlyType::kUint16: *lowest = 0; *highest = 65535; return;
+    case PlyType::kInt32: *lowest = -2147483648LL; *highest = 2147483647LL; return;
+    default: *lowest = 0; *highest = 4294967295LL; return;  // kUint32
+  }
+}
+
+// An ASCII value of `type`: an integer in the type's range for integer types; for float
+// and double a decimal number (util/line_reader.h's ParseDouble) or nan, inf, -inf
+// (scanners write nan for missing normals; x, y and z are checked to be finite apart).
+bool ParseAsciiValue(const std::string& token, PlyType type, double* value) {
+  if (!IsIntegerType(type)) {
+    if (ParseDouble(token, value)) return true;
+    std::string lower = token;
+    for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    if (lower == "nan" || lower == "-nan" || lower == "+nan") {
+      *value = std::numeric_limits<double>::quiet_NaN();
+      return true;
+    }
+    if (lower == "inf" || lower == "+inf" || lower == "infinity" || lower == "+infinity") {
+      *value = std::numeric_limits<double>::infinity();
+      return true;
+    }
+    if (lower == "-inf" || lower == "-infinity") {
+      *value = -std::numeric_limits<double>::infinity();
+      return true;
+    }
+    return false;
+  }
+  long long integer = 0, lowest = 0, highest = 0;
+  IntegerRange(type, &lowest, &highest);
+  if (!ParseInt64(token, &integer) || integer < lowest || integer > highest) return false;
+  *value = static_cast<double>(integer);
+  return true;
+}
+
+const char* PlyTypeName(PlyType type) {
+  switch (type) {
+    case PlyType::kInt8: return "char";
+    case PlyType::kUint8: return "uchar";
+    case PlyType::kInt16: return "short";
+    case PlyType::kUint16: return "ushort";
+    case PlyType::kInt32: return "int";
+    case PlyType::kUint32: return "uint";
+    case PlyType::kFloat32: return "float";
+    case PlyType::kFloat64: return "double";
+  }
+  return "?";
+}
+
 struct PlyProperty {
   std::string name;
   bool is_list = false;
@@ -102,17 +159,42 @@ struct PlyHeader {
 
 // Reads lines from a stream opened in binary mode, counting them (the header of every
 // PLY and the data of an ASCII PLY are text; the data of a binary PLY follows the
-// header's last newline in the same stream).
+// header's last newline in the same stream). Lines longer than kMaxLineBytes stop it
+// (failed()).
 class PlyLineReader {
  public:
   PlyLineReader(const std::string& path, std::istream* in) : path_(path), in_(in) {}
 
-  // The next line (trailing '\r' removed); false at end of file.
+  // The next line (trailing '\r' removed); false at end of file, or if the line is too
+  // long (then failed() is true and error() says so).
   bool NextLine(std::string* line) {
-    if (!std::getline(*in_, *line)) return false;
+    line->clear();
+    if (failed_) return false;
+    std::streambuf* buffer = in_->rdbuf();
+    bool any = false;
+    for (int c = buffer->sbumpc(); c != std::char_traits<char>::eof(); c = buffer->sbumpc()) {
+      any = true;
+      if (c == '\n') break;
+      if (line->size() >= static_cast<size_t>(kMaxLineBytes)) {
+        failed_ = true;
+        error_ = path_ + ":" + std::to_string(line_number_ + 1) + ": the line is longer than " +
+                 std::to_string(kMaxLineBytes) +
+                 " bytes, the longest a text line may have (not a PLY file?)";
+        line->clear();
+        return false;
+      }
+      line->push_back(static_cast<char>(c));
+    }
+    if (!any) return false;
     ++line_number_;
     if (!line->empty() && line->back() == '\r') line->pop_back();
     return true;
+  }
+  bool failed() const { return failed_; }
+  const std::string& error() const { return error_; }
+  // The error for a missing line: error() if the reader failed, else Where(message).
+  std::string EndError(const std::string& message) const {
+    return failed_ ? error_ : Where(message);
   }
   int line_number() const { return line_number_; }
   // "path:line: message" for the last line read (or `line` when given).
@@ -126,13 +208,15 @@ class PlyLineReader {
   const std::string& path_;
   std::istream* in_;
   int line_number_ = 0;
+  bool failed_ = false;
+  std::string error_;
 };
 
 bool ReadPlyHeader(PlyLineReader* reader, PlyHeader* header, std::string* error) {
   std::string line;
   std::vector<std::string> tokens;
   if (!reader->NextLine(&line)) {
-    *error = reader->Where("not a PLY file: the file is empty");
+    *error = reader->EndError("not a PLY file: the file is empty");
     return false;
   }
   mesh_internal::SplitLine(line, '\0', &tokens);
@@ -143,7 +227,7 @@ bool ReadPlyHeader(PlyLineReader* reader, PlyHeader* header, std::string* error)
   bool have_format = false;
   while (true) {
     if (!reader->NextLine(&line)) {
-      *error = reader->Where(
+      *error = reader->EndError(
           "the header ends without 'end_header' (the file is truncated or not a PLY file)");
       return false;
     }
@@ -317,9 +401,9 @@ bool ReadAsciiData(const std::string& path, const PlyHeader& header, const Verte
       tokens.clear();
       while (tokens.empty()) {
         if (!reader->NextLine(&line)) {
-          *error = reader->Where("truncated: the file ends after " + std::to_string(i) + " of " +
-                                 std::to_string(element.count) + " '" + element.name +
-                                 "' records");
+          *error = reader->EndError("truncated: the file ends after " + std::to_string(i) +
+                                    " of " + std::to_string(element.count) + " '" +
+                                    element.name + "' records");
           return false;
         }
         mesh_internal::SplitLine(line, '\0', &tokens);
@@ -335,11 +419,20 @@ bool ReadAsciiData(const std::string& path, const PlyHeader& header, const Verte
           return false;
         }
         if (property.is_list) {
-          long long count = 0;
-          if (!ParseInt64(tokens[next], &count) || count < 0) {
-            *error = reader->Where("expected a list length (an integer >= 0) for property '" +
-                                   property.name + "' of '" + element.name + "' record " +
-                                   std::to_string(i) + ", got " + Quoted(tokens[next]));
+          double length = 0;
+          if (!ParseAsciiValue(tokens[next], property.count_type, &length)) {
+            *error = reader->Where("expected a list length (an integer >= 0 of type " +
+                                   std::string(PlyTypeName(property.count_type)) +
+                                   ") for property '" + property.name + "' of '" +
+                                   element.name + "' record " + std::to_string(i) + ", got " +
+                                   Quoted(tokens[next]));
+            return false;
+          }
+          const long long count = static_cast<long long>(length);
+          if (count < 0) {
+            *error = reader->Where("negative list length " + std::to_string(count) +
+                                   " of property '" + property.name + "' in '" + element.name +
+                                   "' record " + std::to_string(i));
             return false;
           }
           if (count > static_cast<long long>(tokens.size() - next - 1)) {
@@ -348,19 +441,46 @@ bool ReadAsciiData(const std::string& path, const PlyHeader& header, const Verte
                                    std::to_string(count) + " items");
             return false;
           }
-          next += 1 + static_cast<size_t>(count);
-          continue;
-        }
-        if (is_vertex) {
-          for (int axis = 0; axis < 3; ++axis) {
-            if (layout.property[axis] != static_cast<int>(p)) continue;
-            if (!ParseDouble(tokens[next], &xyz[axis])) {
-              *error = reader->Where("expected a finite number for property '" + property.name +
-                                     "' of vertex " + std::to_string(i) + ", got " +
-                                     Quoted(tokens[next]));
+          for (long long k = 1; k <= count; ++k) {
+            double item = 0;
+            if (!ParseAsciiValue(tokens[next + k], property.type, &item)) {
+              *error = reader->Where("expected a value of type " +
+                                     std::string(PlyTypeName(property.type)) + " in list '" +
+                                     property.name + "' of '" + element.name + "' record " +
+                                     std::to_string(i) + ", got " + Quoted(tokens[next + k]));
               return false;
             }
           }
+          next += 1 + static_cast<size_t>(count);
+          continue;
+        }
+        // Every value is parsed as its declared type, used or not; x, y and z must be
+        // finite numbers.
+        double value = 0;
+        int axis_of = -1;
+        for (int axis = 0; is_vertex && axis < 3; ++axis) {
+          if (layout.property[axis] == static_cast<int>(p)) axis_of = axis;
+        }
+        if (axis_of >= 0) {
+          if (!ParseDouble(tokens[next], &value) ||
+              (IsIntegerType(property.type) && !ParseAsciiValue(tokens[next], property.type, &value))) {
+            *error = reader->Where("expected a finite number for property '" + property.name +
+                                   "' of vertex " + std::to_string(i) + ", got " +
+                                   Quoted(tokens[next]));
+            return false;
+          }
+          xyz[axis_of] = value;
+          ++next;
+          continue;
+        }
+        if (!ParseAsciiValue(tokens[next], property.type, &value)) {
+          *error = reader->Where(
+              "expected " +
+              std::string(IsIntegerType(property.type) ? "an integer in the range of type "
+                                                       : "a number of type ") +
+              PlyTypeName(property.type) + " for property '" + property.name + "' of '" +
+              element.name + "' record " + std::to_string(i) + ", got " + Quoted(tokens[next]));
+          return false;
         }
         ++next;
       }
@@ -372,6 +492,26 @@ bool ReadAsciiData(const std::string& path, const PlyHeader& header, const Verte
       }
       if (is_vertex) coordinates->insert(coordinates->end(), xyz, xyz + 3);
     }
+  }
+  // Nothing but blank lines may follow: more data than the header declares means its
+  // counts are wrong, and the points beyond them would be dropped without a word.
+  while (reader->NextLine(&line)) {
+    mesh_internal::SplitLine(line, '\0', &tokens);
+    if (!tokens.empty()) {
+      *error = reader->Where("data after the last of the header's elements (" +
+                             std::to_string(header.elements.empty()
+                                                ? 0
+                                                : header.elements.back().count) +
+                             " '" +
+                             (header.elements.empty() ? std::string()
+                                                      : header.elements.back().name) +
+                             "' records): the header's counts are smaller than the data");
+      return false;
+    }
+  }
+  if (reader->failed()) {
+    *error = reader->error();
+    return false;
   }
   return true;
 }
@@ -450,6 +590,9 @@ class ByteReader {
     }
     return true;
   }
+
+  // True if no byte is left.
+  bool AtEnd() { return begin_ == end_ && !Refill(); }
 
   // Skips the next n bytes; false if the file ends first.
   bool Skip(unsigned long long n) {
@@ -556,10 +699,16 @@ bool ReadBinaryData(const std::string& path, const PlyHeader& header, const Vert
       }
     }
   }
+  if (!bytes.AtEnd()) {
+    *error = path + ": data after the last of the header's elements: the header's counts are "
+                    "smaller than the data";
+    return false;
+  }
   return true;
 }
 
 bool ReadPly(const std::string& path, Eigen::Matrix3Xd* points, std::string* error) {
+  if (!CheckInputFile(path, error)) return false;
   std::ifstream in(path, std::ios::binary);
   if (!in) {
     *error = path + ": cannot open file for reading (" + std::strerror(errno) + ")";

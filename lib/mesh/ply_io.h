@@ -44,11 +44,19 @@ bool WritePlyWithScalar(const std::string& path, const SurfaceMesh& surface,
 //         which may have any numeric PLY type (char uchar short ushort int uint float
 //         double, or int8 uint8 int16 uint16 int32 uint32 float32 float64). Other
 //         properties of the vertex element (normals, colours, ...), including list
-//         properties, and all other elements (faces, edges, ...) are read past: for a
-//         list property, its count (of the declared count type) says how many items to
-//         skip. 'comment' and 'obj_info' header lines are ignored. The whole file is
-//         read, so a file truncated anywhere is reported. In ASCII files each element
-//         instance is one line (blank lines are skipped).
+//         properties, and all other elements (faces, edges, ...) are read and not used:
+//         for a list property, its count (of the declared count type) says how many
+//         items follow. In ASCII files every value is parsed as its declared type,
+//         used or not (an integer in the type's range; for float and double a decimal
+//         number, or nan, inf, -inf, which scanners write for missing normals; never
+//         hexadecimal), so a damaged file is reported wherever the damage is; x, y and z
+//         must be finite decimal numbers. Binary values are taken as they are, except
+//         that x, y and z must be finite. 'comment' and 'obj_info' header lines are ignored. The
+//         whole file is read: a file truncated anywhere is reported, and so is data
+//         after the header's last element (counts smaller than the data would
+//         otherwise drop points without a word). In ASCII files each element instance
+//         is one line (blank lines are skipped); lines are at most kMaxLineBytes long.
+//         Only regular files are read (util/input_file.h).
 //
 // Other extensions are an error listing both. Errors name the file and, for the header
 // and ASCII data, the 1-based line ("scan.ply:12: ..."): not a PLY file (the first line

@@ -36,6 +36,23 @@ bool TokenInt(const LineReader& reader, const std::vector<std::string>& tokens, 
   return true;
 }
 
+// After the header's records nothing but comments and blank lines may follow: more
+// records than the header counts means the count is wrong (or two files were joined),
+// and the extra ones would be dropped without a word.
+bool ExpectEndOfFile(LineReader* reader, long long count, const char* what,
+                     std::vector<std::string>* tokens, std::string* error) {
+  if (mesh_internal::NextLineTokens(reader, '#', tokens)) {
+    *error = reader->Where("content after the " + std::to_string(count) + " " + what +
+                           " the header declares: the header's count is smaller than the data");
+    return false;
+  }
+  if (!reader->ok()) {
+    *error = reader->error();
+    return false;
+  }
+  return true;
+}
+
 bool TokenDouble(const LineReader& reader, const std::vector<std::string>& tokens, size_t i,
                  const char* field, double* value, std::string* error) {
   if (!ParseDouble(tokens[i], value)) {
@@ -52,7 +69,8 @@ bool ReadNodeFile(const std::string& path, Eigen::Matrix3Xd* vertices, int* base
   if (!OpenText(path, &reader, error)) return false;
   std::vector<std::string> tokens;
   if (!mesh_internal::NextLineTokens(&reader, '#', &tokens)) {
-    *error = reader.Where(
+    *error = mesh_internal::EndOfFileError(
+        reader,
         "expected the .node header '<#points> <dimension 3> <#attributes> "
         "<#boundary markers 0|1>', found the end of the file");
     return false;
@@ -93,9 +111,9 @@ bool ReadNodeFile(const std::string& path, Eigen::Matrix3Xd* vertices, int* base
   vertices->resize(3, static_cast<Eigen::Index>(count));
   for (long long v = 0; v < count; ++v) {
     if (!mesh_internal::NextLineTokens(&reader, '#', &tokens)) {
-      *error =
-          reader.Where("expected point " + std::to_string(v + 1) + " of " + std::to_string(count) +
-                       " ('index x y z ...'), found the end of the file");
+      *error = mesh_internal::EndOfFileError(
+          reader, "expected point " + std::to_string(v + 1) + " of " + std::to_string(count) +
+                      " ('index x y z ...'), found the end of the file");
       return false;
     }
     if (tokens.size() < 4 || tokens.size() > max_tokens) {
@@ -135,7 +153,7 @@ bool ReadNodeFile(const std::string& path, Eigen::Matrix3Xd* vertices, int* base
       }
     }
   }
-  return true;
+  return ExpectEndOfFile(&reader, count, "points", &tokens, error);
 }
 
 bool ReadEleFile(const std::string& path, int base, int num_vertices, Eigen::Matrix4Xi* tets,
@@ -147,7 +165,8 @@ bool ReadEleFile(const std::string& path, int base, int num_vertices, Eigen::Mat
       "the .ele header '<#tetrahedra> <nodes per tetrahedron 4|10> "
       "<#attributes>'";
   if (!mesh_internal::NextLineTokens(&reader, '#', &tokens)) {
-    *error = reader.Where(std::string("expected ") + kHeader + ", found the end of the file");
+    *error = mesh_internal::EndOfFileError(
+        reader, std::string("expected ") + kHeader + ", found the end of the file");
     return false;
   }
   if (tokens.size() != 3) {
@@ -180,9 +199,10 @@ bool ReadEleFile(const std::string& path, int base, int num_vertices, Eigen::Mat
   tets->resize(4, static_cast<Eigen::Index>(count));
   for (long long t = 0; t < count; ++t) {
     if (!mesh_internal::NextLineTokens(&reader, '#', &tokens)) {
-      *error = reader.Where("expected tetrahedron " + std::to_string(t + 1) + " of " +
-                            std::to_string(count) + " ('index' and " + std::to_string(nodes) +
-                            " node indices), found the end of the file");
+      *error = mesh_internal::EndOfFileError(
+          reader, "expected tetrahedron " + std::to_string(t + 1) + " of " +
+                      std::to_string(count) + " ('index' and " + std::to_string(nodes) +
+                      " node indices), found the end of the file");
       return false;
     }
     if (tokens.size() < min_tokens || tokens.size() > max_tokens) {
@@ -193,6 +213,12 @@ bool ReadEleFile(const std::string& path, int base, int num_vertices, Eigen::Mat
     }
     long long index = 0;
     if (!TokenInt(reader, tokens, 0, "the tetrahedron index", &index, error)) return false;
+    if (index != base + t) {
+      *error = reader.Where("expected tetrahedron index " + std::to_string(base + t) +
+                            " (tetrahedra are numbered consecutively from the .node file's "
+                            "base " + std::to_string(base) + "), got " + std::to_string(index));
+      return false;
+    }
     for (size_t i = 1; i < min_tokens; ++i) {
       long long node = 0;
       if (!TokenInt(reader, tokens, i, "a node index", &node, error)) return false;
@@ -211,7 +237,7 @@ bool ReadEleFile(const std::string& path, int base, int num_vertices, Eigen::Mat
       if (!TokenDouble(reader, tokens, i, "an attribute", &value, error)) return false;
     }
   }
-  return true;
+  return ExpectEndOfFile(&reader, count, "tetrahedra", &tokens, error);
 }
 
 }  // namespace

@@ -56,6 +56,10 @@ bool NextLineTokens(LineReader* reader, char comment_char, std::vector<std::stri
   return false;
 }
 
+std::string EndOfFileError(const LineReader& reader, const std::string& message) {
+  return reader.ok() ? reader.Where(message) : reader.error();
+}
+
 long long FileSizeBytes(const std::string& path) {
   std::ifstream in(path, std::ios::binary | std::ios::ate);
   if (!in) return -1;

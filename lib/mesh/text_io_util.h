@@ -19,8 +19,14 @@ namespace mesh_internal {
 // allocation once the vector has grown.
 void SplitLine(const std::string& line, char comment_char, std::vector<std::string>* tokens);
 
-// Reads lines from *reader until one has tokens (after SplitLine); false at end of file.
+// Reads lines from *reader until one has tokens (after SplitLine); false at end of file
+// or when the reader failed (reader->ok() false: a line too long, a read error).
 bool NextLineTokens(LineReader* reader, char comment_char, std::vector<std::string>* tokens);
+
+// The error for a reader that returned no line where one was expected: the reader's
+// own error if it failed (a line too long, a read error), else "path:line: message"
+// (message saying what was expected at the end of the file).
+std::string EndOfFileError(const LineReader& reader, const std::string& message);
 
 // Size of the file in bytes, or -1 if it cannot be determined.
 long long FileSizeBytes(const std::string& path);

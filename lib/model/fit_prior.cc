@@ -226,6 +226,10 @@ bool ReadFitPrior(const std::string& path, int latent_dim,
       b.last_line = reader.line_number();
     }
   }
+  if (!reader.ok()) {
+    *error = reader.error();
+    return false;
+  }
   if (!have_center) {
     *error = path + ": no 'center' line";
     return false;

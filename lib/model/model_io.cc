@@ -2,6 +2,7 @@
 
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -9,9 +10,11 @@
 
 #include <glog/logging.h>
 
+#include "io/actuation_io.h"
 #include "mesh/mesh_io.h"
 #include "model/model_directory.h"
 #include "model/model_fingerprint.h"
+#include "prepare/pose_files.h"
 #include "util/atomic_file.h"
 #include "util/line_reader.h"
 #include "util/matrix_io.h"
@@ -31,6 +34,27 @@ std::string PoseFile(const std::string& folder, int p) {
   char name[32];
   std::snprintf(name, sizeof(name), "%04d.bin", p);
   return folder + "/" + name;
+}
+
+// ReadMatrixFile, and every entry must be finite: a NaN or an infinity in a model file
+// is damage, reported naming the file and the entry.
+bool ReadFiniteMatrix(const std::string& path, Eigen::Index rows, Eigen::Index cols,
+                      Eigen::MatrixXd* matrix, std::string* error) {
+  Eigen::MatrixXd read;
+  if (!ReadMatrixFile(path, rows, cols, &read, error)) return false;
+  for (Eigen::Index c = 0; c < read.cols(); ++c) {
+    for (Eigen::Index r = 0; r < read.rows(); ++r) {
+      if (!std::isfinite(read(r, c))) {
+        *error = path + ": entry (" + std::to_string(r) + ", " + std::to_string(c) + ") of the " +
+                 std::to_string(read.rows()) + " x " + std::to_string(read.cols()) +
+                 " matrix is not finite (" + FormatDouble(read(r, c)) +
+                 "): the file is damaged";
+        return false;
+      }
+    }
+  }
+  *matrix = std::move(read);
+  return true;
 }
 
 bool MakeDirectory(const std::string& path, std::string* error) {
@@ -89,6 +113,10 @@ bool ReadCheckpoint(const std::string& path, TrainingCheckpoint* checkpoint,
                             "hexadecimal digits)");
       return false;
     }
+  }
+  if (!reader.ok()) {
+    *error = reader.error();
+    return false;
   }
   if (!have_iterations) {
     *error = path + ": no 'iterations N' line (the file is empty or damaged; delete it to "
@@ -226,6 +254,10 @@ bool ReadManifest(const std::string& path, int* version, std::string* error) {
   while (reader.NextTokens(&tokens)) {
     if (tokens.size() == 2 && tokens[0] == "format" && ParseInt(tokens[1], version)) break;
   }
+  if (!reader.ok()) {
+    *error = reader.error();
+    return false;
+  }
   if (*version != 1 && *version != kFormatVersion) {
     *error = path + ": expected 'format 1' or 'format " + std::to_string(kFormatVersion) +
              "' (a model of another ActiveQS version?)";
@@ -249,6 +281,27 @@ bool Install(const std::string& staging, const std::string& target, std::string*
     return false;
   }
   if (!warning.empty()) LOG(WARNING) << target << ": " << warning;
+  return true;
+}
+
+// The learned state must give actuations a simulation can use: the training latents
+// decode to entries of at most kMaxActuationStretch in magnitude (a damaged decoder or
+// latent file otherwise sends every solve after absurd targets).
+bool CheckLearnedActuations(const std::string& source, const ActiveModel& model,
+                            std::string* error) {
+  if (!model.decoder || model.num_poses() == 0) return true;
+  std::vector<ActuationMatrix> actuations;
+  DecoderWorkspace workspace;
+  model.decoder->DecodeBatch(model.decoder_params.data(), model.latents, &actuations, &workspace);
+  for (int p = 0; p < model.num_poses(); ++p) {
+    const double largest = actuations[p].cwiseAbs().maxCoeff();
+    if (!(largest <= kMaxActuationStretch)) {
+      *error = source + ": the decoder maps training pose '" + model.poses[p].name +
+               "' to actuations with entries up to " + FormatDouble(largest) + " (more than " +
+               FormatDouble(kMaxActuationStretch) + "): the decoder or the latents are damaged";
+      return false;
+    }
+  }
   return true;
 }
 
@@ -286,7 +339,7 @@ bool ReadLearned(const std::string& dir, const std::string& checkpoint_path, Act
     }
     model->decoder = std::make_shared<ActuationDecoder>(spec, std::move(field));
     model->decoder_params = params;
-    if (!ReadMatrixFile(dir + "/latents.bin", spec.latent_dim, model->num_poses(), &matrix,
+    if (!ReadFiniteMatrix(dir + "/latents.bin", spec.latent_dim, model->num_poses(), &matrix,
                         error)) {
       return false;
     }
@@ -304,11 +357,14 @@ bool ReadLearned(const std::string& dir, const std::string& checkpoint_path, Act
     for (int p = 0; p < model->num_poses(); ++p) {
       const std::string path = PoseFile(dir + "/states", p);
       if (!fs::exists(path)) continue;
-      if (!ReadMatrixFile(path, 3, nv, &matrix, error)) return false;
+      if (!ReadFiniteMatrix(path, 3, nv, &matrix, error)) return false;
       model->states[p] = matrix;
+      if (!CheckPointsNearModel(path, model->neutral.vertices, model->states[p], error)) {
+        return false;
+      }
     }
   }
-  return true;
+  return CheckLearnedActuations(dir + "/decoder.txt", *model, error);
 }
 
 // Identity of the directory at `path` (device, inode); zeros if missing.
@@ -396,8 +452,29 @@ bool LoadModel(const std::string& directory, ActiveModel* model_out, std::string
   const int nv = model.mesh.num_vertices();
   const int ne = model.mesh.num_tets();
   Eigen::MatrixXd matrix;
-  if (!ReadMatrixFile(dir + "/mu.bin", 1, ne, &matrix, error)) return false;
+  if (!ReadFiniteMatrix(dir + "/mu.bin", 1, ne, &matrix, error)) return false;
   model.mu = matrix.transpose();
+  {
+    // The force scale 2 mean(mu V^(2/3)) must be a number: the solvers' tolerance.
+    double scale = 0.0;
+    for (int e = 0; e < ne; ++e) {
+      const double volume = std::abs(SignedTetVolume(model.mesh, model.mesh.vertices, e));
+      scale += model.mu[e] * std::cbrt(volume * volume);
+    }
+    scale *= 2.0 / std::max(1, ne);
+    const double contrast = model.mu.maxCoeff() / model.mu.minCoeff();
+    if (!(contrast <= kMaxStiffnessContrast)) {
+      *error = dir + "/mu.bin: the stiffness ranges from " + FormatDouble(model.mu.minCoeff()) +
+               " to " + FormatDouble(model.mu.maxCoeff()) + ", a contrast above " +
+               FormatDouble(kMaxStiffnessContrast) + " that no solve resolves in double precision";
+      return false;
+    }
+    if (!(std::isfinite(scale) && scale > 0.0)) {
+      *error = dir + "/mu.bin: the force scale 2 mean(mu V^(2/3)) is " + FormatDouble(scale) +
+               ": mu or the mesh's size is so large or small that the forces overflow";
+      return false;
+    }
+  }
   if (!ReadObj(dir + "/neutral.obj", &model.neutral, error)) return false;
 
   // poses.txt
@@ -421,14 +498,22 @@ bool LoadModel(const std::string& directory, ActiveModel* model_out, std::string
       pose.name = t[1];
       model.poses.push_back(pose);
     }
+    if (!reader.ok()) {
+      *error = reader.error();
+      return false;
+    }
   }
   const int ns = model.neutral.num_vertices();
   for (int p = 0; p < model.num_poses(); ++p) {
-    if (!ReadMatrixFile(PoseFile(dir + "/poses", p), 3, ns, &matrix, error)) return false;
+    if (!ReadFiniteMatrix(PoseFile(dir + "/poses", p), 3, ns, &matrix, error) ||
+        !CheckPointsNearModel(PoseFile(dir + "/poses", p), model.neutral.vertices, matrix,
+                              error)) {
+      return false;
+    }
     model.poses[p].surface = matrix;
     const std::string target = PoseFile(dir + "/targets", p);
     if (fs::exists(target)) {
-      if (!ReadMatrixFile(target, 6, ne, &matrix, error)) return false;
+      if (!ReadFiniteMatrix(target, 6, ne, &matrix, error)) return false;
       model.poses[p].target = matrix;
     }
   }
@@ -450,6 +535,16 @@ bool LoadModel(const std::string& directory, ActiveModel* model_out, std::string
         return false;
       }
       fixed.emplace_back(v, b);
+    }
+    if (!reader.ok()) {
+      *error = reader.error();
+      return false;
+    }
+    if (fixed.empty()) {
+      *error = dir + "/fixed.txt: lists no fixed vertices; a model needs some (a free body "
+                     "has no unique equilibrium; aqs_prepare makes them from its --fixed_* "
+                     "rules)";
+      return false;
     }
   }
   {
@@ -483,6 +578,10 @@ bool LoadModel(const std::string& directory, ActiveModel* model_out, std::string
         return false;
       }
       model.bones[b].pose_transforms.push_back(transform);
+    }
+    if (!reader.ok()) {
+      *error = reader.error();
+      return false;
     }
   }
   for (const auto& [v, b] : fixed) {
@@ -525,10 +624,31 @@ bool LoadModel(const std::string& directory, ActiveModel* model_out, std::string
       model.embedding.outside_distance.push_back(outside);
       ++i;
     }
+    if (!reader.ok()) {
+      *error = reader.error();
+      return false;
+    }
     if (i != ns) {
       *error = dir + "/embedding.txt: " + std::to_string(i) + " lines for " + std::to_string(ns) +
                " surface vertices";
       return false;
+    }
+    // Barycentric weights (non-negative, summing to 1) and offsets within the model.
+    const Eigen::Vector3d lower = model.neutral.vertices.rowwise().minCoeff();
+    const Eigen::Vector3d upper = model.neutral.vertices.rowwise().maxCoeff();
+    const double size = (upper - lower).norm();
+    for (int k = 0; k < ns; ++k) {
+      const auto w = model.embedding.weights.col(k);
+      const double offset = model.embedding.offsets.col(k).norm();
+      const double outside = model.embedding.outside_distance[k];
+      if (!(w.minCoeff() >= -1e-6 && w.maxCoeff() <= 1.0 + 1e-6 && std::abs(w.sum() - 1.0) <= 1e-6) ||
+          !(offset <= kMaxDistanceInModelSizes * size) ||
+          !(outside >= 0.0 && outside <= kMaxDistanceInModelSizes * size)) {
+        *error = dir + "/embedding.txt: surface vertex " + std::to_string(k) +
+                 ": the weights must be barycentric (in [0, 1], summing to 1) and the offset and "
+                 "outside distance within the model";
+        return false;
+      }
     }
   }
 

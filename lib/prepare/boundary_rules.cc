@@ -1,5 +1,6 @@
 #include "prepare/boundary_rules.h"
 
+#include <cmath>
 #include <filesystem>
 #include <sstream>
 
@@ -9,6 +10,7 @@
 #include "io/vertex_list_io.h"
 #include "mesh/mesh_io.h"
 #include "util/line_reader.h"
+#include "util/option_checks.h"
 
 namespace aqs {
 namespace {
@@ -42,6 +44,14 @@ bool FitBone(const BoneRule& rule, const std::vector<std::string>& pose_names, B
     posed[p] = surface.vertices;
     largest = largest.cwiseMax((surface.vertices - rest.vertices).colwise().norm().transpose());
     ++with_files;
+  }
+  if (!rule.pose_mesh_pattern.empty() && with_files == 0 && !pose_names.empty()) {
+    *error = "bone '" + rule.name + "': its pose surfaces (the pattern '" +
+             rule.pose_mesh_pattern + "') exist for none of the " +
+             std::to_string(pose_names.size()) + " poses (the first would be '" +
+             Replace(rule.pose_mesh_pattern, "{pose}", pose_names[0]) +
+             "'); '{pose}' in the pattern stands for each pose's name";
+    return false;
   }
   bone->name = rule.name;
   bone->pose_transforms.assign(pose_names.size(), RigidTransform());
@@ -110,6 +120,23 @@ bool ParseBox(const std::string& text, Eigen::AlignedBox3d* box, std::string* er
   }
   *box = Eigen::AlignedBox3d(lo, hi);
   return true;
+}
+
+bool BoundaryRuleOptions::Validate(std::string* error) const {
+  OptionChecks checks;
+  checks.Require(!std::isnan(fixed_depth) && std::isfinite(fixed_depth),
+                 "fixed_depth must be finite (> 0 to use) (is " + OptionValue(fixed_depth) + ")");
+  for (const BoneRule& bone : bones) {
+    checks.Require(!bone.name.empty() && bone.name.find_first_of(" \t\n") == std::string::npos,
+                   "bones.name must be one word (is '" + bone.name + "')")
+        .InRange("bones.moving_fraction", bone.moving_fraction, 0.0, 1.0)
+        .Require(!bone.region_boxes.empty(), "bones.region_boxes must not be empty")
+        .Require(bone.pose_mesh_pattern.empty() ||
+                     bone.pose_mesh_pattern.find("{pose}") != std::string::npos,
+                 "bones.pose_mesh_pattern must contain '{pose}' (where each pose's name goes; "
+                 "is '" + bone.pose_mesh_pattern + "')");
+  }
+  return checks.IntInRange("num_threads", num_threads, 1, 1024).Done(error);
 }
 
 bool ApplyBoundaryRules(const BoundaryRuleOptions& options, const TetMesh& mesh,

@@ -47,6 +47,9 @@ struct BoundaryRuleOptions {
   std::string fixed_list;
   std::vector<BoneRule> bones;
   int num_threads = 2;
+
+  // Checks every field; false with *error naming the first bad one (util/option_checks.h).
+  bool Validate(std::string* error) const;
 };
 
 // Applies the rules to the simulation mesh (`surface`: the neutral surface, for depth)

@@ -1,5 +1,7 @@
 #include "prepare/prepare_job.h"
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <sstream>
 
@@ -8,6 +10,7 @@
 #include "model/model_directory.h"
 #include "model/model_io.h"
 #include "prepare/pose_files.h"
+#include "util/option_checks.h"
 #include "util/wall_timer.h"
 
 namespace aqs {
@@ -46,8 +49,33 @@ TetMesh CropToBoxes(const TetMesh& mesh, const std::vector<Eigen::AlignedBox3d>&
 
 }  // namespace
 
-bool RunPrepareJob(const PrepareJobOptions& options, std::ostream& log, std::string* error) {
+bool PrepareJobOptions::Validate(std::string* error) const {
+  std::string meshing_error, boundary_error, targets_error;
+  const bool meshing_ok = !tet_mesh.empty() || meshing.Validate(&meshing_error);
+  const bool boundary_ok = boundary.Validate(&boundary_error);
+  const bool targets_ok = targets.Validate(&targets_error);
+  OptionChecks checks;
+  checks.Nested("meshing", meshing_ok, meshing_error)
+      .NonNegative("cut_margin", cut_margin)
+      .Positive("mu", mu)
+      .Nested("boundary", boundary_ok, boundary_error)
+      .Nested("targets", targets_ok, targets_error)
+      .IntInRange("num_threads", num_threads, 1, 1024)
+      .Positive("max_memory_bytes", max_memory_bytes);
+  for (const PlaneCut& cut : cuts) {
+    checks.Require(cut.normal.allFinite() && cut.normal.norm() > 0 && std::isfinite(cut.offset),
+                   "cuts must have a finite, non-zero normal and a finite offset");
+  }
+  return checks.Done(error);
+}
+
+namespace {
+
+bool RunPrepare(const PrepareJobOptions& options, std::ostream& log, std::string* error,
+                JobStatus* status) {
+  *status = JobStatus::kBadInput;
   WallTimer total;
+  if (!options.Validate(error)) return false;
   if (options.neutral.empty()) {
     *error = "no neutral surface given (--neutral)";
     return false;
@@ -58,10 +86,6 @@ bool RunPrepareJob(const PrepareJobOptions& options, std::ostream& log, std::str
   }
   if (options.pose_paths.empty()) {
     *error = "the pose set is empty (--poses)";
-    return false;
-  }
-  if (!(options.mu > 0)) {
-    *error = "mu must be positive";
     return false;
   }
   // The output: locked, and checked before the work.
@@ -98,6 +122,9 @@ bool RunPrepareJob(const PrepareJobOptions& options, std::ostream& log, std::str
     return false;
   }
   for (size_t p = 0; p < names.size(); ++p) {
+    if (!CheckPointsNearModel(options.pose_paths[p], model.neutral.vertices, surfaces[p], error)) {
+      return false;
+    }
     TrainingPose pose;
     pose.name = names[p];
     pose.surface = surfaces[p];
@@ -110,6 +137,19 @@ bool RunPrepareJob(const PrepareJobOptions& options, std::ostream& log, std::str
     if (!ReadTetMesh(options.tet_mesh, &model.mesh, error)) return false;
     log << "simulation mesh " << options.tet_mesh;
   } else {
+    // The lattice's memory, from the surface's bounding box, before it is built.
+    double lattice_elements = 0.0;
+    const double lattice_bytes = SurfaceTetMeshMemoryBytes(
+        model.neutral.vertices.rowwise().minCoeff(), model.neutral.vertices.rowwise().maxCoeff(),
+        options.meshing, &lattice_elements);
+    std::ostringstream details;
+    details.precision(3);
+    details << "a lattice of " << lattice_elements << " elements at spacing "
+            << options.meshing.spacing << " over the neutral's bounding box";
+    if (!CheckMemoryEstimate(lattice_bytes, options.max_memory_bytes, "meshing the neutral",
+                             details.str(), error)) {
+      return false;
+    }
     SurfaceTetMeshStats stats;
     if (!MeshSurfaceInterior(model.neutral.vertices, model.neutral.triangles, options.meshing,
                              &model.mesh, error, &stats)) {
@@ -138,6 +178,22 @@ bool RunPrepareJob(const PrepareJobOptions& options, std::ostream& log, std::str
   log << ": " << model.mesh.num_vertices() << " vertices, " << model.mesh.num_tets()
       << " elements (" << timer.Seconds() << " s)\n";
   model.mu = Eigen::VectorXd::Constant(model.mesh.num_tets(), options.mu);
+  {
+    // The embedded simulations: one solver per thread, and every pose's target.
+    const double elements = model.mesh.num_tets();
+    const double solvers = std::max(1, std::min(options.num_threads, model.num_poses()));
+    const double bytes = solvers * EquilibriumSolverMemoryBytes(elements) +
+                         sizeof(double) * 6.0 * elements * model.num_poses();
+    std::ostringstream details;
+    details.precision(3);
+    details << elements << " elements, " << solvers << " solver(s) in parallel, "
+            << model.num_poses() << " poses";
+    if (!CheckMemoryEstimate(bytes, options.max_memory_bytes,
+                             "the volumetric targets' embedded simulation", details.str(),
+                             error)) {
+      return false;
+    }
+  }
 
   timer.Reset();
   model.embedding = EmbedPoints(model.mesh, model.neutral.vertices, options.num_threads);
@@ -172,7 +228,8 @@ bool RunPrepareJob(const PrepareJobOptions& options, std::ostream& log, std::str
   log << "volumetric targets by embedded simulation:\n";
   VolumetricTargetOptions targets = options.targets;
   targets.num_threads = options.num_threads;
-  if (!MakeVolumetricTargets(targets, &model, log, error)) return false;
+  std::vector<std::string> unconverged;
+  if (!MakeVolumetricTargets(targets, &model, log, error, &unconverged)) return false;
   double mean = 0, worst = 0;
   for (const TrainingPose& pose : model.poses) {
     mean += pose.embedding_mean_error / model.num_poses();
@@ -184,7 +241,24 @@ bool RunPrepareJob(const PrepareJobOptions& options, std::ostream& log, std::str
   save.overwrite = options.overwrite;
   if (!SaveModel(output, model, save, error)) return false;
   log << "wrote model " << options.output << " (" << total.Seconds() << " s in all)\n";
+  if (!unconverged.empty()) {
+    *status = JobStatus::kNotConverged;
+    *error = "the embedded simulation did not converge for " + std::to_string(unconverged.size()) +
+             " of " + std::to_string(model.num_poses()) + " poses; the model was written with " +
+             "their targets from the states the solves ended in, for inspection (first: " +
+             unconverged.front() + ")";
+    return false;
+  }
+  *status = JobStatus::kOk;
   return true;
+}
+
+}  // namespace
+
+bool RunPrepareJob(const PrepareJobOptions& options, std::ostream& log, std::string* error,
+                   JobStatus* status) {
+  JobStatus ignored;
+  return RunPrepare(options, log, error, status != nullptr ? status : &ignored);
 }
 
 }  // namespace aqs

@@ -11,6 +11,8 @@
 #include "geometry/surface_tet_mesher.h"
 #include "prepare/boundary_rules.h"
 #include "prepare/volumetric_targets.h"
+#include "util/job_status.h"
+#include "util/memory_limit.h"
 
 namespace aqs {
 
@@ -40,15 +42,27 @@ struct PrepareJobOptions {
   // directory or an ActiveQS model is replaced, and anything else is refused at once.
   bool overwrite = false;
   int num_threads = 2;
+  // Memory limit (bytes): the lattice (before meshing) and the simulation (before the
+  // volumetric targets) are estimated, and the job stops with exit status 1 and the
+  // estimate if either is above it (util/memory_limit.h).
+  double max_memory_bytes = kDefaultMaxMemoryBytes;
+
+  // Checks every field; false with *error naming the first bad one (util/option_checks.h).
+  bool Validate(std::string* error) const;
 };
 
 // Runs the job, logging progress to `log`. It holds the output model's writers' lock
 // (model/model_directory.h) from the start, and checks before any work that `output`
-// may be replaced. Returns false with *error on bad input (unreadable files, poses with
-// another vertex count, a surface that encloses nothing, no fixed vertices, an empty
-// pose set, an output that is not a model without overwrite, a model in use by another
-// process, ...).
-bool RunPrepareJob(const PrepareJobOptions& options, std::ostream& log, std::string* error);
+// may be replaced. Returns false with *error on bad input (invalid options, unreadable
+// files, poses with another vertex count, a surface that encloses nothing, no fixed
+// vertices, an empty pose set, an output that is not a model without overwrite, a
+// model in use by another process, a lattice or simulation whose memory estimate is
+// above max_memory_bytes, ...): *status (may be null) is then kBadInput and nothing is
+// written. If the embedded simulation of some poses does not converge, the model is
+// still written (their targets from the states the solves ended in, for inspection)
+// and the job returns false with *status kNotConverged and *error naming the poses.
+bool RunPrepareJob(const PrepareJobOptions& options, std::ostream& log, std::string* error,
+                   JobStatus* status = nullptr);
 
 }  // namespace aqs
 

@@ -12,6 +12,7 @@
 #include "geometry/embedding.h"
 #include "util/parallel_for.h"
 #include "util/wall_timer.h"
+#include "util/option_checks.h"
 
 namespace aqs {
 
@@ -33,8 +34,29 @@ Eigen::VectorXd AttachmentStiffness(const ActiveModel& model, double relative_st
   return stiffness * (relative_stiffness * model.mu.mean() / MeanEdgeLength(model.mesh));
 }
 
+bool VolumetricTargetOptions::Validate(std::string* error) const {
+  std::string solver_error;
+  const bool solver_ok = solver.Validate(&solver_error);
+  return OptionChecks()
+      .Positive("relative_stiffness", relative_stiffness)
+      .Nested("solver", solver_ok, solver_error)
+      .ReachableTolerance("solver.relative_force_tolerance", solver.relative_force_tolerance)
+      .IntInRange("num_threads", num_threads, 1, 1024)
+      .IntInRange("continuation_steps", continuation_steps, 1, 1000)
+      .Done(error);
+}
+
+double EquilibriumSolverMemoryBytes(double num_elements) {
+  constexpr double kBytesPerElement = 8000.0;
+  constexpr double kMeasuredElements = 257250.0;
+  return kBytesPerElement * num_elements *
+         std::max(1.0, std::cbrt(num_elements / kMeasuredElements));
+}
+
 bool MakeVolumetricTargets(const VolumetricTargetOptions& options, ActiveModel* model,
-                           std::ostream& log, std::string* error) {
+                           std::ostream& log, std::string* error,
+                           std::vector<std::string>* unconverged) {
+  if (!options.Validate(error)) return false;
   const ShapeTargetModel physics(model->mesh, model->mu);
   const int num_poses = model->num_poses();
   const Eigen::VectorXd stiffness = AttachmentStiffness(*model, options.relative_stiffness);
@@ -85,7 +107,7 @@ bool MakeVolumetricTargets(const VolumetricTargetOptions& options, ActiveModel* 
     if (!report.converged) {
       failures[p] = "pose '" + pose.name + "': the embedded simulation did not converge: " +
                     report.Summary();
-      return;
+      if (unconverged == nullptr || !w.solver->positions().allFinite()) return;
     }
     const Eigen::Matrix3Xd x = w.solver->positions();
     pose.target.resize(6, physics.num_elements());
@@ -102,14 +124,16 @@ bool MakeVolumetricTargets(const VolumetricTargetOptions& options, ActiveModel* 
         << " (pose moves up to " << (pose.surface - model->neutral.vertices).colwise().norm().maxCoeff()
         << "), " << report.Path()
         << (steps > 1 ? " in " + std::to_string(steps) + " steps" : std::string()) << ", "
-        << timer.Seconds() << " s\n"
+        << timer.Seconds() << " s" << (report.converged ? "" : ", NOT CONVERGED") << "\n"
         << std::flush;
   }, 1);
   for (const std::string& failure : failures) {
-    if (!failure.empty()) {
+    if (failure.empty()) continue;
+    if (unconverged == nullptr) {
       *error = failure;
       return false;
     }
+    unconverged->push_back(failure);
   }
   return true;
 }

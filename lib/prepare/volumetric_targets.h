@@ -3,6 +3,7 @@
 
 #include <ostream>
 #include <string>
+#include <vector>
 
 #include "equilibrium/quasistatic_solver.h"
 #include "mesh/mesh_measures.h"
@@ -22,6 +23,9 @@ struct VolumetricTargetOptions {
   // A pose whose direct solve fails is retried in this many steps, moving the targets
   // and bones from rest to the pose.
   int continuation_steps = 4;
+
+  // Checks every field; false with *error naming the first bad one (util/option_checks.h).
+  bool Validate(std::string* error) const;
 };
 
 // Volumetric targets by embedded simulation. For every training pose p of `model`
@@ -32,9 +36,20 @@ struct VolumetricTargetOptions {
 // S = sqrt(F_e^T F_e) of its deformation gradient (so that S reproduces x_p's shape up
 // to the rotation the equilibrium chooses). Fills pose.target and the mean and max
 // distance between the embedded surface and the pose; writes one line per pose to
-// `log`. Returns false with *error if a pose's equilibrium cannot be reached.
+// `log`. Returns false with *error if a pose's equilibrium cannot be reached, unless
+// `unconverged` is given: then such a pose's target is made from the state its solve
+// ended in (if that is finite; else the pose gets no target), the pose's message is
+// appended to *unconverged, and the function returns true. Returns false for invalid
+// options (options.Validate) either way.
 bool MakeVolumetricTargets(const VolumetricTargetOptions& options, ActiveModel* model,
-                           std::ostream& log, std::string* error);
+                           std::ostream& log, std::string* error,
+                           std::vector<std::string>* unconverged = nullptr);
+
+// The memory of the equilibrium solves of a mesh of num_elements elements (bytes): one
+// solver with its stiffness factorization, about 8 kB per element at 250,000 elements
+// (README, performance: 2.0 GB peak), growing as the cube root of the element count
+// above that (the factor's fill).
+double EquilibriumSolverMemoryBytes(double num_elements);
 
 // The spring stiffness of MakeVolumetricTargets per neutral surface vertex
 // (num_surface_vertices): relative_stiffness * mean(mu) * A_i / h (see

@@ -461,7 +461,12 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
   total.seconds = evaluation_timer.Seconds();
   last_counters_ = total;
   total_counters_.Add(total);
-  return std::isfinite(*cost);
+  if (!std::isfinite(*cost)) {
+    last_failure_ = "the loss is not finite (" + std::to_string(*cost) +
+                    "): a latent, a decoder parameter or a pose surface is not finite?";
+    return false;
+  }
+  return true;
 }
 
 }  // namespace aqs

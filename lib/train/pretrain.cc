@@ -1,6 +1,8 @@
 #include "train/pretrain.h"
 
 #include <cstdio>
+#include <limits>
+#include <sstream>
 
 #include <ceres/gradient_problem.h>
 #include <ceres/gradient_problem_solver.h>
@@ -9,6 +11,7 @@
 
 #include "train/latent_init.h"
 #include "train/progress.h"
+#include "util/option_checks.h"
 #include "util/wall_timer.h"
 
 namespace aqs {
@@ -74,11 +77,82 @@ class PretrainObjective final : public ceres::FirstOrderFunction {
   double regularization_;
 };
 
+// L-BFGS (Ceres' GradientProblemSolver, rank kLbfgsRank): the history's two arrays per
+// rank and about eight work vectors of the parameter count.
+constexpr int kLbfgsRank = 20;
+constexpr double kLbfgsArrays = 2.0 * kLbfgsRank + 8.0;
+
 }  // namespace
+
+bool PretrainOptions::Validate(std::string* error) const {
+  std::string spec_error, field_error;
+  const bool spec_ok = spec.Validate(&spec_error);
+  const bool field_ok = field.Validate(&field_error);
+  return OptionChecks()
+      .Nested("spec", spec_ok, spec_error)
+      .Nested("field", field_ok, field_error)
+      .InRange("latent_regularization", latent_regularization, 0.0, kMaxRegularization)
+      .IntAtLeast("max_iterations", max_iterations, 0)
+      .IntInRange("num_threads", num_threads, 1, 1024)
+      .IntAtLeast("log_every", log_every, 0)
+      .Positive("max_memory_bytes", max_memory_bytes)
+      .Done(error);
+}
+
+bool PretrainMemoryBytes(const PretrainOptions& options, const ActiveModel& model, double* bytes,
+                         std::string* details, std::string* error) {
+  if (model.mesh.num_tets() == 0) {
+    *error = "the model's mesh has no elements";
+    return false;
+  }
+  double nodes = 0.0;
+  std::string field_error;
+  if (!PlanGridActuationField(model.mesh, options.field, &nodes, &field_error)) {
+    *error = "field." + field_error;
+    return false;
+  }
+  const double elements = model.mesh.num_tets();
+  const double poses = model.num_poses();
+  double parameters = 0.0;
+  const DecoderMemory decoder = DecoderMemoryBytes(options.spec, elements, nodes,
+                                                   options.field.per_element, poses, &parameters);
+  const double unknowns = parameters + static_cast<double>(options.spec.latent_dim) * poses;
+  const double lbfgs = sizeof(double) * kLbfgsArrays * unknowns;
+  const double targets = 4.0 * sizeof(double) * 6.0 * elements * poses;
+  *bytes = decoder.total + lbfgs + targets;
+  if (details != nullptr) {
+    std::ostringstream out;
+    out.precision(3);
+    out << parameters << " decoder parameters for " << nodes << " control nodes at most, "
+        << poses << " poses x latent " << options.spec.latent_dim << ": L-BFGS "
+        << FormatBytes(lbfgs) << ", decoder and batch " << FormatBytes(decoder.total)
+        << ", targets " << FormatBytes(targets);
+    *details = out.str();
+  }
+  if (!(parameters < std::numeric_limits<int>::max())) {
+    std::ostringstream out;
+    out.precision(3);
+    out << "spec.hidden_dims: the decoder would have " << parameters << " parameters ("
+        << nodes << " control nodes at most), more than " << std::numeric_limits<int>::max()
+        << ", the most it can have";
+    *error = out.str();
+    return false;
+  }
+  return true;
+}
 
 bool Pretrain(const PretrainOptions& options, ActiveModel* model, PretrainReport* report,
               std::ostream& log, std::string* error) {
   WallTimer timer;
+  if (!options.Validate(error)) return false;
+  {
+    double bytes = 0.0;
+    std::string details;
+    if (!PretrainMemoryBytes(options, *model, &bytes, &details, error) ||
+        !CheckMemoryEstimate(bytes, options.max_memory_bytes, "pre-training", details, error)) {
+      return false;
+    }
+  }
   const int p = model->num_poses();
   if (p == 0) {
     *error = "the model has no training poses";
@@ -118,10 +192,18 @@ bool Pretrain(const PretrainOptions& options, ActiveModel* model, PretrainReport
 
   auto* objective = new PretrainObjective(*decoder, targets, weights, options.latent_regularization);
   report->initial_loss = objective->Loss(parameters.data(), nullptr, nullptr);
+  if (!std::isfinite(report->initial_loss)) {
+    *error = "the pre-training loss is not finite at the start (" +
+             std::to_string(report->initial_loss) +
+             "): the decoder's output scale (spec.output_scale) or the latent regularization "
+             "(latent_regularization) is far too large?";
+    delete objective;
+    return false;
+  }
   ceres::GradientProblem problem(objective);  // takes ownership
   ceres::GradientProblemSolver::Options solver_options;
   solver_options.line_search_direction_type = ceres::LBFGS;
-  solver_options.max_lbfgs_rank = 20;
+  solver_options.max_lbfgs_rank = kLbfgsRank;
   solver_options.max_num_iterations = options.max_iterations;
   solver_options.function_tolerance = 1e-12;
   solver_options.gradient_tolerance = 1e-12;
@@ -134,6 +216,11 @@ bool Pretrain(const PretrainOptions& options, ActiveModel* model, PretrainReport
   ceres::Solve(solver_options, problem, parameters.data(), &summary);
   double mse = 0;
   report->final_loss = objective->Loss(parameters.data(), nullptr, &mse);
+  if (!std::isfinite(report->final_loss) || !parameters.allFinite()) {
+    *error = "pre-training ended with a non-finite loss or parameters (" +
+             std::to_string(report->final_loss) + "; " + summary.message + ")";
+    return false;
+  }
   report->rms_actuation_error = std::sqrt(mse);
   report->iterations = static_cast<int>(summary.iterations.size()) - 1;
   report->termination = summary.message;

@@ -7,6 +7,7 @@
 #include "learn/decoder.h"
 #include "learn/grid_actuation_field.h"
 #include "model/active_model.h"
+#include "util/memory_limit.h"
 
 namespace aqs {
 
@@ -20,6 +21,12 @@ struct PretrainOptions {
   int num_threads = 2;
   // Progress line every this many iterations (0: none).
   int log_every = 25;
+  // Memory limit (bytes): Pretrain estimates the decoder, its L-BFGS history and the
+  // batch before allocating (PretrainMemoryBytes), and fails with the estimate above it.
+  double max_memory_bytes = kDefaultMaxMemoryBytes;
+
+  // Checks every field; false with *error naming the first bad one (util/option_checks.h).
+  bool Validate(std::string* error) const;
 };
 
 struct PretrainReport {
@@ -33,6 +40,16 @@ struct PretrainReport {
   std::string termination;
 };
 
+// The memory Pretrain needs for `model` with `options`, planned before anything is
+// allocated: the decoder (learn/decoder.h, DecoderMemoryBytes, for a batch of all
+// poses), the L-BFGS history and work vectors (48 arrays of parameters and latents) and
+// the targets' copies (4 x 48 bytes per element and pose). *details (may be null) says
+// what the estimate is made of. Returns false with *error if the decoder cannot be
+// planned: a control grid too fine for the mesh ("field.node_spacing ...") or more
+// parameters than an int holds ("spec.hidden_dims ...").
+bool PretrainMemoryBytes(const PretrainOptions& options, const ActiveModel& model, double* bytes,
+                         std::string* details, std::string* error);
+
 // Pre-training: a supervised fit of a new decoder and one latent per pose to the
 // model's volumetric targets (an auto-decoder; equivalent to training an auto-encoder
 // and keeping its decoder and codes):
@@ -45,6 +62,8 @@ struct PretrainReport {
 // of the targets, parameters at random (small outputs). Every pose needs a target.
 // Sets model->decoder, decoder_params and latents, and clears the states and the
 // training checkpoint (they belonged to the old decoder). Progress lines go to `log`.
+// Fails with *error, before allocating, on invalid options (options.Validate) and on
+// an estimate (PretrainMemoryBytes) above options.max_memory_bytes.
 bool Pretrain(const PretrainOptions& options, ActiveModel* model, PretrainReport* report,
               std::ostream& log, std::string* error);
 

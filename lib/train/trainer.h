@@ -47,6 +47,10 @@ struct TrainOptions {
   // log. num_threads and max_factor_cache_gb are per rank. Null (or one rank): one
   // process.
   const Communicator* communicator = nullptr;
+
+  // Checks every field (train/train_options.cc); false with *error naming the first
+  // bad one.
+  bool Validate(std::string* error) const;
 };
 
 struct TrainReport {

@@ -7,19 +7,66 @@
 #include <limits>
 #include <sstream>
 
+#include "util/input_file.h"
+
 namespace aqs {
 
-LineReader::LineReader(const std::string& path) : path_(path), stream_(path) {
+namespace {
+
+constexpr size_t kBufferBytes = 1 << 16;
+
+}  // namespace
+
+LineReader::LineReader(const std::string& path) : path_(path) {
+  if (!CheckInputFile(path, &error_)) return;
+  stream_.open(path, std::ios::binary);
   if (!stream_) {
     error_ = path + ": cannot open file for reading (" + std::strerror(errno) + ")";
     return;
   }
+  buffer_.resize(kBufferBytes);
   ok_ = true;
+}
+
+bool LineReader::Fill() {
+  begin_ = end_ = 0;
+  stream_.read(buffer_.data(), static_cast<std::streamsize>(buffer_.size()));
+  end_ = static_cast<size_t>(stream_.gcount());
+  if (end_ == 0 && stream_.bad()) {
+    ok_ = false;
+    error_ = Where("read error");
+  }
+  return end_ > 0;
 }
 
 bool LineReader::NextLine() {
   if (!ok_) return false;
-  if (!std::getline(stream_, line_)) return false;
+  line_.clear();
+  bool any = false;  // a byte (or the newline) of this line was read
+  while (true) {
+    if (begin_ == end_ && !Fill()) break;
+    any = true;
+    const char* start = buffer_.data() + begin_;
+    const size_t available = end_ - begin_;
+    const char* newline = static_cast<const char*>(std::memchr(start, '\n', available));
+    const size_t take = newline != nullptr ? static_cast<size_t>(newline - start) : available;
+    if (line_.size() + take > static_cast<size_t>(kMaxLineBytes)) {
+      ok_ = false;
+      line_.clear();
+      std::ostringstream out;
+      out << path_ << ":" << line_number_ + 1 << ": the line is longer than " << kMaxLineBytes
+          << " bytes, the longest a text file may have (not a text file of this format?)";
+      error_ = out.str();
+      return false;
+    }
+    line_.append(start, take);
+    begin_ += take;
+    if (newline != nullptr) {
+      ++begin_;
+      break;
+    }
+  }
+  if (!ok_ || !any) return false;
   ++line_number_;
   if (!line_.empty() && line_.back() == '\r') line_.pop_back();
   return true;
@@ -55,8 +102,36 @@ std::vector<std::string> SplitTokens(const std::string& text) {
   return tokens;
 }
 
+namespace {
+
+// [+-]digits[.digits][(e|E)[+-]digits], digits on at least one side of the point.
+bool IsDecimalNumber(const std::string& token) {
+  size_t i = 0;
+  const size_t n = token.size();
+  auto digits = [&]() {
+    const size_t start = i;
+    while (i < n && token[i] >= '0' && token[i] <= '9') ++i;
+    return i - start;
+  };
+  if (i < n && (token[i] == '+' || token[i] == '-')) ++i;
+  size_t mantissa = digits();
+  if (i < n && token[i] == '.') {
+    ++i;
+    mantissa += digits();
+  }
+  if (mantissa == 0) return false;
+  if (i < n && (token[i] == 'e' || token[i] == 'E')) {
+    ++i;
+    if (i < n && (token[i] == '+' || token[i] == '-')) ++i;
+    if (digits() == 0) return false;
+  }
+  return i == n;
+}
+
+}  // namespace
+
 bool ParseDouble(const std::string& token, double* value) {
-  if (token.empty()) return false;
+  if (!IsDecimalNumber(token)) return false;
   const char* begin = token.c_str();
   char* end = nullptr;
   errno = 0;
@@ -69,6 +144,11 @@ bool ParseDouble(const std::string& token, double* value) {
 
 bool ParseInt64(const std::string& token, long long* value) {
   if (token.empty()) return false;
+  const size_t first = token[0] == '+' || token[0] == '-' ? 1 : 0;
+  if (first == token.size()) return false;
+  for (size_t i = first; i < token.size(); ++i) {
+    if (token[i] < '0' || token[i] > '9') return false;
+  }
   const char* begin = token.c_str();
   char* end = nullptr;
   errno = 0;

@@ -10,11 +10,20 @@ namespace aqs {
 // Reads a text file line by line and splits lines into whitespace-separated tokens,
 // keeping the line number so that every parse error can name "path:line".
 // Used by all text readers of user files. Not thread-safe.
+//
+// Only regular files are read (CheckInputFile: a FIFO or a device is refused before it
+// is opened), and no line may be longer than kMaxLineBytes (util/input_file.h): such a
+// line stops the reader with an error, so that memory stays bounded by the line limit
+// whatever the file holds.
 class LineReader {
  public:
   // Opens `path`. ok() is false (and error() says why) if the file cannot be read.
   explicit LineReader(const std::string& path);
 
+  // False if the file could not be opened, or once a read failed (a line longer than
+  // kMaxLineBytes, an I/O error): NextLine then returns false as at the end of the
+  // file, so every caller that reads to the end checks ok() afterwards and reports
+  // error() ("path:line: ...").
   bool ok() const { return ok_; }
   const std::string& error() const { return error_; }
   const std::string& path() const { return path_; }
@@ -22,7 +31,8 @@ class LineReader {
   int line_number() const { return line_number_; }
   const std::string& line() const { return line_; }
 
-  // Reads the next raw line (trailing '\r' removed). Returns false at end of file.
+  // Reads the next raw line (trailing '\r' removed). Returns false at end of file or
+  // on a read failure (then ok() is false).
   bool NextLine();
   // Reads the next line that has at least one token once everything from
   // `comment_char` on is removed (pass '\0' for no comments); splits it into tokens.
@@ -33,8 +43,13 @@ class LineReader {
   std::string Where(const std::string& message) const;
 
  private:
+  // Refills buffer_ from the stream; false at the end of the file or on an error.
+  bool Fill();
+
   std::string path_;
   std::ifstream stream_;
+  std::vector<char> buffer_;
+  size_t begin_ = 0, end_ = 0;  // unread bytes of buffer_
   std::string line_;
   int line_number_ = 0;
   bool ok_ = false;
@@ -44,8 +59,11 @@ class LineReader {
 // Splits `text` at whitespace.
 std::vector<std::string> SplitTokens(const std::string& text);
 
-// Strict number parsing: the whole token must be a number (no trailing characters);
-// ParseDouble rejects nan and inf. Return false on failure.
+// Strict number parsing: the whole token must be a decimal number (no trailing
+// characters, no leading spaces). ParseDouble takes [+-]digits[.digits][(e|E)[+-]digits]
+// (digits on at least one side of the point) and rejects hexadecimal ("0x10"), nan, inf
+// and values that overflow a double (underflow to 0 or a denormal is fine); ParseInt and
+// ParseInt64 take [+-]digits within their type's range. Return false on failure.
 bool ParseDouble(const std::string& token, double* value);
 bool ParseInt(const std::string& token, int* value);
 bool ParseInt64(const std::string& token, long long* value);

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "util/atomic_file.h"
+#include "util/input_file.h"
 
 namespace aqs {
 namespace {
@@ -29,6 +30,7 @@ bool WriteMatrixFile(const std::string& path, const Eigen::MatrixXd& matrix, std
 
 bool ReadMatrixFile(const std::string& path, Eigen::Index expected_rows, Eigen::Index expected_cols,
                     Eigen::MatrixXd* matrix, std::string* error) {
+  if (!CheckInputFile(path, error)) return false;
   std::ifstream in(path, std::ios::binary | std::ios::ate);
   if (!in) {
     *error = path + ": cannot open file for reading";

@@ -413,9 +413,9 @@ TEST_F(AqsFitTest, CollidePushesTheSurfaceOutOfAnObstacle) {
       {"--contact_vertices=0:99999", "outside the surface"},
       {"--contact_vertices=5:2", "5:2"},
       {"--thickness=0", "thickness"},
-      {"--max_depth=-1", "max depth"},
+      {"--max_depth=-1", "--max_depth must be finite and > 0"},
       {"--contact_rounds=0", "--contact_rounds must be"},
-      {"--path_steps=-1", "--path_steps >= 0"},
+      {"--path_steps=-1", "--path_steps must be in [0, 256]"},
   };
   const std::string base = AppPath("aqs_collide") + " --model=" + dir_->File("model") +
                            " --pose=" + data_->model.poses[0].name + " --output=" +

@@ -93,7 +93,8 @@ TEST(AqsPipelineTest, MissingFlagsAndBadStagesFail) {
   for (const char* bad : {"-1", "nan", "inf"}) {
     run = RunCommand(AppPath("aqs_train") + " --model=/nonexistent/model --factor_cache_gb=" + bad);
     EXPECT_EQ(run.exit_code, 1) << bad;
-    EXPECT_NE(run.output.find("--factor_cache_gb must be a finite number of GB >= 0"),
+    EXPECT_NE(run.output.find(std::string("--factor_cache_gb must be finite and >= 0 (is ") +
+                              bad + ")"),
               std::string::npos) << run.output;
   }
 }

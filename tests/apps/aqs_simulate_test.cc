@@ -205,7 +205,7 @@ INSTANTIATE_TEST_SUITE_P(
                      "--mesh={finger}finger.msh --output={dir}x.mesh --gradient={dir}g.txt", 1,
                      "--gradient needs --loss_target"},
         BadInputCase{"NegativeMu", "--mesh={finger}finger.msh --output={dir}x.mesh --mu=-1", 1,
-                     "mu must be positive"},
+                     "--mu must be finite and > 0 (is -1)"},
         BadInputCase{"StrayArgument", "--mesh={finger}finger.msh stray --output={dir}x.mesh", 1,
                      "unexpected argument 'stray'"},
         BadInputCase{"NotConverged",

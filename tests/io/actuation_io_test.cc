@@ -44,6 +44,34 @@ TEST(ActuationIoTest, WrongCountsAndBadNumbersNameTheLine) {
   EXPECT_NE(error.find("missing.txt"), std::string::npos);
 }
 
+// Actuations that drive a simulation must be positive definite with stretches in
+// [1e-3, 1e3]: S = -I and S = 1e-12 I are refused with a count and the first line.
+TEST(ActuationIoTest, TargetsMustBePositiveDefinite) {
+  testing::TempDir dir;
+  ActuationMatrix a;
+  std::string error;
+  ASSERT_TRUE(ReadActuationTargets(
+      dir.Write("ok.txt", "1 1 1 0 0 0\n0.5 2 1 0.3 0 0\n0.001 1000 1 0 0 0\n"), 3, &a, &error))
+      << error;
+  EXPECT_EQ(a(1, 2), 1000.0);
+  const std::string inverted =
+      dir.Write("inverted.txt", "1 1 1 0 0 0\n# S = -I\n-1 -1 -1 0 0 0\n-1 -1 -1 0 0 0\n");
+  EXPECT_FALSE(ReadActuationTargets(inverted, 3, &a, &error));
+  EXPECT_EQ(error.find(inverted + ":3: 2 of 3 actuations are not positive definite"), 0u) << error;
+  EXPECT_NE(error.find("element 1, has eigenvalues -1, -1, -1"), std::string::npos) << error;
+  const std::string tiny = dir.Write("tiny.txt", "1e-12 1e-12 1e-12 0 0 0\n");
+  EXPECT_FALSE(ReadActuationTargets(tiny, 1, &a, &error));
+  EXPECT_NE(error.find("tiny.txt:1: 1 of 1"), std::string::npos) << error;
+  // Indefinite through its off-diagonal: eigenvalues -1 and 3.
+  EXPECT_FALSE(ReadActuationTargets(dir.Write("shear.txt", "1 1 1 2 0 0\n"), 1, &a, &error));
+  EXPECT_FALSE(ReadActuationTargets(dir.Write("huge.txt", "1e4 1 1 0 0 0\n"), 1, &a, &error));
+  // Plain ReadActuation (gradients) takes any finite numbers.
+  EXPECT_TRUE(ReadActuation(inverted, 3, &a, &error)) << error;
+  int first = -2;
+  EXPECT_EQ(CountNonPositiveDefinite(a, &first), 2);
+  EXPECT_EQ(first, 1);
+}
+
 TEST(ActuationIoTest, PositiveScalars) {
   testing::TempDir dir;
   Eigen::VectorXd mu;

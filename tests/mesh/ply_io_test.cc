@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <limits>
@@ -14,6 +15,7 @@
 #include "mesh/mesh_io.h"
 #include "mesh_test_util.h"
 #include "testing/temp_dir.h"
+#include "util/input_file.h"
 
 namespace aqs {
 namespace {
@@ -150,6 +152,53 @@ TEST(PointCloudReadTest, AsciiWithExtraPropertiesAndElements) {
       7.5, -0.125, 1e30,        //
       -1, 2, 12;
   EXPECT_EQ(points, expected);
+}
+
+// More data than the header counts is an error (the extra points would be dropped),
+// in ASCII and binary files; every ASCII value is parsed as its declared type.
+TEST(PointCloudReadTest, DataBeyondTheHeaderAndTypedValues) {
+  const std::string header =
+      "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\n"
+      "property float z\nproperty uchar red\nend_header\n";
+  ExpectReadError("extra.ply", header + "0 0 0 1\n1 1 1 2\n2 2 2 3\n",
+                  "extra.ply:11: data after the last of the header's elements (2 'vertex' "
+                  "records): the header's counts are smaller than the data");
+  ExpectReadError("hex.ply", header + "0 0 0x10 1\n1 1 1 2\n",
+                  "hex.ply:9: expected a finite number for property 'z' of vertex 0, got '0x10'");
+  ExpectReadError("range.ply", header + "0 0 0 1\n1 1 1 256\n",
+                  "range.ply:10: expected an integer in the range of type uchar for property "
+                  "'red' of 'vertex' record 1, got '256'");
+  ExpectReadError("word.ply", header + "0 0 0 red\n1 1 1 2\n",
+                  "expected an integer in the range of type uchar for property 'red'");
+  // Trailing blank lines are fine.
+  testing::TempDir dir;
+  Eigen::Matrix3Xd points;
+  std::string error;
+  ASSERT_TRUE(ReadPointCloud(dir.Write("ok.ply", header + "0 0 0 1\n1 1 1 2\n\n\n"), &points,
+                             &error))
+      << error;
+  EXPECT_EQ(points.cols(), 2);
+  // Binary: bytes after the last element.
+  std::string binary =
+      "ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty double x\n"
+      "property double y\nproperty double z\nend_header\n";
+  for (double v : {1.0, 2.0, 3.0}) AppendBytes(v, false, &binary);
+  ASSERT_TRUE(ReadPointCloud(dir.Write("one.ply", binary), &points, &error)) << error;
+  for (double v : {4.0, 5.0, 6.0}) AppendBytes(v, false, &binary);
+  ExpectReadError("two.ply", binary, "data after the last of the header's elements");
+}
+
+TEST(PointCloudReadTest, OverlongLinesAndNonRegularFiles) {
+  std::string text = "ply\nformat ascii 1.0\ncomment ";
+  text.append(static_cast<size_t>(kMaxLineBytes), 'x');
+  ExpectReadError("long.ply", text + "\n", "long.ply:3: the line is longer than");
+  testing::TempDir dir;
+  Eigen::Matrix3Xd points;
+  std::string error;
+  EXPECT_FALSE(ReadPointCloud(dir.path() + "/", &points, &error));
+  std::filesystem::create_directories(dir.File("d.ply"));
+  EXPECT_FALSE(ReadPointCloud(dir.File("d.ply"), &points, &error));
+  EXPECT_TRUE(Contains(error, "is a directory")) << error;
 }
 
 TEST(PointCloudReadTest, Obj) {

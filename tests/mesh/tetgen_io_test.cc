@@ -125,6 +125,29 @@ TEST(TetgenReadTest, MalformedContent) {
   EXPECT_TRUE(Contains(error, "m.ele:3: expected 'index' and 4 node indices")) << error;
 }
 
+// Decided leniencies are errors: element numbers out of sequence, records beyond the
+// header's counts, hexadecimal numbers.
+TEST(TetgenReadTest, ElementNumberingTrailingRecordsAndHexAreErrors) {
+  std::string error = ReadError(kNode1, "2 4 1\n1 1 2 3 4 7\n7 2 5 3 4 7\n");
+  EXPECT_TRUE(Contains(error, "m.ele:3: expected tetrahedron index 2")) << error;
+  error = ReadError(kNode1, "1 4 1\n1 1 2 3 4 7\n2 2 5 3 4 7\n");
+  EXPECT_TRUE(Contains(error, "m.ele:3: content after the 1 tetrahedra the header declares"))
+      << error;
+  error = ReadError("2 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n", "0 4 0\n");
+  EXPECT_TRUE(Contains(error, "m.node:4: content after the 2 points the header declares"))
+      << error;
+  error = ReadError("2 3 0 0\n1 0 0 0\n2 0x10 0 0\n", kEle1);
+  EXPECT_TRUE(Contains(error, "m.node:3: expected the x coordinate (a finite number)")) << error;
+  error = ReadError(kNode1, "2 4 1\n1 1 2 3 4 7\n2 2 0x5 3 4 7\n");
+  EXPECT_TRUE(Contains(error, "m.ele:3: expected a node index (an integer)")) << error;
+  // Comments and blank lines after the records are fine.
+  testing::TempDir dir;
+  const std::string stem = WriteTetgen(dir, std::string(kNode1) + "\n# end\n",
+                                       std::string(kEle1) + "# generated\n\n");
+  TetMesh mesh;
+  ASSERT_TRUE(ReadTetgenMesh(stem, &mesh, &error)) << error;
+}
+
 TEST(TetgenReadTest, MissingEleFile) {
   testing::TempDir dir;
   dir.Write("only.node", kNode1);

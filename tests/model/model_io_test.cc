@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -128,6 +129,48 @@ TEST(ModelIoTest, DamagedModelsFailNamingTheFile) {
   }
   EXPECT_FALSE(LoadModel(path, &back, &error));
   EXPECT_NE(error.find("refers to bone 7"), std::string::npos) << error;
+}
+
+// A model whose fixed.txt is empty or a directory, or whose binary files hold a NaN, is
+// refused at load, naming the file (it used to load as a free body, or to fail later
+// without a file name).
+TEST(ModelIoTest, EmptyFixedSetsAndNonFiniteNumbersFailNamingTheFile) {
+  const ActiveModel model = TrainedSyntheticModel();
+  testing::TempDir dir;
+  std::string error;
+  ActiveModel back;
+  const std::string path = dir.File("m");
+  ASSERT_TRUE(SaveModel(path, model, &error)) << error;
+  const std::string pristine = dir.File("pristine");
+  std::filesystem::copy(path, pristine, std::filesystem::copy_options::recursive);
+  auto restore = [&]() {
+    std::filesystem::remove_all(path);
+    std::filesystem::copy(pristine, path, std::filesystem::copy_options::recursive);
+  };
+  { std::ofstream(path + "/fixed.txt") << "# vertex bone\n"; }
+  EXPECT_FALSE(LoadModel(path, &back, &error));
+  EXPECT_NE(error.find(path + "/fixed.txt: lists no fixed vertices"), std::string::npos) << error;
+  restore();
+  std::filesystem::remove(path + "/fixed.txt");
+  std::filesystem::create_directories(path + "/fixed.txt");
+  EXPECT_FALSE(LoadModel(path, &back, &error));
+  EXPECT_NE(error.find(path + "/fixed.txt: is a directory"), std::string::npos) << error;
+  // A NaN written over an entry of each binary file.
+  for (const std::string file : {"learned/latents.bin", "learned/states/0001.bin",
+                                 "poses/0002.bin", "targets/0000.bin", "mu.bin"}) {
+    restore();
+    {
+      std::fstream out(path + "/" + file, std::ios::in | std::ios::out | std::ios::binary);
+      out.seekp(24 + 8);  // the second entry, after the 24-byte header
+      const double nan = std::nan("");
+      out.write(reinterpret_cast<const char*>(&nan), sizeof(nan));
+    }
+    EXPECT_FALSE(LoadModel(path, &back, &error)) << file;
+    EXPECT_NE(error.find(path + "/" + file + ": entry"), std::string::npos) << error;
+    EXPECT_NE(error.find("is not finite (nan)"), std::string::npos) << error;
+  }
+  restore();
+  EXPECT_TRUE(LoadModel(path, &back, &error)) << error;
 }
 
 namespace fs = std::filesystem;

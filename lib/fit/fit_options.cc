@@ -1,0 +1,44 @@
+// Validate() of the fit options (LatentFitOptions, PointCloudFitOptions).
+
+#include <cmath>
+
+#include "fit/latent_fit.h"
+#include "util/option_checks.h"
+
+namespace aqs {
+
+bool LatentFitOptions::Validate(std::string* error) const {
+  std::string solver_error;
+  const bool solver_ok = solver.Validate(&solver_error);
+  return OptionChecks()
+      .InRange("latent_prior", latent_prior, 0.0, kMaxRegularization)
+      .InRange("bone_prior", bone_prior, 0.0, kMaxRegularization)
+      .Require(!std::isnan(prior_points_cap) && std::isfinite(prior_points_cap),
+               "prior_points_cap must be finite (<= 0: no cap) (is " +
+                   OptionValue(prior_points_cap) + ")")
+      .InRange("latent_regularization", latent_regularization, 0.0, kMaxRegularization)
+      .IntInRange("max_iterations", max_iterations, 1, 1000000)
+      .Positive("function_tolerance", function_tolerance)
+      .Positive("parameter_tolerance", parameter_tolerance)
+      .IntInRange("num_threads", num_threads, 1, 1024)
+      .Nested("solver", solver_ok, solver_error)
+      .ReachableTolerance("solver.relative_force_tolerance", solver.relative_force_tolerance)
+      .Done(error);
+}
+
+bool PointCloudFitOptions::Validate(std::string* error) const {
+  // max_distance and robust_scale may be 0 (off) or infinite (no cap, no weighting).
+  return OptionChecks()
+      .IntInRange("max_rounds", max_rounds, 1, 10000)
+      .IntInRange("iterations_per_round", iterations_per_round, 1, 1000000)
+      .Require(max_distance >= 0.0,
+               "max_distance must be >= 0 (0: no cap) (is " + OptionValue(max_distance) + ")")
+      .Require(robust_scale >= 0.0,
+               "robust_scale must be >= 0 (0: no robust weights) (is " +
+                   OptionValue(robust_scale) + ")")
+      .NonNegative("relative_tolerance", relative_tolerance)
+      .NonNegative("tangential_weight", tangential_weight)
+      .Done(error);
+}
+
+}  // namespace aqs

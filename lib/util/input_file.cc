@@ -1,0 +1,76 @@
+#include "util/input_file.h"
+
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+
+namespace aqs {
+namespace {
+
+// What a file that is not regular is, for messages.
+std::string KindOf(mode_t mode) {
+  if (S_ISDIR(mode)) return "a directory";
+  if (S_ISFIFO(mode)) return "a FIFO (named pipe)";
+  if (S_ISCHR(mode)) return "a character device";
+  if (S_ISBLK(mode)) return "a block device";
+  if (S_ISSOCK(mode)) return "a socket";
+  return "not a regular file";
+}
+
+}  // namespace
+
+bool CheckInputFile(const std::string& path, std::string* error) {
+  if (path.empty()) {
+    *error = "an empty file name";
+    return false;
+  }
+  struct stat st;
+  if (::stat(path.c_str(), &st) != 0) {
+    *error = path + ": cannot open file for reading (" + std::strerror(errno) + ")";
+    return false;
+  }
+  if (!S_ISREG(st.st_mode)) {
+    *error = path + ": is " + KindOf(st.st_mode) + ", not a regular file (only regular files " +
+             "are read)";
+    return false;
+  }
+  return true;
+}
+
+bool CheckOutputFile(const std::string& path, std::string* error) {
+  if (path.empty()) {
+    *error = "an empty output file name";
+    return false;
+  }
+  std::string folder = ".";
+  const size_t slash = path.find_last_of('/');
+  if (slash != std::string::npos) folder = slash == 0 ? "/" : path.substr(0, slash);
+  if (slash == path.size() - 1) {
+    *error = path + ": an output file name must not end in '/'";
+    return false;
+  }
+  struct stat st;
+  if (::stat(folder.c_str(), &st) != 0) {
+    *error = path + ": cannot write here: the folder " + folder + " does not exist (" +
+             std::strerror(errno) + "); create it first";
+    return false;
+  }
+  if (!S_ISDIR(st.st_mode)) {
+    *error = path + ": cannot write here: " + folder + " is not a folder";
+    return false;
+  }
+  if (::access(folder.c_str(), W_OK | X_OK) != 0) {
+    *error = path + ": cannot write here: the folder " + folder + " is not writable (" +
+             std::strerror(errno) + ")";
+    return false;
+  }
+  if (::stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode)) {
+    *error = path + ": is a directory; expected a file name";
+    return false;
+  }
+  return true;
+}
+
+}  // namespace aqs

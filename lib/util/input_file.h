@@ -1,0 +1,29 @@
+#ifndef AQS_UTIL_INPUT_FILE_H_
+#define AQS_UTIL_INPUT_FILE_H_
+
+#include <string>
+
+namespace aqs {
+
+// The longest line the text readers accept (LineReader, the PLY header and ASCII data):
+// 1 MiB. Every ActiveQS text format has short lines (a mesh record, a latent of a few
+// hundred numbers); a longer line is a broken or foreign file, and reading it whole
+// would cost about 23 times its length once split into tokens.
+constexpr long long kMaxLineBytes = 1LL << 20;
+
+// Checks that `path` names a regular file that can be read (symbolic links are
+// followed), before it is opened: a FIFO would block the reader forever, and a device
+// such as /dev/zero or /dev/urandom never ends. Returns false with *error naming the
+// path and what it is instead ("is a directory", "is a FIFO (named pipe)", "is a
+// character device", "does not exist", ...).
+bool CheckInputFile(const std::string& path, std::string* error);
+
+// Checks that a file can be written at `path` before a job's work: its folder exists
+// and is a writable directory, and `path` is not a directory. Returns false with
+// *error naming the path and why ("the folder F does not exist", ...). Outputs are
+// written atomically (util/atomic_file.h) into that folder at the end.
+bool CheckOutputFile(const std::string& path, std::string* error);
+
+}  // namespace aqs
+
+#endif  // AQS_UTIL_INPUT_FILE_H_

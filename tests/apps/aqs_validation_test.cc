@@ -1,0 +1,419 @@
+// Issue 12 ("Nothing lost, nothing silent"): every app refuses bad flags and bad input
+// with exit status 1 and a message naming the flag or the file, never an abort, a hang,
+// unbounded work or a silent wrong result; outputs in missing folders are refused
+// before the work; exit status 2 still writes the outputs.
+//
+// The model-based cases use a small model made from the finger example (the rest and
+// two actuated surfaces, prepared, pre-trained and trained by aqs_pipeline in about a
+// second).
+
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "apps/run_command.h"
+#include "mesh/mesh_io.h"
+#include "testing/temp_dir.h"
+
+namespace aqs {
+namespace {
+
+using testing::AppPath;
+using testing::DataPath;
+using testing::RunCommand;
+
+namespace fs = std::filesystem;
+
+// A bad-input case: flags (with {dir} and {finger} replaced), the exit status and a part
+// of the message.
+struct Case {
+  std::string flags;
+  int exit_code;
+  std::string message;
+};
+
+std::string Replaced(std::string text, const std::string& dir) {
+  const std::vector<std::pair<std::string, std::string>> keys = {
+      {"{dir}", dir + "/"}, {"{finger}", DataPath("examples/finger/")}};
+  for (const auto& [key, value] : keys) {
+    for (size_t pos; (pos = text.find(key)) != std::string::npos;) text.replace(pos, key.size(), value);
+  }
+  return text;
+}
+
+// Runs `app` on each case (under a 60 s timeout: a hang fails the test instead of
+// blocking it) and checks the exit status, the message and that nothing crashed.
+void ExpectCases(const std::string& app, const std::string& common, const std::vector<Case>& cases,
+                 const std::string& dir) {
+  for (const Case& c : cases) {
+    const std::string command =
+        "timeout 60 " + AppPath(app) + " " + Replaced(common + " " + c.flags, dir);
+    const testing::CommandResult run = RunCommand(command);
+    EXPECT_EQ(run.exit_code, c.exit_code) << command << "\n" << run.output;
+    EXPECT_NE(run.output.find(Replaced(c.message, dir)), std::string::npos)
+        << command << "\n" << run.output;
+    EXPECT_EQ(run.output.find("Check failed"), std::string::npos) << command << "\n" << run.output;
+    EXPECT_EQ(run.output.find("terminate called"), std::string::npos) << command;
+  }
+}
+
+std::string ReadAll(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// ---------------------------------------------------------------------------------
+// Flags gflags itself refuses (unknown, ill-typed, out of the type's range, missing
+// value): exit 1 with gflags' message naming the flag, in every app, before any work.
+
+TEST(AqsValidationTest, EveryAppRefusesUnknownAndIllTypedFlags) {
+  const std::vector<std::string> apps = {
+      "aqs_simulate", "aqs_prepare",  "aqs_pretrain", "aqs_train",       "aqs_pipeline",
+      "aqs_evaluate", "aqs_fit",      "aqs_collide",  "aqs_bench",       "aqs_bench_solve",
+      "aqs_bench_train", "aqs_bench_fit", "aqs_bench_mpi"};
+  const std::vector<Case> cases = {
+      {"--no_such_flag=1", 1, "ERROR: unknown command line flag 'no_such_flag'"},
+      {"--threads=abc", 1, "ERROR: illegal value 'abc' specified for int32 flag 'threads'"},
+      {"--threads=9999999999", 1,
+       "ERROR: illegal value '9999999999' specified for int32 flag 'threads'"},
+      {"--threads=1.5", 1, "ERROR: illegal value '1.5' specified for int32 flag 'threads'"},
+      {"--max_memory_gb=", 1, "ERROR: illegal value '' specified for double flag 'max_memory_gb'"},
+      {"--max_memory_gb=1e400", 1,
+       "ERROR: illegal value '1e400' specified for double flag 'max_memory_gb'"},
+      {"--threads", 1, "ERROR: flag '--threads' is missing its argument"},
+  };
+  for (const std::string& app : apps) ExpectCases(app, "", cases, "");
+}
+
+// ---------------------------------------------------------------------------------
+// aqs_simulate on meshes (no model).
+
+TEST(AqsValidationTest, SimulateRefusesBadFlagsAndInputs) {
+  testing::TempDir dir;
+  const int elements = 7838;  // the finger
+  std::string inverted, tiny;
+  for (int e = 0; e < elements; ++e) {
+    inverted += "-1 -1 -1 0 0 0\n";
+    tiny += "1e-12 1e-12 1e-12 0 0 0\n";
+  }
+  dir.Write("inverted.txt", inverted);
+  dir.Write("tiny.txt", tiny);
+  ASSERT_EQ(::mkfifo(dir.File("fifo.msh").c_str(), 0600), 0);
+  ASSERT_EQ(::symlink("/dev/zero", dir.File("zero.msh").c_str()), 0);
+  dir.Write("oneline.mesh", std::string(3 << 20, '1'));
+  dir.Write("hex.node", "4 3 0 0\n1 0 0 0\n2 0x1 0 0\n3 0 1 0\n4 0 0 1\n");
+  dir.Write("hex.ele", "1 4 0\n1 1 2 3 4\n");
+  const std::string finger = "--mesh={finger}finger.msh --fixed={finger}fixed.txt";
+  ExpectCases("aqs_simulate", "",
+              {
+                  {finger + " --mu=inf --output={dir}x.mesh", 1, "--mu must be finite and > 0 (is inf)"},
+                  {finger + " --threads=0 --output={dir}x.mesh", 1, "--threads must be in [1, 1024]"},
+                  {finger + " --tolerance=inf --output={dir}x.mesh", 1,
+                   "--tolerance must be finite and > 0 (is inf)"},
+                  {finger + " --newton_relative_force=nan --output={dir}x.mesh", 1,
+                   "--newton_relative_force must be finite and >= 0 (is nan)"},
+                  {finger + " --max_iterations=0 --output={dir}x.mesh", 1, "--max_iterations must be >= 1"},
+                  {finger + " --mu=1e308 --output={dir}x.mesh", 1,
+                   "the force scale 2 mean(mu V^(2/3)) of the mesh is inf"},
+                  {finger + " --tolerance=1e-17 --output={dir}x.mesh", 1,
+                   "--tolerance must be >= 1e-13 (is 1e-17)"},
+                  {finger + " --actuation={dir}inverted.txt --output={dir}x.mesh", 1,
+                   "inverted.txt:1: 7838 of 7838 actuations are not positive definite"},
+                  {finger + " --actuation={dir}tiny.txt --output={dir}x.mesh", 1,
+                   "has eigenvalues 1e-12, 1e-12, 1e-12"},
+                  {finger + " --output={dir}x.mesh,{dir}missing/x.vtu", 1,
+                   "{dir}missing/x.vtu: cannot write here: the folder {dir}missing does not exist"},
+                  {"--mesh={dir}fifo.msh --output={dir}x.mesh", 1,
+                   "fifo.msh: is a FIFO (named pipe), not a regular file"},
+                  {"--mesh={dir}zero.msh --output={dir}x.mesh", 1,
+                   "zero.msh: is a character device, not a regular file"},
+                  {"--mesh={dir}oneline.mesh --output={dir}x.mesh", 1,
+                   "oneline.mesh:1: the line is longer than 1048576 bytes"},
+                  {"--mesh={dir}hex.node --output={dir}x.mesh", 1,
+                   "hex.node:3: expected the x coordinate (a finite number) as entry 2, got '0x1'"},
+              },
+              dir.path());
+  // Refused before the work: not even the first output was written.
+  EXPECT_FALSE(fs::exists(dir.File("x.mesh")));
+}
+
+// ---------------------------------------------------------------------------------
+// The apps on a small trained model.
+
+class AqsValidationModelTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new testing::TempDir;
+    const std::string finger = DataPath("examples/finger/");
+    const std::string simulate = AppPath("aqs_simulate") + " --mesh=" + finger +
+                                 "finger.msh --fixed=" + finger + "fixed.txt --threads=1";
+    fs::create_directories(dir_->File("poses"));
+    for (const std::string& command :
+         {simulate + " --output=" + dir_->File("neutral.obj"),
+          simulate + " --actuation=" + finger + "actuation.txt --output=" + dir_->File("poses/bend_x.obj"),
+          simulate + " --actuation=" + finger + "actuation_y.txt --output=" + dir_->File("poses/bend_y.obj"),
+          AppPath("aqs_pipeline") + " --neutral=" + dir_->File("neutral.obj") + " --poses=" +
+              dir_->File("poses") + " --model=" + dir_->File("model") +
+              " --spacing=0.5 --lattice=kuhn --fixed_box=-2,-2,-1,2,2,0.3 --latent_dim=2 "
+              "--hidden=8 --grid_spacing=1.5 --pretrain_iterations=30 --train_iterations=2 "
+              "--stages=prepare,pretrain,train --threads=1"}) {
+      const testing::CommandResult run = RunCommand(command);
+      ASSERT_EQ(run.exit_code, 0) << command << "\n" << run.output;
+    }
+  }
+  static void TearDownTestSuite() {
+    delete dir_;
+    dir_ = nullptr;
+  }
+
+  // A fresh copy of the model (for cases that damage or rewrite it).
+  static std::string CopyOfModel(const testing::TempDir& dir, const std::string& name) {
+    const std::string path = dir.File(name);
+    fs::copy(dir_->File("model"), path, fs::copy_options::recursive);
+    return path;
+  }
+
+  static testing::TempDir* dir_;
+};
+
+testing::TempDir* AqsValidationModelTest::dir_ = nullptr;
+
+TEST_F(AqsValidationModelTest, DamagedModelsAreRefusedNamingTheFile) {
+  testing::TempDir dir;
+  const std::string empty_fixed = CopyOfModel(dir, "empty_fixed");
+  std::ofstream(empty_fixed + "/fixed.txt") << "";
+  const std::string dir_fixed = CopyOfModel(dir, "dir_fixed");
+  fs::remove(dir_fixed + "/fixed.txt");
+  fs::create_directories(dir_fixed + "/fixed.txt");
+  const std::string nan_latents = CopyOfModel(dir, "nan_latents");
+  {
+    std::fstream out(nan_latents + "/learned/latents.bin", std::ios::in | std::ios::out | std::ios::binary);
+    out.seekp(24);
+    const double nan = std::nan("");
+    out.write(reinterpret_cast<const char*>(&nan), sizeof(nan));
+  }
+  // A pose surface far away, a decoder parameter of 1e154, one element 1e15 times stiffer,
+  // a weight that is not barycentric.
+  auto write_double = [](const std::string& path, long offset, double value) {
+    std::fstream out(path, std::ios::in | std::ios::out | std::ios::binary);
+    out.seekp(offset);
+    out.write(reinterpret_cast<const char*>(&value), sizeof(value));
+  };
+  write_double(CopyOfModel(dir, "far_pose") + "/poses/0000.bin", 24 + 8 * 30, 1e300);
+  write_double(CopyOfModel(dir, "stiff") + "/mu.bin", 24 + 8 * 5, 1e15);
+  {
+    const std::string decoder = CopyOfModel(dir, "huge_decoder") + "/learned/decoder.txt";
+    std::string text = ReadAll(decoder);
+    const size_t at = text.rfind('\n', text.size() - 2);  // the last parameter's line
+    text = text.substr(0, at + 1) + "1e154\n";
+    std::ofstream(decoder) << text;
+    const std::string embedding = CopyOfModel(dir, "bad_weight") + "/embedding.txt";
+    std::string lines = ReadAll(embedding);
+    const size_t first = lines.find('\n') + 1;  // after the comment line
+    const size_t space = lines.find(' ', first);
+    lines.replace(space, lines.find(' ', space + 1) - space, " 2147483648");
+    std::ofstream(embedding) << lines;
+  }
+  const std::string pose = " --target=" + dir_->File("poses/bend_x.obj") + " --output={dir}f.obj";
+  ExpectCases("aqs_fit", "",
+              {{"--model={dir}empty_fixed" + pose, 1, "empty_fixed/fixed.txt: lists no fixed vertices"},
+               {"--model={dir}dir_fixed" + pose, 1, "dir_fixed/fixed.txt: is a directory"},
+               {"--model={dir}nan_latents" + pose, 1,
+                "nan_latents/learned/latents.bin: entry (0, 0) of the 2 x 2 matrix is not finite"},
+               {"--model={dir}far_pose" + pose, 1, "far_pose/poses/0000.bin: point 10 ("},
+               {"--model={dir}stiff" + pose, 1, "stiff/mu.bin: the stiffness ranges from 1 to 1000000000000000, a contrast above"},
+               {"--model={dir}huge_decoder" + pose, 1,
+                "huge_decoder/learned/decoder.txt: the decoder maps training pose 'bend_x' to "
+                "actuations with entries up to"},
+               {"--model={dir}bad_weight" + pose, 1,
+                "bad_weight/embedding.txt: surface vertex 0: the weights must be barycentric"}},
+              dir.path());
+  ExpectCases("aqs_simulate", "--pose=bend_x --output={dir}s.obj",
+              {{"--model={dir}empty_fixed", 1, "empty_fixed/fixed.txt: lists no fixed vertices"}},
+              dir.path());
+  ExpectCases("aqs_train", "--train_iterations=3",
+              {{"--model={dir}nan_latents", 1, "nan_latents/learned/latents.bin: entry (0, 0)"}},
+              dir.path());
+  EXPECT_FALSE(fs::exists(dir.File("f.obj")));
+  EXPECT_FALSE(fs::exists(dir.File("s.obj")));
+}
+
+TEST_F(AqsValidationModelTest, FitRefusesBadFlagsTargetsAndOutputs) {
+  testing::TempDir dir;
+  const std::string pose_path = dir_->File("poses/bend_x.obj");
+  SurfaceMesh pose;
+  std::string error;
+  ASSERT_TRUE(ReadObj(pose_path, &pose, &error)) << error;
+  // Coordinates of about 1e154: their squares overflow.
+  SurfaceMesh huge = pose;
+  huge.vertices.row(0) *= 1e154;
+  ASSERT_TRUE(WriteObj(dir.File("huge.obj"), huge, &error)) << error;
+  // One vertex too many (the last one repeated; the faces are the neutral's).
+  SurfaceMesh extra = pose;
+  extra.vertices.conservativeResize(3, pose.num_vertices() + 1);
+  extra.vertices.col(pose.num_vertices()) = pose.vertices.col(0);
+  ASSERT_TRUE(WriteObj(dir.File("extra.obj"), extra, &error)) << error;
+  // One vertex too few: the last one dropped, with the faces that use it.
+  {
+    std::istringstream in(ReadAll(pose_path));
+    const std::string last = std::to_string(pose.num_vertices());
+    std::string text, line;
+    int vertices = 0;
+    while (std::getline(in, line)) {
+      if (line.rfind("v ", 0) == 0 && ++vertices == pose.num_vertices()) continue;
+      if (line.rfind("f ", 0) == 0) {
+        std::istringstream face(line.substr(2));
+        bool uses_last = false;
+        for (std::string corner; face >> corner;) {
+          uses_last |= corner.substr(0, corner.find('/')) == last;
+        }
+        if (uses_last) continue;
+      }
+      text += line + "\n";
+    }
+    dir.Write("fewer.obj", text);
+  }
+  // A scan whose PLY header counts fewer points than it holds.
+  std::string ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                    "property float z\nend_header\n0 0 1\n0 0 2\n0 0 3\n0 0 4\n";
+  dir.Write("extra.ply", ply);
+  const std::string common = "--model=" + dir_->File("model") + " --output={dir}f.obj";
+  const std::string target = " --target=" + pose_path;
+  ExpectCases("aqs_fit", common,
+              {
+                  {target + " --fit_regularization=nan", 1, "--fit_regularization must be in [0, 1e+06] (is nan)"},
+                  {target + " --fit_regularization=-1", 1, "--fit_regularization must be in [0, 1e+06] (is -1)"},
+                  {target + " --max_distance=-1", 1, "--max_distance must be >= 0"},
+                  {target + " --max_distance=nan", 1, "--max_distance must be >= 0"},
+                  {target + " --rounds=0", 1, "--rounds must be in [1, 10000] (is 0)"},
+                  {target + " --rounds=-1", 1, "--rounds must be in [1, 10000] (is -1)"},
+                  {target + " --fit_tolerance=0", 1, "--fit_tolerance must be finite and > 0 (is 0)"},
+                  {target + " --fit_tolerance=nan", 1, "--fit_tolerance must be finite and > 0 (is nan)"},
+                  {target + " --threads=0", 1, "--threads must be in [1, 1024] (is 0)"},
+                  {target + " --target_kind=scan", 1, "--target_kind must be auto, pose, markers or points"},
+                  {target + " --latent_output={dir}missing/z.txt", 1,
+                   "{dir}missing/z.txt: cannot write here: the folder {dir}missing does not exist"},
+                  {" --target={dir}huge.obj", 1,
+                   "huge.obj: point 0 (2.774e+154 -0.003239 4.143) is 2.774e+154 from the model, more than 1000 times"},
+                  {" --target={dir}extra.obj", 1,
+                   "extra.obj: a surface with 1099 vertices, but the model's surface has 1098"},
+                  {" --target={dir}extra.obj", 1, "pass --target_kind=points"},
+                  {" --target={dir}fewer.obj", 1,
+                   "fewer.obj: a surface with 1097 vertices, but the model's surface has 1098"},
+                  {" --target={dir}extra.ply", 1, "extra.ply:11: data after the last of the header's elements"},
+              },
+              dir.path());
+  // Refused before the work: the surface was not written either.
+  EXPECT_FALSE(fs::exists(dir.File("f.obj")));
+  // As a point cloud, on request, the surface with a vertex too many is fitted.
+  ExpectCases("aqs_fit", common, {{" --target={dir}extra.obj --target_kind=points", 0, "wrote "}},
+              dir.path());
+  EXPECT_TRUE(fs::exists(dir.File("f.obj")));
+}
+
+TEST_F(AqsValidationModelTest, ExitTwoStillWritesTheOutputs) {
+  testing::TempDir dir;
+  // One factorization from rest cannot reach 1e-12: exit 2, and the surface is written.
+  ExpectCases("aqs_simulate",
+              "--model=" + dir_->File("model") + " --pose=bend_x --from_rest --max_iterations=1 "
+              "--tolerance=1e-12 --output={dir}s.obj,{dir}s.vtu",
+              {{"", 2, "the equilibrium was not reached"}}, dir.path());
+  SurfaceMesh surface;
+  std::string error;
+  ASSERT_TRUE(ReadObj(dir.File("s.obj"), &surface, &error)) << error;
+  EXPECT_TRUE(surface.vertices.allFinite());
+  EXPECT_NE(ReadAll(dir.File("s.vtu")).find("displacement"), std::string::npos);
+}
+
+TEST_F(AqsValidationModelTest, LearningAppsRefuseBadFlags) {
+  testing::TempDir dir;
+  const std::string model = CopyOfModel(dir, "m");
+  const std::string before = ReadAll(model + "/learned/decoder.txt");
+  ExpectCases("aqs_pretrain", "--model={dir}m",
+              {
+                  {"--latent_dim=2147483647", 1, "--latent_dim must be in [1, 65536] (is 2147483647)"},
+                  {"--hidden=100000,100000", 1, "--hidden: the decoder would have 1e+10 parameters"},
+                  {"--hidden=1000000", 1, "--max_memory_gb (8 GB) is below the estimated"},
+                  {"--hidden=1000000", 1, "that pre-training needs"},
+                  {"--grid_spacing=1e-9", 1, "--grid_spacing 1e-09 gives the control grid a spacing"},
+                  {"--grid_spacing_factor=0", 1, "--grid_spacing_factor must be finite and > 0 (is 0)"},
+                  {"--grid_spacing_factor=-1", 1, "--grid_spacing_factor must be finite and > 0 (is -1)"},
+                  {"--grid_spacing_factor=1e-6", 1, "--grid_spacing_factor 1e-06 gives the control grid"},
+                  {"--output_scale=0", 1, "--output_scale must be finite and > 0 (is 0)"},
+                  {"--output_scale=nan", 1, "--output_scale must be finite and > 0 (is nan)"},
+                  {"--output_scale=-1", 1, "--output_scale must be finite and > 0 (is -1)"},
+                  {"--latent_regularization=-1", 1, "--latent_regularization must be in [0, 1e+06] (is -1)"},
+                  {"--train_tolerance=0", 1, "--train_tolerance must be finite and > 0"},
+                  {"--output_scale=1e308", 1,
+                   "the pre-training loss is not finite at the start (inf): the decoder's output "
+                   "scale (--output_scale) or the latent regularization (--latent_regularization) "
+                   "is far too large?"},
+              },
+              dir.path());
+  ExpectCases("aqs_train", "--model={dir}m --train_iterations=3",
+              {
+                  {"--latent_regularization=-1", 1, "--latent_regularization must be in [0, 1e+06] (is -1)"},
+                  {"--latent_regularization=1e308", 1, "--latent_regularization must be in [0, 1e+06] (is 1e+308)"},
+                  {"--train_tolerance=1e-17", 1,
+                   "--train_tolerance must be >= 1e-13 (is 1e-17): below, the force test meets round-off"},
+                  {"--latent_dim=5", 1, "--latent_dim=5 was asked for, but the model's decoder has latent_dim=2"},
+                  {"--hidden=8,8", 1, "--hidden=8,8 was asked for, but the model's decoder has hidden_dims=8"},
+                  {"--activation=tanh", 1, "--activation=tanh was asked for"},
+                  {"--train_restarts=-1", 1, "--train_restarts must be >= 0"},
+                  {"--checkpoint_every=0", 1, "--checkpoint_every must be >= 1"},
+              },
+              dir.path());
+  EXPECT_EQ(ReadAll(model + "/learned/decoder.txt"), before) << "the model was not touched";
+  // The model's own architecture, given explicitly, trains.
+  ExpectCases("aqs_train", "--model={dir}m --train_iterations=3",
+              {{"--latent_dim=2 --hidden=8 --activation=elu", 0, "train: 3 iterations"}}, dir.path());
+}
+
+TEST_F(AqsValidationModelTest, PrepareAndCollideRefuseBadFlags) {
+  testing::TempDir dir;
+  const std::string prepare = "--neutral=" + dir_->File("neutral.obj") + " --poses=" +
+                              dir_->File("poses") + " --model={dir}p --fixed_box=-2,-2,-1,2,2,0.3";
+  ExpectCases("aqs_prepare", prepare,
+              {
+                  {"--spacing=0.5 --attachment_stiffness=0", 1, "--attachment_stiffness must be finite and > 0 (is 0)"},
+                  {"--spacing=0.5 --attachment_stiffness=-1", 1, "--attachment_stiffness must be finite and > 0 (is -1)"},
+                  {"--spacing=0.5 --attachment_stiffness=nan", 1, "--attachment_stiffness must be finite and > 0 (is nan)"},
+                  {"--spacing=0.5 --prepare_tolerance=nan", 1, "--prepare_tolerance must be finite and > 0"},
+                  {"--spacing=-1", 1, "--spacing must be finite and > 0 (is -1)"},
+                  {"--spacing=0.005", 1, "--max_memory_gb (8 GB) is below the estimated 636 GB that meshing the neutral needs (a lattice of 2.54e+09 elements"},
+                  {"--spacing=0.2 --max_memory_gb=0.001", 1, "--max_memory_gb (1 MB) is below the estimated"},
+                  {"--spacing=0.5 --bone_mesh=" + dir_->File("neutral.obj") +
+                       " --bone_poses={dir}missing/{pose}.obj --bone_region=-2,-2,-1,2,2,0.3",
+                   1, "its pose surfaces (the pattern '{dir}missing/{pose}.obj') exist for none of the 2 poses"},
+                  {"--spacing=0.5 --bone_mesh=" + dir_->File("neutral.obj") +
+                       " --bone_poses={dir}teeth.obj --bone_region=-2,-2,-1,2,2,0.3",
+                   1, "--bone_poses must contain '{pose}'"},
+                  {"--spacing=0.5 --threads=0", 1, "--threads must be in [1, 1024] (is 0)"},
+              },
+              dir.path());
+  EXPECT_FALSE(fs::exists(dir.File("p"))) << "nothing written";
+  ExpectCases("aqs_collide", "--model=" + dir_->File("model") + " --pose=bend_x --output={dir}c.obj",
+              {
+                  {"--path_steps=100000", 1, "--path_steps must be in [0, 256] (is 100000)"},
+                  {"--contact_rounds=1000", 1, "--contact_rounds must be in [1, 64] (is 1000)"},
+                  {"--thickness=nan", 1, "--thickness must be finite and > 0 (is nan)"},
+                  {"--contact_tolerance=0", 1, "--contact_tolerance must be finite and > 0"},
+                  {"--report={dir}missing/r.txt", 1, "{dir}missing/r.txt: cannot write here"},
+                  {"--search_radius=1e308", 1,
+                   "--search_radius (1e+308) is more than 1000 times the model's size"},
+              },
+              dir.path());
+  EXPECT_FALSE(fs::exists(dir.File("c.obj")));
+}
+
+}  // namespace
+}  // namespace aqs
