@@ -14,12 +14,12 @@
 #include "geometry/triangle_distance.h"
 #include "contact/contact_terms.h"
 #include "geometry/embedding.h"
-#include "geometry/geometry_test_util.h"
 #include "geometry/surface_tet_mesher.h"
 #include "mesh/boundary_surface.h"
 #include "mesh/lattice.h"
 #include "sparse/stiffness_pattern.h"
 #include "testing/finite_difference.h"
+#include "testing/test_surfaces.h"
 
 namespace aqs {
 namespace {
