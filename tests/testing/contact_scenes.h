@@ -1,0 +1,58 @@
+// The scenes of the contact tests (tests/contact/): obstacles, block models, and two
+// soft balls pressed together.
+
+#ifndef AQS_TESTING_CONTACT_SCENES_H_
+#define AQS_TESTING_CONTACT_SCENES_H_
+
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "contact/contact_solver.h"
+#include "contact/surface_stencils.h"
+#include "geometry/rigid_transform.h"
+#include "mesh/tet_mesh.h"
+#include "model/active_model.h"
+
+namespace aqs {
+namespace testing {
+
+// A point stencil over vertices first .. first + 3 with weights w and a fixed offset.
+PointStencil Stencil(int first, const Eigen::Vector4d& w);
+
+// An axis-aligned box surface (closed, outward), as an obstacle.
+void BoxSurface(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, Eigen::Matrix3Xd* v,
+                Eigen::Matrix3Xi* t);
+
+// A model of lattice blocks with the given boundary conditions, its surface the mesh
+// boundary (no training data: only what ContactSolver needs).
+ActiveModel BlockModel(const TetMesh& mesh, const std::vector<int>& fixed);
+
+// The equilibrium of a one-bone model at rest actuation with the bone moved by `push`
+// (3 x num_vertices), without contact; false if it does not converge.
+bool ContactFreeEquilibrium(const ActiveModel& model, const RigidTransform& push,
+                            Eigen::Matrix3Xd* positions);
+
+// Two soft balls, each a lattice under a smooth embedded sphere (as faces are modelled),
+// in one model whose surface is both spheres (radius 0.5, centres 1.1 apart): the left
+// ball held at its far side, the right one driven by its far side (bone "driver").
+ActiveModel TwoBallsModel(int* surface_vertices_per_ball);
+
+// Contact options of the two-balls tests: thickness 0.01, search radius 0.1.
+ContactOptions BallsContactOptions(double max_depth);
+
+// Along the centre line of TwoBallsModel at `state`: the right ball's leftmost surface
+// point minus the left ball's rightmost one (negative: they overlap).
+double BallsGap(const ActiveModel& model, int surface_vertices_per_ball,
+                const Eigen::Matrix3Xd& state);
+
+// The right ball of TwoBallsModel pushed `distance` towards the left one (its bone's
+// motion into *push) and the contact-free equilibrium there (*free); false if that does
+// not converge.
+bool PushBalls(const ActiveModel& model, double distance, RigidTransform* push,
+               Eigen::Matrix3Xd* free);
+
+}  // namespace testing
+}  // namespace aqs
+
+#endif  // AQS_TESTING_CONTACT_SCENES_H_
