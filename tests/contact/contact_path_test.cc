@@ -28,7 +28,7 @@ using testing::BlockModel;
 using testing::BoxSurface;
 using testing::ContactFreeEquilibrium;
 using testing::PushBalls;
-using testing::TwoBallsModel;
+using testing::PushedBalls;
 
 TEST(ContactSolverTest, BlockPushedIntoASlabStopsAtItsSurface) {
   LatticeOptions lattice;
@@ -87,11 +87,9 @@ TEST(ContactSolverTest, BlockPushedIntoASlabStopsAtItsSurface) {
 TEST(ContactSolverTest, TwoSpheresPressedTogetherFlattenWithoutIntersecting) {
   // The right ball pushed 0.3 towards the left one (0.1 gap: 0.2 of overlap without
   // contact).
-  int ns = 0;
-  const ActiveModel model = TwoBallsModel(&ns);
-  RigidTransform push;
-  Eigen::Matrix3Xd free;
-  ASSERT_TRUE(PushBalls(model, 0.3, &push, &free));
+  PushedBalls balls;
+  ASSERT_TRUE(PushBalls(0.3, &balls));
+  const ActiveModel& model = balls.model;
   ContactOptions options = BallsContactOptions(0.4);
   for (int path_steps : {0, 8}) {
     options.path_steps = path_steps;
@@ -99,8 +97,8 @@ TEST(ContactSolverTest, TwoSpheresPressedTogetherFlattenWithoutIntersecting) {
     Eigen::Matrix3Xd state;
     ContactReport report;
     std::string error;
-    ASSERT_TRUE(solver.Resolve(IdentityActuations(model.mesh.num_tets()), {push}, {},
-                               free, &state, &report, &error))
+    ASSERT_TRUE(solver.Resolve(IdentityActuations(model.mesh.num_tets()), {balls.push}, {},
+                               balls.free, &state, &report, &error))
         << error;
     EXPECT_GT(report.before.self_intersections.all, 50) << report.Summary();
     EXPECT_EQ(report.after.self_intersections.all, 0) << report.Summary();
@@ -109,7 +107,7 @@ TEST(ContactSolverTest, TwoSpheresPressedTogetherFlattenWithoutIntersecting) {
     EXPECT_EQ(report.path_steps, path_steps) << report.Summary();
     // The spheres meet flattened: along the centre line, the right sphere's leftmost
     // point is within the thickness of the left sphere's rightmost one, not behind it.
-    const double gap = BallsGap(model, ns, state);
+    const double gap = BallsGap(balls, state);
     EXPECT_GE(gap, -0.01) << report.Summary();
     EXPECT_LE(gap, 3 * options.thickness) << report.Summary();
     // The far sides stay where they were held.
@@ -121,11 +119,9 @@ TEST(ContactSolverTest, SpheresPushedThroughEachOtherAreSeparatedAlongThePath) {
   // The right ball pushed 0.45 towards the left one: without contact its front passes
   // 0.35 through the left ball, deeper than max_depth (0.25), so rounds that start there
   // cannot tell the sides; the path from rest catches the contact as it begins.
-  int ns = 0;
-  const ActiveModel model = TwoBallsModel(&ns);
-  RigidTransform push;
-  Eigen::Matrix3Xd free;
-  ASSERT_TRUE(PushBalls(model, 0.45, &push, &free));
+  PushedBalls balls;
+  ASSERT_TRUE(PushBalls(0.45, &balls));
+  const ActiveModel& model = balls.model;
   ContactOptions options = BallsContactOptions(0.25);
   options.path_steps = 0;
   // (Point-triangle pairs only: edge-edge pairs keep the sides of rest without a path
@@ -135,21 +131,21 @@ TEST(ContactSolverTest, SpheresPushedThroughEachOtherAreSeparatedAlongThePath) {
   Eigen::Matrix3Xd state;
   std::string error;
   ASSERT_TRUE(ContactSolver(model, options)
-                  .Resolve(IdentityActuations(model.mesh.num_tets()), {push}, {}, free,
+                  .Resolve(IdentityActuations(model.mesh.num_tets()), {balls.push}, {}, balls.free,
                            &state, &direct, &error))
       << error;
   EXPECT_GT(direct.after.self_intersections.all, 20) << direct.Summary();
   options.path_steps = 8;
   options.edge_contact = true;
   ASSERT_TRUE(ContactSolver(model, options)
-                  .Resolve(IdentityActuations(model.mesh.num_tets()), {push}, {}, free,
+                  .Resolve(IdentityActuations(model.mesh.num_tets()), {balls.push}, {}, balls.free,
                            &state, &path, &error))
       << error;
   EXPECT_GT(path.before.self_intersections.all, 100) << path.Summary();
   EXPECT_EQ(path.after.self_intersections.all, 0) << path.Summary();
   EXPECT_TRUE(path.converged) << path.Summary();
   EXPECT_GE(path.path_steps, 8);
-  const double gap = BallsGap(model, ns, state);
+  const double gap = BallsGap(balls, state);
   EXPECT_GE(gap, -0.01) << path.Summary();
   EXPECT_LE(gap, 3 * options.thickness) << path.Summary();
 }

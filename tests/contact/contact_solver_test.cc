@@ -17,7 +17,7 @@ namespace {
 
 using testing::BallsContactOptions;
 using testing::PushBalls;
-using testing::TwoBallsModel;
+using testing::PushedBalls;
 
 TEST(ContactSolverTest, NewtonStepsOnTheContactStiffnessReachTheTolerance) {
   // The two balls pressed together (as above), with the self-contact pairs detected at
@@ -27,15 +27,13 @@ TEST(ContactSolverTest, NewtonStepsOnTheContactStiffnessReachTheTolerance) {
   // (their couplings in the pattern) and with Levenberg-Marquardt only. (Pairs switching
   // on and off make the first Newton steps short; once the active set settles, Newton
   // converges quadratically: 9e-6 -> 1e-10 in one step here.)
-  int ns = 0;
-  const ActiveModel model = TwoBallsModel(&ns);
-  RigidTransform push;
-  Eigen::Matrix3Xd free;
-  ASSERT_TRUE(PushBalls(model, 0.3, &push, &free));
+  PushedBalls balls;
+  ASSERT_TRUE(PushBalls(0.3, &balls));
+  const ActiveModel& model = balls.model;
   const ContactOptions options = BallsContactOptions(0.4);
   const ContactSolver contact(model, options);
   std::vector<SelfContactPair> pairs =
-      contact.DetectSelfContacts(EmbeddedPositions(model.embedding, model.mesh.tets, free));
+      contact.DetectSelfContacts(EmbeddedPositions(model.embedding, model.mesh.tets, balls.free));
   ASSERT_GT(pairs.size(), 20u);
   for (SelfContactPair& pair : pairs) pair.offset = 3 * options.thickness;
   const SelfContactTerm term(pairs, options.thickness, std::numeric_limits<double>::infinity(),
@@ -50,9 +48,9 @@ TEST(ContactSolverTest, NewtonStepsOnTheContactStiffnessReachTheTolerance) {
       solver_options.method = EquilibriumMethod::kLevenbergMarquardt;
       solver_options.newton_relative_force = 0.0;
     }
-    QuasistaticSolver solver(physics, ModelBoundaryConditions(model, {push}), solver_options);
+    QuasistaticSolver solver(physics, ModelBoundaryConditions(model, {balls.push}), solver_options);
     solver.AddEnergyTerm(&term);
-    solver.SetPositions(free);
+    solver.SetPositions(balls.free);
     reports[newton] = solver.Solve();
     results[newton] = solver.positions();
   }

@@ -101,17 +101,17 @@ ContactOptions BallsContactOptions(double max_depth) {
   return options;
 }
 
-double BallsGap(const ActiveModel& model, int surface_vertices_per_ball,
-                const Eigen::Matrix3Xd& state) {
-  const int ns = surface_vertices_per_ball;
-  const Eigen::Matrix3Xd surface = EmbeddedPositions(model.embedding, model.mesh.tets, state);
+double BallsGap(const PushedBalls& balls, const Eigen::Matrix3Xd& state) {
+  const int ns = balls.surface_vertices_per_ball;
+  const Eigen::Matrix3Xd surface =
+      EmbeddedPositions(balls.model.embedding, balls.model.mesh.tets, state);
   return surface.rightCols(ns).row(0).minCoeff() - surface.leftCols(ns).row(0).maxCoeff();
 }
 
-bool PushBalls(const ActiveModel& model, double distance, RigidTransform* push,
-               Eigen::Matrix3Xd* free) {
-  push->translation = Eigen::Vector3d(-distance, 0, 0);
-  return ContactFreeEquilibrium(model, *push, free);
+bool PushBalls(double distance, PushedBalls* balls) {
+  balls->model = TwoBallsModel(&balls->surface_vertices_per_ball);
+  balls->push.translation = Eigen::Vector3d(-distance, 0, 0);
+  return ContactFreeEquilibrium(balls->model, balls->push, &balls->free);
 }
 
 }  // namespace testing

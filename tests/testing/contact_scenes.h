@@ -41,16 +41,23 @@ ActiveModel TwoBallsModel(int* surface_vertices_per_ball);
 // Contact options of the two-balls tests: thickness 0.01, search radius 0.1.
 ContactOptions BallsContactOptions(double max_depth);
 
-// Along the centre line of TwoBallsModel at `state`: the right ball's leftmost surface
-// point minus the left ball's rightmost one (negative: they overlap).
-double BallsGap(const ActiveModel& model, int surface_vertices_per_ball,
-                const Eigen::Matrix3Xd& state);
+// The two balls (TwoBallsModel) with the right one pushed towards the left one: the
+// model, its surface vertices per ball, the driver bone's motion and the contact-free
+// equilibrium there (3 x num_vertices).
+struct PushedBalls {
+  ActiveModel model;
+  int surface_vertices_per_ball = 0;
+  RigidTransform push;
+  Eigen::Matrix3Xd free;
+};
 
-// The right ball of TwoBallsModel pushed `distance` towards the left one (its bone's
-// motion into *push) and the contact-free equilibrium there (*free); false if that does
-// not converge.
-bool PushBalls(const ActiveModel& model, double distance, RigidTransform* push,
-               Eigen::Matrix3Xd* free);
+// The right ball pushed `distance` towards the left one, into *balls; false if the
+// contact-free equilibrium does not converge.
+bool PushBalls(double distance, PushedBalls* balls);
+
+// Along the centre line of the balls at `state` (3 x num_vertices): the right ball's
+// leftmost surface point minus the left ball's rightmost one (negative: they overlap).
+double BallsGap(const PushedBalls& balls, const Eigen::Matrix3Xd& state);
 
 }  // namespace testing
 }  // namespace aqs
