@@ -7,8 +7,11 @@
 
 #include <Eigen/Core>
 
-#include "contact/contact_terms.h"
+#include "contact/contact_report.h"
 #include "contact/obstacle.h"
+#include "contact/obstacle_contact_term.h"
+#include "contact/self_contact_pair.h"
+#include "contact/self_contact_term.h"
 #include "equilibrium/quasistatic_solver.h"
 #include "model/active_model.h"
 
@@ -106,57 +109,20 @@ struct ContactOptions {
 constexpr int kMaxPathSteps = 256;
 constexpr int kMaxContactRounds = 64;
 
-// Intersecting triangle pairs of a surface with itself (ContactSolver's contact
-// triangles), by how they relate to the rest surface.
-struct SelfIntersectionCounts {
-  int all = 0;
-  int new_pairs = 0;  // not intersecting at rest
-  int separated = 0;  // new, and the triangles farther apart at rest than rest_tolerance
-  int clean = 0;      // new, and neither triangle intersects any triangle at rest
-};
-
-struct ContactReport {
-  // Into obstacles: the deepest surface point (0 if none) and how many points are inside.
-  double max_penetration_before = 0.0, max_penetration_after = 0.0;
-  int penetrating_points_before = 0, penetrating_points_after = 0;
-  // Intersecting triangle pairs: of the surface with itself, and with the obstacles.
-  int self_intersections_before = 0, self_intersections_after = 0;
-  int obstacle_intersections_before = 0, obstacle_intersections_after = 0;
-  // How far the resolution moved the surface: all vertices, and those farther than
-  // far_distance from every point that was in contact in any round (the rest of the
-  // surface).
-  double mean_displacement = 0.0, max_displacement = 0.0;
-  // Self-intersecting pairs of the neutral (rest) surface, for reference: data such as
-  // the ICT face already intersect at the mouth corners, which contact cannot undo (it
-  // keeps points on the side they had at rest).
-  int self_intersections_rest = 0;
-  // Self-intersecting pairs that do not intersect at rest (what contact can undo).
-  int new_self_intersections_before = 0, new_self_intersections_after = 0;
-  // Of those, the pairs whose triangles were apart at rest by more than rest_tolerance
-  // (the rest, touching at rest, such as the ICT lips at the mouth corners, have no
-  // well-defined side).
-  int separated_self_intersections_before = 0, separated_self_intersections_after = 0;
-  // Of the new pairs, those whose two triangles intersect nothing at rest (the rest,
-  // such as the ICT lips' commissure, already pass through the surface at rest, so
-  // contact has no side to keep for them).
-  int clean_self_intersections_before = 0, clean_self_intersections_after = 0;
-  double far_distance = 0.0, max_far_displacement = 0.0;
-  int rounds = 0;        // detection/solve rounds, over all path steps
-  int path_steps = 0;    // accepted path steps (0: no path)
-  int path_halvings = 0;  // steps halved because they added intersections
-  int obstacle_contacts = 0, self_contacts = 0;  // active at the end
-  bool converged = true;
-  std::vector<std::string> round_summaries;  // each round's candidates and solve
-  std::string Summary() const;
-  // 'name value' lines (after a '#' comment with the summary and one per round), for
-  // scripts: max_penetration_before, ..., converged (0/1).
-  std::string ToText() const;
+// Obstacle-contact candidates (ContactSolver::DetectObstacleContacts): the surface
+// points near obstacles, with their stencils, stiffness and surface vertices.
+struct ObstacleCandidates {
+  std::vector<PointStencil> points;
+  std::vector<double> stiffness;
+  std::vector<int> surface_vertices;
 };
 
 // Contact as post-processing: re-solves a model's equilibrium for a given actuation
 // with penalty terms keeping its surface out of rigid obstacles (ObstacleContactTerm) and
 // out of itself (SelfContactTerm), in rounds that re-detect candidates (obstacle trees;
-// a grid over the surface's triangles) as the surface moves.
+// a grid over the surface's triangles) as the surface moves. Its sources: the rest
+// data (contact_solver.cc), the candidates (contact_candidates.cc), the path from rest
+// and its rounds (contact_path.cc), the report's measurements (contact_report.cc).
 class ContactSolver {
  public:
   // The model must outlive the solver.
@@ -168,18 +134,22 @@ class ContactSolver {
   // placed by the bones, and what changed, into *report. `start` (3 x num_vertices) is
   // the contact-free equilibrium for a and bones: the reference of the report, and the
   // start of the rounds when options.path_steps is 0 (otherwise the path starts at
-  // rest). Returns false with *error if an equilibrium cannot be reached.
+  // rest). Returns false with *error if an equilibrium cannot be reached. Each call is
+  // independent of the others (the augmented-Lagrangian offsets are its own).
   bool Resolve(const ActuationMatrix& a, const std::vector<RigidTransform>& bones,
                const std::vector<MovingObstacle>& obstacles, const Eigen::Matrix3Xd& start,
-               Eigen::Matrix3Xd* state, ContactReport* report, std::string* error);
+               Eigen::Matrix3Xd* state, ContactReport* report, std::string* error) const;
 
-  // Measurements used by the report, exposed for tests: the deepest penetration of the
-  // surface (at state x) into the obstacles and the count of points inside; the
-  // intersecting triangle pairs of the surface with itself and with the obstacles.
+  // The report's measurements of a surface state (3 x num_surface_vertices) with placed
+  // obstacles: MeasurePenetration, CountSelfIntersections, CountObstacleIntersections.
+  ContactMeasurement Measure(const Eigen::Matrix3Xd& surface,
+                             const std::vector<const Obstacle*>& obstacles) const;
+  // The deepest penetration of the surface into the obstacles and the count of points
+  // inside; the intersecting triangle pairs of the surface with itself and with the
+  // obstacles (CountSelfIntersections classifies them as SelfIntersectionCounts says).
   void MeasurePenetration(const Eigen::Matrix3Xd& surface,
                           const std::vector<const Obstacle*>& obstacles, double* max_depth,
                           int* points) const;
-  // CountSelfIntersections classifies the pairs as SelfIntersectionCounts says.
   SelfIntersectionCounts CountSelfIntersections(const Eigen::Matrix3Xd& surface) const;
   int CountObstacleIntersections(const Eigen::Matrix3Xd& surface,
                                  const std::vector<const Obstacle*>& obstacles) const;
@@ -189,7 +159,13 @@ class ContactSolver {
   // triangles takes part in (0 where the surface is clean), for viewing.
   std::vector<double> NewIntersectionField(const Eigen::Matrix3Xd& surface) const;
 
-  // Self-contact candidates at a surface state (3 x num_surface_vertices).
+  // Candidates at a surface state (3 x num_surface_vertices). Obstacle contact: the
+  // contact points closer than thickness + search_radius to an obstacle (none without
+  // options.obstacle_contact).
+  ObstacleCandidates DetectObstacleContacts(const Eigen::Matrix3Xd& surface,
+                                            const std::vector<const Obstacle*>& obstacles) const;
+  // Self contact: point-triangle pairs, each point with its nearest eligible triangle
+  // (ContactOptions says which).
   std::vector<SelfContactPair> DetectSelfContacts(const Eigen::Matrix3Xd& surface) const;
   // Edge-edge candidates at a surface state, each keeping the side the surface normals
   // give at `reference` (a surface state without the crossings to prevent; both
@@ -200,25 +176,33 @@ class ContactSolver {
   // The edges of the contact triangles (2 x num_edges, surface vertices, first < second).
   const Eigen::Matrix2Xi& edges() const { return edges_; }
 
-
  private:
-  // Detection/solve rounds for one actuation and placement from *x (3 x num_vertices),
-  // with edge-edge pairs keeping their sides at the surface state `reference`,
-  // until the surface has no more new self-intersecting pairs apart at rest than
-  // allowed_self, no more
-  // pairs crossing obstacles than allowed_obstacle and no point inside an obstacle, or
-  // max_rounds, each solved to relative_force_tolerance. *x receives the result; *touched marks the surface vertices that were in
-  // contact; *self_intersections and *obstacle_intersections receive the new
-  // self-intersecting pairs apart at rest and the pairs crossing obstacles at *x; the rounds' lines are
-  // appended to report->round_summaries (with `label`),
-  // and report->rounds, converged, obstacle_contacts and self_contacts are updated.
+  // What one path step of a Resolve hands to the next: the positions x
+  // (3 x num_vertices); per surface vertex, whether it was in contact in any round;
+  // the augmented-Lagrangian offsets (SelfContactPair::offset) of point-triangle pairs,
+  // per surface vertex, and of edge-edge pairs, per edge; the new self-intersecting
+  // pairs apart at rest and the pairs crossing obstacles at x.
+  struct PathState {
+    Eigen::Matrix3Xd x;
+    std::vector<char> touched;
+    std::vector<double> vertex_offsets, edge_offsets;
+    int self_intersections = 0;
+    int obstacle_intersections = 0;
+  };
+
+  // Detection/solve rounds for one actuation and placement from state->x, with
+  // edge-edge pairs keeping their sides at the surface state `reference`, until the
+  // surface has no more new self-intersecting pairs apart at rest than allowed_self, no
+  // more pairs crossing obstacles than allowed_obstacle and no point inside an obstacle,
+  // or max_rounds, each solved to relative_force_tolerance. Updates *state (positions,
+  // contacts, offsets, intersections at the result); the rounds' lines are appended to
+  // report->round_summaries (with `label`), and report->rounds, converged,
+  // obstacle_contacts and self_contacts are updated.
   bool SolveRounds(const ActuationMatrix& a, const std::vector<RigidTransform>& bones,
                    const std::vector<const Obstacle*>& obstacles, int allowed_self,
                    int allowed_obstacle, double relative_force_tolerance,
                    const Eigen::Matrix3Xd& reference, const std::string& label,
-                   Eigen::Matrix3Xd* x, std::vector<char>* touched,
-                   int* self_intersections, int* obstacle_intersections,
-                   ContactReport* report, std::string* error);
+                   PathState* state, ContactReport* report, std::string* error) const;
 
   const ActiveModel& model_;
   ContactOptions options_;
@@ -231,12 +215,8 @@ class ContactSolver {
   std::vector<std::vector<int>> rings_;
   std::vector<char> in_contact_;           // per surface vertex: takes part in contact
   Eigen::Matrix3Xi contact_triangles_;     // triangles with all corners taking part
-  // Per surface vertex: the augmented-Lagrangian offset of its self-contact pair
-  // (SelfContactPair::offset), carried across rounds and path steps of one Resolve.
-  std::vector<double> self_offsets_;
   Eigen::Matrix2Xi edges_;          // edges of contact_triangles_
   Eigen::Matrix3Xd edge_normals_;   // per edge: the mean rest normal of its ends
-  std::vector<double> edge_offsets_;  // per edge, as self_offsets_
   std::vector<std::pair<int, int>> rest_intersections_;  // sorted pairs of contact_triangles_
   std::vector<char> intersects_at_rest_;  // per contact triangle: in rest_intersections_
 };

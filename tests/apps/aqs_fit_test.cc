@@ -9,11 +9,11 @@
 
 #include <gtest/gtest.h>
 
-#include "apps/run_command.h"
 #include "io/latent_io.h"
 #include "mesh/mesh_io.h"
+#include "testing/run_command.h"
+#include "testing/synthetic_muscles.h"
 #include "testing/temp_dir.h"
-#include "train/synthetic_muscles.h"
 
 namespace aqs {
 namespace {

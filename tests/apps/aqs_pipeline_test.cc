@@ -6,11 +6,11 @@
 
 #include <gtest/gtest.h>
 
-#include "apps/run_command.h"
 #include "mesh/mesh_io.h"
 #include "model/model_io.h"
+#include "testing/run_command.h"
+#include "testing/synthetic_muscles.h"
 #include "testing/temp_dir.h"
-#include "train/synthetic_muscles.h"
 
 namespace aqs {
 namespace {

@@ -7,11 +7,12 @@
 
 #include <gtest/gtest.h>
 
-#include "apps/run_command.h"
 #include "io/actuation_io.h"
 #include "io/vertex_list_io.h"
 #include "mesh/mesh_io.h"
 #include "physics/shape_target_model.h"
+#include "testing/run_command.h"
+#include "testing/source_data.h"
 #include "testing/temp_dir.h"
 
 namespace aqs {

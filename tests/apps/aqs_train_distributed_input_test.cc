@@ -8,12 +8,12 @@
 
 #include <gtest/gtest.h>
 
-#include "apps/run_command.h"
 #include "model/model_io.h"
 #include "prepare/volumetric_targets.h"
+#include "testing/run_command.h"
+#include "testing/synthetic_muscles.h"
 #include "testing/temp_dir.h"
 #include "train/pretrain.h"
-#include "train/synthetic_muscles.h"
 
 namespace aqs {
 namespace {

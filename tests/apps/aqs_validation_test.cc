@@ -18,7 +18,8 @@
 
 #include <gtest/gtest.h>
 
-#include "apps/run_command.h"
+#include "testing/run_command.h"
+#include "testing/source_data.h"
 #include "mesh/mesh_io.h"
 #include "testing/temp_dir.h"
 

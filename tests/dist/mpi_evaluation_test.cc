@@ -11,7 +11,7 @@
 #include "jobs/evaluate_job.h"
 #include "mesh/mesh_io.h"
 #include "model/model_io.h"
-#include "train/synthetic_muscles.h"
+#include "testing/synthetic_muscles.h"
 
 namespace aqs {
 namespace {

@@ -10,8 +10,8 @@
 #include "dist/mpi_runtime.h"
 #include "dist/mpi_world.h"
 #include "prepare/volumetric_targets.h"
+#include "testing/synthetic_muscles.h"
 #include "train/pretrain.h"
-#include "train/synthetic_muscles.h"
 
 namespace aqs {
 namespace testing {

@@ -29,7 +29,7 @@ class SharedTempDir {
   std::string path_;
 };
 
-// The synthetic bar (tests/train/synthetic_muscles.h) with `num_poses` poses,
+// The synthetic bar (tests/testing/synthetic_muscles.h) with `num_poses` poses,
 // volumetric targets and a small pre-trained decoder (latent size 2, one hidden layer
 // of 8, tanh, a coarse grid). Deterministic: every rank makes the same model.
 ActiveModel PretrainedBar(int num_poses);

@@ -7,7 +7,7 @@
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
-#include "physics/element_states.h"
+#include "testing/element_states.h"
 #include "testing/test_meshes.h"
 
 namespace aqs {

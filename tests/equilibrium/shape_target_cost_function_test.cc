@@ -8,8 +8,8 @@
 #include <gtest/gtest.h>
 
 #include "physics/element_geometry.h"
-#include "physics/element_states.h"
 #include "physics/shape_target_element.h"
+#include "testing/element_states.h"
 
 namespace aqs {
 namespace {

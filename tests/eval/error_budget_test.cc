@@ -15,8 +15,8 @@
 #include "jobs/learning_jobs.h"
 #include "model/model_io.h"
 #include "prepare/volumetric_targets.h"
+#include "testing/synthetic_muscles.h"
 #include "testing/temp_dir.h"
-#include "train/synthetic_muscles.h"
 #include "train/trainer.h"
 
 namespace aqs {

@@ -13,8 +13,8 @@
 #include "geometry/embedding.h"
 #include "prepare/volumetric_targets.h"
 #include "testing/finite_difference.h"
+#include "testing/synthetic_muscles.h"
 #include "train/pretrain.h"
-#include "train/synthetic_muscles.h"
 #include "train/trainer.h"
 
 namespace aqs {

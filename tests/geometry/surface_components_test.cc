@@ -10,10 +10,10 @@
 #include <utility>
 #include <vector>
 
-#include "geometry_test_util.h"
 #include "mesh/boundary_surface.h"
 #include "mesh/lattice.h"
-#include "mesh/mesh_io.h"
+#include "testing/source_data.h"
+#include "testing/test_surfaces.h"
 
 namespace aqs {
 namespace {
@@ -166,11 +166,8 @@ TEST(BoundaryLoopsTest, TouchingHolesAndNonManifoldEdges) {
 }
 
 TEST(IctFaceTest, SkinHasThreeBoundaryLoops) {
-  const std::string path = testing::IctFacePath("skin_neutral.obj");
-  AQS_SKIP_IF_MISSING(path);
   SurfaceMesh skin;
-  std::string error;
-  ASSERT_TRUE(ReadObj(path, &skin, &error)) << error;
+  ASSERT_TRUE(testing::ReadIctFaceDemo("skin_neutral.obj", &skin));
   EXPECT_EQ(skin.num_vertices(), 13294);
   const std::vector<BoundaryLoop> loops = FindBoundaryLoops(skin.triangles);
   std::vector<int> sizes;
@@ -185,11 +182,8 @@ TEST(IctFaceTest, SkinHasThreeBoundaryLoops) {
 }
 
 TEST(IctFaceTest, UpperAndLowerTeethAreSeparateComponents) {
-  const std::string path = testing::IctFacePath("teeth_neutral.obj");
-  AQS_SKIP_IF_MISSING(path);
   SurfaceMesh teeth;
-  std::string error;
-  ASSERT_TRUE(ReadObj(path, &teeth, &error)) << error;
+  ASSERT_TRUE(testing::ReadIctFaceDemo("teeth_neutral.obj", &teeth));
   const SurfaceComponents components = FindSurfaceComponents(teeth.num_vertices(), teeth.triangles);
   EXPECT_TRUE(FindBoundaryLoops(teeth.triangles).empty());  // every tooth is closed
   // Split the components at the largest gap between their mean heights (+y is up).

@@ -15,9 +15,9 @@
 
 #include "geometry/embedding.h"
 #include "geometry/triangle_bvh.h"
-#include "geometry_test_util.h"
-#include "mesh/mesh_io.h"
 #include "mesh/tet_mesh.h"
+#include "testing/source_data.h"
+#include "testing/test_surfaces.h"
 #include "util/wall_timer.h"
 
 namespace aqs {
@@ -324,12 +324,10 @@ TEST(SurfaceTetMesherTest, BadInputFails) {
 }
 
 TEST(IctFaceTest, MeshTheFaceWithAShell) {
-  const std::string path = testing::IctFacePath("skin_neutral.obj");
-  AQS_SKIP_IF_MISSING(path);
   SurfaceMesh skin;
-  std::string error;
-  ASSERT_TRUE(ReadObj(path, &skin, &error)) << error;
+  ASSERT_TRUE(testing::ReadIctFaceDemo("skin_neutral.obj", &skin));
   ASSERT_EQ(skin.num_vertices(), 13294);
+  std::string error;
   SurfaceTetMeshOptions options;
   options.spacing = 1.0;
   options.shell_thickness = 2.0;

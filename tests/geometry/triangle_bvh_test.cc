@@ -9,7 +9,7 @@
 #include <random>
 #include <vector>
 
-#include "geometry_test_util.h"
+#include "testing/test_surfaces.h"
 
 namespace aqs {
 namespace {

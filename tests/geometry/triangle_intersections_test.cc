@@ -13,8 +13,8 @@
 #include <utility>
 #include <vector>
 
-#include "geometry_test_util.h"
-#include "mesh/mesh_io.h"
+#include "testing/source_data.h"
+#include "testing/test_surfaces.h"
 #include "util/wall_timer.h"
 
 namespace aqs {
@@ -516,11 +516,8 @@ TEST(TriangleSurfaceIntersectionsTest, RandomSoupsMatchBruteForce) {
 }
 
 TEST(TriangleIntersectionsIctFaceTest, SkinNeutralSelfIntersections) {
-  const std::string path = testing::IctFacePath("skin_neutral.obj");
-  AQS_SKIP_IF_MISSING(path);
   SurfaceMesh skin;
-  std::string error;
-  ASSERT_TRUE(ReadObj(path, &skin, &error)) << error;
+  ASSERT_TRUE(testing::ReadIctFaceDemo("skin_neutral.obj", &skin));
   TriangleIntersectionOptions options;
   options.num_threads = 2;
   Pairs pairs;

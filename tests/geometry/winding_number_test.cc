@@ -9,9 +9,9 @@
 #include <vector>
 
 #include "geometry/triangle_bvh.h"
-#include "geometry_test_util.h"
 #include "mesh/boundary_surface.h"
 #include "mesh/lattice.h"
+#include "testing/test_surfaces.h"
 
 namespace aqs {
 namespace {

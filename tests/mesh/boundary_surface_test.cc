@@ -11,22 +11,10 @@
 
 #include "mesh/lattice.h"
 #include "mesh_test_util.h"
+#include "testing/test_surfaces.h"
 
 namespace aqs {
 namespace {
-
-// sum over triangles of x0 . ((x1 - x0) x (x2 - x0)) / 6: the enclosed volume when the
-// triangles form a closed surface with outward normals (divergence theorem).
-double EnclosedVolume(const Eigen::Matrix3Xi& triangles, const Eigen::Matrix3Xd& positions) {
-  double volume = 0;
-  for (int t = 0; t < triangles.cols(); ++t) {
-    const Eigen::Vector3d x0 = positions.col(triangles(0, t));
-    const Eigen::Vector3d x1 = positions.col(triangles(1, t));
-    const Eigen::Vector3d x2 = positions.col(triangles(2, t));
-    volume += x0.dot((x1 - x0).cross(x2 - x0)) / 6.0;
-  }
-  return volume;
-}
 
 // Every directed edge of the surface appears once and its reverse once: the surface is
 // closed and consistently oriented.
@@ -67,7 +55,7 @@ TEST(BoundarySurfaceTest, SingleTetHasFourOutwardTriangles) {
     const Eigen::Vector3d x2 = mesh.vertices.col(boundary.triangles(2, t));
     EXPECT_GT((x1 - x0).cross(x2 - x0).dot(x0 - centroid), 0) << "triangle " << t;
   }
-  EXPECT_NEAR(EnclosedVolume(boundary.triangles, mesh.vertices), 1.0 / 6.0, 1e-15);
+  EXPECT_NEAR(testing::EnclosedVolume(mesh.vertices, boundary.triangles), 1.0 / 6.0, 1e-15);
 }
 
 class BoundaryLatticeTest : public ::testing::TestWithParam<LatticeType> {};
@@ -87,7 +75,7 @@ TEST_P(BoundaryLatticeTest, ClosedOutwardAndComplete) {
   EXPECT_EQ(boundary.triangles.cols(), 2 * 2 * (3 * 2 + 2 * 4 + 3 * 4));
   ASSERT_EQ(boundary.triangle_tet.size(), static_cast<size_t>(boundary.triangles.cols()));
   const double volume = 3 * 2 * 4 * 0.125;
-  EXPECT_NEAR(EnclosedVolume(boundary.triangles, mesh.vertices), volume, 1e-12);
+  EXPECT_NEAR(testing::EnclosedVolume(mesh.vertices, boundary.triangles), volume, 1e-12);
   ExpectClosedAndConsistent(boundary.triangles);
 
   // Each triangle belongs to its element.
@@ -117,7 +105,7 @@ TEST_P(BoundaryLatticeTest, ClosedOutwardAndComplete) {
   flipped.tets.row(0).swap(flipped.tets.row(3));
   const BoundarySurface flipped_boundary = ExtractBoundarySurface(flipped);
   EXPECT_EQ(OrientedSet(flipped_boundary.triangles), OrientedSet(boundary.triangles));
-  EXPECT_NEAR(EnclosedVolume(flipped_boundary.triangles, mesh.vertices), volume, 1e-12);
+  EXPECT_NEAR(testing::EnclosedVolume(mesh.vertices, flipped_boundary.triangles), volume, 1e-12);
 }
 
 INSTANTIATE_TEST_SUITE_P(Types, BoundaryLatticeTest,
@@ -146,7 +134,7 @@ TEST(BoundarySurfaceTest, ToSurfaceRenumbersAndUsesGivenPositions) {
       EXPECT_EQ(boundary.vertices[surface.triangles(i, t)], boundary.triangles(i, t));
     }
   }
-  EXPECT_NEAR(EnclosedVolume(surface.triangles, surface.vertices), 8.0 * 8.0, 1e-12);
+  EXPECT_NEAR(testing::EnclosedVolume(surface.vertices, surface.triangles), 8.0 * 8.0, 1e-12);
 }
 
 }  // namespace

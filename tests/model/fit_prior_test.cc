@@ -12,9 +12,9 @@
 
 #include "model/model_io.h"
 #include "prepare/volumetric_targets.h"
+#include "testing/synthetic_muscles.h"
 #include "testing/temp_dir.h"
 #include "train/pretrain.h"
-#include "train/synthetic_muscles.h"
 
 namespace aqs {
 namespace {

@@ -16,10 +16,10 @@
 #include "model/model_fingerprint.h"
 #include "prepare/volumetric_targets.h"
 #include "testing/fault_kill.h"
+#include "testing/synthetic_muscles.h"
 #include "testing/temp_dir.h"
-#include "util/staged_directory.h"
 #include "train/pretrain.h"
-#include "train/synthetic_muscles.h"
+#include "util/staged_directory.h"
 
 namespace aqs {
 namespace {

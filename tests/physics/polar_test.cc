@@ -5,8 +5,8 @@
 #include <Eigen/LU>
 #include <gtest/gtest.h>
 
-#include "physics/element_states.h"
 #include "physics/shape_target_element.h"
+#include "testing/element_states.h"
 #include "testing/finite_difference.h"
 
 namespace aqs {

@@ -6,7 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "physics/actuation.h"
-#include "physics/element_states.h"
+#include "testing/element_states.h"
 #include "testing/finite_difference.h"
 
 namespace aqs {

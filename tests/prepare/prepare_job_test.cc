@@ -4,10 +4,10 @@
 
 #include <gtest/gtest.h>
 
-#include "geometry/geometry_test_util.h"
 #include "mesh/mesh_io.h"
 #include "model/model_io.h"
 #include "testing/temp_dir.h"
+#include "testing/test_surfaces.h"
 
 namespace aqs {
 namespace {

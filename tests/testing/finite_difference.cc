@@ -43,5 +43,19 @@ double RelativeError(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b, double 
   return (a - b).cwiseAbs().maxCoeff() / scale;
 }
 
+::testing::AssertionResult SymmetricHessianMatchesGradient(
+    const Eigen::MatrixXd& hessian,
+    const std::function<Eigen::VectorXd(const Eigen::VectorXd&)>& gradient,
+    const Eigen::VectorXd& x, double h, double tolerance) {
+  const double error = RelativeError(hessian, CentralDifferenceJacobian(gradient, x, h));
+  const double asymmetry = (hessian - hessian.transpose()).norm();
+  if (error < tolerance && asymmetry <= 1e-12 * hessian.norm()) {
+    return ::testing::AssertionSuccess();
+  }
+  return ::testing::AssertionFailure()
+         << "Hessian against differenced gradient: relative error " << error << " (tolerance "
+         << tolerance << "), |H - H^T| " << asymmetry << " against |H| " << hessian.norm();
+}
+
 }  // namespace testing
 }  // namespace aqs

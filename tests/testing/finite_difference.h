@@ -4,6 +4,7 @@
 #include <functional>
 
 #include <Eigen/Core>
+#include <gtest/gtest.h>
 
 namespace aqs {
 namespace testing {
@@ -26,6 +27,14 @@ Eigen::VectorXd CentralDifferenceDirectional(
 
 // max |a - b| / max(max |b|, floor): the error measure every derivative test uses.
 double RelativeError(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b, double floor = 1e-12);
+
+// Success if `hessian` (n x n) is symmetric (|H - H^T| <= 1e-12 |H|, Frobenius) and its
+// RelativeError against the central-difference Jacobian (step h) of `gradient` at x
+// (n-vector) is below `tolerance`; the failure gives both.
+::testing::AssertionResult SymmetricHessianMatchesGradient(
+    const Eigen::MatrixXd& hessian,
+    const std::function<Eigen::VectorXd(const Eigen::VectorXd&)>& gradient,
+    const Eigen::VectorXd& x, double h, double tolerance);
 
 }  // namespace testing
 }  // namespace aqs

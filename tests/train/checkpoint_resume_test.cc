@@ -17,9 +17,9 @@
 #include "model/model_io.h"
 #include "prepare/volumetric_targets.h"
 #include "testing/fault_kill.h"
+#include "testing/synthetic_muscles.h"
 #include "testing/temp_dir.h"
 #include "train/pretrain.h"
-#include "train/synthetic_muscles.h"
 #include "train/trainer.h"
 
 namespace aqs {

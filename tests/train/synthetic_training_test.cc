@@ -13,8 +13,8 @@
 #include "eval/surface_pca.h"
 #include "fit/latent_fit.h"
 #include "prepare/volumetric_targets.h"
+#include "testing/synthetic_muscles.h"
 #include "train/pretrain.h"
-#include "train/synthetic_muscles.h"
 #include "train/trainer.h"
 
 namespace aqs {

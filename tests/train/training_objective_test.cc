@@ -10,8 +10,8 @@
 
 #include "prepare/volumetric_targets.h"
 #include "testing/finite_difference.h"
+#include "testing/synthetic_muscles.h"
 #include "train/pretrain.h"
-#include "train/synthetic_muscles.h"
 
 namespace aqs {
 namespace {

@@ -1,26 +1,17 @@
-#ifndef AQS_TESTS_GEOMETRY_GEOMETRY_TEST_UTIL_H_
-#define AQS_TESTS_GEOMETRY_GEOMETRY_TEST_UTIL_H_
+#include "testing/test_surfaces.h"
 
-#include <gtest/gtest.h>
-
-#include <sys/stat.h>
-#include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <map>
-#include <string>
 #include <utility>
-#include <vector>
 
-#include "mesh/surface_mesh.h"
+#include <Eigen/Geometry>
 
 namespace aqs {
 namespace testing {
 
-// A triangulated sphere: the icosahedron with every triangle split into 4, `subdivisions`
-// times, vertices projected onto the sphere of `radius` about `centre`. Outward
-// (right-hand) orientation. 10 * 4^s + 2 vertices, 20 * 4^s triangles.
-inline SurfaceMesh Icosphere(int subdivisions, double radius,
-                             const Eigen::Vector3d& centre = Eigen::Vector3d::Zero()) {
+SurfaceMesh Icosphere(int subdivisions, double radius,
+                     const Eigen::Vector3d& centre) {
   const double g = (1.0 + std::sqrt(5.0)) / 2.0;
   std::vector<Eigen::Vector3d> points = {{-1, g, 0}, {1, g, 0}, {-1, -g, 0}, {1, -g, 0},
                                          {0, -1, g}, {0, 1, g}, {0, -1, -g}, {0, 1, -g},
@@ -59,9 +50,8 @@ inline SurfaceMesh Icosphere(int subdivisions, double radius,
   return sphere;
 }
 
-// `triangles` without the columns listed in `removed`.
-inline Eigen::Matrix3Xi RemoveTriangles(const Eigen::Matrix3Xi& triangles,
-                                        const std::vector<int>& removed) {
+Eigen::Matrix3Xi RemoveTriangles(const Eigen::Matrix3Xi& triangles,
+                                 const std::vector<int>& removed) {
   std::vector<char> drop(triangles.cols(), 0);
   for (int t : removed) drop[t] = 1;
   Eigen::Matrix3Xi result(3, triangles.cols() - static_cast<Eigen::Index>(removed.size()));
@@ -72,8 +62,7 @@ inline Eigen::Matrix3Xi RemoveTriangles(const Eigen::Matrix3Xi& triangles,
   return result;
 }
 
-// The volume a closed, outward-oriented triangle surface encloses (divergence theorem).
-inline double EnclosedVolume(const Eigen::Matrix3Xd& vertices, const Eigen::Matrix3Xi& triangles) {
+double EnclosedVolume(const Eigen::Matrix3Xd& vertices, const Eigen::Matrix3Xi& triangles) {
   double volume = 0;
   for (int t = 0; t < triangles.cols(); ++t) {
     const Eigen::Vector3d x0 = vertices.col(triangles(0, t));
@@ -84,24 +73,5 @@ inline double EnclosedVolume(const Eigen::Matrix3Xd& vertices, const Eigen::Matr
   return volume;
 }
 
-// The ICT face data set on this machine (absent on CI).
-inline std::string IctFacePath(const std::string& name) {
-  return "/work/shared/data/ict-face/" + name;
-}
-
-inline bool FileExists(const std::string& path) {
-  struct stat info;
-  return stat(path.c_str(), &info) == 0;
-}
-
 }  // namespace testing
 }  // namespace aqs
-
-// Skips the current test when `path` does not exist.
-#define AQS_SKIP_IF_MISSING(path)                                                 \
-  if (!::aqs::testing::FileExists(path)) {                                        \
-    GTEST_SKIP() << (path) << " is not on this machine (the ICT face data lives " \
-                 << "in /work/shared, which CI does not have)";                   \
-  }
-
-#endif  // AQS_TESTS_GEOMETRY_GEOMETRY_TEST_UTIL_H_

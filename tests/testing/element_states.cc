@@ -1,4 +1,4 @@
-#include "physics/element_states.h"
+#include "testing/element_states.h"
 
 #include <Eigen/Geometry>
 

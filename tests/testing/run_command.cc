@@ -1,4 +1,4 @@
-#include "apps/run_command.h"
+#include "testing/run_command.h"
 
 #include <fcntl.h>
 #include <signal.h>
@@ -49,10 +49,6 @@ std::string WaitForCommand(int pid) {
 
 std::string AppPath(const std::string& name) {
   return std::string(AQS_BINARY_DIR) + "/apps/" + name;
-}
-
-std::string DataPath(const std::string& relative) {
-  return std::string(AQS_SOURCE_DIR) + "/data/" + relative;
 }
 
 }  // namespace testing

@@ -1,5 +1,5 @@
-#ifndef AQS_GEOMETRY_TRIANGLE_DISTANCE_H_
-#define AQS_GEOMETRY_TRIANGLE_DISTANCE_H_
+#ifndef AQS_GEOMETRY_DISTANCE_TRIANGLE_DISTANCE_H_
+#define AQS_GEOMETRY_DISTANCE_TRIANGLE_DISTANCE_H_
 
 #include <Eigen/Core>
 
@@ -18,4 +18,4 @@ double DisjointTriangleDistance(const Eigen::Matrix3d& a, const Eigen::Matrix3d&
 
 }  // namespace aqs
 
-#endif  // AQS_GEOMETRY_TRIANGLE_DISTANCE_H_
+#endif  // AQS_GEOMETRY_DISTANCE_TRIANGLE_DISTANCE_H_

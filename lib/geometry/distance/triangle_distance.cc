@@ -1,4 +1,4 @@
-#include "geometry/triangle_distance.h"
+#include "geometry/distance/triangle_distance.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,5 +1,5 @@
-#ifndef AQS_TESTS_APPS_RUN_COMMAND_H_
-#define AQS_TESTS_APPS_RUN_COMMAND_H_
+#ifndef AQS_TESTING_RUN_COMMAND_H_
+#define AQS_TESTING_RUN_COMMAND_H_
 
 #include <string>
 #include <vector>
@@ -24,10 +24,8 @@ std::string WaitForCommand(int pid);
 
 // Path of an app binary built with the tests.
 std::string AppPath(const std::string& name);
-// Path of a file under the source tree's data/ folder.
-std::string DataPath(const std::string& relative);
 
 }  // namespace testing
 }  // namespace aqs
 
-#endif  // AQS_TESTS_APPS_RUN_COMMAND_H_
+#endif  // AQS_TESTING_RUN_COMMAND_H_

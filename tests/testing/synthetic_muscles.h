@@ -1,5 +1,5 @@
-#ifndef AQS_TESTS_TRAIN_SYNTHETIC_MUSCLES_H_
-#define AQS_TESTS_TRAIN_SYNTHETIC_MUSCLES_H_
+#ifndef AQS_TESTING_SYNTHETIC_MUSCLES_H_
+#define AQS_TESTING_SYNTHETIC_MUSCLES_H_
 
 #include <vector>
 
@@ -29,4 +29,4 @@ SyntheticMuscles MakeSyntheticMuscles(int num_train, int num_test, double max_ac
 }  // namespace testing
 }  // namespace aqs
 
-#endif  // AQS_TESTS_TRAIN_SYNTHETIC_MUSCLES_H_
+#endif  // AQS_TESTING_SYNTHETIC_MUSCLES_H_

@@ -1,5 +1,5 @@
-#ifndef AQS_TESTS_PHYSICS_ELEMENT_STATES_H_
-#define AQS_TESTS_PHYSICS_ELEMENT_STATES_H_
+#ifndef AQS_TESTING_ELEMENT_STATES_H_
+#define AQS_TESTING_ELEMENT_STATES_H_
 
 #include <random>
 #include <string>
@@ -29,4 +29,4 @@ std::vector<ElementState> DerivativeTestStates(int random_count, unsigned seed);
 }  // namespace testing
 }  // namespace aqs
 
-#endif  // AQS_TESTS_PHYSICS_ELEMENT_STATES_H_
+#endif  // AQS_TESTING_ELEMENT_STATES_H_

@@ -1,4 +1,4 @@
-#include "train/synthetic_muscles.h"
+#include "testing/synthetic_muscles.h"
 
 #include <random>
 

@@ -1,0 +1,55 @@
+#include "geometry/triangle_grid.h"
+
+#include <cmath>
+
+namespace aqs {
+
+TriangleGrid::TriangleGrid(const Eigen::Matrix3Xd& vertices, const Eigen::Matrix3Xi& triangles,
+                           double cell)
+    : cell_(cell), num_triangles_(static_cast<int>(triangles.cols())) {
+  lo_ = vertices.rowwise().minCoeff().array() - cell;
+  for (Eigen::Index t = 0; t < triangles.cols(); ++t) {
+    Eigen::Vector3d a = vertices.col(triangles(0, t)), b = a;
+    for (int k = 1; k < 3; ++k) {
+      a = a.cwiseMin(vertices.col(triangles(k, t)));
+      b = b.cwiseMax(vertices.col(triangles(k, t)));
+    }
+    const Eigen::Vector3i ca = Cell(a), cb = Cell(b);
+    for (int i = ca.x(); i <= cb.x(); ++i) {
+      for (int j = ca.y(); j <= cb.y(); ++j) {
+        for (int k = ca.z(); k <= cb.z(); ++k) cells_[Key(i, j, k)].push_back(static_cast<int>(t));
+      }
+    }
+  }
+}
+
+void TriangleGrid::Near(const Eigen::Vector3d& p, int stamp, std::vector<int>* marks,
+                        std::vector<int>* out) const {
+  out->clear();
+  marks->resize(num_triangles_, -1);
+  const Eigen::Vector3i c = Cell(p);
+  for (int i = c.x() - 1; i <= c.x() + 1; ++i) {
+    for (int j = c.y() - 1; j <= c.y() + 1; ++j) {
+      for (int k = c.z() - 1; k <= c.z() + 1; ++k) {
+        auto it = cells_.find(Key(i, j, k));
+        if (it == cells_.end()) continue;
+        for (int t : it->second) {
+          if ((*marks)[t] == stamp) continue;
+          (*marks)[t] = stamp;
+          out->push_back(t);
+        }
+      }
+    }
+  }
+}
+
+Eigen::Vector3i TriangleGrid::Cell(const Eigen::Vector3d& p) const {
+  return ((p - lo_) / cell_).array().floor().cast<int>();
+}
+
+int64_t TriangleGrid::Key(int i, int j, int k) {
+  return (static_cast<int64_t>(i) * 73856093) ^ (static_cast<int64_t>(j) * 19349663) ^
+         (static_cast<int64_t>(k) * 83492791);
+}
+
+}  // namespace aqs

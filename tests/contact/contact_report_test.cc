@@ -1,0 +1,112 @@
+// The report's measurements (ContactSolver::CountSelfIntersections, Measure) and its
+// text (contact_report.cc).
+
+#include "contact/contact_report.h"
+
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "contact/contact_solver.h"
+#include "geometry/embedding.h"
+#include "mesh/lattice.h"
+#include "testing/contact_scenes.h"
+
+namespace aqs {
+namespace {
+
+using testing::BlockModel;
+
+TEST(ContactMeasurementTest, CountsNewSelfIntersectionsByTheirRestState) {
+  // A unit block whose embedded surface is five loose triangles: A (horizontal) and B
+  // (vertical) crossing each other at rest, C and D apart from everything, E 0.01 above
+  // D (touching it, within rest_tolerance).
+  LatticeOptions lattice;
+  lattice.nx = lattice.ny = lattice.nz = 2;
+  lattice.spacing = 0.5;
+  ActiveModel model = BlockModel(MakeLatticeMesh(lattice), {0});
+  Eigen::Matrix3Xd rest(3, 15);
+  rest << 0.2, 0.8, 0.5, 0.5, 0.5, 0.5, 0.1, 0.3, 0.2, 0.7, 0.9, 0.8, 0.7, 0.9, 0.8,  //
+          0.2, 0.2, 0.8, 0.4, 0.6, 0.5, 0.1, 0.1, 0.3, 0.1, 0.1, 0.3, 0.1, 0.1, 0.3,  //
+          0.5, 0.5, 0.5, 0.3, 0.3, 0.7, 0.9, 0.9, 0.9, 0.9, 0.9, 0.9, 0.91, 0.91, 0.91;
+  model.neutral.vertices = rest;
+  model.neutral.triangles.resize(3, 5);
+  model.neutral.triangles << 0, 3, 6, 9, 12, 1, 4, 7, 10, 13, 2, 5, 8, 11, 14;
+  model.embedding = EmbedPoints(model.mesh, rest, 1);
+  ContactOptions options;
+  options.exclusion_rings = 0;
+  const ContactSolver solver(model, options);
+  // The counts at a state, against all / new / separated / clean.
+  auto expect_counts = [&](const Eigen::Matrix3Xd& state, const std::string& what, int all,
+                           int new_pairs, int separated, int clean) {
+    const SelfIntersectionCounts counts = solver.CountSelfIntersections(state);
+    EXPECT_EQ(counts.all, all) << what;
+    EXPECT_EQ(counts.new_pairs, new_pairs) << what;
+    EXPECT_EQ(counts.separated, separated) << what;
+    EXPECT_EQ(counts.clean, clean) << what;
+  };
+  expect_counts(rest, "at rest", 1, 0, 0, 0);
+  // C moved through A (which intersects B at rest): new and apart at rest, not clean.
+  Eigen::Matrix3Xd c_through_a = rest;
+  c_through_a.middleCols(6, 3) << 0.3, 0.4, 0.35, 0.3, 0.3, 0.3, 0.4, 0.4, 0.6;
+  expect_counts(c_through_a, "C through A", 2, 1, 1, 0);
+  // D moved through C (both clean at rest): new, apart at rest and clean.
+  Eigen::Matrix3Xd d_through_c = rest;
+  d_through_c.middleCols(9, 3) << 0.2, 0.25, 0.15, 0.2, 0.2, 0.2, 0.85, 0.95, 0.95;
+  expect_counts(d_through_c, "D through C", 2, 1, 1, 1);
+  // E turned through D, which it touched at rest: new and clean, not separated.
+  Eigen::Matrix3Xd e_through_d = rest;
+  e_through_d.middleCols(12, 3) << 0.8, 0.85, 0.75, 0.2, 0.2, 0.2, 0.85, 0.95, 0.95;
+  expect_counts(e_through_d, "E through D", 2, 1, 0, 1);
+}
+
+TEST(ContactReportTest, TextNamesEveryMeasurementBeforeAndAfter) {
+  ContactReport report;
+  report.before.max_penetration = 0.25;
+  report.after.max_penetration = 0.5;
+  report.before.penetrating_points = 3;
+  report.after.penetrating_points = 4;
+  report.self_intersections_rest = 5;
+  report.before.self_intersections = {6, 7, 8, 9};
+  report.after.self_intersections = {10, 11, 12, 13};
+  report.before.obstacle_intersections = 14;
+  report.after.obstacle_intersections = 15;
+  report.mean_displacement = 0.125;
+  report.max_displacement = 1.5;
+  report.far_distance = 2;
+  report.max_far_displacement = 0.0625;
+  report.rounds = 16;
+  report.path_steps = 17;
+  report.path_halvings = 18;
+  report.obstacle_contacts = 19;
+  report.self_contacts = 20;
+  report.converged = false;
+  report.round_summaries = {"round 1: it"};
+  const std::string text = report.ToText();
+  const std::string expected_values =
+      "# round 1: it\n"
+      "max_penetration_before 0.25\nmax_penetration_after 0.5\n"
+      "penetrating_points_before 3\npenetrating_points_after 4\n"
+      "self_intersections_rest 5\n"
+      "self_intersections_before 6\nself_intersections_after 10\n"
+      "new_self_intersections_before 7\nnew_self_intersections_after 11\n"
+      "separated_self_intersections_before 8\nseparated_self_intersections_after 12\n"
+      "clean_self_intersections_before 9\nclean_self_intersections_after 13\n"
+      "obstacle_intersections_before 14\nobstacle_intersections_after 15\n"
+      "mean_displacement 0.125\nmax_displacement 1.5\nfar_distance 2\n"
+      "max_far_displacement 0.0625\nrounds 16\npath_steps 17\npath_halvings 18\n"
+      "obstacle_contacts 19\nself_contacts 20\nconverged 0\n";
+  ASSERT_GE(text.size(), expected_values.size());
+  EXPECT_EQ(text.substr(text.size() - expected_values.size()), expected_values) << text;
+  EXPECT_EQ(text.rfind("# ActiveQS contact report: " + report.Summary() + "\n", 0), 0u) << text;
+  EXPECT_EQ(report.Summary(),
+            "penetration into obstacles: max 0.25 -> 0.5, points inside 3 -> 4; intersecting "
+            "triangle pairs: self 6 -> 10 (5 at rest; not intersecting at rest 7 -> 11, of which "
+            "apart at rest 8 -> 12, between triangles clean at rest 9 -> 13), with obstacles 14 "
+            "-> 15; surface moved mean 0.125 max 1.5 (max 0.0625 farther than 2 from the "
+            "contacts); 16 rounds over 17 path steps from rest (18 halved), 19 obstacle and 20 "
+            "self contacts active; NOT CONVERGED");
+}
+
+}  // namespace
+}  // namespace aqs

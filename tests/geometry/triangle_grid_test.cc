@@ -1,0 +1,68 @@
+#include "geometry/triangle_grid.h"
+
+#include <algorithm>
+#include <random>
+#include <set>
+
+#include <gtest/gtest.h>
+
+namespace aqs {
+namespace {
+
+// The L-infinity distance from p to the bounding box of triangle t.
+double BoxDistance(const Eigen::Matrix3Xd& vertices, const Eigen::Matrix3Xi& triangles, int t,
+                   const Eigen::Vector3d& p) {
+  Eigen::Vector3d lo = vertices.col(triangles(0, t)), hi = lo;
+  for (int k = 1; k < 3; ++k) {
+    lo = lo.cwiseMin(vertices.col(triangles(k, t)));
+    hi = hi.cwiseMax(vertices.col(triangles(k, t)));
+  }
+  return (lo - p).cwiseMax(p - hi).cwiseMax(0.0).maxCoeff();
+}
+
+TEST(TriangleGridTest, NearFindsEveryTriangleWithinACellOnce) {
+  // A soup of small triangles (some degenerate, as segments) in a 4 x 4 x 4 box.
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<double> u(0.0, 4.0), small(-0.3, 0.3);
+  const int num_triangles = 400;
+  Eigen::Matrix3Xd vertices(3, 3 * num_triangles);
+  Eigen::Matrix3Xi triangles(3, num_triangles);
+  for (int t = 0; t < num_triangles; ++t) {
+    const Eigen::Vector3d centre(u(rng), u(rng), u(rng));
+    for (int k = 0; k < 3; ++k) {
+      vertices.col(3 * t + k) = centre + Eigen::Vector3d(small(rng), small(rng), small(rng));
+    }
+    triangles.col(t) << 3 * t, 3 * t + 1, t % 5 == 0 ? 3 * t + 1 : 3 * t + 2;
+  }
+  const double cell = 0.5;
+  const TriangleGrid grid(vertices, triangles, cell);
+  std::vector<int> marks, near;
+  int found = 0;
+  for (int query = 0; query < 200; ++query) {
+    const Eigen::Vector3d p(u(rng), u(rng), u(rng));
+    grid.Near(p, query, &marks, &near);
+    const std::set<int> unique(near.begin(), near.end());
+    EXPECT_EQ(unique.size(), near.size()) << "query " << query;
+    for (int t = 0; t < num_triangles; ++t) {
+      const double d = BoxDistance(vertices, triangles, t, p);
+      // Within a cell: found; farther than two cells: not (it would overlap none of the
+      // 27 cells around p's).
+      if (d <= cell) {
+        EXPECT_EQ(unique.count(t), 1u) << "query " << query << " triangle " << t;
+      }
+      if (d > 2 * cell) {
+        EXPECT_EQ(unique.count(t), 0u) << "query " << query << " triangle " << t;
+      }
+    }
+    found += static_cast<int>(near.size());
+  }
+  EXPECT_GT(found, 200);  // the queries met triangles
+  // Marks from another grid size are resized; a query far outside finds nothing.
+  std::vector<int> fresh;
+  grid.Near(Eigen::Vector3d(50, 50, 50), 0, &fresh, &near);
+  EXPECT_TRUE(near.empty());
+  EXPECT_EQ(fresh.size(), static_cast<size_t>(num_triangles));
+}
+
+}  // namespace
+}  // namespace aqs
