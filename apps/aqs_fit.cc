@@ -1,7 +1,10 @@
 // aqs_fit: fit a trained model's latent (and bone motions) to a new pose, markers or a
 // scan, and write the fitted surface (the neutral's vertex order and faces); or, with
-// --sequence, to an ordered sequence of them, frame after frame (resumable).
-// Exit status: 0 done; 1 bad input; 2 the fit could not simulate its target.
+// --sequence, to an ordered sequence of them, frame after frame (resumable). Under
+// mpirun (or with --mpi) the frames of a sequence fitted with
+// --sequence_warm_start=false are shared among the ranks (docs/distributed.md).
+// Exit status: 0 done; 1 bad input, or MPI wanted but not built; 2 the fit could not
+// simulate its target.
 
 #include <iostream>
 
@@ -12,6 +15,7 @@
 #include "jobs/evaluate_job.h"
 #include "jobs/fit_job.h"
 #include "jobs/fit_sequence.h"
+#include "mpi_flags.h"
 
 DECLARE_string(model);
 DEFINE_string(target, "", "The target: a pose surface (OBJ, the neutral's vertex order), a "
@@ -21,6 +25,10 @@ DEFINE_string(sequence, "", "Instead of --target: an ordered sequence of targets
               ".txt list (one file per line) or a comma list. Needs --output_dir.");
 DEFINE_string(output_dir, "", "Sequences: the folder of the outputs (<frame>.obj, frames.csv, "
               "latents.bin); a rerun resumes at the first frame not done.");
+DEFINE_bool(sequence_warm_start, true, "Sequences: start each frame from the previous frame's "
+            "result (true), or fit every frame on its own from the start chosen for it (false: "
+            "a frame's result depends only on its target, and under mpirun the frames are "
+            "shared among the ranks, with the outputs of one process).");
 DEFINE_string(target_kind, "auto", "pose, markers, points or auto (by extension and vertex count).");
 DEFINE_string(output, "", "The fitted surface (OBJ).");
 DEFINE_string(output_volume, "", "Optional: the fitted equilibrium (.vtu for ParaView, or .mesh).");
@@ -34,19 +42,24 @@ DEFINE_string(compare_vertices, "", "Vertices of that comparison, e.g. 0:9409 (d
 int main(int argc, char** argv) {
   aqs::InitApp("Fit a trained model to a pose, markers or a scan, or to a sequence of them.\n"
                "  aqs_fit --model=MODEL --target=T --output=OUT.obj [--latent_output=Z.txt]\n"
-               "  aqs_fit --model=MODEL --sequence=DIR|GLOB|LIST.txt --output_dir=OUT",
+               "  aqs_fit --model=MODEL --sequence=DIR|GLOB|LIST.txt --output_dir=OUT\n"
+               "  mpirun -np N aqs_fit --sequence=... --sequence_warm_start=false ...\n"
+               "      (independent frames shared among N ranks; rank 0 writes the outputs)",
                &argc, &argv);
+  const std::unique_ptr<aqs::Communicator> ranks = aqs::StartRanks(&argc, &argv);
+  const bool distributed = ranks != nullptr && ranks->size() > 1;
   std::string error;
   aqs::LatentFitOptions fit;
   aqs::PointCloudFitOptions points;
   aqs::FitStartOptions start;
   if (!aqs::FitOptionsFromFlags(&fit, &points, &start, &error)) {
-    aqs::PrintError(error);
+    aqs::PrintRankError(ranks.get(), error);
     return 1;
   }
   if (!FLAGS_sequence.empty()) {
     if (!FLAGS_target.empty() || !FLAGS_output.empty()) {
-      aqs::PrintError("--sequence goes with --output_dir, not with --target or --output");
+      aqs::PrintRankError(ranks.get(),
+                          "--sequence goes with --output_dir, not with --target or --output");
       return 1;
     }
     aqs::FitSequenceOptions options;
@@ -57,8 +70,20 @@ int main(int argc, char** argv) {
     options.fit = fit;
     options.points = points;
     options.start = start;
+    options.warm_start = FLAGS_sequence_warm_start;
+    options.communicator = ranks.get();
     const aqs::FitSequenceResult result = aqs::RunFitSequenceJob(options, std::cout);
-    return aqs::FinishJob(result.status, result.message, aqs::FitFlagNames());
+    if (result.status != aqs::JobStatus::kOk) {
+      aqs::PrintRankError(ranks.get(), aqs::FlagError(result.message, aqs::FitFlagNames()));
+    }
+    return aqs::ExitStatus(result.status);
+  }
+  if (distributed) {
+    aqs::PrintRankError(ranks.get(), "one --target is fitted by one process, not by " +
+                                         std::to_string(ranks->size()) +
+                                         " ranks: run aqs_fit without mpirun, or share the "
+                                         "frames of a --sequence with --sequence_warm_start=false");
+    return 1;
   }
   aqs::FitJobOptions options;
   options.model = FLAGS_model;

@@ -7,10 +7,13 @@
 #include <filesystem>
 #include <iomanip>
 #include <map>
+#include <memory>
 #include <sstream>
 
 #include <Eigen/Geometry>
+#include <glog/logging.h>
 
+#include "dist/model_sharing.h"
 #include "jobs/fit_job.h"
 #include "mesh/mesh_io.h"
 #include "mesh/ply_io.h"
@@ -206,6 +209,75 @@ std::string FormatSeconds(double s) {
   return out.str();
 }
 
+// Frames shared among ranks need independent frames.
+bool CheckSharing(const FitSequenceOptions& options, std::string* error) {
+  const Communicator* comm = options.communicator;
+  if (comm == nullptr || comm->size() <= 1 || !options.warm_start) return true;
+  *error = "a warm-started sequence (--sequence_warm_start, the default) fits frame after "
+           "frame, each from the previous frame's result, and cannot be shared among " +
+           std::to_string(comm->size()) +
+           " ranks: give --sequence_warm_start=false to fit every frame on its own (shared "
+           "among the ranks), or run one process";
+  return false;
+}
+
+// A fitted frame as rank 0 writes it, in doubles (sent between ranks): kFrameScalars
+// numbers (used points, matched fraction, mean, rms and max error, iterations,
+// seconds, converged, start, factorizations), the latent (d), the bones' motion
+// parameters (6 per bone), the surface (3 x ns, column-major). The start is -2 for
+// "previous", -1 for "given", else the training pose's index.
+constexpr int kFrameScalars = 10;
+
+int FrameBlockSize(int d, int nb, int ns) { return kFrameScalars + d + 6 * nb + 3 * ns; }
+
+void PackFrame(const ActiveModel& model, const LatentFitResult& fit, const std::string& start,
+               double seconds, std::vector<double>* block) {
+  int start_index = -3;
+  if (start == "previous") {
+    start_index = -2;
+  } else if (start == "given") {
+    start_index = -1;
+  } else {
+    for (int p = 0; p < model.num_poses() && start_index == -3; ++p) {
+      if (model.poses[p].name == start) start_index = p;
+    }
+  }
+  CHECK_NE(start_index, -3) << "unknown start " << start;
+  *block = {double(fit.used_points), fit.matched_fraction, fit.mean_error, fit.rms_error,
+            fit.max_error, double(fit.iterations), seconds, fit.converged ? 1.0 : 0.0,
+            double(start_index), double(fit.solve_factorizations + fit.jacobians)};
+  block->insert(block->end(), fit.latent.data(), fit.latent.data() + fit.latent.size());
+  for (const RigidTransform& t : fit.bones) {
+    double p[6];
+    BoneTransformToParameters(t, p);
+    block->insert(block->end(), p, p + 6);
+  }
+  block->insert(block->end(), fit.surface.data(), fit.surface.data() + fit.surface.size());
+  CHECK_EQ(static_cast<int>(block->size()),
+           FrameBlockSize(model.latent_dim(), static_cast<int>(model.bones.size()),
+                          model.num_surface_vertices()));
+}
+
+// Frame f's row of frames.csv from its block.
+std::string FrameRow(const ActiveModel& model, int f, const SequenceFrame& frame,
+                     const double* b) {
+  const bool is_cloud = frame.kind == "points";
+  const int start = static_cast<int>(b[8]);
+  std::string row = std::to_string(f) + "," + frame.name + "," + frame.kind + "," +
+                    std::to_string(is_cloud ? frame.cloud.cols() : frame.target.num_points()) +
+                    "," + std::to_string(static_cast<int>(b[0]));
+  for (int k = 1; k <= 4; ++k) Append(b[k], &row);
+  row += "," + std::to_string(static_cast<int>(b[5]));
+  Append(b[6], &row);
+  row += std::string(",") + (b[7] != 0.0 ? "1" : "0") + "," +
+         (start == -2 ? std::string("previous")
+                      : start == -1 ? std::string("given") : model.poses[start].name) +
+         "," + std::to_string(static_cast<int>(b[9]));
+  const int values = model.latent_dim() + 6 * static_cast<int>(model.bones.size());
+  for (int i = 0; i < values; ++i) Append(b[kFrameScalars + i], &row);
+  return row;
+}
+
 }  // namespace
 
 bool ReadSequenceFrames(const FitSequenceOptions& options, int ns,
@@ -299,128 +371,208 @@ bool ReadSequenceFrames(const FitSequenceOptions& options, int ns,
 }
 
 FitSequenceResult RunFitSequence(const FitSequenceOptions& options, const ActiveModel& model,
-                                 std::ostream& log) {
+                                 std::ostream& job_log) {
   FitSequenceResult result;
   auto fail = [&](JobStatus status, const std::string& message) {
     result.status = status;
     result.message = message;
     return result;
   };
+  const Communicator* comm = options.communicator;
+  const bool distributed = comm != nullptr && comm->size() > 1;
+  const bool root = !distributed || comm->is_root();
+  const int rank = distributed ? comm->rank() : 0;
+  const int size = distributed ? comm->size() : 1;
+  std::ostringstream quiet;  // the other ranks' log
+  std::ostream& log = root ? job_log : quiet;
+  std::string error;
+  // Bad input every rank sees alike (same options): no collective needed.
+  if (!CheckSharing(options, &error)) return fail(JobStatus::kBadInput, error);
   if (options.output_dir.empty()) return fail(JobStatus::kBadInput, "--output_dir is required");
   if (!model.decoder) return fail(JobStatus::kBadInput, options.model + ": the model is not trained");
-  std::string error;
   std::vector<SequenceFrame> frames;
-  if (!ReadSequenceFrames(options, model.num_surface_vertices(), &frames, &error)) {
-    return fail(JobStatus::kBadInput, error);
+  bool ok = ReadSequenceFrames(options, model.num_surface_vertices(), &frames, &error);
+  if (distributed) {
+    // Every rank reads the targets (the same path on every machine); they must be rank
+    // 0's frames.
+    std::string names;
+    for (const SequenceFrame& f : frames) names += f.name + "\n";
+    std::string root_names = names;
+    comm->BroadcastText(&root_names, 0);
+    if (ok && names != root_names) {
+      error = options.sequence + ": " + std::to_string(frames.size()) +
+              " frames here, which differ from rank 0's (another sequence at that path?)";
+      ok = false;
+    }
+    ok = comm->Agree(ok, &error);
   }
+  if (!ok) return fail(JobStatus::kBadInput, error);
   for (const SequenceFrame& f : frames) result.frame_names.push_back(f.name);
-  std::error_code code;
-  fs::create_directories(options.output_dir, code);
-  if (code) {
-    return fail(JobStatus::kBadInput,
-                options.output_dir + ": cannot create the folder (" + code.message() + ")");
-  }
   const std::string csv_path = options.output_dir + "/frames.csv";
   std::vector<DoneRow> done;
-  if (!ReadDone(csv_path, options.output_dir, model, frames, &done, &error)) {
-    return fail(JobStatus::kBadInput, error);
+  if (root) {
+    std::error_code code;
+    fs::create_directories(options.output_dir, code);
+    if (code) {
+      error = options.output_dir + ": cannot create the folder (" + code.message() + ")";
+      ok = false;
+    }
+    ok = ok && ReadDone(csv_path, options.output_dir, model, frames, &done, &error);
   }
+  if (distributed) ok = comm->Agree(ok, &error);
+  if (!ok) return fail(JobStatus::kBadInput, error);
   const int n = static_cast<int>(frames.size());
   const int d = model.latent_dim();
-  std::vector<std::string> bone_names;
-  for (const Bone& b : model.bones) bone_names.push_back(b.name);
+  const int nb = static_cast<int>(model.bones.size());
+  const int ns = model.num_surface_vertices();
   log << "sequence " << options.sequence << ": " << n << " " << frames.front().kind
-      << " frames -> " << options.output_dir << "\n";
+      << " frames -> " << options.output_dir
+      << (options.warm_start ? std::string("")
+                             : distributed ? "; independent frames, shared among " +
+                                                 std::to_string(size) + " ranks (" +
+                                                 comm->Description() + ")"
+                                           : "; independent frames")
+      << "\n";
 
-  LatentFitter fitter(model, options.fit);
-  Eigen::VectorXd z = options.start.mean_latent ? fitter.MeanLatent() : fitter.PriorLatent();
   std::string csv = CsvHeader(model) + "\n";
   Eigen::MatrixXd track(d, n);
   for (size_t f = 0; f < done.size(); ++f) {
     csv += done[f].line + "\n";
     track.col(f) = done[f].latent;
   }
-  const int first = static_cast<int>(done.size());
+  int first = static_cast<int>(done.size());
+  if (distributed) comm->Broadcast(&first, 1, 0);
   result.frames_resumed = first;
+  // Warm starts: one fitter for the whole sequence, and the latent it continues from.
+  std::unique_ptr<LatentFitter> warm;
+  Eigen::VectorXd z;
+  if (options.warm_start) {
+    warm = std::make_unique<LatentFitter>(model, options.fit);
+    z = options.start.mean_latent ? warm->MeanLatent() : warm->PriorLatent();
+  }
   if (first > 0) {
-    // Warm start from the last frame done: its latent and bones, its equilibrium
-    // simulated again.
     log << "resuming at frame " << first << " (" << frames[first < n ? first : n - 1].name
         << "): " << first << " frames done\n";
-    z = done.back().latent;
-    fitter.set_bone_transforms(done.back().bones);
-    Eigen::Matrix3Xd state, surface;
-    if (first < n && !fitter.Simulate(z, &state, &surface, &error)) {
-      return fail(JobStatus::kNotConverged, "the last frame done, " + frames[first - 1].name +
-                                                ", cannot be simulated again: " + error);
+    if (warm) {
+      // Warm start from the last frame done: its latent and bones, its equilibrium
+      // simulated again.
+      z = done.back().latent;
+      warm->set_bone_transforms(done.back().bones);
+      Eigen::Matrix3Xd state, surface;
+      if (first < n && !warm->Simulate(z, &state, &surface, &error)) {
+        return fail(JobStatus::kNotConverged, "the last frame done, " + frames[first - 1].name +
+                                                  ", cannot be simulated again: " + error);
+      }
     }
   }
-  WallTimer timer;
-  for (int f = first; f < n; ++f) {
+  // Fits frame f into *block (FrameBlockSize numbers: see PackFrame); false with
+  // *status and *message if it cannot be fitted.
+  auto fit_frame = [&](int f, std::vector<double>* block, JobStatus* status,
+                       std::string* message) {
     const SequenceFrame& frame = frames[f];
     WallTimer frame_timer;
     const bool is_cloud = frame.kind == "points";
+    std::unique_ptr<LatentFitter> own;
+    LatentFitter* fitter = warm.get();
+    if (!warm) {
+      own = std::make_unique<LatentFitter>(model, options.fit);
+      fitter = own.get();
+      z = options.start.mean_latent ? fitter->MeanLatent() : fitter->PriorLatent();
+    }
     std::string start = "previous";
-    if (f == 0) {
-      if (!fitter.ChooseStart(is_cloud ? nullptr : &frame.target, is_cloud ? &frame.cloud : nullptr,
-                              options.points, options.start, &z, &start, &error)) {
-        return fail(JobStatus::kNotConverged, frame.path + ": " + error);
+    std::string fit_error;
+    if (!warm || f == 0) {
+      if (!fitter->ChooseStart(is_cloud ? nullptr : &frame.target,
+                               is_cloud ? &frame.cloud : nullptr, options.points, options.start,
+                               &z, &start, &fit_error)) {
+        *status = JobStatus::kNotConverged;
+        *message = frame.path + ": " + fit_error;
+        return false;
       }
     }
     LatentFitResult fit;
-    const bool ok = is_cloud ? fitter.FitPointCloud(frame.cloud, options.points, z, &fit, &error)
-                             : fitter.Fit(frame.target, z, &fit, &error);
-    if (!ok) {
-      return fail(JobStatus::kNotConverged,
-                  frame.path + ": " + error + " (frames before it are written; rerun to retry)");
+    const bool fitted =
+        is_cloud ? fitter->FitPointCloud(frame.cloud, options.points, z, &fit, &fit_error)
+                 : fitter->Fit(frame.target, z, &fit, &fit_error);
+    if (!fitted) {
+      *status = JobStatus::kNotConverged;
+      *message = frame.path + ": " + fit_error + " (frames before it are written; rerun to retry)";
+      return false;
     }
-    z = fit.latent;
-    // Outputs: the OBJ, the track, then the CSV row (a frame is done once it is there).
-    SurfaceMesh surface = model.neutral;
-    surface.vertices = fit.surface;
-    if (!WriteObj(options.output_dir + "/" + frame.name + ".obj", surface, &error)) {
-      return fail(JobStatus::kBadInput, error);
+    if (warm) z = fit.latent;
+    PackFrame(model, fit, start, frame_timer.Seconds(), block);
+    return true;
+  };
+
+  const int block_size = FrameBlockSize(d, nb, ns);
+  WallTimer timer;
+  for (int begin = first; begin < n; begin += size) {
+    const int end = std::min(n, begin + size);  // this round: frames [begin, end)
+    const int mine = begin + rank;               // this rank's frame, if < end
+    std::vector<double> block;
+    JobStatus status = JobStatus::kOk;
+    std::string message;
+    const bool fitted = mine >= end || fit_frame(mine, &block, &status, &message);
+    if (!fitted) block.assign(block_size, 0.0);  // sent, not written
+    int first_failure = fitted ? n : mine;
+    std::vector<double> blocks;
+    if (distributed) {
+      comm->MinToAll(&first_failure, 1);
+      std::vector<int> counts(size, 0);
+      for (int k = 0; k < end - begin; ++k) counts[k] = block_size;
+      if (root) blocks.resize(static_cast<size_t>(block_size) * (end - begin));
+      comm->GatherToRoot(block.data(), counts, blocks.data());
+    } else {
+      blocks = block;
     }
-    track.col(f) = fit.latent;
-    if (!WriteMatrixFile(options.output_dir + "/latents.bin", track.leftCols(f + 1), &error)) {
-      return fail(JobStatus::kBadInput, error);
+    // Rank 0 writes the round's frames before the first failing one: the OBJs, the
+    // track, then the CSV rows (a frame is done once its row is there).
+    const int written = std::min(end, first_failure);
+    ok = true;
+    if (root && written > begin) {
+      for (int f = begin; f < written && ok; ++f) {
+        const double* b = blocks.data() + static_cast<size_t>(block_size) * (f - begin);
+        SurfaceMesh surface = model.neutral;
+        surface.vertices = Eigen::Map<const Eigen::Matrix3Xd>(b + kFrameScalars + d + 6 * nb, 3, ns);
+        ok = WriteObj(options.output_dir + "/" + frames[f].name + ".obj", surface, &error);
+        track.col(f) = Eigen::Map<const Eigen::VectorXd>(b + kFrameScalars, d);
+        csv += FrameRow(model, f, frames[f], b) + "\n";
+      }
+      ok = ok && WriteMatrixFile(options.output_dir + "/latents.bin", track.leftCols(written),
+                                 &error);
+      ok = ok && WriteFileAtomically(csv_path, csv, &error);
     }
-    const double seconds = frame_timer.Seconds();
-    std::string row = std::to_string(f) + "," + frame.name + "," + frame.kind + "," +
-                      std::to_string(is_cloud ? frame.cloud.cols() : frame.target.num_points()) +
-                      "," + std::to_string(fit.used_points);
-    Append(fit.matched_fraction, &row);
-    Append(fit.mean_error, &row);
-    Append(fit.rms_error, &row);
-    Append(fit.max_error, &row);
-    row += "," + std::to_string(fit.iterations);
-    Append(seconds, &row);
-    row += std::string(",") + (fit.converged ? "1" : "0") + "," + start + "," +
-           std::to_string(fit.solve_factorizations + fit.jacobians);
-    for (int i = 0; i < d; ++i) Append(fit.latent[i], &row);
-    for (const RigidTransform& t : fit.bones) {
-      double p[6];
-      BoneTransformToParameters(t, p);
-      for (double v : p) Append(v, &row);
+    if (distributed) ok = comm->Agree(ok, &error);
+    if (!ok) return fail(JobStatus::kBadInput, error);
+    for (int f = begin; f < written; ++f) {
+      ++result.frames_fitted;
+      const double* b = blocks.data() + static_cast<size_t>(block_size) * (f - begin);
+      if (!root) continue;
+      const double elapsed = timer.Seconds();
+      const double fps = result.frames_fitted / std::max(elapsed, 1e-9);
+      log << "frame " << f + 1 << "/" << n << " " << frames[f].name << ": error mean "
+          << std::setprecision(4) << b[2] << " over " << static_cast<int>(b[0]) << " points, "
+          << static_cast<int>(b[5]) << " it, " << std::setprecision(3) << b[6] << " s";
+      if (distributed) log << " (rank " << f - begin << ")";
+      log << "; " << std::setprecision(3) << fps << " frames/s, ETA "
+          << FormatSeconds((n - f - 1) / fps) << std::endl;
     }
-    csv += row + "\n";
-    if (!WriteFileAtomically(csv_path, csv, &error)) return fail(JobStatus::kBadInput, error);
-    ++result.frames_fitted;
-    const double elapsed = timer.Seconds();
-    const double fps = result.frames_fitted / std::max(elapsed, 1e-9);
-    log << "frame " << f + 1 << "/" << n << " " << frame.name << ": error mean "
-        << std::setprecision(4) << fit.mean_error << " over " << fit.used_points << " points, "
-        << fit.iterations << " it, " << std::setprecision(3) << seconds << " s; "
-        << std::setprecision(3) << fps << " frames/s, ETA " << FormatSeconds((n - f - 1) / fps)
-        << std::endl;
+    if (first_failure < n) {
+      int code = static_cast<int>(status);
+      if (distributed) {
+        comm->BroadcastText(&message, first_failure - begin);
+        comm->Broadcast(&code, 1, first_failure - begin);
+      }
+      return fail(static_cast<JobStatus>(code), message);
+    }
   }
   result.seconds = timer.Seconds();
   result.frames_per_second = result.frames_fitted / std::max(result.seconds, 1e-9);
   if (first == n) {
     log << "all " << n << " frames were done already\n";
-    if (!WriteMatrixFile(options.output_dir + "/latents.bin", track, &error)) {
-      return fail(JobStatus::kBadInput, error);
-    }
+    if (root && !WriteMatrixFile(options.output_dir + "/latents.bin", track, &error)) ok = false;
+    if (distributed) ok = comm->Agree(ok, &error);
+    if (!ok) return fail(JobStatus::kBadInput, error);
   }
   log << "fitted " << result.frames_fitted << " frames in " << std::setprecision(4)
       << result.seconds << " s (" << result.frames_per_second << " frames/s); wrote "
@@ -443,22 +595,31 @@ bool FitSequenceOptions::Validate(std::string* error) const {
 
 FitSequenceResult RunFitSequenceJob(const FitSequenceOptions& options, std::ostream& log) {
   FitSequenceResult result;
-  if (!options.Validate(&result.message)) {
+  auto fail = [&](const std::string& message) {
     result.status = JobStatus::kBadInput;
+    result.message = message;
     return result;
+  };
+  {
+    std::string invalid;
+    if (!options.Validate(&invalid)) return fail(invalid);
   }
   if (options.model.empty() || options.sequence.empty() || options.output_dir.empty()) {
-    result.status = JobStatus::kBadInput;
-    result.message = "--model, --sequence and --output_dir are required";
-    return result;
+    return fail("--model, --sequence and --output_dir are required");
   }
-  ActiveModel model;
   std::string error;
-  if (!LoadModel(options.model, &model, &error)) {
-    result.status = JobStatus::kBadInput;
-    result.message = error;
-    return result;
+  if (!CheckSharing(options, &error)) return fail(error);
+  ActiveModel model;
+  bool ok = LoadModel(options.model, &model, &error);
+  if (ok && !model.decoder) {
+    error = options.model + ": the model is not trained";
+    ok = false;
   }
+  const Communicator* comm = options.communicator;
+  if (comm != nullptr && comm->size() > 1) {
+    ok = ShareModel(*comm, options.model, ok, &model, &error);
+  }
+  if (!ok) return fail(error);
   return RunFitSequence(options, model, log);
 }
 

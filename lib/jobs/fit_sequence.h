@@ -7,6 +7,7 @@
 
 #include <Eigen/Core>
 
+#include "dist/communicator.h"
 #include "fit/latent_fit.h"
 #include "jobs/simulate_job.h"
 #include "model/active_model.h"
@@ -15,7 +16,8 @@ namespace aqs {
 
 // What aqs_fit --sequence does: fits an ordered sequence of targets frame after frame,
 // each warm-started from the previous frame's latent, bones and equilibrium (the first
-// from the start FitStartOptions chooses).
+// from the start FitStartOptions chooses); or, without warm starts, every frame on its
+// own, optionally shared among the ranks of an MPI job (docs/distributed.md).
 struct FitSequenceOptions {
   std::string model;  // model directory (RunFitSequenceJob loads it)
   // The frames: a folder (its .obj, .txt and .ply files, sorted by name), a glob
@@ -34,6 +36,20 @@ struct FitSequenceOptions {
   LatentFitOptions fit;
   PointCloudFitOptions points;
   FitStartOptions start;
+  // true: each frame after the first starts from the previous frame's latent, bones and
+  // equilibrium (the frame on which a resumed run starts: from the last frame done).
+  // false: independent frames: every frame is fitted by a fitter of its own from the
+  // start `start` chooses for it (as the first frame is), so that a frame's result
+  // depends on nothing but its target (not on the order, the previous frame or the rank
+  // that fits it); frames.csv's `start` column names that start for every frame.
+  bool warm_start = true;
+  // The ranks that share the frames (null, or one rank: one process). Needs
+  // warm_start = false with more than one rank (else kBadInput on every rank). Frames
+  // are fitted in rounds of size() frames, frame first + k on rank k; rank 0 gathers
+  // their results and alone writes every output, after each round: the outputs are
+  // those of one process, byte for byte, except the seconds column of frames.csv.
+  // Collective: every rank calls RunFitSequence(Job) with the same options.
+  const Communicator* communicator = nullptr;
 
   // Checks every field; false with *error naming the first bad one (util/option_checks.h).
   bool Validate(std::string* error) const;
@@ -43,7 +59,7 @@ struct FitSequenceResult {
   JobStatus status = JobStatus::kOk;
   std::string message;
   std::vector<std::string> frame_names;  // all frames, in order
-  int frames_fitted = 0;   // in this run
+  int frames_fitted = 0;   // written in this run (every rank: all ranks' frames)
   int frames_resumed = 0;  // found done in output_dir
   double seconds = 0.0;    // fitting time of this run (after reading the targets)
   double frames_per_second = 0.0;
@@ -66,12 +82,16 @@ bool ReadSequenceFrames(const FitSequenceOptions& options, int num_surface_verti
                         std::vector<SequenceFrame>* frames, std::string* error);
 
 // Fits the frames with `model` (which must be the one options.model names, for the
-// messages) and writes the outputs. Progress lines with frames per second and an ETA go
-// to `log`.
+// messages; with ranks, the same model on every rank) and writes the outputs. Progress
+// lines with frames per second and an ETA go to `log` (rank 0's; the other ranks log
+// nothing). With ranks, a failure on any rank (a frame that cannot be fitted, bad
+// input, an output that cannot be written) stops every rank with the same status and
+// message (the first failing frame's).
 FitSequenceResult RunFitSequence(const FitSequenceOptions& options, const ActiveModel& model,
                                  std::ostream& log);
 
-// Loads options.model, then RunFitSequence.
+// Loads options.model (with ranks: on every rank, checked and shared from rank 0's,
+// dist/model_sharing.h), then RunFitSequence.
 FitSequenceResult RunFitSequenceJob(const FitSequenceOptions& options, std::ostream& log);
 
 }  // namespace aqs

@@ -1,7 +1,7 @@
 // The apps over MPI, run by mpirun from this (ordinary) test: aqs_train on 2 ranks and
 // resumed on 1, spare ranks, a rank killed with SIGKILL mid-run (the job stops, the
-// checkpoint resumes), aqs_evaluate's outputs against one process, aqs_pipeline, and
-// bad input stopping every rank with one message.
+// checkpoint resumes), aqs_evaluate's and aqs_fit --sequence's outputs against one
+// process, aqs_pipeline, and bad input stopping every rank with one message.
 
 #include <cstdio>
 #include <filesystem>
@@ -191,6 +191,65 @@ TEST(MpiAppsTest, EvaluateOnTwoRanksWritesWhatOneProcessWrites) {
   EXPECT_EQ(Count(run.output, "wrote "), 1) << run.output;
   EXPECT_EQ(ReadAll(dir.File("many/evaluation.csv")), ReadAll(dir.File("one/evaluation.csv")));
   EXPECT_EQ(ReadAll(dir.File("many/evaluation.md")), ReadAll(dir.File("one/evaluation.md")));
+}
+
+// frames.csv without its seconds column (column 10).
+std::string WithoutSeconds(const std::string& csv) {
+  std::ifstream in(csv);
+  std::string out;
+  for (std::string line; std::getline(in, line);) {
+    std::stringstream s(line);
+    int column = 0;
+    for (std::string cell; std::getline(s, cell, ','); ++column) {
+      out += (column == 10 ? std::string("-") : cell) + ",";
+    }
+    out += "\n";
+  }
+  return out;
+}
+
+TEST(MpiAppsTest, FitSequenceOnTwoRanksWritesWhatOneProcessWrites) {
+  testing::TempDir dir;
+  const std::string model = dir.File("m");
+  WritePretrainedModel(model, 3);
+  const testing::SyntheticMuscles held_out = testing::MakeSyntheticMuscles(1, 3, 0.3, 9);
+  std::string error;
+  fs::create_directories(dir.File("seq"));
+  for (size_t t = 0; t < held_out.test_surfaces.size(); ++t) {
+    SurfaceMesh surface = held_out.model.neutral;
+    surface.vertices = held_out.test_surfaces[t];
+    ASSERT_TRUE(WriteObj(dir.File("seq/f" + std::to_string(t) + ".obj"), surface, &error)) << error;
+  }
+  const std::string fit = AppPath("aqs_fit") + " --model=" + model + " --sequence=" +
+                          dir.File("seq") + " --fit_iterations=10";
+  const std::string flags = " --sequence_warm_start=false --threads=1";
+  CommandResult run = RunCommand("OPENBLAS_NUM_THREADS=1 " + fit + flags + " --output_dir=" +
+                                 dir.File("one"));
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  run = MpiRun(2, fit + flags + " --output_dir=" + dir.File("many"));
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_EQ(Count(run.output, "independent frames, shared among 2 ranks"), 1) << run.output;
+  EXPECT_EQ(Count(run.output, "fitted 3 frames"), 1) << run.output;
+  const std::string csv = WithoutSeconds(dir.File("many/frames.csv"));
+  EXPECT_EQ(Count(csv, "\n"), 4) << csv;
+  EXPECT_EQ(csv, WithoutSeconds(dir.File("one/frames.csv")));
+  EXPECT_EQ(ReadAll(dir.File("many/latents.bin")), ReadAll(dir.File("one/latents.bin")));
+  for (int t = 0; t < 3; ++t) {
+    const std::string name = "/f" + std::to_string(t) + ".obj";
+    EXPECT_EQ(ReadAll(dir.File("many") + name), ReadAll(dir.File("one") + name)) << name;
+  }
+  // Warm-started sequences and single targets are not shared: exit 1, one message.
+  run = MpiRun(2, fit + " --output_dir=" + dir.File("warm"));
+  EXPECT_EQ(run.exit_code, 1) << run.output;
+  EXPECT_EQ(Count(run.output, "aqs_fit: error: a warm-started sequence "
+                              "(--sequence_warm_start, the default)"), 1)
+      << run.output;
+  EXPECT_NE(run.output.find("give --sequence_warm_start=false"), std::string::npos) << run.output;
+  run = MpiRun(2, AppPath("aqs_fit") + " --model=" + model + " --target=" +
+                      dir.File("seq/f0.obj") + " --output=" + dir.File("single.obj"));
+  EXPECT_EQ(run.exit_code, 1) << run.output;
+  EXPECT_EQ(Count(run.output, "aqs_fit: error: one --target is fitted by one process"), 1)
+      << run.output;
 }
 
 TEST(MpiAppsTest, PipelineRunsEveryStageOverTheRanks) {

@@ -1,0 +1,231 @@
+// Sequence fits over MPI (run by mpirun with 2 ranks): independent frames shared among
+// the ranks give the outputs of one process (frames.csv up to its seconds column,
+// latents.bin and every OBJ byte for byte); a partial run resumes with the other number
+// of ranks; bad input stops every rank.
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <gtest/gtest.h>
+
+#include "dist/mpi_world.h"
+#include "fit/latent_fit.h"
+#include "jobs/fit_sequence.h"
+#include "mesh/mesh_io.h"
+#include "model/model_io.h"
+#include "testing/synthetic_muscles.h"
+
+namespace aqs {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::World;
+
+constexpr int kFrames = 5;  // rounds of 2 frames, the last with rank 1 idle
+
+std::string ReadAll(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  return buffer.str();
+}
+
+// frames.csv without its seconds column (column 10), which differs between runs.
+std::string WithoutSeconds(const std::string& csv) {
+  std::ifstream in(csv);
+  std::string out;
+  for (std::string line; std::getline(in, line);) {
+    std::stringstream s(line);
+    int column = 0;
+    for (std::string cell; std::getline(s, cell, ','); ++column) {
+      out += (column == 10 ? std::string("-") : cell) + ",";
+    }
+    out += "\n";
+  }
+  return out;
+}
+
+// Rank 0: whether folder `a` holds the outputs of folder `b` (but the seconds).
+void ExpectSameOutputs(const std::string& a, const std::string& b) {
+  const std::string csv = WithoutSeconds(a + "/frames.csv");
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), kFrames + 1) << csv;
+  EXPECT_EQ(csv, WithoutSeconds(b + "/frames.csv"));
+  EXPECT_FALSE(ReadAll(a + "/latents.bin").empty());
+  EXPECT_EQ(ReadAll(a + "/latents.bin"), ReadAll(b + "/latents.bin"));
+  for (int t = 0; t < kFrames; ++t) {
+    const std::string name = "/t" + std::to_string(t) + ".obj";
+    EXPECT_FALSE(ReadAll(a + name).empty()) << a + name;
+    EXPECT_EQ(ReadAll(a + name), ReadAll(b + name)) << name;
+  }
+}
+
+class MpiSequenceTest : public ::testing::Test {
+ protected:
+  // The pre-trained bar with an equilibrium per pose (fits may start from a training
+  // pose) and kFrames held-out pose targets, written by rank 0.
+  void SetUp() override {
+    dir_ = std::make_unique<testing::SharedTempDir>();
+    options_.model = dir_->File("m");
+    options_.fit.num_threads = 1;
+    options_.fit.max_iterations = 10;
+    options_.warm_start = false;
+    for (int t = 0; t < kFrames; ++t) options_.sequence += dir_->File("t" + std::to_string(t) + ".obj,");
+    if (World().is_root()) {
+      ActiveModel model = testing::PretrainedBar(3);
+      std::string error;
+      LatentFitter fitter(model, options_.fit);
+      for (int p = 0; p < model.num_poses(); ++p) {
+        Eigen::Matrix3Xd state, surface;
+        EXPECT_TRUE(fitter.Simulate(model.latents.col(p), &state, &surface, &error)) << error;
+        model.states.push_back(state);
+      }
+      EXPECT_TRUE(SaveModel(options_.model, model, &error)) << error;
+      const testing::SyntheticMuscles held_out = testing::MakeSyntheticMuscles(1, kFrames, 0.3, 23);
+      for (int t = 0; t < kFrames; ++t) {
+        SurfaceMesh surface = model.neutral;
+        surface.vertices = held_out.test_surfaces[t];
+        EXPECT_TRUE(WriteObj(dir_->File("t" + std::to_string(t) + ".obj"), surface, &error));
+      }
+    }
+    World().Barrier();
+  }
+
+  // RunFitSequenceJob into `out`, in one process on rank 0 (`shared` false; the other
+  // ranks wait) or shared among all ranks.
+  FitSequenceResult Run(const std::string& out, bool shared, int max_frames = -1) {
+    FitSequenceOptions options = options_;
+    options.output_dir = dir_->File(out);
+    options.max_frames = max_frames;
+    options.communicator = shared ? &World() : nullptr;
+    FitSequenceResult result;
+    std::ostringstream log;
+    if (shared || World().is_root()) {
+      result = RunFitSequenceJob(options, log);
+      EXPECT_EQ(result.status, JobStatus::kOk) << result.message << "\n" << log.str();
+    }
+    World().Barrier();
+    return result;
+  }
+
+  std::unique_ptr<testing::SharedTempDir> dir_;
+  FitSequenceOptions options_;
+};
+
+TEST_F(MpiSequenceTest, SharedFramesGiveTheOutputsOfOneProcess) {
+  Run("one", false);
+  const FitSequenceResult result = Run("many", true);
+  EXPECT_EQ(result.frames_fitted, kFrames);  // on every rank
+  EXPECT_EQ(result.frames_resumed, 0);
+  if (!World().is_root()) return;
+  ExpectSameOutputs(dir_->File("many"), dir_->File("one"));
+  std::printf("%d frames over %d ranks: frames.csv (but seconds), latents.bin and %d OBJs "
+              "identical to one process\n",
+              kFrames, World().size(), kFrames);
+}
+
+TEST_F(MpiSequenceTest, APartialRunResumesWithTheOtherNumberOfRanks) {
+  Run("one", false);
+  // 3 frames in one process, the rest shared.
+  Run("from_one", false, 3);
+  FitSequenceResult result = Run("from_one", true);
+  EXPECT_EQ(result.frames_resumed, 3);
+  EXPECT_EQ(result.frames_fitted, kFrames - 3);
+  // 3 frames shared (the second round with rank 1 idle), the rest in one process.
+  Run("from_many", true, 3);
+  result = Run("from_many", false);
+  if (!World().is_root()) return;
+  EXPECT_EQ(result.frames_resumed, 3);
+  EXPECT_EQ(result.frames_fitted, kFrames - 3);
+  ExpectSameOutputs(dir_->File("from_one"), dir_->File("one"));
+  ExpectSameOutputs(dir_->File("from_many"), dir_->File("one"));
+}
+
+TEST_F(MpiSequenceTest, AFrameFailingOnRank1StopsEveryRankWithItsMessage) {
+  // Scans (point clouds: every other surface vertex of two targets); the second lies
+  // far from the model, so that its fit fails on rank 1 while rank 0's succeeds.
+  if (World().is_root()) {
+    std::string error;
+    for (int t = 0; t < 2; ++t) {
+      SurfaceMesh pose;
+      EXPECT_TRUE(ReadObj(dir_->File("t" + std::to_string(t) + ".obj"), &pose, &error)) << error;
+      SurfaceMesh scan;
+      scan.vertices.resize(3, (pose.num_vertices() + 1) / 2);
+      for (int v = 0; v < pose.num_vertices(); v += 2) scan.vertices.col(v / 2) = pose.vertices.col(v);
+      if (t == 1) scan.vertices.array() += 100.0;
+      EXPECT_TRUE(WriteObj(dir_->File(t == 0 ? "near.obj" : "far.obj"), scan, &error)) << error;
+    }
+  }
+  World().Barrier();
+  FitSequenceOptions options = options_;
+  options.sequence = dir_->File("near.obj") + "," + dir_->File("far.obj");
+  options.points.rematch_every_evaluation = false;
+  options.points.max_rounds = 2;
+  std::ostringstream log;
+  FitSequenceResult one;
+  if (World().is_root()) {
+    options.output_dir = dir_->File("one");
+    one = RunFitSequenceJob(options, log);
+    EXPECT_EQ(one.status, JobStatus::kNotConverged) << one.message;
+  }
+  World().Barrier();
+  options.output_dir = dir_->File("many");
+  options.communicator = &World();
+  const FitSequenceResult many = RunFitSequenceJob(options, log);
+  EXPECT_EQ(many.status, JobStatus::kNotConverged) << many.message;
+  EXPECT_NE(many.message.find("far.obj: fewer than 3 scan points lie within --max_distance"),
+            std::string::npos)
+      << many.message;
+  EXPECT_NE(many.message.find("(frames before it are written; rerun to retry)"),
+            std::string::npos)
+      << many.message;
+  EXPECT_EQ(many.frames_fitted, 1);
+  if (!World().is_root()) return;
+  EXPECT_EQ(many.message, one.message);
+  const std::string csv = WithoutSeconds(dir_->File("many/frames.csv"));
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 2) << "the header and frame 0";
+  EXPECT_EQ(csv, WithoutSeconds(dir_->File("one/frames.csv")));
+  EXPECT_EQ(ReadAll(dir_->File("many/near.obj")), ReadAll(dir_->File("one/near.obj")));
+  EXPECT_FALSE(fs::exists(dir_->File("many/far.obj")));
+}
+
+TEST_F(MpiSequenceTest, BadInputStopsEveryRank) {
+  // A warm-started sequence cannot be shared.
+  FitSequenceOptions options = options_;
+  options.communicator = &World();
+  options.output_dir = dir_->File("warm");
+  options.warm_start = true;
+  std::ostringstream log;
+  FitSequenceResult result = RunFitSequenceJob(options, log);
+  EXPECT_EQ(result.status, JobStatus::kBadInput);
+  EXPECT_NE(result.message.find("cannot be shared among 2 ranks: give "
+                                "--sequence_warm_start=false"),
+            std::string::npos)
+      << result.message;
+  // An output folder rank 0 cannot create (a file there): every rank stops with its
+  // message.
+  if (World().is_root()) std::ofstream(dir_->File("a_file")) << "x\n";
+  World().Barrier();
+  options.warm_start = false;
+  options.output_dir = dir_->File("a_file");
+  result = RunFitSequenceJob(options, log);
+  EXPECT_EQ(result.status, JobStatus::kBadInput);
+  EXPECT_NE(result.message.find("a_file: cannot create the folder"), std::string::npos)
+      << result.message;
+  // Frames.csv of another run (rank 0 reads it).
+  if (World().is_root()) {
+    fs::create_directories(dir_->File("other"));
+    std::ofstream(dir_->File("other/frames.csv")) << "frame,name\n";
+  }
+  World().Barrier();
+  options.output_dir = dir_->File("other");
+  result = RunFitSequenceJob(options, log);
+  EXPECT_EQ(result.status, JobStatus::kBadInput);
+  EXPECT_NE(result.message.find("frames.csv:1: written for another model"), std::string::npos)
+      << result.message;
+}
+
+}  // namespace
+}  // namespace aqs
