@@ -6,8 +6,8 @@
 #include <Eigen/Core>
 
 #include "contact/obstacle.h"
-#include "contact/surface_stencils.h"
 #include "equilibrium/energy_term.h"
+#include "geometry/embedding.h"
 
 namespace ceres {
 class CostFunction;

@@ -310,13 +310,9 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
     pose_max_[p] = distance.maxCoeff();
     if (gradient == nullptr) return;
     // dL/dx: the embedding's transpose applied to dL/dp_i = 2 scale diff_i.
-    Eigen::Matrix3Xd dl_dx = Eigen::Matrix3Xd::Zero(3, x.cols());
-    for (int i = 0; i < n; ++i) {
-      for (int k = 0; k < 4; ++k) {
-        dl_dx.col(model_.mesh.tets(k, model_.embedding.element[i])) +=
-            2.0 * scale * model_.embedding.weights(k, i) * diff.col(i);
-      }
-    }
+    const Eigen::Matrix3Xd dl_dx = EmbeddingTranspose(model_.embedding, model_.mesh.tets,
+                                                      (2.0 * scale) * diff,
+                                                      static_cast<int>(x.cols()));
     WallTimer adjoint_timer;
     StiffnessFactorization& factorization = *w.solver->stiffness_factorization();
     const FactorizationCounters before = factorization.counters();
