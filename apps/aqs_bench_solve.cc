@@ -205,9 +205,9 @@ int Main() {
         c.name += "(springs)";
         c.actuation = IdentityActuations(model.mesh.num_tets());
         c.springs = std::make_shared<EmbeddedAttachments>(
-            model.mesh.tets, model.embedding.element, model.embedding.weights,
+            model.embedding, model.mesh.tets,
             AttachmentStiffness(model, FLAGS_attachment_stiffness), model.mesh.vertices);
-        c.spring_targets = model.poses[p].surface - model.embedding.offsets;
+        c.spring_targets = model.poses[p].surface;
       } else if (model.decoder) {
         DecoderWorkspace workspace;
         model.decoder->Decode(model.decoder_params.data(), model.latents.col(p), &c.actuation,

@@ -6,7 +6,7 @@
 #include <Eigen/Core>
 
 #include "contact/obstacle.h"
-#include "contact/surface_stencils.h"
+#include "geometry/embedding.h"
 #include "equilibrium/energy_term.h"
 
 namespace ceres {

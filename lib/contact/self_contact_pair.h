@@ -3,7 +3,7 @@
 
 #include <Eigen/Core>
 
-#include "contact/surface_stencils.h"
+#include "geometry/embedding.h"
 
 namespace aqs {
 

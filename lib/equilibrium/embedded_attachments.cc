@@ -9,19 +9,22 @@
 namespace aqs {
 namespace {
 
-// r = sqrt(k) (sum_j w_j x_j - y): 3 residuals, four vertex blocks; Jacobian block j
-// is sqrt(k) w_j I (3x3, row-major). Reads the target through a pointer.
+// r = sqrt(k) (sum_j w_j x_j + o - y): 3 residuals, four vertex blocks; Jacobian block
+// j is sqrt(k) w_j I (3x3, row-major). Reads the target through a pointer.
 class AttachmentCostFunction final : public ceres::SizedCostFunction<3, 3, 3, 3, 3> {
  public:
-  AttachmentCostFunction(const Eigen::Vector4d& weights, double stiffness, const double* target)
-      : weights_(weights), scale_(std::sqrt(stiffness)), target_(target) {}
+  AttachmentCostFunction(const PointStencil& stencil, double stiffness, const double* target)
+      : weights_(Eigen::Map<const Eigen::Vector4d>(stencil.weight)),
+        offset_(stencil.offset),
+        scale_(std::sqrt(stiffness)),
+        target_(target) {}
 
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override {
     for (int c = 0; c < 3; ++c) {
       double p = 0.0;
       for (int j = 0; j < 4; ++j) p += weights_[j] * parameters[j][c];
-      residuals[c] = scale_ * (p - target_[c]);
+      residuals[c] = scale_ * (p + offset_[c] - target_[c]);
     }
     if (jacobians == nullptr) return true;
     for (int j = 0; j < 4; ++j) {
@@ -34,39 +37,32 @@ class AttachmentCostFunction final : public ceres::SizedCostFunction<3, 3, 3, 3,
 
  private:
   Eigen::Vector4d weights_;
+  Eigen::Vector3d offset_;
   double scale_;
   const double* target_;
 };
 
 }  // namespace
 
-ceres::CostFunction* NewAttachmentCostFunction(const Eigen::Vector4d& weights, double stiffness,
+ceres::CostFunction* NewAttachmentCostFunction(const PointStencil& stencil, double stiffness,
                                                const double* target) {
-  return new AttachmentCostFunction(weights, stiffness, target);
+  return new AttachmentCostFunction(stencil, stiffness, target);
 }
 
-EmbeddedAttachments::EmbeddedAttachments(const Eigen::Matrix4Xi& tets,
-                                         const std::vector<int>& element,
-                                         const Eigen::Matrix4Xd& weights,
+EmbeddedAttachments::EmbeddedAttachments(const Embedding& embedding, const Eigen::Matrix4Xi& tets,
                                          const Eigen::VectorXd& stiffness,
                                          const Eigen::Matrix3Xd& rest_positions)
-    : vertices_(4, element.size()), element_(element), weights_(weights), stiffness_(stiffness) {
-  CHECK_EQ(weights.cols(), static_cast<Eigen::Index>(element.size()));
-  CHECK_EQ(stiffness.size(), static_cast<Eigen::Index>(element.size()));
-  for (size_t i = 0; i < element.size(); ++i) {
-    CHECK(element[i] >= 0 && element[i] < tets.cols()) << "point " << i;
-    CHECK(stiffness[i] > 0.0) << "point " << i;
-    vertices_.col(i) = tets.col(element[i]);
-  }
-  targets_.resize(3 * element.size());
+    : stencils_(EmbeddingStencils(embedding, tets)), element_(embedding.element),
+      stiffness_(stiffness) {
+  CHECK_EQ(stiffness.size(), static_cast<Eigen::Index>(num_points()));
+  for (int i = 0; i < num_points(); ++i) CHECK(stiffness[i] > 0.0) << "point " << i;
+  targets_.resize(3 * element_.size());
   targets() = Points(rest_positions);
 }
 
 Eigen::Matrix3Xd EmbeddedAttachments::Points(const Eigen::Ref<const Eigen::Matrix3Xd>& x) const {
-  Eigen::Matrix3Xd points = Eigen::Matrix3Xd::Zero(3, num_points());
-  for (int i = 0; i < num_points(); ++i) {
-    for (int j = 0; j < 4; ++j) points.col(i) += weights_(j, i) * x.col(vertices_(j, i));
-  }
+  Eigen::Matrix3Xd points(3, num_points());
+  for (int i = 0; i < num_points(); ++i) points.col(i) = stencils_[i].Position(x);
   return points;
 }
 
@@ -74,10 +70,10 @@ double EmbeddedAttachments::AddEnergyAndGradient(const Eigen::Ref<const Eigen::M
                                                  Eigen::Matrix3Xd* gradient) const {
   double energy = 0.0;
   for (int i = 0; i < num_points(); ++i) {
-    Eigen::Vector3d d = -targets().col(i);
-    for (int j = 0; j < 4; ++j) d += weights_(j, i) * x.col(vertices_(j, i));
+    const PointStencil& s = stencils_[i];
+    const Eigen::Vector3d d = s.Position(x) - targets().col(i);
     energy += 0.5 * stiffness_[i] * d.squaredNorm();
-    for (int j = 0; j < 4; ++j) gradient->col(vertices_(j, i)) += stiffness_[i] * weights_(j, i) * d;
+    for (int j = 0; j < 4; ++j) gradient->col(s.vertex[j]) += stiffness_[i] * s.weight[j] * d;
   }
   return energy;
 }
@@ -92,7 +88,7 @@ void EmbeddedAttachments::AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>&
     for (int j = 0; j < 4; ++j) {
       for (int l = 0; l < 4; ++l) {
         if (pattern.BlockOffset(e, j, l, 0) < 0) continue;
-        const double h = stiffness_[i] * weights_(j, i) * weights_(l, i);
+        const double h = stiffness_[i] * stencils_[i].weight[j] * stencils_[i].weight[l];
         // The 3x3 block is h I: only its diagonal entries (c == d) are non-zero.
         for (int d = 0; d < 3; ++d) (*values)[pattern.BlockOffset(e, j, l, d) + d] += h;
       }
@@ -103,11 +99,11 @@ void EmbeddedAttachments::AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>&
 void EmbeddedAttachments::AddResidualBlocks(ceres::Problem* problem,
                                             const std::vector<double*>& vertex_blocks) const {
   for (int i = 0; i < num_points(); ++i) {
+    const PointStencil& s = stencils_[i];
     ceres::CostFunction* cost =
-        NewAttachmentCostFunction(weights_.col(i), stiffness_[i], targets_.data() + 3 * i);
-    problem->AddResidualBlock(cost, nullptr, vertex_blocks[vertices_(0, i)],
-                              vertex_blocks[vertices_(1, i)], vertex_blocks[vertices_(2, i)],
-                              vertex_blocks[vertices_(3, i)]);
+        NewAttachmentCostFunction(s, stiffness_[i], targets_.data() + 3 * i);
+    problem->AddResidualBlock(cost, nullptr, vertex_blocks[s.vertex[0]], vertex_blocks[s.vertex[1]],
+                              vertex_blocks[s.vertex[2]], vertex_blocks[s.vertex[3]]);
   }
 }
 

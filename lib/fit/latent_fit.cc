@@ -189,17 +189,11 @@ class LatentFitter::FitCost final : public ceres::CostFunction {
         const Eigen::Matrix3d nn = n * n.transpose();
         s.projector = s.scale * (nn + target.tangential_weight * (Eigen::Matrix3d::Identity() - nn));
       }
-      s.offset.setZero();
       for (int c = 0; c < 3; ++c) {
         const int v = target.vertices(c, i);
         CHECK(v >= 0 && v < model.num_surface_vertices()) << "target vertex " << v;
-        const double beta = target.barycentric(c, i);
-        s.offset += beta * model.embedding.offsets.col(v);
-        for (int j = 0; j < 4; ++j) {
-          s.vertex[4 * c + j] = model.mesh.tets(j, model.embedding.element[v]);
-          s.weight[4 * c + j] = beta * model.embedding.weights(j, v);
-        }
       }
+      SetSurfaceStencil(model, target.vertices.col(i), target.barycentric.col(i), &s);
     }
   }
 
@@ -230,16 +224,8 @@ class LatentFitter::FitCost final : public ceres::CostFunction {
     for (Eigen::Index i = 0; i < m; ++i) {
       const ClosestPointResult& c = closest[i];
       Stencil& st = stencils_[i];
-      st.offset.setZero();
       const Eigen::Vector3i t = triangles.col(c.triangle);
-      for (int k = 0; k < 3; ++k) {
-        const int v = t[k];
-        st.offset += c.barycentric[k] * model.embedding.offsets.col(v);
-        for (int j = 0; j < 4; ++j) {
-          st.vertex[4 * k + j] = model.mesh.tets(j, model.embedding.element[v]);
-          st.weight[4 * k + j] = c.barycentric[k] * model.embedding.weights(j, v);
-        }
-      }
+      SetSurfaceStencil(model, t, c.barycentric, &st);
       // Signed by the side of the triangle: sigma = sign(v . n) |v|, v = p - y, whose
       // gradient sign(v . n) v / |v| is n itself for a closest point inside a triangle,
       // so the residual is smooth where the surface passes through a scan point.
@@ -369,6 +355,22 @@ class LatentFitter::FitCost final : public ceres::CostFunction {
     double scale;
     Eigen::Matrix3d projector;  // scale * P_k (identity scaled for point-to-point)
   };
+
+  // The vertex, weight and offset entries of *s for the surface point sum_c
+  // barycentric(c) * (embedded surface vertex vertices(c)): the three embedding
+  // stencils, scaled (entries 4 c .. 4 c + 3 for corner c).
+  static void SetSurfaceStencil(const ActiveModel& model, const Eigen::Vector3i& vertices,
+                                const Eigen::Vector3d& barycentric, Stencil* s) {
+    s->offset.setZero();
+    for (int c = 0; c < 3; ++c) {
+      const PointStencil point = EmbeddingStencil(model.embedding, model.mesh.tets, vertices[c]);
+      s->offset += barycentric[c] * point.offset;
+      for (int j = 0; j < 4; ++j) {
+        s->vertex[4 * c + j] = point.vertex[j];
+        s->weight[4 * c + j] = barycentric[c] * point.weight[j];
+      }
+    }
+  }
 
   // Row-major (3K x columns) Jacobian of the residuals from dx (3 num_vertices x columns).
   void FillJacobian(const Eigen::MatrixXd& dx, double* out) const {

@@ -200,25 +200,65 @@ Embedding EmbedPoints(const TetMesh& mesh, const Eigen::Matrix3Xd& points, int n
   return embedding;
 }
 
+PointStencil EmbeddingStencil(const Embedding& embedding, const Eigen::Matrix4Xi& tets, int i) {
+  CHECK(i >= 0 && i < embedding.num_points()) << "point " << i;
+  const int t = embedding.element[i];
+  CHECK(t >= 0 && t < tets.cols())
+      << "point " << i << " has element " << t << " out of range [0, " << tets.cols() << ")";
+  PointStencil stencil;
+  for (int k = 0; k < 4; ++k) {
+    stencil.vertex[k] = tets(k, t);
+    stencil.weight[k] = embedding.weights(k, i);
+  }
+  stencil.offset = embedding.offsets.col(i);
+  return stencil;
+}
+
+std::vector<PointStencil> EmbeddingStencils(const Embedding& embedding, const Eigen::Matrix4Xi& tets) {
+  std::vector<PointStencil> stencils(embedding.num_points());
+  for (int i = 0; i < embedding.num_points(); ++i) stencils[i] = EmbeddingStencil(embedding, tets, i);
+  return stencils;
+}
+
+namespace {
+
+// CHECKs that the vertices of a stencil index a state of num_vertices columns.
+void CheckStencilVertices(const PointStencil& stencil, int num_vertices) {
+  for (int k = 0; k < 4; ++k) {
+    CHECK(stencil.vertex[k] >= 0 && stencil.vertex[k] < num_vertices)
+        << "an embedding element has vertex " << stencil.vertex[k] << ", but the state has "
+        << num_vertices << " vertices";
+  }
+}
+
+}  // namespace
+
 Eigen::Matrix3Xd EmbeddedPositions(const Embedding& embedding, const Eigen::Matrix4Xi& tets,
                                    const Eigen::Matrix3Xd& x) {
   const int num_points = embedding.num_points();
   CHECK_EQ(embedding.weights.cols(), num_points);
+  CHECK_EQ(embedding.offsets.cols(), num_points);
   Eigen::Matrix3Xd positions(3, num_points);
   for (int i = 0; i < num_points; ++i) {
-    const int t = embedding.element[i];
-    CHECK(t >= 0 && t < tets.cols())
-        << "point " << i << " has element " << t << " out of range [0, " << tets.cols() << ")";
-    Eigen::Vector3d p = Eigen::Vector3d::Zero();
-    for (int k = 0; k < 4; ++k) {
-      const int v = tets(k, t);
-      CHECK(v >= 0 && v < x.cols()) << "element " << t << " has vertex " << v
-                                    << ", but the state has " << x.cols() << " vertices";
-      p += embedding.weights(k, i) * x.col(v);
-    }
-    positions.col(i) = p + embedding.offsets.col(i);
+    const PointStencil stencil = EmbeddingStencil(embedding, tets, i);
+    CheckStencilVertices(stencil, static_cast<int>(x.cols()));
+    positions.col(i) = stencil.Position(x);
   }
   return positions;
+}
+
+Eigen::Matrix3Xd EmbeddingTranspose(const Embedding& embedding, const Eigen::Matrix4Xi& tets,
+                                    const Eigen::Matrix3Xd& g, int num_vertices) {
+  const int num_points = embedding.num_points();
+  CHECK_EQ(embedding.weights.cols(), num_points);
+  CHECK_EQ(g.cols(), num_points) << "the per-point field has the wrong number of columns";
+  Eigen::Matrix3Xd result = Eigen::Matrix3Xd::Zero(3, num_vertices);
+  for (int i = 0; i < num_points; ++i) {
+    const PointStencil stencil = EmbeddingStencil(embedding, tets, i);
+    CheckStencilVertices(stencil, num_vertices);
+    for (int k = 0; k < 4; ++k) result.col(stencil.vertex[k]) += stencil.weight[k] * g.col(i);
+  }
+  return result;
 }
 
 }  // namespace aqs

@@ -49,12 +49,55 @@ constexpr double kEmbeddingTolerance = 1e-10;
 // Threads: up to num_threads; results do not depend on the count.
 Embedding EmbedPoints(const TetMesh& mesh, const Eigen::Matrix3Xd& points, int num_threads);
 
-// Embedded point positions for a state x of the mesh (3 x num_vertices, column v the
-// position of vertex v): 3 x num_points, column i = sum_k weights(k, i) *
-// x.col(tets(k, element[i])) + offsets.col(i). tets: the mesh's 4 x num_tets element
-// matrix.
+// The embedding operator. Point i is an affine function of the mesh state x (3 x
+// num_vertices, column v the position of vertex v):
+//   p_i(x) = sum_k weights(k, i) x.col(tets(k, element[i])) + offsets.col(i),
+// so the points are P(x) = x A^T + O, with A the num_points x num_vertices sparse
+// matrix of the weights (4 entries a row) and O = offsets. Apply is EmbeddedPositions,
+// its transpose EmbeddingTranspose, one row of A with its offset EmbeddingStencil.
+
+// One embedded point as a function of a state x:
+//   p(x) = (sum_j weight[j] x.col(vertex[j])) + offset,
+// vertex[j] = tets(j, element), weight[j] = weights(j, i), offset = offsets.col(i) for
+// point i of an embedding; also built by hand (contact pairs) with any four vertices.
+struct PointStencil {
+  int vertex[4];
+  double weight[4];
+  Eigen::Vector3d offset;
+
+  // p(x) for a state x (3 x num_vertices, vertex indices in range: unchecked). Summed
+  // in the order of EmbeddedPositions (weights from j = 0, then the offset), so the
+  // two agree bitwise.
+  Eigen::Vector3d Position(const Eigen::Ref<const Eigen::Matrix3Xd>& x) const {
+    Eigen::Vector3d p = Eigen::Vector3d::Zero();
+    for (int j = 0; j < 4; ++j) p += weight[j] * x.col(vertex[j]);
+    return p + offset;
+  }
+};
+
+// The stencil of point i (0 <= i < num_points; CHECK) of `embedding` in a mesh with
+// elements tets (4 x num_tets; element[i] in range: CHECK): its row of A and offset.
+PointStencil EmbeddingStencil(const Embedding& embedding, const Eigen::Matrix4Xi& tets, int i);
+
+// The stencils of all points of `embedding` (num_points, in point order).
+std::vector<PointStencil> EmbeddingStencils(const Embedding& embedding, const Eigen::Matrix4Xi& tets);
+
+// Apply: the embedded point positions for a state x of the mesh (3 x num_vertices,
+// column v the position of vertex v): 3 x num_points, column i = sum_k weights(k, i) *
+// x.col(tets(k, element[i])) + offsets.col(i) (= EmbeddingStencil(i).Position(x)).
+// tets: the mesh's 4 x num_elements element matrix. Element and vertex indices out of
+// range: CHECK.
 Eigen::Matrix3Xd EmbeddedPositions(const Embedding& embedding, const Eigen::Matrix4Xi& tets,
                                    const Eigen::Matrix3Xd& x);
+
+// Transpose-apply: a per-point field g (3 x num_points, column i a vector at point i,
+// e.g. dL/dp_i) pulled back to the mesh vertices, g A: 3 x num_vertices, column v =
+// sum over points i and corners k with tets(k, element[i]) = v of weights(k, i) *
+// g.col(i). The offsets, constant in x, contribute nothing, so for a loss L(P(x)) the
+// result is dL/dx. Accumulated in point order, then corner order. Element and vertex
+// indices out of range, or g not 3 x num_points: CHECK.
+Eigen::Matrix3Xd EmbeddingTranspose(const Embedding& embedding, const Eigen::Matrix4Xi& tets,
+                                    const Eigen::Matrix3Xd& g, int num_vertices);
 
 }  // namespace aqs
 

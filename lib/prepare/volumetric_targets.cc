@@ -77,9 +77,8 @@ bool MakeVolumetricTargets(const VolumetricTargetOptions& options, ActiveModel* 
     if (!w.solver) {
       w.solver = std::make_unique<QuasistaticSolver>(physics, PoseBoundaryConditions(*model, 0),
                                                      solver_options);
-      w.springs = std::make_unique<EmbeddedAttachments>(
-          model->mesh.tets, model->embedding.element, model->embedding.weights, stiffness,
-          model->mesh.vertices);
+      w.springs = std::make_unique<EmbeddedAttachments>(model->embedding, model->mesh.tets,
+                                                        stiffness, model->mesh.vertices);
       w.solver->AddEnergyTerm(w.springs.get());
     }
     TrainingPose& pose = model->poses[p];
@@ -90,8 +89,7 @@ bool MakeVolumetricTargets(const VolumetricTargetOptions& options, ActiveModel* 
     // Direct solve from rest; if it fails, continuation from rest to the pose.
     w.solver->SetPositions(model->mesh.vertices);
     w.solver->SetFixedPositions(bc.positions);
-    const Eigen::Matrix3Xd& offsets = model->embedding.offsets;
-    w.springs->targets() = pose.surface - offsets;
+    w.springs->targets() = pose.surface;
     QuasistaticSolveReport report = w.solver->Solve();
     int steps = 1;
     if (!report.converged && options.continuation_steps > 1) {
@@ -100,7 +98,7 @@ bool MakeVolumetricTargets(const VolumetricTargetOptions& options, ActiveModel* 
       for (int s = 1; s <= steps && (s == 1 || report.converged); ++s) {
         const double alpha = static_cast<double>(s) / steps;
         w.solver->SetFixedPositions((1 - alpha) * rest_fixed + alpha * bc.positions);
-        w.springs->targets() = (1 - alpha) * rest_points + alpha * pose.surface - offsets;
+        w.springs->targets() = (1 - alpha) * rest_points + alpha * pose.surface;
         report = w.solver->Solve();
       }
     }
@@ -115,7 +113,7 @@ bool MakeVolumetricTargets(const VolumetricTargetOptions& options, ActiveModel* 
       pose.target.col(e) = ActuationFromSymmetric(SymmetricPolarFactor(physics.DeformationGradient(x, e)));
     }
     const Eigen::VectorXd distance =
-        (w.springs->Points(x) + offsets - pose.surface).colwise().norm();
+        (w.springs->Points(x) - pose.surface).colwise().norm();
     pose.embedding_mean_error = distance.mean();
     pose.embedding_max_error = distance.maxCoeff();
     std::lock_guard<std::mutex> lock(log_mutex);

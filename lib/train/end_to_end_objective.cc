@@ -318,13 +318,9 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
       pose_max_[p] = distance.maxCoeff();
       if (gradient == nullptr) return;
       // dL/dx: the embedding's transpose applied to dL/dp_i = 2 scale diff_i.
-      Eigen::Matrix3Xd dl_dx = Eigen::Matrix3Xd::Zero(3, x.cols());
-      for (int i = 0; i < n; ++i) {
-        for (int j = 0; j < 4; ++j) {
-          dl_dx.col(model_.mesh.tets(j, model_.embedding.element[i])) +=
-              2.0 * scale * model_.embedding.weights(j, i) * diff.col(i);
-        }
-      }
+      const Eigen::Matrix3Xd dl_dx = EmbeddingTranspose(model_.embedding, model_.mesh.tets,
+                                                        (2.0 * scale) * diff,
+                                                        static_cast<int>(x.cols()));
       std::string error;
       if (w.differentiator->Prepare(x, a[k], &error) &&
           w.differentiator->LossGradient(dl_dx, &dl_da[k], &error)) {

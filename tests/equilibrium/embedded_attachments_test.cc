@@ -18,11 +18,11 @@ namespace aqs {
 namespace {
 
 // Random points embedded in random elements of a bar (weights in the element,
-// some slightly outside as extrapolated embeddings are).
+// some slightly outside as extrapolated embeddings are; random offsets, as points
+// outside the mesh have).
 struct Fixture {
   TetMesh mesh = testing::BarMesh(4, 2, 2, 0.5);
-  std::vector<int> element;
-  Eigen::Matrix4Xd weights;
+  Embedding embedding;
   Eigen::VectorXd stiffness;
 
   explicit Fixture(int n, unsigned seed = 1) {
@@ -30,13 +30,17 @@ struct Fixture {
     std::uniform_int_distribution<int> pick(0, mesh.num_tets() - 1);
     std::uniform_real_distribution<double> uniform(-0.1, 1.0);
     std::uniform_real_distribution<double> k(0.5, 3.0);
-    weights.resize(4, n);
+    std::uniform_real_distribution<double> offset(-0.05, 0.05);
+    embedding.weights.resize(4, n);
+    embedding.offsets.resize(3, n);
     stiffness.resize(n);
     for (int i = 0; i < n; ++i) {
-      element.push_back(pick(rng));
+      embedding.element.push_back(pick(rng));
       Eigen::Vector4d w;
       for (int j = 0; j < 4; ++j) w[j] = uniform(rng);
-      weights.col(i) = w / w.sum();
+      embedding.weights.col(i) = w / w.sum();
+      for (int j = 0; j < 3; ++j) embedding.offsets(j, i) = offset(rng);
+      embedding.outside_distance.push_back(embedding.offsets.col(i).norm());
       stiffness[i] = k(rng);
     }
   }
@@ -44,7 +48,7 @@ struct Fixture {
 
 TEST(EmbeddedAttachmentsTest, GradientAndStiffnessMatchFiniteDifferences) {
   Fixture f(30);
-  EmbeddedAttachments term(f.mesh.tets, f.element, f.weights, f.stiffness, f.mesh.vertices);
+  EmbeddedAttachments term(f.embedding, f.mesh.tets, f.stiffness, f.mesh.vertices);
   std::mt19937 rng(2);
   std::normal_distribution<double> normal(0.0, 0.2);
   Eigen::Matrix3Xd moved = term.targets();
@@ -79,8 +83,15 @@ TEST(EmbeddedAttachmentsTest, GradientAndStiffnessMatchFiniteDifferences) {
 
 TEST(EmbeddedAttachmentsTest, CostFunctionPassesGradientCheckerAndMatchesEnergy) {
   const Eigen::Vector4d w(0.1, 0.5, 0.3, 0.1);
+  const Eigen::Vector3d offset(0.02, -0.01, 0.03);
   const Eigen::Vector3d target(0.3, -0.2, 1.0);
-  std::unique_ptr<ceres::CostFunction> cost(NewAttachmentCostFunction(w, 2.5, target.data()));
+  PointStencil stencil;
+  for (int j = 0; j < 4; ++j) {
+    stencil.vertex[j] = j;
+    stencil.weight[j] = w[j];
+  }
+  stencil.offset = offset;
+  std::unique_ptr<ceres::CostFunction> cost(NewAttachmentCostFunction(stencil, 2.5, target.data()));
   Eigen::Matrix<double, 3, 4> x = Eigen::Matrix<double, 3, 4>::Random();
   const double* parameters[4] = {x.col(0).data(), x.col(1).data(), x.col(2).data(),
                                  x.col(3).data()};
@@ -91,14 +102,14 @@ TEST(EmbeddedAttachmentsTest, CostFunctionPassesGradientCheckerAndMatchesEnergy)
   EXPECT_TRUE(checker.Probe(parameters, 1e-9, &results)) << results.error_log;
   double residuals[3];
   ASSERT_TRUE(cost->Evaluate(parameters, residuals, nullptr));
-  const Eigen::Vector3d p = x * w;
+  const Eigen::Vector3d p = x * w + offset;
   EXPECT_NEAR(0.5 * Eigen::Map<Eigen::Vector3d>(residuals).squaredNorm(),
               0.5 * 2.5 * (p - target).squaredNorm(), 1e-14);
 }
 
 TEST(EmbeddedAttachmentsTest, CeresCostIsTheTermEnergy) {
   Fixture f(20, 3);
-  EmbeddedAttachments term(f.mesh.tets, f.element, f.weights, f.stiffness, f.mesh.vertices);
+  EmbeddedAttachments term(f.embedding, f.mesh.tets, f.stiffness, f.mesh.vertices);
   term.targets() = term.targets() + Eigen::Matrix3Xd::Constant(3, 20, 0.1);
   Eigen::Matrix3Xd x = f.mesh.vertices + 0.05 * Eigen::Matrix3Xd::Random(3, f.mesh.num_vertices());
   ceres::Problem problem;
@@ -115,23 +126,25 @@ TEST(EmbeddedAttachmentsTest, SolverPullsEmbeddedPointsWithLevenbergMarquardtAnd
   const TetMesh mesh = testing::BarMesh(6, 2, 2, 0.4);
   const ShapeTargetModel model(mesh, 1.0);
   // Attach the free end's vertices (one-hot embeddings) and lift them by 0.3.
-  std::vector<int> element;
+  Embedding embedding;
   std::vector<Eigen::Vector4d> weights;
   const double max_x = mesh.vertices.row(0).maxCoeff();
   for (int e = 0; e < mesh.num_tets(); ++e) {
     for (int k = 0; k < 4; ++k) {
       if (mesh.vertices(0, mesh.tets(k, e)) > max_x - 1e-9) {
-        element.push_back(e);
+        embedding.element.push_back(e);
+        embedding.outside_distance.push_back(0.0);
         weights.push_back(Eigen::Vector4d::Unit(k));
       }
     }
   }
-  Eigen::Matrix4Xd w(4, weights.size());
-  for (size_t i = 0; i < weights.size(); ++i) w.col(i) = weights[i];
-  const Eigen::VectorXd k = Eigen::VectorXd::Constant(element.size(), 50.0);
+  embedding.weights.resize(4, weights.size());
+  for (size_t i = 0; i < weights.size(); ++i) embedding.weights.col(i) = weights[i];
+  embedding.offsets.setZero(3, weights.size());
+  const Eigen::VectorXd k = Eigen::VectorXd::Constant(embedding.num_points(), 50.0);
   Eigen::Matrix3Xd results[2];
   for (int run = 0; run < 2; ++run) {
-    EmbeddedAttachments term(mesh.tets, element, w, k, mesh.vertices);
+    EmbeddedAttachments term(embedding, mesh.tets, k, mesh.vertices);
     term.targets() = term.targets().colwise() + Eigen::Vector3d(0, 0.3, 0);
     QuasistaticSolverOptions options;
     options.relative_force_tolerance = 1e-8;

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <random>
@@ -146,6 +147,98 @@ TEST(EmbeddingTest, OutsidePointsGetTheDistanceToTheMesh) {
   stretched.row(0) *= 1.1;  // a 10% stretch along x
   const double motion = (EmbeddedPositions(far_embedding, mesh.tets, stretched) - far).norm();
   EXPECT_LT(motion, 0.1 * 2.7 + 1e-12);
+}
+
+// Points inside and outside a small lattice (those outside have offsets) and a
+// random deformed state of it.
+struct OperatorFixture {
+  TetMesh mesh = Lattice(LatticeType::kKuhn, 2, 0.5);  // box [-0.3,0.7]x[0.7,2.2]x[1.1,3.1]
+  Embedding embedding;
+  Eigen::Matrix3Xd x;
+  int num_outside = 0;
+
+  OperatorFixture() {
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<double> u(-0.5, 0.5);
+    Eigen::Matrix3Xd points(3, 40);
+    for (int i = 0; i < points.cols(); ++i) {
+      points.col(i) = Eigen::Vector3d(0.2 + 1.4 * u(rng), 1.45 + 2.0 * u(rng), 2.1 + 2.4 * u(rng));
+    }
+    embedding = EmbedPoints(mesh, points, 1);
+    for (int i = 0; i < embedding.num_points(); ++i) num_outside += embedding.outside_distance[i] > 0;
+    x = mesh.vertices;
+    for (int i = 0; i < x.size(); ++i) x.data()[i] += 0.2 * u(rng);
+  }
+};
+
+TEST(EmbeddingOperatorTest, StencilsAreTheRowsOfApplyBitwise) {
+  const OperatorFixture f;
+  ASSERT_GT(f.num_outside, 0);
+  ASSERT_LT(f.num_outside, f.embedding.num_points());
+  const Eigen::Matrix3Xd positions = EmbeddedPositions(f.embedding, f.mesh.tets, f.x);
+  const std::vector<PointStencil> stencils = EmbeddingStencils(f.embedding, f.mesh.tets);
+  ASSERT_EQ(static_cast<int>(stencils.size()), f.embedding.num_points());
+  for (int i = 0; i < f.embedding.num_points(); ++i) {
+    const PointStencil s = EmbeddingStencil(f.embedding, f.mesh.tets, i);
+    Eigen::Vector3d expected = f.embedding.offsets.col(i);
+    for (int k = 0; k < 4; ++k) {
+      EXPECT_EQ(s.vertex[k], f.mesh.tets(k, f.embedding.element[i]));
+      EXPECT_EQ(s.weight[k], f.embedding.weights(k, i));
+      EXPECT_EQ(stencils[i].vertex[k], s.vertex[k]);
+      EXPECT_EQ(stencils[i].weight[k], s.weight[k]);
+      expected += s.weight[k] * f.x.col(s.vertex[k]);
+    }
+    EXPECT_EQ(s.offset, f.embedding.offsets.col(i));
+    EXPECT_EQ(s.Position(f.x), positions.col(i));  // the same sums, bitwise
+    EXPECT_LT((positions.col(i) - expected).cwiseAbs().maxCoeff(), 1e-12);
+  }
+  // The offsets are the affine part: Apply(0) = offsets.
+  EXPECT_EQ(EmbeddedPositions(f.embedding, f.mesh.tets,
+                              Eigen::Matrix3Xd::Zero(3, f.mesh.num_vertices())),
+            f.embedding.offsets);
+}
+
+TEST(EmbeddingOperatorTest, TransposeIsTheAdjointOfTheLinearPart) {
+  const OperatorFixture f;
+  const int nv = f.mesh.num_vertices();
+  std::mt19937 rng(11);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  Eigen::Matrix3Xd g(3, f.embedding.num_points());
+  for (int i = 0; i < g.size(); ++i) g.data()[i] = normal(rng);
+  // <A x, g> = <x, A^T g>, A x = Apply(x) - offsets.
+  const Eigen::Matrix3Xd ax = EmbeddedPositions(f.embedding, f.mesh.tets, f.x) - f.embedding.offsets;
+  const Eigen::Matrix3Xd atg = EmbeddingTranspose(f.embedding, f.mesh.tets, g, nv);
+  ASSERT_EQ(atg.cols(), nv);
+  const double left = (ax.array() * g.array()).sum();
+  const double right = (f.x.array() * atg.array()).sum();
+  EXPECT_NEAR(left, right, 1e-12 * (std::abs(left) + 1.0));
+  // As a gradient: L(x) = 1/2 |P(x) - y|^2 has dL/dx = A^T (P(x) - y); central
+  // differences of L (quadratic: exact up to round-off).
+  const Eigen::Matrix3Xd y = f.embedding.offsets + g;
+  auto loss = [&](const Eigen::Matrix3Xd& state) {
+    return 0.5 * (EmbeddedPositions(f.embedding, f.mesh.tets, state) - y).squaredNorm();
+  };
+  const Eigen::Matrix3Xd gradient = EmbeddingTranspose(
+      f.embedding, f.mesh.tets, EmbeddedPositions(f.embedding, f.mesh.tets, f.x) - y, nv);
+  const double h = 1e-5;
+  double max_error = 0.0;
+  for (int i = 0; i < f.x.size(); ++i) {
+    Eigen::Matrix3Xd plus = f.x, minus = f.x;
+    plus.data()[i] += h;
+    minus.data()[i] -= h;
+    max_error = std::max(max_error, std::abs((loss(plus) - loss(minus)) / (2 * h) - gradient.data()[i]));
+  }
+  EXPECT_LT(max_error, 1e-7 * (gradient.cwiseAbs().maxCoeff() + 1.0));
+  // Vertices no point uses get nothing.
+  std::vector<bool> used(nv, false);
+  for (int i = 0; i < f.embedding.num_points(); ++i) {
+    for (int k = 0; k < 4; ++k) used[f.mesh.tets(k, f.embedding.element[i])] = true;
+  }
+  for (int v = 0; v < nv; ++v) {
+    if (!used[v]) {
+      EXPECT_EQ(atg.col(v), Eigen::Vector3d::Zero()) << "vertex " << v;
+    }
+  }
 }
 
 TEST(EmbeddingTest, LargeLatticeIsFast) {

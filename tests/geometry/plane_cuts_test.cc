@@ -94,8 +94,8 @@ TEST(PlaneCutsTest, TheTwoSidesSeparateUnderOpposingPulls) {
       if (cut.mesh.vertices(0, v) < 1e-9) bc.vertices.push_back(v);
     }
     QuasistaticSolver solver(model, bc);
-    EmbeddedAttachments springs(cut.mesh.tets, embedding.element, embedding.weights,
-                                Eigen::Vector2d(5, 5), cut.mesh.vertices);
+    EmbeddedAttachments springs(embedding, cut.mesh.tets, Eigen::Vector2d(5, 5),
+                                cut.mesh.vertices);
     Eigen::Matrix3Xd targets = points;
     targets(1, 0) += 0.3;
     targets(1, 1) -= 0.3;

@@ -9,7 +9,7 @@
 #include <Eigen/Core>
 
 #include "contact/contact_solver.h"
-#include "contact/surface_stencils.h"
+#include "geometry/embedding.h"
 #include "geometry/rigid_transform.h"
 #include "mesh/tet_mesh.h"
 #include "model/active_model.h"
