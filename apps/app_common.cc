@@ -11,9 +11,10 @@ DEFINE_string(model, "", "Model directory (written by aqs_prepare, read and upda
               "later stages).");
 DEFINE_string(pose_dir, "", "Folder that relative entries of .txt pose lists (--poses, "
               "--test_poses) are resolved in (default: the list file's folder).");
-DEFINE_string(solver, "newton", "How equilibria are solved: 'newton' (projected Newton with a "
-              "line search far from equilibrium, exact Newton near it; needs fixed vertices) or "
-              "'lm' (Ceres' Levenberg-Marquardt, then exact Newton; also for free bodies).");
+DEFINE_string(solver, "newton", "How equilibria are solved: 'newton' (L-BFGS preconditioned by "
+              "the rotation-fixed stiffness far from equilibrium, then Newton steps, exact or "
+              "PSD-projected, with a line search; needs fixed vertices) or 'lm' (Ceres' "
+              "Levenberg-Marquardt, then exact Newton; also for free bodies).");
 DEFINE_int32(threads, 2, "Threads (per-element work, parallel poses; BLAS follows OPENBLAS_NUM_THREADS).");
 DEFINE_double(max_memory_gb, 8.0, "Memory limit in GB: the work whose memory is estimated before "
               "it is allocated (prepare's lattice and simulations, pre-training's decoder) is "
@@ -23,7 +24,17 @@ namespace aqs {
 
 void InitApp(const std::string& usage, int* argc, char*** argv) {
   gflags::SetUsageMessage(usage);
-  gflags::ParseCommandLineFlags(argc, argv, true);
+  gflags::ParseCommandLineNonHelpFlags(argc, argv, true);
+  // gflags' own --helpshort lists only the flags of the file holding main(). An app also
+  // takes the shared flags of apps/app_common.cc and of the apps/*_flags.cc units it
+  // links (one per stage: prepare, learning, evaluate, fit, mpi), so list every flag
+  // defined under apps/, grouped by the file that defines it.
+  std::string helpshort;
+  if (gflags::GetCommandLineOption("helpshort", &helpshort) && helpshort == "true") {
+    gflags::ShowUsageWithFlagsRestrict((*argv)[0], "apps/");
+    std::exit(1);  // as gflags' --help and --helpshort
+  }
+  gflags::HandleCommandLineHelpFlags();
   FLAGS_logtostderr = true;
   FLAGS_minloglevel = 1;  // warnings and errors
   google::InitGoogleLogging((*argv)[0]);

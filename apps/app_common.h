@@ -15,7 +15,10 @@ namespace aqs {
 bool SolverMethodFromFlag(QuasistaticSolverOptions* options, std::string* error);
 
 // Parses gflags (with `usage`), sets up glog to print warnings and errors on stderr.
-// Exits with status 1 and a message if positional arguments are left over.
+// --helpshort lists every flag the app takes (its own, app_common.cc's and those of the
+// apps/*_flags.cc units it links), grouped by defining file, and exits with status 1 as
+// gflags' --help does. Exits with status 1 and a message if positional arguments are
+// left over.
 void InitApp(const std::string& usage, int* argc, char*** argv);
 
 // "a,b,,c" -> {"a", "b", "c"}.

@@ -99,5 +99,29 @@ TEST(AqsPipelineTest, MissingFlagsAndBadStagesFail) {
   }
 }
 
+// --helpshort lists every flag an app takes, grouped by the file that defines it: the
+// app's own, app_common.cc's and those of each stage's shared flag unit; not glog's or
+// gflags' own. It exits with status 1, as gflags' --help does.
+TEST(AqsPipelineTest, HelpshortListsEveryStagesFlagsGroupedByFile) {
+  testing::CommandResult run = RunCommand(AppPath("aqs_pipeline") + " --helpshort");
+  EXPECT_EQ(run.exit_code, 1);
+  for (const char* file : {"apps/app_common.cc:", "apps/aqs_pipeline.cc:",
+                           "apps/prepare_flags.cc:", "apps/learning_flags.cc:",
+                           "apps/evaluate_flags.cc:", "apps/mpi_flags.cc:"}) {
+    EXPECT_NE(run.output.find(file), std::string::npos) << file << "\n" << run.output;
+  }
+  for (const char* flag : {"-model (", "-stages (", "-neutral (", "-latent_dim (",
+                           "-train_minutes (", "-test_poses (", "-mpi ("}) {
+    EXPECT_NE(run.output.find(flag), std::string::npos) << flag << "\n" << run.output;
+  }
+  EXPECT_EQ(run.output.find("-logtostderr"), std::string::npos) << run.output;
+  run = RunCommand(AppPath("aqs_fit") + " --helpshort");
+  EXPECT_EQ(run.exit_code, 1);
+  for (const char* expected : {"apps/fit_flags.cc:", "-latent_prior (", "-target ("}) {
+    EXPECT_NE(run.output.find(expected), std::string::npos) << expected << "\n" << run.output;
+  }
+  EXPECT_EQ(run.output.find("-neutral ("), std::string::npos) << run.output;
+}
+
 }  // namespace
 }  // namespace aqs
