@@ -68,6 +68,8 @@ int main(int argc, char** argv) {
     }
   }
   const aqs::JobStatus status = aqs::RunFitBenchmark(options, std::cout, &error);
-  if (status != aqs::JobStatus::kOk) aqs::PrintError(error);
-  return status == aqs::JobStatus::kOk ? 0 : 1;
+  // A benchmark exits 1 for bad input and for a failed case (docs/apps.md, "Exit
+  // status"), also when a sequence frame did not converge.
+  return aqs::FinishJob(status == aqs::JobStatus::kOk ? status : aqs::JobStatus::kBadInput,
+                        error, aqs::FlagNames());
 }
