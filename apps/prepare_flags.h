@@ -4,7 +4,7 @@
 #include <string>
 
 #include "app_common.h"
-#include "prepare/prepare_job.h"
+#include "jobs/prepare_job.h"
 
 namespace aqs {
 

@@ -1,5 +1,5 @@
-#ifndef AQS_PREPARE_PREPARE_JOB_H_
-#define AQS_PREPARE_PREPARE_JOB_H_
+#ifndef AQS_JOBS_PREPARE_JOB_H_
+#define AQS_JOBS_PREPARE_JOB_H_
 
 #include <ostream>
 #include <string>
@@ -66,4 +66,4 @@ bool RunPrepareJob(const PrepareJobOptions& options, std::ostream& log, std::str
 
 }  // namespace aqs
 
-#endif  // AQS_PREPARE_PREPARE_JOB_H_
+#endif  // AQS_JOBS_PREPARE_JOB_H_

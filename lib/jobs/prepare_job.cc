@@ -1,4 +1,4 @@
-#include "prepare/prepare_job.h"
+#include "jobs/prepare_job.h"
 
 #include <algorithm>
 #include <cmath>
