@@ -10,8 +10,8 @@
 
 #include "app_common.h"
 #include "fit_flags.h"
-#include "jobs/evaluate_job.h"
 #include "jobs/fit_benchmark.h"
+#include "util/vertex_ranges.h"
 
 DECLARE_string(model);
 DEFINE_string(test_set, "", "The test-set folder (scripts/make_fit_tests.py --out).");

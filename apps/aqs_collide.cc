@@ -9,7 +9,7 @@
 
 #include "app_common.h"
 #include "jobs/collide_job.h"
-#include "jobs/evaluate_job.h"
+#include "util/vertex_ranges.h"
 
 DECLARE_string(model);
 DECLARE_int32(threads);

@@ -12,10 +12,10 @@
 
 #include "app_common.h"
 #include "fit_flags.h"
-#include "jobs/evaluate_job.h"
 #include "jobs/fit_job.h"
 #include "jobs/fit_sequence.h"
 #include "mpi_flags.h"
+#include "util/vertex_ranges.h"
 
 DECLARE_string(model);
 DEFINE_string(target, "", "The target: a pose surface (OBJ, the neutral's vertex order), a "

@@ -7,6 +7,7 @@
 #include "app_common.h"
 
 #include "prepare/pose_files.h"
+#include "util/vertex_ranges.h"
 
 DEFINE_string(test_poses, "", "Held-out pose surfaces (folder, glob, .txt list or comma list), "
               "with the neutral's vertex order.");

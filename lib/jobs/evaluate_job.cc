@@ -22,6 +22,7 @@
 #include "util/matrix_io.h"
 #include "util/wall_timer.h"
 #include "util/option_checks.h"
+#include "util/vertex_ranges.h"
 
 namespace aqs {
 namespace {
@@ -250,54 +251,6 @@ bool FitHeldOutPoses(const ActiveModel& model, const LatentFitOptions& options,
 }
 
 }  // namespace
-
-std::string FormatVertexRanges(const std::vector<int>& vertices) {
-  std::string text;
-  for (size_t i = 0; i < vertices.size();) {
-    size_t j = i + 1;
-    while (j < vertices.size() && vertices[j] == vertices[j - 1] + 1) ++j;
-    if (!text.empty()) text += ",";
-    text += std::to_string(vertices[i]) + ":" + std::to_string(vertices[j - 1] + 1);
-    i = j;
-  }
-  return text;
-}
-
-bool ParseVertexRanges(const std::string& text, std::vector<int>* vertices, std::string* error) {
-  std::stringstream in(text);
-  std::string item;
-  std::vector<int> out;
-  while (std::getline(in, item, ',')) {
-    if (item.empty()) continue;
-    const size_t colon = item.find(':'), dash = item.find('-');
-    int a = 0, b = 0;
-    if (colon != std::string::npos) {
-      if (!ParseInt(item.substr(0, colon), &a) || !ParseInt(item.substr(colon + 1), &b) || b < a) {
-        *error = "vertex range '" + item + "': expected a:b with a <= b";
-        return false;
-      }
-    } else if (dash != std::string::npos && dash > 0) {
-      if (!ParseInt(item.substr(0, dash), &a) || !ParseInt(item.substr(dash + 1), &b) || b < a) {
-        *error = "vertex range '" + item + "': expected a-b with a <= b";
-        return false;
-      }
-      ++b;
-    } else {
-      if (!ParseInt(item, &a)) {
-        *error = "vertex range '" + item + "': not an index";
-        return false;
-      }
-      b = a + 1;
-    }
-    if (a < 0) {
-      *error = "vertex range '" + item + "': negative index";
-      return false;
-    }
-    for (int v = a; v < b; ++v) out.push_back(v);
-  }
-  *vertices = out;
-  return true;
-}
 
 bool EvaluateJobOptions::Validate(std::string* error) const {
   std::string fit_error, autoencoder_error, targets_error;

@@ -88,13 +88,6 @@ struct EvaluationRow {
 bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& log,
                     std::vector<EvaluationRow>* rows, std::string* error);
 
-// Parses "a:b" (vertices a to b-1), "a-b" (a to b) or a comma list of such, e.g.
-// "0:9409". Returns false with *error.
-bool ParseVertexRanges(const std::string& text, std::vector<int>* vertices, std::string* error);
-// The inverse: runs of consecutive indices as "a:b" (a to b-1), comma-separated, in the
-// given order (e.g. "0:9409"); "" for none.
-std::string FormatVertexRanges(const std::vector<int>& vertices);
-
 }  // namespace aqs
 
 #endif  // AQS_JOBS_EVALUATE_JOB_H_

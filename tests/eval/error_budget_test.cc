@@ -93,12 +93,6 @@ TEST(ErrorBudgetTest, SummariesOverVertexSubsets) {
   const DistanceSummary some = SummarizeDistances(d, {0, 2});
   EXPECT_DOUBLE_EQ(some.mean, 0.5);
   EXPECT_DOUBLE_EQ(some.max, 1.0);
-  EXPECT_EQ(FormatVertexRanges({0, 1, 2, 5, 7, 8}), "0:3,5:6,7:9");
-  std::vector<int> parsed;
-  std::string error;
-  ASSERT_TRUE(ParseVertexRanges(FormatVertexRanges({0, 1, 2, 5, 7, 8}), &parsed, &error));
-  EXPECT_EQ(parsed, std::vector<int>({0, 1, 2, 5, 7, 8}));
-  EXPECT_EQ(FormatVertexRanges({}), "");
 }
 
 // RunPretrainJob's record is the surface error end-to-end training starts from (its

@@ -1,0 +1,32 @@
+#ifndef AQS_UTIL_VERTEX_RANGES_H_
+#define AQS_UTIL_VERTEX_RANGES_H_
+
+// Vertex subsets written as index ranges, as the apps' vertex flags take them
+// (aqs_evaluate and aqs_bench_fit --error_vertices, aqs_fit --compare_vertices,
+// aqs_collide --contact_vertices) and as the evaluation passes them to its report
+// script.
+
+#include <string>
+#include <vector>
+
+namespace aqs {
+
+// Parses a comma-separated list of items, each one of
+//   "a:b"  vertices a to b-1 (a <= b; "a:a" is empty),
+//   "a-b"  vertices a to b, both included (a <= b),
+//   "a"    vertex a alone,
+// with a, b decimal integers >= 0 (ParseInt: no spaces, no trailing characters). Empty
+// items are skipped, so "" is the empty set. Output: *vertices, the indices in the order
+// written, a repeated index repeated (no sorting, no deduplication, no upper bound:
+// callers check against their vertex count). Returns false with *error naming the item
+// ("vertex range 'x': expected a:b with a <= b", "... a-b ...", "... not an index",
+// "... negative index"), and *vertices unchanged.
+bool ParseVertexRanges(const std::string& text, std::vector<int>* vertices, std::string* error);
+
+// The inverse: runs of consecutive indices as "a:b" (a to b-1), comma-separated, in the
+// given order (e.g. {0, 1, 2, 5} -> "0:3,5:6"); "" for none.
+std::string FormatVertexRanges(const std::vector<int>& vertices);
+
+}  // namespace aqs
+
+#endif  // AQS_UTIL_VERTEX_RANGES_H_

@@ -1,0 +1,53 @@
+#include "util/vertex_ranges.h"
+
+#include <gtest/gtest.h>
+
+namespace aqs {
+namespace {
+
+std::vector<int> Parse(const std::string& text) {
+  std::vector<int> vertices;
+  std::string error;
+  EXPECT_TRUE(ParseVertexRanges(text, &vertices, &error)) << text << ": " << error;
+  return vertices;
+}
+
+std::string ParseError(const std::string& text) {
+  std::vector<int> vertices = {42};
+  std::string error;
+  EXPECT_FALSE(ParseVertexRanges(text, &vertices, &error)) << text;
+  EXPECT_EQ(vertices, std::vector<int>({42})) << "unchanged on failure: " << text;
+  return error;
+}
+
+TEST(VertexRangesTest, ParsesHalfOpenClosedAndSingleItemsInOrder) {
+  EXPECT_EQ(Parse("2:5"), std::vector<int>({2, 3, 4}));
+  EXPECT_EQ(Parse("2-5"), std::vector<int>({2, 3, 4, 5}));
+  EXPECT_EQ(Parse("7"), std::vector<int>({7}));
+  EXPECT_EQ(Parse("9,0:2,,4-4,1"), std::vector<int>({9, 0, 1, 4, 1}));
+  EXPECT_EQ(Parse("3:3"), std::vector<int>());
+  EXPECT_EQ(Parse(""), std::vector<int>());
+  EXPECT_EQ(Parse(",,"), std::vector<int>());
+}
+
+TEST(VertexRangesTest, BadItemsAreNamed) {
+  EXPECT_EQ(ParseError("0:2,5:3"), "vertex range '5:3': expected a:b with a <= b");
+  EXPECT_EQ(ParseError("1:x"), "vertex range '1:x': expected a:b with a <= b");
+  EXPECT_EQ(ParseError("4-2"), "vertex range '4-2': expected a-b with a <= b");
+  EXPECT_EQ(ParseError("3-"), "vertex range '3-': expected a-b with a <= b");
+  EXPECT_EQ(ParseError("abc"), "vertex range 'abc': not an index");
+  EXPECT_EQ(ParseError(" 1"), "vertex range ' 1': not an index");
+  EXPECT_EQ(ParseError("-3"), "vertex range '-3': negative index");
+  EXPECT_EQ(ParseError("-3:2"), "vertex range '-3:2': negative index");
+}
+
+TEST(VertexRangesTest, FormatIsTheInverse) {
+  EXPECT_EQ(FormatVertexRanges({0, 1, 2, 5, 7, 8}), "0:3,5:6,7:9");
+  EXPECT_EQ(FormatVertexRanges({4, 3}), "4:5,3:4");
+  EXPECT_EQ(FormatVertexRanges({}), "");
+  EXPECT_EQ(Parse(FormatVertexRanges({0, 1, 2, 5, 7, 8})), std::vector<int>({0, 1, 2, 5, 7, 8}));
+  EXPECT_EQ(Parse(FormatVertexRanges({4, 3, 9})), std::vector<int>({4, 3, 9}));
+}
+
+}  // namespace
+}  // namespace aqs
