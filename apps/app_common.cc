@@ -2,7 +2,6 @@
 
 #include <cstdio>
 #include <cstdlib>
-#include <sstream>
 
 #include <gflags/gflags.h>
 #include <glog/logging.h>
@@ -43,16 +42,6 @@ void InitApp(const std::string& usage, int* argc, char*** argv) {
                  gflags::ProgramInvocationShortName(), (*argv)[1]);
     std::exit(1);
   }
-}
-
-std::vector<std::string> SplitCommaList(const std::string& text) {
-  std::vector<std::string> items;
-  std::stringstream in(text);
-  std::string item;
-  while (std::getline(in, item, ',')) {
-    if (!item.empty()) items.push_back(item);
-  }
-  return items;
 }
 
 bool SolverMethodFromFlag(QuasistaticSolverOptions* options, std::string* error) {

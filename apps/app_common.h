@@ -7,6 +7,7 @@
 
 #include "equilibrium/quasistatic_solver.h"
 #include "util/job_status.h"
+#include "util/text_split.h"  // SplitList, which the apps use for list flags
 
 namespace aqs {
 
@@ -20,9 +21,6 @@ bool SolverMethodFromFlag(QuasistaticSolverOptions* options, std::string* error)
 // gflags' --help does. Exits with status 1 and a message if positional arguments are
 // left over.
 void InitApp(const std::string& usage, int* argc, char*** argv);
-
-// "a,b,,c" -> {"a", "b", "c"}.
-std::vector<std::string> SplitCommaList(const std::string& text);
 
 // Prints "<program>: error: <message>" to stderr.
 void PrintError(const std::string& message);

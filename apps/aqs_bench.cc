@@ -214,7 +214,7 @@ int main(int argc, char** argv) {
               "elements", "dofs", "L_nnz", "unit_s", "lm_iter", "LM:solve(it)", "LM:warm(it)",
               "solve(lb+f)", "warm(lb+f)", "gradient", "ceres", "c+post", "dynamic",
               "peak_GB");
-  for (const std::string& item : aqs::SplitCommaList(FLAGS_cubes)) {
+  for (const std::string& item : aqs::SplitList(FLAGS_cubes)) {
     const int n = std::atoi(item.c_str());
     if (n < 1) {
       aqs::PrintError("--cubes takes positive integers, got '" + item + "'");

@@ -44,7 +44,7 @@ int main(int argc, char** argv) {
     return 1;
   }
   options.marker_counts.clear();
-  for (const std::string& k : aqs::SplitCommaList(FLAGS_marker_counts)) {
+  for (const std::string& k : aqs::SplitList(FLAGS_marker_counts)) {
     try {
       options.marker_counts.push_back(std::stoi(k));
     } catch (...) {
@@ -53,7 +53,7 @@ int main(int argc, char** argv) {
     }
   }
   options.markers = options.poses = options.scans = options.sequence = false;
-  for (const std::string& part : aqs::SplitCommaList(FLAGS_parts)) {
+  for (const std::string& part : aqs::SplitList(FLAGS_parts)) {
     if (part == "markers") {
       options.markers = true;
     } else if (part == "poses") {

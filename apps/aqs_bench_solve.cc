@@ -155,7 +155,7 @@ Case BarCase(const std::vector<int>& cubes, TetMesh* mesh, std::unique_ptr<Shape
 }
 
 int Main() {
-  std::vector<std::string> methods = SplitCommaList(FLAGS_methods);
+  std::vector<std::string> methods = SplitList(FLAGS_methods);
   EquilibriumMethod unused;
   for (const std::string& m : methods) {
     if (!ParseMethod(m, &unused)) {
@@ -172,7 +172,7 @@ int Main() {
   std::vector<Row> rows;
   if (!FLAGS_lattice.empty()) {
     std::vector<int> cubes;
-    for (const std::string& s : SplitCommaList(FLAGS_lattice)) cubes.push_back(std::atoi(s.c_str()));
+    for (const std::string& s : SplitList(FLAGS_lattice)) cubes.push_back(std::atoi(s.c_str()));
     if (cubes.size() != 3 || *std::min_element(cubes.begin(), cubes.end()) < 1) {
       PrintError("--lattice must be three positive cube counts, e.g. 40,4,4");
       return 1;
@@ -190,7 +190,7 @@ int Main() {
     }
     const ShapeTargetModel physics(model.mesh, model.mu);
     std::vector<Case> cases;
-    for (const std::string& name : SplitCommaList(FLAGS_poses)) {
+    for (const std::string& name : SplitList(FLAGS_poses)) {
       const int p = model.PoseIndex(name);
       if (p < 0) {
         PrintError("--poses: the model has no training pose '" + name + "'");
@@ -221,7 +221,7 @@ int Main() {
       }
       cases.push_back(c);
     }
-    for (const std::string& item : SplitCommaList(FLAGS_latents)) {
+    for (const std::string& item : SplitList(FLAGS_latents)) {
       const size_t eq = item.find('=');
       if (eq == std::string::npos || !model.decoder) {
         PrintError("--latents takes NAME=FILE pairs and a trained model ('" + item + "')");

@@ -132,7 +132,7 @@ int Main() {
   std::printf("%-9s %6s %8s %9s %7s %9s %8s %8s %8s %8s %8s %8s %8s %8s %8s\n", "mode", "iters",
               "s/iter", "pose/unit", "evals", "fact/pose", "reused", "cg/pose", "newton", "lbfgs",
               "solve", "adjoint", "decoder", "loss", "peak_GB");
-  for (const std::string& mode : SplitCommaList(FLAGS_modes)) {
+  for (const std::string& mode : SplitList(FLAGS_modes)) {
     if (mode != "per_pose" && mode != "shared") {
       PrintError("--modes: '" + mode + "' is not per_pose or shared");
       return 1;

@@ -34,7 +34,7 @@ int main(int argc, char** argv) {
   std::ostream& out = root ? std::cout : quiet;
   aqs::WallTimer total;
   std::string error;
-  const std::vector<std::string> stages = aqs::SplitCommaList(FLAGS_stages);
+  const std::vector<std::string> stages = aqs::SplitList(FLAGS_stages);
   // The stages that write the model run under one hold of its writers' lock.
   bool writes = false, prepares = false;
   for (const std::string& stage : stages) {

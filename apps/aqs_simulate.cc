@@ -58,7 +58,7 @@ int main(int argc, char** argv) {
   options.mu = FLAGS_mu;
   options.mu_per_element = FLAGS_mu_per_element;
   options.initial = FLAGS_initial;
-  options.outputs = aqs::SplitCommaList(FLAGS_output);
+  options.outputs = aqs::SplitList(FLAGS_output);
   options.loss_target = FLAGS_loss_target;
   options.gradient = FLAGS_gradient;
   options.solver.relative_force_tolerance = FLAGS_tolerance;

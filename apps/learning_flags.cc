@@ -46,7 +46,7 @@ namespace {
 
 bool HiddenFromFlag(std::vector<int>* widths, std::string* error) {
   widths->clear();
-  for (const std::string& item : SplitCommaList(FLAGS_hidden)) {
+  for (const std::string& item : SplitList(FLAGS_hidden)) {
     int width = 0;
     if (!ParseInt(item, &width) || width < 1) {
       *error = "--hidden takes positive widths, got '" + item + "'";

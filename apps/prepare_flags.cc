@@ -49,10 +49,7 @@ namespace {
 
 bool ParseBoxes(const std::string& text, std::vector<Eigen::AlignedBox3d>* boxes,
                 std::string* error) {
-  std::stringstream in(text);
-  std::string item;
-  while (std::getline(in, item, ';')) {
-    if (item.empty()) continue;
+  for (const std::string& item : SplitList(text, ';')) {
     Eigen::AlignedBox3d box;
     if (!ParseBox(item, &box, error)) return false;
     boxes->push_back(box);
@@ -92,10 +89,7 @@ bool PrepareOptionsFromFlags(PrepareJobOptions* options, std::string* error) {
   options->meshing.num_threads = FLAGS_threads;
   if (!ParseBoxes(FLAGS_keep_box, &options->keep_boxes, error)) return false;
   {
-    std::stringstream in(FLAGS_cut);
-    std::string item;
-    while (std::getline(in, item, ';')) {
-      if (item.empty()) continue;
+    for (const std::string& item : SplitList(FLAGS_cut, ';')) {
       PlaneCut cut;
       if (!ParsePlaneCut(item, &cut, error)) return false;
       options->cuts.push_back(cut);
@@ -105,7 +99,7 @@ bool PrepareOptionsFromFlags(PrepareJobOptions* options, std::string* error) {
   options->mu = FLAGS_mu;
   options->boundary.fixed_depth = FLAGS_fixed_depth;
   if (!ParseBoxes(FLAGS_fixed_box, &options->boundary.fixed_boxes, error)) return false;
-  options->boundary.fixed_inside_meshes = SplitCommaList(FLAGS_fixed_inside);
+  options->boundary.fixed_inside_meshes = SplitList(FLAGS_fixed_inside);
   options->boundary.fixed_list = FLAGS_fixed_list;
   if (!FLAGS_bone_mesh.empty()) {
     BoneRule bone;

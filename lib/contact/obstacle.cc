@@ -1,11 +1,11 @@
 #include "contact/obstacle.h"
 
-#include <sstream>
 
 #include <glog/logging.h>
 
 #include "mesh/mesh_io.h"
 #include "util/line_reader.h"
+#include "util/text_split.h"
 
 namespace aqs {
 
@@ -41,9 +41,7 @@ double Obstacle::SignedDistance(const Eigen::Vector3d& p, Eigen::Vector3d* gradi
 
 bool ParseObstacleSpecs(const std::string& text, std::vector<ObstacleSpec>* specs,
                         std::string* error) {
-  std::stringstream in(text);
-  std::string item;
-  while (std::getline(in, item, ',')) {
+  for (const std::string& item : SplitFields(text)) {
     const std::vector<std::string> fields = SplitTokens(item);
     if (fields.empty()) continue;
     ObstacleSpec spec;

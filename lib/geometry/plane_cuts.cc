@@ -1,13 +1,13 @@
 #include "geometry/plane_cuts.h"
 
 #include <cmath>
-#include <sstream>
 
 #include <glog/logging.h>
 
 #include <Eigen/Geometry>
 
 #include "util/line_reader.h"
+#include "util/text_split.h"
 
 namespace aqs {
 namespace {
@@ -144,9 +144,7 @@ int AssignEmbeddingSides(const CutMesh& cut_mesh, const std::vector<PlaneCut>& c
 bool ParsePlaneCut(const std::string& text, PlaneCut* cut, std::string* error) {
   const size_t at = text.find('@');
   auto parse = [&](const std::string& part, std::vector<double>* values) {
-    std::stringstream in(part);
-    std::string item;
-    while (std::getline(in, item, ',')) {
+    for (const std::string& item : SplitFields(part)) {
       double v = 0;
       if (!ParseDouble(item, &v)) {
         *error = "cut '" + text + "': '" + item + "' is not a number";

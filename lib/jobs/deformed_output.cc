@@ -1,27 +1,12 @@
 #include "jobs/deformed_output.h"
 
-#include <algorithm>
-#include <cctype>
-
 #include "mesh/boundary_surface.h"
+#include "util/file_extension.h"
 
 namespace aqs {
-namespace {
-
-std::string Extension(const std::string& path) {
-  const size_t dot = path.find_last_of('.');
-  const size_t slash = path.find_last_of('/');
-  if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) return "";
-  std::string ext = path.substr(dot);
-  std::transform(ext.begin(), ext.end(), ext.begin(),
-                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return ext;
-}
-
-}  // namespace
 
 bool IsDeformedMeshOutputPath(const std::string& path) {
-  const std::string ext = Extension(path);
+  const std::string ext = LowercaseExtension(path);
   return ext == ".mesh" || ext == ".vtu" || ext == ".obj";
 }
 
@@ -40,7 +25,7 @@ bool WriteDeformedMesh(const std::string& path, const TetMesh& rest,
   TetMesh deformed;
   deformed.vertices = positions;
   deformed.tets = rest.tets;
-  const std::string ext = Extension(path);
+  const std::string ext = LowercaseExtension(path);
   if (ext == ".mesh") return WriteMeditMesh(path, deformed, error);
   if (ext == ".vtu") return WriteVtu(path, deformed, point_fields, cell_fields, error);
   if (ext == ".obj") {

@@ -15,6 +15,7 @@
 #include "mesh/ply_io.h"
 #include "model/model_io.h"
 #include "prepare/pose_files.h"
+#include "util/file_extension.h"
 #include "util/input_file.h"
 #include "util/line_reader.h"
 #include "util/option_checks.h"
@@ -28,12 +29,6 @@ FitJobResult Fail(const std::string& message) {
   result.status = JobStatus::kBadInput;
   result.message = message;
   return result;
-}
-
-std::string Extension(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext;
 }
 
 std::vector<std::string> BoneNames(const ActiveModel& model) {
@@ -160,7 +155,7 @@ FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log) {
   if (options.model.empty() || options.target.empty() || options.output.empty()) {
     return Fail("--model, --target and --output are required");
   }
-  if (Extension(options.output) != ".obj") return Fail(options.output + ": --output must be an .obj");
+  if (LowercaseExtension(options.output) != ".obj") return Fail(options.output + ": --output must be an .obj");
   if (!options.output_volume.empty() && !IsDeformedMeshOutputPath(options.output_volume)) {
     return Fail(options.output_volume + ": unknown output extension; known: .mesh, .vtu, .obj");
   }
@@ -174,7 +169,7 @@ FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log) {
 
   // The target.
   std::string kind = options.target_kind;
-  const std::string ext = Extension(options.target);
+  const std::string ext = LowercaseExtension(options.target);
   SurfaceMesh target_surface;
   if (kind == "auto") {
     if (ext == ".txt") {

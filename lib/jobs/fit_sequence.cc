@@ -19,21 +19,18 @@
 #include "mesh/ply_io.h"
 #include "model/model_io.h"
 #include "util/atomic_file.h"
+#include "util/file_extension.h"
 #include "util/line_reader.h"
 #include "util/matrix_io.h"
 #include "util/number_format.h"
 #include "util/wall_timer.h"
 #include "util/option_checks.h"
+#include "util/text_split.h"
 
 namespace aqs {
 namespace {
 
 namespace fs = std::filesystem;
-
-std::string Lower(std::string s) {
-  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return s;
-}
 
 // The frame files of a sequence specification, with where each was listed.
 bool ResolveFrames(const std::string& spec, std::vector<std::pair<std::string, std::string>>* out,
@@ -46,7 +43,7 @@ bool ResolveFrames(const std::string& spec, std::vector<std::pair<std::string, s
   }
   if (fs::is_directory(spec, code)) {
     for (const auto& entry : fs::directory_iterator(spec, code)) {
-      const std::string ext = Lower(entry.path().extension().string());
+      const std::string ext = LowercaseExtension(entry.path().string());
       if (entry.is_regular_file() && (ext == ".obj" || ext == ".txt" || ext == ".ply")) {
         found.push_back(entry.path().string());
       }
@@ -61,7 +58,7 @@ bool ResolveFrames(const std::string& spec, std::vector<std::pair<std::string, s
     globfree(&matches);
     std::sort(found.begin(), found.end());
     for (const std::string& f : found) out->emplace_back(f, f);
-  } else if (Lower(fs::path(spec).extension().string()) == ".txt" && spec.find(',') == std::string::npos) {
+  } else if (LowercaseExtension(spec) == ".txt" && spec.find(',') == std::string::npos) {
     LineReader reader(spec);
     if (!reader.ok()) {
       *error = reader.error();
@@ -87,10 +84,7 @@ bool ResolveFrames(const std::string& spec, std::vector<std::pair<std::string, s
       return false;
     }
   } else {
-    std::stringstream list(spec);
-    std::string item;
-    while (std::getline(list, item, ',')) {
-      if (item.empty()) continue;
+    for (const std::string& item : SplitList(spec)) {
       if (!fs::exists(item)) {
         *error = "target file '" + item + "' does not exist";
         return false;
@@ -156,10 +150,7 @@ bool ReadDone(const std::string& csv, const std::string& output_dir, const Activ
       }
       continue;
     }
-    std::vector<std::string> cells;
-    std::stringstream s(reader.line());
-    std::string cell;
-    while (std::getline(s, cell, ',')) cells.push_back(cell);
+    const std::vector<std::string> cells = SplitFields(reader.line());
     const size_t f = done->size();
     int index = -1;
     if (cells.size() != columns || !ParseInt(cells[0], &index) || index != static_cast<int>(f)) {
@@ -305,7 +296,7 @@ bool ReadSequenceFrames(const FitSequenceOptions& options, int ns,
                            " (frames are named by file name)");
       return false;
     }
-    const std::string ext = Lower(fs::path(path).extension().string());
+    const std::string ext = LowercaseExtension(path);
     SurfaceMesh surface;
     f.kind = forced;
     if (f.kind == "auto") {

@@ -14,18 +14,13 @@
 #include "jobs/deformed_output.h"
 #include "jobs/model_pose.h"
 #include "mesh/mesh_io.h"
+#include "util/file_extension.h"
 #include "util/input_file.h"
 #include "util/option_checks.h"
 #include "util/wall_timer.h"
 
 namespace aqs {
 namespace {
-
-std::string Extension(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext;
-}
 
 SimulateJobResult Fail(JobStatus status, const std::string& message) {
   SimulateJobResult result;
@@ -144,7 +139,7 @@ SimulateJobResult RunModelSimulateJob(const SimulateJobOptions& options, std::os
   std::vector<VtuField> cell_fields;
   ElementFields(physics, state, a, &cell_fields);
   for (const std::string& output : options.outputs) {
-    if (Extension(output) == ".obj") {
+    if (LowercaseExtension(output) == ".obj") {
       SurfaceMesh out = model.neutral;
       out.vertices = surface;
       if (!WriteObj(output, out, &error)) return Fail(JobStatus::kBadInput, error);

@@ -83,7 +83,7 @@ class GmshReader {
   // what was expected.
   template <typename What>
   bool NextLine(const What& what) {
-    if (!mesh_internal::NextLineTokens(reader_, '\0', &tokens_)) {
+    if (!reader_->NextTokens(&tokens_, '\0')) {
       *error_ = mesh_internal::EndOfFileError(*reader_, "expected " + what() +
                                                             ", found the end of the file");
       return false;
@@ -482,7 +482,7 @@ bool GmshReader::SkipSection(const std::string& name) {
 
 bool GmshReader::Read(TetMesh* mesh, std::string* error) {
   error_ = error;
-  while (mesh_internal::NextLineTokens(reader_, '\0', &tokens_)) {
+  while (reader_->NextTokens(&tokens_, '\0')) {
     const std::string name = tokens_[0];
     if (name.empty() || name[0] != '$' || tokens_.size() != 1) {
       return Fail("expected the start of a section such as $Nodes, got " + Quoted(reader_->line()));

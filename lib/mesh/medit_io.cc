@@ -7,6 +7,7 @@
 #include "mesh/mesh_io.h"
 #include "mesh/text_io_util.h"
 #include "util/atomic_file.h"
+#include "util/file_extension.h"
 #include "util/line_reader.h"
 #include "util/number_format.h"
 
@@ -292,7 +293,7 @@ bool MeditReader::Read(TetMesh* mesh, std::string* error) {
 }  // namespace
 
 bool ReadMeditMesh(const std::string& path, TetMesh* mesh, std::string* error) {
-  if (mesh_internal::LowercaseExtension(path) == ".meshb") {
+  if (LowercaseExtension(path) == ".meshb") {
     *error = path + ": binary MEDIT files (.meshb) are not supported; convert to ASCII .mesh";
     return false;
   }

@@ -42,7 +42,7 @@ bool ReadObj(const std::string& path, SurfaceMesh* surface, std::string* error) 
   std::vector<PendingIndex> pending;
   std::vector<std::string> tokens;
   std::string corner;
-  while (mesh_internal::NextLineTokens(&reader, '#', &tokens)) {
+  while (reader.NextTokens(&tokens, '#')) {
     const std::string& record = tokens[0];
     if (record == "v") {
       if (tokens.size() < 4 || tokens.size() > 7) {

@@ -18,6 +18,7 @@
 #include "mesh/mesh_io.h"
 #include "mesh/text_io_util.h"
 #include "util/atomic_file.h"
+#include "util/file_extension.h"
 #include "util/input_file.h"
 #include "util/line_reader.h"
 #include "util/number_format.h"
@@ -219,7 +220,7 @@ bool ReadPlyHeader(PlyLineReader* reader, PlyHeader* header, std::string* error)
     *error = reader->EndError("not a PLY file: the file is empty");
     return false;
   }
-  mesh_internal::SplitLine(line, '\0', &tokens);
+  SplitTokens(line, '\0', &tokens);
   if (tokens.size() != 1 || tokens[0] != "ply") {
     *error = reader->Where("not a PLY file: the first line must be 'ply', got " + Quoted(line));
     return false;
@@ -231,7 +232,7 @@ bool ReadPlyHeader(PlyLineReader* reader, PlyHeader* header, std::string* error)
           "the header ends without 'end_header' (the file is truncated or not a PLY file)");
       return false;
     }
-    mesh_internal::SplitLine(line, '\0', &tokens);
+    SplitTokens(line, '\0', &tokens);
     if (tokens.empty()) continue;
     const std::string& keyword = tokens[0];
     if (keyword == "comment" || keyword == "obj_info") continue;
@@ -406,7 +407,7 @@ bool ReadAsciiData(const std::string& path, const PlyHeader& header, const Verte
                                     element.name + "' records");
           return false;
         }
-        mesh_internal::SplitLine(line, '\0', &tokens);
+        SplitTokens(line, '\0', &tokens);
       }
       size_t next = 0;
       double xyz[3] = {0, 0, 0};
@@ -496,7 +497,7 @@ bool ReadAsciiData(const std::string& path, const PlyHeader& header, const Verte
   // Nothing but blank lines may follow: more data than the header declares means its
   // counts are wrong, and the points beyond them would be dropped without a word.
   while (reader->NextLine(&line)) {
-    mesh_internal::SplitLine(line, '\0', &tokens);
+    SplitTokens(line, '\0', &tokens);
     if (!tokens.empty()) {
       *error = reader->Where("data after the last of the header's elements (" +
                              std::to_string(header.elements.empty()
@@ -840,7 +841,7 @@ bool WritePlyWithScalar(const std::string& path, const SurfaceMesh& surface,
 }
 
 bool ReadPointCloud(const std::string& path, Eigen::Matrix3Xd* points, std::string* error) {
-  const std::string extension = mesh_internal::LowercaseExtension(path);
+  const std::string extension = LowercaseExtension(path);
   if (extension == ".ply") return ReadPly(path, points, error);
   if (extension == ".obj") {
     SurfaceMesh surface;

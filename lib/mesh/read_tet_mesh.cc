@@ -4,12 +4,12 @@
 
 #include "mesh/mesh_io.h"
 #include "mesh/tet_mesh.h"
-#include "mesh/text_io_util.h"
+#include "util/file_extension.h"
 
 namespace aqs {
 
 bool ReadTetMeshFile(const std::string& path, TetMesh* mesh, std::string* error) {
-  const std::string extension = mesh_internal::LowercaseExtension(path);
+  const std::string extension = LowercaseExtension(path);
   TetMesh read;
   bool ok = false;
   if (extension == ".mesh" || extension == ".meshb") {

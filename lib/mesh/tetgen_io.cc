@@ -6,6 +6,7 @@
 
 #include "mesh/mesh_io.h"
 #include "mesh/text_io_util.h"
+#include "util/file_extension.h"
 #include "util/line_reader.h"
 
 namespace aqs {
@@ -41,7 +42,7 @@ bool TokenInt(const LineReader& reader, const std::vector<std::string>& tokens, 
 // and the extra ones would be dropped without a word.
 bool ExpectEndOfFile(LineReader* reader, long long count, const char* what,
                      std::vector<std::string>* tokens, std::string* error) {
-  if (mesh_internal::NextLineTokens(reader, '#', tokens)) {
+  if (reader->NextTokens(tokens, '#')) {
     *error = reader->Where("content after the " + std::to_string(count) + " " + what +
                            " the header declares: the header's count is smaller than the data");
     return false;
@@ -68,7 +69,7 @@ bool ReadNodeFile(const std::string& path, Eigen::Matrix3Xd* vertices, int* base
   LineReader reader(path);
   if (!OpenText(path, &reader, error)) return false;
   std::vector<std::string> tokens;
-  if (!mesh_internal::NextLineTokens(&reader, '#', &tokens)) {
+  if (!reader.NextTokens(&tokens, '#')) {
     *error = mesh_internal::EndOfFileError(
         reader,
         "expected the .node header '<#points> <dimension 3> <#attributes> "
@@ -110,7 +111,7 @@ bool ReadNodeFile(const std::string& path, Eigen::Matrix3Xd* vertices, int* base
   const size_t max_tokens = 4 + static_cast<size_t>(attributes + markers);
   vertices->resize(3, static_cast<Eigen::Index>(count));
   for (long long v = 0; v < count; ++v) {
-    if (!mesh_internal::NextLineTokens(&reader, '#', &tokens)) {
+    if (!reader.NextTokens(&tokens, '#')) {
       *error = mesh_internal::EndOfFileError(
           reader, "expected point " + std::to_string(v + 1) + " of " + std::to_string(count) +
                       " ('index x y z ...'), found the end of the file");
@@ -164,7 +165,7 @@ bool ReadEleFile(const std::string& path, int base, int num_vertices, Eigen::Mat
   static const char kHeader[] =
       "the .ele header '<#tetrahedra> <nodes per tetrahedron 4|10> "
       "<#attributes>'";
-  if (!mesh_internal::NextLineTokens(&reader, '#', &tokens)) {
+  if (!reader.NextTokens(&tokens, '#')) {
     *error = mesh_internal::EndOfFileError(
         reader, std::string("expected ") + kHeader + ", found the end of the file");
     return false;
@@ -198,7 +199,7 @@ bool ReadEleFile(const std::string& path, int base, int num_vertices, Eigen::Mat
   const size_t max_tokens = min_tokens + static_cast<size_t>(attributes);
   tets->resize(4, static_cast<Eigen::Index>(count));
   for (long long t = 0; t < count; ++t) {
-    if (!mesh_internal::NextLineTokens(&reader, '#', &tokens)) {
+    if (!reader.NextTokens(&tokens, '#')) {
       *error = mesh_internal::EndOfFileError(
           reader, "expected tetrahedron " + std::to_string(t + 1) + " of " +
                       std::to_string(count) + " ('index' and " + std::to_string(nodes) +
@@ -243,7 +244,7 @@ bool ReadEleFile(const std::string& path, int base, int num_vertices, Eigen::Mat
 }  // namespace
 
 bool ReadTetgenMesh(const std::string& path, TetMesh* mesh, std::string* error) {
-  const std::string extension = mesh_internal::LowercaseExtension(path);
+  const std::string extension = LowercaseExtension(path);
   std::string stem = path;
   if (extension == ".node" || extension == ".ele") stem.resize(path.size() - extension.size());
   Eigen::Matrix3Xd vertices;

@@ -12,50 +12,6 @@
 
 namespace aqs {
 namespace mesh_internal {
-namespace {
-
-inline bool IsSpace(char c) {
-  return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\v' || c == '\f';
-}
-
-}  // namespace
-
-void SplitLine(const std::string& line, char comment_char, std::vector<std::string>* tokens) {
-  size_t count = 0;
-  const char* p = line.data();
-  const char* end = p + line.size();
-  if (comment_char != '\0') {
-    for (const char* q = p; q != end; ++q) {
-      if (*q == comment_char) {
-        end = q;
-        break;
-      }
-    }
-  }
-  while (true) {
-    while (p != end && IsSpace(*p)) ++p;
-    if (p == end) break;
-    const char* start = p;
-    while (p != end && !IsSpace(*p)) ++p;
-    if (count < tokens->size()) {
-      (*tokens)[count].assign(start, p);
-    } else {
-      tokens->emplace_back(start, p);
-    }
-    ++count;
-  }
-  tokens->resize(count);
-}
-
-bool NextLineTokens(LineReader* reader, char comment_char, std::vector<std::string>* tokens) {
-  while (reader->NextLine()) {
-    SplitLine(reader->line(), comment_char, tokens);
-    if (!tokens->empty()) return true;
-  }
-  tokens->clear();
-  return false;
-}
-
 std::string EndOfFileError(const LineReader& reader, const std::string& message) {
   return reader.ok() ? reader.Where(message) : reader.error();
 }
@@ -121,15 +77,6 @@ bool CheckRecordCount(const LineReader& reader, long long count, int tokens_per_
   return true;
 }
 
-std::string LowercaseExtension(const std::string& path) {
-  const size_t slash = path.find_last_of('/');
-  const size_t dot = path.find_last_of('.');
-  if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) return "";
-  std::string extension = path.substr(dot);
-  for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return extension;
-}
-
 void AppendInt(long long value, std::string* out) {
   char buffer[24];
   const std::to_chars_result result = std::to_chars(buffer, buffer + sizeof(buffer), value);
@@ -139,7 +86,7 @@ void AppendInt(long long value, std::string* out) {
 const std::string* TokenStream::Next() {
   while (next_ >= tokens_.size()) {
     if (!reader_->NextLine()) return nullptr;
-    SplitLine(reader_->line(), comment_char_, &tokens_);
+    SplitTokens(reader_->line(), comment_char_, &tokens_);
     next_ = 0;
   }
   return &tokens_[next_++];

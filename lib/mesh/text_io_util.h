@@ -14,15 +14,6 @@
 namespace aqs {
 namespace mesh_internal {
 
-// Splits `line` at whitespace into *tokens, ignoring everything from `comment_char` on
-// ('\0': no comments). Reuses the storage of *tokens, so short tokens cause no heap
-// allocation once the vector has grown.
-void SplitLine(const std::string& line, char comment_char, std::vector<std::string>* tokens);
-
-// Reads lines from *reader until one has tokens (after SplitLine); false at end of file
-// or when the reader failed (reader->ok() false: a line too long, a read error).
-bool NextLineTokens(LineReader* reader, char comment_char, std::vector<std::string>* tokens);
-
 // The error for a reader that returned no line where one was expected: the reader's
 // own error if it failed (a line too long, a read error), else "path:line: message"
 // (message saying what was expected at the end of the file).
@@ -45,9 +36,6 @@ std::string Quoted(const std::string& token);
 // unknown, not checked). `what` names the records ("vertices", "nodes", ...).
 bool CheckRecordCount(const LineReader& reader, long long count, int tokens_per_record,
                       long long file_size, const std::string& what, std::string* error);
-
-// Lower-case extension of the file name in `path`, with the dot (".mesh"), or "".
-std::string LowercaseExtension(const std::string& path);
 
 // Appends the decimal form of `value` to *out.
 void AppendInt(long long value, std::string* out);

@@ -11,6 +11,7 @@
 #include "mesh/mesh_io.h"
 #include "util/line_reader.h"
 #include "util/option_checks.h"
+#include "util/text_split.h"
 
 namespace aqs {
 namespace {
@@ -98,10 +99,8 @@ bool InsideMesh(const std::string& path, const Eigen::Matrix3Xd& points, int thr
 }  // namespace
 
 bool ParseBox(const std::string& text, Eigen::AlignedBox3d* box, std::string* error) {
-  std::stringstream in(text);
-  std::string item;
   std::vector<double> values;
-  while (std::getline(in, item, ',')) {
+  for (const std::string& item : SplitFields(text)) {
     double v = 0;
     if (!ParseDouble(item, &v)) {
       *error = "box '" + text + "': '" + item + "' is not a number";

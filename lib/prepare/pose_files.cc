@@ -12,6 +12,7 @@
 #include "mesh/mesh_io.h"
 #include "util/line_reader.h"
 #include "util/parallel_for.h"
+#include "util/text_split.h"
 
 namespace aqs {
 namespace {
@@ -78,10 +79,7 @@ bool ResolvePosePaths(const std::string& spec, const std::string& exclude,
       return false;
     }
   } else {
-    std::stringstream list(spec);
-    std::string item;
-    while (std::getline(list, item, ',')) {
-      if (item.empty()) continue;
+    for (const std::string& item : SplitList(spec)) {
       if (!fs::exists(item)) {
         *error = "pose file '" + item + "' does not exist";
         return false;

@@ -74,12 +74,7 @@ bool LineReader::NextLine() {
 
 bool LineReader::NextTokens(std::vector<std::string>* tokens, char comment_char) {
   while (NextLine()) {
-    std::string content = line_;
-    if (comment_char != '\0') {
-      const size_t pos = content.find(comment_char);
-      if (pos != std::string::npos) content.resize(pos);
-    }
-    *tokens = SplitTokens(content);
+    SplitTokens(line_, comment_char, tokens);
     if (!tokens->empty()) return true;
   }
   tokens->clear();
@@ -94,11 +89,44 @@ std::string LineReader::Where(const std::string& message) const {
   return out.str();
 }
 
+namespace {
+
+inline bool IsSpace(char c) {
+  return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\v' || c == '\f';
+}
+
+}  // namespace
+
+void SplitTokens(const std::string& line, char comment_char, std::vector<std::string>* tokens) {
+  size_t count = 0;
+  const char* p = line.data();
+  const char* end = p + line.size();
+  if (comment_char != '\0') {
+    for (const char* q = p; q != end; ++q) {
+      if (*q == comment_char) {
+        end = q;
+        break;
+      }
+    }
+  }
+  while (true) {
+    while (p != end && IsSpace(*p)) ++p;
+    if (p == end) break;
+    const char* start = p;
+    while (p != end && !IsSpace(*p)) ++p;
+    if (count < tokens->size()) {
+      (*tokens)[count].assign(start, p);
+    } else {
+      tokens->emplace_back(start, p);
+    }
+    ++count;
+  }
+  tokens->resize(count);
+}
+
 std::vector<std::string> SplitTokens(const std::string& text) {
   std::vector<std::string> tokens;
-  std::istringstream in(text);
-  std::string token;
-  while (in >> token) tokens.push_back(token);
+  SplitTokens(text, '\0', &tokens);
   return tokens;
 }
 

@@ -56,7 +56,13 @@ class LineReader {
   std::string error_;
 };
 
-// Splits `text` at whitespace.
+// Splits `line` at whitespace (' ', '\t', '\r', '\n', '\v', '\f') into *tokens,
+// ignoring everything from `comment_char` on ('\0': no comments). Reuses the storage of
+// *tokens, so short tokens cause no heap allocation once the vector has grown. The one
+// token reader of the text formats (LineReader::NextTokens, the mesh readers).
+void SplitTokens(const std::string& line, char comment_char, std::vector<std::string>* tokens);
+
+// Splits `text` at whitespace (no comments).
 std::vector<std::string> SplitTokens(const std::string& text);
 
 // Strict number parsing: the whole token must be a decimal number (no trailing

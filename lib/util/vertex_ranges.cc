@@ -1,17 +1,13 @@
 #include "util/vertex_ranges.h"
 
-#include <sstream>
-
 #include "util/line_reader.h"
+#include "util/text_split.h"
 
 namespace aqs {
 
 bool ParseVertexRanges(const std::string& text, std::vector<int>* vertices, std::string* error) {
-  std::stringstream in(text);
-  std::string item;
   std::vector<int> out;
-  while (std::getline(in, item, ',')) {
-    if (item.empty()) continue;
+  for (const std::string& item : SplitList(text)) {
     const size_t colon = item.find(':'), dash = item.find('-');
     int a = 0, b = 0;
     if (colon != std::string::npos) {

@@ -17,6 +17,7 @@
 #include "mesh/mesh_io.h"
 #include "model/model_io.h"
 #include "testing/synthetic_muscles.h"
+#include "util/text_split.h"
 
 namespace aqs {
 namespace {
@@ -38,10 +39,9 @@ std::string WithoutSeconds(const std::string& csv) {
   std::ifstream in(csv);
   std::string out;
   for (std::string line; std::getline(in, line);) {
-    std::stringstream s(line);
-    int column = 0;
-    for (std::string cell; std::getline(s, cell, ','); ++column) {
-      out += (column == 10 ? std::string("-") : cell) + ",";
+    const std::vector<std::string> cells = SplitFields(line);
+    for (size_t column = 0; column < cells.size(); ++column) {
+      out += (column == 10 ? std::string("-") : cells[column]) + ",";
     }
     out += "\n";
   }

@@ -16,6 +16,7 @@
 #include "prepare/volumetric_targets.h"
 #include "testing/temp_dir.h"
 #include "train/pretrain.h"
+#include "util/text_split.h"
 #include "testing/synthetic_muscles.h"
 
 namespace aqs {
@@ -28,13 +29,6 @@ std::string ReadAll(const std::string& path) {
   return buffer.str();
 }
 
-std::vector<std::string> Cells(const std::string& line) {
-  std::vector<std::string> cells;
-  std::stringstream s(line);
-  for (std::string cell; std::getline(s, cell, ',');) cells.push_back(cell);
-  return cells;
-}
-
 // frames.csv's rows by frame name, without the frame index (column 0) and the seconds
 // (column 10), the only columns that may differ between runs of the same frames.
 std::map<std::string, std::vector<std::string>> Rows(const std::string& csv) {
@@ -43,7 +37,7 @@ std::map<std::string, std::vector<std::string>> Rows(const std::string& csv) {
   std::string line;
   std::getline(in, line);
   while (std::getline(in, line)) {
-    std::vector<std::string> cells = Cells(line);
+    std::vector<std::string> cells = SplitFields(line);
     EXPECT_GT(cells.size(), 14u) << line;
     if (cells.size() <= 14) continue;
     cells[10] = "";

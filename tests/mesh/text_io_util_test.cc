@@ -11,16 +11,6 @@ namespace aqs {
 namespace mesh_internal {
 namespace {
 
-TEST(TextIoUtilTest, SplitLineReusesStorageAndDropsComments) {
-  std::vector<std::string> tokens = {"old", "tokens", "here", "and", "more"};
-  SplitLine("  a\tbb  ccc # d e", '#', &tokens);
-  EXPECT_EQ(tokens, (std::vector<std::string>{"a", "bb", "ccc"}));
-  SplitLine("x#y", '\0', &tokens);
-  EXPECT_EQ(tokens, (std::vector<std::string>{"x#y"}));
-  SplitLine("   ", '#', &tokens);
-  EXPECT_TRUE(tokens.empty());
-}
-
 TEST(TextIoUtilTest, TokenStreamCrossesLinesAndTracksThem) {
   testing::TempDir dir;
   const std::string path = dir.Write("t.txt", "a b\n# comment\n\nc\n  d e  \n");
@@ -33,12 +23,10 @@ TEST(TextIoUtilTest, TokenStreamCrossesLinesAndTracksThem) {
   EXPECT_EQ(tokens.Where("end"), path + ":5: end");
 }
 
-TEST(TextIoUtilTest, QuotedExtensionAndInt) {
+TEST(TextIoUtilTest, QuotedAndInt) {
   EXPECT_EQ(Quoted("abc"), "'abc'");
   EXPECT_EQ(Quoted(std::string("a\0b", 3)), "'a\\x00b'");
   EXPECT_EQ(Quoted(std::string(50, 'x')), "'" + std::string(40, 'x') + "...'");
-  EXPECT_EQ(LowercaseExtension("dir.d/Mesh.MSH"), ".msh");
-  EXPECT_EQ(LowercaseExtension("dir.d/mesh"), "");
   std::string out = "n=";
   AppendInt(-1234567890123LL, &out);
   EXPECT_EQ(out, "n=-1234567890123");

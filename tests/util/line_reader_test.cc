@@ -24,6 +24,18 @@ TEST(LineReaderTest, TokensSkipCommentsAndBlankLinesAndCountLines) {
   EXPECT_FALSE(reader.NextTokens(&tokens));
 }
 
+TEST(LineReaderTest, SplitTokensReusesStorageAndDropsComments) {
+  std::vector<std::string> tokens = {"old", "tokens", "here", "and", "more"};
+  SplitTokens("  a\tbb  ccc # d e", '#', &tokens);
+  EXPECT_EQ(tokens, (std::vector<std::string>{"a", "bb", "ccc"}));
+  SplitTokens("x#y", '\0', &tokens);
+  EXPECT_EQ(tokens, (std::vector<std::string>{"x#y"}));
+  SplitTokens("   ", '#', &tokens);
+  EXPECT_TRUE(tokens.empty());
+  // Without a comment character '#' is a token character.
+  EXPECT_EQ(SplitTokens(" a\r\n\v\fb\t#c "), (std::vector<std::string>{"a", "b", "#c"}));
+}
+
 TEST(LineReaderTest, MissingFileNamesPath) {
   LineReader reader("/nonexistent/dir/file.txt");
   EXPECT_FALSE(reader.ok());

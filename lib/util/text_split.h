@@ -1,0 +1,24 @@
+#ifndef AQS_UTIL_TEXT_SPLIT_H_
+#define AQS_UTIL_TEXT_SPLIT_H_
+
+// The list splitters of flags and small text fields (the whitespace token splitter of
+// file lines is SplitTokens, util/line_reader.h).
+
+#include <string>
+#include <vector>
+
+namespace aqs {
+
+// The non-empty items of a `separator`-separated list: "a,b,,c" -> {"a", "b", "c"};
+// "" and ",," -> {}. Items are not trimmed. For flags that list names, paths or ranges.
+std::vector<std::string> SplitList(const std::string& text, char separator = ',');
+
+// Every field of a `separator`-separated line, empty ones included: "a,,b" ->
+// {"a", "", "b"}, ",a" -> {"", "a"}. As std::getline reads them: a trailing separator
+// does not start another (empty) field ("a," -> {"a"}), and "" has no fields. For CSV
+// rows and number lists, where an empty field is an error the caller reports.
+std::vector<std::string> SplitFields(const std::string& text, char separator = ',');
+
+}  // namespace aqs
+
+#endif  // AQS_UTIL_TEXT_SPLIT_H_
