@@ -39,6 +39,8 @@ DEFINE_int32(iterations, 10, "L-BFGS iterations per mode.");
 DEFINE_string(modes, "per_pose,shared", "Solver layouts to measure: per_pose (one solver and "
               "factor per pose) and/or shared (one per thread).");
 DEFINE_double(tolerance, 1e-6, "Relative force tolerance of the training equilibria.");
+DEFINE_int32(max_poses, 0, "Train on at most this many of the model's poses, spread evenly "
+             "over its pose list (poses i * P / N for i < N); 0: all. The figures are per pose.");
 DECLARE_int32(threads);
 DECLARE_string(model);
 
@@ -100,6 +102,33 @@ Unit MeasureUnit(const ActiveModel& model) {
   return unit;
 }
 
+// Keeps n of the model's poses, i * num_poses / n for i < n (with their latents, states
+// and bone transforms).
+void KeepSpreadPoses(int n, ActiveModel* model) {
+  const int total = model->num_poses();
+  std::vector<int> kept;
+  for (int i = 0; i < n; ++i) kept.push_back(static_cast<int>(static_cast<long>(i) * total / n));
+  std::vector<TrainingPose> poses;
+  Eigen::MatrixXd latents(model->latents.rows(), n);
+  std::vector<Eigen::Matrix3Xd> states;
+  for (int i = 0; i < n; ++i) {
+    poses.push_back(model->poses[kept[i]]);
+    latents.col(i) = model->latents.col(kept[i]);
+    if (static_cast<int>(model->states.size()) == total) states.push_back(model->states[kept[i]]);
+  }
+  for (Bone& bone : model->bones) {
+    std::vector<RigidTransform> transforms;
+    for (int p : kept) transforms.push_back(bone.pose_transforms[p]);
+    bone.pose_transforms = transforms;
+  }
+  model->poses = poses;
+  model->latents = latents;
+  model->states = states;
+  std::printf("poses kept (%d of %d):", n, total);
+  for (const TrainingPose& pose : model->poses) std::printf(" %s", pose.name.c_str());
+  std::printf("\n");
+}
+
 int Main() {
   if (FLAGS_model.empty() || FLAGS_iterations < 1 || FLAGS_threads < 1 || !(FLAGS_tolerance > 0)) {
     PrintError("--model is required; --iterations and --threads must be >= 1, --tolerance > 0");
@@ -115,6 +144,11 @@ int Main() {
     PrintError(FLAGS_model + ": the model is not pre-trained (no decoder)");
     return 1;
   }
+  if (FLAGS_max_poses < 0) {
+    PrintError("--max_poses must be >= 0 (0: all poses)");
+    return 1;
+  }
+  if (FLAGS_max_poses > 0 && FLAGS_max_poses < model.num_poses()) KeepSpreadPoses(FLAGS_max_poses, &model);
   const Unit measured = MeasureUnit(model);
   const double unit = measured.seconds;
   std::printf("model %s: %d elements, %d poses, %d decoder parameters; unit (one factorization) "

@@ -38,6 +38,7 @@ EndToEndObjective::EndToEndObjective(const TrainOptions& options, const ActiveMo
   pose_max_.resize(num_poses_);
   failures_.resize(num_poses_);
   converged_once_.assign(num_poses_, 0);
+  adjoint_shift_.assign(num_poses_, 0.0);
   const int num_owned = static_cast<int>(owned_.size());
   if (num_owned == 0) return;  // a spare rank: no solver
   QuasistaticSolverOptions solver_options = options.solver;
@@ -99,6 +100,7 @@ bool EndToEndObjective::Serve() {
     if (command == kStop) return message[1] != 0;
     if (command == kAllowRetryFromRest) {
       converged_once_.assign(num_poses_, 0);
+      adjoint_shift_.assign(num_poses_, 0.0);
       continue;
     }
     communicator_->Broadcast(parameters.data(), NumParameters(), 0);
@@ -125,6 +127,7 @@ bool EndToEndObjective::Serve() {
 void EndToEndObjective::AllowRetryFromRest() {
   if (distributed() && rank_ == 0) SendCommand(kAllowRetryFromRest, nullptr);
   converged_once_.assign(num_poses_, 0);
+  adjoint_shift_.assign(num_poses_, 0.0);
 }
 
 int EndToEndObjective::NumParameters() const { return num_params_ + latent_dim_ * num_poses_; }
@@ -322,22 +325,32 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
                                                         (2.0 * scale) * diff,
                                                         static_cast<int>(x.cols()));
       std::string error;
-      if (w.differentiator->Prepare(x, a[k], &error) &&
+      // A pose whose K needed a shift before starts from a hundredth of that shift (one
+      // factorization as a rule, the shift decaying while K allows) instead of paying for
+      // the exact attempt and the escapes again.
+      const bool known_degenerate = adjoint_shift_[p] > 0.0;
+      if (!known_degenerate && w.differentiator->Prepare(x, a[k], &error) &&
           w.differentiator->LossGradient(dl_dx, &dl_da[k], &error)) {
         break;
       }
-      if (escape == kMaxEscapes) {
-        // Still not positive definite (a singular or degenerate K, not a saddle that a
-        // perturbation leaves): the regularized adjoint, with the smallest shift that
-        // factorizes.
+      if (known_degenerate || escape == kMaxEscapes) {
+        // Not positive definite even after leaving it (a singular or degenerate K, not a
+        // saddle that a perturbation leaves): the regularized adjoint, with the smallest
+        // shift that factorizes.
         bool shifted = false;
-        for (double shift = kFirstAdjointShift; !shifted && shift <= kLastAdjointShift;
-             shift *= 100.0) {
+        double shift = known_degenerate ? std::max(kFirstAdjointShift, adjoint_shift_[p] / 100.0)
+                                        : kFirstAdjointShift;
+        for (; shift <= kLastAdjointShift; shift *= 100.0) {
           std::string shift_error;
-          shifted = w.differentiator->PrepareShifted(x, a[k], shift, &shift_error) &&
-                    w.differentiator->LossGradient(dl_dx, &dl_da[k], &shift_error);
+          if (w.differentiator->PrepareShifted(x, a[k], shift, &shift_error) &&
+              w.differentiator->LossGradient(dl_dx, &dl_da[k], &shift_error)) {
+            shifted = true;
+            break;
+          }
+          if (error.empty()) error = shift_error;
         }
         if (shifted) {
+          adjoint_shift_[p] = shift;
           ++counters.shifted_adjoints;
           break;
         }

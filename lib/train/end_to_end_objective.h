@@ -98,7 +98,7 @@ class EndToEndObjective final : public ceres::FirstOrderFunction {
   // Unstable equilibria (exact stiffness not positive definite) are left at most this
   // many times per pose and evaluation, each by a perturbation of this size relative to
   // the mean rest edge length (QuasistaticSolver::LeaveUnstableEquilibrium).
-  static constexpr int kMaxEscapes = 2;
+  static constexpr int kMaxEscapes = 1;
   static constexpr double kEscapeRelativeSize = 1e-2;
   // Then the adjoint of K + shift mean(diag K) I, shifts from the first to the last by
   // factors of 100 (EquilibriumDifferentiator::PrepareShifted).
@@ -172,6 +172,8 @@ class EndToEndObjective final : public ceres::FirstOrderFunction {
   mutable std::vector<double> pose_loss_, pose_mean_, pose_max_;
   mutable std::vector<std::string> failures_;
   mutable std::vector<char> converged_once_;  // per pose, in this objective's life
+  // Per pose: the relative shift its last adjoint needed (0: none, the exact K).
+  mutable std::vector<double> adjoint_shift_;
   struct Remembered {
     uint64_t key = 0;  // hash of the parameter vector
     std::vector<Eigen::Matrix3Xd> states;
