@@ -74,14 +74,26 @@ Unit MeasureUnit(const ActiveModel& model) {
   unit.dofs = factorization.cholesky().size();
   std::vector<double> seconds;
   std::string error;
-  for (int i = 0; i < 4; ++i) {
+  // Not positive definite at the stored state (or at rest, for a model without states):
+  // the projected stiffness instead, then with growing diagonal shifts (the same
+  // pattern and the same work per factorization).
+  bool projected = false;
+  double shift = 0.0;
+  for (int i = 0, timed = 0; timed < 3 && i < 12; ++i) {
     WallTimer timer;
-    if (!factorization.FactorizeAssembled(0.0, &error)) {
-      // Not positive definite at the stored state: time the projected stiffness instead.
-      factorization.Assemble(x, a, StiffnessKind::kProjected);
+    if (!factorization.FactorizeAssembled(shift, &error)) {
+      if (!projected) {
+        factorization.Assemble(x, a, StiffnessKind::kProjected);
+        projected = true;
+      } else {
+        shift = shift == 0.0 ? 1e-8 : 100.0 * shift;
+      }
       continue;
     }
-    if (i > 0) seconds.push_back(timer.Seconds());  // the first includes the analysis
+    if (i > 0) {  // the first includes the analysis
+      seconds.push_back(timer.Seconds());
+      ++timed;
+    }
   }
   if (seconds.empty()) return unit;
   std::sort(seconds.begin(), seconds.end());
@@ -92,7 +104,7 @@ Unit MeasureUnit(const ActiveModel& model) {
   seconds.clear();
   for (int i = 0; i < 3; ++i) {
     WallTimer timer;
-    if (factorization.FactorizeAssembled(0.0, &error)) seconds.push_back(timer.Seconds());
+    if (factorization.FactorizeAssembled(shift, &error)) seconds.push_back(timer.Seconds());
   }
   SetBlasThreads(blas_threads);
   if (!seconds.empty()) {
@@ -163,6 +175,7 @@ int Main() {
               8.0 * measured.factor_nonzeros / 1e9, model.num_poses(),
               8.0 * measured.factor_nonzeros * model.num_poses() / 1e9,
               CurrentResidentBytes() / 1e9);
+  std::fflush(stdout);  // the model's figures before the (long) training runs
   std::printf("%-9s %6s %8s %9s %7s %9s %8s %8s %8s %8s %8s %8s %8s %8s %8s\n", "mode", "iters",
               "s/iter", "pose/unit", "evals", "fact/pose", "reused", "cg/pose", "newton", "lbfgs",
               "solve", "adjoint", "decoder", "loss", "peak_GB");
