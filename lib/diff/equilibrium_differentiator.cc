@@ -27,40 +27,32 @@ EquilibriumDifferentiator::~EquilibriumDifferentiator() = default;
 bool EquilibriumDifferentiator::Prepare(const ShapeTargetModel::PositionsRef& x,
                                         const ShapeTargetModel::ActuationRef& a,
                                         std::string* error) {
-  CHECK_EQ(x.cols(), model_.num_vertices());
-  CHECK_EQ(a.cols(), model_.num_elements());
-  prepared_ = false;
-  timings_ = DifferentiationTimings();
-  x_ = x;
-  a_ = a;
-  deferred_ = options_.reuse.max_iterations > 0;
-  if (deferred_) {
-    factorization_->Assemble(x_, a_, StiffnessKind::kExact);
-    timings_.assembly = factorization_->timings().assembly;
-    prepared_ = true;
-    return true;
-  }
-  const bool ok = factorization_->Factorize(x_, a_, StiffnessKind::kExact, error);
-  const FactorizationTimings& t = factorization_->timings();
-  timings_.assembly = t.assembly;
-  timings_.analysis = t.analysis;
-  timings_.factorization = t.factorization;
-  prepared_ = ok;
-  return ok;
+  return PrepareAt(x, a, options_.reuse.max_iterations > 0, 0.0, error);
 }
 
 bool EquilibriumDifferentiator::PrepareShifted(const ShapeTargetModel::PositionsRef& x,
                                                const ShapeTargetModel::ActuationRef& a,
                                                double relative_shift, std::string* error) {
+  CHECK_GT(relative_shift, 0.0);
+  return PrepareAt(x, a, false, relative_shift, error);
+}
+
+bool EquilibriumDifferentiator::PrepareAt(const ShapeTargetModel::PositionsRef& x,
+                                          const ShapeTargetModel::ActuationRef& a, bool defer,
+                                          double relative_shift, std::string* error) {
   CHECK_EQ(x.cols(), model_.num_vertices());
   CHECK_EQ(a.cols(), model_.num_elements());
-  CHECK_GT(relative_shift, 0.0);
   prepared_ = false;
-  deferred_ = false;
   timings_ = DifferentiationTimings();
   x_ = x;
   a_ = a;
+  deferred_ = defer;
   factorization_->Assemble(x_, a_, StiffnessKind::kExact);
+  if (deferred_) {
+    timings_.assembly = factorization_->timings().assembly;
+    prepared_ = true;
+    return true;
+  }
   const bool ok = factorization_->FactorizeAssembled(relative_shift, error);
   const FactorizationTimings& t = factorization_->timings();
   timings_.assembly = t.assembly;

@@ -116,6 +116,10 @@ class EquilibriumDifferentiator {
   ActuationMatrix a_;
   bool prepared_ = false;
   bool deferred_ = false;  // Prepare assembled K without factorizing it (options_.reuse)
+  // Prepare and PrepareShifted: assembles the exact K at (x, a), then factorizes
+  // K + relative_shift mean(diag K) I unless `defer`.
+  bool PrepareAt(const ShapeTargetModel::PositionsRef& x, const ShapeTargetModel::ActuationRef& a,
+                 bool defer, double relative_shift, std::string* error);
   // dL/da from the adjoint lambda (3 x num_vertices) at the prepared state.
   ActuationMatrix GradientFromAdjoint(const Eigen::Matrix3Xd& lambda);
   DifferentiationTimings timings_;

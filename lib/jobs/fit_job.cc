@@ -89,7 +89,8 @@ FitJobResult NotConverged(const FitJobOptions& options, const ActiveModel& model
 
 }  // namespace
 
-bool FitJobOptions::Validate(std::string* error) const {
+bool ValidateFitTargetOptions(const std::string& target_kind, const LatentFitOptions& fit,
+                              const PointCloudFitOptions& points, std::string* error) {
   std::string fit_error, points_error;
   const bool fit_ok = fit.Validate(&fit_error);
   const bool points_ok = points.Validate(&points_error);
@@ -100,6 +101,10 @@ bool FitJobOptions::Validate(std::string* error) const {
       .Nested("fit", fit_ok, fit_error)
       .Nested("points", points_ok, points_error)
       .Done(error);
+}
+
+bool FitJobOptions::Validate(std::string* error) const {
+  return ValidateFitTargetOptions(target_kind, fit, points, error);
 }
 
 bool ReadMarkers(const std::string& path, int num_surface_vertices, std::vector<int>* vertices,

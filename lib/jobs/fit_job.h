@@ -10,6 +10,11 @@
 
 namespace aqs {
 
+// The checks every fit job's options share: target_kind is auto, pose, markers or
+// points, and `fit` and `points` are valid. false with *error naming the first bad field.
+bool ValidateFitTargetOptions(const std::string& target_kind, const LatentFitOptions& fit,
+                              const PointCloudFitOptions& points, std::string* error);
+
 // What aqs_fit does: fit a trained model's latent (and bone motions) to a target and
 // write the result.
 struct FitJobOptions {

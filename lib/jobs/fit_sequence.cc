@@ -572,16 +572,7 @@ FitSequenceResult RunFitSequence(const FitSequenceOptions& options, const Active
 }
 
 bool FitSequenceOptions::Validate(std::string* error) const {
-  std::string fit_error, points_error;
-  const bool fit_ok = fit.Validate(&fit_error);
-  const bool points_ok = points.Validate(&points_error);
-  return OptionChecks()
-      .Require(target_kind == "auto" || target_kind == "pose" || target_kind == "markers" ||
-                   target_kind == "points",
-               "target_kind must be auto, pose, markers or points (is '" + target_kind + "')")
-      .Nested("fit", fit_ok, fit_error)
-      .Nested("points", points_ok, points_error)
-      .Done(error);
+  return ValidateFitTargetOptions(target_kind, fit, points, error);
 }
 
 FitSequenceResult RunFitSequenceJob(const FitSequenceOptions& options, std::ostream& log) {
