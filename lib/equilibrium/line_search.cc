@@ -1,5 +1,6 @@
 #include "equilibrium/line_search.h"
 
+#include <cmath>
 #include <sstream>
 
 namespace aqs {
@@ -13,6 +14,24 @@ bool ArmijoLineSearch::Validate(std::string* error) const {
   }
   *error = out.str();
   return error->empty();
+}
+
+bool MinimizerShouldStop(double energy, double force, double force_tolerance, int count,
+                         int limit, const char* what, std::ostream* message, bool* converged) {
+  if (!std::isfinite(energy) || !std::isfinite(force)) {
+    *message << "the energy or force is not finite";
+    return true;
+  }
+  if (force <= force_tolerance) {
+    *converged = true;
+    *message << "force tolerance reached";
+    return true;
+  }
+  if (count >= limit) {
+    *message << what << " limit (" << limit << ") reached";
+    return true;
+  }
+  return false;
 }
 
 }  // namespace aqs

@@ -1,6 +1,7 @@
 #ifndef AQS_EQUILIBRIUM_LINE_SEARCH_H_
 #define AQS_EQUILIBRIUM_LINE_SEARCH_H_
 
+#include <ostream>
 #include <string>
 
 namespace aqs {
@@ -20,6 +21,13 @@ struct ArmijoLineSearch {
   // Checks the fields; false with *error naming the field.
   bool Validate(std::string* error) const;
 };
+
+// The stopping tests the Newton and L-BFGS energy minimizers share, in this order: a
+// non-finite energy or force; the force (largest free-vertex |dE/dx|) at most
+// force_tolerance (sets *converged); `count` steps of their kind (`what`, e.g.
+// "factorization") at `limit`. true to stop, with the reason written to *message.
+bool MinimizerShouldStop(double energy, double force, double force_tolerance, int count,
+                         int limit, const char* what, std::ostream* message, bool* converged);
 
 }  // namespace aqs
 

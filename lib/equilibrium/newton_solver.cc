@@ -53,17 +53,9 @@ NewtonSolveReport MinimizeEnergyNewton(const NewtonSolverOptions& options,
   bool no_reuse_here = false;   // a step by CG on an earlier factor failed at the current x
   std::ostringstream message;
   while (true) {
-    if (!std::isfinite(energy) || !std::isfinite(force)) {
-      message << "the energy or force is not finite";
-      break;
-    }
-    if (force <= options.force_tolerance) {
-      report.converged = true;
-      message << "force tolerance reached";
-      break;
-    }
-    if (report.factorizations >= options.max_factorizations) {
-      message << "factorization limit (" << options.max_factorizations << ") reached";
+    if (MinimizerShouldStop(energy, force, options.force_tolerance, report.factorizations,
+                            options.max_factorizations, "factorization", &message,
+                            &report.converged)) {
       break;
     }
     const bool exact = !projected_here && force <= exact_limit;

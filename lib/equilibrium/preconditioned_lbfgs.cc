@@ -63,17 +63,8 @@ PreconditionedLbfgsReport MinimizeEnergyLbfgs(const PreconditionedLbfgsOptions& 
   Eigen::VectorXd g = preconditioner->GatherFree(gradient);
   std::ostringstream message;
   while (true) {
-    if (!std::isfinite(energy) || !std::isfinite(force)) {
-      message << "the energy or force is not finite";
-      break;
-    }
-    if (force <= options.force_tolerance) {
-      report.converged = true;
-      message << "force tolerance reached";
-      break;
-    }
-    if (report.iterations >= options.max_iterations) {
-      message << "iteration limit (" << options.max_iterations << ") reached";
+    if (MinimizerShouldStop(energy, force, options.force_tolerance, report.iterations,
+                            options.max_iterations, "iteration", &message, &report.converged)) {
       break;
     }
     Eigen::VectorXd direction = -ApplyInverseHessian(pairs, g, preconditioner);
