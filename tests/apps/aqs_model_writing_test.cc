@@ -23,6 +23,7 @@
 #include "testing/run_command.h"
 #include "testing/synthetic_muscles.h"
 #include "testing/temp_dir.h"
+#include "testing/training_fixtures.h"
 #include "train/pretrain.h"
 
 namespace aqs {
@@ -45,20 +46,6 @@ std::string ReadAll(const std::string& path) {
   return buffer.str();
 }
 
-// Iteration and loss of each row of a training log.
-std::vector<std::pair<int, double>> LogRows(const std::string& path) {
-  std::vector<std::pair<int, double>> rows;
-  std::ifstream in(path);
-  std::string line;
-  std::getline(in, line);
-  while (std::getline(in, line)) {
-    int iteration = -1;
-    double loss = 0;
-    if (std::sscanf(line.c_str(), "%d,%lf", &iteration, &loss) == 2) rows.emplace_back(iteration, loss);
-  }
-  return rows;
-}
-
 // Polls `done` every 10 ms for up to `seconds`.
 template <typename Done>
 bool WaitFor(Done done, double seconds) {
@@ -72,19 +59,7 @@ bool WaitFor(Done done, double seconds) {
 
 // Writes a small pre-trained model of the synthetic bar to `path`.
 void WritePretrainedModel(const std::string& path) {
-  testing::SyntheticMuscles data = testing::MakeSyntheticMuscles(3, 0, 0.3, 5);
-  std::ostringstream log;
-  std::string error;
-  ASSERT_TRUE(MakeVolumetricTargets(VolumetricTargetOptions(), &data.model, log, &error)) << error;
-  PretrainOptions pretrain;
-  pretrain.spec.latent_dim = 2;
-  pretrain.spec.hidden_dims = {8};
-  pretrain.field.node_spacing = 0.5;
-  pretrain.max_iterations = 20;
-  pretrain.log_every = 0;
-  PretrainReport report;
-  ASSERT_TRUE(Pretrain(pretrain, &data.model, &report, log, &error)) << error;
-  ASSERT_TRUE(SaveModel(path, data.model, &error)) << error;
+  testing::WritePretrainedSyntheticModel(path, 3, 5, 8, 20);
 }
 
 TEST(AqsModelWritingTest, PrepareReplacesOnlyModelsUnlessOverwrite) {
@@ -190,7 +165,7 @@ TEST(AqsModelWritingTest, KillNineDuringTrainingThenResumeAtTheLoggedLoss) {
       {AppPath("aqs_train"), "--model=" + model, "--train_iterations=1000", "--threads=1"},
       dir.File("first.txt"));
   ASSERT_GT(pid, 0);
-  const bool started = WaitFor([&] { return LogRows(log_csv).size() >= 4; }, 60);
+  const bool started = WaitFor([&] { return testing::TrainingLogRows(log_csv).size() >= 4; }, 60);
   std::mt19937 random(std::random_device{}());
   const int delay_ms = std::uniform_int_distribution<int>(0, 150)(random);
   std::this_thread::sleep_for(std::chrono::milliseconds(delay_ms));
@@ -202,7 +177,7 @@ TEST(AqsModelWritingTest, KillNineDuringTrainingThenResumeAtTheLoggedLoss) {
   std::string error;
   ASSERT_TRUE(LoadModel(model, &loaded, &error)) << error;
   const int saved = loaded.checkpoint.iterations;
-  const std::vector<std::pair<int, double>> rows = LogRows(log_csv);
+  const std::vector<std::pair<int, double>> rows = testing::TrainingLogRows(log_csv);
   ASSERT_GE(saved, 2);
   ASSERT_GT(static_cast<int>(rows.size()), saved);
   EXPECT_EQ(rows[saved].first, saved);
@@ -221,7 +196,7 @@ TEST(AqsModelWritingTest, KillNineDuringTrainingThenResumeAtTheLoggedLoss) {
               "%.12g, logged %.12g\n",
               delay_ms, rows.size(), saved, start, rows[saved].second);
   EXPECT_NEAR(start, rows[saved].second, 1e-9 * rows[saved].second);
-  const std::vector<std::pair<int, double>> after = LogRows(log_csv);
+  const std::vector<std::pair<int, double>> after = testing::TrainingLogRows(log_csv);
   ASSERT_EQ(static_cast<int>(after.size()), saved + 3);
   for (int i = 0; i <= saved + 2; ++i) EXPECT_EQ(after[i].first, i);
   // Nothing left over: no lock file, no staging directory, no temporary file.

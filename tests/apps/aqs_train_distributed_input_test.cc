@@ -8,6 +8,8 @@
 
 #include <gtest/gtest.h>
 
+#include "testing/training_fixtures.h"
+
 #include "model/model_io.h"
 #include "prepare/volumetric_targets.h"
 #include "testing/run_command.h"
@@ -25,19 +27,7 @@ using testing::RunCommand;
 
 // A small pre-trained synthetic bar; `seed` picks its poses.
 void WriteModel(const std::string& path, unsigned seed) {
-  testing::SyntheticMuscles data = testing::MakeSyntheticMuscles(2, 0, 0.3, seed);
-  std::ostringstream log;
-  std::string error;
-  ASSERT_TRUE(MakeVolumetricTargets(VolumetricTargetOptions(), &data.model, log, &error)) << error;
-  PretrainOptions pretrain;
-  pretrain.spec.latent_dim = 2;
-  pretrain.spec.hidden_dims = {4};
-  pretrain.field.node_spacing = 0.5;
-  pretrain.max_iterations = 5;
-  pretrain.log_every = 0;
-  PretrainReport report;
-  ASSERT_TRUE(Pretrain(pretrain, &data.model, &report, log, &error)) << error;
-  ASSERT_TRUE(SaveModel(path, data.model, &error)) << error;
+  testing::WritePretrainedSyntheticModel(path, 2, seed, 4, 5);
 }
 
 TEST(AqsTrainDistributedInputTest, MpiWantedButNotBuiltExitsOne) {

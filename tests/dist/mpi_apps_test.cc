@@ -16,6 +16,7 @@
 #include "testing/run_command.h"
 #include "testing/synthetic_muscles.h"
 #include "testing/temp_dir.h"
+#include "testing/training_fixtures.h"
 #include "train/pretrain.h"
 #include "util/text_split.h"
 
@@ -49,19 +50,6 @@ int Count(const std::string& text, const std::string& what) {
   return n;
 }
 
-std::vector<std::pair<int, double>> LogRows(const std::string& path) {
-  std::vector<std::pair<int, double>> rows;
-  std::ifstream in(path);
-  std::string line;
-  std::getline(in, line);
-  while (std::getline(in, line)) {
-    int iteration = -1;
-    double loss = 0;
-    if (std::sscanf(line.c_str(), "%d,%lf", &iteration, &loss) == 2) rows.emplace_back(iteration, loss);
-  }
-  return rows;
-}
-
 // The start loss aqs_train prints ("start loss X", 12 significant digits), or -1.
 double StartLoss(const std::string& output) {
   const size_t at = output.find("start loss ");
@@ -77,19 +65,7 @@ int SavedIterations(const std::string& path) {
 
 // A small pre-trained model of the synthetic bar with `poses` poses at `path`.
 void WritePretrainedModel(const std::string& path, int poses) {
-  testing::SyntheticMuscles data = testing::MakeSyntheticMuscles(poses, 0, 0.3, 5);
-  std::ostringstream log;
-  std::string error;
-  ASSERT_TRUE(MakeVolumetricTargets(VolumetricTargetOptions(), &data.model, log, &error)) << error;
-  PretrainOptions pretrain;
-  pretrain.spec.latent_dim = 2;
-  pretrain.spec.hidden_dims = {8};
-  pretrain.field.node_spacing = 0.5;
-  pretrain.max_iterations = 20;
-  pretrain.log_every = 0;
-  PretrainReport report;
-  ASSERT_TRUE(Pretrain(pretrain, &data.model, &report, log, &error)) << error;
-  ASSERT_TRUE(SaveModel(path, data.model, &error)) << error;
+  testing::WritePretrainedSyntheticModel(path, poses, 5, 8, 20);
 }
 
 TEST(MpiAppsTest, TrainsOnTwoRanksAndResumesInOneProcess) {
@@ -101,14 +77,14 @@ TEST(MpiAppsTest, TrainsOnTwoRanksAndResumesInOneProcess) {
   EXPECT_EQ(Count(run.output, "train: 3 poses"), 1) << run.output;  // rank 0 logs alone
   EXPECT_NE(run.output.find("per rank: 2 1"), std::string::npos) << run.output;
   EXPECT_NE(run.output.find("train iter     3/3"), std::string::npos) << run.output;
-  auto rows = LogRows(model + "/train/log.csv");
+  auto rows = testing::TrainingLogRows(model + "/train/log.csv");
   ASSERT_EQ(rows.size(), 4u);
   EXPECT_EQ(SavedIterations(model), 3);
   run = RunCommand(AppPath("aqs_train") + " --model=" + model + " --train_iterations=4 --threads=1");
   ASSERT_EQ(run.exit_code, 0) << run.output;
   EXPECT_NE(run.output.find("resuming after 3 iterations"), std::string::npos) << run.output;
   EXPECT_NEAR(StartLoss(run.output), rows[3].second, 1e-10 * rows[3].second) << run.output;
-  EXPECT_EQ(LogRows(model + "/train/log.csv").size(), 5u);
+  EXPECT_EQ(testing::TrainingLogRows(model + "/train/log.csv").size(), 5u);
 }
 
 TEST(MpiAppsTest, MoreRanksThanPosesLeavesTheSpareRanksIdle) {
@@ -137,7 +113,7 @@ TEST(MpiAppsTest, AKilledRankStopsTheJobAndItsCheckpointResumes) {
   int saved = SavedIterations(model);
   std::printf("rank 1 killed at its 13th evaluation: checkpoint of iteration %d\n", saved);
   ASSERT_GE(saved, 1) << run.output;
-  auto rows = LogRows(model + "/train/log.csv");
+  auto rows = testing::TrainingLogRows(model + "/train/log.csv");
   ASSERT_GT(static_cast<int>(rows.size()), saved);
   run = MpiRun(2, AppPath("aqs_train") + " --model=" + model +
                       " --train_iterations=" + std::to_string(saved + 2));
@@ -145,7 +121,7 @@ TEST(MpiAppsTest, AKilledRankStopsTheJobAndItsCheckpointResumes) {
   EXPECT_NE(run.output.find("resuming after " + std::to_string(saved) + " iterations"),
             std::string::npos) << run.output;
   EXPECT_NEAR(StartLoss(run.output), rows[saved].second, 1e-10 * rows[saved].second) << run.output;
-  rows = LogRows(model + "/train/log.csv");
+  rows = testing::TrainingLogRows(model + "/train/log.csv");
   ASSERT_EQ(static_cast<int>(rows.size()), saved + 3);
   for (int i = 0; i <= saved + 2; ++i) EXPECT_EQ(rows[i].first, i);
 
@@ -157,14 +133,14 @@ TEST(MpiAppsTest, AKilledRankStopsTheJobAndItsCheckpointResumes) {
   EXPECT_NE(run.exit_code, 124) << "mpirun hung: " << run.output;
   saved = SavedIterations(model);
   EXPECT_EQ(saved, before + 1) << run.output;
-  rows = LogRows(model + "/train/log.csv");
+  rows = testing::TrainingLogRows(model + "/train/log.csv");
   ASSERT_GT(static_cast<int>(rows.size()), saved);
   run = RunCommand(AppPath("aqs_train") + " --model=" + model + " --threads=1 --train_iterations=" +
                    std::to_string(saved + 1));
   ASSERT_EQ(run.exit_code, 0) << run.output;
   EXPECT_NE(run.output.find("cleanup: "), std::string::npos) << run.output;  // the staging dir
   EXPECT_NEAR(StartLoss(run.output), rows[saved].second, 1e-10 * rows[saved].second) << run.output;
-  EXPECT_EQ(static_cast<int>(LogRows(model + "/train/log.csv").size()), saved + 2);
+  EXPECT_EQ(static_cast<int>(testing::TrainingLogRows(model + "/train/log.csv").size()), saved + 2);
 }
 
 TEST(MpiAppsTest, EvaluateOnTwoRanksWritesWhatOneProcessWrites) {

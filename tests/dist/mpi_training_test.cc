@@ -11,6 +11,8 @@
 
 #include <gtest/gtest.h>
 
+#include "testing/training_fixtures.h"
+
 #include "dist/communicator.h"
 #include "dist/model_sharing.h"
 #include "dist/mpi_world.h"
@@ -199,19 +201,6 @@ TEST(MpiTrainingTest, ShortRunGivesTheParametersOfOneProcess) {
   EXPECT_LE(Relative(report.final_loss, one_report.final_loss), 1e-10);
 }
 
-std::vector<std::pair<int, double>> LogRows(const std::string& path) {
-  std::vector<std::pair<int, double>> rows;
-  std::ifstream in(path);
-  std::string line;
-  std::getline(in, line);
-  while (std::getline(in, line)) {
-    int iteration = -1;
-    double loss = 0;
-    if (std::sscanf(line.c_str(), "%d,%lf", &iteration, &loss) == 2) rows.emplace_back(iteration, loss);
-  }
-  return rows;
-}
-
 // Resumes training of the model at `path` up to `iterations` on the ranks of
 // `communicator` (null: rank 0 alone) as aqs_train does, and returns rank 0's report
 // (its initial loss is the resumed start loss).
@@ -254,7 +243,7 @@ TEST(MpiTrainingTest, CheckpointsResumeWithAnotherNumberOfRanks) {
   std::ostringstream log;
   EXPECT_TRUE(RunTrainJob(path, options, false, log, &error)) << error;
   if (world.is_root()) {
-    const auto rows = LogRows(path + "/train/log.csv");
+    const auto rows = testing::TrainingLogRows(path + "/train/log.csv");
     EXPECT_EQ(rows.size(), 4u);
     const TrainReport report = Resume(path, nullptr, 5);
     EXPECT_EQ(report.iterations_before, 3);
@@ -265,7 +254,7 @@ TEST(MpiTrainingTest, CheckpointsResumeWithAnotherNumberOfRanks) {
   world.Barrier();
   const TrainReport report = Resume(path, &world, 6);
   if (world.is_root()) {
-    const auto rows = LogRows(path + "/train/log.csv");
+    const auto rows = testing::TrainingLogRows(path + "/train/log.csv");
     ASSERT_EQ(rows.size(), 7u);
     for (int i = 0; i <= 6; ++i) EXPECT_EQ(rows[i].first, i);
     EXPECT_EQ(report.iterations_before, 5);

@@ -19,6 +19,7 @@
 #include "testing/fault_kill.h"
 #include "testing/synthetic_muscles.h"
 #include "testing/temp_dir.h"
+#include "testing/training_fixtures.h"
 #include "train/pretrain.h"
 #include "train/trainer.h"
 
@@ -26,20 +27,6 @@ namespace aqs {
 namespace {
 
 namespace fs = std::filesystem;
-
-// The rows of a training log: iteration and loss, in file order.
-std::vector<std::pair<int, double>> LogRows(const std::string& path) {
-  std::vector<std::pair<int, double>> rows;
-  std::ifstream in(path);
-  std::string line;
-  std::getline(in, line);
-  while (std::getline(in, line)) {
-    int iteration = -1;
-    double loss = 0;
-    if (std::sscanf(line.c_str(), "%d,%lf", &iteration, &loss) == 2) rows.emplace_back(iteration, loss);
-  }
-  return rows;
-}
 
 // True if the log has exactly the rows 0..last, once each, in order.
 ::testing::AssertionResult RowsAreZeroTo(const std::vector<std::pair<int, double>>& rows, int last) {
@@ -135,7 +122,7 @@ TEST_F(CheckpointResumeTest, ResumeAfterKillStartsAtTheLoggedLoss) {
     const int saved = SavedIterations();
     EXPECT_GE(saved, 2);
     EXPECT_LE(saved, 3);
-    const std::vector<std::pair<int, double>> rows = LogRows(LogPath());
+    const std::vector<std::pair<int, double>> rows = testing::TrainingLogRows(LogPath());
     ASSERT_GT(static_cast<int>(rows.size()), saved);
     const double logged = rows[saved].second;
     const TrainReport report = Resume(saved + 2);
@@ -145,7 +132,7 @@ TEST_F(CheckpointResumeTest, ResumeAfterKillStartsAtTheLoggedLoss) {
                 point, saved, report.initial_loss, logged,
                 std::abs(report.initial_loss - logged) / logged);
     EXPECT_NEAR(report.initial_loss, logged, 1e-9 * logged);
-    EXPECT_TRUE(RowsAreZeroTo(LogRows(LogPath()), saved + 2));
+    EXPECT_TRUE(RowsAreZeroTo(testing::TrainingLogRows(LogPath()), saved + 2));
     EXPECT_EQ(fs::directory_iterator(dir_.path())->path().filename(), "m");
     EXPECT_EQ(std::distance(fs::directory_iterator(dir_.path()), fs::directory_iterator()), 1);
     EXPECT_FALSE(fs::exists(path_ + "/learned.aqs-tmp" + std::to_string(getpid())));
@@ -155,23 +142,23 @@ TEST_F(CheckpointResumeTest, ResumeAfterKillStartsAtTheLoggedLoss) {
 // A run that ended normally saved its last point; the next run resumes at its logged loss.
 TEST_F(CheckpointResumeTest, ResumeAfterAFinishedRunStartsAtTheLoggedLoss) {
   ASSERT_TRUE(Train(3));
-  const std::vector<std::pair<int, double>> rows = LogRows(LogPath());
+  const std::vector<std::pair<int, double>> rows = testing::TrainingLogRows(LogPath());
   ASSERT_TRUE(RowsAreZeroTo(rows, 3));
   const TrainReport report = Resume(5);
   EXPECT_EQ(report.iterations_before, 3);
   std::printf("resumed after a finished run: start loss %.17g, logged %.17g\n",
               report.initial_loss, rows[3].second);
   EXPECT_NEAR(report.initial_loss, rows[3].second, 1e-9 * rows[3].second);
-  EXPECT_TRUE(RowsAreZeroTo(LogRows(LogPath()), 5));
+  EXPECT_TRUE(RowsAreZeroTo(testing::TrainingLogRows(LogPath()), 5));
 }
 
 // Killed before the first checkpoint: no duplicated row 0 after the next run.
 TEST_F(CheckpointResumeTest, KillBeforeTheFirstCheckpointDoesNotDuplicateRowZero) {
   ASSERT_EQ(TrainKilledAt("staging:created", 0, 5), "killed");
   EXPECT_EQ(SavedIterations(), 0);
-  EXPECT_TRUE(RowsAreZeroTo(LogRows(LogPath()), 1));  // rows 0 and 1, no checkpoint yet
+  EXPECT_TRUE(RowsAreZeroTo(testing::TrainingLogRows(LogPath()), 1));  // rows 0 and 1, no checkpoint yet
   ASSERT_TRUE(Train(3));
-  EXPECT_TRUE(RowsAreZeroTo(LogRows(LogPath()), 3));
+  EXPECT_TRUE(RowsAreZeroTo(testing::TrainingLogRows(LogPath()), 3));
 }
 
 // An empty (damaged) checkpoint.txt stops training with a message naming it and leaves
@@ -193,9 +180,9 @@ TEST_F(CheckpointResumeTest, EmptyCheckpointDoesNotTruncateTheLog) {
   // Deleting the damaged file counts from 0 again, with a new log.
   fs::remove(path_ + "/learned/checkpoint.txt");
   ASSERT_TRUE(Train(2));
-  EXPECT_TRUE(RowsAreZeroTo(LogRows(LogPath()), 2));
+  EXPECT_TRUE(RowsAreZeroTo(testing::TrainingLogRows(LogPath()), 2));
   ASSERT_TRUE(Train(1, /*restart=*/true));
-  EXPECT_TRUE(RowsAreZeroTo(LogRows(LogPath()), 1));
+  EXPECT_TRUE(RowsAreZeroTo(testing::TrainingLogRows(LogPath()), 1));
 }
 
 // A file of the user's inside learned/, which a checkpoint would delete, stops training
@@ -216,7 +203,7 @@ TEST_F(CheckpointResumeTest, ForeignFilesStopTheJobsBeforeTheWork) {
             std::string::npos) << error;
   EXPECT_EQ(log.str().find("pretrain:"), std::string::npos) << log.str();
   EXPECT_TRUE(fs::exists(path_ + "/learned/notes.txt"));
-  EXPECT_TRUE(RowsAreZeroTo(LogRows(LogPath()), 1));
+  EXPECT_TRUE(RowsAreZeroTo(testing::TrainingLogRows(LogPath()), 1));
 }
 
 }  // namespace
