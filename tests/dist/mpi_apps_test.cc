@@ -13,6 +13,7 @@
 #include "mesh/mesh_io.h"
 #include "model/model_io.h"
 #include "prepare/volumetric_targets.h"
+#include "testing/file_contents.h"
 #include "testing/run_command.h"
 #include "testing/synthetic_muscles.h"
 #include "testing/temp_dir.h"
@@ -37,12 +38,7 @@ CommandResult MpiRun(int ranks, const std::string& command) {
       std::to_string(ranks) + " " AQS_MPIEXEC_PREFLAGS " " + command);
 }
 
-std::string ReadAll(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
-}
+using testing::ReadAll;
 
 int Count(const std::string& text, const std::string& what) {
   int n = 0;
@@ -170,19 +166,6 @@ TEST(MpiAppsTest, EvaluateOnTwoRanksWritesWhatOneProcessWrites) {
   EXPECT_EQ(ReadAll(dir.File("many/evaluation.md")), ReadAll(dir.File("one/evaluation.md")));
 }
 
-// frames.csv without its seconds column (column 10).
-std::string WithoutSeconds(const std::string& csv) {
-  std::ifstream in(csv);
-  std::string out;
-  for (std::string line; std::getline(in, line);) {
-    const std::vector<std::string> cells = SplitFields(line);
-    for (size_t column = 0; column < cells.size(); ++column) {
-      out += (column == 10 ? std::string("-") : cells[column]) + ",";
-    }
-    out += "\n";
-  }
-  return out;
-}
 
 TEST(MpiAppsTest, FitSequenceOnTwoRanksWritesWhatOneProcessWrites) {
   testing::TempDir dir;
@@ -206,9 +189,9 @@ TEST(MpiAppsTest, FitSequenceOnTwoRanksWritesWhatOneProcessWrites) {
   ASSERT_EQ(run.exit_code, 0) << run.output;
   EXPECT_EQ(Count(run.output, "independent frames, shared among 2 ranks"), 1) << run.output;
   EXPECT_EQ(Count(run.output, "fitted 3 frames"), 1) << run.output;
-  const std::string csv = WithoutSeconds(dir.File("many/frames.csv"));
+  const std::string csv = testing::FramesCsvWithoutSeconds(dir.File("many/frames.csv"));
   EXPECT_EQ(Count(csv, "\n"), 4) << csv;
-  EXPECT_EQ(csv, WithoutSeconds(dir.File("one/frames.csv")));
+  EXPECT_EQ(csv, testing::FramesCsvWithoutSeconds(dir.File("one/frames.csv")));
   EXPECT_EQ(ReadAll(dir.File("many/latents.bin")), ReadAll(dir.File("one/latents.bin")));
   for (int t = 0; t < 3; ++t) {
     const std::string name = "/f" + std::to_string(t) + ".obj";

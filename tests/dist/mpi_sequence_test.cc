@@ -16,6 +16,7 @@
 #include "jobs/fit_sequence.h"
 #include "mesh/mesh_io.h"
 #include "model/model_io.h"
+#include "testing/file_contents.h"
 #include "testing/synthetic_muscles.h"
 #include "util/text_split.h"
 
@@ -27,32 +28,14 @@ using testing::World;
 
 constexpr int kFrames = 5;  // rounds of 2 frames, the last with rank 1 idle
 
-std::string ReadAll(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
-}
+using testing::ReadAll;
 
-// frames.csv without its seconds column (column 10), which differs between runs.
-std::string WithoutSeconds(const std::string& csv) {
-  std::ifstream in(csv);
-  std::string out;
-  for (std::string line; std::getline(in, line);) {
-    const std::vector<std::string> cells = SplitFields(line);
-    for (size_t column = 0; column < cells.size(); ++column) {
-      out += (column == 10 ? std::string("-") : cells[column]) + ",";
-    }
-    out += "\n";
-  }
-  return out;
-}
 
 // Rank 0: whether folder `a` holds the outputs of folder `b` (but the seconds).
 void ExpectSameOutputs(const std::string& a, const std::string& b) {
-  const std::string csv = WithoutSeconds(a + "/frames.csv");
+  const std::string csv = testing::FramesCsvWithoutSeconds(a + "/frames.csv");
   EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), kFrames + 1) << csv;
-  EXPECT_EQ(csv, WithoutSeconds(b + "/frames.csv"));
+  EXPECT_EQ(csv, testing::FramesCsvWithoutSeconds(b + "/frames.csv"));
   EXPECT_FALSE(ReadAll(a + "/latents.bin").empty());
   EXPECT_EQ(ReadAll(a + "/latents.bin"), ReadAll(b + "/latents.bin"));
   for (int t = 0; t < kFrames; ++t) {
@@ -184,9 +167,9 @@ TEST_F(MpiSequenceTest, AFrameFailingOnRank1StopsEveryRankWithItsMessage) {
   EXPECT_EQ(many.frames_fitted, 1);
   if (!World().is_root()) return;
   EXPECT_EQ(many.message, one.message);
-  const std::string csv = WithoutSeconds(dir_->File("many/frames.csv"));
+  const std::string csv = testing::FramesCsvWithoutSeconds(dir_->File("many/frames.csv"));
   EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 2) << "the header and frame 0";
-  EXPECT_EQ(csv, WithoutSeconds(dir_->File("one/frames.csv")));
+  EXPECT_EQ(csv, testing::FramesCsvWithoutSeconds(dir_->File("one/frames.csv")));
   EXPECT_EQ(ReadAll(dir_->File("many/near.obj")), ReadAll(dir_->File("one/near.obj")));
   EXPECT_FALSE(fs::exists(dir_->File("many/far.obj")));
 }

@@ -14,6 +14,7 @@
 #include "fit/latent_fit.h"
 #include "mesh/mesh_io.h"
 #include "prepare/volumetric_targets.h"
+#include "testing/file_contents.h"
 #include "testing/temp_dir.h"
 #include "train/pretrain.h"
 #include "util/text_split.h"
@@ -22,12 +23,7 @@
 namespace aqs {
 namespace {
 
-std::string ReadAll(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
-}
+using testing::ReadAll;
 
 // frames.csv's rows by frame name, without the frame index (column 0) and the seconds
 // (column 10), the only columns that may differ between runs of the same frames.

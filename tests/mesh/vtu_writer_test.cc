@@ -9,6 +9,7 @@
 #include "mesh/lattice.h"
 #include "mesh/mesh_io.h"
 #include "mesh_test_util.h"
+#include "testing/file_contents.h"
 #include "testing/temp_dir.h"
 #include "util/line_reader.h"
 
@@ -96,10 +97,7 @@ bool ParseVtu(const std::string& text, std::vector<DataArray>* arrays,
   return true;
 }
 
-std::string ReadAll(const std::string& path) {
-  std::ifstream in(path);
-  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-}
+using testing::ReadAll;
 
 TEST(VtuWriterTest, WellFormedWithExactValues) {
   LatticeOptions options;

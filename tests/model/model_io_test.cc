@@ -16,6 +16,7 @@
 #include "model/model_fingerprint.h"
 #include "prepare/volumetric_targets.h"
 #include "testing/fault_kill.h"
+#include "testing/file_contents.h"
 #include "testing/synthetic_muscles.h"
 #include "testing/temp_dir.h"
 #include "train/pretrain.h"
@@ -181,12 +182,7 @@ std::set<std::string> Entries(const std::string& dir) {
   return names;
 }
 
-std::string ReadAll(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
-}
+using testing::ReadAll;
 
 // Every file below `dir`, relative to it.
 std::set<std::string> FilesBelow(const std::string& dir) {

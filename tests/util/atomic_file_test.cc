@@ -6,17 +6,13 @@
 
 #include <gtest/gtest.h>
 
+#include "testing/file_contents.h"
 #include "testing/temp_dir.h"
 
 namespace aqs {
 namespace {
 
-std::string ReadAll(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
-}
+using testing::ReadAll;
 
 TEST(AtomicFileTest, CommitReplacesAndAbandonLeavesOldContent) {
   testing::TempDir dir;

@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "testing/fault_kill.h"
+#include "testing/file_contents.h"
 #include "testing/temp_dir.h"
 
 namespace aqs {
@@ -17,12 +18,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string ReadAll(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
-}
+using testing::ReadAll;
 
 // Tries to take the lock of `path` in a child process; returns its error message ("" if
 // it got the lock).

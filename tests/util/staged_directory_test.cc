@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "testing/fault_kill.h"
+#include "testing/file_contents.h"
 #include "testing/temp_dir.h"
 #include "util/atomic_file.h"
 
@@ -18,12 +19,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string ReadAll(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
-}
+using testing::ReadAll;
 
 std::set<std::string> Entries(const std::string& dir) {
   std::set<std::string> names;
