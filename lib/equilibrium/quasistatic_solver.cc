@@ -338,14 +338,21 @@ void QuasistaticSolver::RunCeres(double tolerance, QuasistaticSolveReport* repor
   report->final_max_force = MaxFreeForce(&report->final_energy);
 }
 
+bool QuasistaticSolver::NewtonApplies() const {
+  if (fixed_vertices_.empty()) return false;
+  for (const EnergyTerm* term : terms_) {
+    if (!term->SupportsStiffness()) return false;
+  }
+  return true;
+}
+
 QuasistaticSolveReport QuasistaticSolver::LeaveUnstableEquilibrium(double relative_size,
                                                                    unsigned seed) {
   WallTimer timer;
   QuasistaticSolveReport report;
   report.force_tolerance = ForceTolerance();
   ApplyFixedPositions();
-  bool have_stiffness = !fixed_vertices_.empty();
-  for (const EnergyTerm* term : terms_) have_stiffness = have_stiffness && term->SupportsStiffness();
+  const bool have_stiffness = NewtonApplies();
   std::string refusal = RefusalReason();
   if (refusal.empty() && !have_stiffness) {
     refusal = "leaving an unstable equilibrium needs fixed vertices and every term's stiffness";
@@ -392,8 +399,7 @@ QuasistaticSolveReport QuasistaticSolver::Solve() {
   }
   // Newton needs every energy term's Hessian; a free body (kLevenbergMarquardt only
   // here) has no positive definite K.
-  bool have_stiffness = !fixed_vertices_.empty();
-  for (const EnergyTerm* term : terms_) have_stiffness = have_stiffness && term->SupportsStiffness();
+  const bool have_stiffness = NewtonApplies();
   const double newton_threshold = options_.newton_relative_force * model_.force_scale();
   if (options_.method == EquilibriumMethod::kNewton && have_stiffness) {
     // Far from equilibrium preconditioned L-BFGS (no factorization once its

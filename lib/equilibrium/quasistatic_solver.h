@@ -248,6 +248,9 @@ class QuasistaticSolver {
   // Why this solve cannot start (empty if it can): non-finite actuations, a free body
   // for kNewton.
   std::string RefusalReason() const;
+  // Whether Newton's method applies: some vertices are fixed (so K can be positive
+  // definite) and every energy term supplies its stiffness.
+  bool NewtonApplies() const;
   double* vertex(int v) { return positions_.data() + 3 * static_cast<size_t>(v); }
 
   const ShapeTargetModel& model_;
