@@ -198,5 +198,48 @@ TEST(EquilibriumDifferentiatorTest, ReportsStiffnessThatIsNotPositiveDefinite) {
       << error;
 }
 
+// The shifted adjoint (PrepareShifted): at a stable equilibrium a shift of 1e-10 gives
+// the exact gradient to 1e-7, a shift of 1e-2 a visibly different one; and it factorizes
+// a stiffness whose unshifted form is not positive definite, once the shift is large
+// enough.
+TEST(EquilibriumDifferentiatorTest, ShiftedAdjointApproachesTheExactGradient) {
+  const TetMesh mesh = testing::BarMesh(3, 1, 1, 0.5);
+  std::mt19937 rng(23);
+  const ShapeTargetModel model(mesh, 1.0);
+  const BoundaryConditions bc = testing::LeftFaceFixed(mesh);
+  QuasistaticSolver solver(model, bc, SolverOptions());
+  const ActuationMatrix a = testing::SmoothActuation(mesh, 0.2) +
+                            testing::RandomActuation(mesh.num_tets(), 0.05, &rng) -
+                            IdentityActuations(mesh.num_tets());
+  const Eigen::Matrix3Xd x = Equilibrium(&solver, a, mesh.vertices);
+  Eigen::Matrix3Xd y = x;
+  std::normal_distribution<double> normal(0.0, 0.1);
+  for (int i = 0; i < y.size(); ++i) y.data()[i] += normal(rng);
+  EquilibriumDifferentiator differentiator(model, solver.fixed_mask());
+  std::string error;
+  ASSERT_TRUE(differentiator.Prepare(x, a, &error)) << error;
+  const ActuationMatrix exact = differentiator.LossGradient(x - y);
+  ASSERT_TRUE(differentiator.PrepareShifted(x, a, 1e-10, &error)) << error;
+  const ActuationMatrix tiny = differentiator.LossGradient(x - y);
+  ASSERT_TRUE(differentiator.PrepareShifted(x, a, 1e-2, &error)) << error;
+  const ActuationMatrix large = differentiator.LossGradient(x - y);
+  EXPECT_LT((tiny - exact).norm(), 1e-7 * exact.norm());
+  EXPECT_GT((large - exact).norm(), 1e-4 * exact.norm());
+  EXPECT_LT((large - exact).norm(), exact.norm());
+
+  // Squeezed to 30%: not positive definite unshifted (see the test above), definite
+  // with a large enough shift.
+  Eigen::Matrix3Xd squeezed = 0.3 * mesh.vertices;
+  for (int v : bc.vertices) squeezed.col(v) = mesh.vertices.col(v);
+  const ActuationMatrix identity = IdentityActuations(mesh.num_tets());
+  EXPECT_FALSE(differentiator.Prepare(squeezed, identity, &error));
+  double shift = 1e-10;
+  while (shift <= 1e6 && !differentiator.PrepareShifted(squeezed, identity, shift, &error)) {
+    shift *= 100.0;
+  }
+  EXPECT_LE(shift, 1e6) << error;
+  std::printf("squeezed bar: definite from a relative shift of %.0e\n", shift);
+}
+
 }  // namespace
 }  // namespace aqs
