@@ -14,6 +14,9 @@ DEFINE_double(spacing, 0.0, "Lattice cube edge for the simulation mesh (model un
               "without --tet_mesh.");
 DEFINE_string(lattice, "bcc", "Lattice type: bcc or kuhn.");
 DEFINE_double(shell, 0.0, "Keep only elements within this distance of the surface (0: all inside).");
+DEFINE_int32(min_vertex_elements, 4, "After meshing and --keep_box, remove the elements at "
+             "vertices that fewer elements hold, repeatedly (0 or 1: none; at most 24). "
+             "Vertices held by one or two elements make equilibria unstable.");
 DEFINE_string(keep_box, "", "Keep only elements whose centroid is in one of these boxes: "
               "'xmin,ymin,zmin,xmax,ymax,zmax', several separated by ';'.");
 DEFINE_string(cut, "", "Planar cuts where surface parts touch and must part (lips, eyelids): "
@@ -86,6 +89,7 @@ bool PrepareOptionsFromFlags(PrepareJobOptions* options, std::string* error) {
     return false;
   }
   options->meshing.shell_thickness = FLAGS_shell;
+  options->min_elements_per_vertex = FLAGS_min_vertex_elements;
   options->meshing.num_threads = FLAGS_threads;
   if (!ParseBoxes(FLAGS_keep_box, &options->keep_boxes, error)) return false;
   {
@@ -139,6 +143,7 @@ FlagNames PrepareFlagNames() {
   flags.insert(flags.end(),
                {{"meshing.spacing", "--spacing"},
                 {"meshing.shell_thickness", "--shell"},
+                {"min_elements_per_vertex", "--min_vertex_elements"},
                 {"cut_margin", "--cut_margin"},
                 {"cuts", "--cut"},
                 {"mu", "--mu"},

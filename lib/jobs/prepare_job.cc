@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "geometry/embedding.h"
+#include "mesh/element_subset.h"
 #include "mesh/mesh_io.h"
 #include "model/model_directory.h"
 #include "model/model_io.h"
@@ -29,22 +30,7 @@ TetMesh CropToBoxes(const TetMesh& mesh, const std::vector<Eigen::AlignedBox3d>&
       }
     }
   }
-  std::vector<int> renumber(mesh.num_vertices(), -1);
-  int next = 0;
-  TetMesh out;
-  out.tets.resize(4, kept.size());
-  for (size_t i = 0; i < kept.size(); ++i) {
-    for (int k = 0; k < 4; ++k) {
-      int& v = renumber[mesh.tets(k, kept[i])];
-      if (v < 0) v = next++;
-      out.tets(k, i) = v;
-    }
-  }
-  out.vertices.resize(3, next);
-  for (int v = 0; v < mesh.num_vertices(); ++v) {
-    if (renumber[v] >= 0) out.vertices.col(renumber[v]) = mesh.vertices.col(v);
-  }
-  return out;
+  return ElementSubset(mesh, kept);
 }
 
 }  // namespace
@@ -57,6 +43,7 @@ bool PrepareJobOptions::Validate(std::string* error) const {
   OptionChecks checks;
   checks.Nested("meshing", meshing_ok, meshing_error)
       .NonNegative("cut_margin", cut_margin)
+      .IntInRange("min_elements_per_vertex", min_elements_per_vertex, 0, 24)
       .Positive("mu", mu)
       .Nested("boundary", boundary_ok, boundary_error)
       .Nested("targets", targets_ok, targets_error)
@@ -165,6 +152,21 @@ bool RunPrepare(const PrepareJobOptions& options, std::ostream& log, std::string
     if (model.mesh.num_tets() == 0) {
       *error = "no simulation element lies inside the --keep_box boxes";
       return false;
+    }
+  }
+  {
+    // Vertices that one or two elements hold (outer corners of elements kept for a
+    // surface vertex, the boxes' edges) make equilibria unstable.
+    int pruned = 0;
+    model.mesh = PruneWeaklyHeldElements(model.mesh, options.min_elements_per_vertex, &pruned);
+    if (model.mesh.num_tets() == 0) {
+      *error = "no simulation element is left after removing those at vertices held by fewer "
+               "than " + std::to_string(options.min_elements_per_vertex) + " elements";
+      return false;
+    }
+    if (pruned > 0) {
+      log << "; " << pruned << " element(s) at vertices held by fewer than "
+          << options.min_elements_per_vertex << " elements removed";
     }
   }
   CutMesh cut_mesh;

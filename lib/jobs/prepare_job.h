@@ -34,6 +34,9 @@ struct PrepareJobOptions {
   // Within this distance of a cut, a surface vertex's side is the one its normal faces
   // away from (see AssignEmbeddingSides).
   double cut_margin = 0.0;
+  // After meshing and cropping, elements at vertices that fewer elements hold are
+  // removed (mesh/element_subset.h, PruneWeaklyHeldElements; 0 or 1: none).
+  int min_elements_per_vertex = 4;
   double mu = 1.0;
   BoundaryRuleOptions boundary;
   VolumetricTargetOptions targets;

@@ -1,0 +1,72 @@
+#include "mesh/element_subset.h"
+
+#include <glog/logging.h>
+
+namespace aqs {
+
+TetMesh ElementSubset(const TetMesh& mesh, const std::vector<int>& elements) {
+  std::vector<int> new_index(mesh.num_vertices(), -1);
+  for (int e : elements) {
+    CHECK(e >= 0 && e < mesh.num_tets()) << "element " << e << " of " << mesh.num_tets();
+    for (int k = 0; k < 4; ++k) new_index[mesh.tets(k, e)] = 0;
+  }
+  int num_vertices = 0;
+  for (int& index : new_index) {
+    if (index == 0) index = num_vertices++;
+  }
+  TetMesh subset;
+  subset.vertices.resize(3, num_vertices);
+  for (int v = 0; v < mesh.num_vertices(); ++v) {
+    if (new_index[v] >= 0) subset.vertices.col(new_index[v]) = mesh.vertices.col(v);
+  }
+  subset.tets.resize(4, static_cast<Eigen::Index>(elements.size()));
+  for (size_t i = 0; i < elements.size(); ++i) {
+    for (int k = 0; k < 4; ++k) subset.tets(k, i) = new_index[mesh.tets(k, elements[i])];
+  }
+  return subset;
+}
+
+std::vector<int> VertexElementCounts(const TetMesh& mesh) {
+  std::vector<int> count(mesh.num_vertices(), 0);
+  for (int e = 0; e < mesh.num_tets(); ++e) {
+    for (int k = 0; k < 4; ++k) ++count[mesh.tets(k, e)];
+  }
+  return count;
+}
+
+TetMesh PruneWeaklyHeldElements(const TetMesh& mesh, int min_elements_per_vertex,
+                                int* num_removed) {
+  std::vector<int> count = VertexElementCounts(mesh);
+  std::vector<char> removed(mesh.num_tets(), 0);
+  int total_removed = 0;
+  // Each pass removes every element at a weak vertex; removals weaken their other
+  // vertices, so passes repeat until one removes nothing (at most num_tets passes).
+  for (bool changed = min_elements_per_vertex > 1; changed;) {
+    changed = false;
+    std::vector<int> weakened;
+    for (int e = 0; e < mesh.num_tets(); ++e) {
+      if (removed[e]) continue;
+      bool weak = false;
+      for (int k = 0; k < 4 && !weak; ++k) weak = count[mesh.tets(k, e)] < min_elements_per_vertex;
+      if (!weak) continue;
+      removed[e] = 1;
+      weakened.push_back(e);
+      ++total_removed;
+      changed = true;
+    }
+    // Counts change after the pass, so that the pass's result does not depend on the
+    // order of the elements.
+    for (int e : weakened) {
+      for (int k = 0; k < 4; ++k) --count[mesh.tets(k, e)];
+    }
+  }
+  std::vector<int> kept;
+  kept.reserve(mesh.num_tets() - total_removed);
+  for (int e = 0; e < mesh.num_tets(); ++e) {
+    if (!removed[e]) kept.push_back(e);
+  }
+  if (num_removed != nullptr) *num_removed = total_removed;
+  return ElementSubset(mesh, kept);
+}
+
+}  // namespace aqs
