@@ -5,6 +5,7 @@
 #include <gflags/gflags.h>
 
 #include "app_common.h"
+#include "latent_fit_flags.h"
 
 #include "prepare/pose_files.h"
 #include "util/vertex_ranges.h"
@@ -17,7 +18,6 @@ DEFINE_string(output_dir, "", "Where the evaluation writes evaluation.md, evalua
 DEFINE_string(error_vertices, "", "Surface vertices to measure errors on, e.g. 0:9409 "
               "(default: all).");
 DEFINE_int32(baseline_iterations, 500, "L-BFGS iterations of the auto-encoder baseline.");
-DEFINE_int32(evaluate_fit_iterations, 30, "Levenberg-Marquardt iterations of held-out fits.");
 DEFINE_bool(write_fields, true, "Write per-vertex error fields and fitted surfaces.");
 DEFINE_bool(error_budget, true, "Measure the error budget: the training poses' volumetric "
             "targets simulated (the floor), the surface error after pre-training (from the "
@@ -74,10 +74,8 @@ bool EvaluateOptionsFromFlags(EvaluateJobOptions* options, std::string* error) {
       !ParseVertexRanges(FLAGS_error_vertices, &options->error_vertices, error)) {
     return false;
   }
-  options->fit.latent_regularization = FLAGS_latent_regularization;
-  options->fit.max_iterations = FLAGS_evaluate_fit_iterations;
-  options->fit.num_threads = FLAGS_threads;
-  if (!SolverMethodFromFlag(&options->fit.solver, error)) return false;
+  // The held-out fits take the fit flags of aqs_fit (latent_fit_flags.cc).
+  if (!LatentFitOptionsFromFlags(&options->fit, error)) return false;
   options->autoencoder.latent_regularization = FLAGS_latent_regularization;
   options->autoencoder.max_iterations = FLAGS_baseline_iterations;
   options->write_fields = FLAGS_write_fields;
@@ -104,14 +102,12 @@ bool EvaluateOptionsFromFlags(EvaluateJobOptions* options, std::string* error) {
 
 FlagNames EvaluateFlagNames() {
   FlagNames flags = CommonFlagNames();
-  for (const char* prefix : {"fit.", "held_out_targets."}) {
-    const FlagNames nested = CommonFlagNames(prefix);
-    flags.insert(flags.end(), nested.begin(), nested.end());
-  }
+  const FlagNames fit = LatentFitFlagNames("fit.");
+  flags.insert(flags.end(), fit.begin(), fit.end());
+  const FlagNames targets = CommonFlagNames("held_out_targets.");
+  flags.insert(flags.end(), targets.begin(), targets.end());
   flags.insert(flags.end(),
-               {{"fit.latent_regularization", "--latent_regularization"},
-                {"fit.max_iterations", "--evaluate_fit_iterations"},
-                {"autoencoder.latent_regularization", "--latent_regularization"},
+               {{"autoencoder.latent_regularization", "--latent_regularization"},
                 {"autoencoder.max_iterations", "--baseline_iterations"},
                 {"held_out_targets.relative_stiffness", "--attachment_stiffness"},
                 {"held_out_targets.solver.relative_force_tolerance", "--prepare_tolerance"}});

@@ -5,10 +5,12 @@
 
 #include "app_common.h"
 #include "fit/latent_fit.h"
+#include "latent_fit_flags.h"
 
 namespace aqs {
 
-// The fit options of aqs_fit and aqs_bench_fit from their shared flags (fit_flags.cc).
+// The fit options of aqs_fit and aqs_bench_fit from their shared flags (fit_flags.cc,
+// and latent_fit_flags.cc for `fit`).
 // Returns false with *error naming the flag for a bad value.
 bool FitOptionsFromFlags(LatentFitOptions* fit, PointCloudFitOptions* points,
                          FitStartOptions* start, std::string* error);

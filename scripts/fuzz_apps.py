@@ -78,9 +78,10 @@ FLAGS = {
                   ("train_minutes", "real"), ("train_tolerance", "real"),
                   ("checkpoint_every", "count"), ("train_restarts", "count"),
                   ("latent_dim", "threads"), ("hidden", "hidden")],
-    "aqs_evaluate": [("baseline_iterations", "count"), ("evaluate_fit_iterations", "count"),
+    "aqs_evaluate": [("baseline_iterations", "count"), ("fit_iterations", "count"),
                      ("attachment_stiffness", "real"), ("prepare_tolerance", "real"),
-                     ("latent_regularization", "real")],
+                     ("latent_regularization", "real"), ("fit_regularization", "real"),
+                     ("latent_prior", "real")],
 }
 HIDDEN_VALUES = ["0", "-1", "1000000", "100000,100000", "8,,8", "abc", "2147483647"]
 WORD_VALUES = ["pose", "markers", "points", "scan", ""]
@@ -349,7 +350,7 @@ def scenario(name, rng):
     if name == "evaluate":
         return ("aqs_evaluate", ["--model=model", "--test_poses=poses/bend_y.obj",
                                  "--output_dir=out_eval", "--baseline_iterations=5",
-                                 "--evaluate_fit_iterations=2", "--error_budget=false",
+                                 "--fit_iterations=2", "--error_budget=false",
                                  "--report=false"],
                 model_files + ["poses/bend_y.obj"],
                 ["out_eval/evaluation.csv", "out_eval/evaluation.md"])

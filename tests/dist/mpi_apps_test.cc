@@ -153,7 +153,7 @@ TEST(MpiAppsTest, EvaluateOnTwoRanksWritesWhatOneProcessWrites) {
     list += (list.empty() ? "" : ",") + path;
   }
   const std::string flags = " --model=" + model + " --test_poses=" + list +
-                            " --baseline_iterations=20 --evaluate_fit_iterations=5 --error_budget=false "
+                            " --baseline_iterations=20 --fit_iterations=5 --error_budget=false "
                             "--report=false --threads=1";
   CommandResult run = RunCommand("OPENBLAS_NUM_THREADS=1 " + AppPath("aqs_evaluate") + flags +
                                  " --output_dir=" + dir.File("one"));
@@ -231,7 +231,7 @@ TEST(MpiAppsTest, PipelineRunsEveryStageOverTheRanks) {
              " --spacing=0.2 --lattice=kuhn --fixed_box=-1,-1,-1,0.01,1,1 --latent_dim=2 "
              "--hidden=8 --grid_spacing=0.3 --pretrain_iterations=20 --train_iterations=2 "
              "--test_poses=" + dir.File("held.obj") + " --output_dir=" + dir.File("eval") +
-             " --baseline_iterations=20 --evaluate_fit_iterations=5 --report=false");
+             " --baseline_iterations=20 --fit_iterations=5 --report=false");
   ASSERT_EQ(run.exit_code, 0) << run.output;
   for (const char* stage : {"=== prepare done", "=== pretrain done", "=== train done",
                             "=== evaluate done", "pipeline done"}) {
