@@ -38,6 +38,11 @@ DEFINE_double(factor_cache_gb, 4.0, "End-to-end training keeps one stiffness fac
               "(per process), else one solver per thread.");
 DEFINE_int32(train_restarts, 5, "L-BFGS restarts allowed when the line search stalls before the "
              "iteration or time budget is used.");
+DEFINE_int32(latent_refit_every, 0, "End-to-end training: refit every pose's latent alone "
+             "(decoder fixed; Levenberg-Marquardt on its share of the loss) before the first "
+             "iteration and then every this many iterations (0: never; one process only).");
+DEFINE_int32(latent_refit_iterations, 5, "Levenberg-Marquardt iterations per pose of a latent "
+             "refit.");
 DECLARE_int32(threads);
 
 namespace aqs {
@@ -133,6 +138,8 @@ FlagNames TrainFlagNames() {
                              {"checkpoint_every", "--checkpoint_every"},
                              {"max_restarts", "--train_restarts"},
                              {"max_factor_cache_gb", "--factor_cache_gb"},
+                             {"latent_refit_every", "--latent_refit_every"},
+                             {"latent_refit_iterations", "--latent_refit_iterations"},
                              {"latent_dim", "--latent_dim"},
                              {"hidden_dims", "--hidden"},
                              {"activation", "--activation"}});
@@ -149,6 +156,8 @@ bool TrainOptionsFromFlags(TrainOptions* options, std::string* error) {
   options->num_threads = FLAGS_threads;
   options->checkpoint_every = FLAGS_checkpoint_every;
   options->max_restarts = FLAGS_train_restarts;
+  options->latent_refit_every = FLAGS_latent_refit_every;
+  options->latent_refit_iterations = FLAGS_latent_refit_iterations;
   return true;
 }
 

@@ -180,6 +180,13 @@ bool EndToEndObjective::UseStatesOf(const double* parameters) {
   return StatesAt(parameters, &states_);
 }
 
+void EndToEndObjective::SetWarmStarts(const std::vector<Eigen::Matrix3Xd>& states) {
+  CHECK(!distributed()) << "warm starts are set by rank in distributed runs";
+  CHECK_EQ(states.size(), states_.size());
+  for (ActuationMatrix& a : state_actuations_) a.resize(6, 0);
+  states_ = states;
+}
+
 void EndToEndObjective::CollectStates(const double* parameters,
                                       std::vector<Eigen::Matrix3Xd>* states) const {
   if (distributed()) SendCommand(kCollectStates, parameters);

@@ -108,6 +108,9 @@ class EndToEndObjective final : public ceres::FirstOrderFunction {
   // 0, also commands the other ranks to use theirs.
   bool StatesAt(const double* parameters, std::vector<Eigen::Matrix3Xd>* states) const;
   bool UseStatesOf(const double* parameters);
+  // One process: makes `states` (one per pose, 3 x num_vertices) the warm starts of the
+  // next evaluation, for parameters changed outside the objective (latent refits).
+  void SetWarmStarts(const std::vector<Eigen::Matrix3Xd>& states);
   // Rank 0: every pose's equilibrium at `parameters` (those of the remembered
   // evaluation there, else the last ones), gathered from the ranks that own them: what
   // a checkpoint saves. One process: StatesAt, else states().

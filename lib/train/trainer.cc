@@ -1,5 +1,6 @@
 #include "train/trainer.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -14,6 +15,7 @@
 #include "dist/communicator.h"
 #include "model/model_io.h"
 #include "train/end_to_end_objective.h"
+#include "train/latent_refit.h"
 #include "train/progress.h"
 #include "util/atomic_file.h"
 #include "util/blas.h"
@@ -141,6 +143,31 @@ class TrainingCallback final : public ceres::IterationCallback {
   bool budget_reached_ = false;
 };
 
+// A round of latent refits (RefitTrainingLatents) at the accepted point `parameters`
+// ([decoder; latents]): the model gets the point's decoder, latents and equilibria,
+// the refitted latents go back into `parameters`, and their equilibria become the
+// objective's warm starts. One process only.
+void RefitLatents(const TrainOptions& options, ActiveModel* model, EndToEndObjective* objective,
+                  TrainingCallback* callback, Eigen::VectorXd* parameters, std::ostream& log) {
+  callback->CopyToModel();
+  LatentRefitOptions refit;
+  refit.latent_regularization = options.latent_regularization;
+  refit.max_iterations = options.latent_refit_iterations;
+  refit.solver = options.solver;
+  refit.num_threads = options.num_threads;
+  const LatentRefitReport report = RefitTrainingLatents(refit, model);
+  const int np = model->decoder->num_parameters();
+  Eigen::Map<Eigen::MatrixXd>(parameters->data() + np, model->latent_dim(), model->num_poses()) =
+      model->latents;
+  objective->SetWarmStarts(model->states);
+  char line[256];
+  std::snprintf(line, sizeof(line),
+                "  latent refit: loss %.6e -> %.6e (%d of %d poses improved, %d failed; %s)\n",
+                report.loss_before, report.loss_after, report.improved, model->num_poses(),
+                report.failed, FormatDuration(report.seconds).c_str());
+  log << line << std::flush;
+}
+
 }  // namespace
 
 bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport* report,
@@ -154,10 +181,18 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
     *error = "the model has no training poses";
     return false;
   }
+  const Communicator* communicator = options.communicator;
+  if (options.latent_refit_every > 0 && communicator != nullptr && communicator->size() > 1) {
+    // Every rank returns here (the same check on the same options).
+    *error = "latent refits (latent_refit_every " + std::to_string(options.latent_refit_every) +
+             ") run in one process only, not over " + std::to_string(communicator->size()) +
+             " ranks";
+    if (!communicator->is_root()) error->clear();
+    return false;
+  }
   // Poses run in parallel with one thread each: keep BLAS single-threaded meanwhile.
   const int blas_threads = BlasThreads();
   if (options.num_threads > 1) SetBlasThreads(1);
-  const Communicator* communicator = options.communicator;
   if (communicator != nullptr && communicator->size() > 1 && !communicator->is_root()) {
     // Another rank: evaluations of its poses, as rank 0 commands.
     EndToEndObjective objective(options, *model);
@@ -260,10 +295,18 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
     // can stall (zero step) far from a minimum. Then L-BFGS restarts from the current
     // point with an empty memory (a steepest-descent step first), as long as each
     // restart makes progress and iterations and time remain.
-    for (int restarts = 0;; ++restarts) {
+    const bool refits = options.latent_refit_every > 0;
+    int next_refit = done;  // refit before the first iteration, then every latent_refit_every
+    for (int restarts = 0;;) {
+      if (refits && done >= next_refit) {
+        RefitLatents(options, model, objective, &callback, &parameters, log);
+        ++report->latent_refits;
+        next_refit = done + options.latent_refit_every;
+      }
       ceres::GradientProblemSolver::Summary summary;
       callback.SetIterationsBefore(done);
-      solver_options.max_num_iterations = options.max_iterations - done;
+      solver_options.max_num_iterations =
+          (refits ? std::min(options.max_iterations, next_refit) : options.max_iterations) - done;
       ceres::Solve(solver_options, problem, parameters.data(), &summary);
       const int steps = std::max(0, static_cast<int>(summary.iterations.size()) - 1);
       done += steps;
@@ -280,11 +323,12 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
         log << "  time budget of " << FormatDuration(options.max_seconds)
             << " reached during a line search (its last step is dropped)\n";
       }
-      if (!stalled || out_of_time || callback.budget_reached() || done >= options.max_iterations ||
-          steps == 0 || restarts >= options.max_restarts) {
-        break;
-      }
+      if (out_of_time || callback.budget_reached() || done >= options.max_iterations) break;
+      // Reached the next latent refit: it and an L-BFGS run with an empty memory follow.
+      if (refits && done >= next_refit && !stalled) continue;
+      if (!stalled || steps == 0 || restarts >= options.max_restarts) break;
       objective->UseStatesOf(parameters.data());  // restart from the accepted point
+      ++restarts;
       ++report->restarts;
       log << "  L-BFGS stopped (" << summary.message << "); restarting from iteration " << done
           << "\n";

@@ -40,6 +40,13 @@ struct TrainOptions {
   // TrainEndToEnd.
   int max_restarts = 5;
   int log_every = 1;  // progress lines
+  // Gauss-Newton latent steps (train/latent_refit.h): before the first L-BFGS
+  // iteration and then every latent_refit_every iterations, each pose's latent is
+  // refitted alone, decoder fixed, by latent_refit_iterations Levenberg-Marquardt
+  // iterations on its share of L; L-BFGS then continues with an empty memory. 0: none.
+  // One process only (a distributed run with it is refused).
+  int latent_refit_every = 0;
+  int latent_refit_iterations = 5;
   // Distributed training (docs/distributed.md): every rank of the communicator calls
   // TrainEndToEnd with the same options and the same model (dist/model_sharing.h); rank
   // r owns the poses p with p % size == r (their equilibria, warm starts and decoder
@@ -65,6 +72,7 @@ struct TrainReport {
   double max_surface_error = 0.0;
   double seconds = 0.0;
   int restarts = 0;  // L-BFGS restarts after a stalled line search
+  int latent_refits = 0;  // rounds of latent refits (TrainOptions::latent_refit_every)
   std::string termination;
   // What this run's L-BFGS iterations cost (their evaluations, line-search trials
   // included; not the start and final evaluations).

@@ -160,6 +160,28 @@ TEST(MpiTrainingTest, AFailingPoseStopsTheEvaluationWithItsNameAndReason) {
   objective.StopWorkers(false);
 }
 
+// Latent refits run in one process only: over several ranks every rank refuses at once
+// (none waits for another), rank 0 with the reason.
+TEST(MpiTrainingTest, LatentRefitsAreRefusedOverSeveralRanks) {
+  const Communicator& world = World();
+  ActiveModel model = testing::PretrainedBar(4);
+  TrainOptions options = Options();
+  options.max_iterations = 3;
+  options.latent_refit_every = 2;
+  options.communicator = &world;
+  std::ostringstream log;
+  std::string error;
+  TrainReport report;
+  EXPECT_FALSE(TrainEndToEnd(options, &model, &report, log, &error));
+  if (world.is_root()) {
+    EXPECT_NE(error.find("latent refits (latent_refit_every 2) run in one process only"),
+              std::string::npos)
+        << error;
+  } else {
+    EXPECT_TRUE(error.empty()) << error;
+  }
+}
+
 // A short L-BFGS run over the ranks ends at the parameters of the one-process run, to
 // round-off.
 TEST(MpiTrainingTest, ShortRunGivesTheParametersOfOneProcess) {

@@ -1,0 +1,91 @@
+#include "train/latent_refit.h"
+
+#include <glog/logging.h>
+
+#include <algorithm>
+#include <memory>
+#include <vector>
+
+#include "fit/latent_fit.h"
+#include "geometry/embedding.h"
+#include "util/parallel_for.h"
+#include "util/wall_timer.h"
+
+namespace aqs {
+namespace {
+
+// The pose's share of the training loss: (1/N) sum_i |surface_i - y_i|^2 + lambda |z|^2.
+double PoseObjective(const Eigen::Matrix3Xd& surface, const Eigen::Matrix3Xd& target,
+                     const Eigen::VectorXd& z, double lambda) {
+  return (surface - target).squaredNorm() / static_cast<double>(target.cols()) +
+         lambda * z.squaredNorm();
+}
+
+}  // namespace
+
+LatentRefitReport RefitTrainingLatents(const LatentRefitOptions& options, ActiveModel* model) {
+  CHECK(model->decoder) << "latent refits need a decoder";
+  const int num_poses = model->num_poses();
+  CHECK_EQ(static_cast<int>(model->states.size()), num_poses) << "one state per pose";
+  WallTimer timer;
+  LatentFitOptions fit;
+  fit.latent_prior = 0.0;
+  fit.bone_prior = 0.0;
+  fit.latent_regularization = options.latent_regularization;
+  fit.fit_bones = false;
+  fit.max_iterations = options.max_iterations;
+  fit.solver = options.solver;
+  fit.num_threads = 1;
+  const int num_threads = ParallelForThreadCount(options.num_threads, num_poses, 1);
+  std::vector<std::unique_ptr<LatentFitter>> fitters(num_threads);
+  std::vector<double> before(num_poses, 0.0), after(num_poses, 0.0);
+  std::vector<char> improved(num_poses, 0), failed(num_poses, 0);
+  std::vector<Eigen::VectorXd> latents(num_poses);
+  std::vector<Eigen::Matrix3Xd> states(num_poses);
+  const ActiveModel& fixed = *model;
+  ParallelFor(
+      num_threads, 0, num_poses,
+      [&](int thread, int p) {
+        if (!fitters[thread]) fitters[thread] = std::make_unique<LatentFitter>(fixed, fit);
+        LatentFitter& fitter = *fitters[thread];
+        const Eigen::Matrix3Xd& target = fixed.poses[p].surface;
+        const Eigen::VectorXd z = fixed.latents.col(p);
+        before[p] = PoseObjective(
+            EmbeddedPositions(fixed.embedding, fixed.mesh.tets, fixed.states[p]), target, z,
+            options.latent_regularization);
+        after[p] = before[p];
+        std::vector<RigidTransform> bones(fixed.bones.size());
+        for (size_t b = 0; b < bones.size(); ++b) bones[b] = fixed.bones[b].pose_transforms[p];
+        fitter.set_bone_transforms(bones);
+        fitter.set_start_state(fixed.states[p]);
+        LatentFitResult result;
+        std::string error;
+        if (!fitter.Fit(FullSurfaceTarget(target), z, &result, &error) || result.failed) {
+          failed[p] = 1;
+          return;
+        }
+        const double objective =
+            PoseObjective(result.surface, target, result.latent, options.latent_regularization);
+        if (objective < before[p]) {
+          after[p] = objective;
+          improved[p] = 1;
+          latents[p] = result.latent;
+          states[p] = result.state;
+        }
+      },
+      1);
+  LatentRefitReport report;
+  for (int p = 0; p < num_poses; ++p) {
+    report.loss_before += before[p] / num_poses;
+    report.loss_after += after[p] / num_poses;
+    report.failed += failed[p];
+    if (!improved[p]) continue;
+    ++report.improved;
+    model->latents.col(p) = latents[p];
+    model->states[p] = states[p];
+  }
+  report.seconds = timer.Seconds();
+  return report;
+}
+
+}  // namespace aqs

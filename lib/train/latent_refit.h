@@ -1,0 +1,47 @@
+#ifndef AQS_TRAIN_LATENT_REFIT_H_
+#define AQS_TRAIN_LATENT_REFIT_H_
+
+#include <string>
+
+#include "model/active_model.h"
+#include "equilibrium/quasistatic_solver.h"
+
+namespace aqs {
+
+struct LatentRefitOptions {
+  // Weight lambda of the latent regularizer, as in training (TrainOptions).
+  double latent_regularization = 1e-3;
+  // Levenberg-Marquardt iterations per pose.
+  int max_iterations = 5;
+  QuasistaticSolverOptions solver;  // the equilibria (num_threads: set to 1)
+  int num_threads = 2;              // poses refitted in parallel
+};
+
+struct LatentRefitReport {
+  // The training loss (TrainEndToEnd's L) before and after, from the poses' stored
+  // equilibria and the refitted ones.
+  double loss_before = 0.0;
+  double loss_after = 0.0;
+  int improved = 0;  // poses whose latent changed (their loss went down)
+  int failed = 0;    // poses whose fit failed (latent and state kept)
+  double seconds = 0.0;
+};
+
+// Gauss-Newton steps on the per-pose latents with the decoder fixed: for every
+// training pose p of `model` (pre-trained or trained: decoder, latents, bone motions
+// and one equilibrium per pose in model->states), minimizes the pose's share of the
+// training loss over its latent z_p (latent_dim) alone,
+//
+//   (1/N) sum_i |p_i(x*(a(z_p))) - y_pi|^2 + lambda |z_p|^2
+//
+// (N surface vertices, the pose's bone motions fixed), by Levenberg-Marquardt
+// (LatentFitter, full-surface target, no priors), from z_p and its stored equilibrium.
+// A pose's latent and state (3 x num_vertices) are replaced only where the fit lowered
+// that objective; a failed fit keeps them. So the training loss never goes up. Poses
+// run in parallel (options.num_threads, one fitter each). The model's fit prior is not
+// used and not changed.
+LatentRefitReport RefitTrainingLatents(const LatentRefitOptions& options, ActiveModel* model);
+
+}  // namespace aqs
+
+#endif  // AQS_TRAIN_LATENT_REFIT_H_

@@ -1,0 +1,118 @@
+// Latent refits (Gauss-Newton steps on the per-pose latents, decoder fixed): they lower
+// the training loss, their report is that loss, and training with them keeps working.
+
+#include "train/latent_refit.h"
+
+#include <cmath>
+#include <sstream>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "prepare/volumetric_targets.h"
+#include "testing/synthetic_muscles.h"
+#include "train/end_to_end_objective.h"
+#include "train/pretrain.h"
+#include "train/trainer.h"
+
+namespace aqs {
+namespace {
+
+// The synthetic bar with 6 poses, volumetric targets and a small pre-trained decoder.
+testing::SyntheticMuscles PretrainedBar() {
+  testing::SyntheticMuscles data = testing::MakeSyntheticMuscles(6, 0, 0.3, 5);
+  std::ostringstream log;
+  std::string error;
+  VolumetricTargetOptions targets;
+  EXPECT_TRUE(MakeVolumetricTargets(targets, &data.model, log, &error)) << error;
+  PretrainOptions pretrain;
+  pretrain.spec.latent_dim = 2;
+  pretrain.spec.hidden_dims = {16};
+  pretrain.field.node_spacing = 0.35;
+  pretrain.max_iterations = 40;
+  pretrain.log_every = 0;
+  PretrainReport pretrain_report;
+  EXPECT_TRUE(Pretrain(pretrain, &data.model, &pretrain_report, log, &error)) << error;
+  return data;
+}
+
+TEST(LatentRefitTest, LowersTheTrainingLossItReports) {
+  testing::SyntheticMuscles data = PretrainedBar();
+  ActiveModel& model = data.model;
+  ASSERT_TRUE(model.decoder);
+
+  TrainOptions train;
+  train.latent_regularization = 1e-2;
+  train.solver.relative_force_tolerance = 1e-10;
+  // The training loss at the pre-trained point, by the training objective (whose
+  // equilibria become the model's states, as a trainer's checkpoint would hold).
+  double loss_before = 0;
+  {
+    EndToEndObjective objective(train, model);
+    const Eigen::VectorXd x = objective.ModelParameters();
+    ASSERT_TRUE(objective.Evaluate(x.data(), &loss_before, nullptr)) << objective.last_failure();
+    model.states = objective.states();
+  }
+
+  LatentRefitOptions options;
+  options.latent_regularization = train.latent_regularization;
+  options.max_iterations = 10;
+  options.solver = train.solver;
+  const Eigen::MatrixXd latents_before = model.latents;
+  const LatentRefitReport report = RefitTrainingLatents(options, &model);
+  std::printf("latent refit: loss %.6e -> %.6e, %d of %d poses improved, %d failed\n",
+              report.loss_before, report.loss_after, report.improved, model.num_poses(),
+              report.failed);
+  EXPECT_NEAR(report.loss_before, loss_before, 1e-8 * loss_before);
+  EXPECT_EQ(report.failed, 0);
+  EXPECT_GT(report.improved, 0);
+  // Pre-training fits the volumetric targets, not the surfaces: the latents alone
+  // recover a good part of the surface loss.
+  EXPECT_LT(report.loss_after, 0.9 * report.loss_before);
+  EXPECT_GT((model.latents - latents_before).norm(), 0.0);
+
+  // The loss the training objective finds at the refitted latents is the reported one.
+  EndToEndObjective objective(train, model);
+  const Eigen::VectorXd x = objective.ModelParameters();
+  double loss_after = 0;
+  ASSERT_TRUE(objective.Evaluate(x.data(), &loss_after, nullptr)) << objective.last_failure();
+  EXPECT_NEAR(loss_after, report.loss_after, 1e-6 * report.loss_after);
+}
+
+TEST(LatentRefitTest, TrainingWithRefitsRefitsOnScheduleAndLowersTheLoss) {
+  TrainOptions train;
+  train.latent_regularization = 1e-2;
+  train.max_iterations = 12;
+  train.log_every = 0;
+  train.latent_refit_every = 5;
+  train.latent_refit_iterations = 3;
+  std::string error;
+  ASSERT_TRUE(train.Validate(&error)) << error;
+
+  testing::SyntheticMuscles data = PretrainedBar();
+  std::ostringstream log;
+  TrainReport report;
+  ASSERT_TRUE(TrainEndToEnd(train, &data.model, &report, log, &error)) << error << log.str();
+  // Before iteration 0, then after 5 and 10 iterations (none after the last).
+  EXPECT_EQ(report.latent_refits, 3) << log.str();
+  EXPECT_EQ(report.iterations, 12) << log.str();
+  EXPECT_LT(report.final_loss, report.initial_loss);
+  size_t lines = 0;
+  for (size_t at = log.str().find("latent refit: loss"); at != std::string::npos;
+       at = log.str().find("latent refit: loss", at + 1)) {
+    ++lines;
+  }
+  EXPECT_EQ(lines, 3u) << log.str();
+
+  TrainOptions bad = train;
+  bad.latent_refit_every = -1;
+  EXPECT_FALSE(bad.Validate(&error));
+  EXPECT_NE(error.find("latent_refit_every"), std::string::npos) << error;
+  bad = train;
+  bad.latent_refit_iterations = 0;
+  EXPECT_FALSE(bad.Validate(&error));
+  EXPECT_NE(error.find("latent_refit_iterations"), std::string::npos) << error;
+}
+
+}  // namespace
+}  // namespace aqs
