@@ -9,9 +9,7 @@
 
 #include "dist/mpi_runtime.h"
 #include "dist/mpi_world.h"
-#include "prepare/volumetric_targets.h"
-#include "testing/synthetic_muscles.h"
-#include "train/pretrain.h"
+#include "testing/training_fixtures.h"
 
 namespace aqs {
 namespace testing {
@@ -28,23 +26,12 @@ SharedTempDir::SharedTempDir() {
 }
 
 ActiveModel PretrainedBar(int num_poses) {
-  SyntheticMuscles data = MakeSyntheticMuscles(num_poses, 0, 0.3, 11);
-  std::ostringstream log;
-  std::string error;
-  VolumetricTargetOptions targets;
-  targets.num_threads = 1;
-  EXPECT_TRUE(MakeVolumetricTargets(targets, &data.model, log, &error)) << error;
-  PretrainOptions pretrain;
-  pretrain.spec.latent_dim = 2;
-  pretrain.spec.hidden_dims = {8};
-  pretrain.spec.activation = Activation::kTanh;
-  pretrain.field.node_spacing = 0.35;
-  pretrain.max_iterations = 30;
-  pretrain.log_every = 0;
-  pretrain.num_threads = 1;
-  PretrainReport report;
-  EXPECT_TRUE(Pretrain(pretrain, &data.model, &report, log, &error)) << error;
-  return data.model;
+  SyntheticBarSpec spec;
+  spec.num_poses = num_poses;
+  spec.activation = Activation::kTanh;
+  spec.node_spacing = 0.35;
+  spec.num_threads = 1;
+  return PretrainedSyntheticBar(spec);
 }
 
 }  // namespace testing

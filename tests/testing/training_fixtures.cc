@@ -27,21 +27,36 @@ std::vector<std::pair<int, double>> TrainingLogRows(const std::string& path) {
   return rows;
 }
 
-void WritePretrainedSyntheticModel(const std::string& path, int num_poses, unsigned seed,
-                                   int hidden, int pretrain_iterations) {
-  SyntheticMuscles data = MakeSyntheticMuscles(num_poses, 0, 0.3, seed);
+ActiveModel PretrainedSyntheticBar(const SyntheticBarSpec& spec) {
+  SyntheticMuscles data = MakeSyntheticMuscles(spec.num_poses, 0, 0.3, spec.seed);
   std::ostringstream log;
   std::string error;
-  ASSERT_TRUE(MakeVolumetricTargets(VolumetricTargetOptions(), &data.model, log, &error)) << error;
+  VolumetricTargetOptions targets;
+  targets.num_threads = spec.num_threads;
+  EXPECT_TRUE(MakeVolumetricTargets(targets, &data.model, log, &error)) << error;
   PretrainOptions pretrain;
-  pretrain.spec.latent_dim = 2;
-  pretrain.spec.hidden_dims = {hidden};
-  pretrain.field.node_spacing = 0.5;
-  pretrain.max_iterations = pretrain_iterations;
+  pretrain.spec.latent_dim = spec.latent_dim;
+  pretrain.spec.hidden_dims = {spec.hidden};
+  pretrain.spec.activation = spec.activation;
+  pretrain.field.node_spacing = spec.node_spacing;
+  pretrain.max_iterations = spec.pretrain_iterations;
   pretrain.log_every = 0;
+  pretrain.num_threads = spec.num_threads;
   PretrainReport report;
-  ASSERT_TRUE(Pretrain(pretrain, &data.model, &report, log, &error)) << error;
-  ASSERT_TRUE(SaveModel(path, data.model, &error)) << error;
+  EXPECT_TRUE(Pretrain(pretrain, &data.model, &report, log, &error)) << error;
+  return data.model;
+}
+
+void WritePretrainedSyntheticModel(const std::string& path, int num_poses, unsigned seed,
+                                   int hidden, int pretrain_iterations) {
+  SyntheticBarSpec spec;
+  spec.num_poses = num_poses;
+  spec.seed = seed;
+  spec.hidden = hidden;
+  spec.pretrain_iterations = pretrain_iterations;
+  const ActiveModel model = PretrainedSyntheticBar(spec);
+  std::string error;
+  ASSERT_TRUE(SaveModel(path, model, &error)) << error;
 }
 
 }  // namespace testing

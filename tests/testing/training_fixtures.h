@@ -5,6 +5,9 @@
 #include <utility>
 #include <vector>
 
+#include "learn/mlp.h"
+#include "model/active_model.h"
+
 namespace aqs {
 namespace testing {
 
@@ -12,6 +15,23 @@ namespace testing {
 // iteration starting "iteration,loss,..."): (iteration, loss) of every row that starts
 // with two numbers, in file order. Empty if the file cannot be read.
 std::vector<std::pair<int, double>> TrainingLogRows(const std::string& path);
+
+// How PretrainedSyntheticBar makes its model.
+struct SyntheticBarSpec {
+  int num_poses = 4;
+  unsigned seed = 11;
+  int latent_dim = 2;
+  int hidden = 8;                 // one hidden layer of this many units
+  Activation activation = Activation::kElu;
+  double node_spacing = 0.5;      // control nodes this far apart
+  int pretrain_iterations = 30;
+  int num_threads = 2;
+};
+
+// The synthetic bar (testing/synthetic_muscles.h: MakeSyntheticMuscles(num_poses, 0,
+// 0.3, seed)) with its volumetric targets and a small decoder pre-trained on them (no
+// states). Deterministic for a given spec. Adds a test failure on error.
+ActiveModel PretrainedSyntheticBar(const SyntheticBarSpec& spec);
 
 // A small pre-trained model of the synthetic bar, saved at `path` (a model directory):
 // MakeSyntheticMuscles(num_poses, 0, 0.3, seed), its volumetric targets, and a decoder

@@ -15,12 +15,9 @@
 #include "jobs/learning_jobs.h"
 #include "model/model_directory.h"
 #include "model/model_io.h"
-#include "prepare/volumetric_targets.h"
 #include "testing/fault_kill.h"
-#include "testing/synthetic_muscles.h"
 #include "testing/temp_dir.h"
 #include "testing/training_fixtures.h"
-#include "train/pretrain.h"
 #include "train/trainer.h"
 
 namespace aqs {
@@ -41,21 +38,8 @@ namespace fs = std::filesystem;
 class CheckpointResumeTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    testing::SyntheticMuscles data = testing::MakeSyntheticMuscles(3, 0, 0.3, 11);
-    ActiveModel& model = data.model;
-    std::ostringstream log;
-    std::string error;
-    ASSERT_TRUE(MakeVolumetricTargets(VolumetricTargetOptions(), &model, log, &error)) << error;
-    PretrainOptions pretrain;
-    pretrain.spec.latent_dim = 2;
-    pretrain.spec.hidden_dims = {8};
-    pretrain.field.node_spacing = 0.5;
-    pretrain.max_iterations = 20;
-    pretrain.log_every = 0;
-    PretrainReport report;
-    ASSERT_TRUE(Pretrain(pretrain, &model, &report, log, &error)) << error;
     path_ = dir_.File("m");
-    ASSERT_TRUE(SaveModel(path_, model, &error)) << error;
+    ASSERT_NO_FATAL_FAILURE(testing::WritePretrainedSyntheticModel(path_, 3, 11, 8, 20));
     options_.num_threads = 1;
     options_.log_every = 0;
     options_.model_directory = path_;

@@ -9,36 +9,26 @@
 
 #include <gtest/gtest.h>
 
-#include "prepare/volumetric_targets.h"
-#include "testing/synthetic_muscles.h"
+#include "testing/training_fixtures.h"
 #include "train/end_to_end_objective.h"
-#include "train/pretrain.h"
 #include "train/trainer.h"
 
 namespace aqs {
 namespace {
 
 // The synthetic bar with 6 poses, volumetric targets and a small pre-trained decoder.
-testing::SyntheticMuscles PretrainedBar() {
-  testing::SyntheticMuscles data = testing::MakeSyntheticMuscles(6, 0, 0.3, 5);
-  std::ostringstream log;
-  std::string error;
-  VolumetricTargetOptions targets;
-  EXPECT_TRUE(MakeVolumetricTargets(targets, &data.model, log, &error)) << error;
-  PretrainOptions pretrain;
-  pretrain.spec.latent_dim = 2;
-  pretrain.spec.hidden_dims = {16};
-  pretrain.field.node_spacing = 0.35;
-  pretrain.max_iterations = 40;
-  pretrain.log_every = 0;
-  PretrainReport pretrain_report;
-  EXPECT_TRUE(Pretrain(pretrain, &data.model, &pretrain_report, log, &error)) << error;
-  return data;
+ActiveModel PretrainedBar() {
+  testing::SyntheticBarSpec spec;
+  spec.num_poses = 6;
+  spec.seed = 5;
+  spec.hidden = 16;
+  spec.node_spacing = 0.35;
+  spec.pretrain_iterations = 40;
+  return testing::PretrainedSyntheticBar(spec);
 }
 
 TEST(LatentRefitTest, LowersTheTrainingLossItReports) {
-  testing::SyntheticMuscles data = PretrainedBar();
-  ActiveModel& model = data.model;
+  ActiveModel model = PretrainedBar();
   ASSERT_TRUE(model.decoder);
 
   TrainOptions train;
@@ -89,10 +79,10 @@ TEST(LatentRefitTest, TrainingWithRefitsRefitsOnScheduleAndLowersTheLoss) {
   std::string error;
   ASSERT_TRUE(train.Validate(&error)) << error;
 
-  testing::SyntheticMuscles data = PretrainedBar();
+  ActiveModel model = PretrainedBar();
   std::ostringstream log;
   TrainReport report;
-  ASSERT_TRUE(TrainEndToEnd(train, &data.model, &report, log, &error)) << error << log.str();
+  ASSERT_TRUE(TrainEndToEnd(train, &model, &report, log, &error)) << error << log.str();
   // Before iteration 0, then after 5 and 10 iterations (none after the last).
   EXPECT_EQ(report.latent_refits, 3) << log.str();
   EXPECT_EQ(report.iterations, 12) << log.str();

@@ -8,38 +8,25 @@
 
 #include <gtest/gtest.h>
 
-#include "prepare/volumetric_targets.h"
 #include "testing/finite_difference.h"
-#include "testing/synthetic_muscles.h"
-#include "train/pretrain.h"
+#include "testing/training_fixtures.h"
 
 namespace aqs {
 namespace {
 
-// The synthetic bar with 4 poses, volumetric targets and a small pre-trained decoder.
-testing::SyntheticMuscles PretrainedBar() {
-  testing::SyntheticMuscles data = testing::MakeSyntheticMuscles(4, 0, 0.3, 11);
-  std::ostringstream log;
-  std::string error;
-  VolumetricTargetOptions targets;
-  EXPECT_TRUE(MakeVolumetricTargets(targets, &data.model, log, &error)) << error;
-  PretrainOptions pretrain;
-  pretrain.spec.latent_dim = 2;
-  pretrain.spec.hidden_dims = {8};
-  pretrain.spec.activation = Activation::kTanh;
-  pretrain.field.node_spacing = 0.35;  // a coarse grid: a few dozen control nodes
-  pretrain.max_iterations = 30;
-  pretrain.log_every = 0;
-  PretrainReport pretrain_report;
-  EXPECT_TRUE(Pretrain(pretrain, &data.model, &pretrain_report, log, &error)) << error;
-  return data;
+// The synthetic bar with 4 poses, volumetric targets and a small pre-trained decoder
+// (tanh, a coarse grid: a few dozen control nodes).
+ActiveModel PretrainedBar() {
+  testing::SyntheticBarSpec spec;
+  spec.activation = Activation::kTanh;
+  spec.node_spacing = 0.35;
+  return testing::PretrainedSyntheticBar(spec);
 }
 
 // The gradient of the end-to-end objective with respect to decoder weights and latents
 // against central differences of the whole objective, re-solving every equilibrium.
 TEST(EndToEndObjectiveTest, GradientMatchesCentralDifferencesOfResolvedObjective) {
-  testing::SyntheticMuscles data = PretrainedBar();
-  ActiveModel& model = data.model;
+  ActiveModel model = PretrainedBar();
   ASSERT_TRUE(model.decoder);
 
   TrainOptions options;
@@ -82,8 +69,7 @@ TEST(EndToEndObjectiveTest, GradientMatchesCentralDifferencesOfResolvedObjective
 // One solver and factor per pose (factors reused by CG, states predicted to first
 // order) and one solver per thread give the same objective and gradient.
 TEST(EndToEndObjectiveTest, SolverLayoutsAgree) {
-  testing::SyntheticMuscles data = PretrainedBar();
-  ActiveModel& model = data.model;
+  ActiveModel model = PretrainedBar();
   TrainOptions options;
   options.solver.relative_force_tolerance = 1e-11;
   TrainOptions shared = options;
@@ -115,8 +101,7 @@ TEST(EndToEndObjectiveTest, SolverLayoutsAgree) {
 // An evaluation that fails (one pose's equilibrium not reached) keeps every pose's warm
 // start, also those of the poses that did converge.
 TEST(EndToEndObjectiveTest, FailedEvaluationKeepsEveryWarmStart) {
-  testing::SyntheticMuscles data = PretrainedBar();
-  ActiveModel& model = data.model;
+  ActiveModel model = PretrainedBar();
   EndToEndObjective objective(TrainOptions(), model);
   Eigen::VectorXd x = objective.ModelParameters();
   double cost = 0;
@@ -135,11 +120,11 @@ TEST(EndToEndObjectiveTest, FailedEvaluationKeepsEveryWarmStart) {
 // Past its time limit an evaluation fails at once (a failed line-search step), and
 // lifting the limit restores the same value.
 TEST(EndToEndObjectiveTest, TimeLimitFailsEvaluationsUntilLifted) {
-  testing::SyntheticMuscles data = PretrainedBar();
-  ASSERT_TRUE(data.model.decoder);
+  ActiveModel model = PretrainedBar();
+  ASSERT_TRUE(model.decoder);
   TrainOptions options;
   options.num_threads = 2;
-  EndToEndObjective objective(options, data.model);
+  EndToEndObjective objective(options, model);
   const Eigen::VectorXd x0 = objective.ModelParameters();
   double before = 0, after = 0, limited = -1;
   ASSERT_TRUE(objective.Evaluate(x0.data(), &before, nullptr)) << objective.last_failure();
@@ -156,11 +141,11 @@ TEST(EndToEndObjectiveTest, TimeLimitFailsEvaluationsUntilLifted) {
 // The equilibria of recent evaluations are found again by their exact parameters and
 // can be made the warm starts; older or other points are not found.
 TEST(EndToEndObjectiveTest, RemembersTheEquilibriaOfRecentEvaluations) {
-  testing::SyntheticMuscles data = PretrainedBar();
-  ASSERT_TRUE(data.model.decoder);
+  ActiveModel model = PretrainedBar();
+  ASSERT_TRUE(model.decoder);
   TrainOptions options;
   options.num_threads = 2;
-  EndToEndObjective objective(options, data.model);
+  EndToEndObjective objective(options, model);
   const Eigen::VectorXd x0 = objective.ModelParameters();
   double cost = 0;
   ASSERT_TRUE(objective.Evaluate(x0.data(), &cost, nullptr)) << objective.last_failure();
@@ -168,7 +153,7 @@ TEST(EndToEndObjectiveTest, RemembersTheEquilibriaOfRecentEvaluations) {
   std::vector<Eigen::VectorXd> others;
   for (int k = 1; k <= EndToEndObjective::kRememberedEvaluations; ++k) {
     Eigen::VectorXd x = x0;
-    x.tail(x0.size() - data.model.decoder->num_parameters()) *= 1.0 + 0.2 * k;  // latents
+    x.tail(x0.size() - model.decoder->num_parameters()) *= 1.0 + 0.2 * k;  // latents
     ASSERT_TRUE(objective.Evaluate(x.data(), &cost, nullptr)) << objective.last_failure();
     others.push_back(x);
   }
