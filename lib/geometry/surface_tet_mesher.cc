@@ -14,6 +14,7 @@
 #include "geometry/embedding.h"
 #include "geometry/triangle_bvh.h"
 #include "geometry/winding_number.h"
+#include "mesh/element_subset.h"
 #include "mesh/tet_faces.h"
 #include "util/option_checks.h"
 
@@ -416,25 +417,8 @@ bool MeshSurfaceInterior(const Eigen::Matrix3Xd& surface_vertices,
     if (label[t] >= 0) kept.push_back(t);
   }
 
-  // Remove unused vertices, renumber in lattice order.
-  std::vector<int> new_index(lattice.num_vertices(), -1);
-  for (int t : kept) {
-    for (int k = 0; k < 4; ++k) new_index[lattice.tets(k, t)] = 0;
-  }
-  int num_vertices = 0;
-  for (int& index : new_index) {
-    if (index == 0) index = num_vertices++;
-  }
-  TetMesh result;
-  result.vertices.resize(3, num_vertices);
-  for (int v = 0; v < lattice.num_vertices(); ++v) {
-    if (new_index[v] >= 0) result.vertices.col(new_index[v]) = lattice.vertices.col(v);
-  }
-  result.tets.resize(4, static_cast<Eigen::Index>(kept.size()));
-  for (size_t i = 0; i < kept.size(); ++i) {
-    for (int k = 0; k < 4; ++k) result.tets(k, i) = new_index[lattice.tets(k, kept[i])];
-  }
-  *mesh = std::move(result);
+  // Unused vertices removed, the rest renumbered in lattice order.
+  *mesh = ElementSubset(lattice, kept);
 
   if (stats != nullptr) {
     stats->lattice_elements = num_lattice_tets;
