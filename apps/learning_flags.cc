@@ -38,11 +38,12 @@ DEFINE_double(factor_cache_gb, 4.0, "End-to-end training keeps one stiffness fac
               "(per process), else one solver per thread.");
 DEFINE_int32(train_restarts, 5, "L-BFGS restarts allowed when the line search stalls before the "
              "iteration or time budget is used.");
-DEFINE_int32(latent_refit_every, 0, "End-to-end training: refit every pose's latent alone "
-             "(decoder fixed; Levenberg-Marquardt on its share of the loss) before the first "
-             "iteration and then every this many iterations (0: never; one process only).");
-DEFINE_int32(latent_refit_iterations, 5, "Levenberg-Marquardt iterations per pose of a latent "
-             "refit.");
+DEFINE_int32(latent_refit_iterations, 0, "End-to-end training: before the first iteration (not "
+             "when resuming), refit every pose's latent alone, decoder fixed, by this many "
+             "Levenberg-Marquardt iterations on its share of the loss (0: no refits; one process "
+             "only).");
+DEFINE_int32(latent_refit_every, 0, "With --latent_refit_iterations: refit again after every this "
+             "many iterations (0: only before the first).");
 DECLARE_int32(threads);
 
 namespace aqs {

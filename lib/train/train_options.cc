@@ -20,7 +20,7 @@ bool TrainOptions::Validate(std::string* error) const {
       .IntAtLeast("max_restarts", max_restarts, 0)
       .IntAtLeast("log_every", log_every, 0)
       .IntAtLeast("latent_refit_every", latent_refit_every, 0)
-      .IntInRange("latent_refit_iterations", latent_refit_iterations, 1, 1000)
+      .IntInRange("latent_refit_iterations", latent_refit_iterations, 0, 1000)
       .Done(error);
 }
 

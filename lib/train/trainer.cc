@@ -182,9 +182,10 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
     return false;
   }
   const Communicator* communicator = options.communicator;
-  if (options.latent_refit_every > 0 && communicator != nullptr && communicator->size() > 1) {
+  if (options.latent_refit_iterations > 0 && communicator != nullptr && communicator->size() > 1) {
     // Every rank returns here (the same check on the same options).
-    *error = "latent refits (latent_refit_every " + std::to_string(options.latent_refit_every) +
+    *error = "latent refits (latent_refit_iterations " +
+             std::to_string(options.latent_refit_iterations) +
              ") run in one process only, not over " + std::to_string(communicator->size()) +
              " ranks";
     if (!communicator->is_root()) error->clear();
@@ -295,13 +296,17 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
     // can stall (zero step) far from a minimum. Then L-BFGS restarts from the current
     // point with an empty memory (a steepest-descent step first), as long as each
     // restart makes progress and iterations and time remain.
-    const bool refits = options.latent_refit_every > 0;
-    int next_refit = done;  // refit before the first iteration, then every latent_refit_every
+    // Refits: before iteration 0 of a fresh run, then every latent_refit_every (if > 0).
+    const bool refits = options.latent_refit_iterations > 0;
+    const int every = options.latent_refit_every;
+    int next_refit = done == 0 ? 0
+                     : every > 0 ? (done / every + 1) * every
+                                 : options.max_iterations;
     for (int restarts = 0;;) {
       if (refits && done >= next_refit) {
         RefitLatents(options, model, objective, &callback, &parameters, log);
         ++report->latent_refits;
-        next_refit = done + options.latent_refit_every;
+        next_refit = every > 0 ? done + every : options.max_iterations;
       }
       ceres::GradientProblemSolver::Summary summary;
       callback.SetIterationsBefore(done);

@@ -167,14 +167,14 @@ TEST(MpiTrainingTest, LatentRefitsAreRefusedOverSeveralRanks) {
   ActiveModel model = testing::PretrainedBar(4);
   TrainOptions options = Options();
   options.max_iterations = 3;
-  options.latent_refit_every = 2;
+  options.latent_refit_iterations = 2;
   options.communicator = &world;
   std::ostringstream log;
   std::string error;
   TrainReport report;
   EXPECT_FALSE(TrainEndToEnd(options, &model, &report, log, &error));
   if (world.is_root()) {
-    EXPECT_NE(error.find("latent refits (latent_refit_every 2) run in one process only"),
+    EXPECT_NE(error.find("latent refits (latent_refit_iterations 2) run in one process only"),
               std::string::npos)
         << error;
   } else {

@@ -69,37 +69,53 @@ TEST(LatentRefitTest, LowersTheTrainingLossItReports) {
   EXPECT_NEAR(loss_after, report.loss_after, 1e-6 * report.loss_after);
 }
 
+// The number of "latent refit" progress lines in `log`.
+int RefitLines(const std::string& log) {
+  int lines = 0;
+  for (size_t at = log.find("latent refit: loss"); at != std::string::npos;
+       at = log.find("latent refit: loss", at + 1)) {
+    ++lines;
+  }
+  return lines;
+}
+
 TEST(LatentRefitTest, TrainingWithRefitsRefitsOnScheduleAndLowersTheLoss) {
   TrainOptions train;
   train.latent_regularization = 1e-2;
   train.max_iterations = 12;
   train.log_every = 0;
-  train.latent_refit_every = 5;
   train.latent_refit_iterations = 3;
+  train.latent_refit_every = 5;
   std::string error;
   ASSERT_TRUE(train.Validate(&error)) << error;
 
-  ActiveModel model = PretrainedBar();
+  const ActiveModel pretrained = PretrainedBar();
+  ActiveModel model = pretrained;
   std::ostringstream log;
   TrainReport report;
   ASSERT_TRUE(TrainEndToEnd(train, &model, &report, log, &error)) << error << log.str();
   // Before iteration 0, then after 5 and 10 iterations (none after the last).
   EXPECT_EQ(report.latent_refits, 3) << log.str();
+  EXPECT_EQ(RefitLines(log.str()), 3) << log.str();
   EXPECT_EQ(report.iterations, 12) << log.str();
   EXPECT_LT(report.final_loss, report.initial_loss);
-  size_t lines = 0;
-  for (size_t at = log.str().find("latent refit: loss"); at != std::string::npos;
-       at = log.str().find("latent refit: loss", at + 1)) {
-    ++lines;
-  }
-  EXPECT_EQ(lines, 3u) << log.str();
+
+  // latent_refit_every 0: before iteration 0 only.
+  train.latent_refit_every = 0;
+  model = pretrained;
+  log.str("");
+  report = TrainReport();
+  ASSERT_TRUE(TrainEndToEnd(train, &model, &report, log, &error)) << error << log.str();
+  EXPECT_EQ(report.latent_refits, 1) << log.str();
+  EXPECT_EQ(RefitLines(log.str()), 1) << log.str();
+  EXPECT_EQ(report.iterations, 12) << log.str();
 
   TrainOptions bad = train;
   bad.latent_refit_every = -1;
   EXPECT_FALSE(bad.Validate(&error));
   EXPECT_NE(error.find("latent_refit_every"), std::string::npos) << error;
   bad = train;
-  bad.latent_refit_iterations = 0;
+  bad.latent_refit_iterations = -1;
   EXPECT_FALSE(bad.Validate(&error));
   EXPECT_NE(error.find("latent_refit_iterations"), std::string::npos) << error;
 }
