@@ -457,6 +457,12 @@ void LatentFitter::set_bone_transforms(const std::vector<RigidTransform>& transf
   solver_->SetFixedPositions(ModelBoundaryConditions(model_, bones_).positions);
 }
 
+double LatentFitter::FactorNonzeros() {
+  StiffnessFactorization* factorization = solver_->stiffness_factorization();
+  if (factorization->cholesky().factor_nonzeros() == 0) factorization->Analyze();
+  return factorization->cholesky().factor_nonzeros();
+}
+
 Eigen::VectorXd LatentFitter::MeanLatent() const { return model_.latents.rowwise().mean(); }
 
 ceres::CostFunction* LatentFitter::NewCostFunction(const FitTarget& target) {

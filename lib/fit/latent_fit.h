@@ -194,6 +194,10 @@ class LatentFitter {
   // The report of Simulate's last equilibrium solve.
   const QuasistaticSolveReport& last_simulate_report() const { return last_simulate_report_; }
 
+  // Non-zeros of the Cholesky factor of the model's stiffness (runs CHOLMOD's symbolic
+  // analysis if no factorization ran yet): what BlasThreadsForFactor (util/blas.h) takes.
+  double FactorNonzeros();
+
   // The mean of the training latents.
   Eigen::VectorXd MeanLatent() const;
   // The centre of the latent prior (the neutral's latent when the neutral is a

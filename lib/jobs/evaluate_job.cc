@@ -18,6 +18,7 @@
 #include "prepare/pose_files.h"
 #include "train/progress.h"
 #include "util/atomic_file.h"
+#include "util/blas.h"
 #include "util/line_reader.h"
 #include "util/matrix_io.h"
 #include "util/wall_timer.h"
@@ -359,6 +360,8 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
   const std::vector<int>& measured = options.error_vertices;
   LatentFitter fitter(model, options.fit);
   // Training poses.
+  // BLAS threads for this model's factor size (util/blas.h).
+  const ScopedBlasThreads blas(BlasThreadsForFactor(fitter.FactorNonzeros(), BlasThreads()));
   std::vector<Eigen::Matrix3Xd> trained_states(model.num_poses());
   // Per training pose the budget's per-vertex errors: floor, after pre-training,
   // trained (NaN where not measured), for the report's pictures.

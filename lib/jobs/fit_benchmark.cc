@@ -17,6 +17,7 @@
 #include "mesh/ply_io.h"
 #include "model/model_io.h"
 #include "util/atomic_file.h"
+#include "util/blas.h"
 #include "util/line_reader.h"
 #include "util/wall_timer.h"
 #include "util/option_checks.h"
@@ -206,6 +207,8 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
   log << "one factorization of the stiffness at rest: " << Fixed(unit_before, 4) << " s\n";
   LatentFitter fitter(model, options.fit);
   const std::vector<RigidTransform> rest = RestBoneTransforms(model);
+  // BLAS threads for this model's factor size (util/blas.h).
+  const ScopedBlasThreads blas(BlasThreadsForFactor(fitter.FactorNonzeros(), BlasThreads()));
   // Every fit from the same start: the prior's centre, bones at rest, the rest shape
   // (then ChooseStart as aqs_fit does).
   auto reset = [&]() {

@@ -15,6 +15,7 @@
 #include "mesh/ply_io.h"
 #include "model/model_io.h"
 #include "prepare/pose_files.h"
+#include "util/blas.h"
 #include "util/file_extension.h"
 #include "util/input_file.h"
 #include "util/line_reader.h"
@@ -250,6 +251,8 @@ FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log) {
       << (kind == "points" ? cloud.cols() : target.num_points()) << " points)\n";
 
   LatentFitter fitter(model, options.fit);
+  // BLAS threads for this model's factor size (util/blas.h).
+  const ScopedBlasThreads blas(BlasThreadsForFactor(fitter.FactorNonzeros(), BlasThreads()));
   Eigen::VectorXd initial = options.start.mean_latent ? fitter.MeanLatent() : fitter.PriorLatent();
   if (!options.initial_latent.empty()) {
     std::vector<RigidTransform> bones;

@@ -19,6 +19,7 @@
 #include "mesh/ply_io.h"
 #include "model/model_io.h"
 #include "util/atomic_file.h"
+#include "util/blas.h"
 #include "util/file_extension.h"
 #include "util/line_reader.h"
 #include "util/matrix_io.h"
@@ -441,6 +442,10 @@ FitSequenceResult RunFitSequence(const FitSequenceOptions& options, const Active
     warm = std::make_unique<LatentFitter>(model, options.fit);
     z = options.start.mean_latent ? warm->MeanLatent() : warm->PriorLatent();
   }
+  // BLAS threads for this model's factor size (util/blas.h).
+  const ScopedBlasThreads blas(BlasThreadsForFactor(
+      warm ? warm->FactorNonzeros() : LatentFitter(model, options.fit).FactorNonzeros(),
+      BlasThreads()));
   if (first > 0) {
     log << "resuming at frame " << first << " (" << frames[first < n ? first : n - 1].name
         << "): " << first << " frames done\n";

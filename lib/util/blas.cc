@@ -2,6 +2,7 @@
 
 #include <dlfcn.h>
 
+#include <cstdlib>
 #include <sstream>
 
 extern "C" {
@@ -16,6 +17,11 @@ namespace aqs {
 void SetBlasThreads(int num_threads) { openblas_set_num_threads(num_threads); }
 
 int BlasThreads() { return openblas_get_num_threads(); }
+
+int BlasThreadsForFactor(double factor_nonzeros, int threads) {
+  if (std::getenv("OPENBLAS_NUM_THREADS") != nullptr) return BlasThreads();
+  return factor_nonzeros < kSmallFactorNonzeros ? 1 : threads;
+}
 
 std::string DgemmProvider() {
   void* symbol = dlsym(RTLD_DEFAULT, "dgemm_");
