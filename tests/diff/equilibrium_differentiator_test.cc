@@ -1,6 +1,7 @@
 #include "diff/equilibrium_differentiator.h"
 
 #include <cstdio>
+#include <memory>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -42,22 +43,48 @@ double Loss(const Eigen::Matrix3Xd& x, const Eigen::Matrix3Xd& y) {
   return 0.5 * (x - y).squaredNorm();
 }
 
-TEST(EquilibriumDifferentiatorTest, FullGradientMatchesResolvedEquilibria) {
-  const TetMesh mesh = testing::BarMesh(2, 1, 1, 0.5);
-  std::mt19937 rng(17);
-  std::uniform_real_distribution<double> uniform_mu(0.5, 2.0);
-  Eigen::VectorXd mu(mesh.num_tets());
-  for (int e = 0; e < mu.size(); ++e) mu[e] = uniform_mu(rng);
-  const ShapeTargetModel model(mesh, mu);
-  const BoundaryConditions bc = testing::LeftFaceFixed(mesh);
-  QuasistaticSolver solver(model, bc, SolverOptions());
-  const ActuationMatrix a = testing::SmoothActuation(mesh, 0.2) +
-                            testing::RandomActuation(mesh.num_tets(), 0.05, &rng) -
-                            IdentityActuations(mesh.num_tets());
-  const Eigen::Matrix3Xd x = Equilibrium(&solver, a, mesh.vertices);
-  Eigen::Matrix3Xd y = x;
+// A bar with its left face fixed, at the equilibrium x of a smooth plus random
+// actuation a, and a loss target y = x + N(0, 0.1) noise: the set-up of the adjoint
+// checks. With random_mu, every element's mu is drawn from U(0.5, 2) first.
+struct AdjointScene {
+  TetMesh mesh;
+  std::unique_ptr<ShapeTargetModel> model;
+  BoundaryConditions bc;
+  std::unique_ptr<QuasistaticSolver> solver;
+  ActuationMatrix a;
+  Eigen::Matrix3Xd x, y;
+};
+
+AdjointScene MakeAdjointScene(int nx, unsigned seed, bool random_mu) {
+  AdjointScene scene;
+  scene.mesh = testing::BarMesh(nx, 1, 1, 0.5);
+  const TetMesh& mesh = scene.mesh;
+  std::mt19937 rng(seed);
+  Eigen::VectorXd mu = Eigen::VectorXd::Ones(mesh.num_tets());
+  if (random_mu) {
+    std::uniform_real_distribution<double> uniform_mu(0.5, 2.0);
+    for (int e = 0; e < mu.size(); ++e) mu[e] = uniform_mu(rng);
+  }
+  scene.model = std::make_unique<ShapeTargetModel>(mesh, mu);
+  scene.bc = testing::LeftFaceFixed(mesh);
+  scene.solver = std::make_unique<QuasistaticSolver>(*scene.model, scene.bc, SolverOptions());
+  scene.a = testing::SmoothActuation(mesh, 0.2) +
+            testing::RandomActuation(mesh.num_tets(), 0.05, &rng) -
+            IdentityActuations(mesh.num_tets());
+  scene.x = Equilibrium(scene.solver.get(), scene.a, mesh.vertices);
+  scene.y = scene.x;
   std::normal_distribution<double> normal(0.0, 0.1);
-  for (int i = 0; i < y.size(); ++i) y.data()[i] += normal(rng);
+  for (int i = 0; i < scene.y.size(); ++i) scene.y.data()[i] += normal(rng);
+  return scene;
+}
+
+TEST(EquilibriumDifferentiatorTest, FullGradientMatchesResolvedEquilibria) {
+  AdjointScene scene = MakeAdjointScene(2, 17, true);
+  const ShapeTargetModel& model = *scene.model;
+  QuasistaticSolver& solver = *scene.solver;
+  const ActuationMatrix& a = scene.a;
+  const Eigen::Matrix3Xd& x = scene.x;
+  const Eigen::Matrix3Xd& y = scene.y;
 
   EquilibriumDifferentiator differentiator(model, solver.fixed_mask());
   std::string error;
@@ -203,18 +230,14 @@ TEST(EquilibriumDifferentiatorTest, ReportsStiffnessThatIsNotPositiveDefinite) {
 // a stiffness whose unshifted form is not positive definite, once the shift is large
 // enough.
 TEST(EquilibriumDifferentiatorTest, ShiftedAdjointApproachesTheExactGradient) {
-  const TetMesh mesh = testing::BarMesh(3, 1, 1, 0.5);
-  std::mt19937 rng(23);
-  const ShapeTargetModel model(mesh, 1.0);
-  const BoundaryConditions bc = testing::LeftFaceFixed(mesh);
-  QuasistaticSolver solver(model, bc, SolverOptions());
-  const ActuationMatrix a = testing::SmoothActuation(mesh, 0.2) +
-                            testing::RandomActuation(mesh.num_tets(), 0.05, &rng) -
-                            IdentityActuations(mesh.num_tets());
-  const Eigen::Matrix3Xd x = Equilibrium(&solver, a, mesh.vertices);
-  Eigen::Matrix3Xd y = x;
-  std::normal_distribution<double> normal(0.0, 0.1);
-  for (int i = 0; i < y.size(); ++i) y.data()[i] += normal(rng);
+  AdjointScene scene = MakeAdjointScene(3, 23, false);
+  const TetMesh& mesh = scene.mesh;
+  const ShapeTargetModel& model = *scene.model;
+  const BoundaryConditions& bc = scene.bc;
+  const QuasistaticSolver& solver = *scene.solver;
+  const ActuationMatrix& a = scene.a;
+  const Eigen::Matrix3Xd& x = scene.x;
+  const Eigen::Matrix3Xd& y = scene.y;
   EquilibriumDifferentiator differentiator(model, solver.fixed_mask());
   std::string error;
   ASSERT_TRUE(differentiator.Prepare(x, a, &error)) << error;
