@@ -115,7 +115,7 @@ std::string CsvHeader(const ActiveModel& model) {
   return h;
 }
 
-// A CSV number (17 significant digits).
+// A CSV number (read back bit for bit, util/number_format.h).
 void Append(double v, std::string* out) {
   *out += ',';
   AppendDouble(v, out);

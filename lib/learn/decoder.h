@@ -181,8 +181,8 @@ DecoderMemory DecoderMemoryBytes(const DecoderSpec& spec, double num_elements, d
 //   num_parameters <P>
 //   <p>                                  (P lines, the Mlp layout; comments name the layers)
 //
-// Real numbers have 17 significant digits, so a saved and loaded decoder is bit for bit
-// the same. About 24 bytes per parameter (10 MB for the 250K-element grid default).
+// Real numbers are the shortest text that reads back exactly (util/number_format.h), so a
+// saved and loaded decoder is bit for bit the same. About 21 bytes per parameter.
 
 // Writes the file atomically (util/atomic_file.h). params must hold the parameter count
 // of spec and field (CHECKed). Returns false with *error naming the file on failure.

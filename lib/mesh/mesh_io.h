@@ -72,7 +72,7 @@ bool ReadTetMeshFile(const std::string& path, TetMesh* mesh, std::string* error)
 // face_vertices and triangle_face are filled whenever the file has faces.
 bool ReadObj(const std::string& path, SurfaceMesh* surface, std::string* error);
 
-// Writers. Every number is written with 17 significant digits; files are written
+// Writers. Every number reads back bit for bit (util/number_format.h); files are written
 // atomically (temporary file, then rename). Return false with *error on failure.
 
 // MEDIT ASCII .mesh (MeshVersionFormatted 2) with the vertices and tets of `mesh`

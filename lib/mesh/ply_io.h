@@ -28,7 +28,7 @@ std::array<std::uint8_t, 3> ScalarColor(double value, double color_max);
 //                     polygon has more than 255 corners): the surface's polygons, or
 //                     its triangles when it has none (0-based, as PLY wants).
 //
-// A comment line records color_max. Numbers have 17 significant digits (AppendDouble);
+// A comment line records color_max. Numbers read back bit for bit (AppendDouble);
 // the file is written atomically. values must have one entry per vertex and color_max
 // must be positive (CHECK). Returns false with *error if a value is not finite (naming
 // the file and the vertex) or the file cannot be written.

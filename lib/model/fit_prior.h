@@ -65,7 +65,7 @@ FitPrior LearnFitPrior(const ActiveModel& model, const FitPriorOptions& options 
 //   latent_covariance <i> c_i1 ... c_id        (d lines, i = 0 .. d-1)
 //   bone <name> mean p_1 ... p_6
 //   bone <name> covariance <i> c_i1 ... c_i6   (6 lines per bone)
-// Written atomically with 17 significant digits.
+// Written atomically; numbers read back bit for bit (util/number_format.h).
 bool WriteFitPrior(const std::string& path, const FitPrior& prior,
                    const std::vector<std::string>& bone_names, std::string* error);
 // Reads a prior for a model with this latent size and these bones (every bone needs

@@ -3,32 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include <Eigen/LU>
-#include <Eigen/SVD>
-
-// GCC 12 reports a false -Wmaybe-uninitialized inside Eigen's 3x3 JacobiSVD.
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-
 namespace aqs {
-
-RotationVariantSvd ComputeRotationVariantSvd(const Eigen::Matrix3d& g) {
-  Eigen::JacobiSVD<Eigen::Matrix3d, Eigen::NoQRPreconditioner> svd(
-      g, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  RotationVariantSvd out;
-  out.u = svd.matrixU();
-  out.v = svd.matrixV();
-  out.sigma = svd.singularValues();
-  // Move reflections into the smallest singular value so both factors are rotations.
-  if (out.u.determinant() < 0) {
-    out.u.col(2) *= -1.0;
-    out.sigma[2] *= -1.0;
-  }
-  if (out.v.determinant() < 0) {
-    out.v.col(2) *= -1.0;
-    out.sigma[2] *= -1.0;
-  }
-  return out;
-}
 
 Eigen::Matrix3d PolarRotation(const RotationVariantSvd& svd) {
   return svd.u * svd.v.transpose();

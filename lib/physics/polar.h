@@ -3,18 +3,9 @@
 
 #include <Eigen/Core>
 
+#include "physics/rotation_variant_svd.h"
+
 namespace aqs {
-
-// Rotation-variant SVD G = U diag(sigma) V^T with det U = det V = +1. sigma is sorted
-// sigma_0 >= sigma_1 >= |sigma_2|; only sigma_2 may be negative (when det G < 0, i.e.
-// the element is inverted). Hence sigma_i + sigma_j >= 0 for i != j.
-struct RotationVariantSvd {
-  Eigen::Matrix3d u;
-  Eigen::Matrix3d v;
-  Eigen::Vector3d sigma;
-};
-
-RotationVariantSvd ComputeRotationVariantSvd(const Eigen::Matrix3d& g);
 
 // The rotation R = U V^T of the polar decomposition G = R H (the closest rotation to
 // G, i.e. argmax_R tr(R^T G)). For det G < 0 this is still a proper rotation.

@@ -5,8 +5,9 @@
 
 namespace aqs {
 
-// Formats a double with 17 significant digits ("%.17g"), enough to read back the
-// exact same double. Every number the project writes to a file goes through this.
+// Formats a double as the shortest decimal text that reads back as the exact same double
+// (std::to_chars; for example "0.1", "1e-07", "-2.5e-300"). Every number the project
+// writes to a file goes through this.
 std::string FormatDouble(double value);
 
 // Appends FormatDouble(value) to *out (no allocation of a temporary string).

@@ -231,7 +231,7 @@ TEST_F(AqsValidationModelTest, DamagedModelsAreRefusedNamingTheFile) {
                {"--model={dir}nan_latents" + pose, 1,
                 "nan_latents/learned/latents.bin: entry (0, 0) of the 2 x 2 matrix is not finite"},
                {"--model={dir}far_pose" + pose, 1, "far_pose/poses/0000.bin: point 10 ("},
-               {"--model={dir}stiff" + pose, 1, "stiff/mu.bin: the stiffness ranges from 1 to 1000000000000000, a contrast above"},
+               {"--model={dir}stiff" + pose, 1, "stiff/mu.bin: the stiffness ranges from 1 to 1e+15, a contrast above"},
                {"--model={dir}huge_decoder" + pose, 1,
                 "huge_decoder/learned/decoder.txt: the decoder maps training pose 'bend_x' to "
                 "actuations with entries up to"},

@@ -87,7 +87,7 @@ TEST(PlyWriteTest, WrittenFileReadsBackExactly) {
                              "property uchar blue\nproperty double value\n"
                              "element face 2\nproperty list uchar int vertex_indices\n"
                              "end_header\n"));
-  EXPECT_TRUE(Contains(text, "\n0.10000000000000001 0.33333333333333331 -1.5 68 1 84 0\n")) << text;
+  EXPECT_TRUE(Contains(text, "\n0.1 0.3333333333333333 -1.5 68 1 84 0\n")) << text;
   EXPECT_TRUE(Contains(text, " 253 231 37 3\n3 0 1 2\n3 0 2 3\n")) << text;
   Eigen::Matrix3Xd points;
   ASSERT_TRUE(ReadPointCloud(path, &points, &error)) << error;

@@ -2,6 +2,11 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <random>
+
 #include "testing/temp_dir.h"
 #include "util/number_format.h"
 
@@ -59,11 +64,28 @@ TEST(LineReaderTest, StrictNumberParsing) {
 }
 
 TEST(NumberFormatTest, RoundTripsExactly) {
-  for (double v : {0.1, 1.0 / 3.0, -2.5e-300, 6.02214076e23, 1e-7 + 1e-23}) {
+  for (double v : {0.1, 1.0 / 3.0, -2.5e-300, 6.02214076e23, 1e-7 + 1e-23, 0.0, -0.0,
+                   4.9406564584124654e-324, 1.7976931348623157e308, -1.0 / 7.0}) {
     double back = 0;
-    ASSERT_TRUE(ParseDouble(FormatDouble(v), &back));
+    ASSERT_TRUE(ParseDouble(FormatDouble(v), &back)) << FormatDouble(v);
     EXPECT_EQ(back, v);
+    EXPECT_EQ(std::signbit(back), std::signbit(v));
   }
+  // Random doubles over the whole exponent range, bit for bit.
+  std::mt19937_64 random(7);
+  for (int i = 0; i < 10000; ++i) {
+    uint64_t bits = random();
+    double v = 0;
+    std::memcpy(&v, &bits, sizeof(v));
+    if (!std::isfinite(v)) continue;
+    double back = 0;
+    ASSERT_TRUE(ParseDouble(FormatDouble(v), &back)) << FormatDouble(v);
+    ASSERT_EQ(back, v) << FormatDouble(v);
+  }
+  // Shortest text: what a person reads in the files.
+  EXPECT_EQ(FormatDouble(0.1), "0.1");
+  EXPECT_EQ(FormatDouble(-2.0), "-2");
+  EXPECT_EQ(FormatDouble(1e-7), "1e-07");
 }
 
 }  // namespace
