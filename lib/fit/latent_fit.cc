@@ -3,8 +3,10 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <utility>
 
 #include <ceres/cost_function.h>
+#include <ceres/evaluation_callback.h>
 #include <ceres/jet.h>
 #include <ceres/problem.h>
 #include <ceres/rotation.h>
@@ -147,9 +149,148 @@ FitTarget MatchPointCloud(const Eigen::Matrix3Xd& points, const Eigen::Matrix3Xd
 
 }  // namespace
 
+// The work the fit's residuals share, at one point of the parameters (z, then 6 numbers
+// per fitted bone): the decoded actuation, the equilibrium x* (solved warm from the
+// equilibrium of the last accepted point), and with Jacobians the actuation Jacobian
+// da/dz and the differentiator prepared at x*.
+//
+// As Ceres' EvaluationCallback (Fit) it does this work before each evaluation, and it
+// moves the warm start to a point only when Ceres asks for Jacobians there, which a
+// trust-region minimizer does only at accepted points; FitCost::Evaluate is then a read
+// of it. With a non-convex energy the branch a solve lands on depends on its start, so
+// rejected trial points never become starts. Without the callback (a cost from
+// NewCostFunction, e.g. under a gradient checker) the cost prepares points on demand and
+// the warm start never moves: each evaluation is a function of its parameters alone.
+class LatentFitter::FitEquilibrium final : public ceres::EvaluationCallback {
+ public:
+  struct Point {
+    Eigen::VectorXd key;  // all parameter blocks, concatenated
+    bool solved = false;  // the equilibrium was reached
+    bool decoded = false;
+    bool differentiated = false;  // da_dz computed and the differentiator prepared at state
+    ActuationMatrix a;
+    Eigen::MatrixXd da_dz;  // (6 num_elements) x latent_dim
+    std::vector<RigidTransform> bones;
+    Eigen::Matrix3Xd state;
+  };
+
+  FitEquilibrium(LatentFitter* fitter, bool fit_bones) : fitter_(fitter), fit_bones_(fit_bones) {
+    block_sizes_.push_back(fitter->model_.latent_dim());
+    if (fit_bones_) block_sizes_.resize(1 + fitter->model_.bones.size(), 6);
+    for (int size : block_sizes_) parameter_count_ += size;
+  }
+
+  const std::vector<int>& block_sizes() const { return block_sizes_; }
+
+  // The parameter blocks Ceres updates in place (sizes as block_sizes()), read by
+  // PrepareForEvaluation.
+  void set_blocks(std::vector<double*> blocks) {
+    CHECK_EQ(blocks.size(), block_sizes_.size());
+    blocks_ = std::move(blocks);
+  }
+
+  void PrepareForEvaluation(bool evaluate_jacobians, bool /*new_evaluation_point*/) override {
+    CHECK_EQ(blocks_.size(), block_sizes_.size()) << "set_blocks before solving";
+    const Point* point = Prepare(blocks_.data(), evaluate_jacobians);
+    if (evaluate_jacobians && point != nullptr) fitter_->accepted_state_ = point->state;
+  }
+
+  // The point at `parameters` (one array per block), prepared if it is not the last one
+  // prepared: decoded and solved, and with `jacobians` differentiated. nullptr if its
+  // equilibrium was not reached, its actuations are absurd, or the stiffness there
+  // cannot be factorized (Ceres then treats the step as unsuccessful).
+  const Point* Prepare(double const* const* parameters, bool jacobians) {
+    Eigen::VectorXd key(parameter_count_);
+    for (size_t b = 0, offset = 0; b < block_sizes_.size(); offset += block_sizes_[b], ++b) {
+      key.segment(offset, block_sizes_[b]) =
+          Eigen::Map<const Eigen::VectorXd>(parameters[b], block_sizes_[b]);
+    }
+    const ActiveModel& model = fitter_->model_;
+    if (!(point_.key.size() == key.size() && point_.key == key)) {
+      point_ = Point();
+      point_.key = key;
+      point_.bones = fitter_->bones_;
+      if (fit_bones_) {
+        for (size_t b = 0; b < point_.bones.size(); ++b) {
+          point_.bones[b] = BoneTransformFromParameters(parameters[1 + b]);
+        }
+      }
+      Decode(jacobians);
+      // A trial latent far outside the training latents (absurd actuations): an
+      // unsuccessful step, not a long solve after absurd targets.
+      if (!(point_.a.cwiseAbs().maxCoeff() <= kMaxFitActuationEntry)) return nullptr;
+      QuasistaticSolver& solver = *fitter_->solver_;
+      solver.SetPositions(fitter_->accepted_state_);
+      solver.SetFixedPositions(ModelBoundaryConditions(model, point_.bones).positions);
+      solver.actuation() = point_.a;
+      WallTimer timer;
+      const QuasistaticSolveReport report = solver.Solve();
+      fitter_->stats_.solves += 1;
+      fitter_->stats_.solve_factorizations += report.factorizations;
+      fitter_->stats_.solve_seconds += timer.Seconds();
+      if (!report.converged) return nullptr;
+      point_.solved = true;
+      point_.state = solver.positions();
+    }
+    if (!point_.solved) return nullptr;
+    if (!point_.decoded || (jacobians && point_.da_dz.size() == 0)) Decode(jacobians);
+    if (jacobians && !point_.differentiated) {
+      WallTimer timer;
+      fitter_->stats_.jacobians += 1;
+      std::string error;
+      const bool prepared = fitter_->differentiator_->Prepare(point_.state, point_.a, &error);
+      fitter_->stats_.jacobian_seconds += timer.Seconds();
+      if (!prepared) return nullptr;
+      point_.differentiated = true;
+    }
+    return &point_;
+  }
+
+  // Seeds the last point: `state` is the equilibrium at parameters `key` (all blocks,
+  // concatenated), so that preparing it solves nothing.
+  void Seed(const Eigen::VectorXd& key, const Eigen::Matrix3Xd& state,
+            const std::vector<RigidTransform>& bones) {
+    CHECK_EQ(key.size(), parameter_count_);
+    point_ = Point();
+    point_.key = key;
+    point_.solved = true;
+    point_.bones = bones;
+    point_.state = state;
+  }
+
+  // The equilibrium at `key` if it is the last point prepared and was reached, else nullptr.
+  const Eigen::Matrix3Xd* StateAt(const Eigen::VectorXd& key) const {
+    return point_.solved && point_.key.size() == key.size() && point_.key == key ? &point_.state
+                                                                                  : nullptr;
+  }
+
+ private:
+  void Decode(bool jacobian) {
+    const ActiveModel& model = fitter_->model_;
+    const Eigen::Map<const Eigen::VectorXd> z(point_.key.data(), model.latent_dim());
+    if (jacobian) {
+      point_.da_dz = model.decoder->ActuationJacobian(model.decoder_params.data(), z, &point_.a);
+    } else {
+      DecoderWorkspace workspace;
+      model.decoder->Decode(model.decoder_params.data(), z, &point_.a, &workspace);
+    }
+    point_.decoded = true;
+  }
+
+  LatentFitter* fitter_;
+  bool fit_bones_;
+  std::vector<int> block_sizes_;
+  int parameter_count_ = 0;
+  std::vector<double*> blocks_;
+  Point point_;
+};
+
 // Residuals sqrt(w_k / sum w) (p_k(x*) - y_k) (3 K) over the blocks z and, if fitted,
-// one 6-number block per bone.
+// one 6-number block per bone, at the equilibrium FitEquilibrium prepares (shared, or
+// owned when there is no evaluation callback).
 class LatentFitter::FitCost final : public ceres::CostFunction {
+  struct Stencil;  // below
+
  public:
   // A point cloud without correspondence: one residual per scan point, its robust
   // distance to the simulated surface, re-matched (closest points) at every evaluation:
@@ -159,21 +300,21 @@ class LatentFitter::FitCost final : public ceres::CostFunction {
   // closest-point distance is u^T dp (u the unit direction from the scan point to its
   // closest point, signed likewise; the closest point's sliding is second order), so
   // dr_i = sqrt(1/M) R'(d_i) u_i^T dp_i, exact wherever the matching is unique.
-  FitCost(LatentFitter* fitter, const Eigen::Matrix3Xd& cloud, const PointCloudFitOptions& options,
-          bool fit_bones)
-      : fitter_(fitter), target_(&own_target_), fit_bones_(fit_bones), cloud_(&cloud),
+  FitCost(LatentFitter* fitter, FitEquilibrium* equilibrium, const Eigen::Matrix3Xd& cloud,
+          const PointCloudFitOptions& options)
+      : fitter_(fitter), equilibrium_(equilibrium), target_(&own_target_), cloud_(&cloud),
         cloud_options_(options) {
     CHECK_GT(cloud.cols(), 0);
     set_num_residuals(static_cast<int>(cloud.cols()));
-    AddParameterBlocks();
+    *mutable_parameter_block_sizes() = equilibrium->block_sizes();
   }
 
-  FitCost(LatentFitter* fitter, const FitTarget& target, bool fit_bones)
-      : fitter_(fitter), target_(&target), fit_bones_(fit_bones) {
+  FitCost(LatentFitter* fitter, FitEquilibrium* equilibrium, const FitTarget& target)
+      : fitter_(fitter), equilibrium_(equilibrium), target_(&target) {
     const ActiveModel& model = fitter->model_;
     const int k = target.num_points();
     set_num_residuals(3 * k);
-    AddParameterBlocks();
+    *mutable_parameter_block_sizes() = equilibrium->block_sizes();
     double total = 0.0;
     for (int i = 0; i < k; ++i) total += target.weights.size() > 0 ? target.weights[i] : 1.0;
     CHECK_GT(total, 0.0) << "fit targets need a positive total weight";
@@ -197,18 +338,13 @@ class LatentFitter::FitCost final : public ceres::CostFunction {
     }
   }
 
-  void AddParameterBlocks() {
-    const ActiveModel& model = fitter_->model_;
-    mutable_parameter_block_sizes()->push_back(model.latent_dim());
-    if (fit_bones_) {
-      for (size_t b = 0; b < model.bones.size(); ++b) mutable_parameter_block_sizes()->push_back(6);
-    }
-    for (int size : parameter_block_sizes()) parameter_count_ += size;
-  }
+  // A cost with its own FitEquilibrium (no evaluation callback: NewCostFunction).
+  void Own(std::unique_ptr<FitEquilibrium> equilibrium) { own_equilibrium_ = std::move(equilibrium); }
 
   // Cloud mode: matches the scan to the surface of state x; sets the stencils of the
-  // matched points, the residuals and the gradient rows (R'(d) u / sqrt(M)).
-  void MatchCloud(const Eigen::Matrix3Xd& x, double* residuals) const {
+  // matched points, the residuals and the gradient rows (R'(d) u / sqrt(M), 3 x M).
+  void MatchCloud(const Eigen::Matrix3Xd& x, double* residuals, std::vector<Stencil>* stencils,
+                  Eigen::Matrix3Xd* cloud_rows) const {
     const ActiveModel& model = fitter_->model_;
     const Eigen::Matrix3Xd surface = EmbeddedPositions(model.embedding, model.mesh.tets, x);
     const Eigen::Matrix3Xi& triangles = model.neutral.triangles;
@@ -219,11 +355,11 @@ class LatentFitter::FitCost final : public ceres::CostFunction {
     const double scale = 1.0 / std::sqrt(static_cast<double>(m));
     const double s = cloud_options_.robust_scale;
     const double cap = cloud_options_.max_distance;
-    stencils_.resize(m);
-    cloud_rows_.resize(3, m);
+    stencils->resize(m);
+    cloud_rows->resize(3, m);
     for (Eigen::Index i = 0; i < m; ++i) {
       const ClosestPointResult& c = closest[i];
-      Stencil& st = stencils_[i];
+      Stencil& st = (*stencils)[i];
       const Eigen::Vector3i t = triangles.col(c.triangle);
       SetSurfaceStencil(model, t, c.barycentric, &st);
       // Signed by the side of the triangle: sigma = sign(v . n) |v|, v = p - y, whose
@@ -252,62 +388,29 @@ class LatentFitter::FitCost final : public ceres::CostFunction {
         slope = 1.0 / (q * std::sqrt(q));
       }
       residuals[i] = scale * value;
-      cloud_rows_.col(i) = clamped ? Eigen::Vector3d::Zero() : Eigen::Vector3d(scale * slope * u);
+      cloud_rows->col(i) = clamped ? Eigen::Vector3d::Zero() : Eigen::Vector3d(scale * slope * u);
     }
   }
 
+  // A read of the point FitEquilibrium prepared (it prepares it here only when there is
+  // no evaluation callback, see there).
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override {
     const ActiveModel& model = fitter_->model_;
-    const int d = model.latent_dim();
-    const Eigen::Map<const Eigen::VectorXd> z(parameters[0], d);
     const bool want_z = jacobians != nullptr && jacobians[0] != nullptr;
-    ActuationMatrix a;
-    Eigen::MatrixXd da_dz;
-    if (want_z) {
-      da_dz = model.decoder->ActuationJacobian(model.decoder_params.data(), z, &a);
-    } else {
-      DecoderWorkspace workspace;
-      model.decoder->Decode(model.decoder_params.data(), z, &a, &workspace);
+    bool want_bones = false;
+    for (size_t b = 1; jacobians != nullptr && b < parameter_block_sizes().size(); ++b) {
+      want_bones |= jacobians[b] != nullptr;
     }
-    std::vector<RigidTransform> bones = fitter_->bones_;
-    if (fit_bones_) {
-      for (size_t b = 0; b < bones.size(); ++b) bones[b] = BoneTransformFromParameters(parameters[1 + b]);
-    }
-    // The equilibrium at these parameters, warm-started from that of the last accepted
-    // point (never from a rejected trial's: with a non-convex energy the branch a solve
-    // lands on depends on its start, and the cost must be a function of the parameters
-    // along the branch the fit follows). The last evaluation is remembered, so that the
-    // Jacobian evaluation at an accepted point reuses its equilibrium.
-    Eigen::VectorXd key(parameter_count_);
-    for (int b = 0, offset = 0; b < static_cast<int>(parameter_block_sizes().size()); ++b) {
-      const int size = parameter_block_sizes()[b];
-      key.segment(offset, size) = Eigen::Map<const Eigen::VectorXd>(parameters[b], size);
-      offset += size;
-    }
-    if (!(last_key_.size() == key.size() && last_key_ == key)) {
-      // A trial latent far outside the training latents (absurd actuations): an
-      // unsuccessful step, not a long solve after absurd targets.
-      if (!(a.cwiseAbs().maxCoeff() <= kMaxFitActuationEntry)) return false;
-      QuasistaticSolver& solver = *fitter_->solver_;
-      solver.SetPositions(fitter_->accepted_state_);
-      solver.SetFixedPositions(ModelBoundaryConditions(model, bones).positions);
-      solver.actuation() = a;
-      WallTimer timer;
-      const QuasistaticSolveReport report = solver.Solve();
-      fitter_->stats_.solves += 1;
-      fitter_->stats_.solve_factorizations += report.factorizations;
-      fitter_->stats_.solve_seconds += timer.Seconds();
-      last_key_.resize(0);
-      if (!report.converged) return false;  // Ceres treats the step as unsuccessful
-      last_key_ = key;
-      last_state_ = solver.positions();
-    }
-    const Eigen::Matrix3Xd& x = last_state_;
-    // Trust-region minimizers evaluate Jacobians only at accepted points.
-    if (jacobians != nullptr) fitter_->accepted_state_ = x;
+    const FitEquilibrium::Point* point = equilibrium_->Prepare(parameters, want_z || want_bones);
+    if (point == nullptr) return false;  // Ceres treats the step as unsuccessful
+    const Eigen::Matrix3Xd& x = point->state;
+    const std::vector<Stencil>* stencils = &stencils_;
+    std::vector<Stencil> matched;
+    Eigen::Matrix3Xd cloud_rows;
     if (cloud_ != nullptr) {
-      MatchCloud(x, residuals);
+      MatchCloud(x, residuals, &matched, &cloud_rows);
+      stencils = &matched;
     } else {
       const int k = target_->num_points();
       for (int i = 0; i < k; ++i) {
@@ -317,24 +420,13 @@ class LatentFitter::FitCost final : public ceres::CostFunction {
         Eigen::Map<Eigen::Vector3d>(residuals + 3 * i) = s.projector * (p - target_->positions.col(i));
       }
     }
-    if (jacobians == nullptr) return true;
-    bool want_bones = false;
-    for (size_t b = 0; fit_bones_ && b < bones.size(); ++b) want_bones |= jacobians[1 + b] != nullptr;
     if (!want_z && !want_bones) return true;
-    std::string error;
-    WallTimer timer;
-    fitter_->stats_.jacobians += 1;
-    struct AddTime {
-      WallTimer& t;
-      double& sum;
-      ~AddTime() { sum += t.Seconds(); }
-    } add_time{timer, fitter_->stats_.jacobian_seconds};
-    if (!fitter_->differentiator_->Prepare(x, a, &error)) return false;
+    EquilibriumDifferentiator& differentiator = *fitter_->differentiator_;
     if (want_z) {
-      const Eigen::MatrixXd dx_dz = fitter_->differentiator_->ActuationJacobianProduct(da_dz);
-      FillJacobian(dx_dz, jacobians[0]);
+      FillJacobian(differentiator.ActuationJacobianProduct(point->da_dz), *stencils, cloud_rows,
+                   jacobians[0]);
     }
-    for (size_t b = 0; fit_bones_ && b < bones.size(); ++b) {
+    for (size_t b = 0; b + 1 < parameter_block_sizes().size(); ++b) {
       if (jacobians[1 + b] == nullptr) continue;
       Eigen::MatrixXd motion = Eigen::MatrixXd::Zero(3 * static_cast<Eigen::Index>(x.cols()), 6);
       for (int v : model.bones[b].vertices) {
@@ -342,7 +434,8 @@ class LatentFitter::FitCost final : public ceres::CostFunction {
             RotatedPointJacobian(parameters[1 + b], model.mesh.vertices.col(v));
         motion.block<3, 3>(3 * static_cast<Eigen::Index>(v), 3) = Eigen::Matrix3d::Identity();
       }
-      FillJacobian(fitter_->differentiator_->FixedVertexJacobianProduct(motion), jacobians[1 + b]);
+      FillJacobian(differentiator.FixedVertexJacobianProduct(motion), *stencils, cloud_rows,
+                   jacobians[1 + b]);
     }
     return true;
   }
@@ -372,19 +465,21 @@ class LatentFitter::FitCost final : public ceres::CostFunction {
     }
   }
 
-  // Row-major (3K x columns) Jacobian of the residuals from dx (3 num_vertices x columns).
-  void FillJacobian(const Eigen::MatrixXd& dx, double* out) const {
+  // Row-major (3K x columns; cloud mode M x columns) Jacobian of the residuals from dx
+  // (3 num_vertices x columns), through the points' stencils (and cloud mode's rows).
+  void FillJacobian(const Eigen::MatrixXd& dx, const std::vector<Stencil>& stencils,
+                    const Eigen::Matrix3Xd& cloud_rows, double* out) const {
     const Eigen::Index columns = dx.cols();
     if (cloud_ != nullptr) {  // one row per scan point: g_i^T dp_i
       Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> jac(
           out, cloud_->cols(), columns);
       for (Eigen::Index i = 0; i < cloud_->cols(); ++i) {
-        const Stencil& s = stencils_[i];
+        const Stencil& s = stencils[i];
         Eigen::RowVectorXd row = Eigen::RowVectorXd::Zero(columns);
-        if (cloud_rows_.col(i).squaredNorm() > 0) {
+        if (cloud_rows.col(i).squaredNorm() > 0) {
           for (int j = 0; j < 12; ++j) {
             if (s.weight[j] != 0.0) {
-              row += s.weight[j] * (cloud_rows_.col(i).transpose() *
+              row += s.weight[j] * (cloud_rows.col(i).transpose() *
                                     dx.middleRows(3 * static_cast<Eigen::Index>(s.vertex[j]), 3));
             }
           }
@@ -396,7 +491,7 @@ class LatentFitter::FitCost final : public ceres::CostFunction {
     Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> jac(
         out, 3 * target_->num_points(), columns);
     for (int i = 0; i < target_->num_points(); ++i) {
-      const Stencil& s = stencils_[i];
+      const Stencil& s = stencils[i];
       Eigen::MatrixXd dp = Eigen::MatrixXd::Zero(3, columns);
       for (int j = 0; j < 12; ++j) {
         if (s.weight[j] != 0.0) dp += s.weight[j] * dx.middleRows(3 * static_cast<Eigen::Index>(s.vertex[j]), 3);
@@ -406,31 +501,14 @@ class LatentFitter::FitCost final : public ceres::CostFunction {
   }
 
   LatentFitter* fitter_;
+  FitEquilibrium* equilibrium_;
+  std::unique_ptr<FitEquilibrium> own_equilibrium_;
   FitTarget own_target_;  // empty: cloud mode
   const FitTarget* target_;
-  bool fit_bones_;
   const Eigen::Matrix3Xd* cloud_ = nullptr;
   PointCloudFitOptions cloud_options_;
-  // Per target point: fixed, or (cloud mode) of the last matching.
-  mutable std::vector<Stencil> stencils_;
-  mutable Eigen::Matrix3Xd cloud_rows_;
-  int parameter_count_ = 0;
-  // The last evaluated parameters (all blocks, concatenated) and their equilibrium.
-  mutable Eigen::VectorXd last_key_;
-  mutable Eigen::Matrix3Xd last_state_;
-
- public:
-  // Seeds the remembered evaluation: `state` is the equilibrium at parameters `key`
-  // (all blocks, concatenated), so that evaluating there solves nothing.
-  void Seed(const Eigen::VectorXd& key, const Eigen::Matrix3Xd& state) {
-    CHECK_EQ(key.size(), parameter_count_);
-    last_key_ = key;
-    last_state_ = state;
-  }
-  // The equilibrium at `key` if it is the last evaluated point, else nullptr.
-  const Eigen::Matrix3Xd* StateAt(const Eigen::VectorXd& key) const {
-    return last_key_.size() == key.size() && last_key_ == key ? &last_state_ : nullptr;
-  }
+  // Per target point (fixed targets; cloud mode matches at every evaluation).
+  std::vector<Stencil> stencils_;
 };
 
 LatentFitter::LatentFitter(const ActiveModel& model, const LatentFitOptions& options)
@@ -466,12 +544,18 @@ double LatentFitter::FactorNonzeros() {
 Eigen::VectorXd LatentFitter::MeanLatent() const { return model_.latents.rowwise().mean(); }
 
 ceres::CostFunction* LatentFitter::NewCostFunction(const FitTarget& target) {
-  return new FitCost(this, target, options_.fit_bones && !model_.bones.empty());
+  auto equilibrium = std::make_unique<FitEquilibrium>(this, options_.fit_bones && !model_.bones.empty());
+  auto* cost = new FitCost(this, equilibrium.get(), target);
+  cost->Own(std::move(equilibrium));
+  return cost;
 }
 
 ceres::CostFunction* LatentFitter::NewCloudCostFunction(const Eigen::Matrix3Xd& points,
                                                        const PointCloudFitOptions& options) {
-  return new FitCost(this, points, options, options_.fit_bones && !model_.bones.empty());
+  auto equilibrium = std::make_unique<FitEquilibrium>(this, options_.fit_bones && !model_.bones.empty());
+  auto* cost = new FitCost(this, equilibrium.get(), points, options);
+  cost->Own(std::move(equilibrium));
+  return cost;
 }
 
 void LatentFitter::set_start_state(const Eigen::Matrix3Xd& state) {
@@ -541,23 +625,28 @@ bool LatentFitter::Fit(const FitTarget& target, const Eigen::VectorXd& initial,
   for (size_t b = 0; b < model_.bones.size(); ++b) {
     BoneTransformToParameters(bones_[b], bone_parameters[b].data());
   }
-  ceres::Problem problem;
   std::vector<double*> blocks = {z.data()};
   if (fit_bones) {
     for (auto& p : bone_parameters) blocks.push_back(p.data());
   }
+  // Solves and differentiates before Ceres evaluates the residuals (see FitEquilibrium).
+  FitEquilibrium equilibrium(this, fit_bones);
+  equilibrium.set_blocks(blocks);
+  ceres::Problem::Options problem_options;
+  problem_options.evaluation_callback = &equilibrium;
+  ceres::Problem problem(problem_options);
   double total_weight = 0.0;
   FitCost* data_cost = nullptr;
   if (direct_cloud_ != nullptr) {
-    data_cost = new FitCost(this, *direct_cloud_, direct_cloud_options_, fit_bones);
+    data_cost = new FitCost(this, &equilibrium, *direct_cloud_, direct_cloud_options_);
     total_weight = static_cast<double>(direct_cloud_->cols());
     if (options_.prior_points_cap > 0) total_weight = std::min(total_weight, options_.prior_points_cap);
   } else {
-    data_cost = new FitCost(this, target, fit_bones);
+    data_cost = new FitCost(this, &equilibrium, target);
     total_weight = PriorPoints(target, options_.prior_points_cap);
   }
   problem.AddResidualBlock(data_cost, nullptr, blocks);
-  // The parameters, all blocks concatenated (FitCost's key).
+  // The parameters, all blocks concatenated (FitEquilibrium's key).
   auto key = [&]() {
     Eigen::VectorXd k(z.size() + (fit_bones ? 6 * static_cast<Eigen::Index>(bone_parameters.size()) : 0));
     k.head(z.size()) = z;
@@ -566,7 +655,7 @@ bool LatentFitter::Fit(const FitTarget& target, const Eigen::VectorXd& initial,
     }
     return k;
   };
-  data_cost->Seed(key(), state);  // the start's equilibrium is known
+  equilibrium.Seed(key(), state, bones_);  // the start's equilibrium is known
   if (options_.latent_regularization > 0) {
     problem.AddResidualBlock(new LatentPrior(d, options_.latent_regularization), nullptr, z.data());
   }
@@ -599,7 +688,7 @@ bool LatentFitter::Fit(const FitTarget& target, const Eigen::VectorXd& initial,
   // The final point's equilibrium: the last evaluation's when that was the final point
   // (Ceres ends on an accepted point), else solved again.
   bool simulated = true;
-  if (const Eigen::Matrix3Xd* known = data_cost->StateAt(key())) {
+  if (const Eigen::Matrix3Xd* known = equilibrium.StateAt(key())) {
     state = *known;
     accepted_state_ = state;
     surface = EmbeddedPositions(model_.embedding, model_.mesh.tets, state);

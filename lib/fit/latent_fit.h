@@ -222,13 +222,16 @@ class LatentFitter {
 
   // The data cost Fit minimizes, as a Ceres cost function (parameter blocks: z, then 6
   // numbers per bone if bones are fitted), for derivative tests. `target` must outlive
-  // it; it uses this fitter's solver.
+  // it; it uses this fitter's solver. Each evaluation solves warm from the current start
+  // state (set_start_state), which it never moves: its residuals and Jacobians are a
+  // function of the parameters alone.
   ceres::CostFunction* NewCostFunction(const FitTarget& target);
   // The same for a point cloud's re-matched robust distances (`points` must outlive it).
   ceres::CostFunction* NewCloudCostFunction(const Eigen::Matrix3Xd& points,
                                             const PointCloudFitOptions& options);
 
  private:
+  class FitEquilibrium;
   class FitCost;
   const ActiveModel& model_;
   LatentFitOptions options_;

@@ -151,6 +151,44 @@ TEST(LatentFitTest, TrialEvaluationsDoNotChangeLaterOnes) {
   EXPECT_EQ((again - first).cwiseAbs().maxCoeff(), 0.0);
 }
 
+TEST(LatentFitTest, StandaloneCostIsAFunctionOfItsParameters) {
+  // Without Ceres' evaluation callback (FitEquilibrium), no evaluation moves the start of
+  // the next solve, not even one with Jacobians: p1, then p2 with Jacobians, then p1
+  // again gives p1's residuals and Jacobians bit for bit.
+  const ActiveModel model = TrainedModel(true);
+  LatentFitter fitter(model, LatentFitOptions());
+  std::vector<int> vertices = {3, 20, 41, 57, 77};
+  const FitTarget target = VertexTarget(vertices, model.neutral.vertices(Eigen::all, vertices));
+  std::unique_ptr<ceres::CostFunction> cost(fitter.NewCostFunction(target));
+  Eigen::VectorXd z1 = model.latents.col(2), z2 = model.latents.col(5);
+  double bone1[6] = {0.05, -0.03, 0.02, 0.01, 0.02, -0.01}, bone2[6] = {-0.2, 0.1, 0.0, 0.1, 0, 0};
+  const double* p1[2] = {z1.data(), bone1};
+  const double* p2[2] = {z2.data(), bone2};
+  const int n = cost->num_residuals();
+  const int d = model.latent_dim();
+  auto evaluate = [&](const double** p, Eigen::VectorXd* r, Eigen::MatrixXd* jz, Eigen::MatrixXd* jb) {
+    r->resize(n);
+    jz->resize(n, d);
+    jb->resize(n, 6);
+    // Row-major Jacobian blocks, as Ceres passes them.
+    std::vector<double> z_rows(static_cast<size_t>(n) * d), bone_rows(static_cast<size_t>(n) * 6);
+    double* jacobians[2] = {z_rows.data(), bone_rows.data()};
+    if (!cost->Evaluate(p, r->data(), jacobians)) return false;
+    *jz = Eigen::Map<Eigen::Matrix<double, -1, -1, Eigen::RowMajor>>(z_rows.data(), n, d);
+    *jb = Eigen::Map<Eigen::Matrix<double, -1, -1, Eigen::RowMajor>>(bone_rows.data(), n, 6);
+    return true;
+  };
+  Eigen::VectorXd r1, r2, r3;
+  Eigen::MatrixXd jz1, jb1, jz2, jb2, jz3, jb3;
+  ASSERT_TRUE(evaluate(p1, &r1, &jz1, &jb1));
+  ASSERT_TRUE(evaluate(p2, &r2, &jz2, &jb2));
+  ASSERT_TRUE(evaluate(p1, &r3, &jz3, &jb3));
+  EXPECT_GT((r2 - r1).norm(), 1e-3);
+  EXPECT_EQ((r3 - r1).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_EQ((jz3 - jz1).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_EQ((jb3 - jb1).cwiseAbs().maxCoeff(), 0.0);
+}
+
 TEST(LatentFitTest, RecoversAKnownLatentFromAnotherStart) {
   const ActiveModel model = TrainedModel(false);
   LatentFitOptions options;
