@@ -1,5 +1,6 @@
 #include "train/end_to_end_objective.h"
 
+#include <cstring>
 #include <limits>
 
 #include <glog/logging.h>
@@ -152,20 +153,12 @@ double EndToEndObjective::max_surface_error() const {
   return worst;
 }
 
-uint64_t EndToEndObjective::Key(const double* parameters) const {
-  // FNV-1a over the bytes of the parameter vector.
-  const auto* bytes = reinterpret_cast<const unsigned char*>(parameters);
-  const size_t n = sizeof(double) * static_cast<size_t>(NumParameters());
-  uint64_t hash = 1469598103934665603ull;
-  for (size_t i = 0; i < n; ++i) hash = (hash ^ bytes[i]) * 1099511628211ull;
-  return hash;
-}
-
 bool EndToEndObjective::StatesAt(const double* parameters,
                                  std::vector<Eigen::Matrix3Xd>* states) const {
-  const uint64_t key = Key(parameters);
+  const size_t bytes = sizeof(double) * static_cast<size_t>(NumParameters());
   for (auto it = remembered_.rbegin(); it != remembered_.rend(); ++it) {
-    if (it->key == key) {
+    // Bit for bit: the point a line search accepted is one it evaluated.
+    if (std::memcmp(it->parameters.data(), parameters, bytes) == 0) {
       *states = it->states;
       return true;
     }
@@ -435,7 +428,8 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
   if (static_cast<int>(remembered_.size()) == kRememberedEvaluations) {
     remembered_.erase(remembered_.begin());
   }
-  remembered_.push_back({Key(parameters), states_});
+  remembered_.push_back(
+      {Eigen::Map<const Eigen::VectorXd>(parameters, NumParameters()), states_});
   if (distributed()) {
     // Per pose loss, mean and max error on rank 0: each is non-zero on its owner only,
     // so the sums are exact.

@@ -178,10 +178,9 @@ class EndToEndObjective final : public ceres::FirstOrderFunction {
   // Per pose: the relative shift its last adjoint needed (0: none, the exact K).
   mutable std::vector<double> adjoint_shift_;
   struct Remembered {
-    uint64_t key = 0;  // hash of the parameter vector
+    Eigen::VectorXd parameters;  // NumParameters(), compared bit for bit
     std::vector<Eigen::Matrix3Xd> states;
   };
-  uint64_t Key(const double* parameters) const;
   mutable std::vector<Remembered> remembered_;  // newest last
   mutable std::string last_failure_;
   WallTimer timer_;
