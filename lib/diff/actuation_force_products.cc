@@ -12,7 +12,8 @@ Eigen::MatrixXd ActuationForceProducts(const ShapeTargetModel& model,
                                        const StiffnessPattern& pattern,
                                        const ShapeTargetModel::PositionsRef& x,
                                        const ShapeTargetModel::ActuationRef& a,
-                                       const Eigen::MatrixXd& directions, int num_threads) {
+                                       const Eigen::MatrixXd& directions, int num_threads,
+                                       const PolarCache* cache) {
   const int num_elements = model.num_elements();
   CHECK_EQ(directions.rows(), 6 * static_cast<Eigen::Index>(num_elements));
   const int k = static_cast<int>(directions.cols());
@@ -20,8 +21,9 @@ Eigen::MatrixXd ActuationForceProducts(const ShapeTargetModel& model,
   // Per element and direction, V (dP/dS [dS_e]) b_j at its vertex j: formed in parallel,
   // then scattered serially (cheap).
   std::vector<Eigen::Matrix<double, 3, 4>> nodal(static_cast<size_t>(num_elements) * k);
+  const PolarCache* known = cache != nullptr && cache->Matches(x, a) ? cache : nullptr;
   ParallelFor(num_threads, 0, num_elements, [&](int, int e) {
-    const ShapeTargetElement element = model.Element(x, a, e);
+    const ShapeTargetElement element = model.Element(x, a, e, known);
     const double volume = model.rest_shape(e).volume;
     for (int c = 0; c < k; ++c) {
       const Eigen::Matrix3d ds = SymmetricFromActuation(directions.col(c).data() + 6 * e);

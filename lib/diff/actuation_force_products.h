@@ -16,12 +16,14 @@ namespace aqs {
 // B = d2E/(dx da) at (x, a): per element, V_e (dP/dS [dS_e]) b_j at its vertex j.
 //
 // Then dx*/da v = K^-1 (-B v) (the tangent of the equilibrium), and a state x* of a
-// moved to a + v is predicted to first order by x* + K^-1 (-B v).
+// moved to a + v is predicted to first order by x* + K^-1 (-B v). The elements' SVDs
+// are read from `cache` if it is non-null and matches (x, a).
 Eigen::MatrixXd ActuationForceProducts(const ShapeTargetModel& model,
                                        const StiffnessPattern& pattern,
                                        const ShapeTargetModel::PositionsRef& x,
                                        const ShapeTargetModel::ActuationRef& a,
-                                       const Eigen::MatrixXd& directions, int num_threads);
+                                       const Eigen::MatrixXd& directions, int num_threads,
+                                       const PolarCache* cache = nullptr);
 
 }  // namespace aqs
 

@@ -103,8 +103,14 @@ ActuationMatrix EquilibriumDifferentiator::LossGradient(const Eigen::Matrix3Xd& 
   return GradientFromAdjoint(SolveAdjoint(dl_dx));
 }
 
+const PolarCache* EquilibriumDifferentiator::CacheAtState() const {
+  const PolarCache& cache = factorization_->polar_cache();
+  return cache.Matches(x_, a_) ? &cache : nullptr;
+}
+
 ActuationMatrix EquilibriumDifferentiator::GradientFromAdjoint(const Eigen::Matrix3Xd& lambda) {
   WallTimer timer;
+  const PolarCache* cache = CacheAtState();
   ActuationMatrix gradient(6, model_.num_elements());
   const Eigen::Matrix4Xi& tets = model_.tets();
   ParallelFor(options_.num_threads, 0, model_.num_elements(), [&](int, int e) {
@@ -113,7 +119,7 @@ ActuationMatrix EquilibriumDifferentiator::GradientFromAdjoint(const Eigen::Matr
         model_.gradient_weights(e), lambda.col(tets(0, e)).data(),
         lambda.col(tets(1, e)).data(), lambda.col(tets(2, e)).data(),
         lambda.col(tets(3, e)).data());
-    const ShapeTargetElement element = model_.Element(x_, a_, e);
+    const ShapeTargetElement element = model_.Element(x_, a_, e, cache);
     gradient.col(e) = -model_.rest_shape(e).volume * element.StressActuationAdjoint(df);
   });
   timings_.accumulation = timer.Seconds();
@@ -128,7 +134,8 @@ Eigen::MatrixXd EquilibriumDifferentiator::ActuationJacobianProduct(
   const int k = static_cast<int>(directions.cols());
   WallTimer timer;
   const Eigen::MatrixXd rhs = ActuationForceProducts(model_, factorization_->pattern(), x_, a_,
-                                                     directions, options_.num_threads);
+                                                     directions, options_.num_threads,
+                                                     CacheAtState());
   timings_.accumulation = timer.Seconds();
   const Eigen::MatrixXd dx_free = factorization_->SolveFree(rhs);
   timings_.solve = factorization_->timings().solve;
@@ -155,12 +162,13 @@ Eigen::MatrixXd EquilibriumDifferentiator::FixedVertexJacobianProduct(const Eige
   const StiffnessPattern& pattern = factorization_->pattern();
   const Eigen::Matrix4Xi& tets = model_.tets();
   WallTimer timer;
+  const PolarCache* cache = CacheAtState();
   Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(pattern.num_dofs(), k);
   for (int e = 0; e < model_.num_elements(); ++e) {
     int fixed = 0;
     for (int j = 0; j < 4; ++j) fixed += pattern.free_index(tets(j, e)) < 0;
     if (fixed == 0 || fixed == 4) continue;
-    const ShapeTargetElement element = model_.Element(x_, a_, e);
+    const ShapeTargetElement element = model_.Element(x_, a_, e, cache);
     const Matrix9d h = element.StressDerivative();
     const Eigen::Matrix<double, 3, 4>& b = model_.gradient_weights(e);
     const double volume = model_.rest_shape(e).volume;

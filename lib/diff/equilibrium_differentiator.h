@@ -122,6 +122,9 @@ class EquilibriumDifferentiator {
                  bool defer, double relative_shift, std::string* error);
   // dL/da from the adjoint lambda (3 x num_vertices) at the prepared state.
   ActuationMatrix GradientFromAdjoint(const Eigen::Matrix3Xd& lambda);
+  // The factorization's element SVDs if they are at the prepared state (x_, a_), else
+  // nullptr (see PolarCache).
+  const PolarCache* CacheAtState() const;
   DifferentiationTimings timings_;
 };
 

@@ -66,11 +66,13 @@ class EnergyTerm {
 };
 
 // E(x, a) + sum of the terms' energies, and the total gradient (3 x num_vertices).
+// `cache` as in ShapeTargetModel::EnergyAndGradient (may be null).
 double TotalEnergyAndGradient(const ShapeTargetModel& model,
                               const std::vector<const EnergyTerm*>& terms,
                               const ShapeTargetModel::PositionsRef& x,
                               const ShapeTargetModel::ActuationRef& a,
-                              Eigen::Matrix3Xd* gradient, int num_threads);
+                              Eigen::Matrix3Xd* gradient, int num_threads,
+                              PolarCache* cache = nullptr);
 
 }  // namespace aqs
 

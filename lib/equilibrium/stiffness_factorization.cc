@@ -32,7 +32,7 @@ void StiffnessFactorization::Assemble(const ShapeTargetModel::PositionsRef& x,
                                       const ShapeTargetModel::ActuationRef& a, StiffnessKind kind) {
   timings_ = FactorizationTimings();
   WallTimer timer;
-  AssembleStiffness(model_, pattern_, x, a, kind, num_threads_, &values_);
+  AssembleStiffness(model_, pattern_, x, a, kind, num_threads_, &values_, &polar_cache_);
   for (const EnergyTerm* term : terms_) {
     CHECK(term->SupportsStiffness()) << "an energy term without a stiffness on the mesh's pattern";
     term->AddStiffness(x, pattern_, kind, &values_);
@@ -84,7 +84,7 @@ bool StiffnessFactorization::FactorizeAssembled(double relative_shift, std::stri
 double StiffnessFactorization::EnergyAndGradient(const ShapeTargetModel::PositionsRef& x,
                                                  const ShapeTargetModel::ActuationRef& a,
                                                  Eigen::Matrix3Xd* gradient) const {
-  return TotalEnergyAndGradient(model_, terms_, x, a, gradient, num_threads_);
+  return TotalEnergyAndGradient(model_, terms_, x, a, gradient, num_threads_, &polar_cache_);
 }
 
 Eigen::VectorXd StiffnessFactorization::GatherFree(const Eigen::Matrix3Xd& per_vertex) const {

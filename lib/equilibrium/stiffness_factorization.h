@@ -72,7 +72,8 @@ class StiffnessFactorization {
   // and their gradients to EnergyAndGradient. Not owned.
   void set_energy_terms(const std::vector<const EnergyTerm*>& terms) { terms_ = terms; }
   const std::vector<const EnergyTerm*>& energy_terms() const { return terms_; }
-  // The system's total energy and gradient (model plus terms) at (x, a).
+  // The system's total energy and gradient (model plus terms) at (x, a). Keeps the
+  // elements' SVDs at (x, a) in polar_cache(), which Assemble at the same (x, a) reads.
   double EnergyAndGradient(const ShapeTargetModel::PositionsRef& x,
                            const ShapeTargetModel::ActuationRef& a,
                            Eigen::Matrix3Xd* gradient) const;
@@ -131,6 +132,8 @@ class StiffnessFactorization {
   const std::vector<double>& values() const { return values_; }
   int num_threads() const { return num_threads_; }
   const FactorizationTimings& timings() const { return timings_; }
+  // The elements' SVDs at the state of the last EnergyAndGradient (see PolarCache).
+  const PolarCache& polar_cache() const { return polar_cache_; }
 
  private:
   const ShapeTargetModel& model_;
@@ -145,6 +148,7 @@ class StiffnessFactorization {
   FactorizationCounters counters_;
   std::vector<const EnergyTerm*> terms_;
   FactorizationTimings timings_;
+  mutable PolarCache polar_cache_;  // a cache: filled by the const EnergyAndGradient
 };
 
 }  // namespace aqs

@@ -28,6 +28,13 @@ ShapeTargetElement::ShapeTargetElement(const Eigen::Matrix3d& f, const Eigen::Ma
   twists_ = ComputePolarTwists(svd_);
 }
 
+ShapeTargetElement::ShapeTargetElement(const Eigen::Matrix3d& f, const Eigen::Matrix3d& s,
+                                       double mu, const RotationVariantSvd& svd)
+    : f_(f), s_(s), mu_(mu), svd_(svd) {
+  r_ = PolarRotation(svd_);
+  twists_ = ComputePolarTwists(svd_);
+}
+
 double ShapeTargetElement::EnergyDensity() const { return mu_ * Deviation().squaredNorm(); }
 
 Eigen::Matrix3d ShapeTargetElement::Stress() const { return 2.0 * mu_ * Deviation(); }

@@ -31,6 +31,10 @@ Eigen::Matrix3d UnvecRowMajor(const Vector9d& v);
 class ShapeTargetElement {
  public:
   ShapeTargetElement(const Eigen::Matrix3d& f, const Eigen::Matrix3d& s, double mu);
+  // The same with the rotation-variant SVD of F S given (it must be that of f * s, e.g.
+  // from a PolarCache at this state).
+  ShapeTargetElement(const Eigen::Matrix3d& f, const Eigen::Matrix3d& s, double mu,
+                     const RotationVariantSvd& svd);
 
   const Eigen::Matrix3d& f() const { return f_; }
   const Eigen::Matrix3d& s() const { return s_; }

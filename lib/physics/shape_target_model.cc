@@ -43,7 +43,11 @@ Eigen::Matrix3d ShapeTargetModel::DeformationGradient(const PositionsRef& x, int
 }
 
 ShapeTargetElement ShapeTargetModel::Element(const PositionsRef& x, const ActuationRef& a,
-                                             int e) const {
+                                             int e, const PolarCache* cache) const {
+  if (cache != nullptr) {
+    return ShapeTargetElement(DeformationGradient(x, e), SymmetricFromActuation(a.col(e).data()),
+                              mu_[e], cache->svd(e));
+  }
   return ShapeTargetElement(DeformationGradient(x, e), SymmetricFromActuation(a.col(e).data()),
                             mu_[e]);
 }
@@ -63,20 +67,25 @@ double ShapeTargetModel::Energy(const PositionsRef& x, const ActuationRef& a,
 }
 
 double ShapeTargetModel::EnergyAndGradient(const PositionsRef& x, const ActuationRef& a,
-                                           Eigen::Matrix3Xd* gradient,
-                                           int num_threads) const {
+                                           Eigen::Matrix3Xd* gradient, int num_threads,
+                                           PolarCache* cache) const {
   CHECK_EQ(x.cols(), num_vertices_);
   CHECK_EQ(a.cols(), num_elements());
   const int threads = ParallelForThreadCount(num_threads, num_elements());
   std::vector<Eigen::Matrix3Xd> partial(threads, Eigen::Matrix3Xd::Zero(3, num_vertices_));
   std::vector<double> energy(threads, 0.0);
+  const PolarCache* known = cache != nullptr && cache->Matches(x, a) ? cache : nullptr;
+  PolarCache* fill = cache != nullptr && known == nullptr ? cache : nullptr;
+  if (fill != nullptr) fill->Begin(x, a, num_elements());
   ParallelFor(threads, 0, num_elements(), [&](int t, int e) {
-    const ShapeTargetElement element = Element(x, a, e);
+    const ShapeTargetElement element = Element(x, a, e, known);
+    if (fill != nullptr) fill->Store(e, element.svd());
     const double volume = rest_shapes_[e].volume;
     energy[t] += volume * element.EnergyDensity();
     const Eigen::Matrix<double, 3, 4> nodal = volume * element.Stress() * weights_[e];
     for (int k = 0; k < 4; ++k) partial[t].col(tets_(k, e)) += nodal.col(k);
   });
+  if (fill != nullptr) fill->Finish();
   *gradient = partial[0];
   double total = energy[0];
   for (int t = 1; t < threads; ++t) {

@@ -8,6 +8,7 @@
 #include "mesh/tet_mesh.h"
 #include "physics/actuation.h"
 #include "physics/element_geometry.h"
+#include "physics/polar_cache.h"
 #include "physics/shape_target_element.h"
 
 namespace aqs {
@@ -48,14 +49,18 @@ class ShapeTargetModel {
 
   // F_e at positions x.
   Eigen::Matrix3d DeformationGradient(const PositionsRef& x, int e) const;
-  // The element's derivative helper at (F_e(x), S_e(a), mu_e).
-  ShapeTargetElement Element(const PositionsRef& x, const ActuationRef& a, int e) const;
+  // The element's derivative helper at (F_e(x), S_e(a), mu_e). With a non-null `cache`,
+  // which must match (x, a) (PolarCache::Matches), its SVD is read there.
+  ShapeTargetElement Element(const PositionsRef& x, const ActuationRef& a, int e,
+                             const PolarCache* cache = nullptr) const;
 
   // E(x, a).
   double Energy(const PositionsRef& x, const ActuationRef& a, int num_threads = 1) const;
-  // dE/dx (3 x num_vertices; the nodal forces are its negative). Returns E.
+  // dE/dx (3 x num_vertices; the nodal forces are its negative). Returns E. With a
+  // non-null `cache`: its SVDs are used if it matches (x, a), else it is filled at (x, a).
   double EnergyAndGradient(const PositionsRef& x, const ActuationRef& a,
-                           Eigen::Matrix3Xd* gradient, int num_threads = 1) const;
+                           Eigen::Matrix3Xd* gradient, int num_threads = 1,
+                           PolarCache* cache = nullptr) const;
 
  private:
   int num_vertices_;

@@ -10,11 +10,12 @@ namespace aqs {
 void AssembleStiffness(const ShapeTargetModel& model, const StiffnessPattern& pattern,
                        const ShapeTargetModel::PositionsRef& x,
                        const ShapeTargetModel::ActuationRef& a, StiffnessKind kind,
-                       int num_threads, std::vector<double>* values) {
+                       int num_threads, std::vector<double>* values, const PolarCache* cache) {
   CHECK_EQ(pattern.num_vertices(), model.num_vertices());
   const size_t nnz = static_cast<size_t>(pattern.num_nonzeros());
   const int num_elements = model.num_elements();
   const int threads = ParallelForThreadCount(num_threads, num_elements);
+  const PolarCache* known = cache != nullptr && cache->Matches(x, a) ? cache : nullptr;
   values->assign(nnz, 0.0);
   std::vector<std::vector<double>> extra(threads > 1 ? threads - 1 : 0,
                                          std::vector<double>(nnz, 0.0));
@@ -24,7 +25,7 @@ void AssembleStiffness(const ShapeTargetModel& model, const StiffnessPattern& pa
     if (kind == StiffnessKind::kRotationFixed) {
       h = 2.0 * model.mu(e) * Eigen::Matrix<double, 9, 9>::Identity();
     } else {
-      const ShapeTargetElement element = model.Element(x, a, e);
+      const ShapeTargetElement element = model.Element(x, a, e, known);
       h = kind == StiffnessKind::kExact ? element.StressDerivative()
                                         : element.ProjectedStressDerivative();
     }

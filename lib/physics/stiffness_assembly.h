@@ -25,11 +25,13 @@ enum class StiffnessKind {
 // actuation a (6 x num_elements) on the free DOFs of `pattern`, into `values`
 // (resized to pattern.num_nonzeros(), upper-triangle CSC order of the pattern).
 // Elements are processed in parallel on num_threads threads, each accumulating into
-// its own copy of the values, summed at the end (memory: num_threads copies).
+// its own copy of the values, summed at the end (memory: num_threads copies). The
+// elements' SVDs are read from `cache` if it is non-null and matches (x, a).
 void AssembleStiffness(const ShapeTargetModel& model, const StiffnessPattern& pattern,
                        const ShapeTargetModel::PositionsRef& x,
                        const ShapeTargetModel::ActuationRef& a, StiffnessKind kind,
-                       int num_threads, std::vector<double>* values);
+                       int num_threads, std::vector<double>* values,
+                       const PolarCache* cache = nullptr);
 
 // The dense symmetric matrix (num_dofs x num_dofs) of upper-triangle CSC values, for
 // tests and small problems.
