@@ -11,10 +11,14 @@
 //   warm        re-solve after a 1% change of the actuation from the previous solution
 //   gradient    one adjoint gradient: assembly + factorization + solve + accumulation
 //   peak_mem    peak resident memory of the process so far
+//   svd         per element, the rotation-variant SVD of G_e = F_e S_e at the solved
+//               state: ActiveQS's (Jacobi and QR, physics/rotation_variant_svd.h) and
+//               Eigen's JacobiSVD (the reference), nanoseconds each, and their ratio
 // Optionally one LM iteration with the other orderings of QuasistaticSolverOptions
 // (ceres: Ceres' default static block AMD; c+post: with postordering; dynamic:
 // dynamic_sparsity, CHOLMOD re-orders every iteration).
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -32,6 +36,7 @@
 #include "equilibrium/quasistatic_solver.h"
 #include "mesh/lattice.h"
 #include "physics/actuation_fields.h"
+#include "physics/rotation_variant_svd.h"
 #include "util/atomic_file.h"
 #include "util/blas.h"
 #include "util/process_memory.h"
@@ -72,7 +77,26 @@ struct Row {
   double static_postordered_lm_iteration = 0;  // 0: not measured
   double dynamic_lm_iteration = 0;             // 0: not measured
   double peak_gb = 0;
+  double svd_ns = 0, svd_reference_ns = 0;  // per element, at the solved state
 };
+
+// Nanoseconds per element of `svd` over every element's G_e = F_e S_e at (x, a), best of 3.
+template <typename Svd>
+double SvdNanoseconds(const ShapeTargetModel& model, const Eigen::Matrix3Xd& x,
+                      const ActuationMatrix& a, Svd svd) {
+  std::vector<Eigen::Matrix3d> g(model.num_elements());
+  for (int e = 0; e < model.num_elements(); ++e) {
+    g[e] = model.DeformationGradient(x, e) * SymmetricFromActuation(a.col(e).data());
+  }
+  double best = 1e30, sink = 0.0;
+  for (int repeat = 0; repeat < 3; ++repeat) {
+    WallTimer timer;
+    for (const Eigen::Matrix3d& m : g) sink += svd(m).sigma[0];
+    best = std::min(best, timer.Seconds());
+  }
+  if (!std::isfinite(sink)) std::printf("  warning: a non-finite singular value\n");
+  return 1e9 * best / std::max(1, model.num_elements());
+}
 
 // Seconds of one LM iteration from rest with the given ordering of the normal equations.
 double OneIterationSeconds(const ShapeTargetModel& model, const BoundaryConditions& bc,
@@ -170,6 +194,9 @@ Row Measure(int n) {
     // One adjoint gradient of L = 1/2 |x - X|^2 at the solution, sharing the solver's
     // stiffness factorization (its symbolic analysis is already done).
     const Eigen::Matrix3Xd x = solver.positions();
+    row.svd_ns = SvdNanoseconds(model, x, solver.actuation(), ComputeRotationVariantSvd);
+    row.svd_reference_ns =
+        SvdNanoseconds(model, x, solver.actuation(), RotationVariantSvdReference);
     EquilibriumDifferentiator differentiator(solver.stiffness_factorization(),
                                              EquilibriumDifferentiatorOptions{FLAGS_threads});
     WallTimer timer;
@@ -242,12 +269,15 @@ int main(int argc, char** argv) {
                 ratio(r.dynamic_lm_iteration).c_str(), r.peak_gb);
     std::printf("         analysis %.3f s (%s, once per mesh); lm_iter = evaluation %.2f + linear "
                 "solver %.2f + other %.2f; gradient = assembly %.2f + factorization %.2f + solve "
-                "%.2f + accumulation %.2f\n",
+                "%.2f + accumulation %.2f\n"
+                "         svd per element at the solution: %.0f ns, Eigen's JacobiSVD %.0f ns "
+                "(%.2fx)\n",
                 r.analysis, r.ordering.c_str(), r.lm_evaluation / r.unit,
                 r.lm_linear_solver / r.unit,
                 (r.lm_iteration - r.lm_evaluation - r.lm_linear_solver) / r.unit,
                 r.gradient_assembly / r.unit, r.gradient_factorization / r.unit,
-                r.gradient_solve / r.unit, r.gradient_accumulation / r.unit);
+                r.gradient_solve / r.unit, r.gradient_accumulation / r.unit, r.svd_ns,
+                r.svd_reference_ns, r.svd_reference_ns / r.svd_ns);
     std::fflush(stdout);
   }
   std::printf("Ratios are to 'unit', one CHOLMOD numeric factorization of the same rest stiffness "
@@ -262,19 +292,20 @@ int main(int argc, char** argv) {
         "gradient_assembly_s,"
         "gradient_factorization_s,gradient_solve_s,gradient_accumulation_s,"
         "ceres_default_lm_iteration_s,ceres_default_postordered_lm_iteration_s,"
-        "dynamic_lm_iteration_s,peak_gb\n";
+        "dynamic_lm_iteration_s,peak_gb,svd_ns,svd_reference_ns\n";
     for (const aqs::Row& r : rows) {
       char line[1024];
       std::snprintf(line, sizeof(line),
                     "%d,%d,%.6g,%s,%.6g,%.6g,%.6g,%.6g,%d,%.6g,%d,%.6g,%d,%d,%.6g,%d,%d,%.6g,%.6g,"
                     "%.6g,%.6g,%.6g,%.6g,"
-                    "%.6g,%.6g,%.6g\n",
+                    "%.6g,%.6g,%.6g,%.6g,%.6g\n",
                     r.elements, r.dofs, r.factor_nonzeros, r.ordering.c_str(), r.analysis, r.unit,
                     r.lm_iteration, r.lm_solve, r.lm_solve_iterations, r.lm_warm,
                     r.lm_warm_iterations, r.solve, r.solve_lm, r.solve_newton, r.warm, r.warm_lm,
                     r.warm_newton, r.gradient, r.gradient_assembly, r.gradient_factorization, r.gradient_solve,
                     r.gradient_accumulation, r.static_lm_iteration,
-                    r.static_postordered_lm_iteration, r.dynamic_lm_iteration, r.peak_gb);
+                    r.static_postordered_lm_iteration, r.dynamic_lm_iteration, r.peak_gb,
+                    r.svd_ns, r.svd_reference_ns);
       csv += line;
     }
     std::string error;

@@ -78,13 +78,17 @@ class TrainingCallback final : public ceres::IterationCallback {
     if (options_.log_every > 0 && (s.iteration % options_.log_every == 0)) {
       char line[320];
       const int planned = options_.max_iterations - first_;
+      // The iteration cap's estimate, or the time budget's rest if that ends sooner.
+      double remaining = EstimateRemaining(iteration - first_, planned, elapsed);
+      if (options_.max_seconds > 0) {
+        remaining = std::min(remaining, std::max(0.0, options_.max_seconds - elapsed));
+      }
       std::snprintf(line, sizeof(line),
                     "  train iter %5d/%d  loss %.6e  surface mean %.4g max %.4g  |g| %.3e  %s  "
                     "ETA %s\n",
                     iteration, options_.max_iterations, s.cost, objective_.mean_surface_error(),
                     objective_.max_surface_error(), s.gradient_norm,
-                    FormatDuration(elapsed).c_str(),
-                    FormatDuration(EstimateRemaining(iteration - first_, planned, elapsed)).c_str());
+                    FormatDuration(elapsed).c_str(), FormatDuration(remaining).c_str());
       log_ << line << std::flush;
     }
     if (!options_.model_directory.empty()) {
