@@ -39,6 +39,12 @@ class PolarCache {
   // Forgets the state (e.g. after a change of the model's rest shape or stiffness).
   void Clear() { valid_ = false; }
 
+  // The bytes a filled cache takes for a mesh of this size (its SVDs and copies of x, a).
+  static double BytesFor(int num_vertices, int num_elements) {
+    return static_cast<double>(sizeof(RotationVariantSvd) + 6 * sizeof(double)) * num_elements +
+           3.0 * sizeof(double) * num_vertices;
+  }
+
  private:
   bool valid_ = false;
   Eigen::Matrix3Xd x_;

@@ -49,7 +49,10 @@ EndToEndObjective::EndToEndObjective(const TrainOptions& options, const ActiveMo
   // symbolic analysis gives the factor's size.
   auto first = std::make_unique<QuasistaticSolver>(physics_, bc, solver_options);
   first->stiffness_factorization()->Analyze();
-  factor_gb_ = 8.0 * first->stiffness_factorization()->cholesky().factor_nonzeros() / 1e9;
+  // A solver's factor and its element SVD cache (physics/polar_cache.h).
+  factor_gb_ = (8.0 * first->stiffness_factorization()->cholesky().factor_nonzeros() +
+                PolarCache::BytesFor(physics_.num_vertices(), physics_.num_elements())) /
+               1e9;
   // (The budget is per process; the choice also depends on the pose count in all, so
   // that a rank owning one pose of many keeps its factor as one process would.)
   solver_per_pose_ = num_poses_ > 1 && factor_gb_ * num_owned <= options.max_factor_cache_gb;

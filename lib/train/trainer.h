@@ -25,7 +25,8 @@ struct TrainOptions {
   QuasistaticSolverOptions solver;
   int num_threads = 2;  // poses solved in parallel
   // Keep one solver, with its stiffness factor, per pose while all the factors together
-  // take at most this many GB (estimated from CHOLMOD's symbolic analysis): each pose's
+  // take at most this many GB (estimated from CHOLMOD's symbolic analysis, with each
+  // solver's element SVD cache, physics/polar_cache.h): each pose's
   // factor then preconditions its next evaluation's Newton steps and adjoint by CG,
   // which mostly needs no factorization. Above it, one solver per thread (every
   // evaluation factorizes; its adjoint still reuses the solve's last factor).
