@@ -170,7 +170,6 @@ class LatentFitter::FitEquilibrium final : public ceres::EvaluationCallback {
     bool differentiated = false;  // da_dz computed and the differentiator prepared at state
     ActuationMatrix a;
     Eigen::MatrixXd da_dz;  // (6 num_elements) x latent_dim
-    std::vector<RigidTransform> bones;
     Eigen::Matrix3Xd state;
   };
 
@@ -209,10 +208,10 @@ class LatentFitter::FitEquilibrium final : public ceres::EvaluationCallback {
     if (!(point_.key.size() == key.size() && point_.key == key)) {
       point_ = Point();
       point_.key = key;
-      point_.bones = fitter_->bones_;
+      std::vector<RigidTransform> bones = fitter_->bones_;
       if (fit_bones_) {
-        for (size_t b = 0; b < point_.bones.size(); ++b) {
-          point_.bones[b] = BoneTransformFromParameters(parameters[1 + b]);
+        for (size_t b = 0; b < bones.size(); ++b) {
+          bones[b] = BoneTransformFromParameters(parameters[1 + b]);
         }
       }
       Decode(jacobians);
@@ -221,7 +220,7 @@ class LatentFitter::FitEquilibrium final : public ceres::EvaluationCallback {
       if (!(point_.a.cwiseAbs().maxCoeff() <= kMaxFitActuationEntry)) return nullptr;
       QuasistaticSolver& solver = *fitter_->solver_;
       solver.SetPositions(fitter_->accepted_state_);
-      solver.SetFixedPositions(ModelBoundaryConditions(model, point_.bones).positions);
+      solver.SetFixedPositions(ModelBoundaryConditions(model, bones).positions);
       solver.actuation() = point_.a;
       WallTimer timer;
       const QuasistaticSolveReport report = solver.Solve();
@@ -248,13 +247,11 @@ class LatentFitter::FitEquilibrium final : public ceres::EvaluationCallback {
 
   // Seeds the last point: `state` is the equilibrium at parameters `key` (all blocks,
   // concatenated), so that preparing it solves nothing.
-  void Seed(const Eigen::VectorXd& key, const Eigen::Matrix3Xd& state,
-            const std::vector<RigidTransform>& bones) {
+  void Seed(const Eigen::VectorXd& key, const Eigen::Matrix3Xd& state) {
     CHECK_EQ(key.size(), parameter_count_);
     point_ = Point();
     point_.key = key;
     point_.solved = true;
-    point_.bones = bones;
     point_.state = state;
   }
 
@@ -655,7 +652,7 @@ bool LatentFitter::Fit(const FitTarget& target, const Eigen::VectorXd& initial,
     }
     return k;
   };
-  equilibrium.Seed(key(), state, bones_);  // the start's equilibrium is known
+  equilibrium.Seed(key(), state);  // the start's equilibrium is known
   if (options_.latent_regularization > 0) {
     problem.AddResidualBlock(new LatentPrior(d, options_.latent_regularization), nullptr, z.data());
   }
