@@ -21,7 +21,7 @@ Eigen::MatrixXd ActuationForceProducts(const ShapeTargetModel& model,
   // Per element and direction, V (dP/dS [dS_e]) b_j at its vertex j: formed in parallel,
   // then scattered serially (cheap).
   std::vector<Eigen::Matrix<double, 3, 4>> nodal(static_cast<size_t>(num_elements) * k);
-  const PolarCache* known = cache != nullptr && cache->Matches(x, a) ? cache : nullptr;
+  const PolarCache* known = PolarCache::IfMatches(cache, x, a);
   ParallelFor(num_threads, 0, num_elements, [&](int, int e) {
     const ShapeTargetElement element = model.Element(x, a, e, known);
     const double volume = model.rest_shape(e).volume;

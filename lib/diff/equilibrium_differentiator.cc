@@ -104,8 +104,7 @@ ActuationMatrix EquilibriumDifferentiator::LossGradient(const Eigen::Matrix3Xd& 
 }
 
 const PolarCache* EquilibriumDifferentiator::CacheAtState() const {
-  const PolarCache& cache = factorization_->polar_cache();
-  return cache.Matches(x_, a_) ? &cache : nullptr;
+  return PolarCache::IfMatches(&factorization_->polar_cache(), x_, a_);
 }
 
 ActuationMatrix EquilibriumDifferentiator::GradientFromAdjoint(const Eigen::Matrix3Xd& lambda) {

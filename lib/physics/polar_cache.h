@@ -18,13 +18,20 @@ namespace aqs {
 // equilibrium the solve ended on: both find the SVDs here.
 //
 // ShapeTargetModel::EnergyAndGradient fills it; readers take it only where x and a are
-// bit for bit the state it was filled at (Matches). Memory: about 170 bytes per element
-// plus a copy of x and a (about 40 MB at 240K elements). Not thread-safe: one per solver.
+// bit for bit the state it was filled at (Matches). Memory: BytesFor, about 220 bytes
+// per element with the copies of x and a (about 51 MB at 232,635 elements). Not
+// thread-safe: one per solver.
 class PolarCache {
  public:
   // True if the cache holds every element's SVD at exactly (x, a).
   bool Matches(const Eigen::Ref<const Eigen::Matrix3Xd>& x,
                const Eigen::Ref<const ActuationMatrix>& a) const;
+  // `cache` if it is non-null and matches (x, a), else nullptr: what readers pass on.
+  static const PolarCache* IfMatches(const PolarCache* cache,
+                                     const Eigen::Ref<const Eigen::Matrix3Xd>& x,
+                                     const Eigen::Ref<const ActuationMatrix>& a) {
+    return cache != nullptr && cache->Matches(x, a) ? cache : nullptr;
+  }
 
   // Starts filling at (x, a) for num_elements elements: the cache matches nothing until
   // Finish. Between the two, Store may be called concurrently for distinct elements.

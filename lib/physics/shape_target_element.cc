@@ -23,10 +23,7 @@ Eigen::Matrix3d UnvecRowMajor(const Vector9d& v) {
 
 ShapeTargetElement::ShapeTargetElement(const Eigen::Matrix3d& f, const Eigen::Matrix3d& s,
                                        double mu)
-    : f_(f), s_(s), mu_(mu), svd_(ComputeRotationVariantSvd(f * s)) {
-  r_ = PolarRotation(svd_);
-  twists_ = ComputePolarTwists(svd_);
-}
+    : ShapeTargetElement(f, s, mu, ComputeRotationVariantSvd(f * s)) {}
 
 ShapeTargetElement::ShapeTargetElement(const Eigen::Matrix3d& f, const Eigen::Matrix3d& s,
                                        double mu, const RotationVariantSvd& svd)

@@ -74,7 +74,7 @@ double ShapeTargetModel::EnergyAndGradient(const PositionsRef& x, const Actuatio
   const int threads = ParallelForThreadCount(num_threads, num_elements());
   std::vector<Eigen::Matrix3Xd> partial(threads, Eigen::Matrix3Xd::Zero(3, num_vertices_));
   std::vector<double> energy(threads, 0.0);
-  const PolarCache* known = cache != nullptr && cache->Matches(x, a) ? cache : nullptr;
+  const PolarCache* known = PolarCache::IfMatches(cache, x, a);
   PolarCache* fill = cache != nullptr && known == nullptr ? cache : nullptr;
   if (fill != nullptr) fill->Begin(x, a, num_elements());
   ParallelFor(threads, 0, num_elements(), [&](int t, int e) {

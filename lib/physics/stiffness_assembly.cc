@@ -15,7 +15,7 @@ void AssembleStiffness(const ShapeTargetModel& model, const StiffnessPattern& pa
   const size_t nnz = static_cast<size_t>(pattern.num_nonzeros());
   const int num_elements = model.num_elements();
   const int threads = ParallelForThreadCount(num_threads, num_elements);
-  const PolarCache* known = cache != nullptr && cache->Matches(x, a) ? cache : nullptr;
+  const PolarCache* known = PolarCache::IfMatches(cache, x, a);
   values->assign(nnz, 0.0);
   std::vector<std::vector<double>> extra(threads > 1 ? threads - 1 : 0,
                                          std::vector<double>(nnz, 0.0));
