@@ -27,8 +27,11 @@ struct LatentFitOptions {
   // standard deviation of the prior is worth. So the priors weigh less against many
   // points than against a few markers, as a Bayesian posterior with that per-point
   // noise variance would (up to prior_points_cap). 0: off.
+  // The bone prior's default, 0.01, was chosen on the demo's fit benchmark (docs/fitting.md,
+  // 2026-12-01 third session): against 0.03 it tracks the marker sequence at 0.099 instead
+  // of 0.137 and leaves the marker mixes, full-correspondence fits and scans within 1%.
   double latent_prior = 0.03;
-  double bone_prior = 0.03;
+  double bone_prior = 0.01;
   // W in the priors' weights is at most this many points: target points are not
   // independent observations (the model's errors are correlated over the surface), so
   // thousands of scan or pose points must not make the priors vanish. <= 0: no cap.

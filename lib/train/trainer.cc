@@ -30,7 +30,7 @@ namespace fs = std::filesystem;
 std::string LogPath(const std::string& dir) { return dir + "/train/log.csv"; }
 constexpr char kLogHeader[] =
     "iteration,loss,mean_surface_error,max_surface_error,gradient_norm,step_norm,seconds,"
-    "function_evaluations\n";
+    "function_evaluations,factorizations_per_pose,cg_solves_per_pose\n";
 
 // Prepares the CSV log for a run that continues after `iteration` iterations: keeps the
 // rows of iterations 0..iteration (a killed run may have logged further than it saved;
@@ -64,7 +64,8 @@ class TrainingCallback final : public ceres::IterationCallback {
         parameters_(parameters),
         first_(iterations_before),
         before_(iterations_before),
-        log_(log) {}
+        log_(log),
+        counters_before_(objective.total_counters()) {}
 
   // Iterations done before the current ceres::Solve call (L-BFGS restarts continue the
   // numbering).
@@ -74,9 +75,16 @@ class TrainingCallback final : public ceres::IterationCallback {
   ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
     const int iteration = before_ + s.iteration;
     const double elapsed = timer_.Seconds();
+    // What the evaluations since the previous row cost, per pose: stiffness factorizations
+    // and solves by CG on an earlier factor (the objective's counters, summed over ranks).
+    const EvaluationCounters cost = objective_.total_counters().Since(counters_before_);
+    counters_before_ = objective_.total_counters();
+    const double per_pose = 1.0 / std::max(1, model_->num_poses());
+    const double factorizations = cost.factorizations * per_pose;
+    const double cg_solves = cost.reused_solves * per_pose;
     if (s.iteration == 0 && before_ > 0) return ceres::SOLVER_CONTINUE;  // already logged
     if (options_.log_every > 0 && (s.iteration % options_.log_every == 0)) {
-      char line[320];
+      char line[360];
       const int planned = options_.max_iterations - first_;
       // The iteration cap's estimate, or the time budget's rest if that ends sooner.
       double remaining = EstimateRemaining(iteration - first_, planned, elapsed);
@@ -84,18 +92,19 @@ class TrainingCallback final : public ceres::IterationCallback {
         remaining = std::min(remaining, std::max(0.0, options_.max_seconds - elapsed));
       }
       std::snprintf(line, sizeof(line),
-                    "  train iter %5d/%d  loss %.6e  surface mean %.4g max %.4g  |g| %.3e  %s  "
-                    "ETA %s\n",
+                    "  train iter %5d/%d  loss %.6e  surface mean %.4g max %.4g  |g| %.3e  "
+                    "fact/pose %.2f  %s  ETA %s\n",
                     iteration, options_.max_iterations, s.cost, objective_.mean_surface_error(),
-                    objective_.max_surface_error(), s.gradient_norm,
+                    objective_.max_surface_error(), s.gradient_norm, factorizations,
                     FormatDuration(elapsed).c_str(), FormatDuration(remaining).c_str());
       log_ << line << std::flush;
     }
     if (!options_.model_directory.empty()) {
-      char row[320];
-      std::snprintf(row, sizeof(row), "%d,%.17g,%.17g,%.17g,%.17g,%.17g,%.6f,%d\n", iteration,
-                    s.cost, objective_.mean_surface_error(), objective_.max_surface_error(),
-                    s.gradient_norm, s.step_norm, elapsed, s.line_search_function_evaluations);
+      char row[400];
+      std::snprintf(row, sizeof(row), "%d,%.17g,%.17g,%.17g,%.17g,%.17g,%.6f,%d,%.6g,%.6g\n",
+                    iteration, s.cost, objective_.mean_surface_error(),
+                    objective_.max_surface_error(), s.gradient_norm, s.step_norm, elapsed,
+                    s.line_search_function_evaluations, factorizations, cg_solves);
       // Appended before the checkpoint of this iteration: a kill in between leaves one
       // row more than the checkpoint, which the next run drops (PrepareLog).
       std::ofstream(LogPath(options_.model_directory), std::ios::app) << row;
@@ -145,6 +154,7 @@ class TrainingCallback final : public ceres::IterationCallback {
   std::ostream& log_;
   WallTimer timer_;
   bool budget_reached_ = false;
+  EvaluationCounters counters_before_;  // the objective's totals at the previous row
 };
 
 // A round of latent refits (RefitTrainingLatents) at the accepted point `parameters`

@@ -9,6 +9,8 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -134,6 +136,48 @@ TEST_F(CheckpointResumeTest, ResumeAfterAFinishedRunStartsAtTheLoggedLoss) {
               report.initial_loss, rows[3].second);
   EXPECT_NEAR(report.initial_loss, rows[3].second, 1e-9 * rows[3].second);
   EXPECT_TRUE(RowsAreZeroTo(testing::TrainingLogRows(LogPath()), 5));
+}
+
+// The log's last two columns are the cost of each row's evaluations per pose; over a run
+// they add up to the factorizations and CG solves the objective counted (the final
+// evaluation after the last row excepted).
+TEST_F(CheckpointResumeTest, LogRowsCountFactorizationsPerPose) {
+  ActiveModel model;
+  std::string error;
+  ASSERT_TRUE(LoadModel(path_, &model, &error)) << error;
+  TrainOptions options = options_;
+  options.max_iterations = 4;
+  TrainReport report;
+  std::ostringstream log;
+  ASSERT_TRUE(TrainEndToEnd(options, &model, &report, log, &error)) << error;
+  std::ifstream in(LogPath());
+  std::string line;
+  std::getline(in, line);
+  EXPECT_NE(line.find(",function_evaluations,factorizations_per_pose,cg_solves_per_pose"),
+            std::string::npos)
+      << line;
+  double factorizations = 0, cg_solves = 0;
+  int rows = 0;
+  while (std::getline(in, line)) {
+    std::vector<double> values;
+    std::stringstream fields(line);
+    std::string field;
+    while (std::getline(fields, field, ',')) values.push_back(std::stod(field));
+    ASSERT_EQ(values.size(), 10u) << line;
+    EXPECT_GE(values[8], 0.0);
+    EXPECT_GE(values[9], 0.0);
+    // Every iteration solves equilibria and adjoints: by factorizing or by CG.
+    if (rows > 0) {
+      EXPECT_GT(values[8] + values[9], 0.0) << line;
+    }
+    factorizations += values[8] * model.num_poses();
+    cg_solves += values[9] * model.num_poses();
+    ++rows;
+  }
+  EXPECT_EQ(rows, 5);
+  EXPECT_GT(factorizations, 0.0);
+  EXPECT_NEAR(factorizations, report.iteration_cost.factorizations, 1e-3);
+  EXPECT_NEAR(cg_solves, report.iteration_cost.reused_solves, 1e-3);
 }
 
 // Killed before the first checkpoint: no duplicated row 0 after the next run.
