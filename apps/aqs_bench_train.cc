@@ -21,6 +21,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <iostream>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -36,6 +37,8 @@
 #include "util/wall_timer.h"
 
 DEFINE_int32(iterations, 10, "L-BFGS iterations per mode.");
+DEFINE_bool(progress, false, "Print training's progress line of every iteration (with its "
+            "factorizations per pose), to tell the first iterations' cost from the later ones'.");
 DEFINE_string(modes, "per_pose,shared", "Solver layouts to measure: per_pose (one solver and "
               "factor per pose) and/or shared (one per thread).");
 DEFINE_double(tolerance, 1e-6, "Relative force tolerance of the training equilibria.");
@@ -195,9 +198,10 @@ int Main() {
     }
     options.max_factor_cache_gb = mode == "per_pose" ? 1e9 : 0.0;
     options.max_restarts = 0;
-    options.log_every = 0;
+    options.log_every = FLAGS_progress ? 1 : 0;
     TrainReport report;
-    std::ostringstream log;
+    std::ostringstream quiet;
+    std::ostream& log = FLAGS_progress ? std::cout : static_cast<std::ostream&>(quiet);
     if (!TrainEndToEnd(options, &copy, &report, log, &error)) {
       PrintError(error);
       return 2;

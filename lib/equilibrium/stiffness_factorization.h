@@ -112,6 +112,11 @@ class StiffnessFactorization {
                           Eigen::MatrixXd* x);
   // K v for K = values() (free DOFs).
   Eigen::VectorXd MultiplyAssembled(const Eigen::VectorXd& v) const;
+  // The next SolveAssembled / SolveReusingFactor factorizes instead of reusing the
+  // factor held now: for a caller that knows that factor belongs to another system (a
+  // solver shared between poses moving on to the next pose). Later solves reuse the new
+  // factor as usual.
+  void RequestRefresh() { refresh_requested_ = true; }
 
   const FactorizationCounters& counters() const { return counters_; }
   void ResetCounters() { counters_ = FactorizationCounters(); }

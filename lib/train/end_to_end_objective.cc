@@ -56,9 +56,9 @@ EndToEndObjective::EndToEndObjective(const TrainOptions& options, const ActiveMo
   // (The budget is per process; the choice also depends on the pose count in all, so
   // that a rank owning one pose of many keeps its factor as one process would.)
   solver_per_pose_ = num_poses_ > 1 && factor_gb_ * num_owned <= options.max_factor_cache_gb;
-  // A factor of another pose is a poor preconditioner: with shared solvers the Newton
-  // steps factorize (the adjoint still reuses the factor of its own pose's solve).
-  if (!solver_per_pose_) solver_options.factor_reuse.max_iterations = 0;
+  // A factor of another pose is a poor preconditioner: with shared solvers a pose's
+  // solve starts by factorizing (StiffnessFactorization::RequestRefresh in Evaluate), and
+  // its later Newton steps and its adjoint reuse that factor by CG.
   first->set_options(solver_options);
   EquilibriumDifferentiatorOptions differentiator_options;
   differentiator_options.num_threads = 1;
@@ -285,7 +285,11 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
     w.solver->SetFixedPositions(fixed_positions_[p]);
     w.solver->actuation() = a[k];
     w.solver->SetPositions(states_[p]);
-    if (solver_per_pose_) PredictState(p, &w);
+    if (solver_per_pose_) {
+      PredictState(p, &w);
+    } else {
+      w.solver->stiffness_factorization()->RequestRefresh();  // the factor is another pose's
+    }
     QuasistaticSolveReport report = w.solver->Solve();
     auto count = [&counters](const QuasistaticSolveReport& r) {
       counters.factorizations += r.factorizations;
