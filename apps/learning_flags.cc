@@ -40,8 +40,8 @@ DEFINE_int32(train_restarts, 5, "L-BFGS restarts allowed when the line search st
              "iteration or time budget is used.");
 DEFINE_int32(latent_refit_iterations, 0, "End-to-end training: before the first iteration (not "
              "when resuming), refit every pose's latent alone, decoder fixed, by this many "
-             "Levenberg-Marquardt iterations on its share of the loss (0: no refits; one process "
-             "only).");
+             "Levenberg-Marquardt iterations on its share of the loss (0: no refits; under mpirun "
+             "each rank refits the poses it owns).");
 DEFINE_int32(latent_refit_every, 0, "With --latent_refit_iterations: refit again after every this "
              "many iterations (0: only before the first).");
 DECLARE_int32(threads);

@@ -532,6 +532,8 @@ void LatentFitter::set_bone_transforms(const std::vector<RigidTransform>& transf
   solver_->SetFixedPositions(ModelBoundaryConditions(model_, bones_).positions);
 }
 
+void LatentFitter::ForgetFactor() { solver_->stiffness_factorization()->RequestRefresh(); }
+
 double LatentFitter::FactorNonzeros() {
   StiffnessFactorization* factorization = solver_->stiffness_factorization();
   if (factorization->cholesky().factor_nonzeros() == 0) factorization->Analyze();

@@ -171,6 +171,10 @@ class LatentFitter {
   void set_start_state(const Eigen::Matrix3Xd& state);
   // The same from training pose p's stored equilibrium, if the model has one.
   void StartFromTrainingPose(int p);
+  // The next equilibrium solve factorizes afresh instead of reusing, by CG, the factor
+  // of the last one (StiffnessFactorization::RequestRefresh): for a fitter that moves on
+  // to an unrelated target, so that its result does not depend on what it fitted before.
+  void ForgetFactor();
 
   // Fits from latent `initial` (latent_dim) and the current bone transforms. Returns
   // false with *error if the equilibrium cannot be computed at the start or at the end;

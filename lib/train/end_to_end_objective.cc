@@ -80,7 +80,7 @@ void EndToEndObjective::SendCommand(Command command, const double* parameters, i
   int message[2] = {command, value};
   communicator_->Broadcast(message, 2, 0);
   if (command == kEvaluate || command == kEvaluateWithGradient || command == kUseStatesOf ||
-      command == kCollectStates) {
+      command == kCollectStates || command == kRefitLatents) {
     // Rank 0's buffer is only read.
     communicator_->Broadcast(const_cast<double*>(parameters), NumParameters(), 0);
   }
@@ -92,7 +92,7 @@ void EndToEndObjective::StopWorkers(bool ok) {
   SendCommand(kStop, nullptr, ok ? 1 : 0);
 }
 
-bool EndToEndObjective::Serve() {
+bool EndToEndObjective::Serve(ActiveModel* model) {
   CHECK_NE(rank_, 0) << "rank 0 drives; the others serve";
   Eigen::VectorXd parameters(NumParameters());
   Eigen::VectorXd gradient(NumParameters());
@@ -121,6 +121,10 @@ bool EndToEndObjective::Serve() {
         break;
       case kCollectStates:
         CollectStatesHere(parameters.data(), &unused);
+        break;
+      case kRefitLatents:
+        CHECK(model != nullptr) << "latent refits need Serve(model)";
+        RefitHere(model, parameters.data());
         break;
       default:
         LOG(FATAL) << "unknown command " << message[0] << " from rank 0";
@@ -176,11 +180,50 @@ bool EndToEndObjective::UseStatesOf(const double* parameters) {
   return StatesAt(parameters, &states_);
 }
 
-void EndToEndObjective::SetWarmStarts(const std::vector<Eigen::Matrix3Xd>& states) {
-  CHECK(!distributed()) << "warm starts are set by rank in distributed runs";
-  CHECK_EQ(states.size(), states_.size());
+LatentRefitReport EndToEndObjective::RefitLatents(ActiveModel* model, double* parameters) {
+  if (distributed()) SendCommand(kRefitLatents, parameters);
+  return RefitHere(model, parameters);
+}
+
+LatentRefitReport EndToEndObjective::RefitHere(ActiveModel* model, double* parameters) {
+  WallTimer timer;
+  const Eigen::Map<const Eigen::VectorXd> decoder_params(parameters, num_params_);
+  Eigen::Map<Eigen::MatrixXd> latents(parameters + num_params_, latent_dim_, num_poses_);
+  model->decoder_params = decoder_params;
+  model->latents = latents;
+  std::vector<Eigen::Matrix3Xd> at;
+  if (!StatesAt(parameters, &at)) at = states_;
+  model->states.resize(num_poses_);
+  for (int p : owned_) model->states[p] = at[p];
+  LatentRefitOptions refit;
+  refit.latent_regularization = options_.latent_regularization;
+  refit.max_iterations = options_.latent_refit_iterations;
+  refit.solver = options_.solver;
+  refit.num_threads = options_.num_threads;
+  LatentRefitReport report = RefitTrainingLatents(refit, model, &owned_);
+  for (int p : owned_) states_[p] = model->states[p];
+  // The states' actuations changed with the latents: no prediction from the old ones.
   for (ActuationMatrix& a : state_actuations_) a.resize(6, 0);
-  states_ = states;
+  if (distributed()) {
+    // Each latent from the rank that owns its pose (the others add zeros), and the
+    // reports' sums.
+    Eigen::MatrixXd owned_latents = Eigen::MatrixXd::Zero(latent_dim_, num_poses_);
+    for (int p : owned_) owned_latents.col(p) = model->latents.col(p);
+    communicator_->SumToRoot(owned_latents.data(), static_cast<int>(owned_latents.size()));
+    double sums[4] = {report.loss_before, report.loss_after, double(report.improved),
+                      double(report.failed)};
+    communicator_->SumToRoot(sums, 4);
+    if (rank_ == 0) {
+      model->latents = owned_latents;
+      report.loss_before = sums[0];
+      report.loss_after = sums[1];
+      report.improved = static_cast<int>(sums[2]);
+      report.failed = static_cast<int>(sums[3]);
+    }
+  }
+  if (rank_ == 0) latents = model->latents;
+  report.seconds = timer.Seconds();
+  return report;
 }
 
 void EndToEndObjective::CollectStates(const double* parameters,

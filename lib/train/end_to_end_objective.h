@@ -14,6 +14,7 @@
 #include "equilibrium/quasistatic_solver.h"
 #include "model/active_model.h"
 #include "train/evaluation_counters.h"
+#include "train/latent_refit.h"
 #include "train/trainer.h"
 #include "util/wall_timer.h"
 
@@ -60,8 +61,10 @@ class EndToEndObjective final : public ceres::FirstOrderFunction {
   bool Evaluate(const double* parameters, double* cost, double* gradient) const override;
 
   // Ranks other than 0 of a distributed run: carries out rank 0's commands until it
-  // stops them; returns the status rank 0 passed to StopWorkers.
-  bool Serve();
+  // stops them; returns the status rank 0 passed to StopWorkers. `model` is this rank's
+  // copy of the model, which latent refits (RefitLatents) write into; without it (null)
+  // rank 0 must not command refits.
+  bool Serve(ActiveModel* model = nullptr);
   // Rank 0: ends the other ranks' Serve() with `ok` (once; later calls do nothing).
   void StopWorkers(bool ok);
   // Whether this objective spans several ranks, and the poses this rank owns.
@@ -108,9 +111,15 @@ class EndToEndObjective final : public ceres::FirstOrderFunction {
   // 0, also commands the other ranks to use theirs.
   bool StatesAt(const double* parameters, std::vector<Eigen::Matrix3Xd>* states) const;
   bool UseStatesOf(const double* parameters);
-  // One process: makes `states` (one per pose, 3 x num_vertices) the warm starts of the
-  // next evaluation, for parameters changed outside the objective (latent refits).
-  void SetWarmStarts(const std::vector<Eigen::Matrix3Xd>& states);
+  // A round of latent refits at `parameters` (RefitTrainingLatents with the decoder
+  // fixed, TrainOptions' latent_refit_iterations and regularization): every rank refits
+  // the poses it owns, from their equilibria at `parameters` (the remembered evaluation
+  // there, else the last ones), and keeps the refitted equilibria as their warm starts.
+  // `model` (this rank's copy) receives the parameters' decoder and latents and the
+  // refits' latents and states of the owned poses. On rank 0 the latents in
+  // `parameters` become the refitted ones of every pose, and the report sums the ranks'
+  // (seconds: rank 0's wall time). Rank 0 only (collective with the others' Serve).
+  LatentRefitReport RefitLatents(ActiveModel* model, double* parameters);
   // Rank 0: every pose's equilibrium at `parameters` (those of the remembered
   // evaluation there, else the last ones), gathered from the ranks that own them: what
   // a checkpoint saves. One process: StatesAt, else states().
@@ -141,6 +150,7 @@ class EndToEndObjective final : public ceres::FirstOrderFunction {
     kUseStatesOf,
     kAllowRetryFromRest,
     kCollectStates,
+    kRefitLatents,
     kStop,
   };
   // Rank 0: sends a command (with `value`: the status of kStop) and, for commands that
@@ -150,6 +160,7 @@ class EndToEndObjective final : public ceres::FirstOrderFunction {
   // distributed). cost and gradient receive the totals on rank 0.
   bool EvaluateHere(const double* parameters, double* cost, double* gradient) const;
   void CollectStatesHere(const double* parameters, std::vector<Eigen::Matrix3Xd>* states) const;
+  LatentRefitReport RefitHere(ActiveModel* model, double* parameters);
 
   const TrainOptions options_;
   const ActiveModel& model_;

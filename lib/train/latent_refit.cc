@@ -23,10 +23,18 @@ double PoseObjective(const Eigen::Matrix3Xd& surface, const Eigen::Matrix3Xd& ta
 
 }  // namespace
 
-LatentRefitReport RefitTrainingLatents(const LatentRefitOptions& options, ActiveModel* model) {
+LatentRefitReport RefitTrainingLatents(const LatentRefitOptions& options, ActiveModel* model,
+                                       const std::vector<int>* poses) {
   CHECK(model->decoder) << "latent refits need a decoder";
   const int num_poses = model->num_poses();
   CHECK_EQ(static_cast<int>(model->states.size()), num_poses) << "one state per pose";
+  std::vector<int> all;
+  if (poses == nullptr) {
+    for (int p = 0; p < num_poses; ++p) all.push_back(p);
+    poses = &all;
+  }
+  for (int p : *poses) CHECK(p >= 0 && p < num_poses) << "pose " << p;
+  const int count = static_cast<int>(poses->size());
   WallTimer timer;
   LatentFitOptions fit;
   fit.latent_prior = 0.0;
@@ -36,7 +44,7 @@ LatentRefitReport RefitTrainingLatents(const LatentRefitOptions& options, Active
   fit.max_iterations = options.max_iterations;
   fit.solver = options.solver;
   fit.num_threads = 1;
-  const int num_threads = ParallelForThreadCount(options.num_threads, num_poses, 1);
+  const int num_threads = ParallelForThreadCount(options.num_threads, std::max(1, count), 1);
   std::vector<std::unique_ptr<LatentFitter>> fitters(num_threads);
   std::vector<double> before(num_poses, 0.0), after(num_poses, 0.0);
   std::vector<char> improved(num_poses, 0), failed(num_poses, 0);
@@ -44,8 +52,9 @@ LatentRefitReport RefitTrainingLatents(const LatentRefitOptions& options, Active
   std::vector<Eigen::Matrix3Xd> states(num_poses);
   const ActiveModel& fixed = *model;
   ParallelFor(
-      num_threads, 0, num_poses,
-      [&](int thread, int p) {
+      num_threads, 0, count,
+      [&](int thread, int k) {
+        const int p = (*poses)[k];
         if (!fitters[thread]) fitters[thread] = std::make_unique<LatentFitter>(fixed, fit);
         LatentFitter& fitter = *fitters[thread];
         const Eigen::Matrix3Xd& target = fixed.poses[p].surface;
@@ -58,6 +67,8 @@ LatentRefitReport RefitTrainingLatents(const LatentRefitOptions& options, Active
         for (size_t b = 0; b < bones.size(); ++b) bones[b] = fixed.bones[b].pose_transforms[p];
         fitter.set_bone_transforms(bones);
         fitter.set_start_state(fixed.states[p]);
+        // A pose's refit must not depend on which poses its thread (or rank) did before.
+        fitter.ForgetFactor();
         LatentFitResult result;
         std::string error;
         if (!fitter.Fit(FullSurfaceTarget(target), z, &result, &error) || result.failed) {
@@ -75,7 +86,7 @@ LatentRefitReport RefitTrainingLatents(const LatentRefitOptions& options, Active
       },
       1);
   LatentRefitReport report;
-  for (int p = 0; p < num_poses; ++p) {
+  for (int p : *poses) {
     report.loss_before += before[p] / num_poses;
     report.loss_after += after[p] / num_poses;
     report.failed += failed[p];

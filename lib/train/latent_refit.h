@@ -2,6 +2,7 @@
 #define AQS_TRAIN_LATENT_REFIT_H_
 
 #include <string>
+#include <vector>
 
 #include "model/active_model.h"
 #include "equilibrium/quasistatic_solver.h"
@@ -40,7 +41,13 @@ struct LatentRefitReport {
 // that objective; a failed fit keeps them. So the training loss never goes up. Poses
 // run in parallel (options.num_threads, one fitter each). The model's fit prior is not
 // used and not changed.
-LatentRefitReport RefitTrainingLatents(const LatentRefitOptions& options, ActiveModel* model);
+//
+// poses (optional, ascending): refit only these; the others' latents and states are
+// neither read nor changed, and the report counts these only (its losses are still
+// divided by the model's pose count, so that the reports of disjoint subsets add up to
+// the whole's: how ranks of a distributed run share the refits).
+LatentRefitReport RefitTrainingLatents(const LatentRefitOptions& options, ActiveModel* model,
+                                       const std::vector<int>* poses = nullptr);
 
 }  // namespace aqs
 

@@ -157,23 +157,13 @@ class TrainingCallback final : public ceres::IterationCallback {
   EvaluationCounters counters_before_;  // the objective's totals at the previous row
 };
 
-// A round of latent refits (RefitTrainingLatents) at the accepted point `parameters`
-// ([decoder; latents]): the model gets the point's decoder, latents and equilibria,
-// the refitted latents go back into `parameters`, and their equilibria become the
-// objective's warm starts. One process only.
-void RefitLatents(const TrainOptions& options, ActiveModel* model, EndToEndObjective* objective,
-                  TrainingCallback* callback, Eigen::VectorXd* parameters, std::ostream& log) {
-  callback->CopyToModel();
-  LatentRefitOptions refit;
-  refit.latent_regularization = options.latent_regularization;
-  refit.max_iterations = options.latent_refit_iterations;
-  refit.solver = options.solver;
-  refit.num_threads = options.num_threads;
-  const LatentRefitReport report = RefitTrainingLatents(refit, model);
-  const int np = model->decoder->num_parameters();
-  Eigen::Map<Eigen::MatrixXd>(parameters->data() + np, model->latent_dim(), model->num_poses()) =
-      model->latents;
-  objective->SetWarmStarts(model->states);
+// A round of latent refits at the accepted point `parameters` ([decoder; latents]),
+// shared among the ranks of a distributed run (EndToEndObjective::RefitLatents): the
+// refitted latents go back into `parameters`, and their equilibria become the
+// objective's warm starts.
+void RefitLatents(ActiveModel* model, EndToEndObjective* objective, Eigen::VectorXd* parameters,
+                  std::ostream& log) {
+  const LatentRefitReport report = objective->RefitLatents(model, parameters->data());
   char line[256];
   std::snprintf(line, sizeof(line),
                 "  latent refit: loss %.6e -> %.6e (%d of %d poses improved, %d failed; %s)\n",
@@ -196,22 +186,13 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
     return false;
   }
   const Communicator* communicator = options.communicator;
-  if (options.latent_refit_iterations > 0 && communicator != nullptr && communicator->size() > 1) {
-    // Every rank returns here (the same check on the same options).
-    *error = "latent refits (latent_refit_iterations " +
-             std::to_string(options.latent_refit_iterations) +
-             ") run in one process only, not over " + std::to_string(communicator->size()) +
-             " ranks";
-    if (!communicator->is_root()) error->clear();
-    return false;
-  }
   // Poses run in parallel with one thread each: keep BLAS single-threaded meanwhile.
   const int blas_threads = BlasThreads();
   if (options.num_threads > 1) SetBlasThreads(1);
   if (communicator != nullptr && communicator->size() > 1 && !communicator->is_root()) {
     // Another rank: evaluations of its poses, as rank 0 commands.
     EndToEndObjective objective(options, *model);
-    const bool ok = objective.Serve();
+    const bool ok = objective.Serve(model);
     SetBlasThreads(blas_threads);
     error->clear();
     return ok;
@@ -318,7 +299,7 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
                                  : options.max_iterations;
     for (int restarts = 0;;) {
       if (refits && done >= next_refit) {
-        RefitLatents(options, model, objective, &callback, &parameters, log);
+        RefitLatents(model, objective, &parameters, log);
         ++report->latent_refits;
         next_refit = every > 0 ? done + every : options.max_iterations;
       }
