@@ -54,6 +54,7 @@ struct Unit {
   double seconds = 0.0;          // one numeric factorization (median), BLAS as configured
   double seconds_one_thread = 0.0;  // the same with one BLAS thread
   double factor_nonzeros = 0.0;  // of L
+  double factor_bytes = 0.0;     // the numeric factor's storage (supernodal blocks)
   double stiffness_nonzeros = 0.0;
   int dofs = 0;
 };
@@ -73,6 +74,7 @@ Unit MeasureUnit(const ActiveModel& model) {
   Unit unit;
   factorization.Analyze();
   unit.factor_nonzeros = factorization.cholesky().factor_nonzeros();
+  unit.factor_bytes = factorization.cholesky().factor_bytes();
   unit.stiffness_nonzeros = static_cast<double>(factorization.pattern().num_nonzeros());
   unit.dofs = factorization.cholesky().size();
   std::vector<double> seconds;
@@ -172,12 +174,11 @@ int Main() {
               model.decoder->num_parameters(), unit, FLAGS_threads);
   std::printf("unit with one BLAS thread (as each training thread factorizes): %.4f s\n",
               measured.seconds_one_thread);
-  std::printf("stiffness: %d free DOFs, %.4g non-zeros (upper triangle); factor: %.4g non-zeros "
-              "= %.3f GB (x %d poses = %.2f GB); resident with the model loaded %.2f GB\n",
+  std::printf("stiffness: %d free DOFs, %.4g non-zeros (upper triangle); factor: %.4g non-zeros, "
+              "stored in %.3f GB (x %d poses = %.2f GB); resident with the model loaded %.2f GB\n",
               measured.dofs, measured.stiffness_nonzeros, measured.factor_nonzeros,
-              8.0 * measured.factor_nonzeros / 1e9, model.num_poses(),
-              8.0 * measured.factor_nonzeros * model.num_poses() / 1e9,
-              CurrentResidentBytes() / 1e9);
+              measured.factor_bytes / 1e9, model.num_poses(),
+              measured.factor_bytes * model.num_poses() / 1e9, CurrentResidentBytes() / 1e9);
   std::fflush(stdout);  // the model's figures before the (long) training runs
   std::printf("%-9s %6s %8s %9s %7s %9s %8s %8s %8s %8s %8s %8s %8s %8s %8s\n", "mode", "iters",
               "s/iter", "pose/unit", "evals", "fact/pose", "reused", "cg/pose", "newton", "lbfgs",

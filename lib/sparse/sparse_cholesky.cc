@@ -102,6 +102,24 @@ double SparseCholesky::factor_nonzeros() const {
   return impl_->common.lnz;
 }
 
+double SparseCholesky::factor_bytes() const {
+  const cholmod_factor* l = impl_->factor;
+  if (l == nullptr) return 0.0;
+  constexpr double kIndex = sizeof(int64_t);
+  const double n = static_cast<double>(l->n);
+  // Perm, ColCount and the permutation's inverse, per column.
+  double bytes = 3.0 * kIndex * n;
+  if (l->is_super) {
+    const double supernodes = static_cast<double>(l->nsuper);
+    bytes += sizeof(double) * static_cast<double>(l->xsize) +
+             kIndex * (static_cast<double>(l->ssize) + 4.0 * (supernodes + 1.0));
+  } else {
+    const double nonzeros = impl_->common.lnz + n;  // with the diagonal
+    bytes += (sizeof(double) + kIndex) * nonzeros + 4.0 * kIndex * n;
+  }
+  return bytes;
+}
+
 std::string SparseCholesky::ordering_name() const {
   if (impl_->factor == nullptr) return "none";
   switch (impl_->factor->ordering) {

@@ -41,6 +41,11 @@ class SparseCholesky {
   int size() const { return n_; }
   // Non-zeros of the factor L after the symbolic analysis (0 before).
   double factor_nonzeros() const;
+  // Bytes the numeric factor takes once factorized, from the symbolic analysis (0
+  // before): a supernodal L stores each supernode as a dense block (xsize doubles, the
+  // non-zeros plus the zeros inside supernodes) with its row indices (ssize integers)
+  // and per-supernode tables; a simplicial L its non-zeros with their row indices.
+  double factor_bytes() const;
   // Name of the ordering CHOLMOD chose ("AMD", "METIS", ...).
   std::string ordering_name() const;
   // Seconds spent in the last symbolic analysis and the last numeric factorization.
