@@ -180,8 +180,8 @@ int Main() {
               measured.factor_bytes / 1e9, model.num_poses(),
               measured.factor_bytes * model.num_poses() / 1e9, CurrentResidentBytes() / 1e9);
   std::fflush(stdout);  // the model's figures before the (long) training runs
-  std::printf("%-9s %6s %8s %9s %7s %9s %8s %8s %8s %8s %8s %8s %8s %8s %8s\n", "mode", "iters",
-              "s/iter", "pose/unit", "evals", "fact/pose", "reused", "cg/pose", "newton", "lbfgs",
+  std::printf("%-9s %6s %8s %9s %7s %9s %8s %8s %8s %8s %8s %8s %8s %8s %8s %8s\n", "mode", "iters",
+              "s/iter", "pose/unit", "evals", "fact/pose", "adj_fact", "reused", "cg/pose", "newton", "lbfgs",
               "solve", "adjoint", "decoder", "loss", "peak_GB");
   for (const std::string& mode : SplitList(FLAGS_modes)) {
     if (mode != "per_pose" && mode != "shared") {
@@ -211,10 +211,11 @@ int Main() {
     const int iterations = std::max(1, report.iterations - report.iterations_before);
     const double per_pose_iteration = 1.0 / (static_cast<double>(iterations) * model.num_poses());
     const double u = unit > 0 ? unit : 1.0;
-    std::printf("%-9s %6d %8.3f %9.2f %7.2f %9.2f %8.2f %8.1f %8.2f %8.2f %8.2f %8.2f %8.2f %8.3e %8.2f\n",
+    std::printf("%-9s %6d %8.3f %9.2f %7.2f %9.2f %8.2f %8.2f %8.1f %8.2f %8.2f %8.2f %8.2f %8.2f %8.3e %8.2f\n",
                 mode.c_str(), iterations, c.seconds / iterations,
                 c.seconds * per_pose_iteration / u, c.evaluations / static_cast<double>(iterations),
-                c.factorizations * per_pose_iteration, c.reused_solves * per_pose_iteration,
+                c.factorizations * per_pose_iteration,
+                c.adjoint_factorizations * per_pose_iteration, c.reused_solves * per_pose_iteration,
                 c.cg_iterations * per_pose_iteration, c.newton_steps * per_pose_iteration,
                 c.lbfgs_iterations * per_pose_iteration, c.solve_seconds * per_pose_iteration / u,
                 c.adjoint_seconds * per_pose_iteration / u,
@@ -224,8 +225,9 @@ int Main() {
   }
   std::printf(
       "pose/unit: wall seconds per pose per iteration over the unit; evals: evaluations per "
-      "iteration (1 + line-search trials);\nfact/pose, reused, cg/pose: factorizations, CG "
-      "solves on an earlier factor, and CG iterations per pose per iteration;\nnewton, lbfgs: "
+      "iteration (1 + line-search trials);\nfact/pose, adj_fact, reused, cg/pose: factorizations "
+      "(all; of them for adjoints), CG solves on an earlier factor, and CG iterations per pose "
+      "per iteration;\nnewton, lbfgs: "
       "Newton steps and L-BFGS iterations per pose per iteration; solve, "
       "adjoint: thread seconds per pose per iteration over the unit; decoder: wall seconds "
       "per pose per iteration over the unit;\npeak_GB: the process's peak resident memory so far "
