@@ -310,7 +310,8 @@ TEST(NewtonSolverTest, WarmResolveReusesTheFactor) {
 
 // A solver shared between poses marks the factor it holds as another system's
 // (RequestRefresh): the next solve factorizes first, and its later steps reuse that new
-// factor by CG.
+// factor by CG. (Without the request the same warm solve factorizes nothing:
+// WarmResolveReusesTheFactor.)
 TEST(NewtonSolverTest, RequestedRefreshFactorizesOnceThenReuses) {
   const TetMesh mesh = BarMesh(8, 2, 2, 0.5);
   const ShapeTargetModel model(mesh, 1.0);
@@ -319,25 +320,14 @@ TEST(NewtonSolverTest, RequestedRefreshFactorizesOnceThenReuses) {
   QuasistaticSolver solver(model, LeftFaceFixed(mesh), options);
   solver.actuation() = CurlActuation(mesh, 0.2);
   ASSERT_TRUE(solver.Solve().converged);
-  const Eigen::Matrix3Xd first = solver.positions();
-  const ActuationMatrix changed = IdentityActuations(mesh.num_tets()) +
-                                  1.01 * (solver.actuation() - IdentityActuations(mesh.num_tets()));
-  solver.actuation() = changed;
+  solver.actuation() = IdentityActuations(mesh.num_tets()) +
+                       1.01 * (solver.actuation() - IdentityActuations(mesh.num_tets()));
   solver.stiffness_factorization()->RequestRefresh();
   const QuasistaticSolveReport warm = solver.Solve();
   ASSERT_TRUE(warm.converged) << warm.Summary();
   EXPECT_EQ(warm.factorizations, 1) << warm.Summary();
   EXPECT_GT(warm.reused_steps, 0) << warm.Summary();
   EXPECT_EQ(warm.exact_steps, warm.reused_steps + 1) << warm.Summary();
-  // Without the request the same solve reuses the earlier factor from the first step.
-  QuasistaticSolver again(model, LeftFaceFixed(mesh), options);
-  again.actuation() = CurlActuation(mesh, 0.2);
-  ASSERT_TRUE(again.Solve().converged);
-  again.actuation() = changed;
-  const QuasistaticSolveReport reused = again.Solve();
-  ASSERT_TRUE(reused.converged) << reused.Summary();
-  EXPECT_EQ(reused.factorizations, 0) << reused.Summary();
-  EXPECT_LT((again.positions() - solver.positions()).cwiseAbs().maxCoeff(), 1e-8);
 }
 
 }  // namespace
