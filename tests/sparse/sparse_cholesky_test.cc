@@ -49,6 +49,18 @@ TEST_F(SparseCholeskyTest, SolvesLikeDenseCholeskyAndReusesAnalysis) {
   EXPECT_LT(testing::RelativeError(cholesky.Solve(b), x / 3.0), 1e-10);
 }
 
+// The factor's storage, known from the analysis: at least its non-zeros as doubles (a
+// supernodal factor also stores the zeros inside its supernodes), at most a dense
+// triangle with its indices.
+TEST_F(SparseCholeskyTest, FactorBytesBoundTheFactorsStorage) {
+  SparseCholesky cholesky(pattern_.num_dofs(), &pattern_.column_starts(), &pattern_.row_indices());
+  EXPECT_EQ(cholesky.factor_bytes(), 0.0);
+  cholesky.Analyze();
+  const double n = pattern_.num_dofs();
+  EXPECT_GE(cholesky.factor_bytes(), 8.0 * cholesky.factor_nonzeros());
+  EXPECT_LE(cholesky.factor_bytes(), 16.0 * n * (n + 1) / 2 + 64.0 * n);
+}
+
 TEST_F(SparseCholeskyTest, ReportsIndefiniteMatrixAndRecovers) {
   SparseCholesky cholesky(pattern_.num_dofs(), &pattern_.column_starts(), &pattern_.row_indices());
   std::vector<double> negated = values_;
