@@ -239,6 +239,15 @@ bool QuasistaticSolver::RunNewton(double exact_threshold, QuasistaticSolveReport
 }
 
 void QuasistaticSolver::RunLbfgs(double tolerance, QuasistaticSolveReport* report) {
+  if (options_.lbfgs_reuses_factor) {
+    StiffnessFactorization* own = stiffness_factorization();
+    if (own->factorized()) {
+      // A factor marked for refreshing (an aged one) is a poor preconditioner, and Newton
+      // factorizes anyway: its steps start at once.
+      if (!own->refresh_requested()) RunLbfgsWith(own, tolerance, report);
+      return;
+    }
+  }
   bool constant = true;
   for (const EnergyTerm* term : terms_) constant = constant && term->HasConstantHessian();
   if (!preconditioner_) {
@@ -261,12 +270,23 @@ void QuasistaticSolver::RunLbfgs(double tolerance, QuasistaticSolveReport* repor
     }
     preconditioner_current_ = true;
   }
+  RunLbfgsWith(preconditioner_.get(), tolerance, report);
+  if (options_.lbfgs_reuses_factor) {
+    // Built for want of an earlier factor (a first solve): released, so that a solver
+    // holds one factor between solves.
+    preconditioner_.reset();
+    preconditioner_current_ = false;
+  }
+}
+
+void QuasistaticSolver::RunLbfgsWith(StiffnessFactorization* preconditioner, double tolerance,
+                                     QuasistaticSolveReport* report) {
   PreconditionedLbfgsOptions lbfgs;
   lbfgs.force_tolerance = tolerance;
   lbfgs.max_iterations = options_.max_lbfgs_iterations;
   Eigen::Matrix3Xd x = positions();
   const PreconditionedLbfgsReport result =
-      MinimizeEnergyLbfgs(lbfgs, actuation(), preconditioner_.get(), &x);
+      MinimizeEnergyLbfgs(lbfgs, actuation(), preconditioner, &x);
   SetPositions(x);
   report->lbfgs_iterations += result.iterations;
   report->line_search_evaluations += result.energy_evaluations;

@@ -117,6 +117,8 @@ class StiffnessFactorization {
   // solver shared between poses moving on to the next pose). Later solves reuse the new
   // factor as usual.
   void RequestRefresh() { refresh_requested_ = true; }
+  // Whether the next solve will factorize afresh instead of reusing the factor held now.
+  bool refresh_requested() const { return refresh_requested_; }
 
   const FactorizationCounters& counters() const { return counters_; }
   void ResetCounters() { counters_ = FactorizationCounters(); }

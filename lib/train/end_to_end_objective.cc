@@ -49,13 +49,11 @@ EndToEndObjective::EndToEndObjective(const TrainOptions& options, const ActiveMo
   // symbolic analysis gives the factor's size.
   auto first = std::make_unique<QuasistaticSolver>(physics_, bc, solver_options);
   first->stiffness_factorization()->Analyze();
-  // A solver's factor, the factor of its L-BFGS preconditioner (the rotation-fixed
-  // stiffness, on the same pattern: built by every solver whose solves start far from
-  // equilibrium), and its element SVD cache (physics/polar_cache.h). At 232,635 elements
-  // the per-pose layout measured 0.8 GB per pose against 0.27 GB for one factor.
-  const bool lbfgs = solver_options.method == EquilibriumMethod::kNewton &&
-                     solver_options.max_lbfgs_iterations > 0;
-  factor_gb_ = ((lbfgs ? 2.0 : 1.0) * first->stiffness_factorization()->cholesky().factor_bytes() +
+  // A solver's factor and its element SVD cache (physics/polar_cache.h). A solver per
+  // pose preconditions its L-BFGS phase with its own earlier factor
+  // (lbfgs_reuses_factor, below); before, each built a second factor for it (at 232,635
+  // elements the per-pose layout measured 0.8 GB per pose against 0.27 GB per factor).
+  factor_gb_ = (first->stiffness_factorization()->cholesky().factor_bytes() +
                 PolarCache::BytesFor(physics_.num_vertices(), physics_.num_elements())) /
                1e9;
   // (The budget is per process; the choice also depends on the pose count in all, so
@@ -63,7 +61,9 @@ EndToEndObjective::EndToEndObjective(const TrainOptions& options, const ActiveMo
   solver_per_pose_ = num_poses_ > 1 && factor_gb_ * num_owned <= options.max_factor_cache_gb;
   // A factor of another pose is a poor preconditioner: with shared solvers a pose's
   // solve starts by factorizing (StiffnessFactorization::RequestRefresh in Evaluate), and
-  // its later Newton steps and its adjoint reuse that factor by CG.
+  // its later Newton steps and its adjoint reuse that factor by CG. A solver per pose
+  // preconditions L-BFGS with its pose's earlier factor too.
+  solver_options.lbfgs_reuses_factor = solver_per_pose_;
   first->set_options(solver_options);
   EquilibriumDifferentiatorOptions differentiator_options;
   differentiator_options.num_threads = 1;

@@ -330,5 +330,42 @@ TEST(NewtonSolverTest, RequestedRefreshFactorizesOnceThenReuses) {
   EXPECT_EQ(warm.exact_steps, warm.reused_steps + 1) << warm.Summary();
 }
 
+// lbfgs_reuses_factor: the L-BFGS phase far from equilibrium is preconditioned by the
+// solver's own earlier factor (no rotation-fixed factor is built: no factorization for
+// it); a first solve, without one, builds the rotation-fixed factor as by default. Both
+// reach the default's equilibrium.
+TEST(NewtonSolverTest, LbfgsPreconditionedByTheEarlierFactor) {
+  const TetMesh mesh = BarMesh(8, 2, 2, 0.5);
+  const ShapeTargetModel model(mesh, 1.0);
+  QuasistaticSolverOptions options;
+  options.relative_force_tolerance = 1e-10;
+  QuasistaticSolver reference(model, LeftFaceFixed(mesh), options);
+  options.lbfgs_reuses_factor = true;
+  QuasistaticSolver solver(model, LeftFaceFixed(mesh), options);
+  // No factor yet: the rotation-fixed preconditioner, as by default.
+  solver.actuation() = CurlActuation(mesh, 0.1);
+  reference.actuation() = solver.actuation();
+  const QuasistaticSolveReport first = solver.Solve();
+  const QuasistaticSolveReport first_reference = reference.Solve();
+  ASSERT_TRUE(first.converged) << first.Summary();
+  EXPECT_GT(first.lbfgs_iterations, 0) << first.Summary();
+  EXPECT_EQ(first.factorizations, first_reference.factorizations);
+  EXPECT_FALSE(solver.holds_lbfgs_preconditioner()) << "released after the first solve";
+  EXPECT_TRUE(reference.holds_lbfgs_preconditioner());
+  // A large change from there: L-BFGS on the earlier factor, then Newton.
+  solver.actuation() = CurlActuation(mesh, 0.3);
+  const QuasistaticSolveReport far = solver.Solve();
+  ASSERT_TRUE(far.converged) << far.Summary();
+  EXPECT_GT(far.lbfgs_iterations, 0) << far.Summary();
+  EXPECT_EQ(far.factorizations, far.exact_steps + far.projected_steps - far.reused_steps +
+                                    far.shifted_factorizations)
+      << "every factorization is a Newton step's: " << far.Summary();
+  reference.actuation() = CurlActuation(mesh, 0.3);
+  const QuasistaticSolveReport far_reference = reference.Solve();
+  ASSERT_TRUE(far_reference.converged);
+  EXPECT_FALSE(solver.holds_lbfgs_preconditioner());
+  EXPECT_LT((reference.positions() - solver.positions()).cwiseAbs().maxCoeff(), 1e-7);
+}
+
 }  // namespace
 }  // namespace aqs
