@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -283,47 +284,57 @@ TEST(NewtonSolverTest, FactorOfANearbyStateSolvesByConjugateGradients) {
   EXPECT_EQ(factorization.counters().factorizations, 2);
 }
 
-TEST(NewtonSolverTest, WarmResolveReusesTheFactor) {
-  const TetMesh mesh = BarMesh(8, 2, 2, 0.5);
-  const ShapeTargetModel model(mesh, 1.0);
-  QuasistaticSolverOptions options;
-  options.relative_force_tolerance = 1e-10;
-  QuasistaticSolver solver(model, LeftFaceFixed(mesh), options);
-  solver.actuation() = CurlActuation(mesh, 0.2);
-  ASSERT_TRUE(solver.Solve().converged);
-  const Eigen::Matrix3Xd first = solver.positions();
-  solver.actuation() = IdentityActuations(mesh.num_tets()) +
-                       1.01 * (solver.actuation() - IdentityActuations(mesh.num_tets()));
-  const QuasistaticSolveReport warm = solver.Solve();
+// The 8 x 2 x 2 bar fixed at its left face, curled by CurlActuation(0.2) and solved to a
+// relative force of 1e-10, for the warm re-solves below; Scaled() is its actuation's
+// deformation scaled by 1.01 (a nearby state).
+class CurledBarTest : public ::testing::Test {
+ protected:
+  CurledBarTest() : mesh_(BarMesh(8, 2, 2, 0.5)), model_(mesh_, 1.0) {
+    options_.relative_force_tolerance = 1e-10;
+  }
+  // A solver with options_, solved at CurlActuation(amount).
+  std::unique_ptr<QuasistaticSolver> Curled(double amount) {
+    auto solver = std::make_unique<QuasistaticSolver>(model_, LeftFaceFixed(mesh_), options_);
+    solver->actuation() = CurlActuation(mesh_, amount);
+    EXPECT_TRUE(solver->Solve().converged);
+    return solver;
+  }
+  ActuationMatrix Scaled(const QuasistaticSolver& solver) const {
+    const ActuationMatrix identity = IdentityActuations(mesh_.num_tets());
+    return identity + 1.01 * (ActuationMatrix(solver.actuation()) - identity);
+  }
+  TetMesh mesh_;
+  ShapeTargetModel model_;
+  QuasistaticSolverOptions options_;
+};
+
+TEST_F(CurledBarTest, WarmResolveReusesTheFactor) {
+  std::unique_ptr<QuasistaticSolver> solver = Curled(0.2);
+  const Eigen::Matrix3Xd first = solver->positions();
+  solver->actuation() = Scaled(*solver);
+  const QuasistaticSolveReport warm = solver->Solve();
   ASSERT_TRUE(warm.converged) << warm.Summary();
   EXPECT_GT(warm.reused_steps, 0) << warm.Summary();
   EXPECT_EQ(warm.factorizations, 0) << warm.Summary();
   // The same equilibrium as a solve with fresh factorizations.
-  QuasistaticSolverOptions fresh = options;
+  QuasistaticSolverOptions fresh = options_;
   fresh.factor_reuse.max_iterations = 0;
-  QuasistaticSolver reference(model, LeftFaceFixed(mesh), fresh);
-  reference.actuation() = solver.actuation();
+  QuasistaticSolver reference(model_, LeftFaceFixed(mesh_), fresh);
+  reference.actuation() = solver->actuation();
   reference.SetPositions(first);
   ASSERT_TRUE(reference.Solve().converged);
-  EXPECT_LT((reference.positions() - solver.positions()).cwiseAbs().maxCoeff(), 1e-8);
+  EXPECT_LT((reference.positions() - solver->positions()).cwiseAbs().maxCoeff(), 1e-8);
 }
 
 // A solver shared between poses marks the factor it holds as another system's
 // (RequestRefresh): the next solve factorizes first, and its later steps reuse that new
 // factor by CG. (Without the request the same warm solve factorizes nothing:
 // WarmResolveReusesTheFactor.)
-TEST(NewtonSolverTest, RequestedRefreshFactorizesOnceThenReuses) {
-  const TetMesh mesh = BarMesh(8, 2, 2, 0.5);
-  const ShapeTargetModel model(mesh, 1.0);
-  QuasistaticSolverOptions options;
-  options.relative_force_tolerance = 1e-10;
-  QuasistaticSolver solver(model, LeftFaceFixed(mesh), options);
-  solver.actuation() = CurlActuation(mesh, 0.2);
-  ASSERT_TRUE(solver.Solve().converged);
-  solver.actuation() = IdentityActuations(mesh.num_tets()) +
-                       1.01 * (solver.actuation() - IdentityActuations(mesh.num_tets()));
-  solver.stiffness_factorization()->RequestRefresh();
-  const QuasistaticSolveReport warm = solver.Solve();
+TEST_F(CurledBarTest, RequestedRefreshFactorizesOnceThenReuses) {
+  std::unique_ptr<QuasistaticSolver> solver = Curled(0.2);
+  solver->actuation() = Scaled(*solver);
+  solver->stiffness_factorization()->RequestRefresh();
+  const QuasistaticSolveReport warm = solver->Solve();
   ASSERT_TRUE(warm.converged) << warm.Summary();
   EXPECT_EQ(warm.factorizations, 1) << warm.Summary();
   EXPECT_GT(warm.reused_steps, 0) << warm.Summary();
@@ -332,39 +343,31 @@ TEST(NewtonSolverTest, RequestedRefreshFactorizesOnceThenReuses) {
 
 // lbfgs_reuses_factor: the L-BFGS phase far from equilibrium is preconditioned by the
 // solver's own earlier factor (no rotation-fixed factor is built: no factorization for
-// it); a first solve, without one, builds the rotation-fixed factor as by default. Both
-// reach the default's equilibrium.
-TEST(NewtonSolverTest, LbfgsPreconditionedByTheEarlierFactor) {
-  const TetMesh mesh = BarMesh(8, 2, 2, 0.5);
-  const ShapeTargetModel model(mesh, 1.0);
-  QuasistaticSolverOptions options;
-  options.relative_force_tolerance = 1e-10;
-  QuasistaticSolver reference(model, LeftFaceFixed(mesh), options);
-  options.lbfgs_reuses_factor = true;
-  QuasistaticSolver solver(model, LeftFaceFixed(mesh), options);
-  // No factor yet: the rotation-fixed preconditioner, as by default.
-  solver.actuation() = CurlActuation(mesh, 0.1);
-  reference.actuation() = solver.actuation();
-  const QuasistaticSolveReport first = solver.Solve();
-  const QuasistaticSolveReport first_reference = reference.Solve();
+// it); a first solve, without one, builds the rotation-fixed factor as by default and
+// releases it. Both reach the default's equilibrium.
+TEST_F(CurledBarTest, LbfgsPreconditionedByTheEarlierFactor) {
+  std::unique_ptr<QuasistaticSolver> reference = Curled(0.1);
+  options_.lbfgs_reuses_factor = true;
+  auto solver = std::make_unique<QuasistaticSolver>(model_, LeftFaceFixed(mesh_), options_);
+  // No factor yet: the rotation-fixed preconditioner, as by default, then released.
+  solver->actuation() = CurlActuation(mesh_, 0.1);
+  const QuasistaticSolveReport first = solver->Solve();
   ASSERT_TRUE(first.converged) << first.Summary();
   EXPECT_GT(first.lbfgs_iterations, 0) << first.Summary();
-  EXPECT_EQ(first.factorizations, first_reference.factorizations);
-  EXPECT_FALSE(solver.holds_lbfgs_preconditioner()) << "released after the first solve";
-  EXPECT_TRUE(reference.holds_lbfgs_preconditioner());
+  EXPECT_FALSE(solver->holds_lbfgs_preconditioner()) << "released after the first solve";
+  EXPECT_TRUE(reference->holds_lbfgs_preconditioner());
   // A large change from there: L-BFGS on the earlier factor, then Newton.
-  solver.actuation() = CurlActuation(mesh, 0.3);
-  const QuasistaticSolveReport far = solver.Solve();
+  solver->actuation() = CurlActuation(mesh_, 0.3);
+  const QuasistaticSolveReport far = solver->Solve();
   ASSERT_TRUE(far.converged) << far.Summary();
   EXPECT_GT(far.lbfgs_iterations, 0) << far.Summary();
   EXPECT_EQ(far.factorizations, far.exact_steps + far.projected_steps - far.reused_steps +
                                     far.shifted_factorizations)
       << "every factorization is a Newton step's: " << far.Summary();
-  reference.actuation() = CurlActuation(mesh, 0.3);
-  const QuasistaticSolveReport far_reference = reference.Solve();
-  ASSERT_TRUE(far_reference.converged);
-  EXPECT_FALSE(solver.holds_lbfgs_preconditioner());
-  EXPECT_LT((reference.positions() - solver.positions()).cwiseAbs().maxCoeff(), 1e-7);
+  EXPECT_FALSE(solver->holds_lbfgs_preconditioner());
+  reference->actuation() = CurlActuation(mesh_, 0.3);
+  ASSERT_TRUE(reference->Solve().converged);
+  EXPECT_LT((reference->positions() - solver->positions()).cwiseAbs().maxCoeff(), 1e-7);
 }
 
 }  // namespace
