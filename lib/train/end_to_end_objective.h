@@ -132,10 +132,11 @@ class EndToEndObjective final : public ceres::FirstOrderFunction {
   const Counters& last_counters() const { return last_counters_; }
   const Counters& total_counters() const { return total_counters_; }
   // Whether each pose has its own solver and factor (TrainOptions::max_factor_cache_gb),
-  // and the size of one solver's factors that choice was made on (GB: the numeric
-  // factor's storage from CHOLMOD's symbolic analysis, SparseCholesky::factor_bytes,
-  // twice with the L-BFGS phase, whose preconditioner has a factor of its own, plus the
-  // element SVD cache, PolarCache::BytesFor; 0 on a rank without poses).
+  // and the size of one solver's factor that choice was made on (GB: the numeric
+  // factor's storage from CHOLMOD's symbolic analysis, SparseCholesky::factor_bytes, plus
+  // the element SVD cache, PolarCache::BytesFor; 0 on a rank without poses). A solver per
+  // pose keeps no second factor: its L-BFGS phase reuses its own
+  // (QuasistaticSolverOptions::lbfgs_reuses_factor).
   bool solver_per_pose() const { return solver_per_pose_; }
   double factor_gb() const { return factor_gb_; }
 

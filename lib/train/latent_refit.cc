@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <memory>
+#include <numeric>
 #include <vector>
 
 #include "fit/latent_fit.h"
@@ -30,7 +31,8 @@ LatentRefitReport RefitTrainingLatents(const LatentRefitOptions& options, Active
   CHECK_EQ(static_cast<int>(model->states.size()), num_poses) << "one state per pose";
   std::vector<int> all;
   if (poses == nullptr) {
-    for (int p = 0; p < num_poses; ++p) all.push_back(p);
+    all.resize(num_poses);
+    std::iota(all.begin(), all.end(), 0);
     poses = &all;
   }
   for (int p : *poses) CHECK(p >= 0 && p < num_poses) << "pose " << p;
