@@ -3,9 +3,12 @@
 // in the same run.
 //
 // Runs TrainEndToEnd (the training aqs_train does, nothing saved) for --iterations
-// L-BFGS iterations on a copy of the model, once with one solver and factor per pose
-// (each pose's factor preconditions its next solves: TrainOptions::max_factor_cache_gb)
-// and once with one solver per thread (--modes). Printed per mode:
+// L-BFGS iterations on a copy of the model, in each solver layout of --modes: per_pose,
+// one solver and factor per pose (each pose's factor preconditions its next solves:
+// TrainOptions::max_factor_cache_gb); stored, one solver per thread that keeps every
+// pose's last factor in single precision between its evaluations, to the same use;
+// shared, one solver per thread and a fresh factorization per pose and evaluation.
+// Printed per mode:
 //   seconds per iteration (wall), and per pose per iteration over the unit;
 //   evaluations per iteration (1 + the line search's extra trials);
 //   factorizations per pose per iteration (solves and adjoints), and how many Newton
@@ -40,7 +43,8 @@ DEFINE_int32(iterations, 10, "L-BFGS iterations per mode.");
 DEFINE_bool(progress, false, "Print training's progress line of every iteration (with its "
             "factorizations per pose), to tell the first iterations' cost from the later ones'.");
 DEFINE_string(modes, "per_pose,shared", "Solver layouts to measure: per_pose (one solver and "
-              "factor per pose) and/or shared (one per thread).");
+              "factor per pose), stored (one solver per thread, each pose's factor kept in single "
+              "precision) and/or shared (one solver per thread, nothing kept).");
 DEFINE_double(tolerance, 1e-6, "Relative force tolerance of the training equilibria.");
 DEFINE_int32(max_poses, 0, "Train on at most this many of the model's poses, spread evenly "
              "over its pose list (poses i * P / N for i < N); 0: all. The figures are per pose.");
@@ -55,6 +59,9 @@ struct Unit {
   double seconds_one_thread = 0.0;  // the same with one BLAS thread
   double factor_nonzeros = 0.0;  // of L
   double factor_bytes = 0.0;     // the numeric factor's storage (supernodal blocks)
+  double stored_bytes = 0.0;     // a single-precision copy of its values (StoredFactor)
+  double store_seconds = 0.0;    // keeping such a copy, and restoring it
+  double restore_seconds = 0.0;
   double stiffness_nonzeros = 0.0;
   int dofs = 0;
 };
@@ -75,6 +82,7 @@ Unit MeasureUnit(const ActiveModel& model) {
   factorization.Analyze();
   unit.factor_nonzeros = factorization.cholesky().factor_nonzeros();
   unit.factor_bytes = factorization.cholesky().factor_bytes();
+  unit.stored_bytes = factorization.cholesky().stored_factor_bytes();
   unit.stiffness_nonzeros = static_cast<double>(factorization.pattern().num_nonzeros());
   unit.dofs = factorization.cholesky().size();
   std::vector<double> seconds;
@@ -112,6 +120,13 @@ Unit MeasureUnit(const ActiveModel& model) {
     if (factorization.FactorizeAssembled(shift, &error)) seconds.push_back(timer.Seconds());
   }
   SetBlasThreads(blas_threads);
+  StoredStiffnessFactor stored;
+  WallTimer store_timer;
+  if (factorization.StoreFactor(&stored)) {
+    unit.store_seconds = store_timer.Seconds();
+    WallTimer restore_timer;
+    if (factorization.RestoreFactor(stored)) unit.restore_seconds = restore_timer.Seconds();
+  }
   if (!seconds.empty()) {
     std::sort(seconds.begin(), seconds.end());
     unit.seconds_one_thread = seconds[seconds.size() / 2];
@@ -179,13 +194,19 @@ int Main() {
               measured.dofs, measured.stiffness_nonzeros, measured.factor_nonzeros,
               measured.factor_bytes / 1e9, model.num_poses(),
               measured.factor_bytes * model.num_poses() / 1e9, CurrentResidentBytes() / 1e9);
+  std::printf("single-precision copy of a factor (mode stored): %.3f GB (x %d poses = %.2f GB); "
+              "keeping one %.4f s, restoring it %.4f s (%.3f units together)\n",
+              measured.stored_bytes / 1e9, model.num_poses(),
+              measured.stored_bytes * model.num_poses() / 1e9, measured.store_seconds,
+              measured.restore_seconds,
+              unit > 0 ? (measured.store_seconds + measured.restore_seconds) / unit : 0.0);
   std::fflush(stdout);  // the model's figures before the (long) training runs
   std::printf("%-9s %6s %8s %9s %7s %9s %8s %8s %8s %8s %8s %8s %8s %8s %8s %8s\n", "mode", "iters",
               "s/iter", "pose/unit", "evals", "fact/pose", "adj_fact", "reused", "cg/pose", "newton", "lbfgs",
               "solve", "adjoint", "decoder", "loss", "peak_GB");
   for (const std::string& mode : SplitList(FLAGS_modes)) {
-    if (mode != "per_pose" && mode != "shared") {
-      PrintError("--modes: '" + mode + "' is not per_pose or shared");
+    if (mode != "per_pose" && mode != "shared" && mode != "stored") {
+      PrintError("--modes: '" + mode + "' is not per_pose, stored or shared");
       return 1;
     }
     ActiveModel copy = model;
@@ -197,7 +218,11 @@ int Main() {
       PrintError(error);
       return 1;
     }
-    options.max_factor_cache_gb = mode == "per_pose" ? 1e9 : 0.0;
+    // stored: a budget that holds every pose's single-precision copy but not a solver
+    // per pose (whose factors are in double precision, with their SVD caches).
+    options.max_factor_cache_gb = mode == "per_pose" ? 1e9
+                                  : mode == "stored" ? 1.0001 * measured.stored_bytes * model.num_poses() / 1e9
+                                                     : 0.0;
     options.max_restarts = 0;
     options.log_every = FLAGS_progress ? 1 : 0;
     TrainReport report;

@@ -195,6 +195,18 @@ bool StiffnessFactorization::SolveAssembled(const Eigen::MatrixXd& b, const Fact
   return true;
 }
 
+bool StiffnessFactorization::StoreFactor(StoredStiffnessFactor* stored) const {
+  stored->aged = refresh_requested_;
+  return cholesky_.StoreFactor(&stored->factor);
+}
+
+bool StiffnessFactorization::RestoreFactor(const StoredStiffnessFactor& stored) {
+  if (!cholesky_.LoadFactor(stored.factor)) return false;
+  factor_current_ = false;
+  refresh_requested_ = stored.aged;
+  return true;
+}
+
 Eigen::MatrixXd StiffnessFactorization::SolveFree(const Eigen::MatrixXd& b) {
   WallTimer timer;
   Eigen::MatrixXd x = cholesky_.Solve(b);

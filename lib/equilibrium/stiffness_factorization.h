@@ -35,6 +35,15 @@ struct FactorReuseOptions {
   int refresh_iterations = 8;
 };
 
+// A factor kept for later by StiffnessFactorization::StoreFactor: its values in single
+// precision and whether it had aged (see FactorReuseOptions::refresh_iterations).
+struct StoredStiffnessFactor {
+  StoredFactor factor;
+  bool aged = false;
+  bool empty() const { return factor.empty(); }
+  double bytes() const { return factor.bytes(); }
+};
+
 // What the factorization did since the last ResetCounters().
 struct FactorizationCounters {
   int factorizations = 0;  // numeric factorizations (successful or not)
@@ -119,6 +128,18 @@ class StiffnessFactorization {
   void RequestRefresh() { refresh_requested_ = true; }
   // Whether the next solve will factorize afresh instead of reusing the factor held now.
   bool refresh_requested() const { return refresh_requested_; }
+
+  // Keeps the factor held now in *stored (single precision, half a factor's storage);
+  // false, with *stored cleared, if no factor is held. For a solver shared between
+  // systems of one pattern (the poses of a training set) that keeps each system's factor
+  // between its visits.
+  bool StoreFactor(StoredStiffnessFactor* stored) const;
+  // Makes a stored factor the one held, as a factor of an earlier state: later solves
+  // use it as CG's preconditioner (SolveReusingFactor), never as an exact factor, and
+  // factorize afresh if it had aged. False, changing nothing, if it is empty or of
+  // another pattern's analysis (cholesky().structure_id()), or nothing was factorized
+  // here yet (the storage it is copied into does not exist).
+  bool RestoreFactor(const StoredStiffnessFactor& stored);
 
   const FactorizationCounters& counters() const { return counters_; }
   void ResetCounters() { counters_ = FactorizationCounters(); }

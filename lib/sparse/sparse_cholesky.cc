@@ -120,6 +120,76 @@ double SparseCholesky::factor_bytes() const {
   return bytes;
 }
 
+double SparseCholesky::stored_factor_bytes() const {
+  const cholmod_factor* l = impl_->factor;
+  if (l == nullptr || !l->is_super) return 0.0;
+  return sizeof(float) * static_cast<double>(l->xsize);
+}
+
+namespace {
+
+// FNV-1a over n 64-bit integers, continuing from `hash`.
+uint64_t HashIntegers(const int64_t* data, size_t n, uint64_t hash) {
+  constexpr uint64_t kPrime = 1099511628211ull;
+  for (size_t k = 0; k < n; ++k) {
+    uint64_t word = static_cast<uint64_t>(data[k]);
+    for (int byte = 0; byte < 8; ++byte) {
+      hash ^= word & 0xffu;
+      hash *= kPrime;
+      word >>= 8;
+    }
+  }
+  return hash;
+}
+
+}  // namespace
+
+uint64_t SparseCholesky::structure_id() const {
+  const cholmod_factor* l = impl_->factor;
+  if (l == nullptr) return 0;
+  if (structure_id_ != 0) return structure_id_;
+  const int64_t sizes[5] = {static_cast<int64_t>(l->n), static_cast<int64_t>(l->xsize),
+                            static_cast<int64_t>(l->nsuper), static_cast<int64_t>(l->ssize),
+                            static_cast<int64_t>(l->is_super)};
+  uint64_t hash = HashIntegers(sizes, 5, 14695981039346656037ull);
+  if (l->Perm != nullptr) hash = HashIntegers(static_cast<const int64_t*>(l->Perm), l->n, hash);
+  if (l->is_super && l->super != nullptr) {
+    hash = HashIntegers(static_cast<const int64_t*>(l->super), l->nsuper + 1, hash);
+    hash = HashIntegers(static_cast<const int64_t*>(l->pi), l->nsuper + 1, hash);
+    hash = HashIntegers(static_cast<const int64_t*>(l->px), l->nsuper + 1, hash);
+  }
+  structure_id_ = hash == 0 ? 1 : hash;
+  return structure_id_;
+}
+
+bool SparseCholesky::StoreFactor(StoredFactor* stored) const {
+  const cholmod_factor* l = impl_->factor;
+  if (!factorized_ || l == nullptr || !l->is_super || l->x == nullptr) {
+    stored->Clear();
+    return false;
+  }
+  const double* x = static_cast<const double*>(l->x);
+  stored->values.resize(l->xsize);
+  for (size_t k = 0; k < l->xsize; ++k) stored->values[k] = static_cast<float>(x[k]);
+  stored->structure = structure_id();
+  return true;
+}
+
+bool SparseCholesky::LoadFactor(const StoredFactor& stored) {
+  cholmod_factor* l = impl_->factor;
+  if (stored.empty() || l == nullptr || !l->is_super || l->x == nullptr ||
+      l->xtype != CHOLMOD_REAL || stored.values.size() != l->xsize ||
+      stored.structure != structure_id()) {
+    return false;
+  }
+  double* x = static_cast<double*>(l->x);
+  for (size_t k = 0; k < l->xsize; ++k) x[k] = stored.values[k];
+  l->minor = l->n;  // a complete factor (the last Factorize may have stopped early)
+  factorized_ = true;
+  failed_column_ = -1;
+  return true;
+}
+
 std::string SparseCholesky::ordering_name() const {
   if (impl_->factor == nullptr) return "none";
   switch (impl_->factor->ordering) {

@@ -10,6 +10,22 @@
 
 namespace aqs {
 
+// A numeric factor's values kept in single precision, apart from the SparseCholesky
+// that computed them: for a factor to be put back later as a preconditioner (not as an
+// exact factor), at half the storage. `structure` identifies the symbolic analysis the
+// values belong to (SparseCholesky::structure_id); empty: nothing stored.
+struct StoredFactor {
+  std::vector<float> values;  // the supernodal factor's L->x, xsize entries
+  uint64_t structure = 0;
+  bool empty() const { return values.empty(); }
+  double bytes() const { return sizeof(float) * static_cast<double>(values.size()); }
+  void Clear() {
+    values.clear();
+    values.shrink_to_fit();
+    structure = 0;
+  }
+};
+
 // A symmetric positive definite sparse matrix factorized with CHOLMOD (SuiteSparse,
 // supernodal LL^T, fill-reducing ordering chosen by CHOLMOD: AMD, or METIS where AMD
 // fills in badly). The symbolic analysis (ordering, elimination tree, supernodes) is
@@ -46,6 +62,21 @@ class SparseCholesky {
   // non-zeros plus the zeros inside supernodes) with its row indices (ssize integers)
   // and per-supernode tables; a simplicial L its non-zeros with their row indices.
   double factor_bytes() const;
+  // Bytes a StoredFactor of this factor takes (0 before the analysis, or if the factor
+  // is not supernodal).
+  double stored_factor_bytes() const;
+  // A fingerprint of the symbolic analysis (size, permutation, supernodes; 0 before the
+  // analysis): two SparseCholesky objects with equal ids lay out their factors alike.
+  uint64_t structure_id() const;
+  // Copies the numeric factor into *stored (single precision). False (and *stored
+  // cleared) if there is no successful factorization or the factor is not supernodal.
+  bool StoreFactor(StoredFactor* stored) const;
+  // Makes the values of `stored` this object's factor (rounded back to double; Solve
+  // then applies an approximate inverse of the matrix they were computed for). False,
+  // changing nothing, if `stored` is empty, of another structure_id, or this object has
+  // no numeric factor storage yet (no Factorize has run).
+  bool LoadFactor(const StoredFactor& stored);
+
   // Name of the ordering CHOLMOD chose ("AMD", "METIS", ...).
   std::string ordering_name() const;
   // Seconds spent in the last symbolic analysis and the last numeric factorization.
@@ -67,6 +98,7 @@ class SparseCholesky {
   int failed_column_ = -1;
   double analyze_seconds_ = 0.0;
   double factorize_seconds_ = 0.0;
+  mutable uint64_t structure_id_ = 0;  // computed on first use after the analysis
 };
 
 }  // namespace aqs

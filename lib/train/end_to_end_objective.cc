@@ -1,5 +1,7 @@
 #include "train/end_to_end_objective.h"
 
+#include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <limits>
 
@@ -59,10 +61,19 @@ EndToEndObjective::EndToEndObjective(const TrainOptions& options, const ActiveMo
   // (The budget is per process; the choice also depends on the pose count in all, so
   // that a rank owning one pose of many keeps its factor as one process would.)
   solver_per_pose_ = num_poses_ > 1 && factor_gb_ * num_owned <= options.max_factor_cache_gb;
+  // Otherwise the budget keeps single-precision copies of the first poses' factors.
+  stored_factor_gb_ = first->stiffness_factorization()->cholesky().stored_factor_bytes() / 1e9;
+  if (!solver_per_pose_ && num_poses_ > 1 && stored_factor_gb_ > 0.0) {
+    num_stored_factors_ = static_cast<int>(std::min<double>(
+        num_owned, std::floor(options.max_factor_cache_gb / stored_factor_gb_)));
+    stored_factors_.resize(num_stored_factors_);
+  }
   // A factor of another pose is a poor preconditioner: with shared solvers a pose's
-  // solve starts by factorizing (StiffnessFactorization::RequestRefresh in Evaluate), and
-  // its later Newton steps and its adjoint reuse that factor by CG. A solver per pose
-  // preconditions L-BFGS with its pose's earlier factor too.
+  // solve starts by factorizing (StiffnessFactorization::RequestRefresh in Evaluate)
+  // unless its own stored factor is restored, and its later Newton steps and its adjoint
+  // reuse that factor by CG. A pose's own earlier factor preconditions L-BFGS too.
+  // (Solvers per thread choose it per solve: for the poses whose stored factor is
+  // restored.)
   solver_options.lbfgs_reuses_factor = solver_per_pose_;
   first->set_options(solver_options);
   EquilibriumDifferentiatorOptions differentiator_options;
@@ -333,11 +344,39 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
     w.solver->SetFixedPositions(fixed_positions_[p]);
     w.solver->actuation() = a[k];
     w.solver->SetPositions(states_[p]);
+    const bool stored = !solver_per_pose_ && k < num_stored_factors_;
     if (solver_per_pose_) {
       PredictState(p, &w);
     } else {
-      w.solver->stiffness_factorization()->RequestRefresh();  // the factor is another pose's
+      const bool restored =
+          stored && w.solver->stiffness_factorization()->RestoreFactor(stored_factors_[k]);
+      if (restored) {
+        PredictState(p, &w);
+      } else {
+        w.solver->stiffness_factorization()->RequestRefresh();  // the factor is another pose's
+      }
+      // The pose's own earlier factor preconditions L-BFGS; without one, the thread's
+      // rotation-fixed factor (kept between solves) does.
+      QuasistaticSolverOptions solver_options = w.solver->options();
+      solver_options.lbfgs_reuses_factor = restored;
+      w.solver->set_options(solver_options);
     }
+    // Whatever the outcome, the factor held at the end is the pose's to keep (none after
+    // a failure: it may belong to a state far from the next evaluation's).
+    struct KeepFactor {
+      StiffnessFactorization* factorization;
+      StoredStiffnessFactor* stored;
+      const std::string* failure;
+      ~KeepFactor() {
+        if (stored == nullptr) return;
+        if (failure->empty()) {
+          factorization->StoreFactor(stored);
+        } else {
+          stored->factor.Clear();
+        }
+      }
+    } keep_factor{w.solver->stiffness_factorization(), stored ? &stored_factors_[k] : nullptr,
+                  &failures_[p]};
     QuasistaticSolveReport report = w.solver->Solve();
     auto count = [&counters](const QuasistaticSolveReport& r) {
       counters.factorizations += r.factorizations;
@@ -478,7 +517,7 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
   }
   for (int k = 0; k < num_owned; ++k) {
     states_[owned_[k]] = std::move(solved[k]);
-    if (solver_per_pose_) state_actuations_[owned_[k]] = a[k];
+    if (solver_per_pose_ || k < num_stored_factors_) state_actuations_[owned_[k]] = a[k];
   }
   if (static_cast<int>(remembered_.size()) == kRememberedEvaluations) {
     remembered_.erase(remembered_.begin());

@@ -139,6 +139,10 @@ class EndToEndObjective final : public ceres::FirstOrderFunction {
   // (QuasistaticSolverOptions::lbfgs_reuses_factor).
   bool solver_per_pose() const { return solver_per_pose_; }
   double factor_gb() const { return factor_gb_; }
+  // With solvers per thread: how many of this rank's poses keep their factor in single
+  // precision between evaluations (the first ones owned), and one such copy's size, GB.
+  int num_stored_factors() const { return num_stored_factors_; }
+  double stored_factor_gb() const { return stored_factor_gb_; }
 
  private:
   struct Worker {
@@ -177,10 +181,16 @@ class EndToEndObjective final : public ceres::FirstOrderFunction {
   mutable std::vector<Worker> workers_;  // one per owned pose, or one per thread
   bool solver_per_pose_ = false;
   double factor_gb_ = 0.0;
+  int num_stored_factors_ = 0;
+  double stored_factor_gb_ = 0.0;
+  // With solvers per thread: owned pose k's last factor, for k < num_stored_factors_
+  // (empty until its first evaluation, or after one that failed).
+  mutable std::vector<StoredStiffnessFactor> stored_factors_;
   mutable Counters last_counters_, total_counters_;
   mutable std::vector<Eigen::Matrix3Xd> states_;
-  // With a solver per pose: the actuation each state is the equilibrium of (empty: not
-  // known), for the first-order prediction of the next evaluation's start.
+  // With a solver per pose or a stored factor: the actuation each state is the
+  // equilibrium of (empty: not known), for the first-order prediction of the next
+  // evaluation's start.
   mutable std::vector<ActuationMatrix> state_actuations_;
   // Moves pose p's solver from states_[p] to x + dx*/da (a - a_state), the equilibrium
   // predicted to first order for the solver's new actuation a, using the pose's last

@@ -250,17 +250,20 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
     // The solver layout (TrainOptions::max_factor_cache_gb), for this rank's poses.
     const size_t owned = objective->owned_poses().size();
     const double gb = objective->factor_gb(), total = owned * gb;
-    char layout[256];
+    char layout[512];
     if (objective->solver_per_pose()) {
       std::snprintf(layout, sizeof(layout),
                     "train: one solver and stiffness factor per pose (%zu x %.3g GB = %.3g GB, "
                     "within the factor cache of %.3g GB)\n",
                     owned, gb, total, options.max_factor_cache_gb);
     } else if (total > options.max_factor_cache_gb) {
+      const int stored = objective->num_stored_factors();
       std::snprintf(layout, sizeof(layout),
                     "train: one solver per thread (the factors of %zu poses, %zu x %.3g GB = "
-                    "%.3g GB, exceed the factor cache of %.3g GB)\n",
-                    owned, owned, gb, total, options.max_factor_cache_gb);
+                    "%.3g GB, exceed the factor cache of %.3g GB); %d of the poses keep "
+                    "their factor in single precision (%d x %.3g GB = %.3g GB)\n",
+                    owned, owned, gb, total, options.max_factor_cache_gb, stored, stored,
+                    objective->stored_factor_gb(), stored * objective->stored_factor_gb());
     } else {
       std::snprintf(layout, sizeof(layout), "train: one solver per thread\n");
     }

@@ -28,8 +28,11 @@ struct TrainOptions {
   // take at most this many GB (estimated from CHOLMOD's symbolic analysis, with each
   // solver's element SVD cache, physics/polar_cache.h): each pose's
   // factor then preconditions its next evaluation's Newton steps and adjoint by CG,
-  // which mostly needs no factorization. Above it, one solver per thread (every
-  // evaluation factorizes; its adjoint still reuses the solve's last factor).
+  // which mostly needs no factorization. Above it, one solver per thread, which keeps
+  // each pose's last factor in single precision between the pose's evaluations (half
+  // a factor's values, StiffnessFactorization::StoreFactor) for as many poses as fit this
+  // budget, to the same use; the other poses factorize at every evaluation (their
+  // adjoint still reuses the solve's last factor).
   double max_factor_cache_gb = 4.0;
   // Checkpoints and logs: the model directory the learned state is saved into every
   // checkpoint_every iterations, as one unit (SaveLearnedState: decoder, latents,

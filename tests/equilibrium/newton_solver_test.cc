@@ -370,5 +370,47 @@ TEST_F(CurledBarTest, LbfgsPreconditionedByTheEarlierFactor) {
   EXPECT_LT((reference->positions() - solver->positions()).cwiseAbs().maxCoeff(), 1e-7);
 }
 
+// A solver shared between poses can keep a pose's factor (StoreFactor) and put it back
+// before that pose's next solve (RestoreFactor), after solving another pose: the warm
+// re-solve then reuses it by CG as if the solver had been the pose's own, and reaches
+// the same equilibrium as a fresh solve.
+TEST_F(CurledBarTest, RestoredFactorServesTheWarmResolve) {
+  std::unique_ptr<QuasistaticSolver> solver = Curled(0.2);
+  const Eigen::Matrix3Xd first = solver->positions();
+  const ActuationMatrix first_actuation = solver->actuation();
+  StoredStiffnessFactor stored;
+  ASSERT_TRUE(solver->stiffness_factorization()->StoreFactor(&stored));
+  // Another pose in between.
+  solver->actuation() = CurlActuation(mesh_, -0.15);
+  solver->SetPositions(mesh_.vertices);
+  ASSERT_TRUE(solver->Solve().converged);
+  // Back to the first pose, a little changed, with its own factor.
+  solver->actuation() = first_actuation;
+  solver->actuation() = Scaled(*solver);
+  solver->SetPositions(first);
+  ASSERT_TRUE(solver->stiffness_factorization()->RestoreFactor(stored));
+  EXPECT_FALSE(solver->stiffness_factorization()->factor_current());
+  const QuasistaticSolveReport warm = solver->Solve();
+  ASSERT_TRUE(warm.converged) << warm.Summary();
+  EXPECT_GT(warm.reused_steps, 0) << warm.Summary();
+  EXPECT_EQ(warm.factorizations, 0) << warm.Summary();
+  QuasistaticSolverOptions fresh = options_;
+  fresh.factor_reuse.max_iterations = 0;
+  QuasistaticSolver reference(model_, LeftFaceFixed(mesh_), fresh);
+  reference.actuation() = solver->actuation();
+  reference.SetPositions(first);
+  ASSERT_TRUE(reference.Solve().converged);
+  EXPECT_LT((reference.positions() - solver->positions()).cwiseAbs().maxCoeff(), 1e-8);
+  // A factor stored after it had aged makes the next solve factorize afresh.
+  solver->stiffness_factorization()->RequestRefresh();
+  StoredStiffnessFactor aged;
+  ASSERT_TRUE(solver->stiffness_factorization()->StoreFactor(&aged));
+  EXPECT_TRUE(aged.aged);
+  ASSERT_TRUE(solver->stiffness_factorization()->RestoreFactor(stored));
+  EXPECT_FALSE(solver->stiffness_factorization()->refresh_requested());
+  ASSERT_TRUE(solver->stiffness_factorization()->RestoreFactor(aged));
+  EXPECT_TRUE(solver->stiffness_factorization()->refresh_requested());
+}
+
 }  // namespace
 }  // namespace aqs

@@ -76,5 +76,73 @@ TEST_F(SparseCholeskyTest, ReportsIndefiniteMatrixAndRecovers) {
   EXPECT_TRUE(cholesky.factorized());
 }
 
+// A single-precision copy of a factor, loaded back into an object of the same
+// analysis, solves with its matrix to single precision (as a preconditioner would use
+// it), whatever that object factorized in between. Loads that cannot be right change
+// nothing.
+TEST_F(SparseCholeskyTest, StoredFactorLoadsBackAsAnApproximateInverse) {
+  SparseCholesky cholesky(pattern_.num_dofs(), &pattern_.column_starts(), &pattern_.row_indices());
+  SparseCholesky other(pattern_.num_dofs(), &pattern_.column_starts(), &pattern_.row_indices());
+  StoredFactor stored;
+  EXPECT_FALSE(cholesky.StoreFactor(&stored)) << "nothing factorized";
+  EXPECT_TRUE(stored.empty());
+  std::string error;
+  ASSERT_TRUE(cholesky.Factorize(values_, &error)) << error;
+  ASSERT_TRUE(cholesky.StoreFactor(&stored));
+  EXPECT_EQ(stored.bytes(), cholesky.stored_factor_bytes());
+  EXPECT_GT(stored.bytes(), 0.0);
+  // Half the factor's values: 4 of every 8 bytes of L->x, without the indices.
+  EXPECT_LE(stored.bytes(), 0.5 * cholesky.factor_bytes());
+  const Eigen::MatrixXd dense = DenseFromUpperCsc(pattern_, values_);
+  std::mt19937 rng(7);
+  std::normal_distribution<double> normal;
+  Eigen::MatrixXd b(pattern_.num_dofs(), 2);
+  for (int i = 0; i < b.size(); ++i) b.data()[i] = normal(rng);
+  const Eigen::MatrixXd exact = dense.llt().solve(b);
+
+  // Another matrix of the same pattern (a random positive diagonal scaling).
+  std::vector<double> scaled = values_;
+  std::uniform_real_distribution<double> factor(0.5, 2.0);
+  Eigen::VectorXd d(pattern_.num_dofs());
+  for (int i = 0; i < d.size(); ++i) d[i] = factor(rng);
+  const std::vector<int64_t>& starts = pattern_.column_starts();
+  const std::vector<int64_t>& rows = pattern_.row_indices();
+  for (int c = 0; c < pattern_.num_dofs(); ++c) {
+    for (int64_t p = starts[c]; p < starts[c + 1]; ++p) scaled[p] *= d[rows[p]] * d[c];
+  }
+  ASSERT_TRUE(cholesky.Factorize(scaled, &error)) << error;
+  EXPECT_GT(testing::RelativeError(cholesky.Solve(b), exact), 1e-2);
+  ASSERT_TRUE(cholesky.LoadFactor(stored));
+  EXPECT_TRUE(cholesky.factorized());
+  const double loaded_error = testing::RelativeError(cholesky.Solve(b), exact);
+  EXPECT_LT(loaded_error, 1e-4);
+  EXPECT_GT(loaded_error, 1e-12) << "rounded to single precision";
+
+  // An object of the same pattern has the same analysis, and takes the copy once it has
+  // factorized something (its numeric storage exists).
+  EXPECT_FALSE(other.LoadFactor(stored));
+  EXPECT_FALSE(other.factorized());
+  ASSERT_TRUE(other.Factorize(scaled, &error)) << error;
+  EXPECT_EQ(other.structure_id(), cholesky.structure_id());
+  ASSERT_TRUE(other.LoadFactor(stored));
+  EXPECT_LT(testing::RelativeError(other.Solve(b), exact), 1e-4);
+
+  // A copy of another analysis, or an empty one, is refused and nothing changes.
+  std::vector<bool> more_fixed = FixedVertexMask(testing::LeftFaceFixed(mesh_), mesh_.num_vertices());
+  more_fixed.back() = true;
+  StiffnessPattern smaller(mesh_.tets, more_fixed);
+  std::vector<double> smaller_values;
+  AssembleStiffness(model_, smaller, mesh_.vertices, IdentityActuations(mesh_.num_tets()),
+                    StiffnessKind::kExact, 2, &smaller_values);
+  b.conservativeResize(smaller.num_dofs(), Eigen::NoChange);
+  SparseCholesky coupled(smaller.num_dofs(), &smaller.column_starts(), &smaller.row_indices());
+  ASSERT_TRUE(coupled.Factorize(smaller_values, &error)) << error;
+  EXPECT_NE(coupled.structure_id(), cholesky.structure_id());
+  const Eigen::MatrixXd before = coupled.Solve(b);
+  EXPECT_FALSE(coupled.LoadFactor(stored));
+  EXPECT_FALSE(coupled.LoadFactor(StoredFactor()));
+  EXPECT_EQ((coupled.Solve(b) - before).cwiseAbs().maxCoeff(), 0.0);
+}
+
 }  // namespace
 }  // namespace aqs

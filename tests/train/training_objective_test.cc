@@ -98,6 +98,58 @@ TEST(EndToEndObjectiveTest, SolverLayoutsAgree) {
             shared_objective.total_counters().factorizations);
 }
 
+// Solvers per thread that keep each pose's factor in single precision between its
+// evaluations (a budget that holds those copies but not a solver per pose) give the
+// objective and gradient of a fresh factorization per evaluation, with fewer
+// factorizations; a budget for some of the copies keeps the first poses' only.
+TEST(EndToEndObjectiveTest, StoredFactorsServeSharedSolvers) {
+  ActiveModel model = PretrainedBar();
+  ASSERT_GE(model.num_poses(), 3);
+  TrainOptions shared;
+  shared.solver.relative_force_tolerance = 1e-11;
+  shared.num_threads = 2;
+  shared.max_factor_cache_gb = 0.0;
+  EndToEndObjective shared_objective(shared, model);
+  EXPECT_EQ(shared_objective.num_stored_factors(), 0);
+  const double copy_gb = shared_objective.stored_factor_gb();
+  ASSERT_GT(copy_gb, 0.0);
+  ASSERT_LT(2.0 * copy_gb, shared_objective.factor_gb());
+  TrainOptions stored = shared;
+  stored.max_factor_cache_gb = 1.0001 * copy_gb * model.num_poses();
+  TrainOptions some = shared;
+  some.max_factor_cache_gb = 1.0001 * copy_gb * 2;
+  EndToEndObjective stored_objective(stored, model), some_objective(some, model);
+  ASSERT_FALSE(stored_objective.solver_per_pose());
+  EXPECT_EQ(stored_objective.num_stored_factors(), model.num_poses());
+  ASSERT_FALSE(some_objective.solver_per_pose());
+  EXPECT_EQ(some_objective.num_stored_factors(), 2);
+  Eigen::VectorXd x = shared_objective.ModelParameters();
+  std::mt19937 rng(6);
+  std::normal_distribution<double> normal(0.0, 1e-4);  // steps late in training
+  for (int step = 0; step < 3; ++step) {
+    if (step > 0) {
+      for (int i = 0; i < x.size(); ++i) x[i] += normal(rng);
+    }
+    double c0 = 0, c1 = 0, c2 = 0;
+    Eigen::VectorXd g0(x.size()), g1(x.size()), g2(x.size());
+    ASSERT_TRUE(shared_objective.Evaluate(x.data(), &c0, g0.data())) << shared_objective.last_failure();
+    ASSERT_TRUE(stored_objective.Evaluate(x.data(), &c1, g1.data())) << stored_objective.last_failure();
+    ASSERT_TRUE(some_objective.Evaluate(x.data(), &c2, g2.data())) << some_objective.last_failure();
+    EXPECT_NEAR(c1, c0, 1e-9 * c0) << "step " << step;
+    EXPECT_NEAR(c2, c0, 1e-9 * c0) << "step " << step;
+    EXPECT_LT((g1 - g0).cwiseAbs().maxCoeff(), 1e-6 * g0.cwiseAbs().maxCoeff()) << "step " << step;
+    EXPECT_LT((g2 - g0).cwiseAbs().maxCoeff(), 1e-6 * g0.cwiseAbs().maxCoeff()) << "step " << step;
+  }
+  const int all_stored = stored_objective.total_counters().factorizations;
+  const int some_stored = some_objective.total_counters().factorizations;
+  const int none_stored = shared_objective.total_counters().factorizations;
+  std::printf("factorizations over 3 evaluations: every factor stored %d, 2 stored %d, none %d\n",
+              all_stored, some_stored, none_stored);
+  EXPECT_LT(all_stored, none_stored);
+  EXPECT_LE(all_stored, some_stored);
+  EXPECT_LE(some_stored, none_stored);
+}
+
 // An evaluation that fails (one pose's equilibrium not reached) keeps every pose's warm
 // start, also those of the poses that did converge.
 TEST(EndToEndObjectiveTest, FailedEvaluationKeepsEveryWarmStart) {
