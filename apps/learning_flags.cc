@@ -35,7 +35,8 @@ DEFINE_bool(pretrain_simulate, true, "After pre-training, simulate every pose's 
 DEFINE_int32(checkpoint_every, 1, "Save the learned state every this many iterations.");
 DEFINE_double(factor_cache_gb, 4.0, "End-to-end training keeps one stiffness factor per pose (far "
               "fewer factorizations) while the poses' factors take at most this many GB in all "
-              "(per process), else one solver per thread.");
+              "(per process), else one solver per thread with single-precision copies of as many "
+              "poses' factors as this many GB hold.");
 DEFINE_int32(train_restarts, 5, "L-BFGS restarts allowed when the line search stalls before the "
              "iteration or time budget is used.");
 DEFINE_int32(latent_refit_iterations, 0, "End-to-end training: before the first iteration (not "

@@ -63,6 +63,7 @@ bool StiffnessFactorization::FactorizeAssembled(double relative_shift, std::stri
   for (int c = 0; c < pattern_.num_dofs(); ++c) values_[starts[c + 1] - 1] = diagonal_[c];
   factor_current_ = ok && relative_shift == 0.0;
   refresh_requested_ = false;
+  factor_rounded_ = false;
   if (first) timings_.analysis = cholesky_.analyze_seconds();
   timings_.factorization += cholesky_.factorize_seconds();
   if (!ok) {
@@ -138,6 +139,8 @@ bool StiffnessFactorization::SolveReusingFactor(const Eigen::MatrixXd& b,
   }
   CHECK_EQ(b.rows(), pattern_.num_dofs());
   WallTimer timer;
+  const int extra = factor_rounded_ ? kRoundedFactorIterations : 0;
+  const int max_iterations = reuse.max_iterations + extra;
   x->setZero(b.rows(), b.cols());
   int iterations = 0;
   bool ok = true;
@@ -151,7 +154,7 @@ bool StiffnessFactorization::SolveReusingFactor(const Eigen::MatrixXd& b,
     Eigen::VectorXd p = z;
     double rz = r.dot(z);
     ok = false;
-    for (int k = 1; k <= reuse.max_iterations; ++k) {
+    for (int k = 1; k <= max_iterations; ++k) {
       ++iterations;
       const Eigen::VectorXd q = MultiplyAssembled(p);
       const double curvature = p.dot(q);
@@ -175,7 +178,8 @@ bool StiffnessFactorization::SolveReusingFactor(const Eigen::MatrixXd& b,
   counters_.cg_iterations += iterations;
   if (ok) {
     counters_.reused_solves += static_cast<int>(b.cols());
-    if (reuse.refresh_iterations > 0 && iterations > reuse.refresh_iterations * b.cols()) {
+    if (reuse.refresh_iterations > 0 &&
+        iterations > (reuse.refresh_iterations + extra) * b.cols()) {
       refresh_requested_ = true;
     }
   } else {
@@ -203,6 +207,7 @@ bool StiffnessFactorization::StoreFactor(StoredStiffnessFactor* stored) const {
 bool StiffnessFactorization::RestoreFactor(const StoredStiffnessFactor& stored) {
   if (!cholesky_.LoadFactor(stored.factor)) return false;
   factor_current_ = false;
+  factor_rounded_ = true;
   refresh_requested_ = stored.aged;
   return true;
 }
