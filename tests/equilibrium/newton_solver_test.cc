@@ -413,5 +413,41 @@ TEST_F(CurledBarTest, RestoredFactorServesTheWarmResolve) {
   EXPECT_TRUE(solver->stiffness_factorization()->refresh_requested());
 }
 
+// CG preconditioned by a restored single-precision copy needs more iterations than with
+// the exact factor, even on the matrix the copy came from; while such a copy is held,
+// SolveReusingFactor allows kRoundedFactorIterations more than its options say.
+TEST_F(CurledBarTest, RoundedCopyIsAllowedMoreCgIterations) {
+  std::unique_ptr<QuasistaticSolver> solver = Curled(0.2);
+  StiffnessFactorization& factorization = *solver->stiffness_factorization();
+  std::string error;
+  ASSERT_TRUE(factorization.Factorize(solver->positions(), solver->actuation(), StiffnessKind::kExact,
+                                      &error))
+      << error;
+  FactorReuseOptions one;
+  one.max_iterations = 1;
+  one.probe_iterations = 0;
+  one.refresh_iterations = 0;
+  const Eigen::MatrixXd b = Eigen::MatrixXd::Ones(factorization.cholesky().size(), 1);
+  Eigen::MatrixXd exact, rounded;
+  factorization.ResetCounters();
+  ASSERT_TRUE(factorization.SolveReusingFactor(b, one, &exact));
+  EXPECT_EQ(factorization.counters().cg_iterations, 1);
+  StoredStiffnessFactor stored;
+  ASSERT_TRUE(factorization.StoreFactor(&stored));
+  ASSERT_TRUE(factorization.RestoreFactor(stored));
+  factorization.ResetCounters();
+  ASSERT_TRUE(factorization.SolveReusingFactor(b, one, &rounded));
+  EXPECT_GT(factorization.counters().cg_iterations, 1);
+  EXPECT_LE(factorization.counters().cg_iterations,
+            1 + StiffnessFactorization::kRoundedFactorIterations);
+  EXPECT_LT((rounded - exact).norm(), 1e-8 * exact.norm());
+  // A new factorization is exact again: one iteration allowed, one needed.
+  factorization.Assemble(solver->positions(), solver->actuation(), StiffnessKind::kExact);
+  ASSERT_TRUE(factorization.FactorizeAssembled(0.0, &error)) << error;
+  factorization.ResetCounters();
+  ASSERT_TRUE(factorization.SolveReusingFactor(b, one, &exact));
+  EXPECT_EQ(factorization.counters().cg_iterations, 1);
+}
+
 }  // namespace
 }  // namespace aqs
