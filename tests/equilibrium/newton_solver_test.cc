@@ -310,6 +310,16 @@ class CurledBarTest : public ::testing::Test {
     EXPECT_TRUE(reference.Solve().converged);
     return reference.positions();
   }
+  // Solves `solver` (warm) and expects every Newton step on the factor it holds (by CG,
+  // no factorization) and the equilibrium of a fresh solve from `start`.
+  void ExpectSolvedOnTheHeldFactor(QuasistaticSolver* solver, const Eigen::Matrix3Xd& start) {
+    const QuasistaticSolveReport warm = solver->Solve();
+    ASSERT_TRUE(warm.converged) << warm.Summary();
+    EXPECT_GT(warm.reused_steps, 0) << warm.Summary();
+    EXPECT_EQ(warm.factorizations, 0) << warm.Summary();
+    EXPECT_LT((FreshlySolved(solver->actuation(), start) - solver->positions()).cwiseAbs().maxCoeff(),
+              1e-8);
+  }
   ActuationMatrix Scaled(const QuasistaticSolver& solver) const {
     const ActuationMatrix identity = IdentityActuations(mesh_.num_tets());
     return identity + 1.01 * (ActuationMatrix(solver.actuation()) - identity);
@@ -323,13 +333,7 @@ TEST_F(CurledBarTest, WarmResolveReusesTheFactor) {
   std::unique_ptr<QuasistaticSolver> solver = Curled(0.2);
   const Eigen::Matrix3Xd first = solver->positions();
   solver->actuation() = Scaled(*solver);
-  const QuasistaticSolveReport warm = solver->Solve();
-  ASSERT_TRUE(warm.converged) << warm.Summary();
-  EXPECT_GT(warm.reused_steps, 0) << warm.Summary();
-  EXPECT_EQ(warm.factorizations, 0) << warm.Summary();
-  // The same equilibrium as a solve with fresh factorizations.
-  EXPECT_LT((FreshlySolved(solver->actuation(), first) - solver->positions()).cwiseAbs().maxCoeff(),
-            1e-8);
+  ExpectSolvedOnTheHeldFactor(solver.get(), first);
 }
 
 // A solver shared between poses marks the factor it holds as another system's
@@ -396,12 +400,7 @@ TEST_F(CurledBarTest, RestoredFactorServesTheWarmResolve) {
   solver->SetPositions(first);
   ASSERT_TRUE(solver->stiffness_factorization()->RestoreFactor(stored));
   EXPECT_FALSE(solver->stiffness_factorization()->factor_current());
-  const QuasistaticSolveReport warm = solver->Solve();
-  ASSERT_TRUE(warm.converged) << warm.Summary();
-  EXPECT_GT(warm.reused_steps, 0) << warm.Summary();
-  EXPECT_EQ(warm.factorizations, 0) << warm.Summary();
-  EXPECT_LT((FreshlySolved(solver->actuation(), first) - solver->positions()).cwiseAbs().maxCoeff(),
-            1e-8);
+  ExpectSolvedOnTheHeldFactor(solver.get(), first);
   // A factor stored after it had aged makes the next solve factorize afresh.
   solver->stiffness_factorization()->RequestRefresh();
   StoredStiffnessFactor aged;
