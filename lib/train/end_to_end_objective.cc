@@ -344,7 +344,7 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
     w.solver->SetFixedPositions(fixed_positions_[p]);
     w.solver->actuation() = a[k];
     w.solver->SetPositions(states_[p]);
-    const bool stored = !solver_per_pose_ && k < num_stored_factors_;
+    const bool stored = k < num_stored_factors_;  // (never with a solver per pose)
     if (solver_per_pose_) {
       PredictState(p, &w);
     } else {
