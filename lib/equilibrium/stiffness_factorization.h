@@ -134,6 +134,9 @@ class StiffnessFactorization {
   // systems of one pattern (the poses of a training set) that keeps each system's factor
   // between its visits.
   bool StoreFactor(StoredStiffnessFactor* stored) const;
+  // Whether the factor held is a restored copy, not refactorized since (storing it again
+  // would give the same values).
+  bool factor_rounded() const { return factor_rounded_; }
   // Makes a stored factor the one held, as a factor of an earlier state: later solves
   // use it as CG's preconditioner (SolveReusingFactor), never as an exact factor, and
   // factorize afresh if it had aged. Its rounding costs CG a few iterations even on the

@@ -6,6 +6,7 @@
 #include <cholmod.h>
 #include <glog/logging.h>
 
+#include "model/model_fingerprint.h"  // Fnv1a
 #include "util/wall_timer.h"
 
 namespace aqs {
@@ -126,24 +127,6 @@ double SparseCholesky::stored_factor_bytes() const {
   return sizeof(float) * static_cast<double>(l->xsize);
 }
 
-namespace {
-
-// FNV-1a over n 64-bit integers, continuing from `hash`.
-uint64_t HashIntegers(const int64_t* data, size_t n, uint64_t hash) {
-  constexpr uint64_t kPrime = 1099511628211ull;
-  for (size_t k = 0; k < n; ++k) {
-    uint64_t word = static_cast<uint64_t>(data[k]);
-    for (int byte = 0; byte < 8; ++byte) {
-      hash ^= word & 0xffu;
-      hash *= kPrime;
-      word >>= 8;
-    }
-  }
-  return hash;
-}
-
-}  // namespace
-
 uint64_t SparseCholesky::structure_id() const {
   const cholmod_factor* l = impl_->factor;
   if (l == nullptr) return 0;
@@ -151,12 +134,13 @@ uint64_t SparseCholesky::structure_id() const {
   const int64_t sizes[5] = {static_cast<int64_t>(l->n), static_cast<int64_t>(l->xsize),
                             static_cast<int64_t>(l->nsuper), static_cast<int64_t>(l->ssize),
                             static_cast<int64_t>(l->is_super)};
-  uint64_t hash = HashIntegers(sizes, 5, 14695981039346656037ull);
-  if (l->Perm != nullptr) hash = HashIntegers(static_cast<const int64_t*>(l->Perm), l->n, hash);
+  uint64_t hash = Fnv1a(sizes, sizeof(sizes), kFnvOffsetBasis);
+  if (l->Perm != nullptr) hash = Fnv1a(l->Perm, sizeof(int64_t) * l->n, hash);
   if (l->is_super && l->super != nullptr) {
-    hash = HashIntegers(static_cast<const int64_t*>(l->super), l->nsuper + 1, hash);
-    hash = HashIntegers(static_cast<const int64_t*>(l->pi), l->nsuper + 1, hash);
-    hash = HashIntegers(static_cast<const int64_t*>(l->px), l->nsuper + 1, hash);
+    const size_t bytes = sizeof(int64_t) * (l->nsuper + 1);
+    hash = Fnv1a(l->super, bytes, hash);
+    hash = Fnv1a(l->pi, bytes, hash);
+    hash = Fnv1a(l->px, bytes, hash);
   }
   structure_id_ = hash == 0 ? 1 : hash;
   return structure_id_;

@@ -369,7 +369,9 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
       const std::string* failure;
       ~KeepFactor() {
         if (stored == nullptr) return;
-        if (failure->empty()) {
+        if (failure->empty() && factorization->factor_rounded()) {
+          stored->aged = factorization->refresh_requested();  // the values are those restored
+        } else if (failure->empty()) {
           factorization->StoreFactor(stored);
         } else {
           stored->factor.Clear();
