@@ -48,6 +48,8 @@ DEFINE_string(modes, "per_pose,shared", "Solver layouts to measure: per_pose (on
 DEFINE_double(tolerance, 1e-6, "Relative force tolerance of the training equilibria.");
 DEFINE_int32(max_poses, 0, "Train on at most this many of the model's poses, spread evenly "
              "over its pose list (poses i * P / N for i < N); 0: all. The figures are per pose.");
+DEFINE_bool(line_search_starts, true, "Start a line-search trial's solves from the equilibria of "
+            "two earlier evaluations on its line, interpolated (TrainOptions::line_search_starts).");
 DECLARE_int32(threads);
 DECLARE_string(model);
 
@@ -219,9 +221,9 @@ int Main() {
               unit > 0 ? (measured.store_seconds + measured.restore_seconds) / unit : 0.0,
               measured.restored_cg_iterations);
   std::fflush(stdout);  // the model's figures before the (long) training runs
-  std::printf("%-9s %6s %8s %9s %7s %9s %8s %8s %8s %8s %8s %8s %8s %8s %8s %8s\n", "mode", "iters",
-              "s/iter", "pose/unit", "evals", "fact/pose", "adj_fact", "reused", "cg/pose", "newton", "lbfgs",
-              "solve", "adjoint", "decoder", "loss", "peak_GB");
+  std::printf("%-9s %6s %8s %9s %7s %9s %8s %8s %8s %8s %8s %8s %8s %8s %8s %8s %8s\n", "mode",
+              "iters", "s/iter", "pose/unit", "evals", "fact/pose", "adj_fact", "reused", "cg/pose",
+              "newton", "lbfgs", "line", "solve", "adjoint", "decoder", "loss", "peak_GB");
   for (const std::string& mode : SplitList(FLAGS_modes)) {
     if (mode != "per_pose" && mode != "shared" && mode != "stored") {
       PrintError("--modes: '" + mode + "' is not per_pose, stored or shared");
@@ -242,6 +244,7 @@ int Main() {
                                   : mode == "stored" ? 1.0001 * measured.stored_bytes * model.num_poses() / 1e9
                                                      : 0.0;
     options.max_restarts = 0;
+    options.line_search_starts = FLAGS_line_search_starts;
     options.log_every = FLAGS_progress ? 1 : 0;
     TrainReport report;
     std::ostringstream quiet;
@@ -254,13 +257,15 @@ int Main() {
     const int iterations = std::max(1, report.iterations - report.iterations_before);
     const double per_pose_iteration = 1.0 / (static_cast<double>(iterations) * model.num_poses());
     const double u = unit > 0 ? unit : 1.0;
-    std::printf("%-9s %6d %8.3f %9.2f %7.2f %9.2f %8.2f %8.2f %8.1f %8.2f %8.2f %8.2f %8.2f %8.2f %8.3e %8.2f\n",
+    std::printf("%-9s %6d %8.3f %9.2f %7.2f %9.2f %8.2f %8.2f %8.1f %8.2f %8.2f %8.2f %8.2f %8.2f "
+                "%8.2f %8.3e %8.2f\n",
                 mode.c_str(), iterations, c.seconds / iterations,
                 c.seconds * per_pose_iteration / u, c.evaluations / static_cast<double>(iterations),
                 c.factorizations * per_pose_iteration,
                 c.adjoint_factorizations * per_pose_iteration, c.reused_solves * per_pose_iteration,
                 c.cg_iterations * per_pose_iteration, c.newton_steps * per_pose_iteration,
-                c.lbfgs_iterations * per_pose_iteration, c.solve_seconds * per_pose_iteration / u,
+                c.lbfgs_iterations * per_pose_iteration, c.line_starts * per_pose_iteration,
+                c.solve_seconds * per_pose_iteration / u,
                 c.adjoint_seconds * per_pose_iteration / u,
                 c.decoder_seconds * per_pose_iteration / u, report.final_loss,
                 PeakResidentBytes() / 1e9);
@@ -271,7 +276,8 @@ int Main() {
       "iteration (1 + line-search trials);\nfact/pose, adj_fact, reused, cg/pose: factorizations "
       "(all; of them for adjoints), CG solves on an earlier factor, and CG iterations per pose "
       "per iteration;\nnewton, lbfgs: "
-      "Newton steps and L-BFGS iterations per pose per iteration; solve, "
+      "Newton steps and L-BFGS iterations per pose per iteration; line: solves started on a "
+      "line-search line per pose per iteration (--line_search_starts); solve, "
       "adjoint: thread seconds per pose per iteration over the unit; decoder: wall seconds "
       "per pose per iteration over the unit;\npeak_GB: the process's peak resident memory so far "
       "(one mode per process for each mode's own peak).\n");

@@ -37,6 +37,9 @@ DEFINE_double(factor_cache_gb, 4.0, "End-to-end training keeps one stiffness fac
               "fewer factorizations) while the poses' factors take at most this many GB in all "
               "(per process), else one solver per thread with single-precision copies of as many "
               "poses' factors as this many GB hold.");
+DEFINE_bool(line_search_starts, true, "End-to-end training starts a line-search trial's solves "
+            "from the equilibria of two earlier evaluations on the trial's line, interpolated, "
+            "where that start is closer to equilibrium than the last evaluation's.");
 DEFINE_int32(train_restarts, 5, "L-BFGS restarts allowed when the line search stalls before the "
              "iteration or time budget is used.");
 DEFINE_int32(latent_refit_iterations, 0, "End-to-end training: before the first iteration (not "
@@ -150,6 +153,7 @@ FlagNames TrainFlagNames() {
 
 bool TrainOptionsFromFlags(TrainOptions* options, std::string* error) {
   options->max_factor_cache_gb = FLAGS_factor_cache_gb;
+  options->line_search_starts = FLAGS_line_search_starts;
   options->latent_regularization = FLAGS_latent_regularization;
   options->max_iterations = FLAGS_train_iterations;
   options->max_seconds = 60.0 * FLAGS_train_minutes;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <limits>
 
@@ -9,6 +10,7 @@
 
 #include "diff/actuation_force_products.h"
 #include "geometry/embedding.h"
+#include "train/line_search_start.h"
 #include "util/fault_injection.h"
 #include "util/parallel_for.h"
 
@@ -303,6 +305,39 @@ void EndToEndObjective::PredictState(int p, Worker* worker) const {
   if (!(worker->solver->MaxFreeForce() < warm)) worker->solver->SetPositions(states_[p]);
 }
 
+bool EndToEndObjective::StartOnLine(const Eigen::Matrix3Xd& from, const Eigen::Matrix3Xd& to,
+                                    double t, const Eigen::Matrix3Xd& last,
+                                    Worker* worker) const {
+  const Eigen::Index nv = model_.mesh.num_vertices();
+  if (from.cols() != nv || to.cols() != nv) return false;  // a pose that had not converged
+  double best = worker->solver->MaxFreeForce();
+  const Eigen::Matrix3Xd start = worker->solver->positions();
+  Eigen::Matrix3Xd chosen;
+  auto consider = [&](const Eigen::Matrix3Xd& candidate) {
+    worker->solver->SetPositions(candidate);
+    const double force = worker->solver->MaxFreeForce();
+    if (force < best) {
+      best = force;
+      chosen = candidate;
+    }
+  };
+  consider(from + t * (to - from));
+  // With the last evaluation at one end E (the other O), the start already there is E's
+  // first-order prediction E + delta; the quadratic in the line's coordinate (tau = 0 at
+  // O, 1 at E) through O and E with E's predicted slope gives E + tau delta + (1 - tau)^2
+  // (O - E).
+  const bool last_is_to = last.cols() == nv && (to.array() == last.array()).all();
+  const bool last_is_from = last.cols() == nv && !last_is_to && (from.array() == last.array()).all();
+  if (last_is_to || last_is_from) {
+    const Eigen::Matrix3Xd& e = last_is_to ? to : from;
+    const Eigen::Matrix3Xd& o = last_is_to ? from : to;
+    const double tau = last_is_to ? t : 1.0 - t;
+    consider(e + tau * (start - e) + (1.0 - tau) * (1.0 - tau) * (o - e));
+  }
+  worker->solver->SetPositions(chosen.cols() == nv ? chosen : start);
+  return chosen.cols() == nv;
+}
+
 bool EndToEndObjective::Evaluate(const double* parameters, double* cost, double* gradient) const {
   if (deadline_ > 0.0 && timer_.Seconds() > deadline_) {
     last_failure_ = "the time limit has passed";
@@ -333,6 +368,15 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
   // The equilibria found; they become the warm starts only if the whole evaluation
   // succeeds (a failed line-search trial must not move any pose's warm start).
   std::vector<Eigen::Matrix3Xd> solved(num_owned);
+  // A line-search trial between (or beyond) two remembered evaluations: their
+  // equilibria, interpolated, are a candidate start for every pose.
+  PointOnLine line;
+  bool on_line = false;
+  if (options_.line_search_starts) {
+    std::vector<const Eigen::VectorXd*> points;
+    for (const Remembered& r : remembered_) points.push_back(&r.parameters);
+    on_line = FindPointOnLine(points, parameters, &line);
+  }
   const int threads = std::max(1, std::min(options_.num_threads, num_owned));
   ParallelFor(threads, 0, num_owned, [&](int t, int k) {
     const int p = owned_[k];
@@ -360,6 +404,10 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
       QuasistaticSolverOptions solver_options = w.solver->options();
       solver_options.lbfgs_reuses_factor = restored;
       w.solver->set_options(solver_options);
+    }
+    if (on_line && StartOnLine(remembered_[line.from].states[p], remembered_[line.to].states[p],
+                               line.t, states_[p], &w)) {
+      ++counters.line_starts;
     }
     // Whatever the outcome, the factor held at the end is the pose's to keep (none after
     // a failure: it may belong to a state far from the next evaluation's).
@@ -487,13 +535,13 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
   }
   if (distributed()) {
     communicator_->MinToAll(&first_failure, 1);
-    double sums[11] = {double(total.factorizations), double(total.adjoint_factorizations),
+    double sums[12] = {double(total.factorizations), double(total.adjoint_factorizations),
                       double(total.reused_solves),  double(total.cg_iterations),
                       double(total.lbfgs_iterations), double(total.newton_steps),
                       double(total.retries_from_rest), total.solve_seconds,
                       total.adjoint_seconds, double(total.unstable_escapes),
-                      double(total.shifted_adjoints)};
-    communicator_->SumToRoot(sums, 11);
+                      double(total.shifted_adjoints), double(total.line_starts)};
+    communicator_->SumToRoot(sums, 12);
     total.factorizations = static_cast<int>(sums[0]);
     total.adjoint_factorizations = static_cast<int>(sums[1]);
     total.reused_solves = static_cast<int>(sums[2]);
@@ -505,6 +553,7 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
     total.adjoint_seconds = sums[8];
     total.unstable_escapes = static_cast<int>(sums[9]);
     total.shifted_adjoints = static_cast<int>(sums[10]);
+    total.line_starts = static_cast<int>(sums[11]);
   }
   total.evaluations = 1;
   total.decoder_seconds = decoder_seconds;
@@ -567,6 +616,23 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
   total.seconds = evaluation_timer.Seconds();
   last_counters_ = total;
   total_counters_.Add(total);
+  if (rank_ == 0 && VLOG_IS_ON(1)) {
+    const double per_pose = 1.0 / num_poses_;
+    char text[320];
+    std::snprintf(text, sizeof(text),
+                  "evaluation %d%s: loss %.9e; per pose %.2f factorizations, %.2f Newton steps, "
+                  "%.1f CG iterations; %.1f s",
+                  total_counters_.evaluations, gradient != nullptr ? " with gradient" : "", *cost,
+                  total.factorizations * per_pose, total.newton_steps * per_pose,
+                  total.cg_iterations * per_pose, total.seconds);
+    VLOG(1) << text;
+    if (on_line) {
+      VLOG(1) << "  a line-search trial at t = " << line.t << " between evaluations "
+              << line.from << " and " << line.to << " of the last " << remembered_.size() - 1
+              << ": " << total.line_starts << " of " << num_poses_
+              << " poses started on the line";
+    }
+  }
   if (!std::isfinite(*cost)) {
     last_failure_ = "the loss is not finite (" + std::to_string(*cost) +
                     "): a latent, a decoder parameter or a pose surface is not finite?";

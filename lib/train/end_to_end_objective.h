@@ -196,6 +196,11 @@ class EndToEndObjective final : public ceres::FirstOrderFunction {
   // predicted to first order for the solver's new actuation a, using the pose's last
   // factor; keeps the warm start where the prediction does not lower the largest force.
   void PredictState(int p, Worker* worker) const;
+  // Moves the worker's solver (its actuation set, at some warm start) to from + t (to -
+  // from), a pose's equilibria at two evaluations whose line holds this one
+  // (FindPointOnLine), where that lowers the largest force; returns whether it did.
+  bool StartOnLine(const Eigen::Matrix3Xd& from, const Eigen::Matrix3Xd& to, double t,
+                   const Eigen::Matrix3Xd& last, Worker* worker) const;
   mutable std::vector<double> pose_loss_, pose_mean_, pose_max_;
   mutable std::vector<std::string> failures_;
   mutable std::vector<char> converged_once_;  // per pose, in this objective's life

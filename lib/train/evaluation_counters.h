@@ -16,6 +16,7 @@ struct EvaluationCounters {
   int retries_from_rest = 0;
   int unstable_escapes = 0;  // unstable equilibria left by a perturbation and a new solve
   int shifted_adjoints = 0;  // adjoints of a shifted K (K not positive definite even then)
+  int line_starts = 0;  // solves started on a line search's line (TrainOptions::line_search_starts)
   double solve_seconds = 0;    // equilibria (summed over poses: thread time)
   double adjoint_seconds = 0;  // adjoint solves and dL/da (thread time)
   double decoder_seconds = 0;  // decoding and back-propagation (wall)
@@ -40,6 +41,7 @@ struct EvaluationCounters {
     retries_from_rest += sign * other.retries_from_rest;
     unstable_escapes += sign * other.unstable_escapes;
     shifted_adjoints += sign * other.shifted_adjoints;
+    line_starts += sign * other.line_starts;
     solve_seconds += sign * other.solve_seconds;
     adjoint_seconds += sign * other.adjoint_seconds;
     decoder_seconds += sign * other.decoder_seconds;

@@ -34,6 +34,12 @@ struct TrainOptions {
   // budget, to the same use; the other poses factorize at every evaluation (their
   // adjoint still reuses the solve's last factor).
   double max_factor_cache_gb = 4.0;
+  // A line-search trial on the line through two earlier evaluations (a backtrack, a zoom
+  // or an expansion of the step; train/line_search_start.h) starts each pose from its
+  // equilibria there, interpolated linearly along the line, where that start's largest
+  // force is below the usual warm start's (the last evaluation's equilibrium, predicted
+  // to first order with the pose's factor).
+  bool line_search_starts = true;
   // Checkpoints and logs: the model directory the learned state is saved into every
   // checkpoint_every iterations, as one unit (SaveLearnedState: decoder, latents,
   // states and the checkpoint, model/model_io.h), and train/log.csv. The caller should

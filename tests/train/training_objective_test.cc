@@ -228,5 +228,49 @@ TEST(EndToEndObjectiveTest, RemembersTheEquilibriaOfRecentEvaluations) {
   EXPECT_FALSE(objective.UseStatesOf(unseen.data()));
 }
 
+// A line search's backtrack (a trial between its start and a rejected longer step)
+// starts each pose from the two points' equilibria, interpolated: the same objective
+// and gradient as from the last evaluation's warm start, with fewer Newton steps.
+TEST(EndToEndObjectiveTest, BacktrackStartsFromTheLineThroughEarlierEquilibria) {
+  ActiveModel model = PretrainedBar();
+  ASSERT_TRUE(model.decoder);
+  TrainOptions options;
+  options.solver.relative_force_tolerance = 1e-11;
+  options.max_factor_cache_gb = 0.0;  // solvers shared, no factor kept: no prediction
+  TrainOptions off = options;
+  off.line_search_starts = false;
+  EndToEndObjective on_line(options, model), from_last(off, model);
+  const Eigen::VectorXd x0 = on_line.ModelParameters();
+  // A long step: every latent doubled, the decoder's parameters perturbed.
+  Eigen::VectorXd direction = Eigen::VectorXd::Zero(x0.size());
+  const int np = model.decoder->num_parameters();
+  direction.tail(x0.size() - np) = x0.tail(x0.size() - np);
+  std::mt19937 rng(7);
+  std::normal_distribution<double> normal(0.0, 1e-2);
+  for (int i = 0; i < np; ++i) direction[i] = normal(rng) * std::abs(x0[i]);
+  const std::vector<double> steps = {0.0, 1.0, 0.3};  // start, rejected step, backtrack
+  for (double step : steps) {
+    const Eigen::VectorXd x = x0 + step * direction;
+    double c1 = 0, c2 = 0;
+    Eigen::VectorXd g1(x.size()), g2(x.size());
+    ASSERT_TRUE(on_line.Evaluate(x.data(), &c1, g1.data())) << on_line.last_failure();
+    ASSERT_TRUE(from_last.Evaluate(x.data(), &c2, g2.data())) << from_last.last_failure();
+    EXPECT_NEAR(c1, c2, 1e-9 * c2) << "step " << step;
+    EXPECT_LT((g1 - g2).cwiseAbs().maxCoeff(), 1e-6 * g2.cwiseAbs().maxCoeff()) << "step " << step;
+  }
+  const EvaluationCounters& a = on_line.last_counters();
+  const EvaluationCounters& b = from_last.last_counters();
+  std::printf("backtrack to 0.3 of a rejected step: from the line %d Newton steps, %d "
+              "factorizations (%d of %d poses started there); from the last evaluation %d, %d\n",
+              a.newton_steps, a.factorizations, a.line_starts, model.num_poses(), b.newton_steps,
+              b.factorizations);
+  EXPECT_EQ(a.line_starts, model.num_poses());
+  EXPECT_EQ(b.line_starts, 0);
+  EXPECT_LT(a.newton_steps, b.newton_steps);
+  EXPECT_LE(a.factorizations, b.factorizations);
+  // Only the trial on a line starts there.
+  EXPECT_EQ(on_line.total_counters().line_starts, a.line_starts);
+}
+
 }  // namespace
 }  // namespace aqs

@@ -1,0 +1,34 @@
+#ifndef AQS_TRAIN_LINE_SEARCH_START_H_
+#define AQS_TRAIN_LINE_SEARCH_START_H_
+
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace aqs {
+
+// Where a line search's trial point lies on the line through two points evaluated
+// before it: point = points[from] + t (points[to] - points[from]).
+struct PointOnLine {
+  int from = -1;
+  int to = -1;
+  double t = 0.0;
+};
+
+// A line search (Ceres' Wolfe or Armijo search along an L-BFGS direction) evaluates its
+// trials x0 + alpha_k d on one line through the point it started from. Given earlier
+// evaluated points (`points`, each of size n) and a new one (`point`, n values), finds
+// two of them whose line holds `point`: the component of point - points[from] off the
+// direction points[to] - points[from] below kRelativeTolerance times |point -
+// points[from]|. Among such pairs it prefers a bracket (0 < t < 1) of the shortest
+// span, else the pair whose nearer end is nearest to `point`; t stays in (0, kMaxT].
+// Returns false if no pair holds the point, or the point repeats an earlier one.
+// Costs O(n m^2) for m points.
+constexpr double kPointOnLineRelativeTolerance = 1e-8;
+constexpr double kPointOnLineMaxT = 10.0;
+bool FindPointOnLine(const std::vector<const Eigen::VectorXd*>& points, const double* point,
+                     PointOnLine* line);
+
+}  // namespace aqs
+
+#endif  // AQS_TRAIN_LINE_SEARCH_START_H_

@@ -1,0 +1,96 @@
+#include "train/line_search_start.h"
+
+#include <random>
+
+#include <gtest/gtest.h>
+
+namespace aqs {
+namespace {
+
+Eigen::VectorXd RandomPoint(std::mt19937* rng) {
+  std::normal_distribution<double> normal;
+  Eigen::VectorXd x(7);
+  for (int i = 0; i < x.size(); ++i) x[i] = normal(*rng);
+  return x;
+}
+
+std::vector<const Eigen::VectorXd*> Pointers(const std::vector<Eigen::VectorXd>& points) {
+  std::vector<const Eigen::VectorXd*> pointers;
+  for (const Eigen::VectorXd& p : points) pointers.push_back(&p);
+  return pointers;
+}
+
+// The line found reproduces the point.
+void ExpectReproduces(const std::vector<Eigen::VectorXd>& points, const Eigen::VectorXd& x,
+                      const PointOnLine& line) {
+  ASSERT_GE(line.from, 0);
+  ASSERT_GE(line.to, 0);
+  const Eigen::VectorXd on_line =
+      points[line.from] + line.t * (points[line.to] - points[line.from]);
+  EXPECT_LT((on_line - x).norm(), 1e-12 * x.norm());
+}
+
+TEST(FindPointOnLineTest, FindsTheBacktrackOfALineSearch) {
+  std::mt19937 rng(1);
+  const Eigen::VectorXd base = RandomPoint(&rng), direction = RandomPoint(&rng);
+  // An earlier iteration's point, the base, the rejected unit step; then the trial 0.3.
+  const std::vector<Eigen::VectorXd> points = {RandomPoint(&rng), base, base + direction};
+  const Eigen::VectorXd trial = base + 0.3 * direction;
+  PointOnLine line;
+  ASSERT_TRUE(FindPointOnLine(Pointers(points), trial.data(), &line));
+  EXPECT_GT(line.t, 0.0);
+  EXPECT_LT(line.t, 1.0);
+  EXPECT_TRUE((line.from == 1 && line.to == 2) || (line.from == 2 && line.to == 1));
+  ExpectReproduces(points, trial, line);
+}
+
+TEST(FindPointOnLineTest, PrefersTheTightestBracket) {
+  std::mt19937 rng(2);
+  const Eigen::VectorXd base = RandomPoint(&rng), direction = RandomPoint(&rng);
+  // A zoom: the base, the step 1 (too long), the step 0.5 (too short); the trial 0.7.
+  const std::vector<Eigen::VectorXd> points = {base, base + direction, base + 0.5 * direction};
+  const Eigen::VectorXd trial = base + 0.7 * direction;
+  PointOnLine line;
+  ASSERT_TRUE(FindPointOnLine(Pointers(points), trial.data(), &line));
+  EXPECT_TRUE((line.from == 1 && line.to == 2) || (line.from == 2 && line.to == 1));
+  ExpectReproduces(points, trial, line);
+}
+
+TEST(FindPointOnLineTest, ExtrapolatesAnExpansionFromTheNearerEnd) {
+  std::mt19937 rng(3);
+  const Eigen::VectorXd base = RandomPoint(&rng), direction = RandomPoint(&rng);
+  const std::vector<Eigen::VectorXd> points = {base, base + direction};
+  const Eigen::VectorXd trial = base + 4.0 * direction;  // an expansion of the step
+  PointOnLine line;
+  ASSERT_TRUE(FindPointOnLine(Pointers(points), trial.data(), &line));
+  EXPECT_EQ(line.from, 0);
+  EXPECT_EQ(line.to, 1);
+  EXPECT_NEAR(line.t, 4.0, 1e-12);
+  ExpectReproduces(points, trial, line);
+  // Beyond kPointOnLineMaxT times the span: too far to extrapolate.
+  const Eigen::VectorXd far = base + 20.0 * direction;
+  EXPECT_FALSE(FindPointOnLine(Pointers(points), far.data(), &line));
+}
+
+TEST(FindPointOnLineTest, RefusesPointsOffTheLineRepeatsAndTooFewPoints) {
+  std::mt19937 rng(4);
+  const std::vector<Eigen::VectorXd> points = {RandomPoint(&rng), RandomPoint(&rng),
+                                               RandomPoint(&rng)};
+  PointOnLine line;
+  // A new L-BFGS direction from the last point: on no line through two earlier points.
+  const Eigen::VectorXd next = points[2] + 0.5 * RandomPoint(&rng);
+  EXPECT_FALSE(FindPointOnLine(Pointers(points), next.data(), &line));
+  // Slightly off a line (1e-6 relative): refused.
+  Eigen::VectorXd off = points[0] + 0.5 * (points[1] - points[0]);
+  off[0] += 1e-6 * (points[1] - points[0]).norm();
+  EXPECT_FALSE(FindPointOnLine(Pointers(points), off.data(), &line));
+  // A repeat of an evaluated point.
+  EXPECT_FALSE(FindPointOnLine(Pointers(points), points[1].data(), &line));
+  // One point holds no line.
+  const std::vector<Eigen::VectorXd> one = {points[0]};
+  const Eigen::VectorXd any = points[1];
+  EXPECT_FALSE(FindPointOnLine(Pointers(one), any.data(), &line));
+}
+
+}  // namespace
+}  // namespace aqs
