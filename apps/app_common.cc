@@ -35,7 +35,8 @@ void InitApp(const std::string& usage, int* argc, char*** argv) {
   }
   gflags::HandleCommandLineHelpFlags();
   FLAGS_logtostderr = true;
-  FLAGS_minloglevel = 1;  // warnings and errors
+  // Warnings and errors; with glog's --v > 0, also the verbose lines (VLOG) and INFO.
+  FLAGS_minloglevel = FLAGS_v > 0 ? 0 : 1;
   google::InitGoogleLogging((*argv)[0]);
   if (*argc > 1) {
     std::fprintf(stderr, "%s: error: unexpected argument '%s' (flags are --name=value)\n",

@@ -23,9 +23,11 @@ struct PointOnLine {
 // points[from]|. Among such pairs it prefers a bracket (0 < t < 1) of the shortest
 // span, else the pair whose nearer end is nearest to `point`; t stays in (0, kMaxT].
 // Returns false if no pair holds the point, or the point repeats an earlier one.
-// Costs O(n m^2) for m points.
+// Costs O(n m^2) for m points. kPointOnLineMaxT is past Ceres' largest expansion of a
+// step (max_line_search_step_expansion, 10 by default) with room for round-off: the
+// caller judges the start it gives (by its force), not this function.
 constexpr double kPointOnLineRelativeTolerance = 1e-8;
-constexpr double kPointOnLineMaxT = 10.0;
+constexpr double kPointOnLineMaxT = 20.0;
 bool FindPointOnLine(const std::vector<const Eigen::VectorXd*>& points, const double* point,
                      PointOnLine* line);
 

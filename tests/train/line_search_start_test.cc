@@ -60,15 +60,15 @@ TEST(FindPointOnLineTest, ExtrapolatesAnExpansionFromTheNearerEnd) {
   std::mt19937 rng(3);
   const Eigen::VectorXd base = RandomPoint(&rng), direction = RandomPoint(&rng);
   const std::vector<Eigen::VectorXd> points = {base, base + direction};
-  const Eigen::VectorXd trial = base + 4.0 * direction;  // an expansion of the step
+  const Eigen::VectorXd trial = base + 10.0 * direction;  // Ceres' largest expansion
   PointOnLine line;
   ASSERT_TRUE(FindPointOnLine(Pointers(points), trial.data(), &line));
   EXPECT_EQ(line.from, 0);
   EXPECT_EQ(line.to, 1);
-  EXPECT_NEAR(line.t, 4.0, 1e-12);
+  EXPECT_NEAR(line.t, 10.0, 1e-12);
   ExpectReproduces(points, trial, line);
   // Beyond kPointOnLineMaxT times the span: too far to extrapolate.
-  const Eigen::VectorXd far = base + 20.0 * direction;
+  const Eigen::VectorXd far = base + 25.0 * direction;
   EXPECT_FALSE(FindPointOnLine(Pointers(points), far.data(), &line));
 }
 

@@ -229,8 +229,11 @@ TEST(EndToEndObjectiveTest, RemembersTheEquilibriaOfRecentEvaluations) {
 }
 
 // A line search's backtrack (a trial between its start and a rejected longer step)
-// starts each pose from the two points' equilibria, interpolated: the same objective
-// and gradient as from the last evaluation's warm start, with fewer Newton steps.
+// starts each pose from the two points' equilibria, interpolated, where that is closer
+// to equilibrium than the last evaluation's. Solvers shared with no factor kept (so no
+// first-order prediction, and the warm start is the rejected step's equilibrium): the
+// interpolation is nearer for every pose, and gives the objective and gradient of the
+// warm start with fewer Newton steps.
 TEST(EndToEndObjectiveTest, BacktrackStartsFromTheLineThroughEarlierEquilibria) {
   ActiveModel model = PretrainedBar();
   ASSERT_TRUE(model.decoder);
