@@ -50,6 +50,8 @@ DEFINE_int32(max_poses, 0, "Train on at most this many of the model's poses, spr
              "over its pose list (poses i * P / N for i < N); 0: all. The figures are per pose.");
 DEFINE_bool(line_search_starts, true, "Start a line-search trial's solves from the equilibria of "
             "two earlier evaluations on its line, interpolated (TrainOptions::line_search_starts).");
+DEFINE_double(adjoint_tolerance, 1e-10, "Relative residual of the adjoint solves done by CG on an "
+              "earlier factor (TrainOptions::adjoint_tolerance).");
 DECLARE_int32(threads);
 DECLARE_string(model);
 
@@ -245,6 +247,7 @@ int Main() {
                                                      : 0.0;
     options.max_restarts = 0;
     options.line_search_starts = FLAGS_line_search_starts;
+    options.adjoint_tolerance = FLAGS_adjoint_tolerance;
     options.log_every = FLAGS_progress ? 1 : 0;
     TrainReport report;
     std::ostringstream quiet;

@@ -40,6 +40,9 @@ DEFINE_double(factor_cache_gb, 4.0, "End-to-end training keeps one stiffness fac
 DEFINE_bool(line_search_starts, true, "End-to-end training starts a line-search trial's solves "
             "from the equilibria of two earlier evaluations on the trial's line, interpolated, "
             "where that start is closer to equilibrium than the last evaluation's.");
+DEFINE_double(adjoint_tolerance, 1e-10, "End-to-end training: relative residual of the adjoint "
+              "solves done by conjugate gradients on an earlier stiffness factor, in [1e-14, "
+              "0.01]; the gradient is off by about that fraction.");
 DEFINE_int32(train_restarts, 5, "L-BFGS restarts allowed when the line search stalls before the "
              "iteration or time budget is used.");
 DEFINE_int32(latent_refit_iterations, 0, "End-to-end training: before the first iteration (not "
@@ -143,6 +146,7 @@ FlagNames TrainFlagNames() {
                              {"checkpoint_every", "--checkpoint_every"},
                              {"max_restarts", "--train_restarts"},
                              {"max_factor_cache_gb", "--factor_cache_gb"},
+                             {"adjoint_tolerance", "--adjoint_tolerance"},
                              {"latent_refit_every", "--latent_refit_every"},
                              {"latent_refit_iterations", "--latent_refit_iterations"},
                              {"latent_dim", "--latent_dim"},
@@ -154,6 +158,7 @@ FlagNames TrainFlagNames() {
 bool TrainOptionsFromFlags(TrainOptions* options, std::string* error) {
   options->max_factor_cache_gb = FLAGS_factor_cache_gb;
   options->line_search_starts = FLAGS_line_search_starts;
+  options->adjoint_tolerance = FLAGS_adjoint_tolerance;
   options->latent_regularization = FLAGS_latent_regularization;
   options->max_iterations = FLAGS_train_iterations;
   options->max_seconds = 60.0 * FLAGS_train_minutes;

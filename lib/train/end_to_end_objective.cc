@@ -1,6 +1,7 @@
 #include "train/end_to_end_objective.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -80,7 +81,7 @@ EndToEndObjective::EndToEndObjective(const TrainOptions& options, const ActiveMo
   first->set_options(solver_options);
   EquilibriumDifferentiatorOptions differentiator_options;
   differentiator_options.num_threads = 1;
-  differentiator_options.reuse = {20, 1e-10, 6, 1e-2, 1, 8};
+  differentiator_options.reuse = {20, options.adjoint_tolerance, 6, 1e-2, 1, 8};
   workers_.resize(solver_per_pose_ ? num_owned : std::max(1, std::min(options.num_threads, num_owned)));
   for (size_t i = 0; i < workers_.size(); ++i) {
     Worker& w = workers_[i];
@@ -378,9 +379,20 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
     on_line = FindPointOnLine(points, parameters, &line);
   }
   const int threads = std::max(1, std::min(options_.num_threads, num_owned));
+  // Once a pose has failed, the evaluation fails whatever the others give (and no warm
+  // start moves): the poses not yet begun are skipped.
+  for (int p : owned_) failures_[p].clear();
+  std::atomic<bool> failed{false};
   ParallelFor(threads, 0, num_owned, [&](int t, int k) {
+    if (failed.load()) return;
     const int p = owned_[k];
-    failures_[p].clear();
+    struct FlagFailure {
+      const std::string* failure;
+      std::atomic<bool>* failed;
+      ~FlagFailure() {
+        if (!failure->empty()) failed->store(true);
+      }
+    } flag_failure{&failures_[p], &failed};
     Worker& w = workers_[solver_per_pose_ ? k : t];
     Counters& counters = pose_counters[k];
     const int cg_start = w.solver->stiffness_factorization()->counters().cg_iterations;
@@ -564,6 +576,11 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
     total.seconds = evaluation_timer.Seconds();
     last_counters_ = total;
     total_counters_.Add(total);  // a failed evaluation costs too
+    if (rank_ == 0) {
+      VLOG(1) << "evaluation " << total_counters_.evaluations << " failed after "
+              << total.seconds << " s, " << total.factorizations / double(num_poses_)
+              << " factorizations per pose: " << failure;
+    }
     return false;
   }
   for (int k = 0; k < num_owned; ++k) {

@@ -40,6 +40,10 @@ struct TrainOptions {
   // force is below the usual warm start's (the last evaluation's equilibrium, predicted
   // to first order with the pose's factor).
   bool line_search_starts = true;
+  // The adjoint solve's relative residual when it reuses a factor by CG (a fresh
+  // factorization solves it exactly): |K lambda - dL/dx| <= adjoint_tolerance |dL/dx|,
+  // in (0, 0.01]. The gradient is then off by about that fraction.
+  double adjoint_tolerance = 1e-10;
   // Checkpoints and logs: the model directory the learned state is saved into every
   // checkpoint_every iterations, as one unit (SaveLearnedState: decoder, latents,
   // states and the checkpoint, model/model_io.h), and train/log.csv. The caller should

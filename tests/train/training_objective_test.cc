@@ -169,6 +169,29 @@ TEST(EndToEndObjectiveTest, FailedEvaluationKeepsEveryWarmStart) {
   }
 }
 
+// Once a pose fails, the poses not yet begun are skipped (the evaluation fails anyway):
+// one thread, the first pose refused, no other pose solved.
+TEST(EndToEndObjectiveTest, FailedPoseEndsTheEvaluationEarly) {
+  ActiveModel model = PretrainedBar();
+  TrainOptions options;
+  options.num_threads = 1;
+  EndToEndObjective objective(options, model);
+  Eigen::VectorXd x = objective.ModelParameters();
+  double cost = 0;
+  ASSERT_TRUE(objective.Evaluate(x.data(), &cost, nullptr)) << objective.last_failure();
+  const int np = model.decoder->num_parameters();
+  x.tail(x.size() - np) *= 1.01;  // every pose moves: each would need Newton steps
+  Eigen::VectorXd refused = x;
+  refused[np] = std::numeric_limits<double>::quiet_NaN();  // pose 0: actuations refused
+  EXPECT_FALSE(objective.Evaluate(refused.data(), &cost, nullptr));
+  EXPECT_NE(objective.last_failure().find(model.poses[0].name), std::string::npos)
+      << objective.last_failure();
+  EXPECT_EQ(objective.last_counters().newton_steps, 0);
+  EXPECT_EQ(objective.last_counters().factorizations, 0);
+  ASSERT_TRUE(objective.Evaluate(x.data(), &cost, nullptr)) << objective.last_failure();
+  EXPECT_GT(objective.last_counters().newton_steps, 0);
+}
+
 // Past its time limit an evaluation fails at once (a failed line-search step), and
 // lifting the limit restores the same value.
 TEST(EndToEndObjectiveTest, TimeLimitFailsEvaluationsUntilLifted) {
@@ -273,6 +296,49 @@ TEST(EndToEndObjectiveTest, BacktrackStartsFromTheLineThroughEarlierEquilibria) 
   EXPECT_LE(a.factorizations, b.factorizations);
   // Only the trial on a line starts there.
   EXPECT_EQ(on_line.total_counters().line_starts, a.line_starts);
+}
+
+// A looser adjoint tolerance (CG on the pose's earlier factor stops sooner) moves the
+// gradient by about that fraction and costs no more CG iterations; out-of-range
+// tolerances are refused, naming the field.
+TEST(EndToEndObjectiveTest, AdjointToleranceBoundsTheGradientsError) {
+  ActiveModel model = PretrainedBar();
+  ASSERT_TRUE(model.decoder);
+  TrainOptions tight;
+  tight.solver.relative_force_tolerance = 1e-12;
+  TrainOptions loose = tight;
+  loose.adjoint_tolerance = 1e-6;
+  std::string error;
+  ASSERT_TRUE(loose.Validate(&error)) << error;
+  EndToEndObjective tight_objective(tight, model), loose_objective(loose, model);
+  ASSERT_TRUE(loose_objective.solver_per_pose());  // adjoints by CG on each pose's factor
+  Eigen::VectorXd x = tight_objective.ModelParameters();
+  std::mt19937 rng(8);
+  std::normal_distribution<double> normal(0.0, 1e-3);
+  for (int step = 0; step < 3; ++step) {
+    if (step > 0) {
+      for (int i = 0; i < x.size(); ++i) x[i] += normal(rng);
+    }
+    double c1 = 0, c2 = 0;
+    Eigen::VectorXd g1(x.size()), g2(x.size());
+    ASSERT_TRUE(tight_objective.Evaluate(x.data(), &c1, g1.data())) << tight_objective.last_failure();
+    ASSERT_TRUE(loose_objective.Evaluate(x.data(), &c2, g2.data())) << loose_objective.last_failure();
+    EXPECT_NEAR(c1, c2, 1e-10 * c1) << "step " << step;  // the same equilibria
+    const double scale = g1.cwiseAbs().maxCoeff();
+    EXPECT_LT((g1 - g2).cwiseAbs().maxCoeff(), 1e-4 * scale) << "step " << step;
+  }
+  EXPECT_GT(tight_objective.total_counters().reused_solves, 0);
+  std::printf("adjoint tolerance 1e-10: %d factorizations, %d CG iterations; 1e-6: %d, %d\n",
+              tight_objective.total_counters().factorizations,
+              tight_objective.total_counters().cg_iterations,
+              loose_objective.total_counters().factorizations,
+              loose_objective.total_counters().cg_iterations);
+  for (double bad : {0.0, 0.1, std::numeric_limits<double>::quiet_NaN()}) {
+    TrainOptions refused = tight;
+    refused.adjoint_tolerance = bad;
+    EXPECT_FALSE(refused.Validate(&error)) << bad;
+    EXPECT_NE(error.find("adjoint_tolerance"), std::string::npos) << error;
+  }
 }
 
 }  // namespace
