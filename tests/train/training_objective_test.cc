@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <limits>
 #include <random>
+#include <string>
 #include <thread>
 
 #include <gtest/gtest.h>
@@ -21,6 +22,35 @@ ActiveModel PretrainedBar() {
   spec.activation = Activation::kTanh;
   spec.node_spacing = 0.35;
   return testing::PretrainedSyntheticBar(spec);
+}
+
+// A random walk from `start`: `steps` points, the first `start` itself, each next one
+// moved by normal noise of deviation `sigma` in every parameter.
+std::vector<Eigen::VectorXd> RandomWalk(const Eigen::VectorXd& start, int steps, double sigma,
+                                        unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> normal(0.0, sigma);
+  std::vector<Eigen::VectorXd> points = {start};
+  while (static_cast<int>(points.size()) < steps) {
+    Eigen::VectorXd x = points.back();
+    for (int i = 0; i < x.size(); ++i) x[i] += normal(rng);
+    points.push_back(x);
+  }
+  return points;
+}
+
+// Evaluates both objectives with gradients at x: their costs agree to `cost_tolerance`
+// (relative) and their gradients to `gradient_tolerance` of b's largest component.
+void ExpectAgreeAt(const EndToEndObjective& a, const EndToEndObjective& b,
+                   const Eigen::VectorXd& x, double cost_tolerance, double gradient_tolerance,
+                   const std::string& where) {
+  double ca = 0, cb = 0;
+  Eigen::VectorXd ga(x.size()), gb(x.size());
+  ASSERT_TRUE(a.Evaluate(x.data(), &ca, ga.data())) << where << ": " << a.last_failure();
+  ASSERT_TRUE(b.Evaluate(x.data(), &cb, gb.data())) << where << ": " << b.last_failure();
+  EXPECT_NEAR(ca, cb, cost_tolerance * cb) << where;
+  EXPECT_LT((ga - gb).cwiseAbs().maxCoeff(), gradient_tolerance * gb.cwiseAbs().maxCoeff())
+      << where;
 }
 
 // The gradient of the end-to-end objective with respect to decoder weights and latents
@@ -77,20 +107,10 @@ TEST(EndToEndObjectiveTest, SolverLayoutsAgree) {
   EndToEndObjective per_pose_objective(options, model), shared_objective(shared, model);
   ASSERT_TRUE(per_pose_objective.solver_per_pose());
   ASSERT_FALSE(shared_objective.solver_per_pose());
-  Eigen::VectorXd x = per_pose_objective.ModelParameters();
-  std::mt19937 rng(5);
-  std::normal_distribution<double> normal(0.0, 1e-3);
-  for (int step = 0; step < 3; ++step) {
-    if (step > 0) {
-      for (int i = 0; i < x.size(); ++i) x[i] += normal(rng);
-    }
-    double c1 = 0, c2 = 0;
-    Eigen::VectorXd g1(x.size()), g2(x.size());
-    ASSERT_TRUE(per_pose_objective.Evaluate(x.data(), &c1, g1.data()))
-        << per_pose_objective.last_failure();
-    ASSERT_TRUE(shared_objective.Evaluate(x.data(), &c2, g2.data())) << shared_objective.last_failure();
-    EXPECT_NEAR(c1, c2, 1e-9 * c2) << "step " << step;
-    EXPECT_LT((g1 - g2).cwiseAbs().maxCoeff(), 1e-6 * g2.cwiseAbs().maxCoeff()) << "step " << step;
+  int step = 0;
+  for (const Eigen::VectorXd& x : RandomWalk(per_pose_objective.ModelParameters(), 3, 1e-3, 5)) {
+    ExpectAgreeAt(per_pose_objective, shared_objective, x, 1e-9, 1e-6,
+                  "step " + std::to_string(step++));
   }
   // After the first evaluation the per-pose factors serve later solves and adjoints.
   EXPECT_GT(per_pose_objective.total_counters().reused_solves, 0);
@@ -276,13 +296,8 @@ TEST(EndToEndObjectiveTest, BacktrackStartsFromTheLineThroughEarlierEquilibria) 
   for (int i = 0; i < np; ++i) direction[i] = normal(rng) * std::abs(x0[i]);
   const std::vector<double> steps = {0.0, 1.0, 0.3};  // start, rejected step, backtrack
   for (double step : steps) {
-    const Eigen::VectorXd x = x0 + step * direction;
-    double c1 = 0, c2 = 0;
-    Eigen::VectorXd g1(x.size()), g2(x.size());
-    ASSERT_TRUE(on_line.Evaluate(x.data(), &c1, g1.data())) << on_line.last_failure();
-    ASSERT_TRUE(from_last.Evaluate(x.data(), &c2, g2.data())) << from_last.last_failure();
-    EXPECT_NEAR(c1, c2, 1e-9 * c2) << "step " << step;
-    EXPECT_LT((g1 - g2).cwiseAbs().maxCoeff(), 1e-6 * g2.cwiseAbs().maxCoeff()) << "step " << step;
+    ExpectAgreeAt(on_line, from_last, x0 + step * direction, 1e-9, 1e-6,
+                  "step " + std::to_string(step));
   }
   const EvaluationCounters& a = on_line.last_counters();
   const EvaluationCounters& b = from_last.last_counters();
@@ -312,20 +327,11 @@ TEST(EndToEndObjectiveTest, AdjointToleranceBoundsTheGradientsError) {
   ASSERT_TRUE(loose.Validate(&error)) << error;
   EndToEndObjective tight_objective(tight, model), loose_objective(loose, model);
   ASSERT_TRUE(loose_objective.solver_per_pose());  // adjoints by CG on each pose's factor
-  Eigen::VectorXd x = tight_objective.ModelParameters();
-  std::mt19937 rng(8);
-  std::normal_distribution<double> normal(0.0, 1e-3);
-  for (int step = 0; step < 3; ++step) {
-    if (step > 0) {
-      for (int i = 0; i < x.size(); ++i) x[i] += normal(rng);
-    }
-    double c1 = 0, c2 = 0;
-    Eigen::VectorXd g1(x.size()), g2(x.size());
-    ASSERT_TRUE(tight_objective.Evaluate(x.data(), &c1, g1.data())) << tight_objective.last_failure();
-    ASSERT_TRUE(loose_objective.Evaluate(x.data(), &c2, g2.data())) << loose_objective.last_failure();
-    EXPECT_NEAR(c1, c2, 1e-10 * c1) << "step " << step;  // the same equilibria
-    const double scale = g1.cwiseAbs().maxCoeff();
-    EXPECT_LT((g1 - g2).cwiseAbs().maxCoeff(), 1e-4 * scale) << "step " << step;
+  // The same equilibria (cost to 1e-10), the gradient to about the adjoint's tolerance.
+  int step = 0;
+  for (const Eigen::VectorXd& x : RandomWalk(tight_objective.ModelParameters(), 3, 1e-3, 8)) {
+    ExpectAgreeAt(loose_objective, tight_objective, x, 1e-10, 1e-4,
+                  "step " + std::to_string(step++));
   }
   EXPECT_GT(tight_objective.total_counters().reused_solves, 0);
   std::printf("adjoint tolerance 1e-10: %d factorizations, %d CG iterations; 1e-6: %d, %d\n",
