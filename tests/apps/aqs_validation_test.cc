@@ -371,6 +371,8 @@ TEST_F(AqsValidationModelTest, LearningAppsRefuseBadFlags) {
                   {"--activation=tanh", 1, "--activation=tanh was asked for"},
                   {"--train_restarts=-1", 1, "--train_restarts must be >= 0"},
                   {"--checkpoint_every=0", 1, "--checkpoint_every must be >= 1"},
+                  {"--adjoint_tolerance=0", 1, "--adjoint_tolerance must be in [1e-14, 0.01] (is 0)"},
+                  {"--adjoint_tolerance=0.5", 1, "--adjoint_tolerance must be in [1e-14, 0.01] (is 0.5)"},
               },
               dir.path());
   EXPECT_EQ(ReadAll(model + "/learned/decoder.txt"), before) << "the model was not touched";
