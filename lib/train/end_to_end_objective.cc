@@ -373,6 +373,7 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
   // equilibria, interpolated, are a candidate start for every pose.
   PointOnLine line;
   bool on_line = false;
+  const int num_remembered = static_cast<int>(remembered_.size());  // before this one's
   if (options_.line_search_starts) {
     std::vector<const Eigen::VectorXd*> points;
     for (const Remembered& r : remembered_) points.push_back(&r.parameters);
@@ -644,10 +645,10 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
                   total.cg_iterations * per_pose, total.seconds);
     VLOG(1) << text;
     if (on_line) {
-      VLOG(1) << "  a line-search trial at t = " << line.t << " between evaluations "
-              << line.from << " and " << line.to << " of the last " << remembered_.size() - 1
-              << ": " << total.line_starts << " of " << num_poses_
-              << " poses started on the line";
+      VLOG(1) << "  a line-search trial at t = " << line.t << " on the line from the "
+              << num_remembered - line.from << "-th to the " << num_remembered - line.to
+              << "-th successful evaluation before it: " << total.line_starts << " of "
+              << num_poses_ << " poses started on the line";
     }
   }
   if (!std::isfinite(*cost)) {
