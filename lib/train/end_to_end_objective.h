@@ -196,9 +196,12 @@ class EndToEndObjective final : public ceres::FirstOrderFunction {
   // predicted to first order for the solver's new actuation a, using the pose's last
   // factor; keeps the warm start where the prediction does not lower the largest force.
   void PredictState(int p, Worker* worker) const;
-  // Moves the worker's solver (its actuation set, at some warm start) to from + t (to -
-  // from), a pose's equilibria at two evaluations whose line holds this one
-  // (FindPointOnLine), where that lowers the largest force; returns whether it did.
+  // For a line-search trial (FindPointOnLine): `from` and `to` are a pose's equilibria
+  // at the two evaluations whose line holds this one, and `last` the one its warm start
+  // came from. Offers the worker's solver (its actuation set, at that warm start) two
+  // more starts, from + t (to - from) and, where `last` is one of the two, the quadratic
+  // through both with the warm start's first-order slope; keeps whichever start has the
+  // lowest largest force. Returns whether the solver moved.
   bool StartOnLine(const Eigen::Matrix3Xd& from, const Eigen::Matrix3Xd& to, double t,
                    const Eigen::Matrix3Xd& last, Worker* worker) const;
   mutable std::vector<double> pose_loss_, pose_mean_, pose_max_;
