@@ -17,6 +17,7 @@ bool TrainOptions::Validate(std::string* error) const {
       .IntInRange("num_threads", num_threads, 1, 1024)
       .NonNegative("max_factor_cache_gb", max_factor_cache_gb)
       .InRange("adjoint_tolerance", adjoint_tolerance, 1e-14, 1e-2)
+      .InRange("max_step_expansion", max_step_expansion, 1.001, 1e6)
       .IntAtLeast("checkpoint_every", checkpoint_every, 1)
       .IntAtLeast("max_restarts", max_restarts, 0)
       .IntAtLeast("log_every", log_every, 0)

@@ -44,6 +44,10 @@ struct TrainOptions {
   // factorization solves it exactly): |K lambda - dL/dx| <= adjoint_tolerance |dL/dx|,
   // in (0, 0.01]. The gradient is then off by about that fraction.
   double adjoint_tolerance = 1e-10;
+  // How far the line search may expand a step that is too short (Ceres'
+  // max_line_search_step_expansion, > 1): a longer trial starts its solves farther
+  // from the warm starts.
+  double max_step_expansion = 10.0;
   // Checkpoints and logs: the model directory the learned state is saved into every
   // checkpoint_every iterations, as one unit (SaveLearnedState: decoder, latents,
   // states and the checkpoint, model/model_io.h), and train/log.csv. The caller should

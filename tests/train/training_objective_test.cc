@@ -347,5 +347,18 @@ TEST(EndToEndObjectiveTest, AdjointToleranceBoundsTheGradientsError) {
   }
 }
 
+// The line search's step expansion must exceed 1 (Ceres' own requirement), named when not.
+TEST(EndToEndObjectiveTest, StepExpansionIsValidated) {
+  TrainOptions options;
+  std::string error;
+  options.max_step_expansion = 3.0;
+  EXPECT_TRUE(options.Validate(&error)) << error;
+  for (double bad : {1.0, 0.5, std::numeric_limits<double>::infinity()}) {
+    options.max_step_expansion = bad;
+    EXPECT_FALSE(options.Validate(&error)) << bad;
+    EXPECT_NE(error.find("max_step_expansion"), std::string::npos) << error;
+  }
+}
+
 }  // namespace
 }  // namespace aqs
