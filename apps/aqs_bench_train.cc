@@ -52,6 +52,9 @@ DEFINE_bool(line_search_starts, true, "Start a line-search trial's solves from t
             "two earlier evaluations on its line, interpolated (TrainOptions::line_search_starts).");
 DEFINE_double(adjoint_tolerance, 1e-10, "Relative residual of the adjoint solves done by CG on an "
               "earlier factor (TrainOptions::adjoint_tolerance).");
+DEFINE_bool(lbfgs_scaling, true, "Scale L-BFGS' initial inverse Hessian by s'y / y'y of the "
+            "last step (TrainOptions::lbfgs_scaling, Ceres' "
+            "use_approximate_eigenvalue_bfgs_scaling).");
 DEFINE_double(max_step_expansion, 10.0, "How far the line search may expand a step that is too "
               "short (TrainOptions::max_step_expansion, Ceres' max_line_search_step_expansion).");
 DECLARE_int32(threads);
@@ -251,6 +254,7 @@ int Main() {
     options.line_search_starts = FLAGS_line_search_starts;
     options.adjoint_tolerance = FLAGS_adjoint_tolerance;
     options.max_step_expansion = FLAGS_max_step_expansion;
+    options.lbfgs_scaling = FLAGS_lbfgs_scaling;
     options.log_every = FLAGS_progress ? 1 : 0;
     TrainReport report;
     std::ostringstream quiet;

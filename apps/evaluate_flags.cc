@@ -18,6 +18,8 @@ DEFINE_string(output_dir, "", "Where the evaluation writes evaluation.md, evalua
 DEFINE_string(error_vertices, "", "Surface vertices to measure errors on, e.g. 0:9409 "
               "(default: all).");
 DEFINE_int32(baseline_iterations, 500, "L-BFGS iterations of the auto-encoder baseline.");
+DEFINE_bool(baseline_lbfgs_scaling, true, "The auto-encoder baseline's L-BFGS scales its initial "
+            "inverse Hessian as end-to-end training does (--lbfgs_scaling).");
 DEFINE_bool(write_fields, true, "Write per-vertex error fields and fitted surfaces.");
 DEFINE_bool(error_budget, true, "Measure the error budget: the training poses' volumetric "
             "targets simulated (the floor), the surface error after pre-training (from the "
@@ -78,6 +80,7 @@ bool EvaluateOptionsFromFlags(EvaluateJobOptions* options, std::string* error) {
   if (!LatentFitOptionsFromFlags(&options->fit, error)) return false;
   options->autoencoder.latent_regularization = FLAGS_latent_regularization;
   options->autoencoder.max_iterations = FLAGS_baseline_iterations;
+  options->autoencoder.lbfgs_scaling = FLAGS_baseline_lbfgs_scaling;
   options->write_fields = FLAGS_write_fields;
   options->error_budget = FLAGS_error_budget;
   options->held_out_targets.relative_stiffness = FLAGS_attachment_stiffness;
@@ -109,6 +112,7 @@ FlagNames EvaluateFlagNames() {
   flags.insert(flags.end(),
                {{"autoencoder.latent_regularization", "--latent_regularization"},
                 {"autoencoder.max_iterations", "--baseline_iterations"},
+                {"autoencoder.lbfgs_scaling", "--baseline_lbfgs_scaling"},
                 {"held_out_targets.relative_stiffness", "--attachment_stiffness"},
                 {"held_out_targets.solver.relative_force_tolerance", "--prepare_tolerance"}});
   return flags;

@@ -40,6 +40,9 @@ DEFINE_double(factor_cache_gb, 4.0, "End-to-end training keeps one stiffness fac
 DEFINE_bool(line_search_starts, true, "End-to-end training starts a line-search trial's solves "
             "from the equilibria of two earlier evaluations on the trial's line, interpolated, "
             "where that start is closer to equilibrium than the last evaluation's.");
+DEFINE_bool(lbfgs_scaling, true, "End-to-end training: L-BFGS' initial inverse Hessian is "
+            "s'y / y'y of the last step times I (Ceres' use_approximate_eigenvalue_bfgs_scaling) "
+            "instead of I, so that a step has the scale of the loss' curvature.");
 DEFINE_double(adjoint_tolerance, 1e-10, "End-to-end training: relative residual of the adjoint "
               "solves done by conjugate gradients on an earlier stiffness factor, in [1e-14, "
               "0.01]; the gradient is off by about that fraction.");
@@ -159,6 +162,7 @@ bool TrainOptionsFromFlags(TrainOptions* options, std::string* error) {
   options->max_factor_cache_gb = FLAGS_factor_cache_gb;
   options->line_search_starts = FLAGS_line_search_starts;
   options->adjoint_tolerance = FLAGS_adjoint_tolerance;
+  options->lbfgs_scaling = FLAGS_lbfgs_scaling;
   options->latent_regularization = FLAGS_latent_regularization;
   options->max_iterations = FLAGS_train_iterations;
   options->max_seconds = 60.0 * FLAGS_train_minutes;

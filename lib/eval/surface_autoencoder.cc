@@ -251,6 +251,7 @@ bool SurfaceAutoencoder::Train(const Eigen::Matrix3Xd& neutral,
   ceres::GradientProblemSolver::Options solver_options;
   solver_options.line_search_direction_type = ceres::LBFGS;
   solver_options.max_lbfgs_rank = kLbfgsRank;
+  solver_options.use_approximate_eigenvalue_bfgs_scaling = options.lbfgs_scaling;
   solver_options.max_num_iterations = options.max_iterations;
   solver_options.function_tolerance = 1e-12;
   solver_options.gradient_tolerance = 1e-12;

@@ -32,6 +32,10 @@ struct SurfaceAutoencoderOptions {
   // of the prior residual sqrt(lambda) z in FitLatent.
   double latent_regularization = 1e-3;
   int max_iterations = 500;
+  // L-BFGS' initial inverse Hessian scaled by s^T y / y^T y of the last step (Ceres'
+  // use_approximate_eigenvalue_bfgs_scaling), as end-to-end training does
+  // (TrainOptions::lbfgs_scaling).
+  bool lbfgs_scaling = true;
   // Seed of the MLP's random initial weights.
   unsigned seed = 1;
   // Progress line every this many L-BFGS iterations (0: none).

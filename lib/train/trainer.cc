@@ -285,6 +285,7 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
     solver_options.line_search_direction_type = ceres::LBFGS;
     solver_options.max_lbfgs_rank = 10;
     solver_options.max_line_search_step_expansion = options.max_step_expansion;
+    solver_options.use_approximate_eigenvalue_bfgs_scaling = options.lbfgs_scaling;
     solver_options.function_tolerance = 1e-10;
     solver_options.gradient_tolerance = 1e-12;
     solver_options.parameter_tolerance = 1e-12;

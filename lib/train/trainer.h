@@ -48,6 +48,10 @@ struct TrainOptions {
   // max_line_search_step_expansion, > 1): a longer trial starts its solves farther
   // from the warm starts.
   double max_step_expansion = 10.0;
+  // L-BFGS' initial inverse Hessian: gamma I with gamma = s^T y / y^T y of the last
+  // accepted step (Ceres' use_approximate_eigenvalue_bfgs_scaling), instead of I. Then
+  // the search direction has the scale of the loss' curvature along the last step.
+  bool lbfgs_scaling = true;
   // Checkpoints and logs: the model directory the learned state is saved into every
   // checkpoint_every iterations, as one unit (SaveLearnedState: decoder, latents,
   // states and the checkpoint, model/model_io.h), and train/log.csv. The caller should
