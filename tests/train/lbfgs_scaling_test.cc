@@ -14,14 +14,6 @@
 namespace aqs {
 namespace {
 
-// The synthetic bar with 4 poses, volumetric targets and a small pre-trained decoder.
-ActiveModel PretrainedBar() {
-  testing::SyntheticBarSpec spec;
-  spec.node_spacing = 0.35;
-  spec.pretrain_iterations = 40;
-  return testing::PretrainedSyntheticBar(spec);
-}
-
 TrainReport Train(const ActiveModel& pretrained, bool scaling, int iterations) {
   TrainOptions options;
   options.lbfgs_scaling = scaling;
@@ -37,7 +29,11 @@ TrainReport Train(const ActiveModel& pretrained, bool scaling, int iterations) {
 }
 
 TEST(LbfgsScalingTest, ChangesTheStepsFromTheSecondIterationOn) {
-  const ActiveModel pretrained = PretrainedBar();
+  // The synthetic bar with 4 poses, volumetric targets and a small pre-trained decoder.
+  testing::SyntheticBarSpec spec;
+  spec.node_spacing = 0.35;
+  spec.pretrain_iterations = 40;
+  const ActiveModel pretrained = testing::PretrainedSyntheticBar(spec);
   // The first iteration has no curvature pair yet: gamma = 1, the same step either way.
   const TrainReport first_scaled = Train(pretrained, true, 1);
   const TrainReport first_plain = Train(pretrained, false, 1);
