@@ -585,6 +585,10 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
      << "**PCA (neutral)** (linear, " << pca_neutral.num_components()
      << " components of the displacements from the neutral, uncentered: its zero is the "
      << "neutral, like an anchored decoder's zero latent).\n\n";
+  const SurfaceAutoencoderReport& ae = autoencoder.report();
+  md << "The auto-encoder trained " << ae.iterations << " L-BFGS iterations"
+     << (ae_options.lbfgs_scaling ? " with scaled steps" : "") << ", loss " << ae.initial_loss
+     << " -> " << ae.final_loss << " (" << ae.termination << ").\n\n";
   const std::string train_table = MarkdownTable(rows, "train");
   const std::string test_table = MarkdownTable(rows, "test");
   md << "## Training poses\n\n" << train_table << "\n";

@@ -73,6 +73,13 @@ std::string* AqsFitTest::pipeline_output_ = nullptr;
 TEST_F(AqsFitTest, EvaluationTablesAndFieldsAreWritten) {
   EXPECT_NE(pipeline_output_->find("| test pose |"), std::string::npos) << *pipeline_output_;
   EXPECT_TRUE(std::filesystem::exists(dir_->File("evaluation/evaluation.md")));
+  // The report states how the auto-encoder baseline was trained (issue 15: fair baselines).
+  std::ifstream md_file(dir_->File("evaluation/evaluation.md"));
+  std::stringstream md;
+  md << md_file.rdbuf();
+  EXPECT_NE(md.str().find("The auto-encoder trained "), std::string::npos) << md.str();
+  EXPECT_NE(md.str().find(" L-BFGS iterations with scaled steps, loss "), std::string::npos)
+      << md.str();
   std::ifstream csv(dir_->File("evaluation/evaluation.csv"));
   int lines = 0;
   std::map<std::string, int> methods;
