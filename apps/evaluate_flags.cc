@@ -20,6 +20,11 @@ DEFINE_string(error_vertices, "", "Surface vertices to measure errors on, e.g. 0
 DEFINE_int32(baseline_iterations, 500, "L-BFGS iterations of the auto-encoder baseline.");
 DEFINE_bool(baseline_lbfgs_scaling, true, "The auto-encoder baseline's L-BFGS scales its initial "
             "inverse Hessian as end-to-end training does (--lbfgs_scaling).");
+DEFINE_int32(baseline_seed, 1, "Seed of the auto-encoder baseline's random initial weights "
+             "(>= 0; its spread over seeds is the baseline's own noise).");
+DEFINE_bool(held_out_starts, true, "Held-out latent fits (physics and auto-encoder alike) start "
+            "from the best of the mean training latent and every training pose's latent, by "
+            "the fit's objective; false: from the mean training latent (physics: at rest).");
 DEFINE_bool(write_fields, true, "Write per-vertex error fields and fitted surfaces.");
 DEFINE_bool(error_budget, true, "Measure the error budget: the training poses' volumetric "
             "targets simulated (the floor), the surface error after pre-training (from the "
@@ -81,6 +86,12 @@ bool EvaluateOptionsFromFlags(EvaluateJobOptions* options, std::string* error) {
   options->autoencoder.latent_regularization = FLAGS_latent_regularization;
   options->autoencoder.max_iterations = FLAGS_baseline_iterations;
   options->autoencoder.lbfgs_scaling = FLAGS_baseline_lbfgs_scaling;
+  if (FLAGS_baseline_seed < 0) {
+    *error = "--baseline_seed must be >= 0 (is " + std::to_string(FLAGS_baseline_seed) + ")";
+    return false;
+  }
+  options->autoencoder.seed = static_cast<unsigned>(FLAGS_baseline_seed);
+  options->training_pose_starts = FLAGS_held_out_starts;
   options->write_fields = FLAGS_write_fields;
   options->error_budget = FLAGS_error_budget;
   options->held_out_targets.relative_stiffness = FLAGS_attachment_stiffness;

@@ -7,6 +7,8 @@
 #include <map>
 #include <sstream>
 
+#include <glog/logging.h>
+
 #include "dist/communicator.h"
 #include "dist/model_sharing.h"
 #include "eval/error_budget.h"
@@ -159,13 +161,56 @@ std::string BudgetTable(const std::vector<EvaluationRow>& rows, const std::strin
   return out;
 }
 
-// The physics fits of the held-out poses (each from rest, with a fitter of its own),
+// The start of the auto-encoder's latent fit to `truth` (3 x N, all N vertices listed
+// in `all`): its mean training latent or, with training_pose_starts, whichever of that
+// and its trained latents (in the order of model.poses) has the smallest FitLatent
+// objective (1/N) sum_v |surface_v(z) - y_v|^2 + lambda |z|^2. *name: "mean latent" or
+// the pose's name.
+Eigen::VectorXd AutoencoderStart(const SurfaceAutoencoder& autoencoder, const ActiveModel& model,
+                                 const std::vector<int>& all, const Eigen::Matrix3Xd& truth,
+                                 bool training_pose_starts, std::string* name) {
+  CHECK_EQ(static_cast<int>(all.size()), truth.cols());
+  const double lambda = autoencoder.options().latent_regularization;
+  auto objective = [&](const Eigen::VectorXd& z) {
+    return (autoencoder.Decode(z) - truth).squaredNorm() / truth.cols() + lambda * z.squaredNorm();
+  };
+  Eigen::VectorXd best = autoencoder.MeanLatent();
+  *name = "mean latent";
+  if (!training_pose_starts) return best;
+  double best_value = objective(best);
+  const Eigen::MatrixXd& latents = autoencoder.training_latents();
+  for (int p = 0; p < static_cast<int>(latents.cols()) && p < model.num_poses(); ++p) {
+    const double value = objective(latents.col(p));
+    if (value < best_value) {
+      best_value = value;
+      best = latents.col(p);
+      *name = model.poses[p].name;
+    }
+  }
+  return best;
+}
+
+// A held-out fit's start as a number, to gather it among ranks: the training pose's
+// index, or -1 for the mean training latent; and back.
+int StartIndex(const ActiveModel& model, const std::string& start) {
+  for (int p = 0; p < model.num_poses(); ++p) {
+    if (model.poses[p].name == start) return p;
+  }
+  return -1;
+}
+std::string StartName(const ActiveModel& model, int index) {
+  return index >= 0 && index < model.num_poses() ? model.poses[index].name : "mean latent";
+}
+
+// The physics fits of the held-out poses (each with a fitter of its own, from the mean
+// training latent at rest or, with training_pose_starts, from the best of that and the
+// training poses; LatentFitResult::start names it),
 // shared among the ranks of `communicator` (null: one process): pose t is fitted by
 // rank t % size, and rank 0 receives every result (*fits, *seconds: each fit's wall
 // time on its rank). Collective; false with *error on every rank if a fit fails (the
 // first failing pose's message).
 bool FitHeldOutPoses(const ActiveModel& model, const LatentFitOptions& options,
-                     const std::vector<std::string>& names,
+                     bool training_pose_starts, const std::vector<std::string>& names,
                      const std::vector<Eigen::Matrix3Xd>& surfaces,
                      const Communicator* communicator, std::vector<LatentFitResult>* fits,
                      std::vector<double>* seconds, std::string* error) {
@@ -181,11 +226,26 @@ bool FitHeldOutPoses(const ActiveModel& model, const LatentFitOptions& options,
     LatentFitter fitter(model, options);
     fitter.set_bone_transforms(RestBoneTransforms(model));
     fitter.set_start_state(model.mesh.vertices);  // from rest: order-independent
-    if (!fitter.Fit(FullSurfaceTarget(surfaces[t]), fitter.MeanLatent(), &(*fits)[t], &failure)) {
+    const FitTarget target = FullSurfaceTarget(surfaces[t]);
+    Eigen::VectorXd start = fitter.MeanLatent();
+    std::string start_name = "mean latent";
+    if (training_pose_starts) {
+      FitStartOptions start_options;
+      start_options.training_poses = true;
+      if (!fitter.ChooseStart(&target, nullptr, PointCloudFitOptions(), start_options, &start,
+                              &start_name, &failure)) {
+        failure = "held-out pose '" + names[t] + "': " + failure;
+        first_failure = t;
+        break;
+      }
+      if (start_name == "given") start_name = "mean latent";
+    }
+    if (!fitter.Fit(target, start, &(*fits)[t], &failure)) {
       failure = "held-out pose '" + names[t] + "': " + failure;
       first_failure = t;
       break;
     }
+    (*fits)[t].start = start_name;
     (*seconds)[t] = timer.Seconds();
   }
   if (size == 1) {
@@ -203,7 +263,7 @@ bool FitHeldOutPoses(const ActiveModel& model, const LatentFitOptions& options,
   const int nb = static_cast<int>(model.bones.size());
   const int nv = model.mesh.num_vertices();
   const int ns = model.num_surface_vertices();
-  const int block = d + 12 * nb + 3 * nv + 3 * ns + 7;
+  const int block = d + 12 * nb + 3 * nv + 3 * ns + 8;
   std::vector<double> send;
   for (int t : OwnedIndices(count, rank, size)) {
     const LatentFitResult& f = (*fits)[t];
@@ -215,7 +275,8 @@ bool FitHeldOutPoses(const ActiveModel& model, const LatentFitOptions& options,
     send.insert(send.end(), f.state.data(), f.state.data() + 3 * nv);
     send.insert(send.end(), f.surface.data(), f.surface.data() + 3 * ns);
     send.insert(send.end(), {f.rms_error, f.mean_error, f.max_error, double(f.iterations),
-                             double(f.used_points), f.converged ? 1.0 : 0.0, (*seconds)[t]});
+                             double(f.used_points), f.converged ? 1.0 : 0.0, (*seconds)[t],
+                             double(StartIndex(model, f.start))});
   }
   std::vector<int> counts(size);
   for (int r = 0; r < size; ++r) counts[r] = block * static_cast<int>(OwnedIndices(count, r, size).size());
@@ -245,7 +306,8 @@ bool FitHeldOutPoses(const ActiveModel& model, const LatentFitOptions& options,
       f.used_points = static_cast<int>(x[4]);
       f.converged = x[5] != 0.0;
       (*seconds)[t] = x[6];
-      x += 7;
+      f.start = StartName(model, static_cast<int>(x[7]));
+      x += 8;
     }
   }
   return true;
@@ -326,7 +388,7 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
   WallTimer timer;
   std::vector<LatentFitResult> fits;
   std::vector<double> fit_seconds;
-  if (!FitHeldOutPoses(model, options.fit, test_names, test_surfaces, communicator, &fits,
+  if (!FitHeldOutPoses(model, options.fit, options.training_pose_starts, test_names, test_surfaces, communicator, &fits,
                        &fit_seconds, error)) {
     return false;
   }
@@ -455,6 +517,7 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
     Eigen::Matrix3Xd surfaces[5];
     Eigen::VectorXd errors[5];
     LatentFitResult fit;
+    std::string ae_start;  // where the auto-encoder's latent fit started
   };
   std::vector<HeldOut> held_out(test_names.size());
   for (size_t t = 0; t < test_names.size(); ++t) {
@@ -464,7 +527,9 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
     h.fit = fits[t];
     Eigen::VectorXd ae_latent;
     double ae_rms = 0;
-    if (!autoencoder.FitLatent(all, truth, autoencoder.MeanLatent(), &ae_latent, &ae_rms)) {
+    const Eigen::VectorXd ae_start = AutoencoderStart(autoencoder, model, all, truth,
+                                                      options.training_pose_starts, &h.ae_start);
+    if (!autoencoder.FitLatent(all, truth, ae_start, &ae_latent, &ae_rms)) {
       *error = "held-out pose '" + test_names[t] + "': the auto-encoder's latent fit failed";
       return false;
     }
@@ -480,7 +545,8 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
     }
     log << "  " << test_names[t] << ": fitted in "
         << FormatDuration(fit_seconds[t] + pose_timer.Seconds())
-        << " (physics " << h.fit.iterations << " iterations), mean error: neutral "
+        << " (physics " << h.fit.iterations << " iterations from " << h.fit.start
+        << ", auto-encoder from " << h.ae_start << "), mean error: neutral "
         << rows[rows.size() - 5].mean << ", physics "
         << rows[rows.size() - 4].mean << ", autoencoder " << rows[rows.size() - 3].mean << ", PCA "
         << rows[rows.size() - 2].mean << ", PCA about the neutral " << rows.back().mean << "\n";
@@ -587,8 +653,22 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
      << "neutral, like an anchored decoder's zero latent).\n\n";
   const SurfaceAutoencoderReport& ae = autoencoder.report();
   md << "The auto-encoder trained " << ae.iterations << " L-BFGS iterations"
-     << (ae_options.lbfgs_scaling ? " with scaled steps" : "") << ", loss " << ae.initial_loss
+     << (ae_options.lbfgs_scaling ? " with scaled steps" : "") << " from seed "
+     << ae_options.seed << ", loss " << ae.initial_loss
      << " -> " << ae.final_loss << " (" << ae.termination << ").\n\n";
+  if (!test_names.empty()) {
+    md << "Held-out latent fits start, for the physics model and the auto-encoder alike, from "
+       << (options.training_pose_starts
+               ? "the best of the mean training latent and each training pose's latent (and, for "
+                 "the physics model, its bone motions and equilibrium) by the fit's own objective"
+               : "the mean training latent (the physics model: bones at rest, from the rest shape)")
+       << ":";
+    for (size_t t = 0; t < test_names.size(); ++t) {
+      md << (t ? "; " : " ") << test_names[t] << " from " << held_out[t].fit.start << " / "
+         << held_out[t].ae_start;
+    }
+    md << ".\n\n";
+  }
   const std::string train_table = MarkdownTable(rows, "train");
   const std::string test_table = MarkdownTable(rows, "test");
   md << "## Training poses\n\n" << train_table << "\n";

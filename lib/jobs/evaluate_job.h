@@ -23,6 +23,13 @@ struct EvaluateJobOptions {
   // region (the head's back never moves and would dilute the means).
   std::vector<int> error_vertices;
   LatentFitOptions fit;                 // fitting held-out poses with the physics model
+  // Where the latent fits of held-out poses start, for the physics model and the
+  // auto-encoder alike. false: the mean training latent (physics: bones at rest, from the
+  // rest shape). true: the best of that start and every training pose's latent, by the
+  // fit's own objective (physics: LatentFitter::ChooseStart, with the pose's bone
+  // motions and stored equilibrium; auto-encoder: its trained latents, by FitLatent's
+  // objective). The report names each fit's start.
+  bool training_pose_starts = true;
   // The surface auto-encoder baseline (its latent_dim, hidden layers and activation are
   // set from the model's decoder; iterations etc. from here).
   SurfaceAutoencoderOptions autoencoder;

@@ -78,7 +78,7 @@ TEST_F(AqsFitTest, EvaluationTablesAndFieldsAreWritten) {
   std::stringstream md;
   md << md_file.rdbuf();
   EXPECT_NE(md.str().find("The auto-encoder trained "), std::string::npos) << md.str();
-  EXPECT_NE(md.str().find(" L-BFGS iterations with scaled steps, loss "), std::string::npos)
+  EXPECT_NE(md.str().find(" L-BFGS iterations with scaled steps from seed 1, loss "), std::string::npos)
       << md.str();
   std::ifstream csv(dir_->File("evaluation/evaluation.csv"));
   int lines = 0;
@@ -119,6 +119,34 @@ TEST_F(AqsFitTest, EvaluationTablesAndFieldsAreWritten) {
     EXPECT_TRUE(std::filesystem::exists(dir_->File("evaluation/images/test0.png")));
     EXPECT_TRUE(std::filesystem::exists(dir_->File("evaluation/images/training_curve.png")));
     EXPECT_TRUE(std::filesystem::exists(dir_->File("evaluation/images/budget.png")));
+  }
+}
+
+// Held-out fits start from the best of the mean training latent and the training poses'
+// latents, for the physics model and the auto-encoder alike: a "held-out" pose that is
+// a training pose starts, for both, from that pose; with --held_out_starts=false both
+// start from the mean latent.
+TEST_F(AqsFitTest, EvaluationStartsHeldOutFitsFromTheBestTrainingPose) {
+  const std::string pose = data_->model.poses.back().name;
+  for (const bool starts : {true, false}) {
+    const std::string out = dir_->File(starts ? "eval_starts" : "eval_mean");
+    const testing::CommandResult run = RunCommand(
+        AppPath("aqs_evaluate") + " --model=" + dir_->File("model") + " --test_poses=" +
+        dir_->File("poses/" + pose + ".obj") + " --output_dir=" + out +
+        " --baseline_iterations=50 --error_budget=false --write_fields=false --report=false" +
+        " --held_out_starts=" + (starts ? "true" : "false"));
+    ASSERT_EQ(run.exit_code, 0) << run.output;
+    std::ifstream md_file(out + "/evaluation.md");
+    std::stringstream md;
+    md << md_file.rdbuf();
+    const std::string expected =
+        starts ? " " + pose + " from " + pose + " / " + pose + "."
+               : " " + pose + " from mean latent / mean latent.";
+    EXPECT_NE(md.str().find(expected), std::string::npos) << expected << "\n" << md.str();
+    EXPECT_NE(run.output.find(starts ? "iterations from " + pose + ", auto-encoder from " + pose
+                                     : "iterations from mean latent, auto-encoder from mean latent"),
+              std::string::npos)
+        << run.output;
   }
 }
 
