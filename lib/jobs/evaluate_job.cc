@@ -161,6 +161,9 @@ std::string BudgetTable(const std::vector<EvaluationRow>& rows, const std::strin
   return out;
 }
 
+// How the report names the start at the mean training latent.
+constexpr char kMeanLatentStart[] = "mean latent";
+
 // The start of the auto-encoder's latent fit to `truth` (3 x N, all N vertices listed
 // in `all`): its mean training latent or, with training_pose_starts, whichever of that
 // and its trained latents (in the order of model.poses) has the smallest FitLatent
@@ -175,7 +178,7 @@ Eigen::VectorXd AutoencoderStart(const SurfaceAutoencoder& autoencoder, const Ac
     return (autoencoder.Decode(z) - truth).squaredNorm() / truth.cols() + lambda * z.squaredNorm();
   };
   Eigen::VectorXd best = autoencoder.MeanLatent();
-  *name = "mean latent";
+  *name = kMeanLatentStart;
   if (!training_pose_starts) return best;
   double best_value = objective(best);
   const Eigen::MatrixXd& latents = autoencoder.training_latents();
@@ -199,7 +202,7 @@ int StartIndex(const ActiveModel& model, const std::string& start) {
   return -1;
 }
 std::string StartName(const ActiveModel& model, int index) {
-  return index >= 0 && index < model.num_poses() ? model.poses[index].name : "mean latent";
+  return index >= 0 && index < model.num_poses() ? model.poses[index].name : kMeanLatentStart;
 }
 
 // The physics fits of the held-out poses (each with a fitter of its own, from the mean
@@ -228,19 +231,13 @@ bool FitHeldOutPoses(const ActiveModel& model, const LatentFitOptions& options,
     fitter.set_start_state(model.mesh.vertices);  // from rest: order-independent
     const FitTarget target = FullSurfaceTarget(surfaces[t]);
     Eigen::VectorXd start = fitter.MeanLatent();
-    std::string start_name = "mean latent";
-    if (training_pose_starts) {
-      FitStartOptions start_options;
-      start_options.training_poses = true;
-      if (!fitter.ChooseStart(&target, nullptr, PointCloudFitOptions(), start_options, &start,
-                              &start_name, &failure)) {
-        failure = "held-out pose '" + names[t] + "': " + failure;
-        first_failure = t;
-        break;
-      }
-      if (start_name == "given") start_name = "mean latent";
-    }
-    if (!fitter.Fit(target, start, &(*fits)[t], &failure)) {
+    std::string start_name = kMeanLatentStart;
+    const bool started =
+        !training_pose_starts || fitter.ChooseStart(&target, nullptr, PointCloudFitOptions(),
+                                                    FitStartOptions(), &start, &start_name,
+                                                    &failure);
+    if (start_name == "given") start_name = kMeanLatentStart;
+    if (!started || !fitter.Fit(target, start, &(*fits)[t], &failure)) {
       failure = "held-out pose '" + names[t] + "': " + failure;
       first_failure = t;
       break;
@@ -388,8 +385,8 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
   WallTimer timer;
   std::vector<LatentFitResult> fits;
   std::vector<double> fit_seconds;
-  if (!FitHeldOutPoses(model, options.fit, options.training_pose_starts, test_names, test_surfaces, communicator, &fits,
-                       &fit_seconds, error)) {
+  if (!FitHeldOutPoses(model, options.fit, options.training_pose_starts, test_names,
+                       test_surfaces, communicator, &fits, &fit_seconds, error)) {
     return false;
   }
   if (!test_names.empty()) {
