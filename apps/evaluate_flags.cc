@@ -24,7 +24,8 @@ DEFINE_int32(baseline_seed, 1, "Seed of the auto-encoder baseline's random initi
              "(>= 0; its spread over seeds is the baseline's own noise).");
 DEFINE_bool(held_out_starts, true, "Held-out latent fits (physics and auto-encoder alike) start "
             "from the best of the mean training latent and every training pose's latent, by "
-            "the fit's objective; false: from the mean training latent (physics: at rest).");
+            "the fit's objective; false: from the mean training latent (physics: at rest). The "
+            "report names each fit's start.");
 DEFINE_bool(write_fields, true, "Write per-vertex error fields and fitted surfaces.");
 DEFINE_bool(error_budget, true, "Measure the error budget: the training poses' volumetric "
             "targets simulated (the floor), the surface error after pre-training (from the "

@@ -7,8 +7,6 @@
 #include <map>
 #include <sstream>
 
-#include <glog/logging.h>
-
 #include "dist/communicator.h"
 #include "dist/model_sharing.h"
 #include "eval/error_budget.h"
@@ -164,15 +162,14 @@ std::string BudgetTable(const std::vector<EvaluationRow>& rows, const std::strin
 // How the report names the start at the mean training latent.
 constexpr char kMeanLatentStart[] = "mean latent";
 
-// The start of the auto-encoder's latent fit to `truth` (3 x N, all N vertices listed
-// in `all`): its mean training latent or, with training_pose_starts, whichever of that
+// The start of the auto-encoder's latent fit to `truth` (3 x N, every surface vertex):
+// its mean training latent or, with training_pose_starts, whichever of that
 // and its trained latents (in the order of model.poses) has the smallest FitLatent
 // objective (1/N) sum_v |surface_v(z) - y_v|^2 + lambda |z|^2. *name: "mean latent" or
 // the pose's name.
 Eigen::VectorXd AutoencoderStart(const SurfaceAutoencoder& autoencoder, const ActiveModel& model,
-                                 const std::vector<int>& all, const Eigen::Matrix3Xd& truth,
-                                 bool training_pose_starts, std::string* name) {
-  CHECK_EQ(static_cast<int>(all.size()), truth.cols());
+                                 const Eigen::Matrix3Xd& truth, bool training_pose_starts,
+                                 std::string* name) {
   const double lambda = autoencoder.options().latent_regularization;
   auto objective = [&](const Eigen::VectorXd& z) {
     return (autoencoder.Decode(z) - truth).squaredNorm() / truth.cols() + lambda * z.squaredNorm();
@@ -524,7 +521,7 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
     h.fit = fits[t];
     Eigen::VectorXd ae_latent;
     double ae_rms = 0;
-    const Eigen::VectorXd ae_start = AutoencoderStart(autoencoder, model, all, truth,
+    const Eigen::VectorXd ae_start = AutoencoderStart(autoencoder, model, truth,
                                                       options.training_pose_starts, &h.ae_start);
     if (!autoencoder.FitLatent(all, truth, ae_start, &ae_latent, &ae_rms)) {
       *error = "held-out pose '" + test_names[t] + "': the auto-encoder's latent fit failed";
