@@ -402,14 +402,19 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
     w.solver->actuation() = a[k];
     w.solver->SetPositions(states_[p]);
     const bool stored = k < num_stored_factors_;  // (never with a solver per pose)
+    // For the per-pose trace (VLOG 2): how the solve started.
+    const char* start_kind = "own factor";
     if (solver_per_pose_) {
       PredictState(p, &w);
     } else {
       const bool restored =
           stored && w.solver->stiffness_factorization()->RestoreFactor(stored_factors_[k]);
       if (restored) {
+        start_kind = w.solver->stiffness_factorization()->refresh_requested() ? "stored aged"
+                                                                              : "stored";
         PredictState(p, &w);
       } else {
+        start_kind = "no factor";
         w.solver->stiffness_factorization()->RequestRefresh();  // the factor is another pose's
       }
       // The pose's own earlier factor preconditions L-BFGS; without one, the thread's
@@ -440,7 +445,10 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
       }
     } keep_factor{w.solver->stiffness_factorization(), stored ? &stored_factors_[k] : nullptr,
                   &failures_[p]};
+    const int failed_reuses_before = w.solver->stiffness_factorization()->counters().failed_reuses;
     QuasistaticSolveReport report = w.solver->Solve();
+    const int solve_failed_reuses =
+        w.solver->stiffness_factorization()->counters().failed_reuses - failed_reuses_before;
     auto count = [&counters](const QuasistaticSolveReport& r) {
       counters.factorizations += r.factorizations;
       counters.reused_solves += r.reused_steps;
@@ -534,6 +542,17 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
     counters.reused_solves += after.reused_solves - before.reused_solves - escape_reused;
     counters.adjoint_seconds = adjoint_timer.Seconds();
     counters.cg_iterations = after.cg_iterations - cg_start;
+    VLOG(2) << "  pose " << p << " '" << model_.poses[p].name << "': start " << start_kind
+            << (counters.line_starts > 0 ? ", on the line" : "") << ", force "
+            << report.initial_max_force << "; solve " << report.lbfgs_iterations
+            << " L-BFGS, " << report.newton_steps << " Newton (" << report.reused_steps
+            << " by CG, " << report.projected_steps << " projected), "
+            << report.factorizations << " factorizations (" << report.shifted_factorizations
+            << " shifted), " << solve_failed_reuses << " failed CG; adjoint "
+            << counters.adjoint_factorizations << " factorizations, "
+            << after.reused_solves - before.reused_solves - escape_reused << " by CG; "
+            << counters.cg_iterations << " CG iterations"
+            << (counters.unstable_escapes > 0 ? ", escaped an unstable equilibrium" : "");
   }, 1);
   FaultPoint("objective:solved");
   Counters total;
