@@ -539,7 +539,8 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
     counters.adjoint_factorizations =
         after.factorizations - before.factorizations - escape_factorizations;
     counters.factorizations += counters.adjoint_factorizations;
-    counters.reused_solves += after.reused_solves - before.reused_solves - escape_reused;
+    const int adjoint_reused = after.reused_solves - before.reused_solves - escape_reused;
+    counters.reused_solves += adjoint_reused;
     counters.adjoint_seconds = adjoint_timer.Seconds();
     counters.cg_iterations = after.cg_iterations - cg_start;
     VLOG(2) << "  pose " << p << " '" << model_.poses[p].name << "': start " << start_kind
@@ -549,8 +550,8 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
             << " by CG, " << report.projected_steps << " projected), "
             << report.factorizations << " factorizations (" << report.shifted_factorizations
             << " shifted), " << solve_failed_reuses << " failed CG; adjoint "
-            << counters.adjoint_factorizations << " factorizations, "
-            << after.reused_solves - before.reused_solves - escape_reused << " by CG; "
+            << counters.adjoint_factorizations << " factorizations, " << adjoint_reused
+            << " by CG; "
             << counters.cg_iterations << " CG iterations"
             << (counters.unstable_escapes > 0 ? ", escaped an unstable equilibrium" : "");
   }, 1);
