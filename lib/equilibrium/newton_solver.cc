@@ -72,8 +72,11 @@ NewtonSolveReport MinimizeEnergyNewton(const NewtonSolverOptions& options,
         reused = true;
         step = -factorization->ScatterFree(free_step.data());
       } else {
-        ++report.factorizations;
-        if (!factorization->FactorizeAssembled(0.0, &error)) {
+        // CG met non-positive curvature: K is not positive definite, and its
+        // factorization would fail. Reject it without paying for that.
+        const bool indefinite = !no_reuse_here && factorization->last_reuse_found_indefinite();
+        if (!indefinite) ++report.factorizations;
+        if (indefinite || !factorization->FactorizeAssembled(0.0, &error)) {
           ++report.exact_rejections;
           projected_here = true;
           exact_limit = std::min(exact_limit, 0.1 * force);

@@ -39,7 +39,9 @@ struct NewtonSolveReport {
   int reused_steps = 0;     // of those, solved by CG on an earlier factor (no factorization)
   int factorizations = 0;   // CHOLMOD numeric factorizations, all kinds
   int shifted_factorizations = 0;  // of those, with a diagonal shift (singular K)
-  int exact_rejections = 0;  // exact stiffness not positive definite, or its step failed
+  // Exact stiffness not positive definite (found by its factorization, or by CG without
+  // one), or its step failed.
+  int exact_rejections = 0;
   int energy_evaluations = 0;  // line-search trials
   double initial_energy = 0.0, final_energy = 0.0;
   double initial_max_force = 0.0, final_max_force = 0.0;
@@ -58,7 +60,9 @@ struct NewtonSolveReport {
 // PSD-projected stiffness (per-element eigenvalue clamp of dP/dF, Gauss-Newton parts of
 // the energy terms): every step descends, from any start. Near it K is the exact
 // stiffness, which converges quadratically; where the exact K is not positive definite,
-// or its step does not descend, the step is taken on the projected K instead. A
+// or its step does not descend, the step is taken on the projected K instead (when CG
+// on an earlier factor has already met non-positive curvature of the exact K, that K is
+// rejected without factorizing it). A
 // singular projected K (e.g. elements with no resisting mode) is shifted by a multiple
 // of its mean diagonal, growing until CHOLMOD succeeds.
 //

@@ -133,6 +133,7 @@ Eigen::VectorXd StiffnessFactorization::MultiplyAssembled(const Eigen::VectorXd&
 bool StiffnessFactorization::SolveReusingFactor(const Eigen::MatrixXd& b,
                                                 const FactorReuseOptions& reuse,
                                                 Eigen::MatrixXd* x) {
+  last_reuse_found_indefinite_ = false;
   if (!cholesky_.factorized() || reuse.max_iterations <= 0 || b.cols() > reuse.max_columns ||
       refresh_requested_) {
     return false;
@@ -158,7 +159,10 @@ bool StiffnessFactorization::SolveReusingFactor(const Eigen::MatrixXd& b,
       ++iterations;
       const Eigen::VectorXd q = MultiplyAssembled(p);
       const double curvature = p.dot(q);
-      if (!(curvature > 0.0)) break;  // K not positive definite along p
+      if (!(curvature > 0.0)) {  // K not positive definite along p (or not finite)
+        last_reuse_found_indefinite_ = curvature <= 0.0;
+        break;
+      }
       const double alpha = rz / curvature;
       solution += alpha * p;
       r -= alpha * q;
@@ -184,6 +188,7 @@ bool StiffnessFactorization::SolveReusingFactor(const Eigen::MatrixXd& b,
     }
   } else {
     ++counters_.failed_reuses;
+    if (last_reuse_found_indefinite_) ++counters_.indefinite_reuses;
   }
   timings_.solve = timer.Seconds();
   return ok;
@@ -193,6 +198,12 @@ bool StiffnessFactorization::SolveAssembled(const Eigen::MatrixXd& b, const Fact
                                             Eigen::MatrixXd* x, std::string* error) {
   if (!factor_current_) {
     if (SolveReusingFactor(b, reuse, x)) return true;
+    if (last_reuse_found_indefinite_) {
+      *error = "the stiffness K = d2E/dx2 is not positive definite at this state (conjugate "
+               "gradients met a direction of non-positive curvature, so it was not "
+               "factorized): the state may not be a stable equilibrium";
+      return false;
+    }
     if (!FactorizeAssembled(0.0, error)) return false;
   }
   *x = SolveFree(b);

@@ -50,6 +50,9 @@ struct FactorizationCounters {
   int reused_solves = 0;   // right-hand sides solved by CG on an earlier state's factor
   int cg_iterations = 0;   // their iterations (one solve with the factor and one K v each)
   int failed_reuses = 0;   // CG attempts abandoned (then factorized)
+  // Of those, the ones that met non-positive curvature p'Kp <= 0: K is not positive
+  // definite, so a factorization of it would fail too, and was not tried.
+  int indefinite_reuses = 0;
 };
 
 // Seconds spent by the last Factorize() and Solve() calls.
@@ -119,6 +122,11 @@ class StiffnessFactorization {
   // there is no factor, CG meets non-positive curvature or does not converge in time.
   bool SolveReusingFactor(const Eigen::MatrixXd& b, const FactorReuseOptions& reuse,
                           Eigen::MatrixXd* x);
+  // Whether the last SolveReusingFactor failed because CG met a direction p with
+  // p'Kp <= 0 (K = values()): a proof that K is not positive definite, so that an exact
+  // factorization of it would fail. False after a success, a give-up for slow
+  // convergence, or a call that did not run CG.
+  bool last_reuse_found_indefinite() const { return last_reuse_found_indefinite_; }
   // K v for K = values() (free DOFs).
   Eigen::VectorXd MultiplyAssembled(const Eigen::VectorXd& v) const;
   // The next SolveAssembled / SolveReusingFactor factorizes instead of reusing the
@@ -184,6 +192,7 @@ class StiffnessFactorization {
   // The factor held is a restored single-precision copy (RestoreFactor) until the next
   // factorization: CG on it is allowed kRoundedFactorIterations more iterations.
   bool factor_rounded_ = false;
+  bool last_reuse_found_indefinite_ = false;
   FactorizationCounters counters_;
   std::vector<const EnergyTerm*> terms_;
   FactorizationTimings timings_;

@@ -445,10 +445,11 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
       }
     } keep_factor{w.solver->stiffness_factorization(), stored ? &stored_factors_[k] : nullptr,
                   &failures_[p]};
-    const int failed_reuses_before = w.solver->stiffness_factorization()->counters().failed_reuses;
+    const FactorizationCounters solve_before = w.solver->stiffness_factorization()->counters();
     QuasistaticSolveReport report = w.solver->Solve();
-    const int solve_failed_reuses =
-        w.solver->stiffness_factorization()->counters().failed_reuses - failed_reuses_before;
+    const FactorizationCounters& solve_after = w.solver->stiffness_factorization()->counters();
+    const int solve_failed_reuses = solve_after.failed_reuses - solve_before.failed_reuses;
+    const int solve_indefinite = solve_after.indefinite_reuses - solve_before.indefinite_reuses;
     auto count = [&counters](const QuasistaticSolveReport& r) {
       counters.factorizations += r.factorizations;
       counters.reused_solves += r.reused_steps;
@@ -549,7 +550,8 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
             << " L-BFGS, " << report.newton_steps << " Newton (" << report.reused_steps
             << " by CG, " << report.projected_steps << " projected), "
             << report.factorizations << " factorizations (" << report.shifted_factorizations
-            << " shifted), " << solve_failed_reuses << " failed CG; adjoint "
+            << " shifted), " << solve_failed_reuses << " failed CG (" << solve_indefinite
+            << " indefinite); adjoint "
             << counters.adjoint_factorizations << " factorizations, " << adjoint_reused
             << " by CG; "
             << counters.cg_iterations << " CG iterations"

@@ -5,6 +5,7 @@
 #include <memory>
 #include <random>
 
+#include <Eigen/Eigenvalues>
 #include <gtest/gtest.h>
 
 #include "equilibrium/quasistatic_solver.h"
@@ -173,6 +174,95 @@ TEST(NewtonSolverTest, IndefiniteExactStiffnessFallsBackToProjectedSteps) {
   double sideways = 0;
   for (int v = 0; v < mesh.num_vertices(); ++v) sideways = std::max(sideways, std::abs(x(1, v) - mesh.vertices(1, v)));
   EXPECT_GT(sideways, 0.1 * length);
+}
+
+// A 12 x 2 x 2 bar held at both ends whose fibres want to grow by 40%, slightly bent
+// sideways: compressed beyond buckling, near the straight (unstable) equilibrium, where
+// the exact stiffness is indefinite and the projected one is positive definite.
+struct CompressedBar {
+  CompressedBar() : mesh(BarMesh(12, 2, 2, 0.5)), model(mesh, 1.0) {
+    const double length = mesh.vertices.row(0).maxCoeff();
+    for (int v = 0; v < mesh.num_vertices(); ++v) {
+      if (mesh.vertices(0, v) < 1e-9 || mesh.vertices(0, v) > length - 1e-9) bc.vertices.push_back(v);
+    }
+    a = IdentityActuations(mesh.num_tets());
+    a.row(0).setConstant(1.4);
+    bent = mesh.vertices;
+    for (int v = 0; v < mesh.num_vertices(); ++v) {
+      bent(1, v) += 1e-3 * std::sin(M_PI * mesh.vertices(0, v) / length);
+    }
+  }
+  TetMesh mesh;
+  ShapeTargetModel model;
+  BoundaryConditions bc;
+  ActuationMatrix a;
+  Eigen::Matrix3Xd bent;
+};
+
+TEST(NewtonSolverTest, ConjugateGradientsReportAnIndefiniteStiffness) {
+  const CompressedBar bar;
+  StiffnessFactorization factorization(bar.model, FixedVertexMask(bar.bc, bar.mesh.num_vertices()),
+                                       2);
+  std::string error;
+  ASSERT_TRUE(factorization.Factorize(bar.bent, bar.a, StiffnessKind::kProjected, &error)) << error;
+  // The right-hand side K_projected v for v the exact K's eigenvector of its smallest
+  // (negative) eigenvalue: the preconditioned first CG direction is v itself.
+  const Eigen::MatrixXd projected = DenseFromUpperCsc(factorization.pattern(), factorization.values());
+  factorization.Assemble(bar.bent, bar.a, StiffnessKind::kExact);
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(
+      DenseFromUpperCsc(factorization.pattern(), factorization.values()));
+  ASSERT_LT(eigen.eigenvalues()[0], 0.0);
+  const Eigen::VectorXd v = eigen.eigenvectors().col(0);
+  const Eigen::MatrixXd b = projected * v;
+  FactorReuseOptions reuse;
+  Eigen::MatrixXd x;
+  EXPECT_FALSE(factorization.SolveReusingFactor(b, reuse, &x));
+  EXPECT_TRUE(factorization.last_reuse_found_indefinite());
+  EXPECT_EQ(factorization.counters().failed_reuses, 1);
+  EXPECT_EQ(factorization.counters().indefinite_reuses, 1);
+  // SolveAssembled gives up at once: no factorization of a K known to be indefinite.
+  EXPECT_FALSE(factorization.SolveAssembled(b, reuse, &x, &error));
+  EXPECT_NE(error.find("not positive definite"), std::string::npos) << error;
+  EXPECT_EQ(factorization.counters().factorizations, 1);
+  EXPECT_EQ(factorization.counters().indefinite_reuses, 2);
+  // ... which the factorization confirms.
+  EXPECT_FALSE(factorization.FactorizeAssembled(0.0, &error));
+  // A CG that gives up for slow convergence proves nothing.
+  ASSERT_TRUE(factorization.Factorize(bar.bent, bar.a, StiffnessKind::kProjected, &error)) << error;
+  factorization.Assemble(bar.mesh.vertices, IdentityActuations(bar.mesh.num_tets()),
+                         StiffnessKind::kExact);
+  reuse.max_iterations = 1;
+  EXPECT_FALSE(factorization.SolveReusingFactor(b, reuse, &x));
+  EXPECT_FALSE(factorization.last_reuse_found_indefinite());
+  EXPECT_EQ(factorization.counters().indefinite_reuses, 2);
+}
+
+TEST(NewtonSolverTest, IndefiniteStiffnessFoundByCgCostsNoFactorization) {
+  // The exact step is tried first (threshold infinity) by CG on the held factor of the
+  // projected K; CG meets the buckling mode, so the exact K is rejected without a
+  // factorization and the one factorization allowed goes to the projected step.
+  const CompressedBar bar;
+  StiffnessFactorization factorization(bar.model, FixedVertexMask(bar.bc, bar.mesh.num_vertices()),
+                                       2);
+  std::string error;
+  ASSERT_TRUE(factorization.Factorize(bar.bent, bar.a, StiffnessKind::kProjected, &error)) << error;
+  factorization.ResetCounters();
+  NewtonSolverOptions options = Options(bar.model, 1e-10);
+  options.exact_force_threshold = std::numeric_limits<double>::infinity();
+  options.max_factorizations = 1;
+  Eigen::Matrix3Xd x = bar.bent;
+  const NewtonSolveReport report = MinimizeEnergyNewton(options, bar.a, &factorization, &x);
+  EXPECT_EQ(factorization.counters().indefinite_reuses, 1);
+  EXPECT_EQ(report.exact_rejections, 1);
+  EXPECT_EQ(report.factorizations, 1);
+  EXPECT_EQ(factorization.counters().factorizations, 1);
+  EXPECT_EQ(report.projected_steps, 1) << report.message;
+  EXPECT_LT(report.final_energy, report.initial_energy);
+  // Allowed to go on, it buckles the bar, as from a start with no factor held.
+  options.max_factorizations = 100;
+  const NewtonSolveReport rest = MinimizeEnergyNewton(options, bar.a, &factorization, &x);
+  ASSERT_TRUE(rest.converged) << rest.message;
+  EXPECT_TRUE(factorization.Factorize(x, bar.a, StiffnessKind::kExact, &error)) << error;
 }
 
 TEST(NewtonSolverTest, ShiftsASingularProjectedStiffness) {
