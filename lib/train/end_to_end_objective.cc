@@ -471,7 +471,8 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
     WallTimer adjoint_timer;
     StiffnessFactorization& factorization = *w.solver->stiffness_factorization();
     const FactorizationCounters before = factorization.counters();
-    int escape_factorizations = 0, escape_reused = 0;  // the escapes' solves, counted there
+    // The escapes' solves, counted there.
+    int escape_factorizations = 0, escape_reused = 0, escape_indefinite = 0;
     // An equilibrium whose exact stiffness is not positive definite is unstable (a
     // saddle of the energy): the adjoint cannot use it and the pose would not stay
     // there. Leave it by a small perturbation and solve again, at most kMaxEscapes times.
@@ -530,6 +531,8 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
       count(again);
       escape_factorizations += factorization.counters().factorizations - escape_before.factorizations;
       escape_reused += factorization.counters().reused_solves - escape_before.reused_solves;
+      escape_indefinite +=
+          factorization.counters().indefinite_reuses - escape_before.indefinite_reuses;
       if (!again.converged) {
         failures_[p] = "pose '" + model_.poses[p].name + "': leaving an unstable equilibrium (" +
                        error + "): " + again.Summary();
@@ -541,6 +544,8 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
         after.factorizations - before.factorizations - escape_factorizations;
     counters.factorizations += counters.adjoint_factorizations;
     const int adjoint_reused = after.reused_solves - before.reused_solves - escape_reused;
+    const int adjoint_indefinite =
+        after.indefinite_reuses - before.indefinite_reuses - escape_indefinite;
     counters.reused_solves += adjoint_reused;
     counters.adjoint_seconds = adjoint_timer.Seconds();
     counters.cg_iterations = after.cg_iterations - cg_start;
@@ -553,7 +558,7 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
             << " shifted), " << solve_failed_reuses << " failed CG (" << solve_indefinite
             << " indefinite); adjoint "
             << counters.adjoint_factorizations << " factorizations, " << adjoint_reused
-            << " by CG; "
+            << " by CG, " << adjoint_indefinite << " indefinite by CG; "
             << counters.cg_iterations << " CG iterations"
             << (counters.unstable_escapes > 0 ? ", escaped an unstable equilibrium" : "");
   }, 1);
