@@ -49,7 +49,7 @@ struct FactorizationCounters {
   int factorizations = 0;  // numeric factorizations (successful or not)
   int reused_solves = 0;   // right-hand sides solved by CG on an earlier state's factor
   int cg_iterations = 0;   // their iterations (one solve with the factor and one K v each)
-  int failed_reuses = 0;   // CG attempts abandoned (then factorized)
+  int failed_reuses = 0;   // CG attempts abandoned (then factorized, unless indefinite)
   // Of those, the ones that met non-positive curvature p'Kp <= 0: K is not positive
   // definite, so a factorization of it would fail too, and was not tried.
   int indefinite_reuses = 0;
