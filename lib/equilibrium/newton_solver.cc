@@ -74,7 +74,7 @@ NewtonSolveReport MinimizeEnergyNewton(const NewtonSolverOptions& options,
       } else {
         // CG met non-positive curvature: K is not positive definite, and its
         // factorization would fail. Reject it without paying for that.
-        const bool indefinite = !no_reuse_here && factorization->last_reuse_found_indefinite();
+        const bool indefinite = factorization->last_reuse_found_indefinite();
         if (!indefinite) ++report.factorizations;
         if (indefinite || !factorization->FactorizeAssembled(0.0, &error)) {
           ++report.exact_rejections;

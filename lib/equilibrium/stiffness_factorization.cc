@@ -42,6 +42,7 @@ void StiffnessFactorization::Assemble(const ShapeTargetModel::PositionsRef& x,
   diagonal_.resize(pattern_.num_dofs());
   for (int c = 0; c < pattern_.num_dofs(); ++c) diagonal_[c] = values_[starts[c + 1] - 1];
   factor_current_ = false;
+  last_reuse_found_indefinite_ = false;  // it spoke of the K assembled before
   timings_.assembly = timer.Seconds();
 }
 

@@ -125,7 +125,7 @@ class StiffnessFactorization {
   // Whether the last SolveReusingFactor failed because CG met a direction p with
   // p'Kp <= 0 (K = values()): a proof that K is not positive definite, so that an exact
   // factorization of it would fail. False after a success, a give-up for slow
-  // convergence, or a call that did not run CG.
+  // convergence, a call that did not run CG, or a new Assemble.
   bool last_reuse_found_indefinite() const { return last_reuse_found_indefinite_; }
   // K v for K = values() (free DOFs).
   Eigen::VectorXd MultiplyAssembled(const Eigen::VectorXd& v) const;
