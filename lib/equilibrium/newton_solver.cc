@@ -2,7 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <sstream>
+
+#include <glog/logging.h>
 
 namespace aqs {
 namespace {
@@ -16,6 +19,27 @@ constexpr double kLastShift = 1e4;
 // Energies within this fraction of |E| of each other are equal up to round-off (the
 // energy is a sum of num_elements non-negative terms, each exact to a few ulps).
 constexpr double kEnergyNoise = 1e-12;
+
+// The --v=3 trace of one Newton step: its kind, the energy (to 15 digits, since a stalled
+// solve changes it in the 12th), the largest free-vertex force and the vertex that carries
+// it (where a crawling solve is stuck), the accepted step length (0: rejected).
+void LogStep(const StiffnessPattern& pattern, int step, const char* kind, double shift,
+             double energy, const Eigen::Matrix3Xd& gradient, double length, int factorizations) {
+  int worst = -1;
+  double largest = -1.0;
+  for (int f = 0; f < pattern.num_free_vertices(); ++f) {
+    const double norm = gradient.col(pattern.vertex_of_free(f)).norm();
+    if (norm > largest) largest = norm, worst = pattern.vertex_of_free(f);
+  }
+  std::ostringstream line;
+  line << "Newton step " << step << " " << kind;
+  if (shift > 0.0) line << " (shift " << shift << ")";
+  line << ": energy " << std::setprecision(15) << energy << std::setprecision(6)
+       << ", largest force " << largest << " at vertex " << worst << ", "
+       << (length > 0.0 ? "step length " + std::to_string(length) : std::string("rejected"))
+       << ", " << factorizations << " factorizations";
+  VLOG(3) << line.str();
+}
 
 }  // namespace
 
@@ -77,6 +101,9 @@ NewtonSolveReport MinimizeEnergyNewton(const NewtonSolverOptions& options,
         const bool indefinite = factorization->last_reuse_found_indefinite();
         if (!indefinite) ++report.factorizations;
         if (indefinite || !factorization->FactorizeAssembled(0.0, &error)) {
+          VLOG(3) << "Newton: the exact stiffness at largest force " << force << " is not "
+                  << "positive definite" << (indefinite ? " (found by CG)" : "")
+                  << "; projected steps down to force " << std::min(exact_limit, 0.1 * force);
           ++report.exact_rejections;
           projected_here = true;
           exact_limit = std::min(exact_limit, 0.1 * force);
@@ -105,6 +132,7 @@ NewtonSolveReport MinimizeEnergyNewton(const NewtonSolverOptions& options,
     if (!reused) step = -factorization->Solve(gradient);
     const double slope = gradient.cwiseProduct(step).sum();
     bool accepted = false;
+    double accepted_length = 0.0;
     if (slope < 0.0 && std::isfinite(slope)) {
       double t = 1.0;
       for (int halving = 0; halving <= options.line_search.max_halvings; ++halving, t *= 0.5) {
@@ -123,9 +151,15 @@ NewtonSolveReport MinimizeEnergyNewton(const NewtonSolverOptions& options,
           energy = trial_energy;
           force = trial_force;
           accepted = true;
+          accepted_length = t;
           break;
         }
       }
+    }
+    if (VLOG_IS_ON(3)) {
+      LogStep(pattern, report.exact_steps + report.projected_steps,
+              exact ? (reused ? "exact by CG" : "exact") : "projected", exact ? 0.0 : last_shift,
+              energy, gradient, accepted_length, report.factorizations);
     }
     if (accepted) {
       ++(exact ? report.exact_steps : report.projected_steps);
