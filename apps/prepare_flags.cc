@@ -37,6 +37,8 @@ DEFINE_string(bone_poses, "", "The bone's per-pose surfaces: a path pattern with
 DEFINE_string(bone_region, "", "Boxes (';'-separated) whose fixed vertices the bone drives.");
 DEFINE_double(bone_moving_fraction, 0.1, "Fit the bone's motion to its vertices that move more "
               "than this fraction of the largest motion.");
+DEFINE_double(bone_clearance, 0.0, "Leave free the static fixed vertices within this distance "
+              "of a vertex the bone drives, so that the tissue between them can deform (0: none).");
 DEFINE_double(attachment_stiffness, 100.0, "Springs pulling the embedded surface to each pose, "
               "per unit area, relative to one layer of elements.");
 DEFINE_bool(overwrite, false, "Replace whatever is at --model. Without it, only a missing path, "
@@ -102,6 +104,7 @@ bool PrepareOptionsFromFlags(PrepareJobOptions* options, std::string* error) {
   options->cut_margin = FLAGS_cut_margin;
   options->mu = FLAGS_mu;
   options->boundary.fixed_depth = FLAGS_fixed_depth;
+  options->boundary.bone_clearance = FLAGS_bone_clearance;
   if (!ParseBoxes(FLAGS_fixed_box, &options->boundary.fixed_boxes, error)) return false;
   options->boundary.fixed_inside_meshes = SplitList(FLAGS_fixed_inside);
   options->boundary.fixed_list = FLAGS_fixed_list;
@@ -148,6 +151,7 @@ FlagNames PrepareFlagNames() {
                 {"cuts", "--cut"},
                 {"mu", "--mu"},
                 {"boundary.fixed_depth", "--fixed_depth"},
+                {"boundary.bone_clearance", "--bone_clearance"},
                 {"boundary.bones.name", "--bone_name"},
                 {"boundary.bones.moving_fraction", "--bone_moving_fraction"},
                 {"boundary.bones.pose_mesh_pattern", "--bone_poses"},

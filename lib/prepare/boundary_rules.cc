@@ -96,6 +96,29 @@ bool InsideMesh(const std::string& path, const Eigen::Matrix3Xd& points, int thr
   return true;
 }
 
+// Marks the fixed vertices driven by no bone (owner -1) that lie within `clearance` of a
+// vertex some bone drives (owner >= 0). All false for clearance 0 or without bones.
+std::vector<bool> VerticesNearBones(const TetMesh& mesh, const std::vector<bool>& fixed,
+                                    const std::vector<int>& owner, double clearance) {
+  const int nv = mesh.num_vertices();
+  std::vector<bool> near(nv, false);
+  if (!(clearance > 0.0)) return near;
+  std::vector<int> driven;
+  for (int v = 0; v < nv; ++v) {
+    if (owner[v] >= 0) driven.push_back(v);
+  }
+  if (driven.empty()) return near;
+  Eigen::Matrix3Xd points(3, driven.size());
+  for (size_t k = 0; k < driven.size(); ++k) points.col(k) = mesh.vertices.col(driven[k]);
+  const double squared = clearance * clearance;
+  for (int v = 0; v < nv; ++v) {
+    if (!fixed[v] || owner[v] >= 0) continue;
+    near[v] = (points.colwise() - mesh.vertices.col(v)).colwise().squaredNorm().minCoeff() <=
+              squared;
+  }
+  return near;
+}
+
 }  // namespace
 
 bool ParseBox(const std::string& text, Eigen::AlignedBox3d* box, std::string* error) {
@@ -135,6 +158,8 @@ bool BoundaryRuleOptions::Validate(std::string* error) const {
                  "bones.pose_mesh_pattern must contain '{pose}' (where each pose's name goes; "
                  "is '" + bone.pose_mesh_pattern + "')");
   }
+  checks.Require(bone_clearance >= 0.0 && std::isfinite(bone_clearance),
+                 "bone_clearance must be finite and >= 0 (is " + OptionValue(bone_clearance) + ")");
   return checks.IntInRange("num_threads", num_threads, 1, 1024).Done(error);
 }
 
@@ -210,8 +235,13 @@ bool ApplyBoundaryRules(const BoundaryRuleOptions& options, const TetMesh& mesh,
     log << "bone '" << bone.name << "' drives " << bone.vertices.size() << " fixed vertices\n";
     model->bones.push_back(bone);
   }
+  const std::vector<bool> cleared = VerticesNearBones(mesh, fixed, owner, options.bone_clearance);
+  if (options.bone_clearance > 0.0) {
+    log << "left free within " << options.bone_clearance << " of a bone-driven vertex: "
+        << count(cleared) << " vertices\n";
+  }
   for (int v = 0; v < nv; ++v) {
-    if (fixed[v] && owner[v] < 0) model->static_vertices.push_back(v);
+    if (fixed[v] && owner[v] < 0 && !cleared[v]) model->static_vertices.push_back(v);
   }
   log << "fixed vertices: " << model->static_vertices.size() << " static";
   for (const Bone& bone : model->bones) log << ", " << bone.vertices.size() << " on " << bone.name;

@@ -46,6 +46,13 @@ struct BoundaryRuleOptions {
   // An explicit vertex list file (io/vertex_list_io.h, plain indices).
   std::string fixed_list;
   std::vector<BoneRule> bones;
+  // Static fixed vertices (fixed by the rules above but driven by no bone) within this
+  // distance of a bone-driven vertex are left free (0: none). A bone that moves next to
+  // static vertices otherwise shears the one layer of elements between them (a jaw that
+  // opens by 25 degrees moves its deep vertices about 3 cm from static neighbours 1 cm
+  // away): their volumetric targets degenerate and their equilibria invert. The clearance
+  // gives that tissue room to deform.
+  double bone_clearance = 0.0;
   int num_threads = 2;
 
   // Checks every field; false with *error naming the first bad one (util/option_checks.h).

@@ -1,0 +1,78 @@
+#include "prepare/boundary_rules.h"
+
+#include <cmath>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "testing/temp_dir.h"
+#include "testing/test_meshes.h"
+
+namespace aqs {
+namespace {
+
+// A bar of 6 x 1 x 1 unit cubes (vertices at x = 0..6), every vertex fixed by a box; the
+// bone drives those at x < 1.5 (x = 0 and 1, 8 vertices), the other 20 stay static.
+class BoneClearanceTest : public ::testing::Test {
+ protected:
+  BoneClearanceTest() : mesh_(testing::BarMesh(6, 1, 1, 1.0)) {
+    options_.fixed_boxes.emplace_back(Eigen::Vector3d(-1, -1, -1), Eigen::Vector3d(7, 2, 2));
+    BoneRule bone;
+    bone.name = "jaw";
+    bone.neutral_mesh = dir_.Write("bone.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    bone.region_boxes.emplace_back(Eigen::Vector3d(-1, -1, -1), Eigen::Vector3d(1.5, 2, 2));
+    options_.bones.push_back(bone);
+    options_.num_threads = 1;
+  }
+
+  // The static vertices' x coordinates after the rules, with the given clearance.
+  std::vector<double> StaticX(double clearance) {
+    options_.bone_clearance = clearance;
+    std::string error, log;
+    EXPECT_TRUE(options_.Validate(&error)) << error;
+    ActiveModel model;
+    EXPECT_TRUE(ApplyBoundaryRules(options_, mesh_, SurfaceMesh(), {"a"}, &model, &log, &error))
+        << error;
+    EXPECT_EQ(model.bones.size(), 1u);
+    EXPECT_EQ(model.bones[0].vertices.size(), 8u);
+    std::vector<double> x;
+    for (int v : model.static_vertices) x.push_back(mesh_.vertices(0, v));
+    return x;
+  }
+
+  testing::TempDir dir_;
+  TetMesh mesh_;
+  BoundaryRuleOptions options_;
+};
+
+TEST_F(BoneClearanceTest, ZeroClearanceKeepsEveryStaticVertex) {
+  EXPECT_EQ(StaticX(0.0).size(), 20u);
+}
+
+TEST_F(BoneClearanceTest, FreesExactlyTheStaticVerticesWithinTheClearance) {
+  // Within 1 of a driven vertex: the x = 2 layer (4 vertices; x = 3 is 2 away).
+  std::vector<double> x = StaticX(1.0);
+  EXPECT_EQ(x.size(), 16u);
+  for (double value : x) EXPECT_GE(value, 3.0);
+  // Within 2: the x = 2 and x = 3 layers.
+  x = StaticX(2.0);
+  EXPECT_EQ(x.size(), 12u);
+  for (double value : x) EXPECT_GE(value, 4.0);
+  // Just below 1: nothing is that close but the driven vertices themselves.
+  EXPECT_EQ(StaticX(0.999).size(), 20u);
+}
+
+TEST_F(BoneClearanceTest, RejectsANegativeOrNonFiniteClearance) {
+  for (double bad : {-0.5, std::numeric_limits<double>::quiet_NaN(),
+                     std::numeric_limits<double>::infinity()}) {
+    options_.bone_clearance = bad;
+    std::string error;
+    EXPECT_FALSE(options_.Validate(&error));
+    EXPECT_NE(error.find("bone_clearance"), std::string::npos) << error;
+  }
+}
+
+}  // namespace
+}  // namespace aqs
