@@ -20,6 +20,15 @@ constexpr double kLastShift = 1e4;
 // energy is a sum of num_elements non-negative terms, each exact to a few ulps).
 constexpr double kEnergyNoise = 1e-12;
 
+// After the exact stiffness is rejected at largest force f, exact steps are tried again
+// once the force is below kExactRetryFraction f, or after kExactRetrySteps projected
+// steps, whichever comes first (and never above exact_force_threshold). Projected steps
+// near an equilibrium converge only linearly (a few percent per step on the 240K face's
+// jawOpen, 17% on a buckled bar), while the exact K there turns positive definite within
+// a few steps; a retry on a K that is still indefinite usually costs CG iterations only.
+constexpr double kExactRetryFraction = 0.5;
+constexpr int kExactRetrySteps = 4;
+
 // The --v=3 trace of one Newton step: its kind, the energy (to 15 digits, since a stalled
 // solve changes it in the 12th), the largest free-vertex force and the vertex that carries
 // it (where a crawling solve is stuck), the accepted step length (0: rejected).
@@ -67,13 +76,14 @@ NewtonSolveReport MinimizeEnergyNewton(const NewtonSolverOptions& options,
   double force = MaxFreeVertexNorm(pattern, gradient);
   report.initial_energy = energy;
   report.initial_max_force = force;
-  // Exact steps are tried while the force is at most this: the threshold, lowered
-  // tenfold below the force of a state where the exact stiffness was rejected (so that a
-  // region of indefinite K costs one wasted factorization, not one per step).
+  // Exact steps are tried while the force is at most this: the threshold, lowered to
+  // kExactRetryFraction of the force of a state where the exact stiffness was rejected
+  // (so that a region of indefinite K costs a few attempts, not one per step).
   double exact_limit = options.exact_force_threshold;
   // The relative diagonal shift that last made the projected K factorizable (0: none).
   double last_shift = 0.0;
   bool projected_here = false;  // the exact K was rejected at the current x
+  int projected_since_rejection = 0;  // accepted projected steps since the last rejection
   bool no_reuse_here = false;   // a step by CG on an earlier factor failed at the current x
   std::ostringstream message;
   while (true) {
@@ -82,7 +92,10 @@ NewtonSolveReport MinimizeEnergyNewton(const NewtonSolverOptions& options,
                             &report.converged)) {
       break;
     }
-    const bool exact = !projected_here && force <= exact_limit;
+    const bool exact = !projected_here &&
+                       (force <= exact_limit ||
+                        (projected_since_rejection >= kExactRetrySteps &&
+                         force <= options.exact_force_threshold));
     std::string error;
     Eigen::Matrix3Xd step;
     bool reused = false;
@@ -103,10 +116,11 @@ NewtonSolveReport MinimizeEnergyNewton(const NewtonSolverOptions& options,
         if (indefinite || !factorization->FactorizeAssembled(0.0, &error)) {
           VLOG(3) << "Newton: the exact stiffness at largest force " << force << " is not "
                   << "positive definite" << (indefinite ? " (found by CG)" : "")
-                  << "; projected steps down to force " << std::min(exact_limit, 0.1 * force);
+                  << "; projected steps down to force " << std::min(exact_limit, kExactRetryFraction * force);
           ++report.exact_rejections;
+          projected_since_rejection = 0;
           projected_here = true;
-          exact_limit = std::min(exact_limit, 0.1 * force);
+          exact_limit = std::min(exact_limit, kExactRetryFraction * force);
           continue;
         }
       }
@@ -163,6 +177,7 @@ NewtonSolveReport MinimizeEnergyNewton(const NewtonSolverOptions& options,
     }
     if (accepted) {
       ++(exact ? report.exact_steps : report.projected_steps);
+      if (!exact) ++projected_since_rejection;
       if (reused) ++report.reused_steps;
       projected_here = false;
       no_reuse_here = false;
@@ -174,8 +189,9 @@ NewtonSolveReport MinimizeEnergyNewton(const NewtonSolverOptions& options,
     }
     if (exact) {  // an exact step that does not descend: a projected one from here
       ++report.exact_rejections;
+      projected_since_rejection = 0;
       projected_here = true;
-      exact_limit = std::min(exact_limit, 0.1 * force);
+      exact_limit = std::min(exact_limit, kExactRetryFraction * force);
       continue;
     }
     message << "the line search found no decrease of the energy at largest force " << force

@@ -62,7 +62,8 @@ struct NewtonSolveReport {
 // stiffness, which converges quadratically; where the exact K is not positive definite,
 // or its step does not descend, the step is taken on the projected K instead (when CG
 // on an earlier factor has already met non-positive curvature of the exact K, that K is
-// rejected without factorizing it). A singular projected K (e.g. elements with no
+// rejected without factorizing it); exact steps are tried again once the force has
+// halved, or after 4 projected steps. A singular projected K (e.g. elements with no
 // resisting mode) is shifted by a multiple of its mean diagonal, growing until CHOLMOD
 // succeeds.
 //
