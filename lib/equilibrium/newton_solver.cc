@@ -116,7 +116,9 @@ NewtonSolveReport MinimizeEnergyNewton(const NewtonSolverOptions& options,
         if (indefinite || !factorization->FactorizeAssembled(0.0, &error)) {
           VLOG(3) << "Newton: the exact stiffness at largest force " << force << " is not "
                   << "positive definite" << (indefinite ? " (found by CG)" : "")
-                  << "; projected steps down to force " << std::min(exact_limit, kExactRetryFraction * force);
+                  << "; projected steps until the force is below "
+                  << std::min(exact_limit, kExactRetryFraction * force) << " or for "
+                  << kExactRetrySteps << " steps";
           ++report.exact_rejections;
           projected_since_rejection = 0;
           projected_here = true;
