@@ -7,6 +7,8 @@
 
 #include <glog/logging.h>
 
+#include "equilibrium/negative_curvature.h"
+
 namespace aqs {
 namespace {
 
@@ -28,6 +30,17 @@ constexpr double kEnergyNoise = 1e-12;
 // a few steps; a retry on a K that is still indefinite usually costs CG iterations only.
 constexpr double kExactRetryFraction = 0.5;
 constexpr int kExactRetrySteps = 4;
+
+// Where the exact K is still indefinite on a retry, the next projected factor also
+// serves a search for K's direction of most negative curvature (power iteration, at most
+// kNegativeCurvatureIterations products and solves), and a step along it replaces the
+// projected step: the first trial moves the vertex it moves most by
+// kNegativeCurvatureFirstLength element sizes, then lengths double while the energy falls
+// (at most kNegativeCurvatureTrials energy evaluations). Near a saddle (the energy flat,
+// the force near zero) projected steps leave it only by a small factor per step, and
+// exact steps by CG on an earlier factor can converge to it (CG need not meet the
+// negative curvature).
+constexpr double kNegativeCurvatureFirstLength = 1e-2;
 
 // The --v=3 trace of one Newton step: its kind, the energy (to 15 digits, since a stalled
 // solve changes it in the 12th), the largest free-vertex force and the vertex that carries
@@ -85,6 +98,12 @@ NewtonSolveReport MinimizeEnergyNewton(const NewtonSolverOptions& options,
   bool projected_here = false;  // the exact K was rejected at the current x
   int projected_since_rejection = 0;  // accepted projected steps since the last rejection
   bool no_reuse_here = false;   // a step by CG on an earlier factor failed at the current x
+  // The exact K of the current x, kept when it was rejected on a retry: the next
+  // projected factor then serves a search for its negative curvature.
+  std::vector<double> indefinite_values;
+  // A typical element size: the scale of a step along negative curvature.
+  const double element_size = std::cbrt(factorization->model().total_volume() /
+                                        std::max(1, factorization->model().num_elements()));
   std::ostringstream message;
   while (true) {
     if (MinimizerShouldStop(energy, force, options.force_tolerance, report.factorizations,
@@ -115,8 +134,17 @@ NewtonSolveReport MinimizeEnergyNewton(const NewtonSolverOptions& options,
         if (!indefinite) ++report.factorizations;
         if (indefinite || !factorization->FactorizeAssembled(0.0, &error)) {
           VLOG(3) << "Newton: the exact stiffness at largest force " << force << " is not "
-                  << "positive definite" << (indefinite ? " (found by CG)" : "")
-                  << "; projected steps until the force is below "
+                  << "positive definite";
+          if (indefinite) {
+            VLOG(3) << "Newton: found by CG, along a direction of relative curvature "
+                    << factorization->last_reuse_relative_curvature();
+          }
+          // Still indefinite on a retry: the next projected factor serves a search for
+          // the negative curvature of this K.
+          if (report.exact_rejections > 0 && options.negative_curvature_steps) {
+            indefinite_values = factorization->values();
+          }
+          VLOG(3) << "Newton: projected steps until the force is below "
                   << std::min(exact_limit, kExactRetryFraction * force) << " or for "
                   << kExactRetrySteps << " steps";
           ++report.exact_rejections;
@@ -144,6 +172,40 @@ NewtonSolveReport MinimizeEnergyNewton(const NewtonSolverOptions& options,
       }
       if (shift > 0.0) ++report.shifted_factorizations;
       last_shift = shift;
+      if (!indefinite_values.empty()) {
+        std::vector<double> values;
+        values.swap(indefinite_values);
+        Eigen::VectorXd direction;
+        double curvature = 0.0;
+        if (FindNegativeCurvature(values, kNegativeCurvatureIterations, factorization,
+                                  &direction, &curvature)) {
+          const double before = energy;
+          const NegativeCurvatureStep along = StepAlongNegativeCurvature(
+              *factorization, a, direction, kNegativeCurvatureFirstLength * element_size,
+              kNegativeCurvatureTrials, x, &energy, &gradient);
+          report.energy_evaluations += along.energy_evaluations;
+          if (VLOG_IS_ON(3)) {
+            std::ostringstream line;
+            line << "Newton: negative curvature " << curvature << " (relative to mean diag K); ";
+            if (along.accepted) {
+              line << "a step along it moved a vertex by " << along.length << ", energy "
+                   << std::setprecision(15) << before << " -> " << energy;
+            } else {
+              line << "no step along it lowered the energy";
+            }
+            VLOG(3) << line.str();
+          }
+          if (along.accepted) {
+            ++report.negative_curvature_steps;
+            force = MaxFreeVertexNorm(pattern, gradient);
+            // Off the saddle: the exact K is worth trying again at the usual threshold.
+            exact_limit = options.exact_force_threshold;
+            projected_here = false;
+            no_reuse_here = false;
+            continue;
+          }
+        }
+      }
     }
     if (!reused) step = -factorization->Solve(gradient);
     const double slope = gradient.cwiseProduct(step).sum();

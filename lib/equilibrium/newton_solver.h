@@ -22,6 +22,11 @@ struct NewtonSolverOptions {
   // Factorizations at most (each step factorizes once; a step whose exact stiffness is
   // not positive definite, or needs a diagonal shift, factorizes again).
   int max_factorizations = 100;
+  // Where the exact K is still indefinite on a retry, a step along its direction of most
+  // negative curvature (found with the projected factor; see negative_curvature.h)
+  // replaces the projected step: it leaves a saddle that projected steps leave only
+  // slowly. false: projected steps only, as before 2026-12-03.
+  bool negative_curvature_steps = true;
   ArmijoLineSearch line_search;
   // Exact steps first try conjugate gradients on the current stiffness preconditioned by
   // the factor the factorization holds from an earlier state (a warm start's, the last
@@ -39,6 +44,7 @@ struct NewtonSolveReport {
   int reused_steps = 0;     // of those, solved by CG on an earlier factor (no factorization)
   int factorizations = 0;   // CHOLMOD numeric factorizations, all kinds
   int shifted_factorizations = 0;  // of those, with a diagonal shift (singular K)
+  int negative_curvature_steps = 0;  // accepted steps along a direction where K curves down
   // Exact stiffness not positive definite (found by its factorization, or by CG without
   // one), or its step failed.
   int exact_rejections = 0;
@@ -63,7 +69,11 @@ struct NewtonSolveReport {
 // or its step does not descend, the step is taken on the projected K instead (when CG
 // on an earlier factor has already met non-positive curvature of the exact K, that K is
 // rejected without factorizing it); exact steps are tried again once the force has
-// halved, or after 4 projected steps. A singular projected K (e.g. elements with no
+// halved, or after 4 projected steps. Where such a retry finds the exact K still
+// indefinite, the step goes along K's most negative curvature instead (with
+// negative_curvature_steps): near a saddle, where the force is small but K indefinite,
+// projected steps leave only slowly and exact steps by CG can converge to the saddle.
+// A singular projected K (e.g. elements with no
 // resisting mode) is shifted by a multiple of its mean diagonal, growing until CHOLMOD
 // succeeds.
 //

@@ -43,6 +43,7 @@ void StiffnessFactorization::Assemble(const ShapeTargetModel::PositionsRef& x,
   for (int c = 0; c < pattern_.num_dofs(); ++c) diagonal_[c] = values_[starts[c + 1] - 1];
   factor_current_ = false;
   last_reuse_found_indefinite_ = false;  // it spoke of the K assembled before
+  last_reuse_relative_curvature_ = 0.0;
   timings_.assembly = timer.Seconds();
 }
 
@@ -107,18 +108,24 @@ Eigen::Matrix3Xd StiffnessFactorization::ScatterFree(const double* free_values) 
 }
 
 Eigen::VectorXd StiffnessFactorization::MultiplyAssembled(const Eigen::VectorXd& v) const {
+  return MultiplyValues(values_, v);
+}
+
+Eigen::VectorXd StiffnessFactorization::MultiplyValues(const std::vector<double>& values,
+                                                       const Eigen::VectorXd& v) const {
   // Upper-triangle CSC of a symmetric matrix: each stored (i, j), i < j, acts twice.
   const std::vector<int64_t>& starts = pattern_.column_starts();
   const std::vector<int64_t>& rows = pattern_.row_indices();
   const int n = pattern_.num_dofs();
   CHECK_EQ(v.size(), n);
+  CHECK_EQ(values.size(), values_.size());
   Eigen::VectorXd out = Eigen::VectorXd::Zero(n);
   for (int j = 0; j < n; ++j) {
     double sum = 0.0;
     const double vj = v[j];
     for (int64_t p = starts[j]; p < starts[j + 1]; ++p) {
       const int64_t i = rows[p];
-      const double value = values_[p];
+      const double value = values[p];
       if (i == j) {
         sum += value * vj;
       } else {
@@ -135,6 +142,7 @@ bool StiffnessFactorization::SolveReusingFactor(const Eigen::MatrixXd& b,
                                                 const FactorReuseOptions& reuse,
                                                 Eigen::MatrixXd* x) {
   last_reuse_found_indefinite_ = false;
+  last_reuse_relative_curvature_ = 0.0;
   if (!cholesky_.factorized() || reuse.max_iterations <= 0 || b.cols() > reuse.max_columns ||
       refresh_requested_) {
     return false;
@@ -162,6 +170,10 @@ bool StiffnessFactorization::SolveReusingFactor(const Eigen::MatrixXd& b,
       const double curvature = p.dot(q);
       if (!(curvature > 0.0)) {  // K not positive definite along p (or not finite)
         last_reuse_found_indefinite_ = curvature <= 0.0;
+        const double scale = p.squaredNorm() * diagonal_.cwiseAbs().mean();
+        if (last_reuse_found_indefinite_ && scale > 0.0) {
+          last_reuse_relative_curvature_ = curvature / scale;
+        }
         break;
       }
       const double alpha = rz / curvature;

@@ -127,8 +127,15 @@ class StiffnessFactorization {
   // factorization of it would fail. False after a success, a give-up for slow
   // convergence, a call that did not run CG, or a new Assemble.
   bool last_reuse_found_indefinite() const { return last_reuse_found_indefinite_; }
+  // With last_reuse_found_indefinite(): p'Kp / (p'p mean|diag K|) <= 0 for the direction
+  // p CG met, an upper bound on K's smallest eigenvalue relative to its mean diagonal (a
+  // diagnostic: how indefinite K is). 0 otherwise.
+  double last_reuse_relative_curvature() const { return last_reuse_relative_curvature_; }
   // K v for K = values() (free DOFs).
   Eigen::VectorXd MultiplyAssembled(const Eigen::VectorXd& v) const;
+  // K v for the K whose upper-triangle CSC values (in pattern()'s order) are `values`: a
+  // copy of values() taken after an earlier Assemble (free DOFs).
+  Eigen::VectorXd MultiplyValues(const std::vector<double>& values, const Eigen::VectorXd& v) const;
   // The next SolveAssembled / SolveReusingFactor factorizes instead of reusing the
   // factor held now: for a caller that knows that factor belongs to another system (a
   // solver shared between poses moving on to the next pose). Later solves reuse the new
@@ -193,6 +200,7 @@ class StiffnessFactorization {
   // factorization: CG on it is allowed kRoundedFactorIterations more iterations.
   bool factor_rounded_ = false;
   bool last_reuse_found_indefinite_ = false;
+  double last_reuse_relative_curvature_ = 0.0;
   FactorizationCounters counters_;
   std::vector<const EnergyTerm*> terms_;
   FactorizationTimings timings_;

@@ -219,6 +219,97 @@ TEST(NewtonSolverTest, ExactStepsAreRetriedSoonAfterARejection) {
   EXPECT_LE(report.factorizations, 16);
 }
 
+TEST(NewtonSolverTest, NegativeCurvatureStepsLeaveASaddleInFewFactorizations) {
+  // Just beyond its buckling load (fibres 1.13 times too long) the bar's straight state
+  // is a saddle with a small negative curvature: from the slightly bent start, projected
+  // steps leave it by a few percent per step (72 factorizations). One step along the
+  // negative curvature found with the projected factor leaves it at once (6).
+  CompressedBar bar;
+  bar.a.row(0).setConstant(1.13);
+  const std::vector<bool> fixed = FixedVertexMask(bar.bc, bar.mesh.num_vertices());
+  double energies[2];
+  int factorizations[2];
+  for (const bool negative_curvature : {false, true}) {
+    NewtonSolverOptions options = Options(bar.model, 1e-10);
+    options.negative_curvature_steps = negative_curvature;
+    options.max_factorizations = 200;
+    StiffnessFactorization factorization(bar.model, fixed, 1);
+    Eigen::Matrix3Xd x = bar.bent;
+    const NewtonSolveReport report = MinimizeEnergyNewton(options, bar.a, &factorization, &x);
+    ASSERT_TRUE(report.converged) << report.message;
+    EXPECT_EQ(report.negative_curvature_steps > 0, negative_curvature);
+    energies[negative_curvature] = report.final_energy;
+    factorizations[negative_curvature] = report.factorizations;
+    std::string error;
+    EXPECT_TRUE(factorization.Factorize(x, bar.a, StiffnessKind::kExact, &error))
+        << "a stable (buckled) equilibrium: " << error;
+  }
+  EXPECT_NEAR(energies[1], energies[0], 1e-9 * energies[0]);
+  EXPECT_GT(factorizations[0], 40);
+  EXPECT_LE(factorizations[1], 12);
+}
+
+// A cube held on its whole boundary whose core elements (centroid within `radius` of the
+// centre) have a shape target that is inverted along z (S_zz = `szz` < 0): they want to
+// flip, the rest holds them, and the energy has saddles.
+struct FlatteningCube {
+  FlatteningCube(double szz, double radius) : mesh(BarMesh(6, 6, 6, 0.5)), model(mesh, 1.0) {
+    const Eigen::Vector3d lo = mesh.vertices.rowwise().minCoeff();
+    const Eigen::Vector3d hi = mesh.vertices.rowwise().maxCoeff();
+    for (int v = 0; v < mesh.num_vertices(); ++v) {
+      const Eigen::Vector3d p = mesh.vertices.col(v);
+      if ((p - lo).minCoeff() < 1e-9 || (hi - p).minCoeff() < 1e-9) bc.vertices.push_back(v);
+    }
+    a = IdentityActuations(mesh.num_tets());
+    const Eigen::Vector3d centre = 0.5 * (lo + hi);
+    for (int e = 0; e < mesh.num_tets(); ++e) {
+      Eigen::Vector3d c = Eigen::Vector3d::Zero();
+      for (int k = 0; k < 4; ++k) c += 0.25 * mesh.vertices.col(mesh.tets(k, e));
+      if ((c - centre).norm() < radius) a(2, e) = szz;
+    }
+  }
+  TetMesh mesh;
+  ShapeTargetModel model;
+  BoundaryConditions bc;
+  ActuationMatrix a;
+};
+
+TEST(NewtonSolverTest, NegativeCurvatureStepsReachMinimaNotSaddles) {
+  // From rest, exact steps by CG on an earlier factor converge to a saddle (CG need not
+  // meet its negative curvature), which without negative-curvature steps the solve
+  // reports as converged (force tolerance reached), and from which a warm re-solve for
+  // slightly changed targets crawls (not converged in 100 factorizations). With them the
+  // solve from rest ends at a stable equilibrium of lower energy, and the warm re-solve
+  // takes a few factorizations.
+  const FlatteningCube cube(-0.3, 1.2);
+  const FlatteningCube changed(-0.28, 1.2);
+  const std::vector<bool> fixed = FixedVertexMask(cube.bc, cube.mesh.num_vertices());
+  double energies[2];
+  for (const bool negative_curvature : {false, true}) {
+    NewtonSolverOptions options = Options(cube.model, 1e-10);
+    options.negative_curvature_steps = negative_curvature;
+    options.max_factorizations = 100;
+    StiffnessFactorization factorization(cube.model, fixed, 1);
+    Eigen::Matrix3Xd x = cube.mesh.vertices;
+    const NewtonSolveReport from_rest = MinimizeEnergyNewton(options, cube.a, &factorization, &x);
+    ASSERT_TRUE(from_rest.converged) << from_rest.message;
+    energies[negative_curvature] = from_rest.final_energy;
+    std::string error;
+    EXPECT_EQ(factorization.Factorize(x, cube.a, StiffnessKind::kExact, &error),
+              negative_curvature)
+        << "the end of the solve from rest should be a saddle without negative-curvature "
+           "steps, and stable with them";
+    StiffnessFactorization warm_factorization(cube.model, fixed, 1);
+    const NewtonSolveReport warm =
+        MinimizeEnergyNewton(options, changed.a, &warm_factorization, &x);
+    EXPECT_EQ(warm.converged, negative_curvature) << warm.message;
+    if (negative_curvature) {
+      EXPECT_LE(warm.factorizations, 12);
+    }
+  }
+  EXPECT_LT(energies[1], energies[0] - 1e-3);
+}
+
 TEST(NewtonSolverTest, ConjugateGradientsReportAnIndefiniteStiffness) {
   const CompressedBar bar;
   const std::unique_ptr<StiffnessFactorization> held = bar.ProjectedFactorization();

@@ -1,0 +1,58 @@
+#ifndef AQS_EQUILIBRIUM_NEGATIVE_CURVATURE_H_
+#define AQS_EQUILIBRIUM_NEGATIVE_CURVATURE_H_
+
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "equilibrium/stiffness_factorization.h"
+#include "physics/shape_target_model.h"
+
+namespace aqs {
+
+// A direction of negative curvature of an indefinite stiffness, and a step along it: how
+// the Newton solver leaves a saddle of the energy (a buckling bar held straight, a face
+// whose exact stiffness stays indefinite however close the force gets to zero), where
+// Newton steps on the exact K are drawn to the saddle and steps on the PSD-projected K
+// leave it only by a small factor per step.
+
+// Power iterations of a negative-curvature search, and energy evaluations of the step
+// along it, as the Newton solver uses them.
+inline constexpr int kNegativeCurvatureIterations = 30;
+inline constexpr int kNegativeCurvatureTrials = 30;
+
+// Searches a direction d (free DOFs, unit 2-norm) along which K = `exact_values` (a copy
+// of factorization->values() assembled with StiffnessKind::kExact at the current state)
+// curves down: power iteration on I - P^-1 K from a fixed pseudo-random start, for P the
+// matrix whose factor `factorization` holds (a PSD-projected or shifted stiffness of the
+// same state, P >= K, so that the iteration's dominant mode is the one where K falls
+// furthest below P: the most negative). Returns true with *direction and
+// *relative_curvature = d'Kd / mean|diag K| < 0; false if no factor is held or no
+// negative curvature was found in `iterations` iterations (each one K product and one
+// solve with the held factor).
+bool FindNegativeCurvature(const std::vector<double>& exact_values, int iterations,
+                           StiffnessFactorization* factorization, Eigen::VectorXd* direction,
+                           double* relative_curvature);
+
+struct NegativeCurvatureStep {
+  bool accepted = false;
+  double length = 0.0;        // the largest vertex displacement of the accepted step
+  int energy_evaluations = 0;
+};
+
+// A step along the free-DOF direction d (scattered to vertices, its sign chosen so that
+// it does not ascend: dE/dx . d <= 0) by an expanding line search: the first trial moves
+// the vertex that d moves most by first_length, and lengths double while the energy keeps
+// falling (halve, if the first trial does not lower it), at most max_trials energy
+// evaluations. On acceptance *x, *energy and *gradient are those of the lowest energy
+// found (below *energy by more than its round-off).
+NegativeCurvatureStep StepAlongNegativeCurvature(const StiffnessFactorization& factorization,
+                                                 const ShapeTargetModel::ActuationRef& a,
+                                                 const Eigen::VectorXd& direction,
+                                                 double first_length, int max_trials,
+                                                 Eigen::Matrix3Xd* x, double* energy,
+                                                 Eigen::Matrix3Xd* gradient);
+
+}  // namespace aqs
+
+#endif  // AQS_EQUILIBRIUM_NEGATIVE_CURVATURE_H_

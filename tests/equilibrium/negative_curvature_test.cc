@@ -1,0 +1,116 @@
+#include "equilibrium/negative_curvature.h"
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include <Eigen/Eigenvalues>
+#include <gtest/gtest.h>
+
+#include "equilibrium/boundary_conditions.h"
+#include "physics/stiffness_assembly.h"
+#include "testing/test_meshes.h"
+
+namespace aqs {
+namespace {
+
+using testing::BarMesh;
+
+// A bar held at both ends whose fibres want to be `stretch` times longer: compressed,
+// and beyond the buckling load its straight state is a saddle of the energy.
+struct HeldBar {
+  explicit HeldBar(double stretch) : mesh(BarMesh(12, 2, 2, 0.5)), model(mesh, 1.0) {
+    const double length = mesh.vertices.row(0).maxCoeff();
+    for (int v = 0; v < mesh.num_vertices(); ++v) {
+      if (mesh.vertices(0, v) < 1e-9 || mesh.vertices(0, v) > length - 1e-9) bc.vertices.push_back(v);
+    }
+    a = IdentityActuations(mesh.num_tets());
+    a.row(0).setConstant(stretch);
+  }
+  std::vector<bool> Fixed() const { return FixedVertexMask(bc, mesh.num_vertices()); }
+  TetMesh mesh;
+  ShapeTargetModel model;
+  BoundaryConditions bc;
+  ActuationMatrix a;
+};
+
+// The exact K at x (values, and dense with its mean |diagonal|), leaving `factorization`
+// holding the factor of the projected K at x.
+std::vector<double> ExactValuesWithProjectedFactor(const HeldBar& bar, const Eigen::Matrix3Xd& x,
+                                                   StiffnessFactorization* factorization,
+                                                   Eigen::MatrixXd* dense) {
+  factorization->Assemble(x, bar.a, StiffnessKind::kExact);
+  const std::vector<double> exact = factorization->values();
+  *dense = DenseFromUpperCsc(factorization->pattern(), exact);
+  std::string error;
+  EXPECT_TRUE(factorization->Factorize(x, bar.a, StiffnessKind::kProjected, &error)) << error;
+  return exact;
+}
+
+TEST(NegativeCurvatureTest, FindsTheMostNegativeCurvatureOfASaddle) {
+  const HeldBar bar(1.4);
+  StiffnessFactorization factorization(bar.model, bar.Fixed(), 1);
+  Eigen::MatrixXd dense;
+  const std::vector<double> exact =
+      ExactValuesWithProjectedFactor(bar, bar.mesh.vertices, &factorization, &dense);
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(dense);
+  const double scale = dense.diagonal().cwiseAbs().mean();
+  const double smallest = eigen.eigenvalues()[0] / scale;
+  ASSERT_LT(smallest, 0.0) << "the straight compressed bar should be a saddle";
+  Eigen::VectorXd direction;
+  double curvature = 0.0;
+  ASSERT_TRUE(FindNegativeCurvature(exact, 30, &factorization, &direction, &curvature));
+  EXPECT_NEAR(direction.norm(), 1.0, 1e-12);
+  // Its Rayleigh quotient, as reported, and of the order of the smallest eigenvalue:
+  // power iteration converges to the most negative mode of K relative to the projected
+  // K (the buckling mode; 65% of the smallest eigenvalue here), not of K alone.
+  EXPECT_NEAR(curvature, direction.dot(dense * direction) / scale, 1e-12);
+  EXPECT_LT(curvature, 0.25 * smallest);
+  EXPECT_GE(curvature, smallest - 1e-12);
+}
+
+TEST(NegativeCurvatureTest, FindsNoneWhereTheStiffnessIsDefinite) {
+  const HeldBar bar(1.0);  // at rest: K positive definite
+  StiffnessFactorization factorization(bar.model, bar.Fixed(), 1);
+  Eigen::MatrixXd dense;
+  const std::vector<double> exact =
+      ExactValuesWithProjectedFactor(bar, bar.mesh.vertices, &factorization, &dense);
+  ASSERT_GT(Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(dense).eigenvalues()[0], 0.0);
+  Eigen::VectorXd direction;
+  double curvature = 0.0;
+  EXPECT_FALSE(FindNegativeCurvature(exact, 30, &factorization, &direction, &curvature));
+  // Without a factor there is nothing to iterate with.
+  StiffnessFactorization empty(bar.model, bar.Fixed(), 1);
+  EXPECT_FALSE(FindNegativeCurvature(exact, 30, &empty, &direction, &curvature));
+}
+
+TEST(NegativeCurvatureTest, StepLowersTheEnergyOfASaddleAndKeepsFixedVertices) {
+  const HeldBar bar(1.4);
+  StiffnessFactorization factorization(bar.model, bar.Fixed(), 1);
+  Eigen::MatrixXd dense;
+  const std::vector<double> exact =
+      ExactValuesWithProjectedFactor(bar, bar.mesh.vertices, &factorization, &dense);
+  Eigen::VectorXd direction;
+  double curvature = 0.0;
+  ASSERT_TRUE(FindNegativeCurvature(exact, 30, &factorization, &direction, &curvature));
+  for (const double sign : {1.0, -1.0}) {  // either sign of d: the step picks the downhill one
+    Eigen::Matrix3Xd x = bar.mesh.vertices;
+    Eigen::Matrix3Xd gradient;
+    double energy = factorization.EnergyAndGradient(x, bar.a, &gradient);
+    const double saddle_energy = energy;
+    const NegativeCurvatureStep step = StepAlongNegativeCurvature(
+        factorization, bar.a, sign * direction, 1e-3, 30, &x, &energy, &gradient);
+    ASSERT_TRUE(step.accepted);
+    EXPECT_LT(energy, saddle_energy * (1.0 - 1e-3));
+    // It expanded from the first trial length (1e-3) by doubling.
+    EXPECT_GT(step.length, 1e-2);
+    EXPECT_GT(step.energy_evaluations, 3);
+    Eigen::Matrix3Xd check;
+    EXPECT_DOUBLE_EQ(factorization.EnergyAndGradient(x, bar.a, &check), energy);
+    EXPECT_TRUE(check.isApprox(gradient));
+    for (int v : bar.bc.vertices) EXPECT_EQ((x.col(v) - bar.mesh.vertices.col(v)).norm(), 0.0);
+  }
+}
+
+}  // namespace
+}  // namespace aqs
