@@ -25,8 +25,8 @@ struct NewtonSolverOptions {
   // Where the exact K is still indefinite on a retry, a step along its direction of most
   // negative curvature (found with the projected factor; see negative_curvature.h)
   // replaces the projected step: it leaves a saddle that projected steps leave only
-  // slowly. false: projected steps only, as before 2026-12-03.
-  bool negative_curvature_steps = true;
+  // slowly. false (the default, see QuasistaticSolverOptions): projected steps only.
+  bool negative_curvature_steps = false;
   ArmijoLineSearch line_search;
   // Exact steps first try conjugate gradients on the current stiffness preconditioned by
   // the factor the factorization holds from an earlier state (a warm start's, the last

@@ -219,6 +219,7 @@ bool QuasistaticSolver::RunNewton(double exact_threshold, QuasistaticSolveReport
   newton.exact_force_threshold = exact_threshold;
   newton.max_factorizations = std::max(1, options_.max_iterations - report->iterations);
   newton.reuse = options_.factor_reuse;
+  newton.negative_curvature_steps = options_.negative_curvature_steps;
   Eigen::Matrix3Xd x = positions();
   const NewtonSolveReport result =
       MinimizeEnergyNewton(newton, actuation(), stiffness_factorization(), &x);

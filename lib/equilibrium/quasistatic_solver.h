@@ -75,6 +75,11 @@ struct QuasistaticSolverOptions {
   // Threads for energy, stiffness and residual/Jacobian evaluation (CHOLMOD's BLAS
   // threads are set by OPENBLAS_NUM_THREADS).
   int num_threads = 2;
+  // Newton's steps along negative curvature where the exact stiffness stays indefinite
+  // (NewtonSolverOptions::negative_curvature_steps). Off by default: they leave saddles
+  // in a few factorizations where projected steps take tens or fail (tests/equilibrium),
+  // but in 240K-element face training they cost more than they saved (docs/scale.md).
+  bool negative_curvature_steps = false;
   // Print Ceres' per-iteration progress lines to stdout (kLevenbergMarquardt).
   bool log_progress = false;
   // Ordering of Ceres' normal equations (see NormalEquationsOrdering).
