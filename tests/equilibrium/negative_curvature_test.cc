@@ -47,12 +47,23 @@ std::vector<double> ExactValuesWithProjectedFactor(const HeldBar& bar, const Eig
   return exact;
 }
 
-TEST(NegativeCurvatureTest, FindsTheMostNegativeCurvatureOfASaddle) {
-  const HeldBar bar(1.4);
-  StiffnessFactorization factorization(bar.model, bar.Fixed(), 1);
+// The bar at its rest positions (straight): the exact K there, dense, and the factor of
+// the projected K held by `factorization`.
+struct StraightBar {
+  explicit StraightBar(double stretch)
+      : bar(stretch), factorization(bar.model, bar.Fixed(), 1),
+        exact(ExactValuesWithProjectedFactor(bar, bar.mesh.vertices, &factorization, &dense)) {}
+  HeldBar bar;
+  StiffnessFactorization factorization;
   Eigen::MatrixXd dense;
-  const std::vector<double> exact =
-      ExactValuesWithProjectedFactor(bar, bar.mesh.vertices, &factorization, &dense);
+  std::vector<double> exact;
+};
+
+TEST(NegativeCurvatureTest, FindsTheMostNegativeCurvatureOfASaddle) {
+  StraightBar straight(1.4);
+  StiffnessFactorization& factorization = straight.factorization;
+  const Eigen::MatrixXd& dense = straight.dense;
+  const std::vector<double>& exact = straight.exact;
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(dense);
   const double scale = dense.diagonal().cwiseAbs().mean();
   const double smallest = eigen.eigenvalues()[0] / scale;
@@ -70,11 +81,11 @@ TEST(NegativeCurvatureTest, FindsTheMostNegativeCurvatureOfASaddle) {
 }
 
 TEST(NegativeCurvatureTest, FindsNoneWhereTheStiffnessIsDefinite) {
-  const HeldBar bar(1.0);  // at rest: K positive definite
-  StiffnessFactorization factorization(bar.model, bar.Fixed(), 1);
-  Eigen::MatrixXd dense;
-  const std::vector<double> exact =
-      ExactValuesWithProjectedFactor(bar, bar.mesh.vertices, &factorization, &dense);
+  StraightBar straight(1.0);  // at rest: K positive definite
+  const HeldBar& bar = straight.bar;
+  const Eigen::MatrixXd& dense = straight.dense;
+  const std::vector<double>& exact = straight.exact;
+  StiffnessFactorization& factorization = straight.factorization;
   ASSERT_GT(Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(dense).eigenvalues()[0], 0.0);
   Eigen::VectorXd direction;
   double curvature = 0.0;
@@ -85,11 +96,10 @@ TEST(NegativeCurvatureTest, FindsNoneWhereTheStiffnessIsDefinite) {
 }
 
 TEST(NegativeCurvatureTest, StepLowersTheEnergyOfASaddleAndKeepsFixedVertices) {
-  const HeldBar bar(1.4);
-  StiffnessFactorization factorization(bar.model, bar.Fixed(), 1);
-  Eigen::MatrixXd dense;
-  const std::vector<double> exact =
-      ExactValuesWithProjectedFactor(bar, bar.mesh.vertices, &factorization, &dense);
+  StraightBar straight(1.4);
+  const HeldBar& bar = straight.bar;
+  StiffnessFactorization& factorization = straight.factorization;
+  const std::vector<double>& exact = straight.exact;
   Eigen::VectorXd direction;
   double curvature = 0.0;
   ASSERT_TRUE(FindNegativeCurvature(exact, 30, &factorization, &direction, &curvature));

@@ -219,6 +219,15 @@ TEST(NewtonSolverTest, ExactStepsAreRetriedSoonAfterARejection) {
   EXPECT_LE(report.factorizations, 16);
 }
 
+// Options(model, 1e-10), with or without negative-curvature steps.
+NewtonSolverOptions SaddleOptions(const ShapeTargetModel& model, bool negative_curvature,
+                                  int max_factorizations) {
+  NewtonSolverOptions options = Options(model, 1e-10);
+  options.negative_curvature_steps = negative_curvature;
+  options.max_factorizations = max_factorizations;
+  return options;
+}
+
 TEST(NewtonSolverTest, NegativeCurvatureStepsLeaveASaddleInFewFactorizations) {
   // Just beyond its buckling load (fibres 1.13 times too long) the bar's straight state
   // is a saddle with a small negative curvature: from the slightly bent start, projected
@@ -230,9 +239,7 @@ TEST(NewtonSolverTest, NegativeCurvatureStepsLeaveASaddleInFewFactorizations) {
   double energies[2];
   int factorizations[2];
   for (const bool negative_curvature : {false, true}) {
-    NewtonSolverOptions options = Options(bar.model, 1e-10);
-    options.negative_curvature_steps = negative_curvature;
-    options.max_factorizations = 200;
+    const NewtonSolverOptions options = SaddleOptions(bar.model, negative_curvature, 200);
     StiffnessFactorization factorization(bar.model, fixed, 1);
     Eigen::Matrix3Xd x = bar.bent;
     const NewtonSolveReport report = MinimizeEnergyNewton(options, bar.a, &factorization, &x);
@@ -286,9 +293,7 @@ TEST(NewtonSolverTest, NegativeCurvatureStepsReachMinimaNotSaddles) {
   const std::vector<bool> fixed = FixedVertexMask(cube.bc, cube.mesh.num_vertices());
   double energies[2];
   for (const bool negative_curvature : {false, true}) {
-    NewtonSolverOptions options = Options(cube.model, 1e-10);
-    options.negative_curvature_steps = negative_curvature;
-    options.max_factorizations = 100;
+    const NewtonSolverOptions options = SaddleOptions(cube.model, negative_curvature, 100);
     StiffnessFactorization factorization(cube.model, fixed, 1);
     Eigen::Matrix3Xd x = cube.mesh.vertices;
     const NewtonSolveReport from_rest = MinimizeEnergyNewton(options, cube.a, &factorization, &x);
