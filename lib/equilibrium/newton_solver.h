@@ -73,9 +73,8 @@ struct NewtonSolveReport {
 // indefinite, the step goes along K's most negative curvature instead (with
 // negative_curvature_steps): near a saddle, where the force is small but K indefinite,
 // projected steps leave only slowly and exact steps by CG can converge to the saddle.
-// A singular projected K (e.g. elements with no
-// resisting mode) is shifted by a multiple of its mean diagonal, growing until CHOLMOD
-// succeeds.
+// A singular projected K (e.g. elements with no resisting mode) is shifted by a multiple
+// of its mean diagonal, growing until CHOLMOD succeeds.
 //
 // Returns with converged = true once the largest force is at most force_tolerance. The
 // factorization (built for the model, fixed vertices and energy terms of x) is left
