@@ -15,13 +15,6 @@ constexpr double kEnergyNoise = 1e-12;
 // than this fraction of itself in the last iteration.
 constexpr double kCurvatureSettled = 1e-2;
 
-double MeanAbsDiagonal(const StiffnessPattern& pattern, const std::vector<double>& values) {
-  const std::vector<int64_t>& starts = pattern.column_starts();
-  double sum = 0.0;
-  for (int c = 0; c < pattern.num_dofs(); ++c) sum += std::abs(values[starts[c + 1] - 1]);
-  return pattern.num_dofs() > 0 ? sum / pattern.num_dofs() : 0.0;
-}
-
 }  // namespace
 
 bool FindNegativeCurvature(const std::vector<double>& exact_values, int iterations,
@@ -30,7 +23,7 @@ bool FindNegativeCurvature(const std::vector<double>& exact_values, int iteratio
   const StiffnessPattern& pattern = factorization->pattern();
   const int n = pattern.num_dofs();
   if (!factorization->cholesky().factorized() || n == 0) return false;
-  const double scale = MeanAbsDiagonal(pattern, exact_values);
+  const double scale = factorization->MeanAbsDiagonal(exact_values);
   if (!(scale > 0.0)) return false;
   std::mt19937 generator(12345u);
   std::uniform_real_distribution<double> uniform(-1.0, 1.0);

@@ -101,9 +101,6 @@ NewtonSolveReport MinimizeEnergyNewton(const NewtonSolverOptions& options,
   // The exact K of the current x, kept when it was rejected on a retry: the next
   // projected factor then serves a search for its negative curvature.
   std::vector<double> indefinite_values;
-  // A typical element size: the scale of a step along negative curvature.
-  const double element_size = std::cbrt(factorization->model().total_volume() /
-                                        std::max(1, factorization->model().num_elements()));
   std::ostringstream message;
   while (true) {
     if (MinimizerShouldStop(energy, force, options.force_tolerance, report.factorizations,
@@ -180,6 +177,10 @@ NewtonSolveReport MinimizeEnergyNewton(const NewtonSolverOptions& options,
         if (FindNegativeCurvature(values, kNegativeCurvatureIterations, factorization,
                                   &direction, &curvature)) {
           const double before = energy;
+          // A typical element size: the scale of the step.
+          const ShapeTargetModel& model = factorization->model();
+          const double element_size =
+              std::cbrt(model.total_volume() / std::max(1, model.num_elements()));
           const NegativeCurvatureStep along = StepAlongNegativeCurvature(
               *factorization, a, direction, kNegativeCurvatureFirstLength * element_size,
               kNegativeCurvatureTrials, x, &energy, &gradient);

@@ -1,5 +1,6 @@
 #include "equilibrium/stiffness_factorization.h"
 
+#include <cmath>
 #include <sstream>
 
 #include <glog/logging.h>
@@ -109,6 +110,15 @@ Eigen::Matrix3Xd StiffnessFactorization::ScatterFree(const double* free_values) 
 
 Eigen::VectorXd StiffnessFactorization::MultiplyAssembled(const Eigen::VectorXd& v) const {
   return MultiplyValues(values_, v);
+}
+
+double StiffnessFactorization::MeanAbsDiagonal(const std::vector<double>& values) const {
+  CHECK_EQ(values.size(), values_.size());
+  const std::vector<int64_t>& starts = pattern_.column_starts();
+  double sum = 0.0;
+  // The diagonal entry of column c is the last of the column (rows sorted, row <= c).
+  for (int c = 0; c < pattern_.num_dofs(); ++c) sum += std::abs(values[starts[c + 1] - 1]);
+  return pattern_.num_dofs() > 0 ? sum / pattern_.num_dofs() : 0.0;
 }
 
 Eigen::VectorXd StiffnessFactorization::MultiplyValues(const std::vector<double>& values,

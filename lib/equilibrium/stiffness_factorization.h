@@ -136,6 +136,8 @@ class StiffnessFactorization {
   // K v for the K whose upper-triangle CSC values (in pattern()'s order) are `values`: a
   // copy of values() taken after an earlier Assemble (free DOFs).
   Eigen::VectorXd MultiplyValues(const std::vector<double>& values, const Eigen::VectorXd& v) const;
+  // mean_i |K_ii| for the K whose values (as for MultiplyValues) are `values`.
+  double MeanAbsDiagonal(const std::vector<double>& values) const;
   // The next SolveAssembled / SolveReusingFactor factorizes instead of reusing the
   // factor held now: for a caller that knows that factor belongs to another system (a
   // solver shared between poses moving on to the next pose). Later solves reuse the new
