@@ -38,6 +38,8 @@ DECLARE_int32(threads);
 DEFINE_double(newton_relative_force, 1e-2, "Steps use the exact stiffness once the relative force "
               "is below this (--solver=newton: projected stiffness above it, 0: projected only; "
               "--solver=lm: Ceres above it, 0: Ceres only).");
+DEFINE_bool(ensure_stable, true, "Check that the equilibrium reached is stable (one factorization "
+            "of the exact stiffness there) and leave it if it is a saddle (at most 3 times).");
 DEFINE_bool(verbose, false, "Print Ceres' per-iteration progress.");
 
 int main(int argc, char** argv) {
@@ -66,6 +68,7 @@ int main(int argc, char** argv) {
   options.solver.num_threads = FLAGS_threads;
   options.solver.log_progress = FLAGS_verbose;
   options.solver.newton_relative_force = FLAGS_newton_relative_force;
+  options.solver.ensure_stable = FLAGS_ensure_stable;
   std::string error;
   if (!aqs::SolverMethodFromFlag(&options.solver, &error)) {
     aqs::PrintError(error);

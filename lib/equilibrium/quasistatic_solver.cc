@@ -61,6 +61,8 @@ std::string QuasistaticSolveReport::Path() const {
   for (size_t i = 1; i < parts.size(); ++i) path += " + " + parts[i];
   path += ", " + std::to_string(factorizations) + " factorizations";
   if (shifted_factorizations > 0) path += " (" + std::to_string(shifted_factorizations) + " shifted)";
+  if (unstable_escapes > 0) path += ", left " + std::to_string(unstable_escapes) + " unstable equilibria";
+  if (stability_checked) path += stable ? ", stable" : ", UNSTABLE";
   return path;
 }
 
@@ -415,6 +417,10 @@ QuasistaticSolveReport QuasistaticSolver::Solve() {
   if (report.initial_max_force <= report.force_tolerance) {
     report.converged = true;
     report.termination = "the starting state is already in equilibrium";
+    if (options_.ensure_stable && NewtonApplies()) {
+      EnsureStable(&report);
+      report.iterations = report.factorizations;
+    }
     report.seconds = timer.Seconds();
     return report;
   }
@@ -452,8 +458,48 @@ QuasistaticSolveReport QuasistaticSolver::Solve() {
   report.iterations = report.lm_iterations + report.factorizations;
   report.converged = report.final_max_force <= report.force_tolerance &&
                      std::isfinite(report.final_energy);
+  if (report.converged && options_.ensure_stable && have_stiffness) {
+    EnsureStable(&report);
+    report.iterations = report.lm_iterations + report.factorizations;
+  }
   report.seconds = timer.Seconds();
   return report;
+}
+
+void QuasistaticSolver::EnsureStable(QuasistaticSolveReport* report) {
+  report->stability_checked = true;
+  for (int escape = 0;; ++escape) {
+    std::string error;
+    ++report->factorizations;
+    if (stiffness_factorization()->Factorize(positions(), actuation(), StiffnessKind::kExact,
+                                             &error)) {
+      report->stable = true;
+      return;
+    }
+    if (escape == kMaxStabilityEscapes) {
+      report->termination += "; the equilibrium is unstable (the exact stiffness is not "
+                             "positive definite there) after " +
+                             std::to_string(escape) + " attempts to leave it";
+      return;
+    }
+    // Leave it; should the descent from the perturbed state fail, the saddle stays the
+    // result (converged, not stable).
+    const Eigen::Matrix3Xd saddle = positions();
+    const double saddle_energy = report->final_energy;
+    const double saddle_force = report->final_max_force;
+    PerturbFreeVertices(kStabilityEscapeSize, 104729u + static_cast<unsigned>(escape));
+    report->final_max_force = MaxFreeForce(&report->final_energy);
+    if (report->final_max_force > report->force_tolerance && !RunNewton(0.0, report)) {
+      SetPositions(saddle);
+      report->final_energy = saddle_energy;
+      report->final_max_force = saddle_force;
+      report->termination += "; the equilibrium is unstable (the exact stiffness is not "
+                             "positive definite there), and the descent from a perturbation "
+                             "of it failed";
+      return;
+    }
+    ++report->unstable_escapes;
+  }
 }
 
 }  // namespace aqs

@@ -80,6 +80,15 @@ struct QuasistaticSolverOptions {
   // in a few factorizations where projected steps take tens or fail (tests/equilibrium),
   // but in 240K-element face training they cost more than they saved (docs/scale.md).
   bool negative_curvature_steps = false;
+  // After a converged solve (with fixed vertices and every term's stiffness), check that
+  // the equilibrium is stable: one factorization of the exact stiffness there, which
+  // fails where K is not positive definite (a saddle: zero force, yet not a rest state;
+  // exact steps by CG on an earlier factor can converge to one). From a saddle the solve
+  // leaves by LeaveUnstableEquilibrium and checks again, at most
+  // kMaxStabilityEscapes times; QuasistaticSolveReport::stable says how it ended. Off by
+  // default: training checks every equilibrium in its adjoint instead, at no extra
+  // factorization; aqs_simulate turns it on (--ensure_stable).
+  bool ensure_stable = false;
   // Print Ceres' per-iteration progress lines to stdout (kLevenbergMarquardt).
   bool log_progress = false;
   // Ordering of Ceres' normal equations (see NormalEquationsOrdering).
@@ -129,6 +138,12 @@ struct QuasistaticSolveReport {
   int factorizations = 0;
   int shifted_factorizations = 0;
   int line_search_evaluations = 0;
+  // QuasistaticSolverOptions::ensure_stable: whether the final state was checked, what
+  // the check found (the exact K positive definite there), and how many saddles the
+  // solve left on the way. The checks' factorizations count in `factorizations`.
+  bool stability_checked = false;
+  bool stable = false;
+  int unstable_escapes = 0;
   double initial_energy = 0.0;
   double final_energy = 0.0;
   // Largest force norm |dE/dx_v| over free vertices, before and after.
@@ -171,6 +186,11 @@ struct QuasistaticSolveReport {
 // The model must outlive the solver. Not thread-safe; use one solver per thread.
 class QuasistaticSolver {
  public:
+  // QuasistaticSolverOptions::ensure_stable: saddles left at most this many times per
+  // solve, each by a perturbation of kStabilityEscapeSize mean rest edge lengths.
+  static constexpr int kMaxStabilityEscapes = 3;
+  static constexpr double kStabilityEscapeSize = 1e-2;
+
   // bc must be valid for the model (ValidateBoundaryConditions; CHECKed).
   // The initial state is the rest shape with fixed vertices at their prescribed
   // positions, and the actuation is S = I.
@@ -264,6 +284,11 @@ class QuasistaticSolver {
   // The L-BFGS phase with this factorization's current factor as the preconditioner.
   void RunLbfgsWith(StiffnessFactorization* preconditioner, double tolerance,
                     QuasistaticSolveReport* report);
+  // options_.ensure_stable after a converged solve: factorizes the exact K at the final
+  // state; from a saddle leaves (perturbation and projected Newton steps) and checks
+  // again, at most kMaxStabilityEscapes times. Sets report->stability_checked, stable
+  // and unstable_escapes; if a descent from a saddle fails, the saddle stays the result.
+  void EnsureStable(QuasistaticSolveReport* report);
   // Why this solve cannot start (empty if it can): non-finite actuations, a free body
   // for kNewton.
   std::string RefusalReason() const;

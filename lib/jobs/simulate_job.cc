@@ -53,6 +53,15 @@ void WarnInvertedElements(const ShapeTargetModel& model, const Eigen::Matrix3Xd&
   }
 }
 
+// A warning line if the solve's stability check (--ensure_stable) found the result to
+// be an unstable equilibrium it could not leave.
+void WarnUnstable(const QuasistaticSolveReport& solve, std::ostream& log) {
+  if (solve.converged && solve.stability_checked && !solve.stable) {
+    log << "warning: the result is an unstable equilibrium (zero force, but the exact "
+           "stiffness is not positive definite: a saddle of the energy, not a rest state)\n";
+  }
+}
+
 // Per-element fields for the VTU output: actuation, energy density, det F.
 void ElementFields(const ShapeTargetModel& model, const Eigen::Matrix3Xd& x,
                    const ActuationMatrix& a, std::vector<VtuField>* cell_fields) {
@@ -126,6 +135,7 @@ SimulateJobResult RunModelSimulateJob(const SimulateJobOptions& options, std::os
   log << "simulated the model " << options.model << " ("
       << (options.pose.empty() ? "latent " + options.latent : "pose " + options.pose) << "): "
       << model.mesh.num_tets() << " elements\nsolve: " << result.solve.Summary() << "\n";
+  WarnUnstable(result.solve, log);
   if (!state.allFinite()) {
     // Nothing to inspect: no output rather than a file of NaNs.
     result.status = JobStatus::kNotConverged;
@@ -268,6 +278,7 @@ SimulateJobResult RunSimulateJob(const SimulateJobOptions& options, std::ostream
   SimulateJobResult result;
   result.solve = solver.Solve();
   log << "solve: " << result.solve.Summary() << "\n";
+  WarnUnstable(result.solve, log);
   Eigen::Matrix3Xd x = solver.positions();
 
   if (!result.solve.converged) {

@@ -40,6 +40,8 @@ TEST(AqsSimulateTest, FingerExampleWritesAllOutputs) {
       dir.File("x.obj")));
   ASSERT_EQ(run.exit_code, 0) << run.output;
   EXPECT_NE(run.output.find("solve: converged"), std::string::npos) << run.output;
+  // --ensure_stable (default on) checked the result: a stable equilibrium.
+  EXPECT_NE(run.output.find(" factorizations, stable"), std::string::npos) << run.output;
   TetMesh deformed, rest;
   std::string error;
   ASSERT_TRUE(ReadTetMeshFile(dir.File("x.mesh"), &deformed, &error)) << error;

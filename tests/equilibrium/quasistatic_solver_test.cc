@@ -240,18 +240,31 @@ TEST(QuasistaticSolverTest, MovingFixedVerticesBetweenSolves) {
 // straight state is an equilibrium that the solve from rest can reach by symmetry, and
 // beyond the buckling load it is unstable. LeaveUnstableEquilibrium must then find a
 // stable (buckled) equilibrium of lower energy; from a stable one it stays there.
-TEST(QuasistaticSolverTest, LeavesUnstableEquilibriaForStableOnes) {
-  const TetMesh mesh = BarMesh(16, 1, 1, 0.25);
-  const ShapeTargetModel model(mesh, Eigen::VectorXd::Ones(mesh.num_tets()));
-  BoundaryConditions ends;
-  const double length = mesh.vertices.row(0).maxCoeff();
-  for (int v = 0; v < mesh.num_vertices(); ++v) {
-    const double x = mesh.vertices(0, v);
-    if (x < 1e-9 || x > length - 1e-9) ends.vertices.push_back(v);
+// A bar of 16 cubes held at both ends whose fibres want it 1.6 times longer: from rest
+// the solve converges, by symmetry, to the straight state, an unstable equilibrium.
+struct CompressedHeldBar {
+  CompressedHeldBar() : mesh(BarMesh(16, 1, 1, 0.25)), model(mesh, Eigen::VectorXd::Ones(mesh.num_tets())) {
+    const double length = mesh.vertices.row(0).maxCoeff();
+    for (int v = 0; v < mesh.num_vertices(); ++v) {
+      const double x = mesh.vertices(0, v);
+      if (x < 1e-9 || x > length - 1e-9) ends.vertices.push_back(v);
+    }
+    a.resize(6, mesh.num_tets());
+    for (int e = 0; e < mesh.num_tets(); ++e) a.col(e) << 1.6, 1, 1, 0, 0, 0;  // Sxx Syy Szz ...
   }
+  TetMesh mesh;
+  ShapeTargetModel model;
+  BoundaryConditions ends;
+  ActuationMatrix a;
+};
+
+TEST(QuasistaticSolverTest, LeavesUnstableEquilibriaForStableOnes) {
+  const CompressedHeldBar bar;
+  const TetMesh& mesh = bar.mesh;
+  const ShapeTargetModel& model = bar.model;
+  const BoundaryConditions& ends = bar.ends;
+  const ActuationMatrix& a = bar.a;
   QuasistaticSolver solver(model, ends, TightOptions());
-  ActuationMatrix a(6, mesh.num_tets());
-  for (int e = 0; e < mesh.num_tets(); ++e) a.col(e) << 1.6, 1, 1, 0, 0, 0;  // Sxx Syy Szz ...
   solver.actuation() = a;
   QuasistaticSolveReport report = solver.Solve();
   ASSERT_TRUE(report.converged) << report.Summary();
@@ -282,6 +295,45 @@ TEST(QuasistaticSolverTest, LeavesUnstableEquilibriaForStableOnes) {
   for (size_t i = 0; i < ends.vertices.size(); ++i) {
     EXPECT_EQ((solver.positions().col(ends.vertices[i]) - mesh.vertices.col(ends.vertices[i])).norm(), 0.0);
   }
+}
+
+TEST(QuasistaticSolverTest, EnsureStableLeavesTheSaddleASolveConvergedTo) {
+  // Without the check the solve from rest reports the straight bar (a saddle) as
+  // converged; with it the same solve ends stable, below the saddle's energy, and says
+  // that it left one. The check's factorization counts in the report.
+  const CompressedHeldBar bar;
+  std::string error;
+  QuasistaticSolverOptions options = TightOptions();
+  options.num_threads = 1;
+  QuasistaticSolver unchecked(bar.model, bar.ends, options);
+  unchecked.actuation() = bar.a;
+  const QuasistaticSolveReport saddle = unchecked.Solve();
+  ASSERT_TRUE(saddle.converged) << saddle.Summary();
+  EXPECT_FALSE(saddle.stability_checked);
+  ASSERT_FALSE(unchecked.stiffness_factorization()->Factorize(unchecked.positions(), bar.a,
+                                                              StiffnessKind::kExact, &error));
+
+  options.ensure_stable = true;
+  QuasistaticSolver checked(bar.model, bar.ends, options);
+  checked.actuation() = bar.a;
+  const QuasistaticSolveReport report = checked.Solve();
+  ASSERT_TRUE(report.converged) << report.Summary();
+  EXPECT_TRUE(report.stability_checked);
+  EXPECT_TRUE(report.stable) << report.Summary();
+  EXPECT_GE(report.unstable_escapes, 1);
+  EXPECT_GE(report.factorizations, saddle.factorizations + 2) << "two checks at least";
+  EXPECT_LT(report.final_energy, saddle.final_energy * (1.0 - 1e-6));
+  EXPECT_LE(report.final_max_force, report.force_tolerance);
+  EXPECT_NE(report.Path().find("left 1 unstable equilibria, stable"), std::string::npos)
+      << report.Path();
+  EXPECT_TRUE(checked.stiffness_factorization()->Factorize(checked.positions(), bar.a,
+                                                          StiffnessKind::kExact, &error));
+
+  // A stable result costs one factorization more than the unchecked solve, nothing else.
+  const QuasistaticSolveReport again = checked.Solve();
+  EXPECT_TRUE(again.converged && again.stable) << again.Summary();
+  EXPECT_EQ(again.unstable_escapes, 0);
+  EXPECT_EQ(again.factorizations, 1);
 }
 
 }  // namespace
