@@ -389,10 +389,14 @@ QuasistaticSolveReport QuasistaticSolver::LeaveUnstableEquilibrium(double relati
   report.initial_max_force = MaxFreeForce(&report.initial_energy);
   report.final_energy = report.initial_energy;
   report.final_max_force = report.initial_max_force;
-  report.converged = report.initial_max_force <= report.force_tolerance ||
-                     RunNewton(0.0, &report);  // projected steps only
+  report.converged = DescendFromPerturbedState(&report);
   report.seconds = timer.Seconds();
   return report;
+}
+
+bool QuasistaticSolver::DescendFromPerturbedState(QuasistaticSolveReport* report) {
+  return report->final_max_force <= report->force_tolerance ||
+         RunNewton(0.0, report);  // projected steps only: exact ones are drawn back to the saddle
 }
 
 QuasistaticSolveReport QuasistaticSolver::Solve() {
@@ -489,7 +493,7 @@ void QuasistaticSolver::EnsureStable(QuasistaticSolveReport* report) {
     const double saddle_force = report->final_max_force;
     PerturbFreeVertices(kStabilityEscapeSize, 104729u + static_cast<unsigned>(escape));
     report->final_max_force = MaxFreeForce(&report->final_energy);
-    if (report->final_max_force > report->force_tolerance && !RunNewton(0.0, report)) {
+    if (!DescendFromPerturbedState(report)) {
       SetPositions(saddle);
       report->final_energy = saddle_energy;
       report->final_max_force = saddle_force;

@@ -289,6 +289,10 @@ class QuasistaticSolver {
   // again, at most kMaxStabilityEscapes times. Sets report->stability_checked, stable
   // and unstable_escapes; if a descent from a saddle fails, the saddle stays the result.
   void EnsureStable(QuasistaticSolveReport* report);
+  // After PerturbFreeVertices, with report->final_max_force that of the perturbed state:
+  // projected Newton steps down to the force tolerance (LeaveUnstableEquilibrium,
+  // EnsureStable). True if it is reached.
+  bool DescendFromPerturbedState(QuasistaticSolveReport* report);
   // Why this solve cannot start (empty if it can): non-finite actuations, a free body
   // for kNewton.
   std::string RefusalReason() const;
