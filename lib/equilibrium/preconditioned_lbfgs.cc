@@ -42,6 +42,10 @@ bool PreconditionedLbfgsOptions::Validate(std::string* error) const {
     out << "max_iterations must be >= 0 (is " << max_iterations << ")";
   } else if (memory < 0 || memory > 1000) {
     out << "memory must be in [0, 1000] (is " << memory << ")";
+  } else if (stall_iterations < 0) {
+    out << "stall_iterations must be >= 0 (is " << stall_iterations << ")";
+  } else if (!(stall_reduction > 0.0 && stall_reduction < 1.0)) {
+    out << "stall_reduction must be in (0, 1) (is " << stall_reduction << ")";
   }
   *error = out.str();
   return error->empty() && line_search.Validate(error);
@@ -62,9 +66,22 @@ PreconditionedLbfgsReport MinimizeEnergyLbfgs(const PreconditionedLbfgsOptions& 
   std::deque<Correction> pairs;
   Eigen::VectorXd g = preconditioner->GatherFree(gradient);
   std::ostringstream message;
+  double mark_force = force;  // the stall test's reference (see stall_iterations)
+  int mark_iteration = 0;
   while (true) {
     if (MinimizerShouldStop(energy, force, options.force_tolerance, report.iterations,
                             options.max_iterations, "iteration", &message, &report.converged)) {
+      break;
+    }
+    if (force <= options.stall_reduction * mark_force) {
+      mark_force = force;
+      mark_iteration = report.iterations;
+    } else if (options.stall_iterations > 0 &&
+               report.iterations - mark_iteration >= options.stall_iterations) {
+      report.stalled = true;
+      message << "stalled: the largest force " << force << " is above "
+              << options.stall_reduction << " x " << mark_force << " after "
+              << report.iterations - mark_iteration << " iterations";
       break;
     }
     Eigen::VectorXd direction = -ApplyInverseHessian(pairs, g, preconditioner);

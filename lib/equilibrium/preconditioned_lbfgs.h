@@ -15,6 +15,15 @@ struct PreconditionedLbfgsOptions {
   // Stop once the largest free-vertex force |dE/dx_v| is at most this (absolute).
   double force_tolerance = 0.0;
   int max_iterations = 500;
+  // Stalls: stop once the largest force has not fallen to stall_reduction x its value at
+  // the last mark in stall_iterations accepted steps (a mark is set at the start and
+  // wherever the force reaches that fraction). With a preconditioner that fits the state
+  // (an exact stiffness nearby) each halving takes a few steps; tens mean it no longer
+  // fits, and Newton would converge faster. Not for rotation-dominated motion from rest:
+  // there the force rises and falls while the body swings (tests/equilibrium). 0: no
+  // stall test.
+  int stall_iterations = 0;
+  double stall_reduction = 0.5;
   // Correction pairs kept (L-BFGS memory).
   int memory = 10;
   ArmijoLineSearch line_search;
@@ -25,6 +34,7 @@ struct PreconditionedLbfgsOptions {
 
 struct PreconditionedLbfgsReport {
   bool converged = false;  // the force tolerance was reached
+  bool stalled = false;    // stopped by the stall test (options.stall_iterations)
   int iterations = 0;      // accepted steps (one preconditioner solve each)
   int energy_evaluations = 0;
   int memory_resets = 0;  // directions that did not descend, replaced by M^-1 g
@@ -47,8 +57,9 @@ struct PreconditionedLbfgsReport {
 // and Kavan, "Quasi-Newton methods for real-time simulation of hyperelastic materials",
 // 2017). Near equilibrium it converges linearly: MinimizeEnergyNewton finishes.
 //
-// Stops at the force tolerance, at max_iterations, or when the line search fails even
-// on the preconditioned gradient (message says which); x then holds the best state.
+// Stops at the force tolerance, at max_iterations, at a stall (see
+// PreconditionedLbfgsOptions::stall_iterations), or when the line search fails even on
+// the preconditioned gradient (message says which); x then holds the best state.
 PreconditionedLbfgsReport MinimizeEnergyLbfgs(const PreconditionedLbfgsOptions& options,
                                               const ShapeTargetModel::ActuationRef& a,
                                               StiffnessFactorization* preconditioner,

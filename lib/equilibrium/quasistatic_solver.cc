@@ -28,6 +28,9 @@ bool QuasistaticSolverOptions::Validate(std::string* error) const {
     out << "max_iterations must be >= 1 (is " << max_iterations << ")";
   } else if (max_lbfgs_iterations < 0) {
     out << "max_lbfgs_iterations must be >= 0 (is " << max_lbfgs_iterations << ")";
+  } else if (lbfgs_reused_factor_stall_iterations < 0) {
+    out << "lbfgs_reused_factor_stall_iterations must be >= 0 (is "
+        << lbfgs_reused_factor_stall_iterations << ")";
   } else if (num_threads < 1 || num_threads > 1024) {
     out << "num_threads must be in [1, 1024] (is " << num_threads << ")";
   } else if (!(newton_relative_force >= 0.0) || !std::isfinite(newton_relative_force)) {
@@ -50,7 +53,10 @@ std::string QuasistaticSolveReport::Path() const {
     parts.push_back("LM " + std::to_string(lm_iterations) + " iterations (" +
                     std::to_string(successful_iterations) + " accepted)");
   }
-  if (lbfgs_iterations > 0) parts.push_back("L-BFGS " + std::to_string(lbfgs_iterations) + " iterations");
+  if (lbfgs_iterations > 0) {
+    parts.push_back("L-BFGS " + std::to_string(lbfgs_iterations) + " iterations" +
+                    (lbfgs_stalled ? " (stalled)" : ""));
+  }
   if (newton_steps > 0) {
     std::string newton = "Newton " + std::to_string(projected_steps) + " projected + " +
                          std::to_string(exact_steps) + " exact steps";
@@ -287,11 +293,17 @@ void QuasistaticSolver::RunLbfgsWith(StiffnessFactorization* preconditioner, dou
   PreconditionedLbfgsOptions lbfgs;
   lbfgs.force_tolerance = tolerance;
   lbfgs.max_iterations = options_.max_lbfgs_iterations;
+  // Only an earlier state's factor gets the stall test (see
+  // QuasistaticSolverOptions::lbfgs_reused_factor_stall_iterations).
+  if (preconditioner != preconditioner_.get()) {
+    lbfgs.stall_iterations = options_.lbfgs_reused_factor_stall_iterations;
+  }
   Eigen::Matrix3Xd x = positions();
   const PreconditionedLbfgsReport result =
       MinimizeEnergyLbfgs(lbfgs, actuation(), preconditioner, &x);
   SetPositions(x);
   report->lbfgs_iterations += result.iterations;
+  report->lbfgs_stalled = report->lbfgs_stalled || result.stalled;
   report->line_search_evaluations += result.energy_evaluations;
   report->final_max_force = result.final_max_force;
   report->final_energy = result.final_energy;

@@ -72,6 +72,18 @@ struct QuasistaticSolverOptions {
   // without any (a first solve) the rotation-fixed factor is built for that solve and
   // released after it. For solvers that keep one pose's factor across solves.
   bool lbfgs_reuses_factor = false;
+  // With lbfgs_reuses_factor: Newton takes over from L-BFGS on the earlier factor once
+  // its largest force has not halved in this many iterations
+  // (PreconditionedLbfgsOptions::stall_iterations; 0: never). The factor is the exact
+  // stiffness of a nearby state, so L-BFGS on it converges in a few steps (1 to 16 in
+  // 240K-element face training) unless it no longer fits the state: there one phase ran
+  // 500 iterations (24 minutes) from a force 5x Newton's threshold, where Newton then
+  // needed 3 factorizations (docs/scale.md). The rotation-fixed preconditioner has no
+  // stall test: on rotation-dominated motion from rest the largest force rises and falls
+  // while the body swings, yet L-BFGS converges (the 40 x 4 x 4 bar's curl: 137
+  // iterations and 3 factorizations; a stall test at 30 would hand over after 42, and
+  // Newton then took 91 factorizations).
+  int lbfgs_reused_factor_stall_iterations = 20;
   // Threads for energy, stiffness and residual/Jacobian evaluation (CHOLMOD's BLAS
   // threads are set by OPENBLAS_NUM_THREADS).
   int num_threads = 2;
@@ -127,6 +139,7 @@ struct QuasistaticSolveReport {
   // kNewton far from equilibrium: preconditioned L-BFGS iterations (one solve with the
   // rotation-fixed stiffness each; equilibrium/preconditioned_lbfgs.h).
   int lbfgs_iterations = 0;
+  bool lbfgs_stalled = false;  // Newton took over from a stalled L-BFGS phase
   // Newton steps taken (projected + exact), and the stiffness factorizations of the
   // solve: Newton's (a step whose exact stiffness is rejected, or that needs a shift,
   // factorizes more than once) plus the L-BFGS preconditioner's, when it had to be

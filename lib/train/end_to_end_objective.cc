@@ -552,14 +552,15 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
     VLOG(2) << "  pose " << p << " '" << model_.poses[p].name << "': start " << start_kind
             << (counters.line_starts > 0 ? ", on the line" : "") << ", force "
             << report.initial_max_force << "; solve " << report.lbfgs_iterations
-            << " L-BFGS, " << report.newton_steps << " Newton (" << report.reused_steps
+            << (report.lbfgs_stalled ? " L-BFGS (stalled), " : " L-BFGS, ") << report.newton_steps << " Newton (" << report.reused_steps
             << " by CG, " << report.projected_steps << " projected), "
             << report.factorizations << " factorizations (" << report.shifted_factorizations
             << " shifted), " << solve_failed_reuses << " failed CG (" << solve_indefinite
             << " indefinite); adjoint "
             << counters.adjoint_factorizations << " factorizations, " << adjoint_reused
             << " by CG, " << adjoint_indefinite << " indefinite by CG; "
-            << counters.cg_iterations << " CG iterations"
+            << counters.cg_iterations << " CG iterations; " << report.seconds << " + "
+            << counters.adjoint_seconds << " s"
             << (counters.unstable_escapes > 0 ? ", escaped an unstable equilibrium" : "");
   }, 1);
   FaultPoint("objective:solved");

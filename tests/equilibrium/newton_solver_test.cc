@@ -583,6 +583,34 @@ TEST_F(CurledBarTest, LbfgsPreconditionedByTheEarlierFactor) {
   EXPECT_LT((reference->positions() - solver->positions()).cwiseAbs().maxCoeff(), 1e-7);
 }
 
+// lbfgs_reused_factor_stall_iterations: an earlier factor that no longer fits the state
+// (here the solver's own, refactorized with a shift of 30 mean diagonals) makes L-BFGS
+// crawl; once its force has not halved in 20 iterations Newton takes over, and the solve
+// converges to the same equilibrium in fewer L-BFGS iterations than without the test.
+TEST_F(CurledBarTest, StalledLbfgsOnAnEarlierFactorHandsOverToNewton) {
+  options_.lbfgs_reuses_factor = true;
+  options_.max_lbfgs_iterations = 300;
+  QuasistaticSolveReport reports[2];
+  Eigen::Matrix3Xd results[2];
+  for (int stall : {0, 1}) {
+    options_.lbfgs_reused_factor_stall_iterations = stall ? 20 : 0;
+    std::unique_ptr<QuasistaticSolver> solver = Curled(0.1);
+    StiffnessFactorization* own = solver->stiffness_factorization();
+    std::string error;
+    own->Assemble(solver->positions(), solver->actuation(), StiffnessKind::kExact);
+    ASSERT_TRUE(own->FactorizeAssembled(30.0, &error)) << error;
+    solver->actuation() = CurlActuation(mesh_, 0.3);
+    reports[stall] = solver->Solve();
+    results[stall] = solver->positions();
+    ASSERT_TRUE(reports[stall].converged) << reports[stall].Summary();
+    EXPECT_EQ(reports[stall].lbfgs_stalled, stall == 1) << reports[stall].Summary();
+  }
+  EXPECT_EQ(reports[0].lbfgs_iterations, 300) << reports[0].Summary();
+  EXPECT_LT(reports[1].lbfgs_iterations, 100) << reports[1].Summary();
+  EXPECT_NE(reports[1].Path().find("(stalled)"), std::string::npos) << reports[1].Path();
+  EXPECT_LT((results[0] - results[1]).cwiseAbs().maxCoeff(), 1e-7);
+}
+
 // A solver shared between poses can keep a pose's factor (StoreFactor) and put it back
 // before that pose's next solve (RestoreFactor), after solving another pose: the warm
 // re-solve then reuses it by CG as if the solver had been the pose's own, and reaches
