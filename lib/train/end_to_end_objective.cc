@@ -552,7 +552,8 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
     VLOG(2) << "  pose " << p << " '" << model_.poses[p].name << "': start " << start_kind
             << (counters.line_starts > 0 ? ", on the line" : "") << ", force "
             << report.initial_max_force << "; solve " << report.lbfgs_iterations
-            << (report.lbfgs_stalled ? " L-BFGS (stalled), " : " L-BFGS, ") << report.newton_steps << " Newton (" << report.reused_steps
+            << (report.lbfgs_stalled ? " L-BFGS (stalled), " : " L-BFGS, ")
+            << report.newton_steps << " Newton (" << report.reused_steps
             << " by CG, " << report.projected_steps << " projected), "
             << report.factorizations << " factorizations (" << report.shifted_factorizations
             << " shifted), " << solve_failed_reuses << " failed CG (" << solve_indefinite
