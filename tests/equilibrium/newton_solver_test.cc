@@ -16,20 +16,8 @@ namespace aqs {
 namespace {
 
 using testing::BarMesh;
+using testing::CurlActuation;
 using testing::LeftFaceFixed;
-
-// Contracts the bar's fibres (x) above its middle and stretches them below, by
-// `amount`: the bar curls up, far from its rest shape (a large pose from rest).
-ActuationMatrix CurlActuation(const TetMesh& mesh, double amount) {
-  ActuationMatrix a = IdentityActuations(mesh.num_tets());
-  const double middle = 0.5 * (mesh.vertices.row(1).minCoeff() + mesh.vertices.row(1).maxCoeff());
-  for (int e = 0; e < mesh.num_tets(); ++e) {
-    double y = 0;
-    for (int k = 0; k < 4; ++k) y += 0.25 * mesh.vertices(1, mesh.tets(k, e));
-    a(0, e) = y > middle ? 1.0 - amount : 1.0 + amount;
-  }
-  return a;
-}
 
 double ExtentAngle(const Eigen::Matrix3Xd& x, const TetMesh& mesh) {
   // The direction of the bar's free end relative to +x, in degrees.

@@ -12,6 +12,7 @@ namespace aqs {
 namespace {
 
 using testing::BarMesh;
+using testing::CurlActuation;
 using testing::LeftFaceFixed;
 
 // The 16 x 2 x 2 bar fixed at its left face, its fibres contracted above the middle and
@@ -21,14 +22,8 @@ class CurlFromRestTest : public ::testing::Test {
   CurlFromRestTest()
       : mesh_(BarMesh(16, 2, 2, 0.5)),
         model_(mesh_, 1.0),
-        actuation_(IdentityActuations(mesh_.num_tets())),
+        actuation_(CurlActuation(mesh_, 0.4)),
         factorization_(model_, FixedVertexMask(LeftFaceFixed(mesh_), mesh_.num_vertices()), 2) {
-    const double middle = 0.5 * (mesh_.vertices.row(1).minCoeff() + mesh_.vertices.row(1).maxCoeff());
-    for (int e = 0; e < mesh_.num_tets(); ++e) {
-      double y = 0;
-      for (int k = 0; k < 4; ++k) y += 0.25 * mesh_.vertices(1, mesh_.tets(k, e));
-      actuation_(0, e) = y > middle ? 0.6 : 1.4;
-    }
     options_.force_tolerance = 1e-2 * model_.force_scale();  // Newton's threshold
     options_.max_iterations = 300;
   }

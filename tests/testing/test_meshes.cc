@@ -29,6 +29,17 @@ ActuationMatrix SmoothActuation(const TetMesh& mesh, double amplitude) {
   return SmoothFibreActuation(mesh, amplitude);
 }
 
+ActuationMatrix CurlActuation(const TetMesh& mesh, double amount) {
+  ActuationMatrix a = IdentityActuations(mesh.num_tets());
+  const double middle = 0.5 * (mesh.vertices.row(1).minCoeff() + mesh.vertices.row(1).maxCoeff());
+  for (int e = 0; e < mesh.num_tets(); ++e) {
+    double y = 0;
+    for (int k = 0; k < 4; ++k) y += 0.25 * mesh.vertices(1, mesh.tets(k, e));
+    a(0, e) = y > middle ? 1.0 - amount : 1.0 + amount;
+  }
+  return a;
+}
+
 ActuationMatrix RandomActuation(int num_elements, double amplitude, std::mt19937* rng) {
   std::uniform_real_distribution<double> uniform(-amplitude, amplitude);
   ActuationMatrix a = IdentityActuations(num_elements);

@@ -21,6 +21,11 @@ BoundaryConditions LeftFaceFixed(const TetMesh& mesh, double tolerance = 1e-9);
 // SmoothFibreActuation(mesh, amplitude) (physics/actuation_fields.h).
 ActuationMatrix SmoothActuation(const TetMesh& mesh, double amplitude);
 
+// Contracts the bar's fibres (x) above its middle (in y) by `amount` and stretches them
+// below by as much: the bar fixed at its left face curls up, far from its rest shape (a
+// large pose from rest).
+ActuationMatrix CurlActuation(const TetMesh& mesh, double amount);
+
 // Identity plus uniform noise of the given amplitude on every number.
 ActuationMatrix RandomActuation(int num_elements, double amplitude, std::mt19937* rng);
 
