@@ -252,8 +252,11 @@ void QuasistaticSolver::RunLbfgs(double tolerance, QuasistaticSolveReport* repor
     StiffnessFactorization* own = stiffness_factorization();
     if (own->factorized()) {
       // A factor marked for refreshing (an aged one) is a poor preconditioner, and Newton
-      // factorizes anyway: its steps start at once.
-      if (!own->refresh_requested()) RunLbfgsWith(own, tolerance, report);
+      // factorizes anyway: its steps start at once (L-BFGS on it cost more in 240K
+      // training: docs/scale.md).
+      if (!own->refresh_requested()) {
+        RunLbfgsWith(own, tolerance, options_.lbfgs_reused_factor_stall_iterations, report);
+      }
       return;
     }
   }
@@ -279,7 +282,7 @@ void QuasistaticSolver::RunLbfgs(double tolerance, QuasistaticSolveReport* repor
     }
     preconditioner_current_ = true;
   }
-  RunLbfgsWith(preconditioner_.get(), tolerance, report);
+  RunLbfgsWith(preconditioner_.get(), tolerance, /*stall_iterations=*/0, report);
   if (options_.lbfgs_reuses_factor) {
     // Built for want of an earlier factor (a first solve): released, so that a solver
     // holds one factor between solves.
@@ -289,15 +292,11 @@ void QuasistaticSolver::RunLbfgs(double tolerance, QuasistaticSolveReport* repor
 }
 
 void QuasistaticSolver::RunLbfgsWith(StiffnessFactorization* preconditioner, double tolerance,
-                                     QuasistaticSolveReport* report) {
+                                     int stall_iterations, QuasistaticSolveReport* report) {
   PreconditionedLbfgsOptions lbfgs;
   lbfgs.force_tolerance = tolerance;
   lbfgs.max_iterations = options_.max_lbfgs_iterations;
-  // Only an earlier state's factor gets the stall test (see
-  // QuasistaticSolverOptions::lbfgs_reused_factor_stall_iterations).
-  if (preconditioner != preconditioner_.get()) {
-    lbfgs.stall_iterations = options_.lbfgs_reused_factor_stall_iterations;
-  }
+  lbfgs.stall_iterations = stall_iterations;
   Eigen::Matrix3Xd x = positions();
   const PreconditionedLbfgsReport result =
       MinimizeEnergyLbfgs(lbfgs, actuation(), preconditioner, &x);

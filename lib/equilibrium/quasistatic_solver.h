@@ -294,9 +294,10 @@ class QuasistaticSolver {
   // Preconditioned L-BFGS from the current state down to the absolute force
   // `tolerance` (builds or refreshes the preconditioner as needed).
   void RunLbfgs(double tolerance, QuasistaticSolveReport* report);
-  // The L-BFGS phase with this factorization's current factor as the preconditioner.
+  // The L-BFGS phase with this factorization's current factor as the preconditioner,
+  // stopped after `stall_iterations` without a halving of the force (0: never).
   void RunLbfgsWith(StiffnessFactorization* preconditioner, double tolerance,
-                    QuasistaticSolveReport* report);
+                    int stall_iterations, QuasistaticSolveReport* report);
   // options_.ensure_stable after a converged solve: factorizes the exact K at the final
   // state; from a saddle leaves (perturbation and projected Newton steps) and checks
   // again, at most kMaxStabilityEscapes times. Sets report->stability_checked, stable
