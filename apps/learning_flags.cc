@@ -15,6 +15,8 @@ DEFINE_double(output_scale, 0.1, "Decoder output scale (a = I + field(scale * ml
 DEFINE_bool(anchored_decoder, false, "Anchor the decoder at the origin: a(z) = I + field(scale * "
             "(mlp(z) - mlp(0))), so that the zero latent decodes to the rest shape exactly and "
             "the latent prior pulls towards it (the evaluation's auto-encoder follows).");
+DEFINE_bool(linear_skip, false, "Give the decoder a linear part beside its network: a(z) = I + "
+            "field(scale * (mlp(z) + W z)) (the evaluation's auto-encoder follows).");
 DEFINE_double(grid_spacing, 0.0, "Spacing of the decoder's control grid (model units); 0: "
               "--grid_spacing_factor x the mean element edge.");
 DEFINE_double(grid_spacing_factor, 4.0, "Control grid spacing in mean element edges.");
@@ -93,6 +95,7 @@ bool PretrainOptionsFromFlags(PretrainOptions* options, std::string* error) {
   }
   options->spec.output_scale = FLAGS_output_scale;
   options->spec.anchored = FLAGS_anchored_decoder;
+  options->spec.linear_skip = FLAGS_linear_skip;
   options->field.node_spacing = FLAGS_grid_spacing;
   options->field.node_spacing_factor = FLAGS_grid_spacing_factor;
   options->field.per_element = FLAGS_per_element;

@@ -17,6 +17,7 @@ uint64_t DecoderArchitecture(const ActiveModel& model) {
                                  static_cast<double>(d.spec().activation),
                                  d.spec().output_scale,
                                  d.spec().anchored ? 1.0 : 0.0,
+                                 d.spec().linear_skip ? 1.0 : 0.0,
                                  static_cast<double>(d.num_nodes()),
                                  static_cast<double>(d.num_elements()),
                                  static_cast<double>(d.num_parameters())};

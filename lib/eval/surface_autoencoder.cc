@@ -37,7 +37,7 @@ class SurfaceFitCost final : public ceres::CostFunction {
                  const Eigen::Matrix3Xd& positions)
       : mlp_(MlpSpec{mlp.input_dim(), mlp.spec().hidden_dims,
                      3 * static_cast<int>(vertices.size()), mlp.spec().activation,
-                     mlp.spec().zero_at_origin}),
+                     mlp.spec().zero_at_origin, mlp.spec().linear_skip}),
         parameters_(mlp_.num_parameters()),
         output_scale_(output_scale),
         residual_scale_(std::sqrt(1.0 / static_cast<double>(vertices.size()))),
@@ -56,6 +56,13 @@ class SurfaceFitCost final : public ceres::CostFunction {
       const int v = vertices[i];
       w_rows.middleRows(3 * i, 3) = w.middleRows(3 * static_cast<Eigen::Index>(v), 3);
       b_rows.segment<3>(3 * i) = b.segment<3>(3 * static_cast<Eigen::Index>(v));
+      if (mlp.spec().linear_skip) {
+        const Eigen::Map<const Eigen::MatrixXd> skip(parameters.data() + mlp.skip_offset(), n,
+                                                     mlp.input_dim());
+        Eigen::Map<Eigen::MatrixXd>(parameters_.data() + mlp_.skip_offset(), 3 * k,
+                                    mlp.input_dim())
+            .middleRows(3 * i, 3) = skip.middleRows(3 * static_cast<Eigen::Index>(v), 3);
+      }
       // neutral_v - y: the residual without the network's part.
       offset_.segment<3>(3 * i) = neutral.col(v) - positions.col(i);
     }
@@ -230,7 +237,7 @@ bool SurfaceAutoencoder::Train(const Eigen::Matrix3Xd& neutral,
   const int d = options.latent_dim;
   auto mlp = std::make_unique<Mlp>(
       MlpSpec{d, options.hidden_dims, static_cast<int>(3 * n), options.activation,
-              options.anchored});
+              options.anchored, options.linear_skip});
   const int np = mlp->num_parameters();
   Eigen::VectorXd x(static_cast<Eigen::Index>(np) + static_cast<Eigen::Index>(d) * p);
   mlp->InitializeParameters(options.seed, x.data());

@@ -28,6 +28,9 @@ struct SurfaceAutoencoderOptions {
   // Anchored at the origin: surface(z) = neutral + output_scale (mlp(z) - mlp(0)), so that
   // z = 0 decodes to the neutral exactly (as the physics decoder's anchored option).
   bool anchored = false;
+  // A linear part beside the network: surface(z) = neutral + output_scale (mlp(z) + W z)
+  // (as the physics decoder's linear_skip option).
+  bool linear_skip = false;
   // Weight lambda of the latent regularizer lambda (1/P) sum_p |z_p|^2 in training, and
   // of the prior residual sqrt(lambda) z in FitLatent.
   double latent_regularization = 1e-3;

@@ -404,6 +404,7 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
   ae_options.hidden_dims = model.decoder->spec().hidden_dims;
   ae_options.activation = model.decoder->spec().activation;
   ae_options.anchored = model.decoder->spec().anchored;
+  ae_options.linear_skip = model.decoder->spec().linear_skip;
   SurfaceAutoencoder autoencoder;
   if (!autoencoder.Train(model.neutral.vertices, train_surfaces, ae_options, log, error)) {
     *error = "the auto-encoder baseline: " + *error;
@@ -640,6 +641,7 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
      << "**physics** (this model: training latents, or latent and bone motion fitted to the "
      << "held-out pose through the simulator), **autoencoder** (surface-only decoder with the "
      << "same network layout" << (model.decoder->spec().anchored ? " and the same anchoring" : "")
+     << (model.decoder->spec().linear_skip ? " and the same linear skip" : "")
      << ", trained on the same poses, latent fitted), **PCA** (linear, "
      << pca.num_components() << " components about the training poses' mean, projection), "
      << "**PCA (neutral)** (linear, " << pca_neutral.num_components()

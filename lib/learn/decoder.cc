@@ -47,6 +47,7 @@ MlpSpec DecoderMlpSpec(const DecoderSpec& spec, int num_nodes) {
   mlp.output_dim = 6 * num_nodes;
   mlp.activation = spec.activation;
   mlp.zero_at_origin = spec.anchored;
+  mlp.linear_skip = spec.linear_skip;
   return mlp;
 }
 
@@ -156,6 +157,7 @@ DecoderMemory DecoderMemoryBytes(const DecoderSpec& spec, double num_elements, d
     fan_in = width;
   }
   parameters += outputs * (fan_in + 1.0);
+  if (spec.linear_skip) parameters += outputs * d;
   if (num_parameters != nullptr) *num_parameters = parameters;
 
   DecoderMemory memory;
@@ -196,6 +198,7 @@ bool SaveDecoder(const std::string& path, const DecoderSpec& spec,
   text += "\nactivation " + ActivationName(spec.activation) + "\noutput_scale ";
   AppendDouble(spec.output_scale, &text);
   text += spec.anchored ? "\nanchored 1" : "\nanchored 0";
+  if (spec.linear_skip) text += "\nlinear_skip 1";
   text += "\nfield ";
   text += field.per_element ? "per_element" : "grid";
   text += "\nnum_elements " + std::to_string(field.num_elements) + "\n";
@@ -231,6 +234,15 @@ bool SaveDecoder(const std::string& path, const DecoderSpec& spec,
     for (Eigen::Index i = mlp.bias_offset(l); i < mlp.bias_offset(l) + fan_out; ++i) {
       AppendDouble(params[i], &text);
       text += '\n';
+    }
+  }
+  if (spec.linear_skip) {
+    text += "# linear skip: W_s " + std::to_string(mlp.output_dim()) + " x " +
+            std::to_string(mlp.input_dim()) + " column-major\n";
+    for (Eigen::Index i = mlp.skip_offset(); i < mlp.num_parameters(); ++i) {
+      AppendDouble(params[i], &text);
+      text += '\n';
+      if (text.size() > (1 << 20)) flush();
     }
   }
   flush();
@@ -397,6 +409,14 @@ bool LoadDecoder(const std::string& path, DecoderSpec* spec, GridFieldDescriptio
     s.anchored = tokens[1] == "1";
     if (!in.Line("'field'", &tokens)) return fail();
   }
+  if (tokens[0] == "linear_skip") {
+    if (tokens.size() != 2 || (tokens[1] != "0" && tokens[1] != "1")) {
+      in.Fail("'linear_skip' takes 0 or 1");
+      return fail();
+    }
+    s.linear_skip = tokens[1] == "1";
+    if (!in.Line("'field'", &tokens)) return fail();
+  }
   if (tokens[0] != "field" || tokens.size() != 2) {
     in.Fail("expected 'field grid' or 'field per_element'");
     return fail();
@@ -486,6 +506,7 @@ bool LoadDecoder(const std::string& path, DecoderSpec* spec, GridFieldDescriptio
     fan_in = width;
   }
   expected += 6 * static_cast<int64_t>(f.num_nodes()) * (fan_in + 1);
+  if (s.linear_skip) expected += 6 * static_cast<int64_t>(f.num_nodes()) * s.latent_dim;
   if (!in.Keyword("num_parameters", 1, &v)) return fail();
   long long count = 0;
   if (!ParseInt64(v[0], &count) || count != expected) {

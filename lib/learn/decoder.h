@@ -33,6 +33,9 @@ struct DecoderSpec {
   // z = 0 decodes to the identity actuation exactly (the rest shape: the neutral, for a
   // face) and the latent prior pulls towards it (MlpSpec::zero_at_origin).
   bool anchored = false;
+  // A linear part beside the network: a(z) = I + field(output_scale (mlp(z) + W_s z)),
+  // W_s (6 num_nodes x latent_dim) learned with the rest (MlpSpec::linear_skip).
+  bool linear_skip = false;
 
   // Checks every field; false with *error naming the first bad one (util/option_checks.h).
   bool Validate(std::string* error) const;
@@ -168,6 +171,8 @@ DecoderMemory DecoderMemoryBytes(const DecoderSpec& spec, double num_elements, d
 //   hidden_dims <count> <width>...       (count may be 0)
 //   activation <elu|tanh|softplus>
 //   output_scale <s>
+//   anchored <0|1>                       (optional: 0 if absent)
+//   linear_skip <0|1>                    (optional: 0 if absent)
 //   field <grid|per_element>
 //   num_elements <E>
 //   -- grid only:
@@ -179,7 +184,8 @@ DecoderMemory DecoderMemoryBytes(const DecoderSpec& spec, double num_elements, d
 //                                         grid index)
 //   -- always:
 //   num_parameters <P>
-//   <p>                                  (P lines, the Mlp layout; comments name the layers)
+//   <p>                                  (P lines, the Mlp layout; comments name the layers
+//                                         and the skip weights)
 //
 // Real numbers are the shortest text that reads back exactly (util/number_format.h), so a
 // saved and loaded decoder is bit for bit the same. About 21 bytes per parameter.

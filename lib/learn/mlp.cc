@@ -87,7 +87,12 @@ Mlp::Mlp(const MlpSpec& spec) : spec_(spec) {
     offsets_.push_back(offsets_.back() + static_cast<Eigen::Index>(widths_[l + 1]) *
                                              (static_cast<Eigen::Index>(widths_[l]) + 1));
   }
-  CHECK_LE(offsets_.back(), std::numeric_limits<int>::max())
+  num_parameters_ = offsets_.back();
+  if (spec.linear_skip) {
+    num_parameters_ +=
+        static_cast<Eigen::Index>(spec.output_dim) * static_cast<Eigen::Index>(spec.input_dim);
+  }
+  CHECK_LE(num_parameters_, std::numeric_limits<int>::max())
       << "too many parameters for one flat array indexed by int";
 }
 
@@ -109,6 +114,9 @@ void Mlp::InitializeParameters(unsigned seed, double* params, double output_laye
     const Eigen::Index num_weights = static_cast<Eigen::Index>(fan_in) * fan_out;
     for (Eigen::Index i = 0; i < num_weights; ++i) weights[i] = normal(rng);
     VectorMap(params + bias_offset(l), fan_out).setZero();
+  }
+  if (spec_.linear_skip) {
+    VectorMap(params + skip_offset(), num_parameters_ - skip_offset()).setZero();
   }
 }
 
@@ -139,6 +147,10 @@ void Mlp::Forward(const double* params, const Eigen::Ref<const Eigen::MatrixXd>&
   const ConstVectorMap b(params + bias_offset(last), widths_[last + 1]);
   outputs->noalias() = w * workspace->layer_inputs[last];
   outputs->colwise() += b;
+  if (spec_.linear_skip) {
+    const ConstMatrixMap skip(params + skip_offset(), output_dim(), input_dim());
+    outputs->noalias() += skip * workspace->layer_inputs[0];
+  }
   if (spec_.zero_at_origin) {
     const Eigen::VectorXd origin = outputs->rightCols(1);
     const Eigen::Index samples = outputs->cols() - 1;
@@ -162,15 +174,19 @@ void Mlp::Backward(const double* params, const MlpWorkspace& workspace,
     extended.leftCols(output_gradient.cols()) = output_gradient;
     extended.rightCols(1) = -output_gradient.rowwise().sum();
   }
+  const Eigen::Ref<const Eigen::MatrixXd> top =
+      workspace.extra_columns > 0 ? Eigen::Ref<const Eigen::MatrixXd>(extended)
+                                  : output_gradient;
+  if (spec_.linear_skip) {  // the zero column's input is zero: no weight gradient from it
+    MatrixMap dskip(param_gradient + skip_offset(), output_dim(), input_dim());
+    dskip.noalias() += top * workspace.layer_inputs[0].transpose();
+  }
   // gradient: dL/d(output of layer l), starting with the given one at the top.
   Eigen::MatrixXd gradient;
   Eigen::MatrixXd below;
   for (int l = num_layers() - 1; l >= 0; --l) {
     const Eigen::Ref<const Eigen::MatrixXd> g =
-        (l == num_layers() - 1)
-            ? (workspace.extra_columns > 0 ? Eigen::Ref<const Eigen::MatrixXd>(extended)
-                                           : output_gradient)
-            : Eigen::Ref<const Eigen::MatrixXd>(gradient);
+        (l == num_layers() - 1) ? top : Eigen::Ref<const Eigen::MatrixXd>(gradient);
     const Eigen::MatrixXd& h = workspace.layer_inputs[l];
     MatrixMap dw(param_gradient + weight_offset(l), widths_[l + 1], widths_[l]);
     VectorMap db(param_gradient + bias_offset(l), widths_[l + 1]);
@@ -185,6 +201,10 @@ void Mlp::Backward(const double* params, const MlpWorkspace& workspace,
     } else {
       *input_gradient = below.leftCols(below.cols() - workspace.extra_columns);
     }
+  }
+  if (input_gradient != nullptr && spec_.linear_skip) {
+    const ConstMatrixMap skip(params + skip_offset(), output_dim(), input_dim());
+    input_gradient->noalias() += skip.transpose() * output_gradient;
   }
 }
 
@@ -210,10 +230,14 @@ void Mlp::InputJacobian(const double* params, const Eigen::Ref<const Eigen::Vect
   const int last = num_layers() - 1;
   const ConstMatrixMap w(params + weight_offset(last), widths_[last + 1], widths_[last]);
   jacobian->noalias() = w * t;
+  if (spec_.linear_skip) *jacobian += ConstMatrixMap(params + skip_offset(), output_dim(), input_dim());
   if (output != nullptr) {
     const ConstVectorMap b(params + bias_offset(last), widths_[last + 1]);
     output->noalias() = w * h.col(0);
     *output += b;
+    if (spec_.linear_skip) {
+      output->noalias() += ConstMatrixMap(params + skip_offset(), output_dim(), input_dim()) * input;
+    }
     if (spec_.zero_at_origin) *output -= UnanchoredOutput(params, Eigen::VectorXd::Zero(input_dim()));
   }
 }
@@ -232,7 +256,9 @@ Eigen::VectorXd Mlp::UnanchoredOutput(const double* params, const Eigen::VectorX
   const int last = num_layers() - 1;
   const ConstMatrixMap w(params + weight_offset(last), widths_[last + 1], widths_[last]);
   const ConstVectorMap b(params + bias_offset(last), widths_[last + 1]);
-  return w * h.col(0) + b;
+  Eigen::VectorXd y = w * h.col(0) + b;
+  if (spec_.linear_skip) y.noalias() += ConstMatrixMap(params + skip_offset(), output_dim(), input_dim()) * input;
+  return y;
 }
 
 }  // namespace aqs

@@ -32,6 +32,10 @@ struct MlpSpec {
   // gradient is zero). Forward and Backward evaluate the zero input as one extra
   // column of the batch.
   bool zero_at_origin = false;
+  // A linear skip from the input to the output: y = network(x) + W_s x, with W_s
+  // (output_dim x input_dim, column-major) stored after the last layer's bias. The
+  // network then only needs to learn what is not linear in the input.
+  bool linear_skip = false;
 };
 
 // What Forward() keeps for Backward(): per layer l (0-based, num_layers() of them),
@@ -60,7 +64,9 @@ struct MlpWorkspace {
 //   W_l: fan_out x fan_in, column-major (W_l(i, j) at offset_l + i + j fan_out),
 //   b_l: fan_out numbers, right after W_l,
 //
-// layers in order, no padding: offset_0 = 0, offset_{l+1} = offset_l + fan_out (fan_in + 1).
+// layers in order, no padding: offset_0 = 0, offset_{l+1} = offset_l + fan_out (fan_in + 1);
+// then, with MlpSpec::linear_skip, W_s (output_dim x input_dim, column-major) at
+// skip_offset() = offset_L.
 // Parameters are used in place through Eigen::Map (never copied).
 //
 // Memory: the parameters themselves, plus per call a workspace of
@@ -81,7 +87,9 @@ class Mlp {
   int output_dim() const { return spec_.output_dim; }
   // Number of affine layers: hidden_dims.size() + 1.
   int num_layers() const { return static_cast<int>(widths_.size()) - 1; }
-  int num_parameters() const { return static_cast<int>(offsets_.back()); }
+  int num_parameters() const { return static_cast<int>(num_parameters_); }
+  // Offset of the skip weights W_s (only meaningful with MlpSpec::linear_skip).
+  Eigen::Index skip_offset() const { return offsets_.back(); }
   // n_0 .. n_L: input_dim, hidden_dims..., output_dim.
   const std::vector<int>& widths() const { return widths_; }
   // Offset of W_l in the flat array (b_l follows at weight_offset(l) + n_{l+1} n_l).
@@ -94,7 +102,7 @@ class Mlp {
   // normal with standard deviation sqrt(2 / fan_in) (He) for kElu and kSoftplus,
   // sqrt(2 / (fan_in + fan_out)) (Glorot) for kTanh. The output layer: sqrt(1 / fan_in)
   // times output_layer_gain, so that initial outputs are O(output_layer_gain) for O(1)
-  // inputs. Deterministic for a given seed (std::mt19937, std::normal_distribution).
+  // inputs. Skip weights start at zero. Deterministic for a given seed (std::mt19937, std::normal_distribution).
   void InitializeParameters(unsigned seed, double* params,
                             double output_layer_gain = 0.1) const;
 
@@ -127,7 +135,8 @@ class Mlp {
 
   MlpSpec spec_;
   std::vector<int> widths_;
-  std::vector<Eigen::Index> offsets_;  // num_layers + 1 entries; back() = total
+  std::vector<Eigen::Index> offsets_;  // num_layers + 1 entries; back() = the layers' total
+  Eigen::Index num_parameters_ = 0;   // the layers' total plus the skip weights
 };
 
 }  // namespace aqs

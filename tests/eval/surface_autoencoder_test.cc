@@ -219,6 +219,53 @@ TEST_F(TrainedAutoencoderTest, FitLatentRecoversTrainingSurface) {
   }
 }
 
+// With a linear skip, the fit cost keeps the skip weights' rows of the listed vertices:
+// its residuals are the decoded surface's, and its Jacobian matches central differences.
+TEST(SurfaceAutoencoderTest, LinearSkipFitCostMatchesTheDecoder) {
+  const std::vector<Eigen::Matrix3Xd> surfaces = TrainingSurfaces();
+  const Eigen::Matrix3Xd neutral = BentGrid(0.6, 0.0);
+  SurfaceAutoencoderOptions options;
+  options.latent_dim = 2;
+  options.hidden_dims = {8};
+  options.output_scale = 0.5;
+  options.anchored = true;
+  options.linear_skip = true;
+  options.max_iterations = 200;
+  SurfaceAutoencoder ae;
+  std::ostringstream log;
+  std::string error;
+  ASSERT_TRUE(ae.Train(neutral, surfaces, options, log, &error)) << error;
+  EXPECT_LT(ae.report().final_loss, ae.report().initial_loss);
+  // Zero decodes to the neutral; a non-zero latent moves the surface.
+  EXPECT_LT((ae.Decode(Eigen::Vector2d::Zero()) - neutral).norm(), 1e-12);
+  const std::vector<int> vertices = {3, 0, 17, 9, 23};
+  const Eigen::Matrix3Xd positions = surfaces[4](Eigen::all, vertices);
+  const std::unique_ptr<ceres::CostFunction> cost = ae.NewFitCostFunction(vertices, positions);
+  auto residuals = [&](const Eigen::VectorXd& z) {
+    Eigen::VectorXd r(cost->num_residuals());
+    const double* block = z.data();
+    EXPECT_TRUE(cost->Evaluate(&block, r.data(), nullptr));
+    return r;
+  };
+  const Eigen::Vector2d z(0.4, -0.9);
+  const Eigen::Matrix3Xd decoded = ae.Decode(z);
+  const Eigen::VectorXd r = residuals(z);
+  for (size_t i = 0; i < vertices.size(); ++i) {
+    const Eigen::Vector3d expected =
+        std::sqrt(1.0 / vertices.size()) * (decoded.col(vertices[i]) - positions.col(i));
+    EXPECT_LT((r.segment<3>(3 * i) - expected).norm(), 1e-14);
+  }
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> jacobian(
+      cost->num_residuals(), 2);
+  Eigen::VectorXd unused(cost->num_residuals());
+  const double* block = z.data();
+  double* jacobian_blocks[1] = {jacobian.data()};
+  ASSERT_TRUE(cost->Evaluate(&block, unused.data(), jacobian_blocks));
+  const Eigen::MatrixXd numeric = testing::CentralDifferenceJacobian(residuals, z, 1e-4);
+  EXPECT_LT(testing::RelativeError(jacobian, numeric), 1e-8);
+  EXPECT_GT(numeric.norm(), 1e-3);
+}
+
 TEST(SurfaceAutoencoderTest, BadInputs) {
   SurfaceAutoencoder ae;
   std::ostringstream log;

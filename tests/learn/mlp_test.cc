@@ -33,8 +33,10 @@ Eigen::VectorXd ForwardFlat(const Mlp& mlp, const Eigen::VectorXd& params,
   return Eigen::Map<const Eigen::VectorXd>(outputs.data(), outputs.size());
 }
 
-// Every activation, plain and anchored at the origin (MlpSpec::zero_at_origin).
-class MlpActivationTest : public ::testing::TestWithParam<std::tuple<Activation, bool>> {
+// Every activation, plain and anchored at the origin (MlpSpec::zero_at_origin), with and
+// without the linear skip (MlpSpec::linear_skip).
+class MlpActivationTest
+    : public ::testing::TestWithParam<std::tuple<Activation, bool, bool>> {
  protected:
   // Three layers with uneven widths, so that any mix-up of rows and columns shows.
   MlpSpec Spec() const {
@@ -44,6 +46,7 @@ class MlpActivationTest : public ::testing::TestWithParam<std::tuple<Activation,
     spec.output_dim = 7;
     spec.activation = std::get<0>(GetParam());
     spec.zero_at_origin = std::get<1>(GetParam());
+    spec.linear_skip = std::get<2>(GetParam());
     return spec;
   }
 };
@@ -161,11 +164,35 @@ TEST_P(MlpActivationTest, AnchoredNetworksVanishAtTheOrigin) {
 INSTANTIATE_TEST_SUITE_P(AllActivations, MlpActivationTest,
                          ::testing::Combine(::testing::Values(Activation::kElu, Activation::kTanh,
                                                               Activation::kSoftplus),
-                                            ::testing::Bool()),
-                         [](const ::testing::TestParamInfo<std::tuple<Activation, bool>>& info) {
+                                            ::testing::Bool(), ::testing::Bool()),
+                         [](const ::testing::TestParamInfo<std::tuple<Activation, bool, bool>>&
+                                info) {
                            return ActivationName(std::get<0>(info.param)) +
-                                  (std::get<1>(info.param) ? "_anchored" : "");
+                                  (std::get<1>(info.param) ? "_anchored" : "") +
+                                  (std::get<2>(info.param) ? "_skip" : "");
                          });
+
+TEST(MlpTest, LinearSkipAddsItsWeightsTimesTheInputAndStartsAtZero) {
+  MlpSpec spec;
+  spec.input_dim = 3;
+  spec.hidden_dims = {5};
+  spec.output_dim = 4;
+  const Mlp plain(spec);
+  spec.linear_skip = true;
+  const Mlp skip(spec);
+  ASSERT_EQ(skip.num_parameters(), plain.num_parameters() + 4 * 3);
+  EXPECT_EQ(skip.skip_offset(), plain.num_parameters());
+  std::mt19937 rng(9);
+  Eigen::VectorXd params = RandomMatrix(skip.num_parameters(), 1, 0.7, &rng);
+  const Eigen::MatrixXd inputs = RandomMatrix(3, 2, 1.0, &rng);
+  const Eigen::Map<const Eigen::MatrixXd> w_s(params.data() + skip.skip_offset(), 4, 3);
+  const Eigen::VectorXd expected =
+      ForwardFlat(plain, params.head(plain.num_parameters()), inputs) +
+      Eigen::Map<const Eigen::VectorXd>(Eigen::MatrixXd(w_s * inputs).data(), 8);
+  EXPECT_LT(testing::RelativeError(ForwardFlat(skip, params, inputs), expected), 1e-14);
+  skip.InitializeParameters(1, params.data());
+  EXPECT_EQ(params.tail(12).cwiseAbs().maxCoeff(), 0.0);
+}
 
 TEST(MlpTest, ParameterLayoutIsWeightsColumnMajorThenBias) {
   MlpSpec spec;
