@@ -230,14 +230,14 @@ void Mlp::InputJacobian(const double* params, const Eigen::Ref<const Eigen::Vect
   const int last = num_layers() - 1;
   const ConstMatrixMap w(params + weight_offset(last), widths_[last + 1], widths_[last]);
   jacobian->noalias() = w * t;
-  if (spec_.linear_skip) *jacobian += ConstMatrixMap(params + skip_offset(), output_dim(), input_dim());
+  const ConstMatrixMap skip(params + skip_offset(), output_dim(),
+                            spec_.linear_skip ? input_dim() : 0);
+  if (spec_.linear_skip) *jacobian += skip;
   if (output != nullptr) {
     const ConstVectorMap b(params + bias_offset(last), widths_[last + 1]);
     output->noalias() = w * h.col(0);
     *output += b;
-    if (spec_.linear_skip) {
-      output->noalias() += ConstMatrixMap(params + skip_offset(), output_dim(), input_dim()) * input;
-    }
+    if (spec_.linear_skip) output->noalias() += skip * input;
     if (spec_.zero_at_origin) *output -= UnanchoredOutput(params, Eigen::VectorXd::Zero(input_dim()));
   }
 }
@@ -257,7 +257,9 @@ Eigen::VectorXd Mlp::UnanchoredOutput(const double* params, const Eigen::VectorX
   const ConstMatrixMap w(params + weight_offset(last), widths_[last + 1], widths_[last]);
   const ConstVectorMap b(params + bias_offset(last), widths_[last + 1]);
   Eigen::VectorXd y = w * h.col(0) + b;
-  if (spec_.linear_skip) y.noalias() += ConstMatrixMap(params + skip_offset(), output_dim(), input_dim()) * input;
+  if (spec_.linear_skip) {
+    y.noalias() += ConstMatrixMap(params + skip_offset(), output_dim(), input_dim()) * input;
+  }
   return y;
 }
 

@@ -102,7 +102,8 @@ class Mlp {
   // normal with standard deviation sqrt(2 / fan_in) (He) for kElu and kSoftplus,
   // sqrt(2 / (fan_in + fan_out)) (Glorot) for kTanh. The output layer: sqrt(1 / fan_in)
   // times output_layer_gain, so that initial outputs are O(output_layer_gain) for O(1)
-  // inputs. Skip weights start at zero. Deterministic for a given seed (std::mt19937, std::normal_distribution).
+  // inputs. Skip weights start at zero. Deterministic for a given seed (std::mt19937,
+  // std::normal_distribution).
   void InitializeParameters(unsigned seed, double* params,
                             double output_layer_gain = 0.1) const;
 
