@@ -398,23 +398,18 @@ bool LoadDecoder(const std::string& path, DecoderSpec* spec, GridFieldDescriptio
     return fail();
   }
 
-  // Optional (files before it have none): "anchored 0|1", then "field <kind>".
+  // Optional lines (files before them have none), in this order: "anchored 0|1",
+  // "linear_skip 0|1"; then "field <kind>".
   std::vector<std::string> tokens;
   if (!in.Line("'field'", &tokens)) return fail();
-  if (tokens[0] == "anchored") {
+  for (const auto& [key, value] : {std::pair<std::string, bool*>{"anchored", &s.anchored},
+                                   std::pair<std::string, bool*>{"linear_skip", &s.linear_skip}}) {
+    if (tokens[0] != key) continue;
     if (tokens.size() != 2 || (tokens[1] != "0" && tokens[1] != "1")) {
-      in.Fail("'anchored' takes 0 or 1");
+      in.Fail("'" + key + "' takes 0 or 1");
       return fail();
     }
-    s.anchored = tokens[1] == "1";
-    if (!in.Line("'field'", &tokens)) return fail();
-  }
-  if (tokens[0] == "linear_skip") {
-    if (tokens.size() != 2 || (tokens[1] != "0" && tokens[1] != "1")) {
-      in.Fail("'linear_skip' takes 0 or 1");
-      return fail();
-    }
-    s.linear_skip = tokens[1] == "1";
+    *value = tokens[1] == "1";
     if (!in.Line("'field'", &tokens)) return fail();
   }
   if (tokens[0] != "field" || tokens.size() != 2) {

@@ -80,6 +80,16 @@ struct QuadraticLoss {
   }
 };
 
+// Saves `params` of `decoder` to `path` and reads the file back.
+void SaveAndLoad(const ActuationDecoder& decoder, const Eigen::VectorXd& params,
+                 const std::string& path, DecoderSpec* spec, GridFieldDescription* field,
+                 Eigen::VectorXd* loaded) {
+  std::string error;
+  ASSERT_TRUE(SaveDecoder(path, decoder.spec(), decoder.field().description(), params, &error))
+      << error;
+  ASSERT_TRUE(LoadDecoder(path, spec, field, loaded, &error)) << error;
+}
+
 QuadraticLoss RandomLoss(int num_poses, int num_elements, std::mt19937* rng) {
   QuadraticLoss loss;
   for (int p = 0; p < num_poses; ++p) {
@@ -231,13 +241,10 @@ TEST_P(DecoderTest, SaveLoadRoundTripIsBitForBit) {
   params[3] = 4.9406564584124654e-324;
   testing::TempDir dir;
   const std::string path = dir.File("decoder.txt");
-  std::string error;
-  ASSERT_TRUE(SaveDecoder(path, decoder.spec(), decoder.field().description(), params, &error))
-      << error;
   DecoderSpec spec;
   GridFieldDescription field;
   Eigen::VectorXd loaded;
-  ASSERT_TRUE(LoadDecoder(path, &spec, &field, &loaded, &error)) << error;
+  ASSERT_NO_FATAL_FAILURE(SaveAndLoad(decoder, params, path, &spec, &field, &loaded));
   ASSERT_EQ(loaded.size(), params.size());
   EXPECT_EQ(std::memcmp(loaded.data(), params.data(), sizeof(double) * params.size()), 0);
   EXPECT_EQ(spec.latent_dim, decoder.spec().latent_dim);
@@ -256,6 +263,7 @@ TEST_P(DecoderTest, SaveLoadRoundTripIsBitForBit) {
   }
   // Saving again gives the same file; the rebuilt decoder decodes identically.
   const std::string again = dir.File("again.txt");
+  std::string error;
   ASSERT_TRUE(SaveDecoder(again, spec, field, loaded, &error)) << error;
   EXPECT_EQ(ReadAll(again), ReadAll(path));
   GridActuationField rebuilt_field;
@@ -308,13 +316,10 @@ TEST_P(DecoderTest, LinearSkipJacobianMatchesFiniteDifferencesAndRoundTrips) {
   // The file keeps the flag and the skip weights.
   testing::TempDir dir;
   const std::string path = dir.File("decoder.txt");
-  std::string error;
-  ASSERT_TRUE(SaveDecoder(path, decoder.spec(), decoder.field().description(), params, &error))
-      << error;
   DecoderSpec spec;
   GridFieldDescription field;
   Eigen::VectorXd loaded;
-  ASSERT_TRUE(LoadDecoder(path, &spec, &field, &loaded, &error)) << error;
+  ASSERT_NO_FATAL_FAILURE(SaveAndLoad(decoder, params, path, &spec, &field, &loaded));
   EXPECT_TRUE(spec.linear_skip);
   EXPECT_EQ(std::memcmp(loaded.data(), params.data(), sizeof(double) * params.size()), 0);
 }
@@ -408,6 +413,12 @@ TEST_F(MalformedDecoderTest, EachBrokenLineIsNamed) {
   n = LineStartingWith("output_scale");
   ExpectFailure(n, "output_scale abc", n, "finite number");
   ExpectFailure(n, "output_scale -1", n, "positive");
+  n = LineStartingWith("anchored");
+  ExpectFailure(n, "anchored 2", n, "'anchored' takes 0 or 1");
+  ExpectFailure(n, "linear_skip yes", n, "'linear_skip' takes 0 or 1");
+  // A skip the parameters do not have: the count no longer matches.
+  ExpectFailure(n, "linear_skip 1", LineStartingWith("num_parameters"),
+                "does not match the layer sizes");
   n = LineStartingWith("field");
   ExpectFailure(n, "field octree", n, "unknown field");
   n = LineStartingWith("num_elements");
