@@ -52,17 +52,17 @@ class SurfaceFitCost final : public ceres::CostFunction {
     const Eigen::Map<const Eigen::VectorXd> b(parameters.data() + mlp.bias_offset(last), n);
     Eigen::Map<Eigen::MatrixXd> w_rows(parameters_.data() + mlp_.weight_offset(last), 3 * k, width);
     Eigen::Map<Eigen::VectorXd> b_rows(parameters_.data() + mlp_.bias_offset(last), 3 * k);
+    // The skip weights' rows likewise (empty maps without a skip).
+    const int skip_cols = mlp.spec().linear_skip ? mlp.input_dim() : 0;
+    const Eigen::Map<const Eigen::MatrixXd> skip(parameters.data() + mlp.skip_offset(), n,
+                                                 skip_cols);
+    Eigen::Map<Eigen::MatrixXd> skip_rows(parameters_.data() + mlp_.skip_offset(), 3 * k,
+                                          skip_cols);
     for (int i = 0; i < k; ++i) {
       const int v = vertices[i];
       w_rows.middleRows(3 * i, 3) = w.middleRows(3 * static_cast<Eigen::Index>(v), 3);
       b_rows.segment<3>(3 * i) = b.segment<3>(3 * static_cast<Eigen::Index>(v));
-      if (mlp.spec().linear_skip) {
-        const Eigen::Map<const Eigen::MatrixXd> skip(parameters.data() + mlp.skip_offset(), n,
-                                                     mlp.input_dim());
-        Eigen::Map<Eigen::MatrixXd>(parameters_.data() + mlp_.skip_offset(), 3 * k,
-                                    mlp.input_dim())
-            .middleRows(3 * i, 3) = skip.middleRows(3 * static_cast<Eigen::Index>(v), 3);
-      }
+      skip_rows.middleRows(3 * i, 3) = skip.middleRows(3 * static_cast<Eigen::Index>(v), 3);
       // neutral_v - y: the residual without the network's part.
       offset_.segment<3>(3 * i) = neutral.col(v) - positions.col(i);
     }

@@ -230,15 +230,16 @@ void Mlp::InputJacobian(const double* params, const Eigen::Ref<const Eigen::Vect
   const int last = num_layers() - 1;
   const ConstMatrixMap w(params + weight_offset(last), widths_[last + 1], widths_[last]);
   jacobian->noalias() = w * t;
-  const ConstMatrixMap skip(params + skip_offset(), output_dim(),
-                            spec_.linear_skip ? input_dim() : 0);
-  if (spec_.linear_skip) *jacobian += skip;
   if (output != nullptr) {
     const ConstVectorMap b(params + bias_offset(last), widths_[last + 1]);
     output->noalias() = w * h.col(0);
     *output += b;
-    if (spec_.linear_skip) output->noalias() += skip * input;
     if (spec_.zero_at_origin) *output -= UnanchoredOutput(params, Eigen::VectorXd::Zero(input_dim()));
+  }
+  if (spec_.linear_skip) {
+    const ConstMatrixMap skip(params + skip_offset(), output_dim(), input_dim());
+    *jacobian += skip;
+    if (output != nullptr) output->noalias() += skip * input;
   }
 }
 
