@@ -23,6 +23,9 @@ DEFINE_double(grid_spacing_factor, 4.0, "Control grid spacing in mean element ed
 DEFINE_bool(per_element, false, "One decoder output per element instead of a control grid "
             "(small meshes only).");
 DEFINE_double(latent_regularization, 1e-3, "Weight of the latent regularizer (1/P) sum |z|^2.");
+DEFINE_double(decoder_regularization, 0.0,
+              "Weight of the decoder regularizer |params|^2 (weight decay on the decoder's "
+              "weights and biases), in pre-training and training. 0: none.");
 DEFINE_int32(pretrain_iterations, 500, "L-BFGS iterations of pre-training.");
 DEFINE_uint32(seed, 1, "Seed of the decoder's initial weights.");
 DEFINE_int32(train_iterations, 200, "L-BFGS iterations of end-to-end training (in all, counting "
@@ -100,6 +103,7 @@ bool PretrainOptionsFromFlags(PretrainOptions* options, std::string* error) {
   options->field.node_spacing_factor = FLAGS_grid_spacing_factor;
   options->field.per_element = FLAGS_per_element;
   options->latent_regularization = FLAGS_latent_regularization;
+  options->decoder_regularization = FLAGS_decoder_regularization;
   options->max_iterations = FLAGS_pretrain_iterations;
   options->seed = FLAGS_seed;
   options->num_threads = FLAGS_threads;
@@ -138,6 +142,7 @@ FlagNames PretrainFlagNames() {
                 {"field.node_spacing", "--grid_spacing"},
                 {"field.node_spacing_factor", "--grid_spacing_factor"},
                 {"latent_regularization", "--latent_regularization"},
+                {"decoder_regularization", "--decoder_regularization"},
                 {"max_iterations", "--pretrain_iterations"},
                 {"simulation.solver.relative_force_tolerance", "--train_tolerance"}});
   return flags;
@@ -146,6 +151,7 @@ FlagNames PretrainFlagNames() {
 FlagNames TrainFlagNames() {
   FlagNames flags = CommonFlagNames();
   flags.insert(flags.end(), {{"latent_regularization", "--latent_regularization"},
+                             {"decoder_regularization", "--decoder_regularization"},
                              {"max_iterations", "--train_iterations"},
                              {"max_seconds", "--train_minutes"},
                              {"solver.relative_force_tolerance", "--train_tolerance"},
@@ -167,6 +173,7 @@ bool TrainOptionsFromFlags(TrainOptions* options, std::string* error) {
   options->adjoint_tolerance = FLAGS_adjoint_tolerance;
   options->lbfgs_scaling = FLAGS_lbfgs_scaling;
   options->latent_regularization = FLAGS_latent_regularization;
+  options->decoder_regularization = FLAGS_decoder_regularization;
   options->max_iterations = FLAGS_train_iterations;
   options->max_seconds = 60.0 * FLAGS_train_minutes;
   options->solver.relative_force_tolerance = FLAGS_train_tolerance;

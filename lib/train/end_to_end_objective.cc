@@ -642,7 +642,9 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
   }
   double data = 0;
   for (double l : pose_loss_) data += l;
-  *cost = data + options_.latent_regularization * latents.squaredNorm() / num_poses_;
+  const Eigen::Map<const Eigen::VectorXd> decoder_params(parameters, num_params_);
+  *cost = data + options_.latent_regularization * latents.squaredNorm() / num_poses_ +
+          options_.decoder_regularization * decoder_params.squaredNorm();
   if (gradient != nullptr) {
     WallTimer backward_timer;
     Eigen::Map<Eigen::VectorXd> g(gradient, NumParameters());
@@ -657,6 +659,7 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
     // rank that owns its pose (the others add zeros).
     if (distributed()) communicator_->SumToRoot(gradient, NumParameters());
     g_latents += (2.0 * options_.latent_regularization / num_poses_) * latents;
+    g.head(num_params_) += (2.0 * options_.decoder_regularization) * decoder_params;
     decoder_seconds += backward_timer.Seconds();
   }
   total.decoder_seconds = decoder_seconds;

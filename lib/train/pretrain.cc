@@ -24,11 +24,13 @@ const Vector6d kEntryWeights = (Vector6d() << 1, 1, 1, 2, 2, 2).finished();
 class PretrainObjective final : public ceres::FirstOrderFunction {
  public:
   PretrainObjective(const ActuationDecoder& decoder, const std::vector<ActuationMatrix>& targets,
-                    const Eigen::VectorXd& element_weights, double latent_regularization)
+                    const Eigen::VectorXd& element_weights, double latent_regularization,
+                    double decoder_regularization)
       : decoder_(decoder),
         targets_(targets),
         weights_(element_weights),
-        regularization_(latent_regularization) {}
+        regularization_(latent_regularization),
+        decoder_regularization_(decoder_regularization) {}
 
   int NumParameters() const override {
     return decoder_.num_parameters() + decoder_.latent_dim() * static_cast<int>(targets_.size());
@@ -52,13 +54,16 @@ class PretrainObjective final : public ceres::FirstOrderFunction {
       data += (weighted.array() * diff.array()).sum() / p;
       if (gradient != nullptr) dl_da[i] = (2.0 / p) * weighted;
     }
-    const double reg = regularization_ * latents.squaredNorm() / p;
+    const Eigen::Map<const Eigen::VectorXd> params(parameters, np);
+    const double reg = regularization_ * latents.squaredNorm() / p +
+                       decoder_regularization_ * params.squaredNorm();
     if (mse != nullptr) *mse = data;
     if (gradient != nullptr) {
       Eigen::Map<Eigen::VectorXd> g(gradient, NumParameters());
       g.setZero();
       Eigen::MatrixXd latent_gradient;
       decoder_.Backward(parameters, workspace, dl_da, gradient, &latent_gradient);
+      g.head(np) += (2.0 * decoder_regularization_) * params;
       Eigen::Map<Eigen::MatrixXd>(gradient + np, d, p) =
           latent_gradient + (2.0 * regularization_ / p) * latents;
     }
@@ -75,6 +80,7 @@ class PretrainObjective final : public ceres::FirstOrderFunction {
   const std::vector<ActuationMatrix>& targets_;
   Eigen::VectorXd weights_;
   double regularization_;
+  double decoder_regularization_;
 };
 
 // L-BFGS (Ceres' GradientProblemSolver, rank kLbfgsRank): the history's two arrays per
@@ -92,6 +98,7 @@ bool PretrainOptions::Validate(std::string* error) const {
       .Nested("spec", spec_ok, spec_error)
       .Nested("field", field_ok, field_error)
       .InRange("latent_regularization", latent_regularization, 0.0, kMaxRegularization)
+      .InRange("decoder_regularization", decoder_regularization, 0.0, kMaxRegularization)
       .IntAtLeast("max_iterations", max_iterations, 0)
       .IntInRange("num_threads", num_threads, 1, 1024)
       .IntAtLeast("log_every", log_every, 0)
@@ -190,7 +197,9 @@ bool Pretrain(const PretrainOptions& options, ActiveModel* model, PretrainReport
   log << "pretrain: " << np << " decoder parameters (" << decoder->num_nodes()
       << " control nodes), " << p << " poses x latent " << d << "\n";
 
-  auto* objective = new PretrainObjective(*decoder, targets, weights, options.latent_regularization);
+  auto* objective = new PretrainObjective(*decoder, targets, weights,
+                                         options.latent_regularization,
+                                         options.decoder_regularization);
   report->initial_loss = objective->Loss(parameters.data(), nullptr, nullptr);
   if (!std::isfinite(report->initial_loss)) {
     *error = "the pre-training loss is not finite at the start (" +

@@ -16,6 +16,8 @@ struct PretrainOptions {
   GridActuationFieldOptions field;  // the decoder's output grid
   // Weight of the latent regularizer (1/P) sum_p |z_p|^2.
   double latent_regularization = 1e-3;
+  // Weight of the decoder regularizer |params|^2 (weight decay; TrainOptions'). 0: none.
+  double decoder_regularization = 0.0;
   int max_iterations = 500;
   unsigned seed = 1;
   int num_threads = 2;
@@ -55,7 +57,8 @@ bool PretrainMemoryBytes(const PretrainOptions& options, const ActiveModel& mode
 // and keeping its decoder and codes):
 //
 //   min over params, z_1..z_P of  (1/P) sum_p sum_e w_e |a_e(z_p) - S_pe|_F^2
-//                                 + latent_regularization (1/P) sum_p |z_p|^2,
+//                                 + latent_regularization (1/P) sum_p |z_p|^2
+//                                 + decoder_regularization |params|^2,
 //
 // with w_e = V_e / sum V (|.|_F the Frobenius norm of the 3x3 matrices), by Ceres'
 // L-BFGS (GradientProblemSolver). Latents start at the whitened principal components

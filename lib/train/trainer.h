@@ -15,6 +15,10 @@ class Communicator;
 struct TrainOptions {
   // Weight of the latent regularizer (1/P) sum_p |z_p|^2.
   double latent_regularization = 1e-3;
+  // Weight of the decoder regularizer |params|^2 (weight decay on every weight and bias
+  // of the decoder's network). With the latent regularizer alone, the network's first
+  // layer can grow as the latents shrink; this term fixes that scale. 0: none.
+  double decoder_regularization = 0.0;
   // L-BFGS iterations in all (counting those of earlier runs when resuming).
   int max_iterations = 200;
   // Stop (successfully, after saving) once this much wall time was spent in this run
@@ -108,6 +112,7 @@ struct TrainReport {
 // minimize
 //
 //   L = (1/(P N)) sum_p sum_i |p_i(x*(a(z_p))) - y_pi|^2 + latent_regularization (1/P) sum_p |z_p|^2
+//       + decoder_regularization |params|^2
 //
 // (p_i: embedded surface vertex i, y_pi its position in pose p, N surface vertices,
 // x* the equilibrium under pose p's boundary conditions), by Ceres' L-BFGS

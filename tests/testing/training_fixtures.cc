@@ -40,6 +40,7 @@ ActiveModel PretrainedSyntheticBar(const SyntheticBarSpec& spec) {
   pretrain.spec.activation = spec.activation;
   pretrain.field.node_spacing = spec.node_spacing;
   pretrain.max_iterations = spec.pretrain_iterations;
+  pretrain.decoder_regularization = spec.decoder_regularization;
   pretrain.log_every = 0;
   pretrain.num_threads = spec.num_threads;
   PretrainReport report;

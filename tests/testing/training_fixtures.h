@@ -25,6 +25,7 @@ struct SyntheticBarSpec {
   Activation activation = Activation::kElu;
   double node_spacing = 0.5;      // control nodes this far apart
   int pretrain_iterations = 30;
+  double decoder_regularization = 0.0;  // PretrainOptions' weight decay
   int num_threads = 2;
 };
 

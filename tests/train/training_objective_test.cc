@@ -61,6 +61,7 @@ TEST(EndToEndObjectiveTest, GradientMatchesCentralDifferencesOfResolvedObjective
 
   TrainOptions options;
   options.latent_regularization = 1e-2;
+  options.decoder_regularization = 1e-3;
   options.solver.relative_force_tolerance = 1e-12;  // Newton reaches round-off
   options.num_threads = 2;
   EndToEndObjective objective(options, model);
@@ -94,6 +95,40 @@ TEST(EndToEndObjectiveTest, GradientMatchesCentralDifferencesOfResolvedObjective
   }
   std::printf("training objective: %zu components checked, worst error %.2e (relative to max |g|)\n",
               indices.size(), worst);
+}
+
+// The decoder regularizer adds lambda |params|^2 to the cost and 2 lambda params to the
+// decoder part of the gradient, and nothing to the latents' (the central differences
+// above check the whole gradient with it on); negative or non-finite weights are refused.
+TEST(EndToEndObjectiveTest, DecoderRegularizationIsWeightDecay) {
+  ActiveModel model = PretrainedBar();
+  TrainOptions plain;
+  plain.solver.relative_force_tolerance = 1e-12;
+  TrainOptions decayed = plain;
+  decayed.decoder_regularization = 0.05;
+  std::string error;
+  ASSERT_TRUE(decayed.Validate(&error)) << error;
+  EndToEndObjective plain_objective(plain, model), decayed_objective(decayed, model);
+  const Eigen::VectorXd x = plain_objective.ModelParameters();
+  const int np = model.decoder->num_parameters();
+  double plain_cost = 0, decayed_cost = 0;
+  Eigen::VectorXd plain_gradient(x.size()), decayed_gradient(x.size());
+  ASSERT_TRUE(plain_objective.Evaluate(x.data(), &plain_cost, plain_gradient.data()));
+  ASSERT_TRUE(decayed_objective.Evaluate(x.data(), &decayed_cost, decayed_gradient.data()));
+  const double decay = 0.05 * x.head(np).squaredNorm();
+  ASSERT_GT(decay, 0.1 * plain_cost);  // large enough to be seen
+  EXPECT_NEAR(decayed_cost - plain_cost, decay, 1e-10 * decayed_cost);
+  const Eigen::VectorXd difference = decayed_gradient - plain_gradient;
+  EXPECT_LT((difference.head(np) - 0.1 * x.head(np)).cwiseAbs().maxCoeff(),
+            1e-9 * decayed_gradient.cwiseAbs().maxCoeff());
+  EXPECT_LT(difference.tail(x.size() - np).cwiseAbs().maxCoeff(),
+            1e-9 * decayed_gradient.cwiseAbs().maxCoeff());
+  for (double bad : {-1e-3, std::numeric_limits<double>::quiet_NaN()}) {
+    TrainOptions refused = plain;
+    refused.decoder_regularization = bad;
+    EXPECT_FALSE(refused.Validate(&error)) << bad;
+    EXPECT_NE(error.find("decoder_regularization"), std::string::npos) << error;
+  }
 }
 
 // One solver and factor per pose (factors reused by CG, states predicted to first

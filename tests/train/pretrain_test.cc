@@ -1,0 +1,68 @@
+#include "train/pretrain.h"
+
+#include <cstdio>
+#include <limits>
+#include <sstream>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "prepare/volumetric_targets.h"
+#include "testing/synthetic_muscles.h"
+#include "testing/training_fixtures.h"
+
+namespace aqs {
+namespace {
+
+// Pre-training's final loss is the actuation error plus both regularizers, and the
+// decoder regularizer (weight decay) leaves the decoder's parameters smaller than
+// pre-training without it from the same start.
+TEST(PretrainTest, DecoderRegularizationShrinksTheDecoder) {
+  testing::SyntheticBarSpec spec;
+  spec.pretrain_iterations = 60;
+  const ActiveModel plain = testing::PretrainedSyntheticBar(spec);
+  spec.decoder_regularization = 1e-3;
+  const ActiveModel decayed = testing::PretrainedSyntheticBar(spec);
+  ASSERT_TRUE(plain.decoder && decayed.decoder);
+  const double plain_norm = plain.decoder_params.norm();
+  const double decayed_norm = decayed.decoder_params.norm();
+  EXPECT_LT(decayed_norm, 0.9 * plain_norm);
+  std::printf("decoder parameters' norm: %.4f without weight decay, %.4f with 1e-3\n", plain_norm,
+              decayed_norm);
+}
+
+TEST(PretrainTest, ReportedLossIncludesTheDecoderRegularizer) {
+  testing::SyntheticMuscles data = testing::MakeSyntheticMuscles(4, 0, 0.3, 11);
+  std::ostringstream log;
+  std::string error;
+  ASSERT_TRUE(MakeVolumetricTargets(VolumetricTargetOptions(), &data.model, log, &error)) << error;
+  PretrainOptions options;
+  options.spec.latent_dim = 2;
+  options.spec.hidden_dims = {8};
+  options.field.node_spacing = 0.5;
+  options.max_iterations = 20;
+  options.log_every = 0;
+  options.latent_regularization = 1e-2;
+  options.decoder_regularization = 1e-3;
+  PretrainReport report;
+  ASSERT_TRUE(Pretrain(options, &data.model, &report, log, &error)) << error;
+  const ActiveModel& model = data.model;
+  const double expected = report.rms_actuation_error * report.rms_actuation_error +
+                          1e-2 * model.latents.squaredNorm() / model.num_poses() +
+                          1e-3 * model.decoder_params.squaredNorm();
+  EXPECT_NEAR(report.final_loss, expected, 1e-10 * expected);
+  EXPECT_GT(1e-3 * model.decoder_params.squaredNorm(), 1e-3 * report.final_loss);
+}
+
+TEST(PretrainTest, DecoderRegularizationIsValidated) {
+  PretrainOptions options;
+  std::string error;
+  for (double bad : {-1.0, std::numeric_limits<double>::infinity()}) {
+    options.decoder_regularization = bad;
+    EXPECT_FALSE(options.Validate(&error)) << bad;
+    EXPECT_NE(error.find("decoder_regularization"), std::string::npos) << error;
+  }
+}
+
+}  // namespace
+}  // namespace aqs
