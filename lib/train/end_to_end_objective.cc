@@ -126,6 +126,10 @@ bool EndToEndObjective::Serve(ActiveModel* model) {
       adjoint_shift_.assign(num_poses_, 0.0);
       continue;
     }
+    if (command == kKeepStates) {
+      KeepRemembered(message[1]);
+      continue;
+    }
     communicator_->Broadcast(parameters.data(), NumParameters(), 0);
     double cost = 0;
     switch (command) {
@@ -179,17 +183,44 @@ double EndToEndObjective::max_surface_error() const {
   return worst;
 }
 
+int EndToEndObjective::RememberedIndex(const double* parameters) const {
+  const size_t bytes = sizeof(double) * static_cast<size_t>(NumParameters());
+  for (int i = static_cast<int>(remembered_.size()) - 1; i >= 0; --i) {
+    // Bit for bit: the point a line search accepted is one it evaluated.
+    if (std::memcmp(remembered_[i].parameters.data(), parameters, bytes) == 0) return i;
+  }
+  return -1;
+}
+
 bool EndToEndObjective::StatesAt(const double* parameters,
                                  std::vector<Eigen::Matrix3Xd>* states) const {
+  const int index = RememberedIndex(parameters);
+  if (index >= 0) {
+    *states = remembered_[index].states;
+    return true;
+  }
   const size_t bytes = sizeof(double) * static_cast<size_t>(NumParameters());
-  for (auto it = remembered_.rbegin(); it != remembered_.rend(); ++it) {
-    // Bit for bit: the point a line search accepted is one it evaluated.
-    if (std::memcmp(it->parameters.data(), parameters, bytes) == 0) {
-      *states = it->states;
-      return true;
-    }
+  if (kept_.parameters.size() == NumParameters() &&
+      std::memcmp(kept_.parameters.data(), parameters, bytes) == 0) {
+    *states = kept_.states;
+    return true;
   }
   return false;
+}
+
+bool EndToEndObjective::KeepStatesOf(const double* parameters) {
+  CHECK_EQ(rank_, 0) << "only rank 0 commands";
+  const int index = RememberedIndex(parameters);
+  if (index < 0) return false;
+  if (distributed()) SendCommand(kKeepStates, nullptr, index);
+  KeepRemembered(index);
+  return true;
+}
+
+void EndToEndObjective::KeepRemembered(int index) {
+  CHECK(index >= 0 && index < static_cast<int>(remembered_.size()))
+      << "no remembered evaluation " << index << " on rank " << rank_;
+  kept_ = remembered_[index];
 }
 
 bool EndToEndObjective::UseStatesOf(const double* parameters) {

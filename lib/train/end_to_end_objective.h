@@ -111,6 +111,14 @@ class EndToEndObjective final : public ceres::FirstOrderFunction {
   // 0, also commands the other ranks to use theirs.
   bool StatesAt(const double* parameters, std::vector<Eigen::Matrix3Xd>* states) const;
   bool UseStatesOf(const double* parameters);
+  // Keeps the remembered evaluation at `parameters` (the point a line search has just
+  // accepted: the trainer calls this at every iteration) apart from the last
+  // kRememberedEvaluations, until the next call, so that StatesAt, UseStatesOf and
+  // CollectStates find its equilibria however many trial points a line search evaluates
+  // after it (a failed line search, and the restart or final evaluation after it).
+  // Returns false, keeping nothing, if no remembered evaluation was at `parameters`.
+  // Rank 0 only: it commands the other ranks to keep theirs.
+  bool KeepStatesOf(const double* parameters);
   // A round of latent refits at `parameters` (RefitTrainingLatents with the decoder
   // fixed, TrainOptions' latent_refit_iterations and regularization): every rank refits
   // the poses it owns, from their equilibria at `parameters` (the remembered evaluation
@@ -157,6 +165,7 @@ class EndToEndObjective final : public ceres::FirstOrderFunction {
     kAllowRetryFromRest,
     kCollectStates,
     kRefitLatents,
+    kKeepStates,
     kStop,
   };
   // Rank 0: sends a command (with `value`: the status of kStop) and, for commands that
@@ -214,6 +223,13 @@ class EndToEndObjective final : public ceres::FirstOrderFunction {
     std::vector<Eigen::Matrix3Xd> states;
   };
   mutable std::vector<Remembered> remembered_;  // newest last
+  Remembered kept_;  // KeepStatesOf's (empty parameters: none)
+  // The index in remembered_ of the evaluation at `parameters` (the newest if several),
+  // or -1.
+  int RememberedIndex(const double* parameters) const;
+  // Keeps remembered_[index] as kept_ (on every rank; the index is rank 0's, and every
+  // rank remembers the same evaluations).
+  void KeepRemembered(int index);
   mutable std::string last_failure_;
   WallTimer timer_;
   double deadline_ = 0.0;  // on timer_; 0: none

@@ -56,16 +56,16 @@ bool PrepareLog(const std::string& dir, int iteration, std::string* error) {
 
 class TrainingCallback final : public ceres::IterationCallback {
  public:
-  TrainingCallback(const TrainOptions& options, ActiveModel* model, const EndToEndObjective& objective,
+  TrainingCallback(const TrainOptions& options, ActiveModel* model, EndToEndObjective* objective,
                    const Eigen::VectorXd& parameters, int iterations_before, std::ostream& log)
       : options_(options),
         model_(model),
-        objective_(objective),
+        objective_(*objective),
         parameters_(parameters),
         first_(iterations_before),
         before_(iterations_before),
         log_(log),
-        counters_before_(objective.total_counters()) {}
+        counters_before_(objective->total_counters()) {}
 
   // Iterations done before the current ceres::Solve call (L-BFGS restarts continue the
   // numbering).
@@ -74,6 +74,9 @@ class TrainingCallback final : public ceres::IterationCallback {
 
   ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
     const int iteration = before_ + s.iteration;
+    // The accepted point's equilibria, kept for the restart or final evaluation after a
+    // line search that evaluates more trial points than the objective remembers.
+    objective_.KeepStatesOf(parameters_.data());
     const double elapsed = timer_.Seconds();
     // What the evaluations since the previous row cost, per pose: stiffness factorizations
     // and solves by CG on an earlier factor (the objective's counters, summed over ranks).
@@ -147,7 +150,7 @@ class TrainingCallback final : public ceres::IterationCallback {
  private:
   const TrainOptions& options_;
   ActiveModel* model_;
-  const EndToEndObjective& objective_;
+  EndToEndObjective& objective_;
   const Eigen::VectorXd& parameters_;
   int first_;   // iterations done before this run
   int before_;  // iterations done before the current Solve call
@@ -278,7 +281,7 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
   const EvaluationCounters cost_before = objective->total_counters();
   WallTimer budget_timer;
   ceres::GradientProblem problem(owned_objective.release());  // owns the objective
-  TrainingCallback callback(options, model, *objective, parameters, report->iterations_before, log);
+  TrainingCallback callback(options, model, objective, parameters, report->iterations_before, log);
   int done = report->iterations_before;
   if (remaining > 0) {
     ceres::GradientProblemSolver::Options solver_options;

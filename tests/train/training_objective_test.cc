@@ -1,5 +1,6 @@
 #include "train/end_to_end_objective.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <limits>
@@ -95,6 +96,41 @@ TEST(EndToEndObjectiveTest, GradientMatchesCentralDifferencesOfResolvedObjective
   }
   std::printf("training objective: %zu components checked, worst error %.2e (relative to max |g|)\n",
               indices.size(), worst);
+}
+
+// A kept evaluation's equilibria outlive the few the objective remembers: after more
+// evaluations than that (a line search's trial points after the one it accepted),
+// StatesAt and UseStatesOf still find them, bit for bit, where an evaluation that was
+// not kept is forgotten (and can no longer be kept).
+TEST(EndToEndObjectiveTest, KeptStatesOutliveLaterEvaluations) {
+  ActiveModel model = PretrainedBar();
+  TrainOptions options;
+  options.solver.relative_force_tolerance = 1e-11;
+  EndToEndObjective objective(options, model);
+  const int steps = 2 + EndToEndObjective::kRememberedEvaluations;
+  const std::vector<Eigen::VectorXd> walk =
+      RandomWalk(objective.ModelParameters(), steps, 1e-2, 9);
+  double cost = 0;
+  ASSERT_TRUE(objective.Evaluate(walk[0].data(), &cost, nullptr)) << objective.last_failure();
+  const std::vector<Eigen::Matrix3Xd> kept = objective.states();
+  ASSERT_TRUE(objective.KeepStatesOf(walk[0].data()));
+  for (int i = 1; i < steps; ++i) {
+    ASSERT_TRUE(objective.Evaluate(walk[i].data(), &cost, nullptr)) << objective.last_failure();
+  }
+  std::vector<Eigen::Matrix3Xd> states;
+  EXPECT_FALSE(objective.StatesAt(walk[1].data(), &states));  // evaluated, not kept
+  EXPECT_FALSE(objective.KeepStatesOf(walk[1].data()));
+  ASSERT_TRUE(objective.StatesAt(walk[0].data(), &states));
+  double moved = 0;  // how far the last evaluation's equilibria are from the kept ones
+  for (size_t p = 0; p < kept.size(); ++p) {
+    EXPECT_TRUE(states[p].cwiseEqual(kept[p]).all()) << "pose " << p;
+    moved = std::max(moved, (objective.states()[p] - kept[p]).cwiseAbs().maxCoeff());
+  }
+  EXPECT_GT(moved, 1e-6);
+  ASSERT_TRUE(objective.UseStatesOf(walk[0].data()));
+  for (size_t p = 0; p < kept.size(); ++p) {
+    EXPECT_TRUE(objective.states()[p].cwiseEqual(kept[p]).all()) << "pose " << p;
+  }
 }
 
 // The decoder regularizer adds lambda |params|^2 to the cost and 2 lambda params to the
