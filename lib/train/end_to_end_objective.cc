@@ -194,18 +194,19 @@ int EndToEndObjective::RememberedIndex(const double* parameters) const {
 
 bool EndToEndObjective::StatesAt(const double* parameters,
                                  std::vector<Eigen::Matrix3Xd>* states) const {
-  const int index = RememberedIndex(parameters);
-  if (index >= 0) {
-    *states = remembered_[index].states;
-    return true;
-  }
+  // The kept point first: a line search that finds no decrease ends where it started,
+  // and Ceres may evaluate that point again from a trial point's equilibria, which can
+  // be another equilibrium (with another loss) than the one that was accepted.
   const size_t bytes = sizeof(double) * static_cast<size_t>(NumParameters());
   if (kept_.parameters.size() == NumParameters() &&
       std::memcmp(kept_.parameters.data(), parameters, bytes) == 0) {
     *states = kept_.states;
     return true;
   }
-  return false;
+  const int index = RememberedIndex(parameters);
+  if (index < 0) return false;
+  *states = remembered_[index].states;
+  return true;
 }
 
 bool EndToEndObjective::KeepStatesOf(const double* parameters) {

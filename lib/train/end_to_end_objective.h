@@ -115,7 +115,9 @@ class EndToEndObjective final : public ceres::FirstOrderFunction {
   // accepted: the trainer calls this at every iteration) apart from the last
   // kRememberedEvaluations, until the next call, so that StatesAt, UseStatesOf and
   // CollectStates find its equilibria however many trial points a line search evaluates
-  // after it (a failed line search, and the restart or final evaluation after it).
+  // after it (a failed line search, and the restart or final evaluation after it), and
+  // rather than those of a later evaluation at the same point (which started elsewhere
+  // and may have reached another equilibrium).
   // Returns false, keeping nothing, if no remembered evaluation was at `parameters`.
   // Rank 0 only: it commands the other ranks to keep theirs.
   bool KeepStatesOf(const double* parameters);

@@ -1,9 +1,11 @@
 #include "train/trainer.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <memory>
 #include <sstream>
 
@@ -85,7 +87,19 @@ class TrainingCallback final : public ceres::IterationCallback {
     const double per_pose = 1.0 / std::max(1, model_->num_poses());
     const double factorizations = cost.factorizations * per_pose;
     const double cg_solves = cost.reused_solves * per_pose;
-    if (s.iteration == 0 && before_ > 0) return ceres::SOLVER_CONTINUE;  // already logged
+    if (s.iteration == 0 && before_ > 0) {  // already logged; a restart must start there
+      if (std::isfinite(last_cost_) && std::abs(s.cost - last_cost_) > 1e-9 * last_cost_) {
+        char line[200];
+        std::snprintf(line, sizeof(line),
+                      "  note: the restart's first evaluation gives loss %.9e, not the accepted "
+                      "%.9e (another equilibrium of some pose)\n",
+                      s.cost, last_cost_);
+        log_ << line << std::flush;
+      }
+      last_cost_ = s.cost;
+      return ceres::SOLVER_CONTINUE;
+    }
+    last_cost_ = s.cost;
     if (options_.log_every > 0 && (s.iteration % options_.log_every == 0)) {
       char line[360];
       const int planned = options_.max_iterations - first_;
@@ -157,6 +171,8 @@ class TrainingCallback final : public ceres::IterationCallback {
   std::ostream& log_;
   WallTimer timer_;
   bool budget_reached_ = false;
+  // The loss of the last accepted point (NaN: none yet in this run).
+  double last_cost_ = std::numeric_limits<double>::quiet_NaN();
   EvaluationCounters counters_before_;  // the objective's totals at the previous row
 };
 

@@ -101,7 +101,8 @@ TEST(EndToEndObjectiveTest, GradientMatchesCentralDifferencesOfResolvedObjective
 // A kept evaluation's equilibria outlive the few the objective remembers: after more
 // evaluations than that (a line search's trial points after the one it accepted),
 // StatesAt and UseStatesOf still find them, bit for bit, where an evaluation that was
-// not kept is forgotten (and can no longer be kept).
+// not kept is forgotten (and can no longer be kept), and prefer them to those of a later
+// evaluation at the same point.
 TEST(EndToEndObjectiveTest, KeptStatesOutliveLaterEvaluations) {
   ActiveModel model = PretrainedBar();
   TrainOptions options;
@@ -127,6 +128,17 @@ TEST(EndToEndObjectiveTest, KeptStatesOutliveLaterEvaluations) {
     moved = std::max(moved, (objective.states()[p] - kept[p]).cwiseAbs().maxCoeff());
   }
   EXPECT_GT(moved, 1e-6);
+  // Evaluated again from the last point's equilibria: the kept ones still win.
+  ASSERT_TRUE(objective.Evaluate(walk[0].data(), &cost, nullptr)) << objective.last_failure();
+  double again = 0;
+  for (size_t p = 0; p < kept.size(); ++p) {
+    again = std::max(again, (objective.states()[p] - kept[p]).cwiseAbs().maxCoeff());
+  }
+  ASSERT_GT(again, 0.0) << "the second solve reached the same bits; the test shows nothing";
+  ASSERT_TRUE(objective.StatesAt(walk[0].data(), &states));
+  for (size_t p = 0; p < kept.size(); ++p) {
+    EXPECT_TRUE(states[p].cwiseEqual(kept[p]).all()) << "pose " << p;
+  }
   ASSERT_TRUE(objective.UseStatesOf(walk[0].data()));
   for (size_t p = 0; p < kept.size(); ++p) {
     EXPECT_TRUE(objective.states()[p].cwiseEqual(kept[p]).all()) << "pose " << p;
