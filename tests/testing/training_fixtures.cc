@@ -27,7 +27,7 @@ std::vector<std::pair<int, double>> TrainingLogRows(const std::string& path) {
   return rows;
 }
 
-ActiveModel PretrainedSyntheticBar(const SyntheticBarSpec& spec) {
+ActiveModel PretrainedSyntheticBar(const SyntheticBarSpec& spec, PretrainReport* report) {
   SyntheticMuscles data = MakeSyntheticMuscles(spec.num_poses, 0, 0.3, spec.seed);
   std::ostringstream log;
   std::string error;
@@ -43,8 +43,10 @@ ActiveModel PretrainedSyntheticBar(const SyntheticBarSpec& spec) {
   pretrain.decoder_regularization = spec.decoder_regularization;
   pretrain.log_every = 0;
   pretrain.num_threads = spec.num_threads;
-  PretrainReport report;
-  EXPECT_TRUE(Pretrain(pretrain, &data.model, &report, log, &error)) << error;
+  PretrainReport own_report;
+  EXPECT_TRUE(Pretrain(pretrain, &data.model, report != nullptr ? report : &own_report, log,
+                       &error))
+      << error;
   return data.model;
 }
 

@@ -7,6 +7,7 @@
 
 #include "learn/mlp.h"
 #include "model/active_model.h"
+#include "train/pretrain.h"
 
 namespace aqs {
 namespace testing {
@@ -31,8 +32,9 @@ struct SyntheticBarSpec {
 
 // The synthetic bar (testing/synthetic_muscles.h: MakeSyntheticMuscles(num_poses, 0,
 // 0.3, seed)) with its volumetric targets and a small decoder pre-trained on them (no
-// states). Deterministic for a given spec. Adds a test failure on error.
-ActiveModel PretrainedSyntheticBar(const SyntheticBarSpec& spec);
+// states; PretrainOptions' latent regularization), and the pre-training's report in
+// *report if not null. Deterministic for a given spec. Adds a test failure on error.
+ActiveModel PretrainedSyntheticBar(const SyntheticBarSpec& spec, PretrainReport* report = nullptr);
 
 // A small pre-trained model of the synthetic bar, saved at `path` (a model directory):
 // MakeSyntheticMuscles(num_poses, 0, 0.3, seed), its volumetric targets, and a decoder

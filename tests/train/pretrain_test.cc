@@ -2,13 +2,10 @@
 
 #include <cstdio>
 #include <limits>
-#include <sstream>
 #include <string>
 
 #include <gtest/gtest.h>
 
-#include "prepare/volumetric_targets.h"
-#include "testing/synthetic_muscles.h"
 #include "testing/training_fixtures.h"
 
 namespace aqs {
@@ -32,24 +29,17 @@ TEST(PretrainTest, DecoderRegularizationShrinksTheDecoder) {
 }
 
 TEST(PretrainTest, ReportedLossIncludesTheDecoderRegularizer) {
-  testing::SyntheticMuscles data = testing::MakeSyntheticMuscles(4, 0, 0.3, 11);
-  std::ostringstream log;
-  std::string error;
-  ASSERT_TRUE(MakeVolumetricTargets(VolumetricTargetOptions(), &data.model, log, &error)) << error;
-  PretrainOptions options;
-  options.spec.latent_dim = 2;
-  options.spec.hidden_dims = {8};
-  options.field.node_spacing = 0.5;
-  options.max_iterations = 20;
-  options.log_every = 0;
-  options.latent_regularization = 1e-2;
-  options.decoder_regularization = 1e-3;
+  testing::SyntheticBarSpec spec;
+  spec.pretrain_iterations = 20;
+  spec.decoder_regularization = 1e-3;
   PretrainReport report;
-  ASSERT_TRUE(Pretrain(options, &data.model, &report, log, &error)) << error;
-  const ActiveModel& model = data.model;
-  const double expected = report.rms_actuation_error * report.rms_actuation_error +
-                          1e-2 * model.latents.squaredNorm() / model.num_poses() +
-                          1e-3 * model.decoder_params.squaredNorm();
+  const ActiveModel model = testing::PretrainedSyntheticBar(spec, &report);
+  ASSERT_TRUE(model.decoder);
+  const double latent_regularization = PretrainOptions().latent_regularization;
+  const double expected =
+      report.rms_actuation_error * report.rms_actuation_error +
+      latent_regularization * model.latents.squaredNorm() / model.num_poses() +
+      1e-3 * model.decoder_params.squaredNorm();
   EXPECT_NEAR(report.final_loss, expected, 1e-10 * expected);
   EXPECT_GT(1e-3 * model.decoder_params.squaredNorm(), 1e-3 * report.final_loss);
 }
