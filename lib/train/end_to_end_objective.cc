@@ -211,17 +211,29 @@ bool EndToEndObjective::StatesAt(const double* parameters,
 
 bool EndToEndObjective::KeepStatesOf(const double* parameters) {
   CHECK_EQ(rank_, 0) << "only rank 0 commands";
-  const int index = RememberedIndex(parameters);
-  if (index < 0) return false;
+  int index = RememberedIndex(parameters);
+  if (index < 0) {
+    const size_t bytes = sizeof(double) * static_cast<size_t>(NumParameters());
+    const bool best = best_.parameters.size() == NumParameters() &&
+                      std::memcmp(best_.parameters.data(), parameters, bytes) == 0;
+    if (!best) return false;
+    index = kKeepBest;
+  }
   if (distributed()) SendCommand(kKeepStates, nullptr, index);
   KeepRemembered(index);
   return true;
 }
 
 void EndToEndObjective::KeepRemembered(int index) {
-  CHECK(index >= 0 && index < static_cast<int>(remembered_.size()))
-      << "no remembered evaluation " << index << " on rank " << rank_;
-  kept_ = remembered_[index];
+  if (index == kKeepBest) {
+    kept_ = best_;
+  } else {
+    CHECK(index >= 0 && index < static_cast<int>(remembered_.size()))
+        << "no remembered evaluation " << index << " on rank " << rank_;
+    kept_ = remembered_[index];
+  }
+  best_ = Remembered();
+  best_loss_ = std::numeric_limits<double>::infinity();
 }
 
 bool EndToEndObjective::UseStatesOf(const double* parameters) {
@@ -677,6 +689,15 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
   const Eigen::Map<const Eigen::VectorXd> decoder_params(parameters, num_params_);
   *cost = data + options_.latent_regularization * latents.squaredNorm() / num_poses_ +
           options_.decoder_regularization * decoder_params.squaredNorm();
+  // The lowest loss since the last kept point: what a line search accepts, though it
+  // may have evaluated more trial points since than are remembered (rank 0's loss on
+  // every rank, so that all keep the same evaluation).
+  double loss = *cost;
+  if (distributed()) communicator_->Broadcast(&loss, 1, 0);
+  if (loss < best_loss_) {
+    best_loss_ = loss;
+    best_ = remembered_.back();
+  }
   if (gradient != nullptr) {
     WallTimer backward_timer;
     Eigen::Map<Eigen::VectorXd> g(gradient, NumParameters());

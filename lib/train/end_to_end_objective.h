@@ -2,6 +2,7 @@
 #define AQS_TRAIN_END_TO_END_OBJECTIVE_H_
 
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -112,8 +113,9 @@ class EndToEndObjective final : public ceres::FirstOrderFunction {
   bool StatesAt(const double* parameters, std::vector<Eigen::Matrix3Xd>* states) const;
   bool UseStatesOf(const double* parameters);
   // Keeps the remembered evaluation at `parameters` (the point a line search has just
-  // accepted: the trainer calls this at every iteration) apart from the last
-  // kRememberedEvaluations, until the next call, so that StatesAt, UseStatesOf and
+  // accepted: the trainer calls this at every iteration; one of the last
+  // kRememberedEvaluations or the one of the lowest loss since the last call) apart
+  // from the others, until the next call, so that StatesAt, UseStatesOf and
   // CollectStates find its equilibria however many trial points a line search evaluates
   // after it (a failed line search, and the restart or final evaluation after it), and
   // rather than those of a later evaluation at the same point (which started elsewhere
@@ -226,11 +228,18 @@ class EndToEndObjective final : public ceres::FirstOrderFunction {
   };
   mutable std::vector<Remembered> remembered_;  // newest last
   Remembered kept_;  // KeepStatesOf's (empty parameters: none)
+  // The successful evaluation of the lowest loss since the last KeepStatesOf (empty
+  // parameters, infinite loss: none). Ceres' line searches accept the lowest point they
+  // evaluated (of those with sufficient decrease), which may be older than the last
+  // kRememberedEvaluations.
+  mutable Remembered best_;
+  mutable double best_loss_ = std::numeric_limits<double>::infinity();
   // The index in remembered_ of the evaluation at `parameters` (the newest if several),
   // or -1.
   int RememberedIndex(const double* parameters) const;
-  // Keeps remembered_[index] as kept_ (on every rank; the index is rank 0's, and every
-  // rank remembers the same evaluations).
+  // Keeps remembered_[index] (kKeepBest: best_) as kept_ and forgets best_ (on every
+  // rank; the index is rank 0's, and every rank remembers the same evaluations).
+  static constexpr int kKeepBest = -1;
   void KeepRemembered(int index);
   mutable std::string last_failure_;
   WallTimer timer_;

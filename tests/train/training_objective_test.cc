@@ -7,6 +7,8 @@
 #include <random>
 #include <string>
 #include <thread>
+#include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -101,8 +103,8 @@ TEST(EndToEndObjectiveTest, GradientMatchesCentralDifferencesOfResolvedObjective
 // A kept evaluation's equilibria outlive the few the objective remembers: after more
 // evaluations than that (a line search's trial points after the one it accepted),
 // StatesAt and UseStatesOf still find them, bit for bit, where an evaluation that was
-// not kept is forgotten (and can no longer be kept), and prefer them to those of a later
-// evaluation at the same point.
+// not kept is forgotten, and prefer them to those of a later evaluation at the same
+// point.
 TEST(EndToEndObjectiveTest, KeptStatesOutliveLaterEvaluations) {
   ActiveModel model = PretrainedBar();
   TrainOptions options;
@@ -120,7 +122,6 @@ TEST(EndToEndObjectiveTest, KeptStatesOutliveLaterEvaluations) {
   }
   std::vector<Eigen::Matrix3Xd> states;
   EXPECT_FALSE(objective.StatesAt(walk[1].data(), &states));  // evaluated, not kept
-  EXPECT_FALSE(objective.KeepStatesOf(walk[1].data()));
   ASSERT_TRUE(objective.StatesAt(walk[0].data(), &states));
   double moved = 0;  // how far the last evaluation's equilibria are from the kept ones
   for (size_t p = 0; p < kept.size(); ++p) {
@@ -142,6 +143,49 @@ TEST(EndToEndObjectiveTest, KeptStatesOutliveLaterEvaluations) {
   ASSERT_TRUE(objective.UseStatesOf(walk[0].data()));
   for (size_t p = 0; p < kept.size(); ++p) {
     EXPECT_TRUE(objective.states()[p].cwiseEqual(kept[p]).all()) << "pose " << p;
+  }
+}
+
+// Ceres' line searches accept the lowest trial they evaluated (of those with sufficient
+// decrease), which may come before more trials than the objective remembers: the
+// evaluation of the lowest loss since the last kept point can still be kept, bit for
+// bit, and the others that were forgotten cannot.
+TEST(EndToEndObjectiveTest, KeepsTheLowestEvaluationSinceTheLastKeptPoint) {
+  ActiveModel model = PretrainedBar();
+  TrainOptions options;
+  options.solver.relative_force_tolerance = 1e-11;
+  EndToEndObjective objective(options, model), probe(options, model);
+  const Eigen::VectorXd x0 = objective.ModelParameters();
+  // Trial points, ordered by their loss (from an objective of their own), lowest first.
+  std::vector<Eigen::VectorXd> trials =
+      RandomWalk(x0, 3 + EndToEndObjective::kRememberedEvaluations, 1e-2, 10);
+  trials.erase(trials.begin());
+  std::vector<std::pair<double, int>> order;
+  for (int i = 0; i < static_cast<int>(trials.size()); ++i) {
+    double loss = 0;
+    ASSERT_TRUE(probe.Evaluate(trials[i].data(), &loss, nullptr)) << probe.last_failure();
+    order.emplace_back(loss, i);
+  }
+  std::sort(order.begin(), order.end());
+  ASSERT_LT(order[0].first, 0.999 * order[1].first);
+
+  double cost = 0;
+  ASSERT_TRUE(objective.Evaluate(x0.data(), &cost, nullptr)) << objective.last_failure();
+  ASSERT_TRUE(objective.KeepStatesOf(x0.data()));
+  std::vector<Eigen::Matrix3Xd> lowest_states;
+  for (const auto& [loss, i] : order) {
+    ASSERT_TRUE(objective.Evaluate(trials[i].data(), &cost, nullptr)) << objective.last_failure();
+    if (lowest_states.empty()) lowest_states = objective.states();
+  }
+  const Eigen::VectorXd& lowest = trials[order[0].second];
+  const Eigen::VectorXd& forgotten = trials[order[1].second];
+  std::vector<Eigen::Matrix3Xd> states;
+  EXPECT_FALSE(objective.StatesAt(lowest.data(), &states));  // no longer remembered
+  EXPECT_FALSE(objective.KeepStatesOf(forgotten.data()));
+  ASSERT_TRUE(objective.KeepStatesOf(lowest.data()));
+  ASSERT_TRUE(objective.StatesAt(lowest.data(), &states));
+  for (size_t p = 0; p < states.size(); ++p) {
+    EXPECT_TRUE(states[p].cwiseEqual(lowest_states[p]).all()) << "pose " << p;
   }
 }
 
