@@ -51,7 +51,7 @@ DEFINE_bool(lbfgs_scaling, true, "End-to-end training: L-BFGS' initial inverse H
 DEFINE_double(adjoint_tolerance, 1e-10, "End-to-end training: relative residual of the adjoint "
               "solves done by conjugate gradients on an earlier stiffness factor, in [1e-14, "
               "0.01]; the gradient is off by about that fraction.");
-DEFINE_int32(train_restarts, 5, "L-BFGS restarts allowed when the line search stalls before the "
+DEFINE_int32(train_restarts, 50, "L-BFGS restarts allowed when the line search stalls before the "
              "iteration or time budget is used.");
 DEFINE_int32(latent_refit_iterations, 0, "End-to-end training: before the first iteration (not "
              "when resuming), refit every pose's latent alone, decoder fixed, by this many "

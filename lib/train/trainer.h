@@ -64,7 +64,7 @@ struct TrainOptions {
   int checkpoint_every = 1;
   // L-BFGS restarts (empty memory) allowed after the line search stalls; see
   // TrainEndToEnd.
-  int max_restarts = 5;
+  int max_restarts = 50;
   int log_every = 1;  // progress lines
   // Gauss-Newton latent steps (train/latent_refit.h): with latent_refit_iterations > 0,
   // before the first L-BFGS iteration of a run that starts at iteration 0 (not a
