@@ -183,11 +183,16 @@ double EndToEndObjective::max_surface_error() const {
   return worst;
 }
 
-int EndToEndObjective::RememberedIndex(const double* parameters) const {
+bool EndToEndObjective::IsAt(const Remembered& evaluation, const double* parameters) const {
+  // Bit for bit: the point a line search accepted is one it evaluated.
   const size_t bytes = sizeof(double) * static_cast<size_t>(NumParameters());
+  return evaluation.parameters.size() == NumParameters() &&
+         std::memcmp(evaluation.parameters.data(), parameters, bytes) == 0;
+}
+
+int EndToEndObjective::RememberedIndex(const double* parameters) const {
   for (int i = static_cast<int>(remembered_.size()) - 1; i >= 0; --i) {
-    // Bit for bit: the point a line search accepted is one it evaluated.
-    if (std::memcmp(remembered_[i].parameters.data(), parameters, bytes) == 0) return i;
+    if (IsAt(remembered_[i], parameters)) return i;
   }
   return -1;
 }
@@ -197,9 +202,7 @@ bool EndToEndObjective::StatesAt(const double* parameters,
   // The kept point first: a line search that finds no decrease ends where it started,
   // and Ceres may evaluate that point again from a trial point's equilibria, which can
   // be another equilibrium (with another loss) than the one that was accepted.
-  const size_t bytes = sizeof(double) * static_cast<size_t>(NumParameters());
-  if (kept_.parameters.size() == NumParameters() &&
-      std::memcmp(kept_.parameters.data(), parameters, bytes) == 0) {
+  if (IsAt(kept_, parameters)) {
     *states = kept_.states;
     return true;
   }
@@ -213,10 +216,7 @@ bool EndToEndObjective::KeepStatesOf(const double* parameters) {
   CHECK_EQ(rank_, 0) << "only rank 0 commands";
   int index = RememberedIndex(parameters);
   if (index < 0) {
-    const size_t bytes = sizeof(double) * static_cast<size_t>(NumParameters());
-    const bool best = best_.parameters.size() == NumParameters() &&
-                      std::memcmp(best_.parameters.data(), parameters, bytes) == 0;
-    if (!best) return false;
+    if (!IsAt(best_, parameters)) return false;
     index = kKeepBest;
   }
   if (distributed()) SendCommand(kKeepStates, nullptr, index);

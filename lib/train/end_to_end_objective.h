@@ -234,6 +234,8 @@ class EndToEndObjective final : public ceres::FirstOrderFunction {
   // kRememberedEvaluations.
   mutable Remembered best_;
   mutable double best_loss_ = std::numeric_limits<double>::infinity();
+  // Whether `evaluation` was at `parameters` (NumParameters() values), bit for bit.
+  bool IsAt(const Remembered& evaluation, const double* parameters) const;
   // The index in remembered_ of the evaluation at `parameters` (the newest if several),
   // or -1.
   int RememberedIndex(const double* parameters) const;
