@@ -73,11 +73,15 @@ class TrainingCallback final : public ceres::IterationCallback {
   // numbering).
   void SetIterationsBefore(int iterations) { before_ = iterations; }
   bool budget_reached() const { return budget_reached_; }
+  // The parameters changed outside Ceres (a latent refit): the next Solve's first loss
+  // is not compared with the last accepted one.
+  void ForgetLastCost() { last_cost_ = std::numeric_limits<double>::quiet_NaN(); }
 
   ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
     const int iteration = before_ + s.iteration;
-    // The accepted point's equilibria, kept for the restart or final evaluation after a
-    // line search that evaluates more trial points than the objective remembers.
+    // The accepted point's equilibria, kept for the restart, final evaluation and saves
+    // after a line search that evaluates more trial points than the objective
+    // remembers, or evaluates this point again from another start.
     objective_.KeepStatesOf(parameters_.data());
     const double elapsed = timer_.Seconds();
     // What the evaluations since the previous row cost, per pose: stiffness factorizations
@@ -324,6 +328,7 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
     for (int restarts = 0;;) {
       if (refits && done >= next_refit) {
         RefitLatents(model, objective, &parameters, log);
+        callback.ForgetLastCost();  // the refitted latents start at another loss
         ++report->latent_refits;
         next_refit = every > 0 ? done + every : options.max_iterations;
       }
