@@ -6,82 +6,16 @@
 
 #include <ceres/gradient_problem.h>
 #include <ceres/gradient_problem_solver.h>
-#include <ceres/first_order_function.h>
 #include <ceres/iteration_callback.h>
 
 #include "train/latent_init.h"
+#include "train/pretrain_objective.h"
 #include "train/progress.h"
 #include "util/option_checks.h"
 #include "util/wall_timer.h"
 
 namespace aqs {
 namespace {
-
-// Frobenius weights of the six actuation numbers (off-diagonals appear twice).
-const Vector6d kEntryWeights = (Vector6d() << 1, 1, 1, 2, 2, 2).finished();
-
-// The pre-training objective over [params; z_1; ...; z_P].
-class PretrainObjective final : public ceres::FirstOrderFunction {
- public:
-  PretrainObjective(const ActuationDecoder& decoder, const std::vector<ActuationMatrix>& targets,
-                    const Eigen::VectorXd& element_weights, double latent_regularization,
-                    double decoder_regularization)
-      : decoder_(decoder),
-        targets_(targets),
-        weights_(element_weights),
-        regularization_(latent_regularization),
-        decoder_regularization_(decoder_regularization) {}
-
-  int NumParameters() const override {
-    return decoder_.num_parameters() + decoder_.latent_dim() * static_cast<int>(targets_.size());
-  }
-
-  // Loss, and the actuation error (weighted mean |a - S|_F^2) through *mse.
-  double Loss(const double* parameters, double* gradient, double* mse) const {
-    const int np = decoder_.num_parameters();
-    const int d = decoder_.latent_dim();
-    const int p = static_cast<int>(targets_.size());
-    const Eigen::Map<const Eigen::MatrixXd> latents(parameters + np, d, p);
-    std::vector<ActuationMatrix> a;
-    DecoderWorkspace workspace;
-    decoder_.DecodeBatch(parameters, latents, &a, &workspace);
-    double data = 0.0;
-    std::vector<ActuationMatrix> dl_da(p);
-    for (int i = 0; i < p; ++i) {
-      const ActuationMatrix diff = a[i] - targets_[i];
-      const ActuationMatrix weighted =
-          kEntryWeights.asDiagonal() * diff * weights_.asDiagonal();  // 6 x m
-      data += (weighted.array() * diff.array()).sum() / p;
-      if (gradient != nullptr) dl_da[i] = (2.0 / p) * weighted;
-    }
-    const Eigen::Map<const Eigen::VectorXd> params(parameters, np);
-    const double reg = regularization_ * latents.squaredNorm() / p +
-                       decoder_regularization_ * params.squaredNorm();
-    if (mse != nullptr) *mse = data;
-    if (gradient != nullptr) {
-      Eigen::Map<Eigen::VectorXd> g(gradient, NumParameters());
-      g.setZero();
-      Eigen::MatrixXd latent_gradient;
-      decoder_.Backward(parameters, workspace, dl_da, gradient, &latent_gradient);
-      g.head(np) += (2.0 * decoder_regularization_) * params;
-      Eigen::Map<Eigen::MatrixXd>(gradient + np, d, p) =
-          latent_gradient + (2.0 * regularization_ / p) * latents;
-    }
-    return data + reg;
-  }
-
-  bool Evaluate(const double* parameters, double* cost, double* gradient) const override {
-    *cost = Loss(parameters, gradient, nullptr);
-    return std::isfinite(*cost);
-  }
-
- private:
-  const ActuationDecoder& decoder_;
-  const std::vector<ActuationMatrix>& targets_;
-  Eigen::VectorXd weights_;
-  double regularization_;
-  double decoder_regularization_;
-};
 
 // L-BFGS (Ceres' GradientProblemSolver, rank kLbfgsRank): the history's two arrays per
 // rank and about eight work vectors of the parameter count.
@@ -192,7 +126,7 @@ bool Pretrain(const PretrainOptions& options, ActiveModel* model, PretrainReport
     samples.col(i) = Eigen::Map<const Eigen::VectorXd>(targets[i].data(), targets[i].size());
   }
   Eigen::VectorXd row_weights(6 * static_cast<Eigen::Index>(m));
-  for (int e = 0; e < m; ++e) row_weights.segment<6>(6 * e) = weights[e] * kEntryWeights;
+  for (int e = 0; e < m; ++e) row_weights.segment<6>(6 * e) = weights[e] * ActuationEntryWeights();
   Eigen::Map<Eigen::MatrixXd>(parameters.data() + np, d, p) = WhitenedPcaScores(samples, row_weights, d);
   log << "pretrain: " << np << " decoder parameters (" << decoder->num_nodes()
       << " control nodes), " << p << " poses x latent " << d << "\n";
