@@ -44,6 +44,12 @@ DEFINE_double(attachment_stiffness, 100.0, "Springs pulling the embedded surface
 DEFINE_bool(overwrite, false, "Replace whatever is at --model. Without it, only a missing path, "
             "an empty directory or an ActiveQS model is replaced; anything else is refused "
             "(exit 1) before any work.");
+DEFINE_string(mirror_poses, "", "Also train on the mirror image of every pose that is not "
+              "symmetric (named mirror_NAME; its bones' motions mirrored): the axis normal to the "
+              "mirror plane, x, y or z (empty: none). The neutral must be mirror-symmetric.");
+DEFINE_double(mirror_plane, 0.0, "The mirror plane of --mirror_poses: axis = this.");
+DEFINE_double(mirror_tolerance, 1e-3, "The neutral's largest asymmetry --mirror_poses accepts, "
+              "as a fraction of its bounding-box diagonal.");
 DEFINE_double(prepare_tolerance, 1e-6, "Relative force tolerance of the embedded simulations.");
 DECLARE_int32(threads);
 DECLARE_string(model);
@@ -126,6 +132,18 @@ bool PrepareOptionsFromFlags(PrepareJobOptions* options, std::string* error) {
     }
     options->boundary.bones.push_back(bone);
   }
+  if (!FLAGS_mirror_poses.empty()) {
+    const std::string axes = "xyz";
+    const size_t axis = axes.find(FLAGS_mirror_poses);
+    if (FLAGS_mirror_poses.size() != 1 || axis == std::string::npos) {
+      *error = "--mirror_poses must be x, y or z (the axis normal to the mirror plane; is '" +
+               FLAGS_mirror_poses + "')";
+      return false;
+    }
+    options->mirror.axis = static_cast<int>(axis);
+  }
+  options->mirror.plane = FLAGS_mirror_plane;
+  options->mirror.tolerance = FLAGS_mirror_tolerance;
   options->targets.relative_stiffness = FLAGS_attachment_stiffness;
   options->targets.solver.relative_force_tolerance = FLAGS_prepare_tolerance;
   if (!SolverMethodFromFlag(&options->targets.solver, error)) return false;
@@ -156,6 +174,8 @@ FlagNames PrepareFlagNames() {
                 {"boundary.bones.moving_fraction", "--bone_moving_fraction"},
                 {"boundary.bones.pose_mesh_pattern", "--bone_poses"},
                 {"boundary.bones.region_boxes", "--bone_region"},
+                {"mirror.plane", "--mirror_plane"},
+                {"mirror.tolerance", "--mirror_tolerance"},
                 {"targets.relative_stiffness", "--attachment_stiffness"},
                 {"targets.solver.relative_force_tolerance", "--prepare_tolerance"}});
   return flags;

@@ -36,9 +36,10 @@ TetMesh CropToBoxes(const TetMesh& mesh, const std::vector<Eigen::AlignedBox3d>&
 }  // namespace
 
 bool PrepareJobOptions::Validate(std::string* error) const {
-  std::string meshing_error, boundary_error, targets_error;
+  std::string meshing_error, boundary_error, mirror_error, targets_error;
   const bool meshing_ok = !tet_mesh.empty() || meshing.Validate(&meshing_error);
   const bool boundary_ok = boundary.Validate(&boundary_error);
+  const bool mirror_ok = mirror.Validate(&mirror_error);
   const bool targets_ok = targets.Validate(&targets_error);
   OptionChecks checks;
   checks.Nested("meshing", meshing_ok, meshing_error)
@@ -46,6 +47,7 @@ bool PrepareJobOptions::Validate(std::string* error) const {
       .IntInRange("min_elements_per_vertex", min_elements_per_vertex, 0, 24)
       .Positive("mu", mu)
       .Nested("boundary", boundary_ok, boundary_error)
+      .Nested("mirror", mirror_ok, mirror_error)
       .Nested("targets", targets_ok, targets_error)
       .IntInRange("num_threads", num_threads, 1, 1024)
       .Positive("max_memory_bytes", max_memory_bytes);
@@ -118,6 +120,16 @@ bool RunPrepare(const PrepareJobOptions& options, std::ostream& log, std::string
     model.poses.push_back(pose);
   }
   log << "poses: " << model.num_poses() << "\n";
+  // Mirror images: surfaces now (the memory estimates count them), bone motions after the
+  // boundary rules have fitted the given poses'.
+  const int given_poses = model.num_poses();
+  std::vector<int> mirror_sources;
+  if (options.mirror.enabled()) {
+    log << "mirror images in the plane " << "xyz"[options.mirror.axis] << " = "
+        << options.mirror.plane << ":\n";
+    if (!AddMirrorPoses(options.mirror, &model, &mirror_sources, log, error)) return false;
+    log << "poses with their mirror images: " << model.num_poses() << "\n";
+  }
 
   WallTimer timer;
   if (!options.tet_mesh.empty()) {
@@ -225,6 +237,13 @@ bool RunPrepare(const PrepareJobOptions& options, std::ostream& log, std::string
     return false;
   }
   log << rules_log;
+  if (!mirror_sources.empty()) {
+    MirrorBoneTransforms(options.mirror, mirror_sources, given_poses, &model);
+    for (const Bone& bone : model.bones) {
+      log << "bone '" << bone.name << "': the motions of the " << mirror_sources.size()
+          << " mirror images are their sources' mirrored\n";
+    }
+  }
 
   timer.Reset();
   log << "volumetric targets by embedded simulation:\n";

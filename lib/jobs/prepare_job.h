@@ -10,6 +10,7 @@
 #include "geometry/plane_cuts.h"
 #include "geometry/surface_tet_mesher.h"
 #include "prepare/boundary_rules.h"
+#include "prepare/mirror_poses.h"
 #include "prepare/volumetric_targets.h"
 #include "util/job_status.h"
 #include "util/memory_limit.h"
@@ -39,6 +40,9 @@ struct PrepareJobOptions {
   int min_elements_per_vertex = 4;
   double mu = 1.0;
   BoundaryRuleOptions boundary;
+  // Mirror images of the poses (prepare/mirror_poses.h; axis -1: none): appended after
+  // the given poses as "mirror_NAME", with their bones' motions mirrored.
+  MirrorOptions mirror;
   VolumetricTargetOptions targets;
   std::string output;                   // model directory; required
   // Replace whatever is at `output`; without it, only a missing path, an empty

@@ -401,6 +401,10 @@ TEST_F(AqsValidationModelTest, PrepareAndCollideRefuseBadFlags) {
                        " --bone_poses={dir}teeth.obj --bone_region=-2,-2,-1,2,2,0.3",
                    1, "--bone_poses must contain '{pose}'"},
                   {"--spacing=0.5 --threads=0", 1, "--threads must be in [1, 1024] (is 0)"},
+                  {"--spacing=0.5 --mirror_poses=w", 1, "--mirror_poses must be x, y or z"},
+                  {"--spacing=0.5 --mirror_poses=x --mirror_tolerance=0", 1, "--mirror_tolerance must be in ["},
+                  {"--spacing=0.5 --mirror_poses=x --mirror_plane=inf", 1, "--mirror_plane must be finite"},
+                  {"--spacing=0.5 --mirror_poses=x --mirror_plane=100", 1, "the neutral surface is not mirror-symmetric (--mirror_poses): vertex 0 has no mirror image"},
               },
               dir.path());
   EXPECT_FALSE(fs::exists(dir.File("p"))) << "nothing written";

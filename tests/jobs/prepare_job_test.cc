@@ -1,5 +1,6 @@
 #include "jobs/prepare_job.h"
 
+#include <cmath>
 #include <sstream>
 
 #include <gtest/gtest.h>
@@ -129,6 +130,38 @@ TEST_F(PrepareJobTest, UserTetMeshAndBoxRule) {
   ASSERT_TRUE(LoadModel(options.output, &second, &error)) << error;
   EXPECT_EQ(second.mesh.tets, first.mesh.tets);
   for (int v : second.static_vertices) EXPECT_LE(second.mesh.vertices(2, v), -1.5);
+}
+
+// --mirror_poses: the stretch and the bulge are symmetric in x = 0 and get no image; the
+// twist's image (the opposite twist) is appended with a target of its own, which the
+// embedded simulation follows as closely as the twist's.
+TEST_F(PrepareJobTest, MirrorImagesOfAsymmetricPoses) {
+  std::ostringstream log;
+  std::string error;
+  PrepareJobOptions options = options_;
+  options.mirror.axis = 0;
+  ASSERT_TRUE(RunPrepareJob(options, log, &error)) << error << "\n" << log.str();
+  ActiveModel model;
+  ASSERT_TRUE(LoadModel(options.output, &model, &error)) << error;
+  ASSERT_EQ(model.num_poses(), 4) << log.str();
+  EXPECT_EQ(model.poses[3].name, "mirror_pose2");
+  EXPECT_EQ(model.poses[3].target.cols(), model.mesh.num_tets());
+  EXPECT_LT(model.poses[3].embedding_mean_error, 2.0 * model.poses[2].embedding_mean_error + 1e-4);
+  // The image's surface: the twist by -0.08 z.
+  for (int v = 0; v < model.num_surface_vertices(); ++v) {
+    const Eigen::Vector3d x = neutral_.vertices.col(v);
+    const double angle = -0.08 * x.z();
+    const Eigen::Vector3d expected(std::cos(angle) * x.x() - std::sin(angle) * x.y(),
+                                   std::sin(angle) * x.x() + std::cos(angle) * x.y(), x.z());
+    EXPECT_LT((model.poses[3].surface.col(v) - expected).norm(), 1e-4) << v;
+  }
+  EXPECT_NE(log.str().find("pose0: symmetric"), std::string::npos) << log.str();
+  // A neutral that is not symmetric in the plane y = 0.5 is refused.
+  options.mirror.axis = 1;
+  options.mirror.plane = 0.5;
+  options.output = dir_.File("refused");
+  EXPECT_FALSE(RunPrepareJob(options, log, &error));
+  EXPECT_NE(error.find("not mirror-symmetric (--mirror_poses)"), std::string::npos) << error;
 }
 
 TEST_F(PrepareJobTest, BadInputsFailClearly) {
