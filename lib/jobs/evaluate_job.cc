@@ -10,6 +10,7 @@
 #include "dist/communicator.h"
 #include "dist/model_sharing.h"
 #include "eval/error_budget.h"
+#include "eval/held_out_overlap.h"
 #include "eval/surface_pca.h"
 #include "jobs/report_script.h"
 #include "mesh/mesh_io.h"
@@ -378,6 +379,23 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
   log << "evaluate: " << model.num_poses() << " training poses, " << test_names.size()
       << " held-out poses, latent " << model.latent_dim() << ", errors over "
       << num_error_vertices << " surface vertices\n";
+  // Held-out poses that are training poses (a file listed twice, a mirror image).
+  std::string overlap_note;
+  {
+    std::vector<Eigen::Matrix3Xd> training_surfaces;
+    for (const TrainingPose& pose : model.poses) training_surfaces.push_back(pose.surface);
+    std::ostringstream note;
+    for (const HeldOutOverlap& overlap :
+         FindHeldOutOverlaps(model.neutral.vertices, training_surfaces, test_surfaces,
+                             options.error_vertices)) {
+      note << "held-out pose '" << test_names[overlap.test] << "' is within "
+           << overlap.distance << " of the training pose '"
+           << model.poses[overlap.training].name << "' (it moves " << overlap.motion
+           << " from the neutral): it is not held out. ";
+    }
+    overlap_note = note.str();
+    if (!overlap_note.empty()) log << "warning: " << overlap_note << "\n";
+  }
   // The physics fits of the held-out poses first: the part shared among ranks.
   WallTimer timer;
   std::vector<LatentFitResult> fits;
@@ -652,6 +670,7 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
      << (ae_options.lbfgs_scaling ? " with scaled steps" : "") << " from seed "
      << ae_options.seed << ", loss " << ae.initial_loss
      << " -> " << ae.final_loss << " (" << ae.termination << ").\n\n";
+  if (!overlap_note.empty()) md << "**Warning:** " << overlap_note << "\n\n";
   if (!test_names.empty()) {
     md << "Held-out latent fits start, for the physics model and the auto-encoder alike, from "
        << (options.training_pose_starts

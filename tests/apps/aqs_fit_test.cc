@@ -80,6 +80,8 @@ TEST_F(AqsFitTest, EvaluationTablesAndFieldsAreWritten) {
   EXPECT_NE(md.str().find("The auto-encoder trained "), std::string::npos) << md.str();
   EXPECT_NE(md.str().find(" L-BFGS iterations with scaled steps from seed 1, loss "), std::string::npos)
       << md.str();
+  // The held-out poses are not training poses: no warning.
+  EXPECT_EQ(md.str().find("**Warning:**"), std::string::npos) << md.str();
   std::ifstream csv(dir_->File("evaluation/evaluation.csv"));
   int lines = 0;
   std::map<std::string, int> methods;
@@ -143,6 +145,12 @@ TEST_F(AqsFitTest, EvaluationStartsHeldOutFitsFromTheBestTrainingPose) {
         starts ? " " + pose + " from " + pose + " / " + pose + "."
                : " " + pose + " from mean latent / mean latent.";
     EXPECT_NE(md.str().find(expected), std::string::npos) << expected << "\n" << md.str();
+    // The report and the log say that this pose is not held out.
+    const std::string warning = "held-out pose '" + pose + "' is within ";
+    const std::string which = " of the training pose '" + pose + "' (it moves ";
+    EXPECT_NE(md.str().find("**Warning:** " + warning), std::string::npos) << md.str();
+    EXPECT_NE(md.str().find(which), std::string::npos) << md.str();
+    EXPECT_NE(run.output.find("warning: " + warning), std::string::npos) << run.output;
     EXPECT_NE(run.output.find(starts ? "iterations from " + pose + ", auto-encoder from " + pose
                                      : "iterations from mean latent, auto-encoder from mean latent"),
               std::string::npos)
