@@ -240,8 +240,8 @@ bool RunPrepare(const PrepareJobOptions& options, std::ostream& log, std::string
   if (!mirror_sources.empty()) {
     MirrorBoneTransforms(options.mirror, mirror_sources, given_poses, &model);
     for (const Bone& bone : model.bones) {
-      log << "bone '" << bone.name << "': the motions of the " << mirror_sources.size()
-          << " mirror images are their sources' mirrored\n";
+      log << "bone '" << bone.name << "': in the " << mirror_sources.size()
+          << " mirror images, the mirror image of its motion in their sources\n";
     }
   }
 
