@@ -36,6 +36,28 @@ Eigen::Matrix3Xd Twisted(const Eigen::Matrix3Xd& points, double angle) {
 class MirrorPosesTest : public ::testing::Test {
  protected:
   MirrorPosesTest() : sphere_(testing::Icosphere(3, 2.0)) {}
+
+  // A model of the sphere with these poses.
+  ActiveModel SphereModel(const std::vector<TrainingPose>& poses) const {
+    ActiveModel model;
+    model.neutral = sphere_;
+    model.poses = poses;
+    return model;
+  }
+  // The pose `name`: the sphere twisted by angle * z.
+  TrainingPose Twist(const std::string& name, double angle) const {
+    TrainingPose pose;
+    pose.name = name;
+    pose.surface = Twisted(sphere_.vertices, angle);
+    return pose;
+  }
+  // Mirror images in x = 0.
+  static MirrorOptions XMirror() {
+    MirrorOptions options;
+    options.axis = 0;
+    return options;
+  }
+
   SurfaceMesh sphere_;
 };
 
@@ -117,17 +139,12 @@ TEST(MirrorRigidTransformTest, ConjugatesByTheReflection) {
 // A model with a symmetric stretch and a twist: only the twist gets an image, and the
 // bone transforms of the image are the mirrored ones of its source.
 TEST_F(MirrorPosesTest, AddsImagesOfAsymmetricPosesOnlyAndMirrorsTheirBones) {
-  ActiveModel model;
-  model.neutral = sphere_;
-  TrainingPose stretch, twist;
+  TrainingPose stretch;
   stretch.name = "stretch";
   stretch.surface = sphere_.vertices;
   stretch.surface.row(0) *= 1.06;
-  twist.name = "twist";
-  twist.surface = Twisted(sphere_.vertices, 0.1);
-  model.poses = {stretch, twist};
-  MirrorOptions options;
-  options.axis = 0;
+  ActiveModel model = SphereModel({stretch, Twist("twist", 0.1)});
+  const MirrorOptions options = XMirror();
   std::vector<int> sources;
   std::ostringstream log;
   std::string error;
@@ -154,23 +171,15 @@ TEST_F(MirrorPosesTest, AddsImagesOfAsymmetricPosesOnlyAndMirrorsTheirBones) {
 }
 
 TEST_F(MirrorPosesTest, RefusesAnAsymmetricNeutralAndATakenName) {
-  ActiveModel model;
-  model.neutral = sphere_;
-  TrainingPose twist;
-  twist.name = "twist";
-  twist.surface = Twisted(sphere_.vertices, 0.1);
-  TrainingPose taken = twist;
-  taken.name = "mirror_twist";
-  model.poses = {twist, taken};
-  MirrorOptions options;
-  options.axis = 0;
+  ActiveModel model = SphereModel({Twist("twist", 0.1), Twist("mirror_twist", 0.1)});
+  const MirrorOptions options = XMirror();
   std::vector<int> sources;
   std::ostringstream log;
   std::string error;
   EXPECT_FALSE(AddMirrorPoses(options, &model, &sources, log, &error));
   EXPECT_NE(error.find("'mirror_twist' is a given pose's"), std::string::npos) << error;
 
-  model.poses = {twist};
+  model.poses = {Twist("twist", 0.1)};
   model.neutral.vertices(0, 5) += 0.2;  // the diagonal is 4: 0.2 is 5% of it
   EXPECT_FALSE(AddMirrorPoses(options, &model, &sources, log, &error));
   EXPECT_NE(error.find("not mirror-symmetric"), std::string::npos) << error;
