@@ -40,6 +40,8 @@ bool MirrorVertexMap(const Eigen::Matrix3Xd& points, int axis, double plane, dou
                      std::vector<int>* map, std::string* error) {
   CHECK(axis >= 0 && axis < 3 && tolerance > 0.0);
   const int n = static_cast<int>(points.cols());
+  map->assign(n, -1);
+  if (n == 0) return true;
   const Eigen::Vector3d lowest = points.rowwise().minCoeff();
   auto cell = [&](const Eigen::Vector3d& x) {
     return Eigen::Vector3d(((x - lowest) / tolerance).array().floor());
@@ -52,7 +54,6 @@ bool MirrorVertexMap(const Eigen::Matrix3Xd& points, int axis, double plane, dou
                  static_cast<std::int64_t>(c[2]))]
         .push_back(i);
   }
-  map->assign(n, -1);
   for (int i = 0; i < n; ++i) {
     const Eigen::Vector3d y = Reflect(points.col(i), axis, plane);
     const Eigen::Vector3d c = cell(y);
@@ -129,8 +130,8 @@ bool AddMirrorPoses(const MirrorOptions& options, ActiveModel* model, std::vecto
     *error = "the neutral surface is not mirror-symmetric (--mirror_poses): " + *error;
     return false;
   }
-  const int given = model->num_poses();
-  for (int p = 0; p < given; ++p) {
+  std::vector<TrainingPose> images;  // appended after the loop (model->poses stays put)
+  for (int p = 0; p < model->num_poses(); ++p) {
     const TrainingPose& pose = model->poses[p];
     const Eigen::Matrix3Xd image = MirrorPoseSurface(neutral, pose.surface, map, options.axis);
     const double moved = (pose.surface - neutral).colwise().norm().mean();
@@ -152,9 +153,10 @@ bool AddMirrorPoses(const MirrorOptions& options, ActiveModel* model, std::vecto
     mirrored.surface = image;
     log << "  " << pose.name << ": mirror image " << mirrored.name << " (differs by " << differs
         << " on average, it moves " << moved << ")\n";
-    model->poses.push_back(std::move(mirrored));
+    images.push_back(std::move(mirrored));
     sources->push_back(p);
   }
+  model->poses.insert(model->poses.end(), images.begin(), images.end());
   return true;
 }
 
