@@ -1,12 +1,11 @@
 #include "prepare/mirror_poses.h"
 
 #include <cmath>
-#include <cstdint>
 #include <limits>
-#include <unordered_map>
 
 #include <glog/logging.h>
 
+#include "geometry/triangle_grid.h"
 #include "util/option_checks.h"
 
 namespace aqs {
@@ -17,12 +16,6 @@ Eigen::Vector3d Reflect(const Eigen::Vector3d& x, int axis, double plane) {
   Eigen::Vector3d y = x;
   y[axis] = 2.0 * plane - x[axis];
   return y;
-}
-
-// A hash key of a grid cell.
-std::int64_t CellKey(std::int64_t i, std::int64_t j, std::int64_t k) {
-  constexpr std::int64_t kSide = 1 << 20;  // cells per axis before keys wrap
-  return ((i & (kSide - 1)) * kSide + (j & (kSide - 1))) * kSide + (k & (kSide - 1));
 }
 
 }  // namespace
@@ -42,36 +35,25 @@ bool MirrorVertexMap(const Eigen::Matrix3Xd& points, int axis, double plane, dou
   const int n = static_cast<int>(points.cols());
   map->assign(n, -1);
   if (n == 0) return true;
-  const Eigen::Vector3d lowest = points.rowwise().minCoeff();
-  auto cell = [&](const Eigen::Vector3d& x) {
-    return Eigen::Vector3d(((x - lowest) / tolerance).array().floor());
-  };
-  std::unordered_map<std::int64_t, std::vector<int>> grid;
-  grid.reserve(static_cast<size_t>(n));
-  for (int i = 0; i < n; ++i) {
-    const Eigen::Vector3d c = cell(points.col(i));
-    grid[CellKey(static_cast<std::int64_t>(c[0]), static_cast<std::int64_t>(c[1]),
-                 static_cast<std::int64_t>(c[2]))]
-        .push_back(i);
-  }
+  // The points as degenerate triangles (i, i, i) in a grid of cells of the tolerance.
+  const Eigen::Vector3d lowest = points.rowwise().minCoeff().array() - tolerance;
+  const Eigen::Vector3d highest = points.rowwise().maxCoeff().array() + tolerance;
+  CHECK_LT((highest - lowest).maxCoeff() / tolerance, 2e9) << "cell indices would overflow";
+  Eigen::Matrix3Xi singletons(3, n);
+  for (int i = 0; i < n; ++i) singletons.col(i).setConstant(i);
+  const TriangleGrid grid(points, singletons, tolerance);
+  std::vector<int> marks, near;
   for (int i = 0; i < n; ++i) {
     const Eigen::Vector3d y = Reflect(points.col(i), axis, plane);
-    const Eigen::Vector3d c = cell(y);
     double best = std::numeric_limits<double>::infinity();
-    for (int di = -1; di <= 1; ++di) {
-      for (int dj = -1; dj <= 1; ++dj) {
-        for (int dk = -1; dk <= 1; ++dk) {
-          const auto found = grid.find(CellKey(static_cast<std::int64_t>(c[0]) + di,
-                                               static_cast<std::int64_t>(c[1]) + dj,
-                                               static_cast<std::int64_t>(c[2]) + dk));
-          if (found == grid.end()) continue;
-          for (const int j : found->second) {
-            const double d = (points.col(j) - y).norm();
-            if (d < best) {
-              best = d;
-              (*map)[i] = j;
-            }
-          }
+    if ((y.array() >= lowest.array()).all() && (y.array() <= highest.array()).all()) {
+      near.clear();
+      grid.Near(y, i, &marks, &near);
+      for (const int j : near) {
+        const double d = (points.col(j) - y).norm();
+        if (d < best) {
+          best = d;
+          (*map)[i] = j;
         }
       }
     }

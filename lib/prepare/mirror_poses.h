@@ -37,7 +37,8 @@ struct MirrorOptions {
 // The mirror map of a point set (3 x n): map[i] is the index of the point nearest to the
 // reflection of point i. False with *error naming the point if that nearest point is
 // farther than `tolerance` (model units) or if the map is not its own inverse (points
-// closer together than the tolerance). Uniform hashing: O(n) for a surface's vertices.
+// closer together than the tolerance). The points go into a TriangleGrid
+// (geometry/triangle_grid.h) of cells of the tolerance: O(n) for a surface's vertices.
 bool MirrorVertexMap(const Eigen::Matrix3Xd& points, int axis, double plane, double tolerance,
                      std::vector<int>* map, std::string* error);
 
