@@ -16,6 +16,9 @@ DEFINE_int32(fit_iterations, 50, "Levenberg-Marquardt iterations of a fit (per m
              "for points).");
 DEFINE_double(fit_function_tolerance, 1e-4, "Levenberg-Marquardt stops when an iteration changes "
               "the cost by less than this fraction.");
+DEFINE_int32(fit_coarse_points, 0, "Poses with correspondence: also fit from the same start "
+             "to this many of the target's points (farthest apart) and then to all, and keep the "
+             "better fit (a second start against local minima; about 3x the time). 0: one fit.");
 DEFINE_double(fit_tolerance, 1e-6, "Relative force tolerance of the equilibria.");
 DECLARE_int32(threads);
 
@@ -31,6 +34,7 @@ bool LatentFitOptionsFromFlags(LatentFitOptions* fit, std::string* error) {
   fit->prior_points_cap = FLAGS_prior_points_cap;
   fit->max_iterations = FLAGS_fit_iterations;
   fit->function_tolerance = FLAGS_fit_function_tolerance;
+  fit->coarse_points = FLAGS_fit_coarse_points;
   fit->solver.relative_force_tolerance = FLAGS_fit_tolerance;
   if (!SolverMethodFromFlag(&fit->solver, error)) return false;
   fit->num_threads = FLAGS_threads;
@@ -45,6 +49,7 @@ FlagNames LatentFitFlagNames(const std::string& prefix) {
                              {prefix + "latent_regularization", "--fit_regularization"},
                              {prefix + "max_iterations", "--fit_iterations"},
                              {prefix + "function_tolerance", "--fit_function_tolerance"},
+                             {prefix + "coarse_points", "--fit_coarse_points"},
                              {prefix + "solver.relative_force_tolerance", "--fit_tolerance"}});
   return flags;
 }

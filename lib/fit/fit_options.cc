@@ -20,6 +20,7 @@ bool LatentFitOptions::Validate(std::string* error) const {
       .IntInRange("max_iterations", max_iterations, 1, 1000000)
       .Positive("function_tolerance", function_tolerance)
       .Positive("parameter_tolerance", parameter_tolerance)
+      .IntInRange("coarse_points", coarse_points, 0, 100000000)
       .IntInRange("num_threads", num_threads, 1, 1024)
       .Nested("solver", solver_ok, solver_error)
       .ReachableTolerance("solver.relative_force_tolerance", solver.relative_force_tolerance)

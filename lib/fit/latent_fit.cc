@@ -16,6 +16,7 @@
 
 #include "fit/gaussian_prior_cost.h"
 #include "fit/latent_prior.h"
+#include "fit/target_subset.h"
 #include "geometry/embedding.h"
 #include "geometry/triangle_bvh.h"
 #include "util/wall_timer.h"
@@ -604,6 +605,44 @@ bool LatentFitter::Simulate(const Eigen::VectorXd& z, Eigen::Matrix3Xd* state,
 
 bool LatentFitter::Fit(const FitTarget& target, const Eigen::VectorXd& initial,
                        LatentFitResult* result, std::string* error) {
+  const int coarse = options_.coarse_points;
+  if (direct_cloud_ != nullptr || coarse <= 0 || target.num_points() <= 2 * coarse ||
+      target.normals.cols() > 0) {
+    return FitFrom(target, initial, result, error);
+  }
+  const std::vector<RigidTransform> start_bones = bones_;
+  const Eigen::Matrix3Xd start_state = accepted_state_;
+  if (!FitFrom(target, initial, result, error)) return false;
+  const LatentFitResult direct = *result;
+  const double direct_objective = Objective(target, direct.surface, direct.latent);
+  // The second start: the same start, a sparse subset of the points, then all of them.
+  bones_ = start_bones;
+  accepted_state_ = start_state;
+  LatentFitResult sparse, fine;
+  std::string second_error;
+  const bool second_ok =
+      FitFrom(FarthestPointSubset(target, coarse), initial, &sparse, &second_error) &&
+      !sparse.failed && FitFrom(target, sparse.latent, &fine, &second_error) && !fine.failed;
+  const bool second_better =
+      second_ok && Objective(target, fine.surface, fine.latent) < direct_objective;
+  *result = second_better ? fine : direct;
+  // The counters of every fit that ran (a failed second start counts what it did).
+  const LatentFitResult* others[] = {second_better ? &direct : &fine, &sparse};
+  for (const LatentFitResult* other : others) {
+    result->iterations += other->iterations;
+    result->solves += other->solves;
+    result->solve_factorizations += other->solve_factorizations;
+    result->solve_seconds += other->solve_seconds;
+    result->jacobians += other->jacobians;
+    result->jacobian_seconds += other->jacobian_seconds;
+  }
+  bones_ = result->bones;
+  accepted_state_ = result->state;
+  return true;
+}
+
+bool LatentFitter::FitFrom(const FitTarget& target, const Eigen::VectorXd& initial,
+                           LatentFitResult* result, std::string* error) {
   const int d = model_.latent_dim();
   CHECK_EQ(initial.size(), d);
   CHECK_EQ(target.vertices.cols(), target.positions.cols());
@@ -751,7 +790,7 @@ bool LatentFitter::FitPointCloud(const Eigen::Matrix3Xd& points,
     // One Levenberg-Marquardt solve of the robust closest-point distances.
     direct_cloud_ = &points;
     direct_cloud_options_ = cloud_options;
-    const bool ok = Fit(FitTarget(), z, result, error);
+    const bool ok = FitFrom(FitTarget(), z, result, error);
     direct_cloud_ = nullptr;
     if (!ok) return false;
     result->round_distances.clear();
@@ -780,7 +819,7 @@ bool LatentFitter::FitPointCloud(const Eigen::Matrix3Xd& points,
       break;
     }
     previous_mean = mean;
-    if (!Fit(target, z, result, error)) {
+    if (!FitFrom(target, z, result, error)) {
       ok = false;
       break;
     }

@@ -43,6 +43,7 @@ LatentRefitReport RefitTrainingLatents(const LatentRefitOptions& options, Active
   fit.bone_prior = 0.0;
   fit.latent_regularization = options.latent_regularization;
   fit.fit_bones = false;
+  fit.coarse_points = 0;  // from the pose's own equilibrium: one fit (whatever the default)
   fit.max_iterations = options.max_iterations;
   fit.solver = options.solver;
   fit.num_threads = 1;

@@ -297,6 +297,7 @@ TEST_F(AqsValidationModelTest, FitRefusesBadFlagsTargetsAndOutputs) {
                   {target + " --max_distance=nan", 1, "--max_distance must be >= 0"},
                   {target + " --rounds=0", 1, "--rounds must be in [1, 10000] (is 0)"},
                   {target + " --rounds=-1", 1, "--rounds must be in [1, 10000] (is -1)"},
+                  {target + " --fit_coarse_points=-1", 1, "--fit_coarse_points must be in [0, 100000000] (is -1)"},
                   {target + " --fit_tolerance=0", 1, "--fit_tolerance must be finite and > 0 (is 0)"},
                   {target + " --fit_tolerance=nan", 1, "--fit_tolerance must be finite and > 0 (is nan)"},
                   {target + " --threads=0", 1, "--threads must be in [1, 1024] (is 0)"},

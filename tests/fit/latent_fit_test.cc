@@ -212,6 +212,46 @@ TEST(LatentFitTest, RecoversLatentAndBoneMotion) {
   EXPECT_LT((fit.bones[0].translation - moved.translation).norm(), 1e-5);
 }
 
+// The second start (LatentFitOptions::coarse_points): the fit kept is never worse by the
+// fit's objective than the direct fit from the same start, its counters include both,
+// and the fitter is left at the kept fit (its bones; its equilibrium as the next start).
+TEST(LatentFitTest, SecondStartKeepsTheBetterFitAndCountsBoth) {
+  const ActiveModel model = TrainedModel(true);
+  LatentFitOptions options;
+  options.solver.relative_force_tolerance = 1e-10;
+  RigidTransform moved;
+  moved.rotation = Eigen::AngleAxisd(0.2, Eigen::Vector3d(1.0, 0.4, -0.2).normalized()).toRotationMatrix();
+  moved.translation = Eigen::Vector3d(-0.04, 0.08, 0.02);
+  Eigen::Matrix3Xd state, surface;
+  std::string error;
+  {
+    LatentFitter truth_fitter(model, options);
+    truth_fitter.set_bone_transforms({moved});
+    const Eigen::VectorXd z = 0.7 * model.latents.col(2) - 0.4 * model.latents.col(5);
+    ASSERT_TRUE(truth_fitter.Simulate(z, &state, &surface, &error)) << error;
+  }
+  const FitTarget target = FullSurfaceTarget(surface);
+  ASSERT_GT(target.num_points(), 10);
+  LatentFitResult results[2];
+  double objectives[2];
+  for (int two : {0, 1}) {
+    options.coarse_points = two ? 5 : 0;
+    LatentFitter fitter(model, options);
+    ASSERT_TRUE(fitter.Fit(target, fitter.MeanLatent(), &results[two], &error)) << error;
+    objectives[two] = fitter.Objective(target, results[two].surface, results[two].latent);
+    // The fitter's bones are the kept fit's, and its surface is that fit's equilibrium.
+    ASSERT_EQ(fitter.bone_transforms().size(), 1u);
+    EXPECT_LT((fitter.bone_transforms()[0].rotation - results[two].bones[0].rotation).norm(), 1e-12);
+    Eigen::Matrix3Xd again_state, again_surface;
+    ASSERT_TRUE(fitter.Simulate(results[two].latent, &again_state, &again_surface, &error)) << error;
+    EXPECT_LT((again_surface - results[two].surface).cwiseAbs().maxCoeff(), 1e-6);
+  }
+  EXPECT_LE(objectives[1], objectives[0] * (1 + 1e-9));
+  // Both fits' work is counted: the direct one alone ran results[0]'s iterations.
+  EXPECT_GT(results[1].iterations, results[0].iterations);
+  EXPECT_GT(results[1].solves, results[0].solves);
+}
+
 TEST(LatentFitTest, PointCloudFitRecoversPoseFromPartialNoisyShuffledScan) {
   const ActiveModel model = TrainedModel(false);
   LatentFitOptions options;
