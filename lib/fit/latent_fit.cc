@@ -636,6 +636,8 @@ bool LatentFitter::Fit(const FitTarget& target, const Eigen::VectorXd& initial,
     result->jacobians += other->jacobians;
     result->jacobian_seconds += other->jacobian_seconds;
   }
+  result->second_start_ran = true;
+  result->second_start_kept = second_better;
   bones_ = result->bones;
   accepted_state_ = result->state;
   return true;

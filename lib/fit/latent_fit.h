@@ -106,6 +106,9 @@ struct LatentFitResult {
   // Point clouds: the mean matched distance at the start of each matching round.
   std::vector<double> round_distances;
   std::string start;  // where the fit started (ChooseStart), "" if not chosen
+  // With LatentFitOptions::coarse_points: whether the second start ran, and whether the
+  // fit kept is the one through the subset of points.
+  bool second_start_ran = false, second_start_kept = false;
   // Where the time went: equilibrium solves (count, stiffness factorizations, seconds)
   // and Jacobians (count, seconds: one factorization and the products each).
   int solves = 0, solve_factorizations = 0, jacobians = 0;

@@ -281,6 +281,12 @@ FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log) {
   log << std::setprecision(6) << "fit: " << fit.iterations << " iterations, error mean "
       << fit.mean_error << " rms " << fit.rms_error << " max " << fit.max_error << " over "
       << fit.used_points << " points (" << fit.message << ")\n";
+  if (fit.second_start_ran) {
+    log << "second start through " << options.fit.coarse_points << " of the points: "
+        << (fit.second_start_kept ? "kept (a smaller objective than the direct fit)"
+                                  : "not kept (the direct fit's objective is not larger)")
+        << "\n";
+  }
   if (kind == "points") {
     log << "scan: " << fit.used_points << " of " << cloud.cols() << " points matched ("
         << 100.0 * fit.matched_fraction << "%), matched distance mean " << fit.mean_error

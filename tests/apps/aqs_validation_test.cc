@@ -320,6 +320,10 @@ TEST_F(AqsValidationModelTest, FitRefusesBadFlagsTargetsAndOutputs) {
   ExpectCases("aqs_fit", common, {{" --target={dir}extra.obj --target_kind=points", 0, "wrote "}},
               dir.path());
   EXPECT_TRUE(fs::exists(dir.File("f.obj")));
+  // A pose with the second start: the log says whether it was kept.
+  ExpectCases("aqs_fit", common,
+              {{target + " --fit_coarse_points=3", 0, "second start through 3 of the points: "}},
+              dir.path());
 }
 
 TEST_F(AqsValidationModelTest, ExitTwoStillWritesTheOutputs) {

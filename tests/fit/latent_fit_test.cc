@@ -246,6 +246,11 @@ TEST(LatentFitTest, SecondStartKeepsTheBetterFitAndCountsBoth) {
     ASSERT_TRUE(fitter.Simulate(results[two].latent, &again_state, &again_surface, &error)) << error;
     EXPECT_LT((again_surface - results[two].surface).cwiseAbs().maxCoeff(), 1e-6);
   }
+  EXPECT_FALSE(results[0].second_start_ran);
+  EXPECT_TRUE(results[1].second_start_ran);
+  if (!results[1].second_start_kept) {
+    EXPECT_LT((results[1].latent - results[0].latent).norm(), 1e-9);
+  }
   EXPECT_LE(objectives[1], objectives[0] * (1 + 1e-9));
   // Both fits' work is counted: the direct one alone ran results[0]'s iterations.
   EXPECT_GT(results[1].iterations, results[0].iterations);
