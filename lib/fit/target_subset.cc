@@ -1,5 +1,6 @@
 #include "fit/target_subset.h"
 
+#include <algorithm>
 #include <limits>
 #include <vector>
 
@@ -28,7 +29,8 @@ FitTarget FarthestPointSubset(const FitTarget& target, int count) {
       int farthest = 0;
       double farthest_distance = -1.0;
       for (size_t j = 0; j < usable.size(); ++j) {
-        distance[j] = std::min(distance[j], (target.positions.col(usable[j]) - added).squaredNorm());
+        const double to_added = (target.positions.col(usable[j]) - added).squaredNorm();
+        distance[j] = std::min(distance[j], to_added);
         if (distance[j] > farthest_distance) {
           farthest_distance = distance[j];
           farthest = static_cast<int>(j);

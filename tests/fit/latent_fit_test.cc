@@ -220,7 +220,8 @@ TEST(LatentFitTest, SecondStartKeepsTheBetterFitAndCountsBoth) {
   LatentFitOptions options;
   options.solver.relative_force_tolerance = 1e-10;
   RigidTransform moved;
-  moved.rotation = Eigen::AngleAxisd(0.2, Eigen::Vector3d(1.0, 0.4, -0.2).normalized()).toRotationMatrix();
+  moved.rotation =
+      Eigen::AngleAxisd(0.2, Eigen::Vector3d(1.0, 0.4, -0.2).normalized()).toRotationMatrix();
   moved.translation = Eigen::Vector3d(-0.04, 0.08, 0.02);
   Eigen::Matrix3Xd state, surface;
   std::string error;
@@ -241,9 +242,11 @@ TEST(LatentFitTest, SecondStartKeepsTheBetterFitAndCountsBoth) {
     objectives[two] = fitter.Objective(target, results[two].surface, results[two].latent);
     // The fitter's bones are the kept fit's, and its surface is that fit's equilibrium.
     ASSERT_EQ(fitter.bone_transforms().size(), 1u);
-    EXPECT_LT((fitter.bone_transforms()[0].rotation - results[two].bones[0].rotation).norm(), 1e-12);
+    EXPECT_LT((fitter.bone_transforms()[0].rotation - results[two].bones[0].rotation).norm(),
+              1e-12);
     Eigen::Matrix3Xd again_state, again_surface;
-    ASSERT_TRUE(fitter.Simulate(results[two].latent, &again_state, &again_surface, &error)) << error;
+    ASSERT_TRUE(fitter.Simulate(results[two].latent, &again_state, &again_surface, &error))
+        << error;
     EXPECT_LT((again_surface - results[two].surface).cwiseAbs().maxCoeff(), 1e-6);
   }
   EXPECT_FALSE(results[0].second_start_ran);
