@@ -1,6 +1,8 @@
 #include "evaluate_flags.h"
 
 #include <filesystem>
+#include <string>
+#include <vector>
 
 #include <gflags/gflags.h>
 
@@ -8,6 +10,7 @@
 #include "latent_fit_flags.h"
 
 #include "prepare/pose_files.h"
+#include "util/line_reader.h"
 #include "util/vertex_ranges.h"
 
 DEFINE_string(test_poses, "", "Held-out pose surfaces (folder, glob, .txt list or comma list), "
@@ -17,7 +20,13 @@ DEFINE_string(output_dir, "", "Where the evaluation writes evaluation.md, evalua
               "fields/*.ply (per-vertex errors) and fitted/*.obj.");
 DEFINE_string(error_vertices, "", "Surface vertices to measure errors on, e.g. 0:9409 "
               "(default: all).");
+DEFINE_string(baseline_linear_skip, "decoder", "Whether the auto-encoder baseline has a linear "
+              "skip beside its network: true, false, or 'decoder': as the model's decoder.");
 DEFINE_int32(baseline_iterations, 500, "L-BFGS iterations of the auto-encoder baseline.");
+DEFINE_string(baseline_hidden, "decoder", "Hidden layer widths of the auto-encoder baseline "
+              "(comma-separated), or 'decoder': the same as the model's decoder. A linear "
+              "decoder's comparison should keep a network here (a linear auto-encoder is the "
+              "PCA about the neutral).");
 DEFINE_bool(baseline_lbfgs_scaling, true, "The auto-encoder baseline's L-BFGS scales its initial "
             "inverse Hessian as end-to-end training does (--lbfgs_scaling).");
 DEFINE_int32(baseline_seed, 1, "Seed of the auto-encoder baseline's random initial weights "
@@ -92,6 +101,25 @@ bool EvaluateOptionsFromFlags(EvaluateJobOptions* options, std::string* error) {
     return false;
   }
   options->autoencoder.seed = static_cast<unsigned>(FLAGS_baseline_seed);
+  if (FLAGS_baseline_linear_skip == "true" || FLAGS_baseline_linear_skip == "false") {
+    options->autoencoder_linear_skip = FLAGS_baseline_linear_skip == "true";
+  } else if (FLAGS_baseline_linear_skip != "decoder") {
+    *error = "--baseline_linear_skip must be true, false or decoder, got '" +
+             FLAGS_baseline_linear_skip + "'";
+    return false;
+  }
+  if (FLAGS_baseline_hidden != "decoder") {
+    std::vector<int> widths;
+    for (const std::string& item : SplitList(FLAGS_baseline_hidden)) {
+      int width = 0;
+      if (!ParseInt(item, &width) || width < 1) {
+        *error = "--baseline_hidden takes positive widths or 'decoder', got '" + item + "'";
+        return false;
+      }
+      widths.push_back(width);
+    }
+    options->autoencoder_hidden_dims = widths;
+  }
   options->training_pose_starts = FLAGS_held_out_starts;
   options->write_fields = FLAGS_write_fields;
   options->error_budget = FLAGS_error_budget;
@@ -124,6 +152,8 @@ FlagNames EvaluateFlagNames() {
   flags.insert(flags.end(),
                {{"autoencoder.latent_regularization", "--latent_regularization"},
                 {"autoencoder.max_iterations", "--baseline_iterations"},
+                {"autoencoder_hidden_dims", "--baseline_hidden"},
+                {"autoencoder_linear_skip", "--baseline_linear_skip"},
                 {"autoencoder.lbfgs_scaling", "--baseline_lbfgs_scaling"},
                 {"held_out_targets.relative_stiffness", "--attachment_stiffness"},
                 {"held_out_targets.solver.relative_force_tolerance", "--prepare_tolerance"}});

@@ -27,6 +27,10 @@ DEFINE_double(decoder_regularization, 0.0,
               "Weight of the decoder regularizer |params|^2 (weight decay on the decoder's "
               "weights and biases), in pre-training and training. 0: none.");
 DEFINE_int32(pretrain_iterations, 500, "L-BFGS iterations of pre-training.");
+DEFINE_string(pretrain_latents, "targets", "Where pre-training's latents start: 'targets' (the "
+              "volumetric targets' principal components, fitted with the decoder) or 'surfaces' "
+              "(the pose surfaces' principal components about the neutral, held while the "
+              "decoder is fitted to them).");
 DEFINE_uint32(seed, 1, "Seed of the decoder's initial weights.");
 DEFINE_int32(train_iterations, 200, "L-BFGS iterations of end-to-end training (in all, counting "
              "a resumed run's earlier ones).");
@@ -105,6 +109,10 @@ bool PretrainOptionsFromFlags(PretrainOptions* options, std::string* error) {
   options->latent_regularization = FLAGS_latent_regularization;
   options->decoder_regularization = FLAGS_decoder_regularization;
   options->max_iterations = FLAGS_pretrain_iterations;
+  if (!PretrainLatentStartFromName(FLAGS_pretrain_latents, &options->latent_start)) {
+    *error = "--pretrain_latents must be targets or surfaces, got '" + FLAGS_pretrain_latents + "'";
+    return false;
+  }
   options->seed = FLAGS_seed;
   options->num_threads = FLAGS_threads;
   options->max_memory_bytes = MaxMemoryBytes();

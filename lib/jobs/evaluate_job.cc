@@ -308,6 +308,26 @@ bool FitHeldOutPoses(const ActiveModel& model, const LatentFitOptions& options,
   return true;
 }
 
+// How the auto-encoder's hidden layers compare with the decoder's, for the report.
+std::string LayoutNote(const std::vector<int>& decoder, const std::vector<int>& autoencoder) {
+  if (decoder == autoencoder) return "the same network layout";
+  auto widths = [](const std::vector<int>& w) {
+    if (w.empty()) return std::string("none (linear)");
+    std::string text;
+    for (size_t i = 0; i < w.size(); ++i) text += (i ? "," : "") + std::to_string(w[i]);
+    return text;
+  };
+  return "hidden layers " + widths(autoencoder) + " (the physics decoder's: " + widths(decoder) +
+         ")";
+}
+
+// How the auto-encoder's linear skip compares with the decoder's, for the report.
+std::string SkipNote(bool decoder, bool autoencoder) {
+  if (decoder == autoencoder) return decoder ? " and the same linear skip" : "";
+  return autoencoder ? " and a linear skip (the physics decoder has none)"
+                     : " and no linear skip (the physics decoder has one)";
+}
+
 }  // namespace
 
 bool EvaluateJobOptions::Validate(std::string* error) const {
@@ -315,9 +335,14 @@ bool EvaluateJobOptions::Validate(std::string* error) const {
   const bool fit_ok = fit.Validate(&fit_error);
   const bool autoencoder_ok = autoencoder.Validate(&autoencoder_error);
   const bool targets_ok = held_out_targets.Validate(&targets_error);
+  bool widths_ok = true;
+  if (autoencoder_hidden_dims) {
+    for (int width : *autoencoder_hidden_dims) widths_ok = widths_ok && width > 0;
+  }
   return OptionChecks()
       .Nested("fit", fit_ok, fit_error)
       .Nested("autoencoder", autoencoder_ok, autoencoder_error)
+      .Require(widths_ok, "autoencoder_hidden_dims: every width must be > 0")
       .Nested("held_out_targets", targets_ok, targets_error)
       .IntInRange("num_threads", num_threads, 1, 1024)
       .Done(error);
@@ -419,10 +444,11 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
   const SurfacePca pca_neutral(train_surfaces, model.latent_dim(), &model.neutral.vertices);
   SurfaceAutoencoderOptions ae_options = options.autoencoder;
   ae_options.latent_dim = model.latent_dim();
-  ae_options.hidden_dims = model.decoder->spec().hidden_dims;
+  ae_options.hidden_dims = options.autoencoder_hidden_dims ? *options.autoencoder_hidden_dims
+                                                         : model.decoder->spec().hidden_dims;
   ae_options.activation = model.decoder->spec().activation;
   ae_options.anchored = model.decoder->spec().anchored;
-  ae_options.linear_skip = model.decoder->spec().linear_skip;
+  ae_options.linear_skip = options.autoencoder_linear_skip.value_or(model.decoder->spec().linear_skip);
   SurfaceAutoencoder autoencoder;
   if (!autoencoder.Train(model.neutral.vertices, train_surfaces, ae_options, log, error)) {
     *error = "the auto-encoder baseline: " + *error;
@@ -657,9 +683,10 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
      << num_error_vertices << " surface vertices. **neutral**: the rest surface itself (no motion), for reference. "
      << "Latent size " << model.latent_dim() << " for every method: "
      << "**physics** (this model: training latents, or latent and bone motion fitted to the "
-     << "held-out pose through the simulator), **autoencoder** (surface-only decoder with the "
-     << "same network layout" << (model.decoder->spec().anchored ? " and the same anchoring" : "")
-     << (model.decoder->spec().linear_skip ? " and the same linear skip" : "")
+     << "held-out pose through the simulator), **autoencoder** (surface-only decoder with "
+     << LayoutNote(model.decoder->spec().hidden_dims, ae_options.hidden_dims)
+     << (model.decoder->spec().anchored ? " and the same anchoring" : "")
+     << SkipNote(model.decoder->spec().linear_skip, ae_options.linear_skip)
      << ", trained on the same poses, latent fitted), **PCA** (linear, "
      << pca.num_components() << " components about the training poses' mean, projection), "
      << "**PCA (neutral)** (linear, " << pca_neutral.num_components()

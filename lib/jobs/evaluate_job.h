@@ -1,6 +1,7 @@
 #ifndef AQS_JOBS_EVALUATE_JOB_H_
 #define AQS_JOBS_EVALUATE_JOB_H_
 
+#include <optional>
 #include <ostream>
 #include <string>
 #include <vector>
@@ -33,6 +34,16 @@ struct EvaluateJobOptions {
   // The surface auto-encoder baseline (its latent_dim, hidden layers and activation are
   // set from the model's decoder; iterations etc. from here).
   SurfaceAutoencoderOptions autoencoder;
+  // The auto-encoder's hidden layer widths where they should not be the decoder's (each
+  // > 0). For a linear decoder (no hidden layers) the auto-encoder should keep a
+  // network: a linear auto-encoder anchored at the neutral spans what the PCA about the
+  // neutral spans, which the comparison has already. Unset: the decoder's.
+  std::optional<std::vector<int>> autoencoder_hidden_dims;
+  // Whether the auto-encoder has a linear skip beside its network, where it should not
+  // follow the decoder (on the demo face the skip makes the auto-encoder worse on
+  // held-out poses, so a decoder with a skip is compared with the auto-encoder without
+  // one). Unset: the decoder's.
+  std::optional<bool> autoencoder_linear_skip;
   // Write per-vertex error fields (PLY with colours and a `value` property) for each
   // held-out pose and method, and the fitted surfaces (OBJ).
   bool write_fields = true;

@@ -22,7 +22,33 @@ namespace {
 constexpr int kLbfgsRank = 20;
 constexpr double kLbfgsArrays = 2.0 * kLbfgsRank + 8.0;
 
+// Whitened principal-component scores of the training surfaces' displacements from the
+// neutral (latent_dim x poses; PretrainLatentStart::kSurfaces).
+Eigen::MatrixXd SurfaceLatents(const ActiveModel& model, int latent_dim) {
+  const Eigen::Index n3 = 3 * static_cast<Eigen::Index>(model.num_surface_vertices());
+  Eigen::MatrixXd surfaces(n3, model.num_poses());
+  for (int i = 0; i < model.num_poses(); ++i) {
+    surfaces.col(i) = Eigen::Map<const Eigen::VectorXd>(model.poses[i].surface.data(), n3);
+  }
+  const Eigen::VectorXd neutral = Eigen::Map<const Eigen::VectorXd>(model.neutral.vertices.data(), n3);
+  return WhitenedPcaScores(surfaces, Eigen::VectorXd::Ones(n3), latent_dim, &neutral);
+}
+
 }  // namespace
+
+const char* PretrainLatentStartName(PretrainLatentStart start) {
+  return start == PretrainLatentStart::kSurfaces ? "surfaces" : "targets";
+}
+
+bool PretrainLatentStartFromName(const std::string& name, PretrainLatentStart* start) {
+  for (PretrainLatentStart s : {PretrainLatentStart::kTargets, PretrainLatentStart::kSurfaces}) {
+    if (name == PretrainLatentStartName(s)) {
+      *start = s;
+      return true;
+    }
+  }
+  return false;
+}
 
 bool PretrainOptions::Validate(std::string* error) const {
   std::string spec_error, field_error;
@@ -120,20 +146,31 @@ bool Pretrain(const PretrainOptions& options, ActiveModel* model, PretrainReport
   const int d = decoder->latent_dim();
   Eigen::VectorXd parameters(np + d * p);
   decoder->InitializeParameters(options.seed, parameters.data());
-  // Latents: whitened principal components of the (volume-weighted) targets.
-  Eigen::MatrixXd samples(6 * static_cast<Eigen::Index>(m), p);
-  for (int i = 0; i < p; ++i) {
-    samples.col(i) = Eigen::Map<const Eigen::VectorXd>(targets[i].data(), targets[i].size());
+  const bool hold_latents = options.latent_start == PretrainLatentStart::kSurfaces;
+  Eigen::Map<Eigen::MatrixXd> latents(parameters.data() + np, d, p);
+  if (hold_latents) {
+    latents = SurfaceLatents(*model, d);
+  } else {  // whitened principal components of the (volume-weighted) targets
+    Eigen::MatrixXd samples(6 * static_cast<Eigen::Index>(m), p);
+    for (int i = 0; i < p; ++i) {
+      samples.col(i) = Eigen::Map<const Eigen::VectorXd>(targets[i].data(), targets[i].size());
+    }
+    Eigen::VectorXd row_weights(6 * static_cast<Eigen::Index>(m));
+    for (int e = 0; e < m; ++e) {
+      row_weights.segment<6>(6 * e) = weights[e] * ActuationEntryWeights();
+    }
+    latents = WhitenedPcaScores(samples, row_weights, d);
   }
-  Eigen::VectorXd row_weights(6 * static_cast<Eigen::Index>(m));
-  for (int e = 0; e < m; ++e) row_weights.segment<6>(6 * e) = weights[e] * ActuationEntryWeights();
-  Eigen::Map<Eigen::MatrixXd>(parameters.data() + np, d, p) = WhitenedPcaScores(samples, row_weights, d);
   log << "pretrain: " << np << " decoder parameters (" << decoder->num_nodes()
-      << " control nodes), " << p << " poses x latent " << d << "\n";
+      << " control nodes), " << p << " poses x latent " << d << "; latents "
+      << (hold_latents ? "held at the surfaces' principal components"
+                       : "from the targets' principal components")
+      << "\n";
 
   auto* objective = new PretrainObjective(*decoder, targets, weights,
                                          options.latent_regularization,
                                          options.decoder_regularization);
+  objective->HoldLatents(hold_latents);
   report->initial_loss = objective->Loss(parameters.data(), nullptr, nullptr);
   if (!std::isfinite(report->initial_loss)) {
     *error = "the pre-training loss is not finite at the start (" +

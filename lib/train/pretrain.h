@@ -11,9 +11,29 @@
 
 namespace aqs {
 
+// Where pre-training's latents start, and whether it moves them.
+//   kTargets:  the whitened principal-component scores of the volumetric targets
+//              (about their mean, volume-weighted); pre-training fits them together
+//              with the decoder.
+//   kSurfaces: the whitened principal-component scores of the pose surfaces'
+//              displacements from the neutral (uncentered, as the evaluation's PCA
+//              about the neutral; the neutral pose scores zero), held fixed: pre-training
+//              fits the decoder alone, so that it maps the surfaces' principal
+//              coordinates to actuations. End-to-end training then moves both. (The
+//              targets' own components follow the strain in the volume, where the lids'
+//              small motions weigh as much as the jaw's; the surfaces' follow what the
+//              training loss measures.)
+enum class PretrainLatentStart { kTargets, kSurfaces };
+
+// "targets", "surfaces" (flag values).
+const char* PretrainLatentStartName(PretrainLatentStart start);
+// Inverse of PretrainLatentStartName. Returns false for an unknown name.
+bool PretrainLatentStartFromName(const std::string& name, PretrainLatentStart* start);
+
 struct PretrainOptions {
   DecoderSpec spec;                 // latent dimension, layers, activation, output scale
   GridActuationFieldOptions field;  // the decoder's output grid
+  PretrainLatentStart latent_start = PretrainLatentStart::kTargets;
   // Weight of the latent regularizer (1/P) sum_p |z_p|^2.
   double latent_regularization = 1e-3;
   // Weight of the decoder regularizer |params|^2 (weight decay; TrainOptions'). 0: none.
@@ -61,8 +81,9 @@ bool PretrainMemoryBytes(const PretrainOptions& options, const ActiveModel& mode
 //                                 + decoder_regularization |params|^2,
 //
 // with w_e = V_e / sum V (|.|_F the Frobenius norm of the 3x3 matrices), by Ceres'
-// L-BFGS (GradientProblemSolver). Latents start at the whitened principal components
-// of the targets, parameters at random (small outputs). Every pose needs a target.
+// L-BFGS (GradientProblemSolver). Latents start as options.latent_start says (with
+// kSurfaces they stay there), parameters at random (small outputs). Every pose needs a
+// target.
 // Sets model->decoder, decoder_params and latents, and clears the states and the
 // training checkpoint (they belonged to the old decoder). Progress lines go to `log`.
 // Fails with *error, before allocating, on invalid options (options.Validate) and on

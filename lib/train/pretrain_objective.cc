@@ -46,8 +46,12 @@ double PretrainObjective::Loss(const double* parameters, double* gradient, doubl
     Eigen::MatrixXd latent_gradient;
     decoder_.Backward(parameters, workspace, dl_da, gradient, &latent_gradient);
     g.head(np) += (2.0 * decoder_regularization_) * params;
-    Eigen::Map<Eigen::MatrixXd>(gradient + np, d, p) =
-        latent_gradient + (2.0 * regularization_ / p) * latents;
+    Eigen::Map<Eigen::MatrixXd> dz(gradient + np, d, p);
+    if (hold_latents_) {
+      dz.setZero();
+    } else {
+      dz = latent_gradient + (2.0 * regularization_ / p) * latents;
+    }
   }
   return data + reg;
 }

@@ -39,6 +39,10 @@ class PretrainObjective final : public ceres::FirstOrderFunction {
   // alone (the weighted mean actuation error) into *mse unless null.
   double Loss(const double* parameters, double* gradient, double* mse) const;
 
+  // With hold = true the latents' gradient entries are zero (the loss is unchanged):
+  // a gradient method then moves the decoder parameters alone. Default false.
+  void HoldLatents(bool hold) { hold_latents_ = hold; }
+
   // Loss, for Ceres; false where it is not finite.
   bool Evaluate(const double* parameters, double* cost, double* gradient) const override;
 
@@ -48,6 +52,7 @@ class PretrainObjective final : public ceres::FirstOrderFunction {
   Eigen::VectorXd weights_;
   double regularization_;
   double decoder_regularization_;
+  bool hold_latents_ = false;
 };
 
 }  // namespace aqs

@@ -158,6 +158,44 @@ TEST_F(AqsFitTest, EvaluationStartsHeldOutFitsFromTheBestTrainingPose) {
   }
 }
 
+// --baseline_hidden and --baseline_linear_skip give the auto-encoder its own layout, and
+// the report says so beside the decoder's; bad values exit 1 naming the flag.
+TEST_F(AqsFitTest, EvaluationTakesTheAutoencodersOwnLayout) {
+  const std::string pose = data_->model.poses.back().name;
+  const std::string command =
+      AppPath("aqs_evaluate") + " --model=" + dir_->File("model") + " --test_poses=" +
+      dir_->File("poses/" + pose + ".obj") + " --output_dir=" + dir_->File("eval_layout") +
+      " --baseline_iterations=20 --error_budget=false --write_fields=false --report=false";
+  const testing::CommandResult run = RunCommand(command + " --baseline_hidden=4,3");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  std::ifstream md_file(dir_->File("eval_layout/evaluation.md"));
+  std::stringstream md;
+  md << md_file.rdbuf();
+  EXPECT_NE(md.str().find("surface-only decoder with hidden layers 4,3 (the physics decoder's: 16)"),
+            std::string::npos)
+      << md.str();
+  EXPECT_EQ(md.str().find("linear skip"), std::string::npos) << md.str();
+  const testing::CommandResult skip = RunCommand(command + " --baseline_linear_skip=true");
+  ASSERT_EQ(skip.exit_code, 0) << skip.output;
+  std::ifstream skip_file(dir_->File("eval_layout/evaluation.md"));
+  std::stringstream skip_md;
+  skip_md << skip_file.rdbuf();
+  EXPECT_NE(skip_md.str().find("the same network layout and a linear skip (the physics decoder "
+                               "has none)"),
+            std::string::npos)
+      << skip_md.str();
+  const testing::CommandResult bad = RunCommand(command + " --baseline_hidden=4,0");
+  EXPECT_EQ(bad.exit_code, 1) << bad.output;
+  EXPECT_NE(bad.output.find("--baseline_hidden takes positive widths or 'decoder', got '0'"),
+            std::string::npos)
+      << bad.output;
+  const testing::CommandResult bad_skip = RunCommand(command + " --baseline_linear_skip=yes");
+  EXPECT_EQ(bad_skip.exit_code, 1) << bad_skip.output;
+  EXPECT_NE(bad_skip.output.find("--baseline_linear_skip must be true, false or decoder, got 'yes'"),
+            std::string::npos)
+      << bad_skip.output;
+}
+
 TEST_F(AqsFitTest, FitsAPoseAndSimulatesTheLatentBack) {
   const testing::CommandResult fit =
       RunCommand(Fit("--target=" + dir_->File("test0.obj") + " --output=" + dir_->File("fit.obj") +

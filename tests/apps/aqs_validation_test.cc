@@ -359,6 +359,8 @@ TEST_F(AqsValidationModelTest, LearningAppsRefuseBadFlags) {
                   {"--output_scale=-1", 1, "--output_scale must be finite and > 0 (is -1)"},
                   {"--latent_regularization=-1", 1, "--latent_regularization must be in [0, 1e+06] (is -1)"},
                   {"--train_tolerance=0", 1, "--train_tolerance must be finite and > 0"},
+                  {"--pretrain_latents=poses", 1,
+                   "--pretrain_latents must be targets or surfaces, got 'poses'"},
                   {"--output_scale=1e308", 1,
                    "the pre-training loss is not finite at the start (inf): the decoder's output "
                    "scale (--output_scale) or the latent regularization (--latent_regularization) "

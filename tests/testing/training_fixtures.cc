@@ -41,6 +41,7 @@ ActiveModel PretrainedSyntheticBar(const SyntheticBarSpec& spec, PretrainReport*
   pretrain.field.node_spacing = spec.node_spacing;
   pretrain.max_iterations = spec.pretrain_iterations;
   pretrain.decoder_regularization = spec.decoder_regularization;
+  pretrain.latent_start = spec.latent_start;
   pretrain.log_every = 0;
   pretrain.num_threads = spec.num_threads;
   PretrainReport own_report;

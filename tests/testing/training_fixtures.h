@@ -27,6 +27,7 @@ struct SyntheticBarSpec {
   double node_spacing = 0.5;      // control nodes this far apart
   int pretrain_iterations = 30;
   double decoder_regularization = 0.0;  // PretrainOptions' weight decay
+  PretrainLatentStart latent_start = PretrainLatentStart::kTargets;
   int num_threads = 2;
 };
 

@@ -86,5 +86,21 @@ TEST_F(PretrainObjectiveTest, LossIsTheDataTermPlusBothRegularizers) {
   EXPECT_EQ(cost, loss);
 }
 
+// With the latents held, the gradient's latent entries are zero, its decoder entries and
+// the loss are unchanged.
+TEST_F(PretrainObjectiveTest, HeldLatentsHaveZeroGradient) {
+  PretrainObjective objective(*decoder_, targets_, weights_, 3e-3, 5e-2);
+  const Eigen::VectorXd x = RandomPoint(objective, 0.5);
+  const int np = decoder_->num_parameters();
+  Eigen::VectorXd free_gradient(x.size()), held_gradient(x.size());
+  const double free_loss = objective.Loss(x.data(), free_gradient.data(), nullptr);
+  objective.HoldLatents(true);
+  const double held_loss = objective.Loss(x.data(), held_gradient.data(), nullptr);
+  EXPECT_EQ(held_loss, free_loss);
+  EXPECT_GT(free_gradient.tail(x.size() - np).norm(), 0.0);
+  EXPECT_EQ(held_gradient.tail(x.size() - np).norm(), 0.0);
+  EXPECT_EQ((held_gradient.head(np) - free_gradient.head(np)).norm(), 0.0);
+}
+
 }  // namespace
 }  // namespace aqs

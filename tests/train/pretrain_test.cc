@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "testing/training_fixtures.h"
+#include "train/latent_init.h"
 
 namespace aqs {
 namespace {
@@ -52,6 +53,44 @@ TEST(PretrainTest, DecoderRegularizationIsValidated) {
     EXPECT_FALSE(options.Validate(&error)) << bad;
     EXPECT_NE(error.find("decoder_regularization"), std::string::npos) << error;
   }
+}
+
+// --pretrain_latents=surfaces: the latents are the surfaces' whitened principal
+// components about the neutral and stay there while the decoder is fitted; pre-training
+// lowers the loss all the same. The default (targets) moves them.
+TEST(PretrainTest, SurfaceLatentsStartAtTheSurfacesAndAreHeld) {
+  testing::SyntheticBarSpec spec;
+  spec.pretrain_iterations = 30;
+  spec.latent_start = PretrainLatentStart::kSurfaces;
+  PretrainReport report;
+  const ActiveModel model = testing::PretrainedSyntheticBar(spec, &report);
+  ASSERT_TRUE(model.decoder);
+  const Eigen::Index n3 = 3 * static_cast<Eigen::Index>(model.num_surface_vertices());
+  Eigen::MatrixXd surfaces(n3, model.num_poses());
+  for (int i = 0; i < model.num_poses(); ++i) {
+    surfaces.col(i) = Eigen::Map<const Eigen::VectorXd>(model.poses[i].surface.data(), n3);
+  }
+  const Eigen::VectorXd neutral =
+      Eigen::Map<const Eigen::VectorXd>(model.neutral.vertices.data(), n3);
+  const Eigen::MatrixXd expected =
+      WhitenedPcaScores(surfaces, Eigen::VectorXd::Ones(n3), spec.latent_dim, &neutral);
+  EXPECT_GT(expected.norm(), 1.0);
+  EXPECT_EQ((model.latents - expected).norm(), 0.0) << model.latents << "\n" << expected;
+  EXPECT_LT(report.final_loss, 0.5 * report.initial_loss);
+
+  spec.latent_start = PretrainLatentStart::kTargets;
+  const ActiveModel moved = testing::PretrainedSyntheticBar(spec);
+  EXPECT_GT((moved.latents - expected).norm(), 1e-3);
+}
+
+TEST(PretrainTest, LatentStartNames) {
+  PretrainLatentStart start = PretrainLatentStart::kTargets;
+  ASSERT_TRUE(PretrainLatentStartFromName("surfaces", &start));
+  EXPECT_EQ(start, PretrainLatentStart::kSurfaces);
+  EXPECT_STREQ(PretrainLatentStartName(start), "surfaces");
+  ASSERT_TRUE(PretrainLatentStartFromName("targets", &start));
+  EXPECT_EQ(start, PretrainLatentStart::kTargets);
+  EXPECT_FALSE(PretrainLatentStartFromName("Surfaces", &start));
 }
 
 }  // namespace
