@@ -448,7 +448,8 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
                                                          : model.decoder->spec().hidden_dims;
   ae_options.activation = model.decoder->spec().activation;
   ae_options.anchored = model.decoder->spec().anchored;
-  ae_options.linear_skip = options.autoencoder_linear_skip.value_or(model.decoder->spec().linear_skip);
+  ae_options.linear_skip =
+      options.autoencoder_linear_skip.value_or(model.decoder->spec().linear_skip);
   SurfaceAutoencoder autoencoder;
   if (!autoencoder.Train(model.neutral.vertices, train_surfaces, ae_options, log, error)) {
     *error = "the auto-encoder baseline: " + *error;

@@ -30,7 +30,8 @@ Eigen::MatrixXd SurfaceLatents(const ActiveModel& model, int latent_dim) {
   for (int i = 0; i < model.num_poses(); ++i) {
     surfaces.col(i) = Eigen::Map<const Eigen::VectorXd>(model.poses[i].surface.data(), n3);
   }
-  const Eigen::VectorXd neutral = Eigen::Map<const Eigen::VectorXd>(model.neutral.vertices.data(), n3);
+  const Eigen::VectorXd neutral =
+      Eigen::Map<const Eigen::VectorXd>(model.neutral.vertices.data(), n3);
   return WhitenedPcaScores(surfaces, Eigen::VectorXd::Ones(n3), latent_dim, &neutral);
 }
 

@@ -171,8 +171,9 @@ TEST_F(AqsFitTest, EvaluationTakesTheAutoencodersOwnLayout) {
   std::ifstream md_file(dir_->File("eval_layout/evaluation.md"));
   std::stringstream md;
   md << md_file.rdbuf();
-  EXPECT_NE(md.str().find("surface-only decoder with hidden layers 4,3 (the physics decoder's: 16)"),
-            std::string::npos)
+  EXPECT_NE(
+      md.str().find("surface-only decoder with hidden layers 4,3 (the physics decoder's: 16)"),
+      std::string::npos)
       << md.str();
   EXPECT_EQ(md.str().find("linear skip"), std::string::npos) << md.str();
   const testing::CommandResult skip = RunCommand(command + " --baseline_linear_skip=true");
@@ -191,8 +192,9 @@ TEST_F(AqsFitTest, EvaluationTakesTheAutoencodersOwnLayout) {
       << bad.output;
   const testing::CommandResult bad_skip = RunCommand(command + " --baseline_linear_skip=yes");
   EXPECT_EQ(bad_skip.exit_code, 1) << bad_skip.output;
-  EXPECT_NE(bad_skip.output.find("--baseline_linear_skip must be true, false or decoder, got 'yes'"),
-            std::string::npos)
+  EXPECT_NE(
+      bad_skip.output.find("--baseline_linear_skip must be true, false or decoder, got 'yes'"),
+      std::string::npos)
       << bad_skip.output;
 }
 
