@@ -43,14 +43,14 @@ double PretrainObjective::Loss(const double* parameters, double* gradient, doubl
   if (gradient != nullptr) {
     Eigen::Map<Eigen::VectorXd> g(gradient, NumParameters());
     g.setZero();
+    // Held latents: no back-propagation to them (their entries stay zero).
     Eigen::MatrixXd latent_gradient;
-    decoder_.Backward(parameters, workspace, dl_da, gradient, &latent_gradient);
+    decoder_.Backward(parameters, workspace, dl_da, gradient,
+                      hold_latents_ ? nullptr : &latent_gradient);
     g.head(np) += (2.0 * decoder_regularization_) * params;
-    Eigen::Map<Eigen::MatrixXd> dz(gradient + np, d, p);
-    if (hold_latents_) {
-      dz.setZero();
-    } else {
-      dz = latent_gradient + (2.0 * regularization_ / p) * latents;
+    if (!hold_latents_) {
+      Eigen::Map<Eigen::MatrixXd>(gradient + np, d, p) =
+          latent_gradient + (2.0 * regularization_ / p) * latents;
     }
   }
   return data + reg;
