@@ -14,6 +14,10 @@ DEFINE_string(solver, "newton", "How equilibria are solved: 'newton' (L-BFGS pre
               "the rotation-fixed stiffness far from equilibrium, then Newton steps, exact or "
               "PSD-projected, with a line search; needs fixed vertices) or 'lm' (Ceres' "
               "Levenberg-Marquardt, then exact Newton; also for free bodies).");
+DEFINE_bool(negative_curvature_steps, false, "Newton: where the exact stiffness stays "
+            "indefinite on a retry, step along its direction of most negative curvature instead "
+            "of a projected step (leaves saddles and crawls near buckling in a few "
+            "factorizations; docs/solver.md).");
 DEFINE_int32(threads, 2, "Threads (per-element work, parallel poses; BLAS follows OPENBLAS_NUM_THREADS).");
 DEFINE_double(max_memory_gb, 8.0, "Memory limit in GB: the work whose memory is estimated before "
               "it is allocated (prepare's lattice and simulations, pre-training's decoder) is "
@@ -54,6 +58,7 @@ bool SolverMethodFromFlag(QuasistaticSolverOptions* options, std::string* error)
     *error = "--solver must be 'newton' or 'lm' (is '" + FLAGS_solver + "')";
     return false;
   }
+  options->negative_curvature_steps = FLAGS_negative_curvature_steps;
   return true;
 }
 

@@ -11,8 +11,9 @@
 
 namespace aqs {
 
-// Sets options->method from --solver ("newton" or "lm"). Returns false with *error
-// naming the flag for any other value.
+// Sets options->method from --solver ("newton" or "lm") and
+// options->negative_curvature_steps from --negative_curvature_steps. Returns false with
+// *error naming the flag for any other --solver value.
 bool SolverMethodFromFlag(QuasistaticSolverOptions* options, std::string* error);
 
 // Parses gflags (with `usage`), sets up glog to print warnings and errors on stderr.

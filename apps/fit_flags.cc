@@ -16,6 +16,9 @@ DEFINE_double(round_tolerance, 1e-3, "Points: stop when a round changes the mean
 DEFINE_int32(round_iterations, 6, "Points: Levenberg-Marquardt iterations per matching round.");
 DEFINE_bool(choose_start, true, "Start from the best of the given start (prior centre or "
             "--initial_latent) and the training poses, by the fit's objective.");
+DEFINE_bool(retry_from_given, true, "With --choose_start: a fit from a training pose that "
+            "fails, does not converge or moves a bone beyond the training poses' is fitted "
+            "again from the given start, and the fit of the smaller objective kept.");
 DEFINE_string(start_latent, "prior", "The given start: 'prior' (the latent prior's centre) or "
               "'mean' (the mean training latent).");
 
@@ -33,6 +36,7 @@ bool FitOptionsFromFlags(LatentFitOptions* fit, PointCloudFitOptions* points,
   points->relative_tolerance = FLAGS_round_tolerance;
   points->iterations_per_round = FLAGS_round_iterations;
   start->training_poses = FLAGS_choose_start;
+  start->retry_from_given = FLAGS_retry_from_given;
   if (FLAGS_start_latent != "prior" && FLAGS_start_latent != "mean") {
     *error = "--start_latent must be prior or mean, got '" + FLAGS_start_latent + "'";
     return false;

@@ -894,21 +894,28 @@ double LatentFitter::Objective(const FitTarget& target, const Eigen::Matrix3Xd& 
   return cost;
 }
 
+double LatentFitter::StartObjective(const FitTarget* target, const Eigen::Matrix3Xd* points,
+                                    const PointCloudFitOptions& cloud_options,
+                                    const Eigen::Matrix3Xd& surface,
+                                    const Eigen::VectorXd& z) const {
+  CHECK((target != nullptr) != (points != nullptr));
+  if (target != nullptr) return Objective(*target, surface, z);
+  int used = 0;
+  double mean = 0.0;
+  const FitTarget matched = MatchPointCloud(*points, surface, model_.neutral.triangles,
+                                            cloud_options, options_.num_threads, &used, &mean);
+  if (used < 3) return std::numeric_limits<double>::infinity();
+  return Objective(matched, surface, z);
+}
+
 bool LatentFitter::ChooseStart(const FitTarget* target, const Eigen::Matrix3Xd* points,
                                const PointCloudFitOptions& cloud_options,
                                const FitStartOptions& options, Eigen::VectorXd* z,
                                std::string* name, std::string* error) {
   CHECK((target != nullptr) != (points != nullptr));
   CHECK_EQ(z->size(), model_.latent_dim());
-  // The objective of a candidate surface; for clouds with the matching it induces.
   auto score = [&](const Eigen::Matrix3Xd& surface, const Eigen::VectorXd& latent) {
-    if (target != nullptr) return Objective(*target, surface, latent);
-    int used = 0;
-    double mean = 0.0;
-    const FitTarget matched = MatchPointCloud(*points, surface, model_.neutral.triangles,
-                                              cloud_options, options_.num_threads, &used, &mean);
-    if (used < 3) return std::numeric_limits<double>::infinity();
-    return Objective(matched, surface, latent);
+    return StartObjective(target, points, cloud_options, surface, latent);
   };
   double best = std::numeric_limits<double>::infinity();
   Eigen::VectorXd best_z = *z;

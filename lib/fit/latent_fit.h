@@ -109,6 +109,10 @@ struct LatentFitResult {
   // With LatentFitOptions::coarse_points: whether the second start ran, and whether the
   // fit kept is the one through the subset of points.
   bool second_start_ran = false, second_start_kept = false;
+  // With FitStartOptions::retry_from_given (FitFromChosenStart): why the fit was run
+  // again from the given start ("" : it was not), and whether that fit was kept.
+  std::string retry_reason;
+  bool retry_kept = false;
   // Where the time went: equilibrium solves (count, stiffness factorizations, seconds)
   // and Jacobians (count, seconds: one factorization and the products each).
   int solves = 0, solve_factorizations = 0, jacobians = 0;
@@ -153,6 +157,14 @@ struct FitStartOptions {
   // smallest objective (the fit's data term plus priors; for scans, with the matching
   // of the first round).
   bool training_poses = true;
+  // FitFromChosenStart (fit/chosen_start_fit.h): a fit from a training pose that fails,
+  // does not converge, or ends with a bone farther from the prior's centre than any
+  // training pose's (its Mahalanobis distance under the bone prior) is fitted again from
+  // the given start, and the fit of the smaller objective kept. On the demo's surface-
+  // latent model, two full-correspondence fits from jawOpen went on to a 25 degree jaw
+  // (0.231 and 0.160 cm, 224 and 142 s), where fits from the given start reach 0.101 and
+  // 0.053 in 2 s (docs/fitting.md).
+  bool retry_from_given = true;
   // The given start of aqs_fit and the benchmark: the mean of the training latents
   // (what fits did before priors) instead of the latent prior's centre.
   bool mean_latent = false;
@@ -239,6 +251,16 @@ class LatentFitter {
   // and the current bone transforms: data term plus priors.
   double Objective(const FitTarget& target, const Eigen::Matrix3Xd& surface,
                    const Eigen::VectorXd& z) const;
+  // What ChooseStart compares: Objective for a target (non-null `target`), or for a
+  // point cloud (non-null `points`, 3 x M) that of the matching it induces on `surface`
+  // (infinity if fewer than 3 points match). At the current bone transforms.
+  double StartObjective(const FitTarget* target, const Eigen::Matrix3Xd* points,
+                        const PointCloudFitOptions& cloud_options, const Eigen::Matrix3Xd& surface,
+                        const Eigen::VectorXd& z) const;
+
+  const ActiveModel& model() const { return model_; }
+  // Where the next equilibrium solve starts (see set_start_state).
+  const Eigen::Matrix3Xd& start_state() const { return accepted_state_; }
 
   // The data cost Fit minimizes, as a Ceres cost function (parameter blocks: z, then 6
   // numbers per bone if bones are fitted), for derivative tests. `target` must outlive

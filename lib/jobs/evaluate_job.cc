@@ -12,6 +12,7 @@
 #include "eval/error_budget.h"
 #include "eval/held_out_overlap.h"
 #include "eval/surface_pca.h"
+#include "fit/chosen_start_fit.h"
 #include "jobs/report_script.h"
 #include "mesh/mesh_io.h"
 #include "mesh/ply_io.h"
@@ -228,19 +229,16 @@ bool FitHeldOutPoses(const ActiveModel& model, const LatentFitOptions& options,
     fitter.set_bone_transforms(RestBoneTransforms(model));
     fitter.set_start_state(model.mesh.vertices);  // from rest: order-independent
     const FitTarget target = FullSurfaceTarget(surfaces[t]);
-    Eigen::VectorXd start = fitter.MeanLatent();
-    std::string start_name = kMeanLatentStart;
-    const bool started =
-        !training_pose_starts || fitter.ChooseStart(&target, nullptr, PointCloudFitOptions(),
-                                                    FitStartOptions(), &start, &start_name,
-                                                    &failure);
-    if (start_name == "given") start_name = kMeanLatentStart;
-    if (!started || !fitter.Fit(target, start, &(*fits)[t], &failure)) {
+    LatentFitResult& fit = (*fits)[t];
+    FitStartOptions start_options;
+    start_options.training_poses = training_pose_starts;
+    if (!FitFromChosenStart(&fitter, &target, nullptr, PointCloudFitOptions(), start_options,
+                            fitter.MeanLatent(), &fit, &failure)) {
       failure = "held-out pose '" + names[t] + "': " + failure;
       first_failure = t;
       break;
     }
-    (*fits)[t].start = start_name;
+    if (fit.start == "given") fit.start = kMeanLatentStart;
     (*seconds)[t] = timer.Seconds();
   }
   if (size == 1) {

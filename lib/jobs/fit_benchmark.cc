@@ -11,6 +11,7 @@
 
 #include "equilibrium/stiffness_factorization.h"
 #include "eval/surface_pca.h"
+#include "fit/chosen_start_fit.h"
 #include "io/vertex_list_io.h"
 #include "jobs/fit_sequence.h"
 #include "mesh/mesh_io.h"
@@ -243,11 +244,11 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
     std::string start, fit_error;
     LatentFitResult fit;
     Row r = MakeRow(mix, method, markers);
-    bool ok = fitter.ChooseStart(target, cloud, options.points, options.start, &z, &start, &fit_error);
-    ok = ok && (cloud != nullptr ? fitter.FitPointCloud(*cloud, options.points, z, &fit, &fit_error)
-                                 : fitter.Fit(*target, z, &fit, &fit_error));
+    const bool ok = FitFromChosenStart(&fitter, target, cloud, options.points, options.start, z,
+                                       &fit, &fit_error);
     r.seconds = timer.Seconds();
-    r.start = start;
+    r.start = fit.start + (fit.retry_reason.empty() ? "" : fit.retry_kept ? " (retried, kept)"
+                                                                          : " (retried)");
     if (!ok) {
       r.converged = false;
       r.mean = r.max = std::nan("");

@@ -8,6 +8,7 @@
 
 #include <Eigen/Geometry>
 
+#include "fit/chosen_start_fit.h"
 #include "io/latent_io.h"
 #include "jobs/deformed_output.h"
 #include "jobs/model_pose.h"
@@ -265,22 +266,28 @@ FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log) {
   }
   FitJobResult result;
   result.kind = kind;
-  std::string start;
-  if (!fitter.ChooseStart(kind == "points" ? nullptr : &target, kind == "points" ? &cloud : nullptr,
-                          options.points, options.start, &initial, &start, &error)) {
+  const bool ok = FitFromChosenStart(&fitter, kind == "points" ? nullptr : &target,
+                                     kind == "points" ? &cloud : nullptr, options.points,
+                                     options.start, initial, &result.fit, &error);
+  if (result.fit.start.empty()) {  // no start could be simulated
     result.status = JobStatus::kNotConverged;
     result.message = error;
     return result;
   }
-  log << "start: " << start << "\n";
-  const bool ok = kind == "points"
-                      ? fitter.FitPointCloud(cloud, options.points, initial, &result.fit, &error)
-                      : fitter.Fit(target, initial, &result.fit, &error);
-  if (!ok) return NotConverged(options, model, result, error, log);
   const LatentFitResult& fit = result.fit;
+  if (!fit.retry_reason.empty()) {
+    log << "retry from the given start: " << fit.retry_reason << "; "
+        << (fit.retry_kept ? "kept (a smaller objective)" : "not kept") << "\n";
+  }
+  log << "start: " << fit.start << "\n";
+  if (!ok) return NotConverged(options, model, result, error, log);
   log << std::setprecision(6) << "fit: " << fit.iterations << " iterations, error mean "
       << fit.mean_error << " rms " << fit.rms_error << " max " << fit.max_error << " over "
       << fit.used_points << " points (" << fit.message << ")\n";
+  log << std::setprecision(3) << "work: " << fit.solves << " equilibrium solves ("
+      << fit.solve_factorizations << " factorizations, " << fit.solve_seconds << " s), "
+      << fit.jacobians << " Jacobians (" << fit.jacobian_seconds << " s)\n"
+      << std::setprecision(6);
   if (fit.second_start_ran) {
     log << "second start through " << options.fit.coarse_points << " of the points: "
         << (fit.second_start_kept ? "kept (a smaller objective than the direct fit)"

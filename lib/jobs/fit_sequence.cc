@@ -14,6 +14,7 @@
 #include <glog/logging.h>
 
 #include "dist/model_sharing.h"
+#include "fit/chosen_start_fit.h"
 #include "jobs/fit_job.h"
 #include "mesh/mesh_io.h"
 #include "mesh/ply_io.h"
@@ -477,19 +478,22 @@ FitSequenceResult RunFitSequence(const FitSequenceOptions& options, const Active
     }
     std::string start = "previous";
     std::string fit_error;
-    if (!warm || f == 0) {
-      if (!fitter->ChooseStart(is_cloud ? nullptr : &frame.target,
-                               is_cloud ? &frame.cloud : nullptr, options.points, options.start,
-                               &z, &start, &fit_error)) {
+    LatentFitResult fit;
+    bool fitted = false;
+    if (!warm || f == 0) {  // from the start chosen for this frame
+      fitted = FitFromChosenStart(fitter, is_cloud ? nullptr : &frame.target,
+                                  is_cloud ? &frame.cloud : nullptr, options.points, options.start,
+                                  z, &fit, &fit_error);
+      if (fit.start.empty()) {  // no start could be simulated
         *status = JobStatus::kNotConverged;
         *message = frame.path + ": " + fit_error;
         return false;
       }
+      start = fit.start;
+    } else {
+      fitted = is_cloud ? fitter->FitPointCloud(frame.cloud, options.points, z, &fit, &fit_error)
+                        : fitter->Fit(frame.target, z, &fit, &fit_error);
     }
-    LatentFitResult fit;
-    const bool fitted =
-        is_cloud ? fitter->FitPointCloud(frame.cloud, options.points, z, &fit, &fit_error)
-                 : fitter->Fit(frame.target, z, &fit, &fit_error);
     if (!fitted) {
       *status = JobStatus::kNotConverged;
       *message = frame.path + ": " + fit_error + " (frames before it are written; rerun to retry)";

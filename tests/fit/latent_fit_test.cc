@@ -13,6 +13,7 @@
 #include "geometry/embedding.h"
 #include "prepare/volumetric_targets.h"
 #include "testing/finite_difference.h"
+#include "testing/fit_fixtures.h"
 #include "testing/synthetic_muscles.h"
 #include "train/pretrain.h"
 #include "train/trainer.h"
@@ -20,34 +21,7 @@
 namespace aqs {
 namespace {
 
-// A small trained model of the synthetic-muscle bar; with_bone: its fixed end is a bone.
-ActiveModel TrainedModel(bool with_bone) {
-  testing::SyntheticMuscles data = testing::MakeSyntheticMuscles(8, 0, 0.3, 21);
-  ActiveModel model = data.model;
-  std::ostringstream log;
-  std::string error;
-  EXPECT_TRUE(MakeVolumetricTargets(VolumetricTargetOptions(), &model, log, &error)) << error;
-  PretrainOptions pretrain;
-  pretrain.spec.latent_dim = 3;
-  pretrain.spec.hidden_dims = {16, 16};
-  // tanh: a smooth decoder, so that finite differences are exact to high order (ELU is
-  // not twice differentiable at 0, which spoils Ridders extrapolation near kinks).
-  pretrain.spec.activation = Activation::kTanh;
-  pretrain.field.node_spacing = 0.25;
-  pretrain.max_iterations = 150;
-  pretrain.log_every = 0;
-  PretrainReport report;
-  EXPECT_TRUE(Pretrain(pretrain, &model, &report, log, &error)) << error;
-  if (with_bone) {
-    Bone base;
-    base.name = "base";
-    base.vertices = model.static_vertices;
-    base.pose_transforms.assign(model.num_poses(), RigidTransform());
-    model.static_vertices.clear();
-    model.bones.push_back(base);
-  }
-  return model;
-}
+ActiveModel TrainedModel(bool with_bone) { return testing::PretrainedBarForFits(with_bone); }
 
 TEST(LatentFitTest, CostJacobianPassesGradientChecker) {
   const ActiveModel model = TrainedModel(true);
@@ -363,14 +337,7 @@ TEST(LatentFitTest, BoneWithoutDataNearItEndsAtThePriorMean) {
 TEST(LatentFitTest, StartIsTheTrainingPoseClosestToTheTarget) {
   ActiveModel model = TrainedModel(true);
   std::string error;
-  {
-    LatentFitter simulator(model, LatentFitOptions());
-    model.states.assign(model.num_poses(), Eigen::Matrix3Xd());
-    for (int p = 0; p < model.num_poses(); ++p) {
-      Eigen::Matrix3Xd surface;
-      ASSERT_TRUE(simulator.Simulate(model.latents.col(p), &model.states[p], &surface, &error));
-    }
-  }
+  ASSERT_TRUE(testing::StoreTrainingEquilibria(&model));
   LatentFitter fitter(model, LatentFitOptions());
   const int chosen_pose = 4;
   const Eigen::Matrix3Xd surface =

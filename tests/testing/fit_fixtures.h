@@ -1,0 +1,22 @@
+#ifndef AQS_TESTING_FIT_FIXTURES_H_
+#define AQS_TESTING_FIT_FIXTURES_H_
+
+#include "model/active_model.h"
+
+namespace aqs {
+namespace testing {
+
+// A small pre-trained model of the synthetic-muscle bar (8 poses, latent 3, tanh
+// decoder 16-16; no end-to-end training), for fits. with_bone: its fixed end is a bone
+// "base" (rest in every training pose) instead of static vertices.
+ActiveModel PretrainedBarForFits(bool with_bone);
+
+// Sets model->states to every training pose's equilibrium (its latent, bones as in the
+// pose), as training stores them: what LatentFitter::ChooseStart starts from. False if
+// one cannot be simulated.
+bool StoreTrainingEquilibria(ActiveModel* model);
+
+}  // namespace testing
+}  // namespace aqs
+
+#endif  // AQS_TESTING_FIT_FIXTURES_H_
