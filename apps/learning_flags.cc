@@ -26,6 +26,11 @@ DEFINE_double(latent_regularization, 1e-3, "Weight of the latent regularizer (1/
 DEFINE_double(decoder_regularization, 0.0,
               "Weight of the decoder regularizer |params|^2 (weight decay on the decoder's "
               "weights and biases), in pre-training and training. 0: none.");
+DEFINE_double(energy_regularization, 0.0,
+              "Weight of the equilibrium-energy regularizer of end-to-end training: each "
+              "pose's elastic energy at equilibrium over sum mu V (a mean squared mismatch "
+              "of F and the targets), averaged over the poses. Penalizes actuations that "
+              "fight each other (pre-stress near buckling). 0: none.");
 DEFINE_int32(pretrain_iterations, 500, "L-BFGS iterations of pre-training.");
 DEFINE_string(pretrain_latents, "targets", "Where pre-training's latents start: 'targets' (the "
               "volumetric targets' principal components, fitted with the decoder) or 'surfaces' "
@@ -160,6 +165,7 @@ FlagNames TrainFlagNames() {
   FlagNames flags = CommonFlagNames();
   flags.insert(flags.end(), {{"latent_regularization", "--latent_regularization"},
                              {"decoder_regularization", "--decoder_regularization"},
+                             {"energy_regularization", "--energy_regularization"},
                              {"max_iterations", "--train_iterations"},
                              {"max_seconds", "--train_minutes"},
                              {"solver.relative_force_tolerance", "--train_tolerance"},
@@ -182,6 +188,7 @@ bool TrainOptionsFromFlags(TrainOptions* options, std::string* error) {
   options->lbfgs_scaling = FLAGS_lbfgs_scaling;
   options->latent_regularization = FLAGS_latent_regularization;
   options->decoder_regularization = FLAGS_decoder_regularization;
+  options->energy_regularization = FLAGS_energy_regularization;
   options->max_iterations = FLAGS_train_iterations;
   options->max_seconds = 60.0 * FLAGS_train_minutes;
   options->solver.relative_force_tolerance = FLAGS_train_tolerance;

@@ -31,6 +31,7 @@ ShapeTargetModel::ShapeTargetModel(const TetMesh& mesh, const Eigen::VectorXd& m
         mesh.vertices.col(tets_(2, e)), mesh.vertices.col(tets_(3, e)));
     weights_[e] = GradientWeights(rest_shapes_[e].dm_inverse);
     total_volume_ += rest_shapes_[e].volume;
+    stiffness_volume_ += mu_[e] * rest_shapes_[e].volume;
     scale_sum += mu_[e] * std::cbrt(rest_shapes_[e].volume * rest_shapes_[e].volume);
   }
   force_scale_ = 2.0 * scale_sum / mesh.num_tets();
@@ -92,6 +93,25 @@ double ShapeTargetModel::EnergyAndGradient(const PositionsRef& x, const Actuatio
     *gradient += partial[t];
     total += energy[t];
   }
+  return total;
+}
+
+double ShapeTargetModel::EnergyActuationGradient(const PositionsRef& x, const ActuationRef& a,
+                                                 ActuationMatrix* gradient,
+                                                 int num_threads) const {
+  CHECK_EQ(x.cols(), num_vertices_);
+  CHECK_EQ(a.cols(), num_elements());
+  gradient->resize(6, num_elements());
+  const int threads = ParallelForThreadCount(num_threads, num_elements());
+  std::vector<double> partial(threads, 0.0);
+  ParallelFor(threads, 0, num_elements(), [&](int t, int e) {
+    const ShapeTargetElement element = Element(x, a, e);
+    const double volume = rest_shapes_[e].volume;
+    partial[t] += volume * element.EnergyDensity();
+    gradient->col(e) = volume * element.EnergyActuationGradient();
+  });
+  double total = 0.0;
+  for (double p : partial) total += p;
   return total;
 }
 

@@ -38,6 +38,8 @@ class ShapeTargetModel {
   const Eigen::VectorXd& mu() const { return mu_; }
   // sum_e V_e
   double total_volume() const { return total_volume_; }
+  // sum_e mu_e V_e: the energy of the body under unit strain mismatch (an energy scale).
+  double stiffness_volume() const { return stiffness_volume_; }
   // A force scale: 2 * mean_e(mu_e V_e^(2/3)), the magnitude of the nodal force of an
   // element under unit strain. Solver force tolerances are relative to it.
   double force_scale() const { return force_scale_; }
@@ -61,6 +63,12 @@ class ShapeTargetModel {
   double EnergyAndGradient(const PositionsRef& x, const ActuationRef& a,
                            Eigen::Matrix3Xd* gradient, int num_threads = 1,
                            PolarCache* cache = nullptr) const;
+  // dE/da at fixed x (6 x num_elements, column e: V_e times
+  // ShapeTargetElement::EnergyActuationGradient, in the order of physics/actuation.h,
+  // off-diagonal entries counted twice). At an equilibrium x*(a) this is also the total
+  // derivative of the equilibrium energy E(x*(a), a) (dE/dx = 0 there). Returns E.
+  double EnergyActuationGradient(const PositionsRef& x, const ActuationRef& a,
+                                 ActuationMatrix* gradient, int num_threads = 1) const;
 
  private:
   int num_vertices_;
@@ -70,6 +78,7 @@ class ShapeTargetModel {
   std::vector<Eigen::Matrix<double, 3, 4>> weights_;
   Eigen::VectorXd mu_;
   double total_volume_ = 0.0;
+  double stiffness_volume_ = 0.0;
   double force_scale_ = 0.0;
 };
 

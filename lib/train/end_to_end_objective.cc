@@ -408,6 +408,9 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
   double decoder_seconds = evaluation_timer.Seconds();
   const int n = model_.num_surface_vertices();
   const double scale = 1.0 / (static_cast<double>(num_poses_) * n);
+  // (1/P) E / sum_e mu_e V_e: the energy regularizer's factor.
+  const double energy_scale =
+      options_.energy_regularization / (static_cast<double>(num_poses_) * physics_.stiffness_volume());
   std::vector<ActuationMatrix> dl_da(num_owned);
   std::vector<Counters> pose_counters(num_owned);
   // The equilibria found; they become the warm starts only if the whole evaluation
@@ -517,6 +520,7 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
     const FactorizationCounters before = factorization.counters();
     // The escapes' solves, counted there.
     int escape_factorizations = 0, escape_reused = 0, escape_indefinite = 0;
+    ActuationMatrix energy_da;  // dE/da at the equilibrium (energy_regularization)
     // An equilibrium whose exact stiffness is not positive definite is unstable (a
     // saddle of the energy): the adjoint cannot use it and the pose would not stay
     // there. Leave it by a small perturbation and solve again, at most kMaxEscapes times.
@@ -527,6 +531,14 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
       const Eigen::Matrix3Xd diff =
           EmbeddedPositions(model_.embedding, model_.mesh.tets, x) - model_.poses[p].surface;
       pose_loss_[p] = diff.squaredNorm() * scale;
+      if (options_.energy_regularization > 0.0) {
+        // The equilibrium-energy regularizer (TrainOptions::energy_regularization); its
+        // gradient dE/da at fixed x is the total one at an equilibrium.
+        const double energy = gradient == nullptr
+                                  ? physics_.Energy(x, a[k])
+                                  : physics_.EnergyActuationGradient(x, a[k], &energy_da);
+        pose_loss_[p] += energy_scale * energy;
+      }
       const Eigen::VectorXd distance = diff.colwise().norm();
       pose_mean_[p] = distance.mean();
       pose_max_[p] = distance.maxCoeff();
@@ -583,6 +595,7 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
         return;
       }
     }
+    if (options_.energy_regularization > 0.0) dl_da[k] += energy_scale * energy_da;
     const FactorizationCounters& after = factorization.counters();
     counters.adjoint_factorizations =
         after.factorizations - before.factorizations - escape_factorizations;

@@ -11,6 +11,7 @@ bool TrainOptions::Validate(std::string* error) const {
   return OptionChecks()
       .InRange("latent_regularization", latent_regularization, 0.0, kMaxRegularization)
       .InRange("decoder_regularization", decoder_regularization, 0.0, kMaxRegularization)
+      .InRange("energy_regularization", energy_regularization, 0.0, kMaxRegularization)
       .IntAtLeast("max_iterations", max_iterations, 0)
       .NonNegative("max_seconds", max_seconds)
       .Nested("solver", solver_ok, solver_error)

@@ -19,6 +19,14 @@ struct TrainOptions {
   // of the decoder's network). With the latent regularizer alone, the network's first
   // layer can grow as the latents shrink; this term fixes that scale. 0: none.
   double decoder_regularization = 0.0;
+  // Weight of the equilibrium-energy regularizer
+  //   (1/P) sum_p E(x*_p, a_p) / (sum_e mu_e V_e),
+  // each pose's elastic energy at its equilibrium relative to the body's stiffness times
+  // volume (a mean squared mismatch between F and the shape targets' R S). It penalizes
+  // actuations that fight each other: pre-stressed equilibria near buckling, where
+  // Newton crawls and contact paths halve. Its gradient needs no adjoint: at an
+  // equilibrium dE/dx = 0, so dE(x*(a), a)/da = dE/da at fixed x. 0: none.
+  double energy_regularization = 0.0;
   // L-BFGS iterations in all (counting those of earlier runs when resuming).
   int max_iterations = 200;
   // Stop (successfully, after saving) once this much wall time was spent in this run

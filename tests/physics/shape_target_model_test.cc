@@ -59,6 +59,41 @@ TEST(ShapeTargetModelTest, GradientMatchesFiniteDifferences) {
   }
 }
 
+// dE/da at fixed x against central differences over all 18 actuation numbers: random
+// deformations with random rotations, and one element nearly flat (its fourth vertex
+// 1e-3 from the plane of the other three).
+TEST(ShapeTargetModelTest, ActuationGradientMatchesFiniteDifferences) {
+  const TetMesh mesh = SmallMesh();
+  Eigen::VectorXd mu(3);
+  mu << 1.0, 2.5, 0.7;
+  const ShapeTargetModel model(mesh, mu);
+  std::mt19937 rng(5);
+  std::normal_distribution<double> normal(0.0, 0.15);
+  for (int trial = 0; trial < 5; ++trial) {
+    const ActuationMatrix a = RandomActuation(3, &rng, 0.3);
+    Eigen::Matrix3Xd x = mesh.vertices;
+    if (trial == 4) {  // tet 0 = (0, 1, 2, 3): vertex 3 almost onto the plane z = 0
+      x(2, 3) = 1e-3;
+    } else {
+      for (int i = 0; i < x.size(); ++i) x.data()[i] += normal(rng);
+    }
+    x = testing::RandomRotation(&rng) * x;
+    ActuationMatrix gradient;
+    const double energy = model.EnergyActuationGradient(x, a, &gradient, 2);
+    EXPECT_NEAR(energy, model.Energy(x, a, 1), 1e-12 * energy);
+    ASSERT_EQ(gradient.cols(), 3);
+    auto f = [&](const Eigen::VectorXd& flat) {
+      return model.Energy(x, Eigen::Map<const ActuationMatrix>(flat.data(), 6, 3));
+    };
+    const Eigen::VectorXd numeric = testing::CentralDifferenceGradient(
+        f, Eigen::Map<const Eigen::VectorXd>(a.data(), a.size()), 1e-6);
+    EXPECT_LT(testing::RelativeError(
+                  Eigen::Map<const Eigen::VectorXd>(gradient.data(), gradient.size()), numeric),
+              1e-7)
+        << "trial " << trial;
+  }
+}
+
 TEST(ShapeTargetModelTest, RestIsEquilibriumAndRigidMotionsAreFree) {
   const TetMesh mesh = SmallMesh();
   const ShapeTargetModel model(mesh, 3.0);

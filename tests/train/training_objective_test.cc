@@ -57,47 +57,58 @@ void ExpectAgreeAt(const EndToEndObjective& a, const EndToEndObjective& b,
 }
 
 // The gradient of the end-to-end objective with respect to decoder weights and latents
-// against central differences of the whole objective, re-solving every equilibrium.
+// against central differences of the whole objective, re-solving every equilibrium;
+// without and with the equilibrium-energy regularizer (which must add to the cost).
 TEST(EndToEndObjectiveTest, GradientMatchesCentralDifferencesOfResolvedObjective) {
   ActiveModel model = PretrainedBar();
   ASSERT_TRUE(model.decoder);
+  double unregularized_cost = 0;
+  for (const double energy_weight : {0.0, 10.0}) {
+    SCOPED_TRACE("energy_regularization " + std::to_string(energy_weight));
+    TrainOptions options;
+    options.latent_regularization = 1e-2;
+    options.decoder_regularization = 1e-3;
+    options.energy_regularization = energy_weight;
+    options.solver.relative_force_tolerance = 1e-12;  // Newton reaches round-off
+    options.num_threads = 2;
+    EndToEndObjective objective(options, model);
+    const Eigen::VectorXd x0 = objective.ModelParameters();
+    double cost = 0;
+    Eigen::VectorXd gradient(objective.NumParameters());
+    ASSERT_TRUE(objective.Evaluate(x0.data(), &cost, gradient.data())) << objective.last_failure();
+    if (energy_weight == 0.0) {
+      unregularized_cost = cost;
+    } else {
+      EXPECT_GT(cost, unregularized_cost * 1.01) << "the energy term adds to the cost";
+    }
 
-  TrainOptions options;
-  options.latent_regularization = 1e-2;
-  options.decoder_regularization = 1e-3;
-  options.solver.relative_force_tolerance = 1e-12;  // Newton reaches round-off
-  options.num_threads = 2;
-  EndToEndObjective objective(options, model);
-  const Eigen::VectorXd x0 = objective.ModelParameters();
-  double cost = 0;
-  Eigen::VectorXd gradient(objective.NumParameters());
-  ASSERT_TRUE(objective.Evaluate(x0.data(), &cost, gradient.data())) << objective.last_failure();
-
-  // Every latent and a random sample of decoder parameters.
-  const int np = model.decoder->num_parameters();
-  std::vector<int> indices;
-  for (int i = np; i < objective.NumParameters(); ++i) indices.push_back(i);
-  std::mt19937 rng(4);
-  std::uniform_int_distribution<int> pick(0, np - 1);
-  for (int i = 0; i < 12; ++i) indices.push_back(pick(rng));
-  double worst = 0;
-  for (int i : indices) {
-    auto f = [&](const Eigen::VectorXd& t) {
-      Eigen::VectorXd x = x0;
-      x[i] += t[0];
-      double c = 0;
-      EXPECT_TRUE(objective.Evaluate(x.data(), &c, nullptr)) << objective.last_failure();
-      return c;
-    };
-    const double numeric =
-        testing::CentralDifferenceGradient(f, Eigen::VectorXd::Zero(1), 1e-4)[0];
-    const double error_i = std::abs(numeric - gradient[i]) / std::max(1e-8, gradient.cwiseAbs().maxCoeff());
-    worst = std::max(worst, error_i);
-    EXPECT_LT(error_i, 1e-5) << "parameter " << i << ": analytic " << gradient[i] << " numeric "
-                             << numeric;
+    // Every latent and a random sample of decoder parameters.
+    const int np = model.decoder->num_parameters();
+    std::vector<int> indices;
+    for (int i = np; i < objective.NumParameters(); ++i) indices.push_back(i);
+    std::mt19937 rng(4);
+    std::uniform_int_distribution<int> pick(0, np - 1);
+    for (int i = 0; i < 12; ++i) indices.push_back(pick(rng));
+    double worst = 0;
+    for (int i : indices) {
+      auto f = [&](const Eigen::VectorXd& t) {
+        Eigen::VectorXd x = x0;
+        x[i] += t[0];
+        double c = 0;
+        EXPECT_TRUE(objective.Evaluate(x.data(), &c, nullptr)) << objective.last_failure();
+        return c;
+      };
+      const double numeric =
+          testing::CentralDifferenceGradient(f, Eigen::VectorXd::Zero(1), 1e-4)[0];
+      const double error_i =
+          std::abs(numeric - gradient[i]) / std::max(1e-8, gradient.cwiseAbs().maxCoeff());
+      worst = std::max(worst, error_i);
+      EXPECT_LT(error_i, 1e-5) << "parameter " << i << ": analytic " << gradient[i] << " numeric "
+                               << numeric;
+    }
+    std::printf("training objective (energy regularization %g): %zu components checked, worst "
+                "error %.2e (relative to max |g|)\n", energy_weight, indices.size(), worst);
   }
-  std::printf("training objective: %zu components checked, worst error %.2e (relative to max |g|)\n",
-              indices.size(), worst);
 }
 
 // A kept evaluation's equilibria outlive the few the objective remembers: after more
