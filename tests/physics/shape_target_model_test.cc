@@ -34,11 +34,16 @@ ActuationMatrix RandomActuation(int n, std::mt19937* rng, double amplitude) {
   return a;
 }
 
-TEST(ShapeTargetModelTest, GradientMatchesFiniteDifferences) {
-  const TetMesh mesh = SmallMesh();
+// SmallMesh with a different stiffness per element.
+ShapeTargetModel SmallModel() {
   Eigen::VectorXd mu(3);
   mu << 1.0, 2.5, 0.7;
-  const ShapeTargetModel model(mesh, mu);
+  return ShapeTargetModel(SmallMesh(), mu);
+}
+
+TEST(ShapeTargetModelTest, GradientMatchesFiniteDifferences) {
+  const TetMesh mesh = SmallMesh();
+  const ShapeTargetModel model = SmallModel();
   std::mt19937 rng(21);
   std::normal_distribution<double> normal(0.0, 0.15);
   for (int trial = 0; trial < 5; ++trial) {
@@ -63,15 +68,12 @@ TEST(ShapeTargetModelTest, GradientMatchesFiniteDifferences) {
 // deformations with random rotations, and one element nearly flat (its fourth vertex
 // 1e-3 from the plane of the other three).
 TEST(ShapeTargetModelTest, ActuationGradientMatchesFiniteDifferences) {
-  const TetMesh mesh = SmallMesh();
-  Eigen::VectorXd mu(3);
-  mu << 1.0, 2.5, 0.7;
-  const ShapeTargetModel model(mesh, mu);
+  const ShapeTargetModel model = SmallModel();
   std::mt19937 rng(5);
   std::normal_distribution<double> normal(0.0, 0.15);
   for (int trial = 0; trial < 5; ++trial) {
+    Eigen::Matrix3Xd x = SmallMesh().vertices;
     const ActuationMatrix a = RandomActuation(3, &rng, 0.3);
-    Eigen::Matrix3Xd x = mesh.vertices;
     if (trial == 4) {  // tet 0 = (0, 1, 2, 3): vertex 3 almost onto the plane z = 0
       x(2, 3) = 1e-3;
     } else {
