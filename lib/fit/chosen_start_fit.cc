@@ -61,6 +61,7 @@ bool FitFromChosenStart(LatentFitter* fitter, const FitTarget* target,
                         const FitStartOptions& options, const Eigen::VectorXd& given,
                         LatentFitResult* result, std::string* error) {
   CHECK((target != nullptr) != (points != nullptr));
+  result->start.clear();  // set once a start is chosen
   const std::vector<RigidTransform> given_bones = fitter->bone_transforms();
   const Eigen::Matrix3Xd given_state = fitter->start_state();
   Eigen::VectorXd z = given;

@@ -24,12 +24,12 @@ bool BonesBeyondTrainingPoses(const FitPrior& prior, const std::vector<Bone>& mo
 // state) and the training poses. With options.retry_from_given, a fit from a training
 // pose that fails, does not converge or ends with bones beyond the training poses'
 // (BonesBeyondTrainingPoses) is fitted again from the given start, and the fit of the
-// smaller LatentFitter::StartObjective is kept; its counters then sum both fits, and
-// result->retry_reason says why the retry ran, result->retry_kept whether it was kept. result->start
-// names the kept fit's start ("given" or a training pose). The fitter is left at the
-// kept fit (its bones; its equilibrium as the next start). Returns false with *error
-// when no start can be simulated or every fit that ran failed (result then holds the
-// failed fit, as Fit leaves it).
+// smaller LatentFitter::StartObjective is kept; its counters then sum both fits,
+// result->retry_reason says why the retry ran and result->retry_kept whether it was
+// kept. result->start names the kept fit's start ("given" or a training pose). The
+// fitter is left at the kept fit (its bones; its equilibrium as the next start). Returns
+// false with *error when no start can be simulated (result->start then stays empty) or
+// every fit that ran failed (result then holds the failed fit, as Fit leaves it).
 bool FitFromChosenStart(LatentFitter* fitter, const FitTarget* target,
                         const Eigen::Matrix3Xd* points, const PointCloudFitOptions& cloud_options,
                         const FitStartOptions& options, const Eigen::VectorXd& given,

@@ -159,8 +159,9 @@ struct FitStartOptions {
   bool training_poses = true;
   // FitFromChosenStart (fit/chosen_start_fit.h): a fit from a training pose that fails,
   // does not converge, or ends with a bone farther from the prior's centre than any
-  // training pose's (its Mahalanobis distance under the bone prior) is fitted again from
-  // the given start, and the fit of the smaller objective kept. On the demo's surface-
+  // training pose's and than one standard deviation (Mahalanobis distance under the bone
+  // prior) is fitted again from the given start, and the fit of the smaller objective
+  // kept. On the demo's surface-
   // latent model, two full-correspondence fits from jawOpen went on to a 25 degree jaw
   // (0.231 and 0.160 cm, 224 and 142 s), where fits from the given start reach 0.101 and
   // 0.053 in 2 s (docs/fitting.md).

@@ -409,8 +409,8 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
   const int n = model_.num_surface_vertices();
   const double scale = 1.0 / (static_cast<double>(num_poses_) * n);
   // (1/P) E / sum_e mu_e V_e: the energy regularizer's factor.
-  const double energy_scale =
-      options_.energy_regularization / (static_cast<double>(num_poses_) * physics_.stiffness_volume());
+  const double energy_scale = options_.energy_regularization /
+                              (static_cast<double>(num_poses_) * physics_.stiffness_volume());
   std::vector<ActuationMatrix> dl_da(num_owned);
   std::vector<Counters> pose_counters(num_owned);
   // The equilibria found; they become the warm starts only if the whole evaluation
