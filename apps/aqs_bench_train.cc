@@ -46,6 +46,8 @@ DEFINE_string(modes, "per_pose,shared", "Solver layouts to measure: per_pose (on
               "factor per pose), stored (one solver per thread, each pose's factor kept in single "
               "precision) and/or shared (one solver per thread, nothing kept).");
 DEFINE_double(tolerance, 1e-6, "Relative force tolerance of the training equilibria.");
+DEFINE_double(energy_regularization, 0.0, "Weight of the equilibrium-energy regularizer, as "
+              "aqs_train's (the demo trains with 0.1).");
 DEFINE_int32(max_poses, 0, "Train on at most this many of the model's poses, spread evenly "
              "over its pose list (poses i * P / N for i < N); 0: all. The figures are per pose.");
 DEFINE_bool(line_search_starts, true, "Start a line-search trial's solves from the equilibria of "
@@ -241,6 +243,7 @@ int Main() {
     options.max_iterations = FLAGS_iterations;
     options.num_threads = FLAGS_threads;
     options.solver.relative_force_tolerance = FLAGS_tolerance;
+    options.energy_regularization = FLAGS_energy_regularization;
     if (!SolverMethodFromFlag(&options.solver, &error)) {
       PrintError(error);
       return 1;
@@ -256,6 +259,16 @@ int Main() {
     options.max_step_expansion = FLAGS_max_step_expansion;
     options.lbfgs_scaling = FLAGS_lbfgs_scaling;
     options.log_every = FLAGS_progress ? 1 : 0;
+    if (!options.Validate(&error)) {
+      FlagNames flags = CommonFlagNames();
+      flags.insert(flags.end(), {{"energy_regularization", "--energy_regularization"},
+                                 {"solver.relative_force_tolerance", "--tolerance"},
+                                 {"adjoint_tolerance", "--adjoint_tolerance"},
+                                 {"max_step_expansion", "--max_step_expansion"},
+                                 {"max_iterations", "--iterations"}});
+      PrintError(FlagError(error, flags));
+      return 1;
+    }
     TrainReport report;
     std::ostringstream quiet;
     std::ostream& log = FLAGS_progress ? std::cout : static_cast<std::ostream&>(quiet);

@@ -207,6 +207,7 @@ TEST_F(AqsFitTest, FitsAPoseAndSimulatesTheLatentBack) {
   ASSERT_EQ(fit.exit_code, 0) << fit.output;
   EXPECT_NE(fit.output.find("target " + dir_->File("test0.obj") + ": pose"), std::string::npos)
       << fit.output;
+  EXPECT_NE(fit.output.find("work: "), std::string::npos) << "the solver work" << fit.output;
   SurfaceMesh fitted, back;
   std::string error;
   ASSERT_TRUE(ReadObj(dir_->File("fit.obj"), &fitted, &error)) << error;
@@ -232,6 +233,20 @@ TEST_F(AqsFitTest, FitsAPoseAndSimulatesTheLatentBack) {
       AppPath("aqs_simulate") + " --model=" + dir_->File("model") + " --pose=train_2 --output=" +
       dir_->File("p.obj"));
   EXPECT_EQ(pose.exit_code, 0) << pose.output;
+}
+
+// The training benchmark runs with the energy term (as the demo trains) and refuses a
+// negative weight, naming the flag.
+TEST_F(AqsFitTest, TrainingBenchmarkTakesTheEnergyTerm) {
+  const std::string bench = AppPath("aqs_bench_train") + " --model=" + dir_->File("model") +
+                            " --iterations=2 --modes=per_pose --energy_regularization=";
+  const testing::CommandResult run = RunCommand(bench + "0.1");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("per_pose"), std::string::npos) << run.output;
+  const testing::CommandResult bad = RunCommand(bench + "-1");
+  EXPECT_EQ(bad.exit_code, 1) << bad.output;
+  EXPECT_NE(bad.output.find("--energy_regularization must be in"), std::string::npos)
+      << bad.output;
 }
 
 TEST_F(AqsFitTest, MarkersAndPointCloudTargets) {
