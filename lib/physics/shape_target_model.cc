@@ -97,15 +97,16 @@ double ShapeTargetModel::EnergyAndGradient(const PositionsRef& x, const Actuatio
 }
 
 double ShapeTargetModel::EnergyActuationGradient(const PositionsRef& x, const ActuationRef& a,
-                                                 ActuationMatrix* gradient,
-                                                 int num_threads) const {
+                                                 ActuationMatrix* gradient, int num_threads,
+                                                 const PolarCache* cache) const {
   CHECK_EQ(x.cols(), num_vertices_);
   CHECK_EQ(a.cols(), num_elements());
   gradient->resize(6, num_elements());
   const int threads = ParallelForThreadCount(num_threads, num_elements());
   std::vector<double> partial(threads, 0.0);
+  const PolarCache* known = PolarCache::IfMatches(cache, x, a);
   ParallelFor(threads, 0, num_elements(), [&](int t, int e) {
-    const ShapeTargetElement element = Element(x, a, e);
+    const ShapeTargetElement element = Element(x, a, e, known);
     const double volume = rest_shapes_[e].volume;
     partial[t] += volume * element.EnergyDensity();
     gradient->col(e) = volume * element.EnergyActuationGradient();

@@ -66,9 +66,11 @@ class ShapeTargetModel {
   // dE/da at fixed x (6 x num_elements, column e: V_e times
   // ShapeTargetElement::EnergyActuationGradient, in the order of physics/actuation.h,
   // off-diagonal entries counted twice). At an equilibrium x*(a) this is also the total
-  // derivative of the equilibrium energy E(x*(a), a) (dE/dx = 0 there). Returns E.
+  // derivative of the equilibrium energy E(x*(a), a) (dE/dx = 0 there). Returns E. With
+  // a non-null `cache` that matches (x, a), its SVDs are read there.
   double EnergyActuationGradient(const PositionsRef& x, const ActuationRef& a,
-                                 ActuationMatrix* gradient, int num_threads = 1) const;
+                                 ActuationMatrix* gradient, int num_threads = 1,
+                                 const PolarCache* cache = nullptr) const;
 
  private:
   int num_vertices_;

@@ -533,10 +533,10 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
       pose_loss_[p] = diff.squaredNorm() * scale;
       if (options_.energy_regularization > 0.0) {
         // The equilibrium-energy regularizer (TrainOptions::energy_regularization); its
-        // gradient dE/da at fixed x is the total one at an equilibrium.
-        const double energy = gradient == nullptr
-                                  ? physics_.Energy(x, a[k])
-                                  : physics_.EnergyActuationGradient(x, a[k], &energy_da);
+        // gradient dE/da at fixed x is the total one at an equilibrium. The element SVDs
+        // are those of the solve's last energy evaluation, at x as a rule.
+        const double energy = physics_.EnergyActuationGradient(
+            x, a[k], &energy_da, 1, &w.solver->stiffness_factorization()->polar_cache());
         pose_loss_[p] += energy_scale * energy;
       }
       const Eigen::VectorXd distance = diff.colwise().norm();

@@ -84,6 +84,13 @@ TEST(ShapeTargetModelTest, ActuationGradientMatchesFiniteDifferences) {
     const double energy = model.EnergyActuationGradient(x, a, &gradient, 2);
     EXPECT_NEAR(energy, model.Energy(x, a, 1), 1e-12 * energy);
     ASSERT_EQ(gradient.cols(), 3);
+    // The same from the SVDs an energy evaluation at (x, a) cached.
+    PolarCache cache;
+    Eigen::Matrix3Xd dx;
+    model.EnergyAndGradient(x, a, &dx, 1, &cache);
+    ActuationMatrix cached;
+    EXPECT_NEAR(model.EnergyActuationGradient(x, a, &cached, 1, &cache), energy, 1e-12 * energy);
+    EXPECT_LT((cached - gradient).cwiseAbs().maxCoeff(), 1e-12 * gradient.cwiseAbs().maxCoeff());
     auto f = [&](const Eigen::VectorXd& flat) {
       return model.Energy(x, Eigen::Map<const ActuationMatrix>(flat.data(), 6, 3));
     };
