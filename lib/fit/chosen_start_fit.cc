@@ -28,15 +28,6 @@ bool FitOnce(LatentFitter* fitter, const FitTarget* target, const Eigen::Matrix3
                            : fitter->Fit(*target, z, result, error);
 }
 
-void AddCounters(const LatentFitResult& other, LatentFitResult* result) {
-  result->iterations += other.iterations;
-  result->solves += other.solves;
-  result->solve_factorizations += other.solve_factorizations;
-  result->solve_seconds += other.solve_seconds;
-  result->jacobians += other.jacobians;
-  result->jacobian_seconds += other.jacobian_seconds;
-}
-
 }  // namespace
 
 bool BonesBeyondTrainingPoses(const FitPrior& prior, const std::vector<Bone>& model_bones,
@@ -109,7 +100,7 @@ bool FitFromChosenStart(LatentFitter* fitter, const FitTarget* target,
     keep_second = second_objective < first_objective;
   }
   *result = keep_second ? second : first;
-  AddCounters(keep_second ? first : second, result);
+  AddFitCounters(keep_second ? first : second, result);
   result->start = keep_second ? "given" : start;
   result->retry_reason = first.retry_reason;
   result->retry_kept = keep_second;

@@ -603,6 +603,15 @@ bool LatentFitter::Simulate(const Eigen::VectorXd& z, Eigen::Matrix3Xd* state,
   return true;
 }
 
+void AddFitCounters(const LatentFitResult& other, LatentFitResult* result) {
+  result->iterations += other.iterations;
+  result->solves += other.solves;
+  result->solve_factorizations += other.solve_factorizations;
+  result->solve_seconds += other.solve_seconds;
+  result->jacobians += other.jacobians;
+  result->jacobian_seconds += other.jacobian_seconds;
+}
+
 bool LatentFitter::Fit(const FitTarget& target, const Eigen::VectorXd& initial,
                        LatentFitResult* result, std::string* error) {
   const int coarse = options_.coarse_points;
@@ -627,15 +636,8 @@ bool LatentFitter::Fit(const FitTarget& target, const Eigen::VectorXd& initial,
       second_ok && Objective(target, fine.surface, fine.latent) < direct_objective;
   *result = second_better ? fine : direct;
   // The counters of every fit that ran (a failed second start counts what it did).
-  const LatentFitResult* others[] = {second_better ? &direct : &fine, &sparse};
-  for (const LatentFitResult* other : others) {
-    result->iterations += other->iterations;
-    result->solves += other->solves;
-    result->solve_factorizations += other->solve_factorizations;
-    result->solve_seconds += other->solve_seconds;
-    result->jacobians += other->jacobians;
-    result->jacobian_seconds += other->jacobian_seconds;
-  }
+  AddFitCounters(second_better ? direct : fine, result);
+  AddFitCounters(sparse, result);
   result->second_start_ran = true;
   result->second_start_kept = second_better;
   bones_ = result->bones;

@@ -124,6 +124,10 @@ struct LatentFitResult {
   std::string message;
 };
 
+// Adds other's work counters (iterations, solves, solve factorizations and seconds,
+// Jacobians and their seconds) to *result's: a result that stands for several fits.
+void AddFitCounters(const LatentFitResult& other, LatentFitResult* result);
+
 // Options of point-cloud fitting (scans without correspondence).
 struct PointCloudFitOptions {
   // Matching/fitting rounds: each matches every scan point to the closest point of the
