@@ -102,10 +102,31 @@ bool ContactSolver::SolveRounds(const ActuationMatrix& a, const std::vector<Rigi
     }
     report->self_contacts = 0;
     Eigen::Matrix3Xd g = Eigen::Matrix3Xd::Zero(3, x.cols());
+    double largest_force = 0;
+    std::string largest_pair;
     for (const SelfContactPair& pair : pairs) {
       const bool edge = pair.kind == SelfContactPair::Kind::kEdgeEdge;
       const SelfContactTerm single({pair}, options_.thickness, kResidualDepth, kResidualMargin);
       if (single.AddEnergyAndGradient(x, &g) > 0) {
+        // Diagnostics (--v=2): the pair with the largest force on one simulation vertex.
+        Eigen::Matrix3Xd pair_gradient;
+        if (VLOG_IS_ON(2)) pair_gradient = Eigen::Matrix3Xd::Zero(3, x.cols());
+        if (VLOG_IS_ON(2)) single.AddEnergyAndGradient(x, &pair_gradient);
+        const double force = VLOG_IS_ON(2) ? pair_gradient.colwise().norm().maxCoeff() : 0.0;
+        if (force > largest_force) {
+          const Eigen::Vector3d p[4] = {pair.point.Position(x), pair.corner[0].Position(x),
+                                        pair.corner[1].Position(x), pair.corner[2].Position(x)};
+          double s = 0, outside = 0, fade = 0;
+          SelfContactDistance(pair, p, &s, nullptr, &outside);
+          SelfContactFadeVariable(pair, p, &fade, nullptr);
+          std::ostringstream text;
+          text << (edge ? "edge-edge" : "point-triangle") << " surface vertex "
+               << pair.surface_vertex << " s " << s << " offset " << pair.offset << " outside "
+               << outside << (edge ? " sine " : " triangle quality ") << fade << " k "
+               << pair.stiffness << " largest force " << force;
+          largest_force = force;
+          largest_pair = text.str();
+        }
         ++report->self_contacts;
         if (edge) {
           state->touched[edges_(0, pair.edge)] = state->touched[edges_(1, pair.edge)] = 1;
@@ -125,6 +146,7 @@ bool ContactSolver::SolveRounds(const ActuationMatrix& a, const std::vector<Rigi
         offset = std::clamp(offset + options_.thickness - s, 0.0, kMaxOffset * options_.thickness);
       }
     }
+    if (!largest_pair.empty()) VLOG(2) << "round " << round + 1 << label << ": " << largest_pair;
     const Eigen::Matrix3Xd moved = EmbeddedPositions(model_.embedding, model_.mesh.tets, x);
     double depth = 0;
     int inside = 0;

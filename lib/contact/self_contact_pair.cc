@@ -3,7 +3,9 @@
 #include <algorithm>
 
 #include "geometry/distance/edge_distance.h"
+#include "geometry/distance/edge_sine.h"
 #include "geometry/distance/plane_distance.h"
+#include "geometry/distance/triangle_quality.h"
 
 namespace aqs {
 
@@ -32,6 +34,42 @@ bool SelfContactDistanceHessian(const SelfContactPair& pair, const Eigen::Vector
   }
   if (!EdgeDistanceHessian(points[0], points[1], points[2], points[3], hessian)) return false;
   *hessian *= pair.sign;
+  return true;
+}
+
+SelfContactFadeBand FadeBandOf(const SelfContactPair& pair) {
+  if (pair.kind == SelfContactPair::Kind::kPointTriangle) {
+    return {kTriangleFadeQuality, kFullTriangleQuality};
+  }
+  return {kEdgeFadeSine, kFullEdgeSine};
+}
+
+bool SelfContactFadeVariable(const SelfContactPair& pair, const Eigen::Vector3d points[4],
+                             double* value, Eigen::Matrix<double, 3, 4>* gradient) {
+  if (pair.kind == SelfContactPair::Kind::kEdgeEdge) {
+    return EdgeSine(points[0], points[1], points[2], points[3], value, gradient);
+  }
+  Eigen::Matrix3d corners;
+  if (!TriangleQuality(points[1], points[2], points[3], value,
+                       gradient != nullptr ? &corners : nullptr)) {
+    return false;
+  }
+  if (gradient != nullptr) {
+    gradient->col(0).setZero();
+    gradient->rightCols<3>() = corners;
+  }
+  return true;
+}
+
+bool SelfContactFadeVariableHessian(const SelfContactPair& pair, const Eigen::Vector3d points[4],
+                                    Eigen::Matrix<double, 12, 12>* hessian) {
+  if (pair.kind == SelfContactPair::Kind::kEdgeEdge) {
+    return EdgeSineHessian(points[0], points[1], points[2], points[3], hessian);
+  }
+  Eigen::Matrix<double, 9, 9> corners;
+  if (!TriangleQualityHessian(points[1], points[2], points[3], &corners)) return false;
+  hessian->setZero();
+  hessian->bottomRightCorner<9, 9>() = corners;
   return true;
 }
 

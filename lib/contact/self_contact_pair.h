@@ -50,13 +50,44 @@ bool SelfContactDistance(const SelfContactPair& pair, const Eigen::Vector3d poin
 bool SelfContactDistanceHessian(const SelfContactPair& pair, const Eigen::Vector3d points[4],
                                 Eigen::Matrix<double, 12, 12>* hessian);
 
-// Edge-edge pairs fade out as their edges turn parallel (where the lines' distance is
-// ill-conditioned and its normal flips): the residual is scaled by
-// sqrt(smoothstep((sine - kEdgeFadeSine) / (kFullEdgeSine - kEdgeFadeSine))) (EdgeSine),
-// so that the energy stays C1; ContactSolver pairs only edges with sine >= kMinEdgeSine.
+// Pairs fade out where their distance is ill-conditioned (its gradient levered by a
+// small sine or a small triangle height): the residual is scaled by the weight
+// w = sqrt(smoothstep(x)), x = (f - zero) / (full - zero) of a fade variable f
+// (SelfContactFadeVariable), so that the energy w^2 k / 2 (...)^2 stays C1.
+//  - Edge-edge pairs, as their edges turn parallel (where the lines' distance normal
+//    flips): f = EdgeSine, band kEdgeFadeSine .. kFullEdgeSine; ContactSolver pairs only
+//    edges with sine >= kMinEdgeSine.
+//  - Point-triangle pairs, as their triangle flattens (a triangle squashed in a pose:
+//    the plane's normal turns by (point offset) / (height) per unit corner motion):
+//    f = TriangleQuality, band kTriangleFadeQuality .. kFullTriangleQuality; ContactSolver
+//    pairs only triangles with quality >= kMinTriangleQuality (the ICT face's rest
+//    surface has none below 0.045).
 constexpr double kEdgeFadeSine = 0.05;
 constexpr double kFullEdgeSine = 0.15;
 constexpr double kMinEdgeSine = 0.2;
+constexpr double kTriangleFadeQuality = 0.01;
+constexpr double kFullTriangleQuality = 0.02;
+constexpr double kMinTriangleQuality = 0.03;
+
+// A pair's fade band: the fade variable's values at weight 0 (zero) and 1 (full).
+struct SelfContactFadeBand {
+  double zero = 0.0;
+  double full = 0.0;
+};
+SelfContactFadeBand FadeBandOf(const SelfContactPair& pair);
+
+// The pair's fade variable f at its four points (points[0] = point, points[1..3] =
+// corners; as SelfContactDistance) and its gradient with respect to them (3 x 4; null: not
+// computed): EdgeSine of the two edges, or TriangleQuality of the corners (the point's
+// column 0). Returns false where undefined (a degenerate edge or triangle).
+bool SelfContactFadeVariable(const SelfContactPair& pair, const Eigen::Vector3d points[4],
+                             double* value, Eigen::Matrix<double, 3, 4>* gradient);
+
+// Its Hessian with respect to the four points (12 x 12, ordered as
+// SelfContactDistanceHessian). Returns false where it is not smooth (parallel edges, a
+// flat triangle).
+bool SelfContactFadeVariableHessian(const SelfContactPair& pair, const Eigen::Vector3d points[4],
+                                    Eigen::Matrix<double, 12, 12>* hessian);
 
 }  // namespace aqs
 

@@ -7,8 +7,6 @@
 #include <ceres/problem.h>
 #include <glog/logging.h>
 
-#include "geometry/distance/edge_sine.h"
-
 namespace aqs {
 
 namespace {
@@ -48,26 +46,23 @@ double PairResidual(const SelfContactPair& pair, const Eigen::Vector3d points[4]
   gradient->setZero();
   if (!SelfContactDistance(pair, points, &s, &ds, &outside)) return 0.0;
   if (!(s < thickness) || !(s > -max_depth) || outside > margin) return 0.0;
-  const double scale = std::sqrt(pair.stiffness);
-  if (pair.kind == SelfContactPair::Kind::kPointTriangle) {
-    *gradient = -scale * ds;
-    return scale * (thickness - s);
-  }
-  // Edge-edge: weight w = sqrt(smoothstep(x)) = x sqrt(3 - 2 x) of the sine's position x
-  // in the fade band (dw/dx = 0 at x = 1; w^2 is C1 at x = 0).
-  double sine = 0;
-  Eigen::Matrix<double, 3, 4> dsine;
-  if (!EdgeSine(points[0], points[1], points[2], points[3], &sine, &dsine)) return 0.0;
-  const double x = (sine - kEdgeFadeSine) / (kFullEdgeSine - kEdgeFadeSine);
+  // The fade weight w = sqrt(smoothstep(x)) = x sqrt(3 - 2 x) of the fade variable's
+  // position x in its band (dw/dx = 0 at x = 1; w^2 is C1 at x = 0).
+  double f = 0;
+  Eigen::Matrix<double, 3, 4> df;
+  if (!SelfContactFadeVariable(pair, points, &f, &df)) return 0.0;
+  const SelfContactFadeBand band = FadeBandOf(pair);
+  const double x = (f - band.zero) / (band.full - band.zero);
   if (!(x > 0.0)) return 0.0;
-  double w = 1.0, dw_dx = 0.0;
-  if (x < 1.0) {
-    const double root = std::sqrt(3.0 - 2.0 * x);
-    w = x * root;
-    dw_dx = root - x / root;
-  }
+  const double scale = std::sqrt(pair.stiffness);
   const double r = scale * (thickness - s);
-  *gradient = -scale * w * ds + r * dw_dx / (kFullEdgeSine - kEdgeFadeSine) * dsine;
+  if (x >= 1.0) {
+    *gradient = -scale * ds;
+    return r;
+  }
+  const double root = std::sqrt(3.0 - 2.0 * x);
+  const double w = x * root, dw_dx = root - x / root;
+  *gradient = -scale * w * ds + r * dw_dx / (band.full - band.zero) * df;
   return w * r;
 }
 
@@ -168,10 +163,10 @@ void SelfContactTerm::AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>& x,
                         const Eigen::Vector3d* points, double r,
                         const Eigen::Matrix<double, 3, 4>& dr) {
     // Hessian of r^2 / 2 at the points: dr dr^T + r d2r, with d2r = -sqrt(k) Hess s, or
-    // for edge-edge pairs in the fade band (r = w(x) q, q = sqrt(k) (thickness + offset -
-    // s), x = (sine - kEdgeFadeSine) / band):
+    // in the fade band (r = w(x) q, q = sqrt(k) (thickness + offset - s),
+    // x = (f - band.zero) / width with f the fade variable):
     //   d2r = w d2q + q d2w + dw dq^T + dq dw^T,
-    //   d2w = w''(x) / band^2 dsine dsine^T + w'(x) / band Hess sine.
+    //   d2w = w''(x) / width^2 df df^T + w'(x) / width Hess f.
     const Eigen::Map<const Eigen::Matrix<double, 12, 1>> dr_flat(dr.data());
     Eigen::Matrix<double, 12, 12> h_points = dr_flat * dr_flat.transpose();
     Eigen::Matrix<double, 12, 12> hess_s;
@@ -182,23 +177,23 @@ void SelfContactTerm::AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>& x,
         SelfContactDistance(pair, points, &s, &ds, &outside)) {
       const double root_k = std::sqrt(pair.stiffness);
       Eigen::Matrix<double, 12, 12> d2r = -root_k * hess_s;
-      double sine = 0;
-      Eigen::Matrix<double, 3, 4> dsine;
-      Eigen::Matrix<double, 12, 12> hess_sine;
-      if (pair.kind == SelfContactPair::Kind::kEdgeEdge &&
-          EdgeSine(points[0], points[1], points[2], points[3], &sine, &dsine) &&
-          sine < kFullEdgeSine && EdgeSineHessian(points[0], points[1], points[2], points[3], &hess_sine)) {
-        const double band = kFullEdgeSine - kEdgeFadeSine;
-        const double t = (sine - kEdgeFadeSine) / band;  // in (0, 1): r != 0
+      const SelfContactFadeBand band = FadeBandOf(pair);
+      double f = 0;
+      Eigen::Matrix<double, 3, 4> df;
+      Eigen::Matrix<double, 12, 12> hess_f;
+      if (SelfContactFadeVariable(pair, points, &f, &df) && f < band.full &&
+          SelfContactFadeVariableHessian(pair, points, &hess_f)) {
+        const double width = band.full - band.zero;
+        const double t = (f - band.zero) / width;  // in (0, 1): r != 0
         const double root = std::sqrt(3.0 - 2.0 * t);
         const double w = t * root, dw = root - t / root;
         const double d2w = -2.0 / root - t / (root * root * root);
         const double q = root_k * (thickness_ + pair.offset - s);
-        const Eigen::Map<const Eigen::Matrix<double, 12, 1>> ds_flat(ds.data()), dsine_flat(dsine.data());
+        const Eigen::Map<const Eigen::Matrix<double, 12, 1>> ds_flat(ds.data()), df_flat(df.data());
         const Eigen::Matrix<double, 12, 1> dq = -root_k * ds_flat;
-        const Eigen::Matrix<double, 12, 1> dw_flat = dw / band * dsine_flat;
+        const Eigen::Matrix<double, 12, 1> dw_flat = dw / width * df_flat;
         const Eigen::Matrix<double, 12, 12> hess_w =
-            d2w / (band * band) * dsine_flat * dsine_flat.transpose() + dw / band * hess_sine;
+            d2w / (width * width) * df_flat * df_flat.transpose() + dw / width * hess_f;
         d2r = w * d2r + q * hess_w + dw_flat * dq.transpose() + dq * dw_flat.transpose();
       }
       h_points += r * d2r;

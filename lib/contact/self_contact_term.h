@@ -24,16 +24,17 @@ namespace aqs {
 //
 // (offset: the pair's augmented-Lagrangian shift, 0 for a plain penalty), active when
 // s < thickness + offset, s > -max_depth and the closest points lie on the features
-// (`outside` of SelfContactDistance <= margin); edge-edge pairs are weighted by the fade
-// of kEdgeFadeSine. The Ceres residual per pair is
-// sqrt(k) (thickness + offset - s) (0 when inactive) with the exact derivative of s with
+// (`outside` of SelfContactDistance <= margin); pairs are weighted by their fade
+// (SelfContactFadeVariable: edge-edge pairs as their edges turn parallel, point-triangle
+// pairs as their triangle flattens). The Ceres residual per pair is
+// w sqrt(k) (thickness + offset - s) (0 when inactive; w the fade weight) with the exact derivative of s with
 // respect to the four points (through the normal), chained to the simulation vertices of
 // their stencils. Candidate pairs are chosen by ContactSolver (the side a point is on at
 // rest, topological distance); they change between its rounds.
 //
 // Its stiffness (for Newton steps) is the exact Hessian of every active pair's energy,
 // k (grad s grad s^T - (thickness + offset - s) Hess s), with the fade weight's
-// derivatives for edge-edge pairs inside the fade band. A pair couples the simulation
+// derivatives for pairs inside their fade band. A pair couples the simulation
 // vertices of its four stencils (AppendVertexCouplings).
 class SelfContactTerm : public EnergyTerm {
  public:

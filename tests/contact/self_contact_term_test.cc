@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "geometry/distance/edge_sine.h"
+#include "geometry/distance/triangle_quality.h"
 #include "testing/contact_scenes.h"
 #include "testing/energy_term_checks.h"
 #include "testing/finite_difference.h"
@@ -161,6 +162,47 @@ TEST(SelfContactTermTest, EdgeEdgeResidualJacobianAndEnergyGradient) {
   Eigen::Matrix3Xd parallel = fading;
   for (int v = 0; v < 16; ++v) parallel(1, v) = 0.0;
   EXPECT_EQ(SelfContactTerm({pair}, 0.1, 1.0, 0.05).AddEnergyAndGradient(parallel, &unused), 0.0);
+}
+
+TEST(SelfContactTermTest, PointTriangleFadesAsItsTriangleFlattens) {
+  // A point below a squashed triangle (height h along y), whose quality lies inside the
+  // fade band (weight below 1, with its derivatives through the corners), then flatter
+  // (weight 0: no energy, however close the point).
+  SelfContactPair pair;
+  pair.point = Stencil(0, Eigen::Vector4d(0.4, 0.3, 0.2, 0.1));
+  pair.corner[0] = Stencil(4, Eigen::Vector4d(0.7, 0.1, 0.1, 0.1));
+  pair.corner[1] = Stencil(8, Eigen::Vector4d(0.1, 0.7, 0.1, 0.1));
+  pair.corner[2] = Stencil(12, Eigen::Vector4d(0.1, 0.1, 0.7, 0.1));
+  pair.corner[2].vertex[3] = 0;
+  pair.stiffness = 5.0;
+  std::mt19937 rng(10);
+  std::normal_distribution<double> noise(0.0, 2e-4);
+  auto scene = [&](double h) {
+    Eigen::Matrix3Xd x(3, 16);
+    const Eigen::Vector3d at[4] = {{0.5, 0.3 * h, -0.002}, {0, 0, 0}, {1, 0, 0.001}, {0.5, h, 0}};
+    for (int v = 0; v < 16; ++v) {
+      x.col(v) = at[v / 4] + Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+    }
+    return x;
+  };
+  auto quality_of = [&](const Eigen::Matrix3Xd& x) {
+    double q = 0;
+    EXPECT_TRUE(TriangleQuality(pair.corner[0].Position(x), pair.corner[1].Position(x),
+                                pair.corner[2].Position(x), &q, nullptr));
+    return q;
+  };
+  // q is about 4 h / 3 for this triangle.
+  const Eigen::Matrix3Xd fading = scene(0.0112);
+  EXPECT_GT(quality_of(fading), kTriangleFadeQuality + 0.002);
+  EXPECT_LT(quality_of(fading), kFullTriangleQuality - 0.002);
+  CheckActiveSelfContactPair(pair, fading);
+  const Eigen::Matrix3Xd rotation =
+      Eigen::AngleAxisd(0.7, Eigen::Vector3d(-0.2, 0.9, 0.4).normalized()).toRotationMatrix();
+  CheckActiveSelfContactPair(pair, (rotation * fading).colwise() + Eigen::Vector3d(1.0, 0.2, -0.6));
+  const Eigen::Matrix3Xd flat = scene(0.005);
+  EXPECT_LT(quality_of(flat), kTriangleFadeQuality);
+  Eigen::Matrix3Xd unused = Eigen::Matrix3Xd::Zero(3, 16);
+  EXPECT_EQ(SelfContactTerm({pair}, 0.1, 1.0, 0.05).AddEnergyAndGradient(flat, &unused), 0.0);
 }
 
 }  // namespace
