@@ -23,6 +23,21 @@ using testing::DenseStiffness;
 using testing::DifferencedHessian;
 using testing::Stencil;
 
+// A pair of the given kind with stiffness 5 whose four stencils (point, corners) lie over
+// vertices 0..15, each over four consecutive ones, except that the last corner's fourth
+// vertex is the point's first (a shared vertex: 15 unique ones).
+SelfContactPair StencilledPair(SelfContactPair::Kind kind) {
+  SelfContactPair pair;
+  pair.kind = kind;
+  pair.point = Stencil(0, Eigen::Vector4d(0.4, 0.3, 0.2, 0.1));
+  pair.corner[0] = Stencil(4, Eigen::Vector4d(0.7, 0.1, 0.1, 0.1));
+  pair.corner[1] = Stencil(8, Eigen::Vector4d(0.1, 0.7, 0.1, 0.1));
+  pair.corner[2] = Stencil(12, Eigen::Vector4d(0.1, 0.1, 0.7, 0.1));
+  pair.corner[2].vertex[3] = 0;
+  pair.stiffness = 5.0;
+  return pair;
+}
+
 // Checks one active self-contact pair (thickness 0.1, max depth 1, margin 0.05) at x
 // (3 x 16, its stencils over vertices 0..15, one shared): a positive residual, its
 // Jacobian against Ceres' GradientChecker, the energy gradient against central
@@ -63,13 +78,7 @@ void CheckActiveSelfContactPair(const SelfContactPair& pair, const Eigen::Matrix
 TEST(SelfContactTermTest, ResidualJacobianAndEnergyGradient) {
   // A point just below a triangle above it (active), stencils over 16 vertices with a
   // shared one.
-  SelfContactPair pair;
-  pair.point = Stencil(0, Eigen::Vector4d(0.4, 0.3, 0.2, 0.1));
-  pair.corner[0] = Stencil(4, Eigen::Vector4d(0.7, 0.1, 0.1, 0.1));
-  pair.corner[1] = Stencil(8, Eigen::Vector4d(0.1, 0.7, 0.1, 0.1));
-  pair.corner[2] = Stencil(12, Eigen::Vector4d(0.1, 0.1, 0.7, 0.1));
-  pair.corner[2].vertex[3] = 0;  // shares a vertex with the point
-  pair.stiffness = 5.0;
+  SelfContactPair pair = StencilledPair(SelfContactPair::Kind::kPointTriangle);
   Eigen::Matrix3Xd x(3, 16);
   std::mt19937 rng(8);
   std::normal_distribution<double> noise(0.0, 0.02);
@@ -100,14 +109,7 @@ TEST(SelfContactTermTest, EdgeEdgeResidualJacobianAndEnergyGradient) {
   // Edge (p0, p1) along x just above edge (q0, q1) along y, over 16 vertices with one
   // shared; the pair keeps the first edge below (sign -1: the common normal e1 x e2
   // points up), so it is crossed (active).
-  SelfContactPair pair;
-  pair.kind = SelfContactPair::Kind::kEdgeEdge;
-  pair.point = Stencil(0, Eigen::Vector4d(0.4, 0.3, 0.2, 0.1));
-  pair.corner[0] = Stencil(4, Eigen::Vector4d(0.7, 0.1, 0.1, 0.1));
-  pair.corner[1] = Stencil(8, Eigen::Vector4d(0.1, 0.7, 0.1, 0.1));
-  pair.corner[2] = Stencil(12, Eigen::Vector4d(0.1, 0.1, 0.7, 0.1));
-  pair.corner[2].vertex[3] = 0;
-  pair.stiffness = 5.0;
+  SelfContactPair pair = StencilledPair(SelfContactPair::Kind::kEdgeEdge);
   pair.sign = -1.0;
   std::mt19937 rng(9);
   std::normal_distribution<double> noise(0.0, 0.02);
@@ -168,13 +170,7 @@ TEST(SelfContactTermTest, PointTriangleFadesAsItsTriangleFlattens) {
   // A point below a squashed triangle (height h along y), whose quality lies inside the
   // fade band (weight below 1, with its derivatives through the corners), then flatter
   // (weight 0: no energy, however close the point).
-  SelfContactPair pair;
-  pair.point = Stencil(0, Eigen::Vector4d(0.4, 0.3, 0.2, 0.1));
-  pair.corner[0] = Stencil(4, Eigen::Vector4d(0.7, 0.1, 0.1, 0.1));
-  pair.corner[1] = Stencil(8, Eigen::Vector4d(0.1, 0.7, 0.1, 0.1));
-  pair.corner[2] = Stencil(12, Eigen::Vector4d(0.1, 0.1, 0.7, 0.1));
-  pair.corner[2].vertex[3] = 0;
-  pair.stiffness = 5.0;
+  const SelfContactPair pair = StencilledPair(SelfContactPair::Kind::kPointTriangle);
   std::mt19937 rng(10);
   std::normal_distribution<double> noise(0.0, 2e-4);
   auto scene = [&](double h) {
