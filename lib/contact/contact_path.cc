@@ -40,6 +40,31 @@ std::vector<std::unique_ptr<Obstacle>> PlaceAll(const std::vector<MovingObstacle
   return placed;
 }
 
+// Diagnostics (--v=2): if the largest force of the one-pair term `single` on a simulation
+// vertex at state x (3 x num_vertices) exceeds *largest, it becomes *largest and *text
+// describes the pair (kind, surface vertex, distance, offset, how far outside its feature,
+// its fade variable, stiffness).
+void NoteLargestPairForce(const SelfContactTerm& single, const SelfContactPair& pair,
+                          const Eigen::Matrix3Xd& x, double* largest, std::string* text) {
+  Eigen::Matrix3Xd gradient = Eigen::Matrix3Xd::Zero(3, x.cols());
+  single.AddEnergyAndGradient(x, &gradient);
+  const double force = gradient.colwise().norm().maxCoeff();
+  if (!(force > *largest)) return;
+  const Eigen::Vector3d p[4] = {pair.point.Position(x), pair.corner[0].Position(x),
+                                pair.corner[1].Position(x), pair.corner[2].Position(x)};
+  double s = 0, outside = 0, fade = 0;
+  SelfContactDistance(pair, p, &s, nullptr, &outside);
+  SelfContactFadeVariable(pair, p, &fade, nullptr);
+  const bool edge = pair.kind == SelfContactPair::Kind::kEdgeEdge;
+  std::ostringstream out;
+  out << (edge ? "edge-edge" : "point-triangle") << " surface vertex " << pair.surface_vertex
+      << " s " << s << " offset " << pair.offset << " outside " << outside
+      << (edge ? " sine " : " triangle quality ") << fade << " k " << pair.stiffness
+      << " largest force " << force;
+  *largest = force;
+  *text = out.str();
+}
+
 }  // namespace
 
 bool ContactSolver::SolveRounds(const ActuationMatrix& a, const std::vector<RigidTransform>& bones,
@@ -108,25 +133,7 @@ bool ContactSolver::SolveRounds(const ActuationMatrix& a, const std::vector<Rigi
       const bool edge = pair.kind == SelfContactPair::Kind::kEdgeEdge;
       const SelfContactTerm single({pair}, options_.thickness, kResidualDepth, kResidualMargin);
       if (single.AddEnergyAndGradient(x, &g) > 0) {
-        // Diagnostics (--v=2): the pair with the largest force on one simulation vertex.
-        Eigen::Matrix3Xd pair_gradient;
-        if (VLOG_IS_ON(2)) pair_gradient = Eigen::Matrix3Xd::Zero(3, x.cols());
-        if (VLOG_IS_ON(2)) single.AddEnergyAndGradient(x, &pair_gradient);
-        const double force = VLOG_IS_ON(2) ? pair_gradient.colwise().norm().maxCoeff() : 0.0;
-        if (force > largest_force) {
-          const Eigen::Vector3d p[4] = {pair.point.Position(x), pair.corner[0].Position(x),
-                                        pair.corner[1].Position(x), pair.corner[2].Position(x)};
-          double s = 0, outside = 0, fade = 0;
-          SelfContactDistance(pair, p, &s, nullptr, &outside);
-          SelfContactFadeVariable(pair, p, &fade, nullptr);
-          std::ostringstream text;
-          text << (edge ? "edge-edge" : "point-triangle") << " surface vertex "
-               << pair.surface_vertex << " s " << s << " offset " << pair.offset << " outside "
-               << outside << (edge ? " sine " : " triangle quality ") << fade << " k "
-               << pair.stiffness << " largest force " << force;
-          largest_force = force;
-          largest_pair = text.str();
-        }
+        if (VLOG_IS_ON(2)) NoteLargestPairForce(single, pair, x, &largest_force, &largest_pair);
         ++report->self_contacts;
         if (edge) {
           state->touched[edges_(0, pair.edge)] = state->touched[edges_(1, pair.edge)] = 1;
