@@ -10,7 +10,6 @@
 #include "contact/contact_solver.h"
 #include "geometry/distance/edge_distance.h"
 #include "geometry/distance/plane_distance.h"
-#include "geometry/distance/triangle_quality.h"
 #include "geometry/plane_cuts.h"
 #include "geometry/triangle_grid.h"
 #include "mesh/mesh_measures.h"
@@ -65,12 +64,11 @@ std::vector<SelfContactPair> ContactSolver::DetectSelfContacts(const Eigen::Matr
         excluded = std::binary_search(ring.begin(), ring.end(), tris(k, t));
       }
       if (excluded) continue;
-      double s = 0, s_rest = 0, quality = 0;
+      double s = 0, s_rest = 0;
       Eigen::Vector3d beta, beta_rest;
       // A squashed triangle's plane is ill-conditioned (SelfContactFadeVariable): skipped.
-      if (!TriangleQuality(surface.col(tris(0, t)), surface.col(tris(1, t)),
-                           surface.col(tris(2, t)), &quality, nullptr) ||
-          quality < kMinTriangleQuality ||
+      if (!PairableTriangle(surface.col(tris(0, t)), surface.col(tris(1, t)),
+                            surface.col(tris(2, t))) ||
           !PlaneDistance(surface.col(i), surface.col(tris(0, t)), surface.col(tris(1, t)),
                          surface.col(tris(2, t)), &s, nullptr, &beta) ||
           !(beta.minCoeff() >= -options_.margin) || !(s > -options_.max_depth) ||

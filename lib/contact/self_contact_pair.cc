@@ -37,6 +37,12 @@ bool SelfContactDistanceHessian(const SelfContactPair& pair, const Eigen::Vector
   return true;
 }
 
+bool PairableTriangle(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                      const Eigen::Vector3d& c) {
+  double quality = 0;
+  return TriangleQuality(a, b, c, &quality, nullptr) && quality >= kMinTriangleQuality;
+}
+
 SelfContactFadeBand FadeBandOf(const SelfContactPair& pair) {
   if (pair.kind == SelfContactPair::Kind::kPointTriangle) {
     return {kTriangleFadeQuality, kFullTriangleQuality};

@@ -69,6 +69,11 @@ constexpr double kTriangleFadeQuality = 0.01;
 constexpr double kFullTriangleQuality = 0.02;
 constexpr double kMinTriangleQuality = 0.03;
 
+// Whether the surface triangle (a, b, c) may take part in a point-triangle pair:
+// TriangleQuality >= kMinTriangleQuality (false for a degenerate triangle).
+bool PairableTriangle(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                      const Eigen::Vector3d& c);
+
 // A pair's fade band: the fade variable's values at weight 0 (zero) and 1 (full).
 struct SelfContactFadeBand {
   double zero = 0.0;

@@ -57,5 +57,15 @@ TEST(SelfContactDistanceTest, HessianMatchesFiniteDifferences) {
   }
 }
 
+TEST(SelfContactPairTest, SquashedTrianglesAreNotPaired) {
+  const Eigen::Vector3d a(0, 0, 0), b(1, 0, 0);
+  EXPECT_TRUE(PairableTriangle(a, b, Eigen::Vector3d(0.5, 0.8, 0)));
+  // Quality about 4 h / 3 for height h over the unit base: 0.04 and 0.027.
+  EXPECT_TRUE(PairableTriangle(a, b, Eigen::Vector3d(0.5, 0.03, 0.01)));
+  EXPECT_FALSE(PairableTriangle(a, b, Eigen::Vector3d(0.5, 0.02, 0)));
+  EXPECT_FALSE(PairableTriangle(a, b, Eigen::Vector3d(0.5, 0, 0)));
+  EXPECT_FALSE(PairableTriangle(a, a, a));
+}
+
 }  // namespace
 }  // namespace aqs
