@@ -141,13 +141,16 @@ bool ContactSolver::SolveRounds(const ActuationMatrix& a, const std::vector<Rigi
           state->touched[pair.surface_vertex] = 1;
         }
       }
-      // Augmented Lagrangian: the multiplier k * offset grows by k (thickness - s).
+      // Augmented Lagrangian: the multiplier k * offset grows by k (thickness - s), except
+      // for a pair faded out entirely (its distance is ill-conditioned there: the
+      // point's offset waits for its next pair).
       const Eigen::Vector3d points[4] = {pair.point.Position(x), pair.corner[0].Position(x),
                                          pair.corner[1].Position(x), pair.corner[2].Position(x)};
-      double s = 0, outside = 0;
+      double s = 0, outside = 0, fade = 0;
       if (options_.augmented_lagrangian &&
           SelfContactDistance(pair, points, &s, nullptr, &outside) && outside <= kResidualMargin &&
-          s > -options_.max_depth) {
+          s > -options_.max_depth && SelfContactFadeVariable(pair, points, &fade, nullptr) &&
+          fade > FadeBandOf(pair).zero) {
         double& offset =
             edge ? state->edge_offsets[pair.edge] : state->vertex_offsets[pair.surface_vertex];
         offset = std::clamp(offset + options_.thickness - s, 0.0, kMaxOffset * options_.thickness);
