@@ -17,7 +17,8 @@ DEFINE_string(solver, "newton", "How equilibria are solved: 'newton' (L-BFGS pre
 DEFINE_bool(negative_curvature_steps, false, "Newton: where the exact stiffness stays "
             "indefinite on a retry, step along its direction of most negative curvature instead "
             "of a projected step (leaves saddles and crawls near buckling in a few "
-            "factorizations; docs/solver.md).");
+            "factorizations; docs/solver.md). Unset: each stage's own default (on for contact "
+            "solves, off elsewhere).");
 DEFINE_int32(threads, 2, "Threads (per-element work, parallel poses; BLAS follows OPENBLAS_NUM_THREADS).");
 DEFINE_double(max_memory_gb, 8.0, "Memory limit in GB: the work whose memory is estimated before "
               "it is allocated (prepare's lattice and simulations, pre-training's decoder) is "
@@ -58,7 +59,10 @@ bool SolverMethodFromFlag(QuasistaticSolverOptions* options, std::string* error)
     *error = "--solver must be 'newton' or 'lm' (is '" + FLAGS_solver + "')";
     return false;
   }
-  options->negative_curvature_steps = FLAGS_negative_curvature_steps;
+  // Only where given: contact solves default to on (DefaultContactSolverOptions).
+  if (!gflags::GetCommandLineFlagInfoOrDie("negative_curvature_steps").is_default) {
+    options->negative_curvature_steps = FLAGS_negative_curvature_steps;
+  }
   return true;
 }
 

@@ -11,8 +11,9 @@
 
 namespace aqs {
 
-// Sets options->method from --solver ("newton" or "lm") and
-// options->negative_curvature_steps from --negative_curvature_steps. Returns false with
+// Sets options->method from --solver ("newton" or "lm") and, where the flag is given,
+// options->negative_curvature_steps from --negative_curvature_steps (unset, the options'
+// own value stays: contact solves default to on). Returns false with
 // *error naming the flag for any other --solver value.
 bool SolverMethodFromFlag(QuasistaticSolverOptions* options, std::string* error);
 

@@ -20,7 +20,8 @@ namespace aqs {
 // The equilibrium options of contact solves: the defaults, but Newton steps from a
 // largest force of 0.1 force_scale on (newton_relative_force; 1e-2 by default). With the
 // contact terms' exact Hessians, Newton converges in 2 to 3 steps from there on the ICT
-// demo poses, where Levenberg-Marquardt took up to 200 iterations to reach 1e-2.
+// demo poses, where Levenberg-Marquardt took up to 200 iterations to reach 1e-2. Also
+// steps along negative curvature (negative_curvature_steps), no factor reuse.
 QuasistaticSolverOptions DefaultContactSolverOptions();
 
 struct ContactOptions {
