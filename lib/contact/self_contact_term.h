@@ -27,10 +27,10 @@ namespace aqs {
 // (`outside` of SelfContactDistance <= margin); pairs are weighted by their fade
 // (SelfContactFadeVariable: edge-edge pairs as their edges turn parallel, point-triangle
 // pairs as their triangle flattens). The Ceres residual per pair is
-// w sqrt(k) (thickness + offset - s) (0 when inactive; w the fade weight) with the exact derivative of s with
-// respect to the four points (through the normal), chained to the simulation vertices of
-// their stencils. Candidate pairs are chosen by ContactSolver (the side a point is on at
-// rest, topological distance); they change between its rounds.
+// w sqrt(k) (thickness + offset - s) (0 when inactive; w the fade weight) with the exact
+// derivative of s and w with respect to the four points (through the normal), chained to
+// the simulation vertices of their stencils. Candidate pairs are chosen by ContactSolver
+// (the side a point is on at rest, topological distance); they change between its rounds.
 //
 // Its stiffness (for Newton steps) is the exact Hessian of every active pair's energy,
 // k (grad s grad s^T - (thickness + offset - s) Hess s), with the fade weight's

@@ -40,21 +40,23 @@ TEST(TriangleQualityTest, GradientAndHessianMatchFiniteDifferences) {
     }
     if (trial % 3 == 2) {
       const Eigen::Vector3d a = x.segment<3>(0), b = x.segment<3>(3);
-      x.segment<3>(6) = a + 0.3 * (b - a) +
-                        1e-3 * (b - a).norm() * Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
+      const Eigen::Vector3d offset(normal(rng), normal(rng), normal(rng));
+      x.segment<3>(6) = a + 0.3 * (b - a) + 1e-3 * (b - a).norm() * offset;
     }
     const double q = QualityOf(x);
     const Eigen::VectorXd gradient = QualityGradientOf(x);
     // Steps well below the flat triangles' scale of curvature (their smallest height).
     const double step = trial % 3 == 2 ? 1e-8 : 1e-6;
-    EXPECT_LT(testing::RelativeError(gradient, testing::CentralDifferenceGradient(QualityOf, x, step)),
+    EXPECT_LT(testing::RelativeError(gradient,
+                                     testing::CentralDifferenceGradient(QualityOf, x, step)),
               1e-6)
         << "trial " << trial << " quality " << q;
     Eigen::Matrix<double, 9, 9> hessian;
-    ASSERT_TRUE(TriangleQualityHessian(x.segment<3>(0), x.segment<3>(3), x.segment<3>(6), &hessian));
-    EXPECT_LT(testing::RelativeError(hessian,
-                                     testing::CentralDifferenceJacobian(QualityGradientOf, x, step)),
-              1e-5)
+    ASSERT_TRUE(
+        TriangleQualityHessian(x.segment<3>(0), x.segment<3>(3), x.segment<3>(6), &hessian));
+    const Eigen::MatrixXd differenced =
+        testing::CentralDifferenceJacobian(QualityGradientOf, x, step);
+    EXPECT_LT(testing::RelativeError(hessian, differenced), 1e-5)
         << "trial " << trial << " quality " << q;
     EXPECT_LT((hessian - hessian.transpose()).norm(), 1e-9 * hessian.norm());
   }
