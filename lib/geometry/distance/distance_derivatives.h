@@ -20,16 +20,16 @@ Eigen::Matrix3d CrossProductMatrix(const Eigen::Vector3d& a);
 bool UnitCrossDotHessian(const Eigen::Vector3d& u, const Eigen::Vector3d& v,
                          const Eigen::Vector3d& w, Eigen::Matrix<double, 9, 9>* hessian);
 
-// Scatters a Hessian h with respect to k differences of four points (3k x 3k, the
-// DOFs of difference a at rows and columns 3a .. 3a + 2) to the Hessian with respect to
-// the points (12 x 12, point j at 3j .. 3j + 2), where difference a is
+// Scatters a Hessian h with respect to k differences of n points (3k x 3k, the DOFs of
+// difference a at rows and columns 3a .. 3a + 2) to the Hessian with respect to the
+// points (3n x 3n, point j at 3j .. 3j + 2; n = 4 unless given), where difference a is
 // sum_j coefficients(a, j) points[j] (coefficients -1, 0 or 1).
-template <int kDifferences>
-void ScatterDifferenceHessian(const Eigen::Matrix<double, kDifferences, 4>& coefficients,
+template <int kDifferences, int kPoints = 4>
+void ScatterDifferenceHessian(const Eigen::Matrix<double, kDifferences, kPoints>& coefficients,
                               const Eigen::Matrix<double, 3 * kDifferences, 3 * kDifferences>& h,
-                              Eigen::Matrix<double, 12, 12>* hessian) {
-  for (int i = 0; i < 4; ++i) {
-    for (int j = 0; j < 4; ++j) {
+                              Eigen::Matrix<double, 3 * kPoints, 3 * kPoints>* hessian) {
+  for (int i = 0; i < kPoints; ++i) {
+    for (int j = 0; j < kPoints; ++j) {
       Eigen::Matrix3d block = Eigen::Matrix3d::Zero();
       for (int a = 0; a < kDifferences; ++a) {
         for (int b = 0; b < kDifferences; ++b) {

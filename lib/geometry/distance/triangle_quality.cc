@@ -65,19 +65,10 @@ bool TriangleQualityHessian(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
   h -= hess_sum / sum - grad_sum * grad_sum.transpose() / (sum * sum);
   h = quality * (h + grad_phi * grad_phi.transpose());
   // (e1, e2) = (b - a, c - a): the coefficients of a, b, c in each.
-  const double coefficients[2][3] = {{-1, 1, 0}, {-1, 0, 1}};
-  for (int i = 0; i < 3; ++i) {
-    for (int j = 0; j < 3; ++j) {
-      Eigen::Matrix3d block = Eigen::Matrix3d::Zero();
-      for (int k = 0; k < 2; ++k) {
-        for (int l = 0; l < 2; ++l) {
-          const double w = coefficients[k][i] * coefficients[l][j];
-          if (w != 0.0) block += w * h.block<3, 3>(3 * k, 3 * l);
-        }
-      }
-      hessian->block<3, 3>(3 * i, 3 * j) = block;
-    }
-  }
+  Eigen::Matrix<double, 2, 3> coefficients;
+  coefficients << -1, 1, 0,  //
+                  -1, 0, 1;
+  ScatterDifferenceHessian<2, 3>(coefficients, h, hessian);
   return true;
 }
 
