@@ -163,9 +163,11 @@ bool ContactSolver::SolveRounds(const ActuationMatrix& a, const std::vector<Rigi
     MeasurePenetration(moved, obstacles, &depth, &inside);
     // Self intersections that contact can tell apart: new pairs whose triangles were
     // apart at rest (those touching at rest, such as the ICT lips' corners, have no
-    // defined side; steps and rounds cannot decide on them).
+    // defined side) and that face each other across the exclusion rings (folds of one
+    // sheet, such as a mouth corner pressed flat, are no pairs of self contact's);
+    // steps and rounds do not decide on the others.
     state->self_intersections = 0;
-    if (options_.self_contact) state->self_intersections = CountSelfIntersections(moved).separated;
+    if (options_.self_contact) state->self_intersections = CountSelfIntersections(moved).facing;
     state->obstacle_intersections = CountObstacleIntersections(moved, obstacles);
     if (solve.iterations == 0) break;  // no progress left to make with these candidates
     // Stop when nothing penetrates any more.
@@ -254,7 +256,7 @@ bool ContactSolver::Resolve(const ActuationMatrix& a, const std::vector<RigidTra
         ++halvings;
         ++report->path_halvings;
         report->round_summaries.push_back(
-            "step to t " + t_text.str() + " adds intersecting pairs (self, apart at rest, " +
+            "step to t " + t_text.str() + " adds intersecting pairs (self, facing, " +
             std::to_string(current.self_intersections) + " -> " +
             std::to_string(next.self_intersections) + ", obstacles " +
             std::to_string(current.obstacle_intersections) + " -> " +

@@ -25,7 +25,8 @@ std::string ContactReport::Summary() const {
       << self_intersections_rest << " at rest; not intersecting at rest "
       << self_before.new_pairs << " -> " << self_after.new_pairs
       << ", of which apart at rest " << self_before.separated << " -> "
-      << self_after.separated << ", between triangles clean at rest "
+      << self_after.separated << " (facing each other " << self_before.facing << " -> "
+      << self_after.facing << ", the rest folds of one sheet), between triangles clean at rest "
       << self_before.clean << " -> " << self_after.clean
       << "), with obstacles "
       << before.obstacle_intersections << " -> " << after.obstacle_intersections
@@ -59,6 +60,7 @@ std::string ContactReport::ToText() const {
   before_after("new_self_intersections", self_before.new_pairs, self_after.new_pairs);
   before_after("separated_self_intersections", self_before.separated, self_after.separated);
   before_after("clean_self_intersections", self_before.clean, self_after.clean);
+  before_after("facing_self_intersections", self_before.facing, self_after.facing);
   before_after("obstacle_intersections", before.obstacle_intersections,
                after.obstacle_intersections);
   out << "mean_displacement " << mean_displacement << "\n"
@@ -117,9 +119,30 @@ SelfIntersectionCounts ContactSolver::CountSelfIntersections(const Eigen::Matrix
       a.col(k) = rest_surface_.col(contact_triangles_(k, pair.first));
       b.col(k) = rest_surface_.col(contact_triangles_(k, pair.second));
     }
-    if (DisjointTriangleDistance(a, b) > options_.rest_tolerance) ++counts.separated;
+    if (!(DisjointTriangleDistance(a, b) > options_.rest_tolerance)) continue;
+    ++counts.separated;
+    if (FacingAtRest(pair.first, pair.second)) ++counts.facing;
   }
   return counts;
+}
+
+bool ContactSolver::FacingAtRest(int first, int second) const {
+  const auto normal = [this](int t) -> Eigen::Vector3d {
+    const Eigen::Vector3d a = rest_surface_.col(contact_triangles_(0, t));
+    return (rest_surface_.col(contact_triangles_(1, t)) - a)
+        .cross(rest_surface_.col(contact_triangles_(2, t)) - a)
+        .normalized();
+  };
+  if (!(normal(first).dot(normal(second)) <= options_.max_normal_alignment)) return false;
+  for (int j = 0; j < 3; ++j) {
+    const std::vector<int>& ring = rings_[contact_triangles_(j, first)];
+    for (int k = 0; k < 3; ++k) {
+      if (std::binary_search(ring.begin(), ring.end(), contact_triangles_(k, second))) {
+        return false;
+      }
+    }
+  }
+  return true;
 }
 
 int ContactSolver::CountObstacleIntersections(const Eigen::Matrix3Xd& surface,

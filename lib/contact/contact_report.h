@@ -13,6 +13,12 @@ struct SelfIntersectionCounts {
   int new_pairs = 0;  // not intersecting at rest
   int separated = 0;  // new, and the triangles farther apart at rest than rest_tolerance
   int clean = 0;      // new, and neither triangle intersects any triangle at rest
+  // Separated, and the two triangles are pairs self contact acts on: no corner of one
+  // within the exclusion rings of a corner of the other, and their rest normals facing
+  // each other (dot <= max_normal_alignment). The other separated pairs are folds of
+  // one sheet (e.g. a mouth or eye corner pressed flat), which contact, by design, does
+  // not tell apart from the sheet's own smooth bending.
+  int facing = 0;
 };
 
 // What ContactSolver::Measure finds at one surface state: how far the surface is into
@@ -26,7 +32,9 @@ struct ContactMeasurement {
   // rest by more than rest_tolerance (the rest, touching at rest, such as the ICT lips
   // at the mouth corners, have no well-defined side); and the new pairs whose two
   // triangles intersect nothing at rest (the rest, such as the ICT lips' commissure,
-  // already pass through the surface at rest, so contact has no side to keep for them).
+  // already pass through the surface at rest, so contact has no side to keep for them);
+  // and the separated pairs that face each other across the exclusion rings (the pairs
+  // contact acts on; path steps are halved and rounds go on for these).
   SelfIntersectionCounts self_intersections;
   // Intersecting triangle pairs of the surface with the obstacles.
   int obstacle_intersections = 0;
