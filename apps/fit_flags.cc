@@ -8,12 +8,17 @@
 
 DEFINE_double(max_distance, 1.0, "Points: ignore scan points farther than this from the surface.");
 DEFINE_double(robust_scale, 0.2, "Points: Cauchy scale of the robust weights (0: none).");
-DEFINE_int32(rounds, 8, "Points: matching rounds.");
-DEFINE_double(tangential_weight, 0.2, "Points: weight of the distance along the matched "
-              "triangle's plane (point-to-plane matching; 1: point-to-point).");
-DEFINE_double(round_tolerance, 1e-3, "Points: stop when a round changes the mean matched distance "
-              "by less than this fraction.");
-DEFINE_int32(round_iterations, 6, "Points: Levenberg-Marquardt iterations per matching round.");
+DEFINE_bool(match_rounds, false, "Points: fit in rounds of matching with fixed "
+            "correspondences (--rounds, --round_iterations, --round_tolerance, "
+            "--tangential_weight) instead of one solve whose closest points are found again at "
+            "every evaluation.");
+DEFINE_int32(rounds, 8, "Points, with --match_rounds: matching rounds.");
+DEFINE_double(tangential_weight, 0.2, "Points, with --match_rounds: weight of the distance along "
+              "the matched triangle's plane (point-to-plane matching; 1: point-to-point).");
+DEFINE_double(round_tolerance, 1e-3, "Points, with --match_rounds: stop when a round changes the "
+              "mean matched distance by less than this fraction.");
+DEFINE_int32(round_iterations, 6, "Points, with --match_rounds: Levenberg-Marquardt iterations "
+             "per matching round.");
 DEFINE_bool(choose_start, true, "Start from the best of the given start (prior centre or "
             "--initial_latent) and the training poses, by the fit's objective.");
 DEFINE_bool(retry_from_given, true, "With --choose_start: a fit from a training pose that "
@@ -31,6 +36,7 @@ bool FitOptionsFromFlags(LatentFitOptions* fit, PointCloudFitOptions* points,
   if (!LatentFitOptionsFromFlags(fit, error)) return false;
   points->max_distance = FLAGS_max_distance;
   points->robust_scale = FLAGS_robust_scale;
+  points->rematch_every_evaluation = !FLAGS_match_rounds;
   points->max_rounds = FLAGS_rounds;
   points->tangential_weight = FLAGS_tangential_weight;
   points->relative_tolerance = FLAGS_round_tolerance;

@@ -277,6 +277,12 @@ TEST_F(AqsFitTest, MarkersAndPointCloudTargets) {
                        " --max_distance=0.5 --robust_scale=0.05"));
   ASSERT_EQ(run.exit_code, 0) << run.output;
   EXPECT_NE(run.output.find(": points"), std::string::npos) << run.output;
+  EXPECT_EQ(run.output.find("at each matching round"), std::string::npos) << run.output;
+  // --match_rounds: rounds of matching with fixed correspondences (2 here).
+  run = RunCommand(Fit("--target=" + dir_->File("scan.ply") + " --output=" + dir_->File("s.obj") +
+                       " --max_distance=0.5 --robust_scale=0.05 --match_rounds --rounds=2"));
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("at each matching round"), std::string::npos) << run.output;
 }
 
 // Writes a markers file of `surface` on every 8th surface vertex.
