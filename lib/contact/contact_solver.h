@@ -87,9 +87,9 @@ struct ContactOptions {
   // (Steps and rounds count the new self-intersecting pairs whose triangles were apart
   // at rest and face each other across the exclusion rings, SelfIntersectionCounts::
   // facing: pairs touching at rest have no defined side, and folds of one sheet, such
-  // as a mouth corner pressed flat, are no pairs of self contact's. On the demo's
-  // mouthClose fits, counting folds too took 1.4x to 4x the time, and left 0 or 32 of
-  // them, against 42 or 15; docs/contact.md.)
+  // as a mouth corner pressed flat, are no pairs of self contact's. On two of the demo's
+  // mouthClose fits, counting folds too took 2x and 5.7x the time, and left 2 and 32 of
+  // them, against 42 and 15; docs/contact.md.)
   int path_steps = 8;
   int max_step_halvings = 3;
   // The relative force tolerance of the path's intermediate steps (the last one uses
