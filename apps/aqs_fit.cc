@@ -30,6 +30,9 @@ DEFINE_bool(sequence_warm_start, true, "Sequences: start each frame from the pre
             "a frame's result depends only on its target, and under mpirun the frames are "
             "shared among the ranks, with the outputs of one process).");
 DEFINE_string(target_kind, "auto", "pose, markers, points or auto (by extension and vertex count).");
+DEFINE_string(landmarks, "", "Optional, with a point-cloud target: landmarks of the scan, points "
+              "whose vertex is known (e.g. eye and mouth corners; a markers file, 'vertex x y z' "
+              "lines), fitted with it (--landmark_weight).");
 DEFINE_string(output, "", "The fitted surface (OBJ).");
 DEFINE_string(output_volume, "", "Optional: the fitted equilibrium (.vtu for ParaView, or .mesh).");
 DEFINE_string(latent_output, "", "Optional: the fitted latent (and bones) as a latent file.");
@@ -57,9 +60,10 @@ int main(int argc, char** argv) {
     return 1;
   }
   if (!FLAGS_sequence.empty()) {
-    if (!FLAGS_target.empty() || !FLAGS_output.empty()) {
-      aqs::PrintRankError(ranks.get(),
-                          "--sequence goes with --output_dir, not with --target or --output");
+    if (!FLAGS_target.empty() || !FLAGS_output.empty() || !FLAGS_landmarks.empty()) {
+      aqs::PrintRankError(ranks.get(), "--sequence goes with --output_dir, not with --target, "
+                                       "--output or --landmarks (sequences of scans are fitted "
+                                       "without landmarks)");
       return 1;
     }
     aqs::FitSequenceOptions options;
@@ -89,6 +93,7 @@ int main(int argc, char** argv) {
   options.model = FLAGS_model;
   options.target = FLAGS_target;
   options.target_kind = FLAGS_target_kind;
+  options.landmarks = FLAGS_landmarks;
   options.output = FLAGS_output;
   options.output_volume = FLAGS_output_volume;
   options.latent_output = FLAGS_latent_output;

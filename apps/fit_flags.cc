@@ -19,6 +19,8 @@ DEFINE_double(round_tolerance, 1e-3, "Points, with --match_rounds: stop when a r
               "mean matched distance by less than this fraction.");
 DEFINE_int32(round_iterations, 6, "Points, with --match_rounds: Levenberg-Marquardt iterations "
              "per matching round.");
+DEFINE_double(landmark_weight, 0.03, "Points with landmarks: weight of the landmarks' mean "
+              "squared distance against the scan's (1: as much as all scan points).");
 DEFINE_bool(choose_start, true, "Start from the best of the given start (prior centre or "
             "--initial_latent) and the training poses, by the fit's objective.");
 DEFINE_bool(retry_from_given, true, "With --choose_start: a fit from a training pose that "
@@ -41,6 +43,7 @@ bool FitOptionsFromFlags(LatentFitOptions* fit, PointCloudFitOptions* points,
   points->tangential_weight = FLAGS_tangential_weight;
   points->relative_tolerance = FLAGS_round_tolerance;
   points->iterations_per_round = FLAGS_round_iterations;
+  points->landmark_weight = FLAGS_landmark_weight;
   start->training_poses = FLAGS_choose_start;
   start->retry_from_given = FLAGS_retry_from_given;
   if (FLAGS_start_latent != "prior" && FLAGS_start_latent != "mean") {
@@ -59,7 +62,8 @@ FlagNames FitFlagNames() {
                              {"points.max_rounds", "--rounds"},
                              {"points.iterations_per_round", "--round_iterations"},
                              {"points.relative_tolerance", "--round_tolerance"},
-                             {"points.tangential_weight", "--tangential_weight"}});
+                             {"points.tangential_weight", "--tangential_weight"},
+                             {"points.landmark_weight", "--landmark_weight"}});
   return flags;
 }
 

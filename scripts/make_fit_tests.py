@@ -7,6 +7,7 @@ Usage: /usr/bin/python3 scripts/make_fit_tests.py --ict ../shared/data/ict-face 
        [--seed 1] [--mixes 20] [--min_expressions 2] [--max_expressions 5]
        [--min_weight 0.3] [--max_weight 1.0] [--markers 20,60] [--marker_noise 0.01]
        [--scan_points 4000] [--scan_noise 0.02] [--scan_min_z 8] [--scan_outliers 0]
+       [--landmark_noise 0.1]
        [--frames 100] [--sequence_markers 60] [--sequence_expressions 6]
 
 Every mix is target = neutral + sum_i w_i (pose_i - neutral) over 2 to 5 of the 55
@@ -25,6 +26,12 @@ linear). Written into DIR (made if absent; files are replaced):
                              corners all have z >= scan_min_z (the front, as one depth
                              camera sees it), noise scan_noise cm per coordinate, shuffled,
                              plus scan_outliers points 1 to 3 cm off the surface
+  scans/mix_NNN_landmarks.txt  "vertex x y z" lines: 10 landmarks of the scan, as a face
+                             tracker finds them in its image (the inner and outer eye
+                             corners, the mouth corners, the middles of the upper and lower
+                             lip, the nose tip, the chin: face_landmarks below), with
+                             Gaussian noise of landmark_noise cm per coordinate (drawn from
+                             a generator of their own, so the other files do not change)
   sequence/markers/frame_NNNN.txt, sequence/truth/frame_NNNN.obj, sequence/weights.csv:
                              a smooth sequence of `frames` frames (30 per second): each of
                              sequence_expressions expressions (jawOpen always among them)
@@ -114,6 +121,50 @@ def scan(surface, triangles, count, noise, min_z, outliers, rng):
     return points
 
 
+def face_landmarks(neutral, jaw_open, triangles):
+    """Vertex indices of 10 facial landmarks of the ICT face topology, found from its
+    geometry: the eye corners are the innermost and outermost (|x|) vertices of each
+    eyelid opening (the boundary loops above y = 2); the mouth corners are the extreme-x
+    vertices of the lip seam (the edges of the mouth region that jawOpen stretches more
+    than 3x, their front vertices, z > 8); the lip middles, the nose tip and the chin are
+    the most forward (largest z) vertices near x = 0 just above and below the seam, overall,
+    and more than 2.5 cm below it."""
+    face = np.arange(FACE_VERTICES)
+    edges = {}
+    for t in triangles:
+        for k in range(3):
+            a, b = sorted((int(t[k]), int(t[(k + 1) % 3])))
+            edges[(a, b)] = edges.get((a, b), 0) + 1
+    landmarks = []
+    boundary = {v for (a, b), n in edges.items() if n == 1 for v in (a, b) if v < FACE_VERTICES}
+    for sign in (1, -1):
+        loop = np.array([v for v in boundary if neutral[v, 1] > 2 and neutral[v, 0] * sign > 0])
+        landmarks.append(int(loop[np.argmin(np.abs(neutral[loop, 0]))]))
+        landmarks.append(int(loop[np.argmax(np.abs(neutral[loop, 0]))]))
+    pairs = np.array([e for e in edges if e[1] < FACE_VERTICES])
+    a, b = pairs[:, 0], pairs[:, 1]
+    stretch = (np.linalg.norm(jaw_open[a] - jaw_open[b], axis=1) /
+               np.linalg.norm(neutral[a] - neutral[b], axis=1))
+    mouth = (np.abs(neutral[a, 0]) < 4) & (neutral[a, 1] < -3) & (neutral[a, 1] > -8)
+    seam = np.unique(np.concatenate([a[mouth & (stretch > 3)], b[mouth & (stretch > 3)]]))
+    seam = seam[neutral[seam, 2] > 8]
+    if len(seam) == 0:
+        sys.exit("make_fit_tests.py: error: no lip seam found (is this the ICT face?)")
+    landmarks.append(int(seam[np.argmax(neutral[seam, 0])]))
+    landmarks.append(int(seam[np.argmin(neutral[seam, 0])]))
+    seam_y = neutral[seam, 1].mean()
+    middle = np.abs(neutral[face, 0]) < 0.3
+    y = neutral[face, 1]
+
+    def most_forward(mask):
+        return int(face[mask][np.argmax(neutral[face[mask], 2])])
+    landmarks.append(most_forward(middle & (y > seam_y) & (y < seam_y + 1.5)))
+    landmarks.append(most_forward(middle & (y < seam_y) & (y > seam_y - 1.5)))
+    landmarks.append(most_forward(middle))
+    landmarks.append(most_forward(middle & (y < seam_y - 2.5)))
+    return landmarks
+
+
 def ply_text(points, comment):
     head = ("ply\nformat ascii 1.0\ncomment %s\nelement vertex %d\nproperty float x\n"
             "property float y\nproperty float z\nend_header\n" % (comment, len(points)))
@@ -136,6 +187,7 @@ def main():
     parser.add_argument("--scan_noise", type=float, default=0.02)
     parser.add_argument("--scan_min_z", type=float, default=8.0)
     parser.add_argument("--scan_outliers", type=int, default=0)
+    parser.add_argument("--landmark_noise", type=float, default=0.1)
     parser.add_argument("--frames", type=int, default=100)
     parser.add_argument("--sequence_markers", type=int, default=60)
     parser.add_argument("--sequence_expressions", type=int, default=6)
@@ -156,6 +208,10 @@ def main():
             sys.exit("make_fit_tests.py: error: %s: %d vertices, the neutral has %d"
                      % (os.path.join(pose_dir, name + ".obj"), len(pose), len(neutral)))
         deltas[name] = pose - neutral
+    if "jawOpen" not in deltas:
+        sys.exit("make_fit_tests.py: error: %s: no jawOpen.obj (the landmarks need it)" % pose_dir)
+    landmarks = face_landmarks(neutral, neutral + deltas["jawOpen"], triangles)
+    landmark_rng = np.random.default_rng([args.seed, 1])
 
     for sub in ["poses", "marker_sets", "markers", "scans", "sequence/markers", "sequence/truth"]:
         os.makedirs(os.path.join(args.out, sub), exist_ok=True)
@@ -190,6 +246,15 @@ def main():
                       args.scan_outliers, rng)
         write_atomically(os.path.join(args.out, "scans", label + ".ply"),
                          ply_text(points, "scan of %s: %s" % (label, recipe)))
+        positions = surface[landmarks] + landmark_rng.normal(0.0, args.landmark_noise,
+                                                             (len(landmarks), 3))
+        write_atomically(os.path.join(args.out, "scans", label + "_landmarks.txt"),
+                         markers_text(landmarks, positions,
+                                      "landmarks of the scan of %s: %s (eye corners: left "
+                                      "inner, left outer, right inner, right outer; mouth "
+                                      "corners left, right; upper and lower lip; nose tip; "
+                                      "chin)"
+                                      % (label, recipe)))
     write_atomically(os.path.join(args.out, "mixes.csv"), "".join(manifest))
 
     if args.frames > 0:

@@ -1,6 +1,7 @@
 // Validate() of the fit options (LatentFitOptions, PointCloudFitOptions).
 
 #include <cmath>
+#include <string>
 
 #include "fit/latent_fit.h"
 #include "util/option_checks.h"
@@ -39,6 +40,14 @@ bool PointCloudFitOptions::Validate(std::string* error) const {
                    OptionValue(robust_scale) + ")")
       .NonNegative("relative_tolerance", relative_tolerance)
       .NonNegative("tangential_weight", tangential_weight)
+      .NonNegative("landmark_weight", landmark_weight)
+      .Require(landmarks.vertices.cols() == landmarks.num_points() &&
+                   landmarks.barycentric.cols() == landmarks.num_points() &&
+                   (landmarks.weights.size() == 0 ||
+                    landmarks.weights.size() == landmarks.num_points()),
+               "landmarks must give vertices, barycentric coordinates (and weights, if any) "
+               "for each of its " + std::to_string(landmarks.num_points()) + " points")
+      .Require(landmarks.positions.allFinite(), "landmarks must have finite positions")
       .Done(error);
 }
 

@@ -8,6 +8,7 @@
 #include <ceres/cost_function.h>
 #include <ceres/evaluation_callback.h>
 #include <ceres/jet.h>
+#include <ceres/loss_function.h>
 #include <ceres/problem.h>
 #include <ceres/rotation.h>
 #include <ceres/solver.h>
@@ -102,6 +103,24 @@ Eigen::Matrix3Xd TargetPointsOn(const FitTarget& target, const Eigen::Matrix3Xd&
   return p;
 }
 
+// The data term of a target on a surface: (1/sum w) sum_k w_k |P_k (p_k - y_k)|^2 (P_k
+// the point-to-plane projector with normals, else the identity).
+double DataTerm(const FitTarget& target, const Eigen::Matrix3Xd& surface) {
+  const Eigen::Matrix3Xd p = TargetPointsOn(target, surface);
+  double data = 0.0;
+  for (int i = 0; i < target.num_points(); ++i) {
+    const double w = target.weights.size() > 0 ? target.weights[i] : 1.0;
+    Eigen::Vector3d d = p.col(i) - target.positions.col(i);
+    if (target.normals.cols() == target.num_points()) {
+      const Eigen::Vector3d n = target.normals.col(i);
+      const Eigen::Vector3d normal_part = n.dot(d) * n;
+      d = normal_part + target.tangential_weight * (d - normal_part);
+    }
+    data += w * d.squaredNorm();
+  }
+  return data / TotalWeight(target);
+}
+
 // Each scan point matched to the closest point of `surface` (triangles of the
 // neutral), with robust weights: the target of one matching round.
 FitTarget MatchPointCloud(const Eigen::Matrix3Xd& points, const Eigen::Matrix3Xd& surface,
@@ -172,6 +191,11 @@ class LatentFitter::FitEquilibrium final : public ceres::EvaluationCallback {
     ActuationMatrix a;
     Eigen::MatrixXd da_dz;  // (6 num_elements) x latent_dim
     Eigen::Matrix3Xd state;
+    // dx*/dz (3 num_vertices x latent_dim) and dx*/d(bone b's 6 parameters), computed
+    // once at a differentiated point and shared by the fit's residual blocks (empty:
+    // not yet).
+    Eigen::MatrixXd dx_dz;
+    std::vector<Eigen::MatrixXd> dx_dbone;
   };
 
   FitEquilibrium(LatentFitter* fitter, bool fit_bones) : fitter_(fitter), fit_bones_(fit_bones) {
@@ -244,6 +268,36 @@ class LatentFitter::FitEquilibrium final : public ceres::EvaluationCallback {
       point_.differentiated = true;
     }
     return &point_;
+  }
+
+  // dx*/dz at the last point prepared, which must be differentiated (cached).
+  const Eigen::MatrixXd& LatentProduct() {
+    CHECK(point_.differentiated);
+    if (point_.dx_dz.size() == 0) {
+      point_.dx_dz = fitter_->differentiator_->ActuationJacobianProduct(point_.da_dz);
+    }
+    return point_.dx_dz;
+  }
+
+  // dx*/d(bone b's 6 parameters: rotation vector, translation) at the last point
+  // prepared, which must be differentiated (cached): the motion of the bone's fixed
+  // vertices, carried through the equilibrium.
+  const Eigen::MatrixXd& BoneProduct(size_t b) {
+    CHECK(point_.differentiated);
+    const ActiveModel& model = fitter_->model_;
+    point_.dx_dbone.resize(model.bones.size());
+    if (point_.dx_dbone[b].size() == 0) {
+      const Eigen::Index rows = 3 * static_cast<Eigen::Index>(point_.state.cols());
+      Eigen::MatrixXd motion = Eigen::MatrixXd::Zero(rows, 6);
+      const double* parameters = point_.key.data() + model.latent_dim() + 6 * b;
+      for (int v : model.bones[b].vertices) {
+        motion.block<3, 3>(3 * static_cast<Eigen::Index>(v), 0) =
+            RotatedPointJacobian(parameters, model.mesh.vertices.col(v));
+        motion.block<3, 3>(3 * static_cast<Eigen::Index>(v), 3) = Eigen::Matrix3d::Identity();
+      }
+      point_.dx_dbone[b] = fitter_->differentiator_->FixedVertexJacobianProduct(motion);
+    }
+    return point_.dx_dbone[b];
   }
 
   // Seeds the last point: `state` is the equilibrium at parameters `key` (all blocks,
@@ -394,7 +448,6 @@ class LatentFitter::FitCost final : public ceres::CostFunction {
   // no evaluation callback, see there).
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override {
-    const ActiveModel& model = fitter_->model_;
     const bool want_z = jacobians != nullptr && jacobians[0] != nullptr;
     bool want_bones = false;
     for (size_t b = 1; jacobians != nullptr && b < parameter_block_sizes().size(); ++b) {
@@ -419,21 +472,10 @@ class LatentFitter::FitCost final : public ceres::CostFunction {
       }
     }
     if (!want_z && !want_bones) return true;
-    EquilibriumDifferentiator& differentiator = *fitter_->differentiator_;
-    if (want_z) {
-      FillJacobian(differentiator.ActuationJacobianProduct(point->da_dz), *stencils, cloud_rows,
-                   jacobians[0]);
-    }
+    if (want_z) FillJacobian(equilibrium_->LatentProduct(), *stencils, cloud_rows, jacobians[0]);
     for (size_t b = 0; b + 1 < parameter_block_sizes().size(); ++b) {
       if (jacobians[1 + b] == nullptr) continue;
-      Eigen::MatrixXd motion = Eigen::MatrixXd::Zero(3 * static_cast<Eigen::Index>(x.cols()), 6);
-      for (int v : model.bones[b].vertices) {
-        motion.block<3, 3>(3 * static_cast<Eigen::Index>(v), 0) =
-            RotatedPointJacobian(parameters[1 + b], model.mesh.vertices.col(v));
-        motion.block<3, 3>(3 * static_cast<Eigen::Index>(v), 3) = Eigen::Matrix3d::Identity();
-      }
-      FillJacobian(differentiator.FixedVertexJacobianProduct(motion), *stencils, cloud_rows,
-                   jacobians[1 + b]);
+      FillJacobian(equilibrium_->BoneProduct(b), *stencils, cloud_rows, jacobians[1 + b]);
     }
     return true;
   }
@@ -688,6 +730,12 @@ bool LatentFitter::FitFrom(const FitTarget& target, const Eigen::VectorXd& initi
     total_weight = PriorPoints(target, options_.prior_points_cap);
   }
   problem.AddResidualBlock(data_cost, nullptr, blocks);
+  if (cloud_landmarks_ != nullptr) {
+    // The scan's landmarks: their mean squared distance, times the weight.
+    problem.AddResidualBlock(
+        new FitCost(this, &equilibrium, *cloud_landmarks_),
+        new ceres::ScaledLoss(nullptr, cloud_landmark_weight_, ceres::TAKE_OWNERSHIP), blocks);
+  }
   // The parameters, all blocks concatenated (FitEquilibrium's key).
   auto key = [&]() {
     Eigen::VectorXd k(z.size() + (fit_bones ? 6 * static_cast<Eigen::Index>(bone_parameters.size()) : 0));
@@ -790,12 +838,17 @@ bool LatentFitter::FitPointCloud(const Eigen::Matrix3Xd& points,
     return false;
   }
   const Eigen::Matrix3Xi& triangles = model_.neutral.triangles;
+  const FitTarget& landmarks = cloud_options.landmarks;
+  const bool with_landmarks = landmarks.num_points() > 0 && cloud_options.landmark_weight > 0;
+  cloud_landmarks_ = with_landmarks ? &landmarks : nullptr;
+  cloud_landmark_weight_ = cloud_options.landmark_weight;
   if (cloud_options.rematch_every_evaluation) {
     // One Levenberg-Marquardt solve of the robust closest-point distances.
     direct_cloud_ = &points;
     direct_cloud_options_ = cloud_options;
     const bool ok = FitFrom(FitTarget(), z, result, error);
     direct_cloud_ = nullptr;
+    cloud_landmarks_ = nullptr;
     if (!ok) return false;
     result->round_distances.clear();
   } else {
@@ -837,6 +890,7 @@ bool LatentFitter::FitPointCloud(const Eigen::Matrix3Xd& points,
     surface = result->surface;
   }
   options_ = saved;
+  cloud_landmarks_ = nullptr;
   if (!ok) return false;
   result->iterations = total_iterations;
   result->round_distances = round_distances;
@@ -860,6 +914,11 @@ bool LatentFitter::FitPointCloud(const Eigen::Matrix3Xd& points,
   }
   result->used_points = used;
   result->matched_fraction = static_cast<double>(used) / static_cast<double>(points.cols());
+  result->landmark_mean_error = 0.0;
+  if (landmarks.num_points() > 0) {
+    const Eigen::Matrix3Xd on_surface = TargetPointsOn(landmarks, result->surface);
+    result->landmark_mean_error = (on_surface - landmarks.positions).colwise().norm().mean();
+  }
   result->mean_error = used > 0 ? sum / used : 0.0;
   result->rms_error = used > 0 ? std::sqrt(sum_squares / used) : 0.0;
   result->max_error = worst;
@@ -868,20 +927,7 @@ bool LatentFitter::FitPointCloud(const Eigen::Matrix3Xd& points,
 
 double LatentFitter::Objective(const FitTarget& target, const Eigen::Matrix3Xd& surface,
                                const Eigen::VectorXd& z) const {
-  const double total = TotalWeight(target);
-  const Eigen::Matrix3Xd p = TargetPointsOn(target, surface);
-  double data = 0.0;
-  for (int i = 0; i < target.num_points(); ++i) {
-    const double w = target.weights.size() > 0 ? target.weights[i] : 1.0;
-    Eigen::Vector3d d = p.col(i) - target.positions.col(i);
-    if (target.normals.cols() == target.num_points()) {
-      const Eigen::Vector3d n = target.normals.col(i);
-      const Eigen::Vector3d normal_part = n.dot(d) * n;
-      d = normal_part + target.tangential_weight * (d - normal_part);
-    }
-    data += w * d.squaredNorm();
-  }
-  double cost = data / total + options_.latent_regularization * z.squaredNorm();
+  double cost = DataTerm(target, surface) + options_.latent_regularization * z.squaredNorm();
   const double prior_points = PriorPoints(target, options_.prior_points_cap);
   if (options_.latent_prior > 0) {
     cost += options_.latent_prior / prior_points * prior_.latent.SquaredMahalanobis(z);
@@ -907,7 +953,11 @@ double LatentFitter::StartObjective(const FitTarget* target, const Eigen::Matrix
   const FitTarget matched = MatchPointCloud(*points, surface, model_.neutral.triangles,
                                             cloud_options, options_.num_threads, &used, &mean);
   if (used < 3) return std::numeric_limits<double>::infinity();
-  return Objective(matched, surface, z);
+  double cost = Objective(matched, surface, z);
+  if (cloud_options.landmarks.num_points() > 0 && cloud_options.landmark_weight > 0) {
+    cost += cloud_options.landmark_weight * DataTerm(cloud_options.landmarks, surface);
+  }
+  return cost;
 }
 
 bool LatentFitter::ChooseStart(const FitTarget* target, const Eigen::Matrix3Xd* points,

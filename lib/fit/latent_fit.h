@@ -105,6 +105,9 @@ struct LatentFitResult {
   double matched_fraction = 1.0;
   // Point clouds: the mean matched distance at the start of each matching round.
   std::vector<double> round_distances;
+  // Point clouds with landmarks (PointCloudFitOptions::landmarks): their mean distance
+  // to the fitted surface points (0 without landmarks).
+  double landmark_mean_error = 0.0;
   std::string start;  // where the fit started (ChooseStart), "" if not chosen
   // With LatentFitOptions::coarse_points: whether the second start ran, and whether the
   // fit kept is the one through the subset of points.
@@ -149,6 +152,20 @@ struct PointCloudFitOptions {
   // distances to the surface, re-matched at every evaluation (see FitPointCloud),
   // instead of matching rounds with fixed correspondences.
   bool rematch_every_evaluation = true;
+  // Landmarks: points of the scan whose place on the model's surface is known (e.g. the
+  // eye and mouth corners a face tracker finds in the scan's image), fitted together
+  // with the scan in both modes. Distances to a surface do not see motion along it (a
+  // mouth that slides sideways); landmarks do. The objective adds
+  //   landmark_weight (1/sum w) sum_k w_k |p_k - y_k|^2
+  // (the target's points and weights), so with weight 1 the landmarks' mean squared
+  // distance counts as much as the scan's. Empty (no points): none. The default was
+  // chosen on the demo's validation scans with 10 landmarks of 0.1 cm noise, by the scans
+  // within 1.2x of the fit with correspondence: 14 of 20 without landmarks; 14, 15, 10,
+  // 6 and 3 with weights 0.01, 0.03, 0.1, 0.3 and 1 (docs/fitting.md). Landmarks are
+  // where the model errs most, and a fit that holds them tightly bends the rest of the
+  // face to them (weight 1 is worse even with exact landmarks).
+  FitTarget landmarks;
+  double landmark_weight = 0.03;
 
   // Checks every field (fit/fit_options.cc); false with *error naming the first bad one.
   bool Validate(std::string* error) const;
@@ -215,10 +232,12 @@ class LatentFitter {
 
   // Fits to a point cloud (3 x M, in the model's frame) by re-matched closest points:
   // with rematch_every_evaluation, minimizes
-  //   (1/M) sum_i R(min(d_i, max_distance))^2 + priors,  R(d) = d / sqrt(1 + (d/s)^2),
+  //   (1/M) sum_i R(min(d_i, max_distance))^2 + landmarks + priors,
+  //   R(d) = d / sqrt(1 + (d/s)^2),
   // d_i the distance of scan point i to the simulated surface (its closest point found
   // at every evaluation, s = robust_scale: the Cauchy-weighted squared distance of the
-  // rounds); otherwise rounds of matching, then fitting with fixed correspondences.
+  // rounds); otherwise rounds of matching, then fitting with fixed correspondences. The
+  // landmark term is PointCloudFitOptions::landmarks' (none if it has no points).
   bool FitPointCloud(const Eigen::Matrix3Xd& points, const PointCloudFitOptions& cloud_options,
                      const Eigen::VectorXd& initial, LatentFitResult* result, std::string* error);
 
@@ -258,7 +277,8 @@ class LatentFitter {
                    const Eigen::VectorXd& z) const;
   // What ChooseStart compares: Objective for a target (non-null `target`), or for a
   // point cloud (non-null `points`, 3 x M) that of the matching it induces on `surface`
-  // (infinity if fewer than 3 points match). At the current bone transforms.
+  // (infinity if fewer than 3 points match) plus the landmark term of cloud_options. At
+  // the current bone transforms.
   double StartObjective(const FitTarget* target, const Eigen::Matrix3Xd* points,
                         const PointCloudFitOptions& cloud_options, const Eigen::Matrix3Xd& surface,
                         const Eigen::VectorXd& z) const;
@@ -296,6 +316,10 @@ class LatentFitter {
   // Set by FitPointCloud while Fit solves the re-matched closest-point problem.
   const Eigen::Matrix3Xd* direct_cloud_ = nullptr;
   PointCloudFitOptions direct_cloud_options_;
+  // Set by FitPointCloud (both modes) while it fits: landmarks fitted with the scan
+  // (nullptr: none), and their weight.
+  const FitTarget* cloud_landmarks_ = nullptr;
+  double cloud_landmark_weight_ = 0.0;
   // Where equilibrium solves start (see set_start_state).
   Eigen::Matrix3Xd accepted_state_;
 };

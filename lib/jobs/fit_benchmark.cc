@@ -228,7 +228,7 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
           << Fixed(r.jaw_degrees, 1) << " deg" << (r.converged ? "" : ", not converged")
           << ", start " << r.start;
     }
-    if (r.method == "physics_scan") {
+    if (r.method.rfind("physics_scan", 0) == 0) {
       log << ", matched " << Fixed(100 * r.matched_fraction, 1) << "% at "
           << Fixed(r.matched_distance, 4);
     }
@@ -237,14 +237,14 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
   // A physics fit to a target or a cloud, timed from the start choice to the result.
   auto physics = [&](const std::string& mix, const std::string& method, int markers,
                      const FitTarget* target, const Eigen::Matrix3Xd* cloud,
-                     const Eigen::Matrix3Xd& truth) {
+                     const PointCloudFitOptions& cloud_options, const Eigen::Matrix3Xd& truth) {
     reset();
     WallTimer timer;
     Eigen::VectorXd z = options.start.mean_latent ? fitter.MeanLatent() : fitter.PriorLatent();
     std::string start, fit_error;
     LatentFitResult fit;
     Row r = MakeRow(mix, method, markers);
-    const bool ok = FitFromChosenStart(&fitter, target, cloud, options.points, options.start, z,
+    const bool ok = FitFromChosenStart(&fitter, target, cloud, cloud_options, options.start, z,
                                        &fit, &fit_error);
     r.seconds = timer.Seconds();
     r.start = fit.start + (fit.retry_reason.empty() ? "" : fit.retry_kept ? " (retried, kept)"
@@ -296,7 +296,7 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
         rows.push_back(p);
         print(p);
         const FitTarget target = VertexTarget(vertices, positions);
-        physics(mix, "physics", k, &target, nullptr, truth.vertices);
+        physics(mix, "physics", k, &target, nullptr, options.points, truth.vertices);
       }
     }
     if (options.poses) {
@@ -305,13 +305,24 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
       rows.push_back(p);
       print(p);
       const FitTarget target = FullSurfaceTarget(truth.vertices);
-      physics(mix, "physics_pose", 0, &target, nullptr, truth.vertices);
+      physics(mix, "physics_pose", 0, &target, nullptr, options.points, truth.vertices);
     }
     if (options.scans) {
       Eigen::Matrix3Xd cloud;
       const std::string path = options.test_set + "/scans/" + mix + ".ply";
       if (!ReadPointCloud(path, &cloud, error)) return JobStatus::kBadInput;
-      physics(mix, "physics_scan", 0, nullptr, &cloud, truth.vertices);
+      physics(mix, "physics_scan", 0, nullptr, &cloud, options.points, truth.vertices);
+      // The same scan with its landmarks, where the test set has them.
+      const std::string landmarks = options.test_set + "/scans/" + mix + "_landmarks.txt";
+      if (fs::exists(landmarks)) {
+        std::vector<int> vertices;
+        Eigen::Matrix3Xd positions;
+        if (!ReadMarkers(landmarks, ns, &vertices, &positions, error)) return JobStatus::kBadInput;
+        PointCloudFitOptions with_landmarks = options.points;
+        with_landmarks.landmarks = VertexTarget(vertices, positions);
+        physics(mix, "physics_scan_landmarks", 0, nullptr, &cloud, with_landmarks,
+                truth.vertices);
+      }
     }
   }
 
@@ -358,12 +369,15 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
   }
   if (options.poses || options.scans) {
     const auto pose = select("physics_pose", 0), scan = select("physics_scan", 0),
+               scan_landmarks = select("physics_scan_landmarks", 0),
                pca_pose = select("pca_pose", 0);
     md << "| fit | mean error | max of mean errors | seconds median | max | iterations median | "
           "factorizations median |\n"
        << "| --- | ---: | ---: | ---: | ---: | ---: | ---: |\n";
-    for (const auto& [name, set] : {std::make_pair(std::string("full correspondence"), pose),
-                                    std::make_pair(std::string("scan"), scan)}) {
+    for (const auto& [name, set] :
+         {std::make_pair(std::string("full correspondence"), pose),
+          std::make_pair(std::string("scan"), scan),
+          std::make_pair(std::string("scan with landmarks"), scan_landmarks)}) {
       if (set.empty()) continue;
       std::vector<double> err, secs, its, work;
       for (const auto& [mix, row] : set) {
@@ -383,18 +397,21 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
       md << "| PCA projection (reference) | " << Fixed(Mean(err), 4) << " | "
          << Fixed(*std::max_element(err.begin(), err.end()), 4) << " | | | | |\n";
     }
-    if (!pose.empty() && !scan.empty()) {
+    for (const auto& [name, set] : {std::make_pair(std::string("Scans"), scan),
+                                    std::make_pair(std::string("Scans with landmarks"),
+                                                   scan_landmarks)}) {
+      if (pose.empty() || set.empty()) continue;
       int within = 0;
       double worst = 0, fraction = 0, distance = 0;
-      for (const auto& [mix, row] : scan) {
+      for (const auto& [mix, row] : set) {
         const double ratio = row.mean / pose.at(mix).mean;
         within += ratio <= 1.2;
         worst = std::max(worst, ratio);
-        fraction += row.matched_fraction / scan.size();
-        distance += row.matched_distance / scan.size();
+        fraction += row.matched_fraction / set.size();
+        distance += row.matched_distance / set.size();
       }
-      md << "\nScans within 1.2x of the fit with correspondence: " << within << " of "
-         << scan.size() << "; worst ratio " << Fixed(worst, 2) << "; matched points "
+      md << "\n" << name << " within 1.2x of the fit with correspondence: " << within << " of "
+         << set.size() << "; worst ratio " << Fixed(worst, 2) << "; matched points "
          << Fixed(100 * fraction, 1) << "% on average, matched distance " << Fixed(distance, 4)
          << " on average.\n";
     }

@@ -10,7 +10,8 @@
 namespace aqs {
 
 // What aqs_bench_fit does: fits a trained model to a test set made by
-// scripts/make_fit_tests.py (mixes.csv, poses/, marker_sets/, markers/, scans/,
+// scripts/make_fit_tests.py (mixes.csv, poses/, marker_sets/, markers/, scans/ (with
+// mix_NNN_landmarks.txt where present, also fitted as "physics_scan_landmarks"),
 // sequence/) and compares with ridge PCA and the neutral face.
 struct FitBenchmarkOptions {
   std::string model;     // trained model directory; required

@@ -231,6 +231,20 @@ FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log) {
   } else {
     return Fail("--target_kind must be auto, pose, markers or points, got '" + kind + "'");
   }
+  PointCloudFitOptions cloud_options = options.points;
+  if (!options.landmarks.empty()) {
+    if (kind != "points") {
+      return Fail(options.landmarks + ": --landmarks go with a point cloud (a scan), but " +
+                  options.target + " is fitted as " + kind);
+    }
+    std::vector<int> vertices;
+    Eigen::Matrix3Xd positions;
+    if (!ReadMarkers(options.landmarks, ns, &vertices, &positions, &error) ||
+        !CheckPointsNearModel(options.landmarks, model.neutral.vertices, positions, &error)) {
+      return Fail(error);
+    }
+    cloud_options.landmarks = VertexTarget(vertices, positions);
+  }
   SurfaceMesh truth;
   if (!options.compare_to.empty()) {
     if (!ReadObj(options.compare_to, &truth, &error) ||
@@ -267,7 +281,7 @@ FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log) {
   FitJobResult result;
   result.kind = kind;
   const bool ok = FitFromChosenStart(&fitter, kind == "points" ? nullptr : &target,
-                                     kind == "points" ? &cloud : nullptr, options.points,
+                                     kind == "points" ? &cloud : nullptr, cloud_options,
                                      options.start, initial, &result.fit, &error);
   if (result.fit.start.empty()) {  // no start could be simulated
     result.status = JobStatus::kNotConverged;
@@ -303,6 +317,11 @@ FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log) {
       for (double d : fit.round_distances) log << ' ' << d;
     }
     log << "\n";
+    if (cloud_options.landmarks.num_points() > 0) {
+      log << "landmarks: " << cloud_options.landmarks.num_points() << " (weight "
+          << cloud_options.landmark_weight << "), mean distance " << fit.landmark_mean_error
+          << "\n";
+    }
   }
   log << "latent:";
   for (Eigen::Index i = 0; i < fit.latent.size(); ++i) log << ' ' << fit.latent[i];

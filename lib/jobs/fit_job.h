@@ -26,6 +26,10 @@ struct FitJobOptions {
   // auto: .txt -> markers, .ply -> points, .obj -> pose if it has the neutral's vertex
   //       count, else points.
   std::string target_kind = "auto";
+  // Optional, point clouds only: landmarks of the scan (a markers file, "vertex x y z"
+  // lines), fitted with it (PointCloudFitOptions::landmarks, weight
+  // points.landmark_weight).
+  std::string landmarks;
   std::string output;         // the fitted surface (OBJ, the neutral's faces); required
   std::string output_volume;  // optional: the equilibrium (.vtu/.mesh/.obj by extension)
   std::string latent_output;  // optional: the latent file (io/latent_io.h)

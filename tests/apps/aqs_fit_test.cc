@@ -283,6 +283,13 @@ TEST_F(AqsFitTest, MarkersAndPointCloudTargets) {
                        " --max_distance=0.5 --robust_scale=0.05 --match_rounds --rounds=2"));
   ASSERT_EQ(run.exit_code, 0) << run.output;
   EXPECT_NE(run.output.find("at each matching round"), std::string::npos) << run.output;
+  // The scan with landmarks (the markers above): the log reports their distance.
+  run = RunCommand(Fit("--target=" + dir_->File("scan.ply") + " --output=" + dir_->File("s.obj") +
+                       " --max_distance=0.5 --landmarks=" + dir_->File("markers.txt") +
+                       " --landmark_weight=2"));
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("landmarks: 12 (weight 2), mean distance"), std::string::npos)
+      << run.output;
 }
 
 // Writes a markers file of `surface` on every 8th surface vertex.
@@ -397,6 +404,7 @@ TEST_F(AqsFitTest, BadSequencesFailNamingTheFileAndLine) {
 }
 
 TEST_F(AqsFitTest, MalformedTargetsFailClearly) {
+  WriteMarkers(dir_->File("markers.txt"), data_->test_surfaces[1]);
   std::ofstream(dir_->File("bad_markers.txt")) << "3 0.1 0.2\n";
   std::ofstream(dir_->File("far_markers.txt")) << "99999 0 0 0\n";
   std::ofstream(dir_->File("bad.ply")) << "ply\nformat ascii 1.0\nelement vertex 5\n"
@@ -418,12 +426,24 @@ TEST_F(AqsFitTest, MalformedTargetsFailClearly) {
        "small.obj: 10 vertices, but the model's surface has"},
       {"--target=" + dir_->File("test0.obj") + " --compare_to=" + dir_->File("test0.obj") +
        " --compare_vertices=0:99999", "comparison vertex"},
+      {"--target=" + dir_->File("test0.obj") + " --landmarks=" + dir_->File("markers.txt"),
+       "markers.txt: --landmarks go with a point cloud (a scan), but"},
+      {"--target=" + dir_->File("test0.obj") + " --target_kind=points --landmarks=" +
+       dir_->File("far_markers.txt"), "far_markers.txt:1: surface vertex 99999"},
+      {"--target=" + dir_->File("test0.obj") + " --target_kind=points --landmarks=" +
+       dir_->File("markers.txt") + " --landmark_weight=-1", "--landmark_weight must be"},
   };
   for (const auto& [flags, message] : cases) {
     const testing::CommandResult run = RunCommand(Fit(flags + " --output=" + dir_->File("o.obj")));
     EXPECT_EQ(run.exit_code, 1) << flags << "\n" << run.output;
     EXPECT_NE(run.output.find(message), std::string::npos) << flags << "\n" << run.output;
   }
+  const testing::CommandResult sequence_landmarks =
+      RunCommand(Fit("--sequence=" + dir_->File("test0.obj") + " --output_dir=" +
+                     dir_->File("seq_lm") + " --landmarks=" + dir_->File("markers.txt")));
+  EXPECT_EQ(sequence_landmarks.exit_code, 1) << sequence_landmarks.output;
+  EXPECT_NE(sequence_landmarks.output.find("not with --target, --output or --landmarks"),
+            std::string::npos) << sequence_landmarks.output;
   const testing::CommandResult no_model =
       RunCommand(AppPath("aqs_fit") + " --target=x.obj --output=o.obj");
   EXPECT_EQ(no_model.exit_code, 1);

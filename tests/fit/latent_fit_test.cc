@@ -279,6 +279,68 @@ TEST(LatentFitTest, PointCloudFitRecoversPoseFromPartialNoisyShuffledScan) {
   EXPECT_LT(fit.mean_error, 0.01);
 }
 
+TEST(LatentFitTest, ScanLandmarksPullTheFitInBothModes) {
+  // A scan of one pose with landmarks taken from another: the landmarks' weight decides
+  // which the fit follows. Without landmarks (or with weight 0) the fit is the scan's;
+  // with a large weight it reaches the landmarks' pose at its vertices.
+  const ActiveModel model = TrainedModel(false);
+  LatentFitter fitter(model, LatentFitOptions());
+  Eigen::Matrix3Xd state, scan_pose, landmark_pose;
+  std::string error;
+  ASSERT_TRUE(fitter.Simulate(model.latents.col(5), &state, &scan_pose, &error)) << error;
+  ASSERT_TRUE(fitter.Simulate(model.latents.col(2), &state, &landmark_pose, &error)) << error;
+  std::vector<int> vertices;
+  for (int v = 0; v < model.num_surface_vertices(); v += 7) {
+    if (model.neutral.vertices(0, v) > 1.0) vertices.push_back(v);
+  }
+  ASSERT_GE(vertices.size(), 4u);
+  const Eigen::Matrix3Xd landmark_positions = landmark_pose(Eigen::all, vertices);
+  const double apart =
+      (scan_pose(Eigen::all, vertices) - landmark_positions).colwise().norm().mean();
+  ASSERT_GT(apart, 0.02) << "the two poses must differ at the landmarks";
+  for (const bool rematch : {true, false}) {
+    SCOPED_TRACE(rematch ? "re-matched every evaluation" : "matching rounds");
+    std::vector<double> landmark_errors;
+    for (const double weight : {-1.0, 0.0, 100.0}) {  // -1: no landmarks at all
+      PointCloudFitOptions cloud;
+      cloud.rematch_every_evaluation = rematch;
+      cloud.max_distance = 0.5;
+      if (weight >= 0) {
+        cloud.landmarks = VertexTarget(vertices, landmark_positions);
+        cloud.landmark_weight = weight;
+      }
+      fitter.set_start_state(model.mesh.vertices);
+      fitter.ForgetFactor();  // each fit as from a fresh fitter
+      LatentFitResult fit;
+      ASSERT_TRUE(fitter.FitPointCloud(scan_pose, cloud, fitter.PriorLatent(), &fit, &error))
+          << error;
+      // The reported landmark error is the fitted surface's distance to them.
+      const double measured =
+          (fit.surface(Eigen::all, vertices) - landmark_positions).colwise().norm().mean();
+      if (weight >= 0) {
+        EXPECT_NEAR(fit.landmark_mean_error, measured, 1e-12);
+      } else {
+        EXPECT_EQ(fit.landmark_mean_error, 0.0);
+      }
+      landmark_errors.push_back(measured);
+    }
+    // Weight 0 is no landmarks; weight 100 follows them (to a tenth of the poses' gap).
+    EXPECT_NEAR(landmark_errors[1], landmark_errors[0], 1e-6 * apart);
+    EXPECT_GT(landmark_errors[0], 0.5 * apart);
+    EXPECT_LT(landmark_errors[2], 0.1 * apart);
+  }
+  // The start's objective counts them the same way: weight x their mean squared distance.
+  PointCloudFitOptions plain, with;
+  with.landmarks = VertexTarget(vertices, landmark_positions);
+  with.landmark_weight = 3.0;
+  const Eigen::VectorXd z = model.latents.col(5);
+  const double squared =
+      (scan_pose(Eigen::all, vertices) - landmark_positions).colwise().squaredNorm().mean();
+  EXPECT_NEAR(fitter.StartObjective(nullptr, &scan_pose, with, scan_pose, z) -
+                  fitter.StartObjective(nullptr, &scan_pose, plain, scan_pose, z),
+              3.0 * squared, 1e-9 * squared);
+}
+
 TEST(LatentFitTest, BoneWithoutDataNearItEndsAtThePriorMean) {
   // A bone of one corner vertex of the fixed end; markers only on the far half of the
   // bar, which the corner's motion barely moves. With the bone prior the fit puts the
