@@ -7,10 +7,8 @@
 
 #include <ceres/cost_function.h>
 #include <ceres/evaluation_callback.h>
-#include <ceres/jet.h>
 #include <ceres/loss_function.h>
 #include <ceres/problem.h>
-#include <ceres/rotation.h>
 #include <ceres/solver.h>
 #include <Eigen/Geometry>
 #include <glog/logging.h>
@@ -24,102 +22,11 @@
 
 namespace aqs {
 
-FitTarget VertexTarget(const std::vector<int>& vertices, const Eigen::Matrix3Xd& positions) {
-  CHECK_EQ(positions.cols(), static_cast<Eigen::Index>(vertices.size()));
-  FitTarget target;
-  const int k = static_cast<int>(vertices.size());
-  target.vertices.resize(3, k);
-  target.barycentric.setZero(3, k);
-  for (int i = 0; i < k; ++i) {
-    target.vertices.col(i).setConstant(vertices[i]);
-    target.barycentric(0, i) = 1.0;
-  }
-  target.positions = positions;
-  return target;
-}
-
-FitTarget FullSurfaceTarget(const Eigen::Matrix3Xd& surface) {
-  std::vector<int> all(surface.cols());
-  for (Eigen::Index i = 0; i < surface.cols(); ++i) all[i] = static_cast<int>(i);
-  return VertexTarget(all, surface);
-}
-
-RigidTransform BoneTransformFromParameters(const double* parameters) {
-  const Eigen::Vector3d omega(parameters[0], parameters[1], parameters[2]);
-  RigidTransform t;
-  const double angle = omega.norm();
-  if (angle > 0) t.rotation = Eigen::AngleAxisd(angle, omega / angle).toRotationMatrix();
-  t.translation = Eigen::Vector3d(parameters[3], parameters[4], parameters[5]);
-  return t;
-}
-
-void BoneTransformToParameters(const RigidTransform& transform, double* parameters) {
-  const Eigen::AngleAxisd aa(transform.rotation);
-  const Eigen::Vector3d omega = aa.angle() * aa.axis();
-  for (int i = 0; i < 3; ++i) {
-    parameters[i] = omega[i];
-    parameters[3 + i] = transform.translation[i];
-  }
-}
-
 namespace {
 
 // The largest actuation entry a fit's trial point may ask for (io/actuation_io.h's
 // kMaxActuationStretch): beyond, the step counts as unsuccessful.
 constexpr double kMaxFitActuationEntry = 1e3;
-
-// d (R(omega) X) / d omega (3x3) at omega, for the rotation-vector parameterization,
-// by forward-mode differentiation of Ceres' AngleAxisRotatePoint.
-Eigen::Matrix3d RotatedPointJacobian(const double* omega, const Eigen::Vector3d& point) {
-  using Jet = ceres::Jet<double, 3>;
-  Jet w[3], p[3], out[3];
-  for (int i = 0; i < 3; ++i) {
-    w[i] = Jet(omega[i], i);
-    p[i] = Jet(point[i]);
-  }
-  ceres::AngleAxisRotatePoint(w, p, out);
-  Eigen::Matrix3d jacobian;
-  for (int i = 0; i < 3; ++i) jacobian.row(i) = out[i].v.transpose();
-  return jacobian;
-}
-
-double TotalWeight(const FitTarget& target) {
-  if (target.weights.size() == 0) return target.num_points();
-  return target.weights.sum();
-}
-
-// W of the priors' weights: the total weight, capped.
-double PriorPoints(const FitTarget& target, double cap) {
-  const double total = TotalWeight(target);
-  return cap > 0 ? std::min(total, cap) : total;
-}
-
-// The target points on a surface (3 x K).
-Eigen::Matrix3Xd TargetPointsOn(const FitTarget& target, const Eigen::Matrix3Xd& surface) {
-  Eigen::Matrix3Xd p = Eigen::Matrix3Xd::Zero(3, target.num_points());
-  for (int i = 0; i < target.num_points(); ++i) {
-    for (int c = 0; c < 3; ++c) p.col(i) += target.barycentric(c, i) * surface.col(target.vertices(c, i));
-  }
-  return p;
-}
-
-// The data term of a target on a surface: (1/sum w) sum_k w_k |P_k (p_k - y_k)|^2 (P_k
-// the point-to-plane projector with normals, else the identity).
-double DataTerm(const FitTarget& target, const Eigen::Matrix3Xd& surface) {
-  const Eigen::Matrix3Xd p = TargetPointsOn(target, surface);
-  double data = 0.0;
-  for (int i = 0; i < target.num_points(); ++i) {
-    const double w = target.weights.size() > 0 ? target.weights[i] : 1.0;
-    Eigen::Vector3d d = p.col(i) - target.positions.col(i);
-    if (target.normals.cols() == target.num_points()) {
-      const Eigen::Vector3d n = target.normals.col(i);
-      const Eigen::Vector3d normal_part = n.dot(d) * n;
-      d = normal_part + target.tangential_weight * (d - normal_part);
-    }
-    data += w * d.squaredNorm();
-  }
-  return data / TotalWeight(target);
-}
 
 // Each scan point matched to the closest point of `surface` (triangles of the
 // neutral), with robust weights: the target of one matching round.
@@ -927,7 +834,8 @@ bool LatentFitter::FitPointCloud(const Eigen::Matrix3Xd& points,
 
 double LatentFitter::Objective(const FitTarget& target, const Eigen::Matrix3Xd& surface,
                                const Eigen::VectorXd& z) const {
-  double cost = DataTerm(target, surface) + options_.latent_regularization * z.squaredNorm();
+  double cost =
+      TargetDataTerm(target, surface) + options_.latent_regularization * z.squaredNorm();
   const double prior_points = PriorPoints(target, options_.prior_points_cap);
   if (options_.latent_prior > 0) {
     cost += options_.latent_prior / prior_points * prior_.latent.SquaredMahalanobis(z);
@@ -955,7 +863,7 @@ double LatentFitter::StartObjective(const FitTarget* target, const Eigen::Matrix
   if (used < 3) return std::numeric_limits<double>::infinity();
   double cost = Objective(matched, surface, z);
   if (cloud_options.landmarks.num_points() > 0 && cloud_options.landmark_weight > 0) {
-    cost += cloud_options.landmark_weight * DataTerm(cloud_options.landmarks, surface);
+    cost += cloud_options.landmark_weight * TargetDataTerm(cloud_options.landmarks, surface);
   }
   return cost;
 }

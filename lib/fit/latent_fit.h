@@ -9,6 +9,8 @@
 
 #include "diff/equilibrium_differentiator.h"
 #include "equilibrium/quasistatic_solver.h"
+#include "fit/bone_parameters.h"
+#include "fit/fit_target.h"
 #include "model/active_model.h"
 
 namespace ceres {
@@ -64,31 +66,6 @@ struct LatentFitOptions {
   // Checks every field (fit/fit_options.cc); false with *error naming the first bad one.
   bool Validate(std::string* error) const;
 };
-
-// What to fit: K target points, each a point of the model's surface given as a
-// barycentric combination of up to three surface vertices (vertices(., k) with weights
-// barycentric(., k); a single vertex is (v, v, v) with (1, 0, 0)), and the position it
-// should take. Optional per-point weights (empty: all 1).
-struct FitTarget {
-  Eigen::Matrix3Xi vertices;
-  Eigen::Matrix3Xd barycentric;
-  Eigen::Matrix3Xd positions;
-  Eigen::VectorXd weights;
-  // Optional unit normals (3 x K; empty: point-to-point). With them the residual of
-  // point k is P_k (p_k - y_k), P_k = n n^T + tangential_weight (I - n n^T): the
-  // distance to the target's tangent plane plus a fraction of the distance along it
-  // (point-to-plane matching of scans, which lets surfaces slide).
-  Eigen::Matrix3Xd normals;
-  double tangential_weight = 1.0;
-
-  int num_points() const { return static_cast<int>(positions.cols()); }
-};
-
-// Targets on single surface vertices (markers): vertex v_k at positions.col(k).
-FitTarget VertexTarget(const std::vector<int>& vertices, const Eigen::Matrix3Xd& positions);
-// All surface vertices at `surface` (3 x num_surface_vertices): a pose with known
-// correspondence.
-FitTarget FullSurfaceTarget(const Eigen::Matrix3Xd& surface);
 
 struct LatentFitResult {
   Eigen::VectorXd latent;
@@ -323,10 +300,6 @@ class LatentFitter {
   // Where equilibrium solves start (see set_start_state).
   Eigen::Matrix3Xd accepted_state_;
 };
-
-// A bone transform from its 6 fit parameters (rotation vector, translation) and back.
-RigidTransform BoneTransformFromParameters(const double* parameters);
-void BoneTransformToParameters(const RigidTransform& transform, double* parameters);
 
 }  // namespace aqs
 

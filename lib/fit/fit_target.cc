@@ -1,0 +1,65 @@
+#include "fit/fit_target.h"
+
+#include <algorithm>
+
+#include <glog/logging.h>
+
+namespace aqs {
+
+FitTarget VertexTarget(const std::vector<int>& vertices, const Eigen::Matrix3Xd& positions) {
+  CHECK_EQ(positions.cols(), static_cast<Eigen::Index>(vertices.size()));
+  FitTarget target;
+  const int k = static_cast<int>(vertices.size());
+  target.vertices.resize(3, k);
+  target.barycentric.setZero(3, k);
+  for (int i = 0; i < k; ++i) {
+    target.vertices.col(i).setConstant(vertices[i]);
+    target.barycentric(0, i) = 1.0;
+  }
+  target.positions = positions;
+  return target;
+}
+
+FitTarget FullSurfaceTarget(const Eigen::Matrix3Xd& surface) {
+  std::vector<int> all(surface.cols());
+  for (Eigen::Index i = 0; i < surface.cols(); ++i) all[i] = static_cast<int>(i);
+  return VertexTarget(all, surface);
+}
+
+double TotalWeight(const FitTarget& target) {
+  if (target.weights.size() == 0) return target.num_points();
+  return target.weights.sum();
+}
+
+double PriorPoints(const FitTarget& target, double cap) {
+  const double total = TotalWeight(target);
+  return cap > 0 ? std::min(total, cap) : total;
+}
+
+Eigen::Matrix3Xd TargetPointsOn(const FitTarget& target, const Eigen::Matrix3Xd& surface) {
+  Eigen::Matrix3Xd p = Eigen::Matrix3Xd::Zero(3, target.num_points());
+  for (int i = 0; i < target.num_points(); ++i) {
+    for (int c = 0; c < 3; ++c) {
+      p.col(i) += target.barycentric(c, i) * surface.col(target.vertices(c, i));
+    }
+  }
+  return p;
+}
+
+double TargetDataTerm(const FitTarget& target, const Eigen::Matrix3Xd& surface) {
+  const Eigen::Matrix3Xd p = TargetPointsOn(target, surface);
+  double data = 0.0;
+  for (int i = 0; i < target.num_points(); ++i) {
+    const double w = target.weights.size() > 0 ? target.weights[i] : 1.0;
+    Eigen::Vector3d d = p.col(i) - target.positions.col(i);
+    if (target.normals.cols() == target.num_points()) {
+      const Eigen::Vector3d n = target.normals.col(i);
+      const Eigen::Vector3d normal_part = n.dot(d) * n;
+      d = normal_part + target.tangential_weight * (d - normal_part);
+    }
+    data += w * d.squaredNorm();
+  }
+  return data / TotalWeight(target);
+}
+
+}  // namespace aqs
