@@ -32,7 +32,9 @@ DEFINE_bool(sequence_warm_start, true, "Sequences: start each frame from the pre
 DEFINE_string(target_kind, "auto", "pose, markers, points or auto (by extension and vertex count).");
 DEFINE_string(landmarks, "", "Optional, with a point-cloud target: landmarks of the scan, points "
               "whose vertex is known (e.g. eye and mouth corners; a markers file, 'vertex x y z' "
-              "lines), fitted with it (--landmark_weight).");
+              "lines), fitted with it (--landmark_weight). With a --sequence of scans: one such "
+              "file per frame, listed as --sequence is (folder, glob, .txt list or comma list), "
+              "in the frames' order.");
 DEFINE_string(output, "", "The fitted surface (OBJ).");
 DEFINE_string(output_volume, "", "Optional: the fitted equilibrium (.vtu for ParaView, or .mesh).");
 DEFINE_string(latent_output, "", "Optional: the fitted latent (and bones) as a latent file.");
@@ -60,16 +62,16 @@ int main(int argc, char** argv) {
     return 1;
   }
   if (!FLAGS_sequence.empty()) {
-    if (!FLAGS_target.empty() || !FLAGS_output.empty() || !FLAGS_landmarks.empty()) {
-      aqs::PrintRankError(ranks.get(), "--sequence goes with --output_dir, not with --target, "
-                                       "--output or --landmarks (sequences of scans are fitted "
-                                       "without landmarks)");
+    if (!FLAGS_target.empty() || !FLAGS_output.empty()) {
+      aqs::PrintRankError(ranks.get(),
+                          "--sequence goes with --output_dir, not with --target or --output");
       return 1;
     }
     aqs::FitSequenceOptions options;
     options.model = FLAGS_model;
     options.sequence = FLAGS_sequence;
     options.target_kind = FLAGS_target_kind;
+    options.landmarks = FLAGS_landmarks;
     options.output_dir = FLAGS_output_dir;
     options.fit = fit;
     options.points = points;

@@ -360,6 +360,35 @@ bool ReadSequenceFrames(const FitSequenceOptions& options, int ns,
     }
     frames->push_back(std::move(f));
   }
+  if (options.landmarks.empty()) return true;
+  // One landmarks file per frame, in the frames' order.
+  if (frames->front().kind != "points") {
+    *error = options.landmarks + ": landmarks go with a sequence of point clouds (scans), but " +
+             options.sequence + " is a sequence of " + frames->front().kind + " targets";
+    return false;
+  }
+  std::vector<std::pair<std::string, std::string>> landmark_files;
+  if (!ResolveFrames(options.landmarks, &landmark_files, error)) return false;
+  if (options.max_frames >= 0 && static_cast<int>(landmark_files.size()) > options.max_frames) {
+    landmark_files.resize(options.max_frames);
+  }
+  if (landmark_files.size() != frames->size()) {
+    *error = options.landmarks + ": " + std::to_string(landmark_files.size()) +
+             " landmark files for the " + std::to_string(frames->size()) + " frames of " +
+             options.sequence + " (one per frame, in the frames' order)";
+    return false;
+  }
+  for (size_t k = 0; k < frames->size(); ++k) {
+    const auto& [path, origin] = landmark_files[k];
+    std::vector<int> vertices;
+    Eigen::Matrix3Xd positions;
+    if (!ReadMarkers(path, ns, &vertices, &positions, error)) {
+      if (origin != path) *error = origin + ": " + *error;
+      return false;
+    }
+    (*frames)[k].landmarks = VertexTarget(vertices, positions);
+    (*frames)[k].landmarks_path = path;
+  }
   return true;
 }
 
@@ -425,6 +454,9 @@ FitSequenceResult RunFitSequence(const FitSequenceOptions& options, const Active
                                                  std::to_string(size) + " ranks (" +
                                                  comm->Description() + ")"
                                            : "; independent frames")
+      << (options.landmarks.empty() ? std::string("")
+                                    : "; with landmarks from " + options.landmarks + " (weight " +
+                                          FormatDouble(options.points.landmark_weight) + ")")
       << "\n";
 
   std::string csv = CsvHeader(model) + "\n";
@@ -480,9 +512,11 @@ FitSequenceResult RunFitSequence(const FitSequenceOptions& options, const Active
     std::string fit_error;
     LatentFitResult fit;
     bool fitted = false;
+    PointCloudFitOptions cloud_options = options.points;
+    cloud_options.landmarks = frame.landmarks;
     if (!warm || f == 0) {  // from the start chosen for this frame
       fitted = FitFromChosenStart(fitter, is_cloud ? nullptr : &frame.target,
-                                  is_cloud ? &frame.cloud : nullptr, options.points, options.start,
+                                  is_cloud ? &frame.cloud : nullptr, cloud_options, options.start,
                                   z, &fit, &fit_error);
       if (fit.start.empty()) {  // no start could be simulated
         *status = JobStatus::kNotConverged;
@@ -491,7 +525,7 @@ FitSequenceResult RunFitSequence(const FitSequenceOptions& options, const Active
       }
       start = fit.start;
     } else {
-      fitted = is_cloud ? fitter->FitPointCloud(frame.cloud, options.points, z, &fit, &fit_error)
+      fitted = is_cloud ? fitter->FitPointCloud(frame.cloud, cloud_options, z, &fit, &fit_error)
                         : fitter->Fit(frame.target, z, &fit, &fit_error);
     }
     if (!fitted) {

@@ -25,6 +25,12 @@ struct FitSequenceOptions {
   // folder) or a comma-separated list (in that order).
   std::string sequence;
   std::string target_kind = "auto";  // as FitJobOptions::target_kind; one kind for all
+  // Optional, sequences of point clouds (scans) only: one landmarks file per frame (a
+  // markers file, "vertex x y z" lines: points whose vertex is known), listed as
+  // `sequence` is (a folder's files by name, a glob, a .txt list or a comma list), the
+  // k-th for the k-th frame; fitted with its scan (PointCloudFitOptions::landmarks,
+  // weight points.landmark_weight).
+  std::string landmarks;
   // Outputs (all atomic): <frame>.obj per frame (<frame>: the target's file name
   // without extension), frames.csv (one row per frame: errors, iterations, seconds,
   // where it started, stiffness factorizations (solves and Jacobians), latent, bone
@@ -71,13 +77,17 @@ struct SequenceFrame {
   std::string origin;  // where it was listed ("list.txt:3") or the path
   FitTarget target;            // markers and poses
   Eigen::Matrix3Xd cloud;      // points
+  FitTarget landmarks;         // points with FitSequenceOptions::landmarks (else empty)
+  std::string landmarks_path;
 };
 
 // Resolves and reads the frames of `options.sequence` for a model with
 // num_surface_vertices surface vertices. Errors (false, *error) name the file and line:
 // no frames, a missing file, an unreadable target (markers: repeated or out-of-range
 // vertices at path:line; scans: no points), kinds that differ from the first frame's,
-// a pose with another vertex count, two frames with the same name.
+// a pose with another vertex count, two frames with the same name; with landmarks, a
+// sequence that is not of point clouds, another number of landmark files than frames,
+// an unreadable landmarks file.
 bool ReadSequenceFrames(const FitSequenceOptions& options, int num_surface_vertices,
                         std::vector<SequenceFrame>* frames, std::string* error);
 

@@ -357,6 +357,51 @@ TEST_F(AqsFitTest, MarkerSequenceWritesEveryFrameAndResumesAfterAKill) {
             std::string::npos) << run.output;
 }
 
+TEST_F(AqsFitTest, ScanSequenceTakesOneLandmarksFilePerFrame) {
+  namespace fs = std::filesystem;
+  const std::string d = dir_->File("scan_seq");
+  fs::create_directories(d);
+  // Two scans (every vertex beyond x = 0.8 of a test surface) and, for each, landmarks
+  // taken from another pose: with a large weight the fit follows them.
+  for (int frame = 0; frame < 2; ++frame) {
+    const Eigen::Matrix3Xd& surface = data_->test_surfaces[frame];
+    std::ofstream ply(d + "/scan" + std::to_string(frame) + ".ply");
+    std::vector<int> kept;
+    for (int v = 0; v < surface.cols(); ++v) {
+      if (data_->model.neutral.vertices(0, v) > 0.8) kept.push_back(v);
+    }
+    ply << "ply\nformat ascii 1.0\nelement vertex " << kept.size()
+        << "\nproperty float x\nproperty float y\nproperty float z\nend_header\n";
+    for (int v : kept) ply << surface.col(v).transpose() << "\n";
+    ply.close();
+    WriteMarkers(d + "/landmarks" + std::to_string(frame) + ".txt",
+                 data_->model.poses[3 + frame].surface);
+  }
+  const std::string scans = " --sequence=" + d + "/scan0.ply," + d + "/scan1.ply";
+  const std::string landmarks = " --landmarks=" + d + "/landmarks0.txt," + d + "/landmarks1.txt";
+  testing::CommandResult run =
+      RunCommand(Fit(scans + " --max_distance=0.5 --output_dir=" + d + "/plain"));
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  run = RunCommand(Fit(scans + landmarks + " --landmark_weight=100 --max_distance=0.5 " +
+                       "--output_dir=" + d + "/landmarks"));
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("with landmarks from"), std::string::npos) << run.output;
+  for (int frame = 0; frame < 2; ++frame) {
+    SurfaceMesh plain, pulled;
+    std::string error;
+    const std::string name = "/scan" + std::to_string(frame) + ".obj";
+    ASSERT_TRUE(ReadObj(d + "/plain" + name, &plain, &error)) << error;
+    ASSERT_TRUE(ReadObj(d + "/landmarks" + name, &pulled, &error)) << error;
+    const Eigen::Matrix3Xd& toward = data_->model.poses[3 + frame].surface;
+    double plain_distance = 0, pulled_distance = 0;
+    for (int v = 0; v < toward.cols(); v += 8) {
+      plain_distance += (plain.vertices.col(v) - toward.col(v)).norm();
+      pulled_distance += (pulled.vertices.col(v) - toward.col(v)).norm();
+    }
+    EXPECT_LT(pulled_distance, 0.5 * plain_distance) << "frame " << frame;
+  }
+}
+
 TEST_F(AqsFitTest, BadSequencesFailNamingTheFileAndLine) {
   namespace fs = std::filesystem;
   const std::string d = dir_->File("bad_seq");
@@ -394,6 +439,12 @@ TEST_F(AqsFitTest, BadSequencesFailNamingTheFileAndLine) {
       {"--sequence=" + d + "/scan.ply," + d + "/empty.ply", "empty.ply: the file has no points"},
       {"--sequence=" + d + "/nothing*.txt", "matches no target files"},
       {"--sequence=" + d + "/good.txt", "--output_dir are required"},
+      {"--sequence=" + d + "/good.txt, --landmarks=" + d + "/good.txt,",
+       "landmarks go with a sequence of point clouds (scans), but"},
+      {"--sequence=" + d + "/scan.ply --landmarks=" + d + "/good.txt," + d + "/good.txt",
+       "2 landmark files for the 1 frames of"},
+      {"--sequence=" + d + "/scan.ply --landmarks=" + d + "/outside.txt,",
+       "outside.txt:2: surface vertex 99999 is outside"},
   };
   for (const auto& [flags, message] : cases) {
     const std::string command = Fit(flags + (message.find("output_dir") == std::string::npos ? out : ""));
@@ -442,7 +493,7 @@ TEST_F(AqsFitTest, MalformedTargetsFailClearly) {
       RunCommand(Fit("--sequence=" + dir_->File("test0.obj") + " --output_dir=" +
                      dir_->File("seq_lm") + " --landmarks=" + dir_->File("markers.txt")));
   EXPECT_EQ(sequence_landmarks.exit_code, 1) << sequence_landmarks.output;
-  EXPECT_NE(sequence_landmarks.output.find("not with --target, --output or --landmarks"),
+  EXPECT_NE(sequence_landmarks.output.find("landmarks go with a sequence of point clouds"),
             std::string::npos) << sequence_landmarks.output;
   const testing::CommandResult no_model =
       RunCommand(AppPath("aqs_fit") + " --target=x.obj --output=o.obj");
