@@ -6,7 +6,8 @@
 #      against a surface auto-encoder and PCA on 4 held-out expressions;
 #   2. aqs_fit: fits the trained model (latent and jaw) to two expressions it never saw:
 #      mouthClose (the lips pressed into each other) and the blend jawOpen+mouthClose
-#      (lips closed over an opened jaw); and to a synthetic scan of a held-out one;
+#      (lips closed over an opened jaw); and to a synthetic scan of a held-out one,
+#      without and with its landmarks;
 #   3. aqs_collide: re-solves jawOpen and the two fits with contact (teeth as obstacles,
 #      the skin against itself), and reports penetrations and intersecting triangles
 #      before and after.
@@ -34,6 +35,11 @@ done
 echo "== 2b. Fit a scan: a partial, noisy point cloud of a held-out expression (no correspondence)"
 $apps/aqs_fit --model=$model --target=$data/scans/mouthFunnel_scan.ply \
   --output=$out/collide/mouthFunnel_scan_fit.obj \
+  --compare_to=$data/poses/mouthFunnel.obj --compare_vertices=0:9409
+echo "== 2c. The same scan with 10 landmarks (eye and mouth corners, lips, nose tip, chin)"
+$apps/aqs_fit --model=$model --target=$data/scans/mouthFunnel_scan.ply \
+  --landmarks=$data/scans/mouthFunnel_landmarks.txt \
+  --output=$out/collide/mouthFunnel_scan_landmarks_fit.obj \
   --compare_to=$data/poses/mouthFunnel.obj --compare_vertices=0:9409
 
 echo "== 3. Contact: teeth against the opened jaw, lips against each other"

@@ -4,10 +4,16 @@ noisy sample of its surface, without correspondence (random order),
 as an ASCII PLY (x y z per point).
 
 Usage: make_scan.py POSE.obj NEUTRAL.obj OUT.ply [--points N] [--noise SIGMA]
-       [--min_z Z] [--seed S]
+       [--min_z Z] [--seed S] [--landmarks OUT.txt] [--landmark_vertices V1,V2,...]
+       [--landmark_noise SIGMA]
 The pose file holds only `v` records (faces come from the neutral). Points are uniform
 (by area) on the triangles whose three corners have z >= min_z (the front of the face,
 as a single depth camera would see it), plus Gaussian noise of SIGMA per coordinate.
+With --landmarks, also the scan's landmarks (aqs_fit --landmarks): the pose at the
+landmark vertices (default: the 10 of the ICT face that scripts/make_fit_tests.py's
+face_landmarks finds: eye corners, mouth corners, lip middles, nose tip, chin) plus
+Gaussian noise of landmark_noise per coordinate, from a generator of their own (the
+scan's points do not change).
 A development-time tool; the project does not run it."""
 import argparse
 import random
@@ -38,6 +44,9 @@ def main():
     parser.add_argument("--noise", type=float, default=0.02)
     parser.add_argument("--min_z", type=float, default=8.0)
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--landmarks", default="")
+    parser.add_argument("--landmark_vertices", default="6588,6548,6630,6590,6155,5650,5525,5945,4841,968")
+    parser.add_argument("--landmark_noise", type=float, default=0.1)
     args = parser.parse_args()
     rng = random.Random(args.seed)
     vertices = read_vertices(args.pose)
@@ -66,6 +75,14 @@ def main():
                   "end_header\n" % len(points))
         for p in points:
             out.write("%.5f %.5f %.5f\n" % tuple(p))
+    if args.landmarks:
+        landmark_rng = random.Random(args.seed + 1000)
+        with open(args.landmarks, "w") as out:
+            out.write("# landmarks of %s: vertices of %s plus noise %g\n# vertex x y z\n"
+                      % (args.output, args.pose, args.landmark_noise))
+            for v in (int(x) for x in args.landmark_vertices.split(",")):
+                p = [vertices[v][k] + landmark_rng.gauss(0, args.landmark_noise) for k in range(3)]
+                out.write("%d %.5f %.5f %.5f\n" % (v, p[0], p[1], p[2]))
 
 
 if __name__ == "__main__":
