@@ -21,6 +21,8 @@ DEFINE_string(marker_counts, "20,60", "Marker sets to fit (markers/mix_NNN_mK.tx
 DEFINE_string(parts, "markers,poses,scans,sequence", "What to run: markers, poses, scans, sequence.");
 DEFINE_int32(max_mixes, -1, "Only the first N mixes (< 0: all).");
 DEFINE_int32(sequence_frames, -1, "Only the first N sequence frames (< 0: all).");
+DEFINE_bool(uncertainty, false, "Also estimate each physics fit's uncertainty (aqs_fit "
+            "--output_uncertainty) and report how it compares with the fit's error.");
 
 int main(int argc, char** argv) {
   aqs::InitApp("Benchmark fits against ridge PCA and the neutral.\n"
@@ -39,6 +41,7 @@ int main(int argc, char** argv) {
     aqs::PrintError(error);
     return 1;
   }
+  options.fit.uncertainty = FLAGS_uncertainty;
   if (!options.Validate(&error)) {
     aqs::PrintError(aqs::FlagError(error, aqs::FitFlagNames()));
     return 1;

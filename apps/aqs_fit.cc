@@ -37,6 +37,9 @@ DEFINE_string(landmarks, "", "Optional, with a point-cloud target: landmarks of 
               "in the frames' order.");
 DEFINE_string(output, "", "The fitted surface (OBJ).");
 DEFINE_string(output_volume, "", "Optional: the fitted equilibrium (.vtu for ParaView, or .mesh).");
+DEFINE_string(output_uncertainty, "", "Optional: the fitted surface with each vertex's standard "
+              "deviation (PLY with a scalar and viridis colours): how well the data determine "
+              "it, from the covariance of the fitted latent and bones.");
 DEFINE_string(latent_output, "", "Optional: the fitted latent (and bones) as a latent file.");
 DEFINE_string(initial_latent, "", "Optional: start from this latent file (default: the centre of "
               "the model's latent prior, bones at rest).");
@@ -99,6 +102,7 @@ int main(int argc, char** argv) {
   options.output = FLAGS_output;
   options.output_volume = FLAGS_output_volume;
   options.latent_output = FLAGS_latent_output;
+  options.output_uncertainty = FLAGS_output_uncertainty;
   options.initial_latent = FLAGS_initial_latent;
   options.compare_to = FLAGS_compare_to;
   if (!FLAGS_compare_vertices.empty() &&

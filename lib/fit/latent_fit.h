@@ -6,6 +6,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <ceres/problem.h>
 
 #include "diff/equilibrium_differentiator.h"
 #include "equilibrium/quasistatic_solver.h"
@@ -60,6 +61,14 @@ struct LatentFitOptions {
   // 200 points changed one fit (0.160 -> 0.096 cm) at three times the factorizations
   // (docs/fitting.md), so it is off by default. 0: directly only.
   int coarse_points = 0;
+  // Also estimate how well the data determine the fit (LatentFitResult's
+  // parameter_covariance, surface_std): the covariance of the fitted parameters, from
+  // ceres::Covariance at the result, as the posterior of Gaussian data noise whose
+  // per-residual variance is the fit's own (sigma^2 = sum_k w_k |p_k - y_k|^2 /
+  // (residuals - parameters)), carried to each surface vertex through dx*/dparameters.
+  // Costs one covariance of latent_dim + 6 per bone parameters; the products are the
+  // last Jacobian's.
+  bool uncertainty = false;
   QuasistaticSolverOptions solver;
   int num_threads = 2;
 
@@ -85,6 +94,16 @@ struct LatentFitResult {
   // Point clouds with landmarks (PointCloudFitOptions::landmarks): their mean distance
   // to the fitted surface points (0 without landmarks).
   double landmark_mean_error = 0.0;
+  // With LatentFitOptions::uncertainty (else empty): the covariance of the fitted
+  // parameters (latent, then 6 per fitted bone; P x P, in model units) and, per surface
+  // vertex, the standard deviation of its position it implies, sqrt(trace(G_v C G_v^T))
+  // with G_v = d(vertex v)/d(parameters) (num_surface_vertices). noise_sigma: the
+  // per-residual standard deviation estimated from the fit's residuals. Where the
+  // covariance cannot be computed, both stay empty and uncertainty_message says why.
+  Eigen::MatrixXd parameter_covariance;
+  Eigen::VectorXd surface_std;
+  double noise_sigma = 0.0;
+  std::string uncertainty_message;
   std::string start;  // where the fit started (ChooseStart), "" if not chosen
   // With LatentFitOptions::coarse_points: whether the second start ran, and whether the
   // fit kept is the one through the subset of points.
@@ -277,6 +296,13 @@ class LatentFitter {
  private:
   class FitEquilibrium;
   class FitCost;
+  // LatentFitResult's uncertainty fields at the solved `problem`'s point (blocks: z,
+  // then the fitted bones; data_blocks: the data's residual blocks, the first of them
+  // scaled by 1/sqrt(data_weight) per unit weight).
+  void EstimateUncertainty(ceres::Problem* problem, const std::vector<double*>& blocks,
+                           const std::vector<ceres::ResidualBlockId>& data_blocks,
+                           double data_weight, FitEquilibrium* equilibrium,
+                           LatentFitResult* result);
   // One Levenberg-Marquardt fit from `initial` (what Fit does without a second start).
   bool FitFrom(const FitTarget& target, const Eigen::VectorXd& initial, LatentFitResult* result,
                std::string* error);

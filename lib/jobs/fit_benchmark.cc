@@ -40,7 +40,27 @@ struct Row {
   std::string start;
   int solves = 0, factorizations = 0, jacobians = 0;
   double solve_seconds = 0, jacobian_seconds = 0;
+  // With FitBenchmarkOptions' fit.uncertainty (else NaN): the mean predicted standard
+  // deviation over the measured vertices, and its Pearson correlation with their errors.
+  double predicted_std = std::nan(""), std_error_correlation = std::nan("");
 };
+
+// Pearson's correlation of a and b (same size; NaN if either is constant).
+double Correlation(const std::vector<double>& a, const std::vector<double>& b) {
+  const size_t n = a.size();
+  double ma = 0, mb = 0;
+  for (size_t i = 0; i < n; ++i) {
+    ma += a[i] / n;
+    mb += b[i] / n;
+  }
+  double ab = 0, aa = 0, bb = 0;
+  for (size_t i = 0; i < n; ++i) {
+    ab += (a[i] - ma) * (b[i] - mb);
+    aa += (a[i] - ma) * (a[i] - ma);
+    bb += (b[i] - mb) * (b[i] - mb);
+  }
+  return aa > 0 && bb > 0 ? ab / std::sqrt(aa * bb) : std::nan("");
+}
 
 Row MakeRow(const std::string& mix, const std::string& method, int markers) {
   Row r;
@@ -265,6 +285,15 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
       r.solve_seconds = fit.solve_seconds;
       r.jacobians = fit.jacobians;
       r.jacobian_seconds = fit.jacobian_seconds;
+      if (fit.surface_std.size() == fit.surface.cols()) {
+        std::vector<double> predicted, errors;
+        for (int v : measured) {
+          predicted.push_back(fit.surface_std[v]);
+          errors.push_back((fit.surface.col(v) - truth.col(v)).norm());
+        }
+        r.predicted_std = Mean(predicted);
+        r.std_error_correlation = Correlation(predicted, errors);
+      }
     }
     rows.push_back(r);
     print(r);
@@ -416,6 +445,28 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
          << " on average.\n";
     }
   }
+  if (options.fit.uncertainty) {
+    // How well each kind of fit knows its own error: the predicted standard deviation
+    // against the error, and their correlation over the vertices of each fit.
+    md << "\n| fit | mean error | predicted standard deviation | correlation over the vertices "
+          "(mean of the fits) |\n| --- | ---: | ---: | ---: |\n";
+    std::map<std::string, std::vector<const Row*>> by_method;
+    for (const Row& r : rows) {
+      if (!std::isnan(r.predicted_std)) {
+        by_method[r.method + (r.markers > 0 ? " " + std::to_string(r.markers) : "")].push_back(&r);
+      }
+    }
+    for (const auto& [name, set] : by_method) {
+      std::vector<double> err, predicted, correlation;
+      for (const Row* r : set) {
+        err.push_back(r->mean);
+        predicted.push_back(r->predicted_std);
+        if (!std::isnan(r->std_error_correlation)) correlation.push_back(r->std_error_correlation);
+      }
+      md << "| " << name << " | " << Fixed(Mean(err), 4) << " | " << Fixed(Mean(predicted), 4)
+         << " | " << Fixed(Mean(correlation), 2) << " |\n";
+    }
+  }
   if (options.sequence) {
     FitSequenceOptions sequence;
     sequence.sequence = options.test_set + "/sequence/markers";
@@ -457,11 +508,12 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
   log << "\n" << md.str();
   std::ostringstream csv;
   csv << "mix,method,markers,mean_error,max_error,seconds,iterations,converged,jaw_degrees,"
-         "matched_fraction,matched_distance,start\n";
+         "matched_fraction,matched_distance,predicted_std,std_error_correlation,start\n";
   for (const Row& r : rows) {
     csv << r.mix << ',' << r.method << ',' << r.markers << ',' << r.mean << ',' << r.max << ','
         << r.seconds << ',' << r.iterations << ',' << r.converged << ',' << r.jaw_degrees << ','
-        << r.matched_fraction << ',' << r.matched_distance << ',' << r.start << '\n';
+        << r.matched_fraction << ',' << r.matched_distance << ',' << r.predicted_std << ','
+        << r.std_error_correlation << ",\"" << r.start << "\"\n";  // quoted: it may hold commas
   }
   if (!WriteFileAtomically(options.output_dir + "/fit_benchmark.csv", csv.str(), error) ||
       !WriteFileAtomically(options.output_dir + "/fit_benchmark.md", md.str(), error)) {

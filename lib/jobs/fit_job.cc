@@ -66,6 +66,20 @@ bool WriteFitOutputs(const FitJobOptions& options, const ActiveModel& model,
     }
     log << "wrote " << options.output_volume << note << "\n";
   }
+  if (!options.output_uncertainty.empty() && fit.surface_std.size() == fit.surface.cols()) {
+    // Coloured up to the 95th percentile over the surface (a few large values at the
+    // back of the head would wash out the face).
+    std::vector<double> values(fit.surface_std.data(),
+                               fit.surface_std.data() + fit.surface_std.size());
+    std::vector<double> sorted = values;
+    std::sort(sorted.begin(), sorted.end());
+    const double color_max =
+        std::max(sorted[static_cast<size_t>(0.95 * (sorted.size() - 1))], 1e-12);
+    if (!WritePlyWithScalar(options.output_uncertainty, surface, values, color_max, error)) {
+      return false;
+    }
+    log << "wrote " << options.output_uncertainty << note << " (standard deviation per vertex)\n";
+  }
   return true;
 }
 
@@ -166,7 +180,12 @@ FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log) {
   if (!options.output_volume.empty() && !IsDeformedMeshOutputPath(options.output_volume)) {
     return Fail(options.output_volume + ": unknown output extension; known: .mesh, .vtu, .obj");
   }
-  for (const std::string* output : {&options.output, &options.output_volume, &options.latent_output}) {
+  if (!options.output_uncertainty.empty() &&
+      LowercaseExtension(options.output_uncertainty) != ".ply") {
+    return Fail(options.output_uncertainty + ": --output_uncertainty must be a .ply");
+  }
+  for (const std::string* output : {&options.output, &options.output_volume, &options.latent_output,
+                                    &options.output_uncertainty}) {
     if (!output->empty() && !CheckOutputFile(*output, &error)) return Fail(error);
   }
   ActiveModel model;
@@ -265,7 +284,9 @@ FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log) {
   log << "target " << options.target << ": " << kind << " ("
       << (kind == "points" ? cloud.cols() : target.num_points()) << " points)\n";
 
-  LatentFitter fitter(model, options.fit);
+  LatentFitOptions fit_options = options.fit;
+  fit_options.uncertainty = fit_options.uncertainty || !options.output_uncertainty.empty();
+  LatentFitter fitter(model, fit_options);
   // BLAS threads for this model's factor size (util/blas.h).
   const ScopedBlasThreads blas(BlasThreadsForFactor(fitter.FactorNonzeros(), BlasThreads()));
   Eigen::VectorXd initial = options.start.mean_latent ? fitter.MeanLatent() : fitter.PriorLatent();
@@ -321,6 +342,14 @@ FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log) {
       log << "landmarks: " << cloud_options.landmarks.num_points() << " (weight "
           << cloud_options.landmark_weight << "), mean distance " << fit.landmark_mean_error
           << "\n";
+    }
+  }
+  if (!options.output_uncertainty.empty()) {
+    if (fit.surface_std.size() > 0) {
+      log << "uncertainty: noise sigma " << fit.noise_sigma << "; standard deviation per vertex "
+          << "mean " << fit.surface_std.mean() << " max " << fit.surface_std.maxCoeff() << "\n";
+    } else {
+      log << "uncertainty: not available (" << fit.uncertainty_message << ")\n";
     }
   }
   log << "latent:";

@@ -33,6 +33,9 @@ struct FitJobOptions {
   std::string output;         // the fitted surface (OBJ, the neutral's faces); required
   std::string output_volume;  // optional: the equilibrium (.vtu/.mesh/.obj by extension)
   std::string latent_output;  // optional: the latent file (io/latent_io.h)
+  // Optional: the fitted surface with each vertex's standard deviation (PLY with a
+  // scalar, mesh/ply_io.h; LatentFitOptions::uncertainty).
+  std::string output_uncertainty;
   std::string initial_latent; // optional start (latent file); default: mean training latent
   // Optional: a ground-truth surface (OBJ, the neutral's vertex order) the fitted surface
   // is measured against, over compare_vertices (empty: all), into FitJobResult.

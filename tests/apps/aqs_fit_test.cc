@@ -11,6 +11,7 @@
 
 #include "io/latent_io.h"
 #include "mesh/mesh_io.h"
+#include "mesh/ply_io.h"
 #include "testing/run_command.h"
 #include "testing/synthetic_muscles.h"
 #include "testing/temp_dir.h"
@@ -259,9 +260,20 @@ TEST_F(AqsFitTest, MarkersAndPointCloudTargets) {
   }
   markers.close();
   testing::CommandResult run = RunCommand(
-      Fit("--target=" + dir_->File("markers.txt") + " --output=" + dir_->File("m.obj")));
+      Fit("--target=" + dir_->File("markers.txt") + " --output=" + dir_->File("m.obj") +
+          " --output_uncertainty=" + dir_->File("m_std.ply")));
   ASSERT_EQ(run.exit_code, 0) << run.output;
   EXPECT_NE(run.output.find(": markers"), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find("uncertainty: noise sigma"), std::string::npos) << run.output;
+  Eigen::Matrix3Xd std_points;
+  std::string error;
+  ASSERT_TRUE(ReadPointCloud(dir_->File("m_std.ply"), &std_points, &error)) << error;
+  EXPECT_EQ(std_points.cols(), data_->model.neutral.num_vertices());
+  run = RunCommand(Fit("--target=" + dir_->File("markers.txt") + " --output=" +
+                       dir_->File("m.obj") + " --output_uncertainty=" + dir_->File("m_std.obj")));
+  EXPECT_EQ(run.exit_code, 1) << run.output;
+  EXPECT_NE(run.output.find("--output_uncertainty must be a .ply"), std::string::npos)
+      << run.output;
   // A point cloud: shuffled points of part of the surface, as a PLY.
   std::vector<int> order;
   for (int v = 0; v < data_->model.neutral.num_vertices(); ++v) {

@@ -8,6 +8,7 @@
 #include <ceres/cost_function.h>
 #include <ceres/gradient_checker.h>
 #include <ceres/manifold.h>
+#include <Eigen/Eigenvalues>
 #include <gtest/gtest.h>
 
 #include "geometry/embedding.h"
@@ -339,6 +340,71 @@ TEST(LatentFitTest, ScanLandmarksPullTheFitInBothModes) {
   EXPECT_NEAR(fitter.StartObjective(nullptr, &scan_pose, with, scan_pose, z) -
                   fitter.StartObjective(nullptr, &scan_pose, plain, scan_pose, z),
               3.0 * squared, 1e-9 * squared);
+}
+
+TEST(LatentFitTest, UncertaintyShrinksWithMoreDataAndNearTheFixedEnd) {
+  // Markers of a pose the model makes, with noise of 0.01 per coordinate: the estimated
+  // noise is about 0.01, and the surface's predicted standard deviation is smaller with
+  // all the markers than with a few, and near the fixed end than at the free end.
+  const ActiveModel model = TrainedModel(false);
+  LatentFitOptions options;
+  options.latent_prior = options.bone_prior = 0.0;  // the data alone
+  options.uncertainty = true;
+  options.solver.relative_force_tolerance = 1e-10;
+  LatentFitter fitter(model, options);
+  Eigen::Matrix3Xd state, surface;
+  std::string error;
+  ASSERT_TRUE(fitter.Simulate(model.latents.col(3), &state, &surface, &error)) << error;
+  std::mt19937 rng(4);
+  std::normal_distribution<double> noise(0.0, 0.01);
+  const int ns = model.num_surface_vertices();
+  std::vector<double> mean_std;
+  for (const int stride : {1, 7}) {
+    std::vector<int> vertices;
+    for (int v = 0; v < ns; v += stride) vertices.push_back(v);
+    Eigen::Matrix3Xd positions = surface(Eigen::all, vertices);
+    for (Eigen::Index i = 0; i < positions.size(); ++i) positions.data()[i] += noise(rng);
+    fitter.set_start_state(model.mesh.vertices);
+    LatentFitResult fit;
+    ASSERT_TRUE(fitter.Fit(VertexTarget(vertices, positions), model.latents.col(3), &fit, &error))
+        << error;
+    ASSERT_EQ(fit.surface_std.size(), ns) << fit.uncertainty_message;
+    const int parameters = model.latent_dim();
+    ASSERT_EQ(fit.parameter_covariance.rows(), parameters);
+    EXPECT_LT((fit.parameter_covariance - fit.parameter_covariance.transpose()).norm(),
+              1e-12 * fit.parameter_covariance.norm());
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(fit.parameter_covariance);
+    EXPECT_GE(eigen.eigenvalues().minCoeff(), -1e-12 * eigen.eigenvalues().maxCoeff());
+    EXPECT_GT(fit.noise_sigma, 0.005) << "stride " << stride;
+    EXPECT_LT(fit.noise_sigma, 0.02) << "stride " << stride;
+    EXPECT_TRUE(fit.surface_std.allFinite());
+    mean_std.push_back(fit.surface_std.mean());
+    // Near the fixed end the surface is held (its embedding weighs fixed vertices): its
+    // predicted deviation is far below the free end's.
+    double near = 0, far = 0;
+    int near_count = 0, far_count = 0;
+    for (int v = 0; v < ns; ++v) {
+      const PointStencil stencil = EmbeddingStencil(model.embedding, model.mesh.tets, v);
+      double fixed_weight = 0;
+      for (int j = 0; j < 4; ++j) {
+        if (std::find(model.static_vertices.begin(), model.static_vertices.end(),
+                      stencil.vertex[j]) != model.static_vertices.end()) {
+          fixed_weight += stencil.weight[j];
+        }
+      }
+      if (fixed_weight >= 0.25) {
+        near += fit.surface_std[v];
+        ++near_count;
+      } else if (fixed_weight == 0.0) {
+        far += fit.surface_std[v];
+        ++far_count;
+      }
+    }
+    ASSERT_GT(near_count, 0);
+    ASSERT_GT(far_count, 0);
+    EXPECT_LT(near / near_count, 0.5 * far / far_count) << "stride " << stride;
+  }
+  EXPECT_LT(mean_std[0], 0.6 * mean_std[1]) << "all markers against every 7th";
 }
 
 TEST(LatentFitTest, BoneWithoutDataNearItEndsAtThePriorMean) {
