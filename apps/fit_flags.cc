@@ -21,6 +21,9 @@ DEFINE_int32(round_iterations, 6, "Points, with --match_rounds: Levenberg-Marqua
              "per matching round.");
 DEFINE_double(landmark_weight, 0.03, "Points with landmarks: weight of the landmarks' mean "
               "squared distance against the scan's (1: as much as all scan points).");
+DEFINE_double(scan_bone_prior, -1.0, "Points: the bone prior's weight in scan fits (< 0: "
+              "--bone_prior, as every other fit). With landmarks, 0.1 put more scans near the "
+              "fit with correspondence; without, it held back a wide-open jaw (docs/fitting.md).");
 DEFINE_bool(choose_start, true, "Start from the best of the given start (prior centre or "
             "--initial_latent) and the training poses, by the fit's objective.");
 DEFINE_bool(retry_from_given, true, "With --choose_start: a fit from a training pose that "
@@ -44,6 +47,7 @@ bool FitOptionsFromFlags(LatentFitOptions* fit, PointCloudFitOptions* points,
   points->relative_tolerance = FLAGS_round_tolerance;
   points->iterations_per_round = FLAGS_round_iterations;
   points->landmark_weight = FLAGS_landmark_weight;
+  points->bone_prior = FLAGS_scan_bone_prior;
   start->training_poses = FLAGS_choose_start;
   start->retry_from_given = FLAGS_retry_from_given;
   if (FLAGS_start_latent != "prior" && FLAGS_start_latent != "mean") {
@@ -63,7 +67,8 @@ FlagNames FitFlagNames() {
                              {"points.iterations_per_round", "--round_iterations"},
                              {"points.relative_tolerance", "--round_tolerance"},
                              {"points.tangential_weight", "--tangential_weight"},
-                             {"points.landmark_weight", "--landmark_weight"}});
+                             {"points.landmark_weight", "--landmark_weight"},
+                             {"points.bone_prior", "--scan_bone_prior"}});
   return flags;
 }
 

@@ -41,6 +41,9 @@ bool PointCloudFitOptions::Validate(std::string* error) const {
       .NonNegative("relative_tolerance", relative_tolerance)
       .NonNegative("tangential_weight", tangential_weight)
       .NonNegative("landmark_weight", landmark_weight)
+      .Require(std::isfinite(bone_prior) && bone_prior <= kMaxRegularization,
+               "bone_prior must be finite and at most " + OptionValue(kMaxRegularization) +
+                   " (< 0: the other fits' weight) (is " + OptionValue(bone_prior) + ")")
       .Require(landmarks.vertices.cols() == landmarks.num_points() &&
                    landmarks.barycentric.cols() == landmarks.num_points() &&
                    (landmarks.weights.size() == 0 ||

@@ -667,10 +667,12 @@ bool LatentFitter::FitFrom(const FitTarget& target, const Eigen::VectorXd& initi
                                                    options_.latent_prior / total_weight),
                              nullptr, z.data());
   }
-  if (fit_bones && options_.bone_prior > 0) {
+  // Scans weigh the bone prior by their own weight (PointCloudFitOptions::bone_prior).
+  const double bone_prior = cloud_bone_prior_ >= 0 ? cloud_bone_prior_ : options_.bone_prior;
+  if (fit_bones && bone_prior > 0) {
     for (size_t b = 0; b < model_.bones.size(); ++b) {
       problem.AddResidualBlock(new GaussianPriorCost(prior_.bones[b].mean, prior_.bones[b].whitening,
-                                                     options_.bone_prior / total_weight),
+                                                     bone_prior / total_weight),
                                nullptr, bone_parameters[b].data());
     }
   }
@@ -849,6 +851,8 @@ bool LatentFitter::FitPointCloud(const Eigen::Matrix3Xd& points,
   const bool with_landmarks = landmarks.num_points() > 0 && cloud_options.landmark_weight > 0;
   cloud_landmarks_ = with_landmarks ? &landmarks : nullptr;
   cloud_landmark_weight_ = cloud_options.landmark_weight;
+  cloud_bone_prior_ =
+      cloud_options.bone_prior >= 0 ? cloud_options.bone_prior : options_.bone_prior;
   if (cloud_options.rematch_every_evaluation) {
     // One Levenberg-Marquardt solve of the robust closest-point distances.
     direct_cloud_ = &points;
@@ -856,6 +860,7 @@ bool LatentFitter::FitPointCloud(const Eigen::Matrix3Xd& points,
     const bool ok = FitFrom(FitTarget(), z, result, error);
     direct_cloud_ = nullptr;
     cloud_landmarks_ = nullptr;
+    cloud_bone_prior_ = -1.0;
     if (!ok) return false;
     result->round_distances.clear();
   } else {
@@ -898,6 +903,7 @@ bool LatentFitter::FitPointCloud(const Eigen::Matrix3Xd& points,
   }
   options_ = saved;
   cloud_landmarks_ = nullptr;
+  cloud_bone_prior_ = -1.0;
   if (!ok) return false;
   result->iterations = total_iterations;
   result->round_distances = round_distances;
@@ -934,17 +940,23 @@ bool LatentFitter::FitPointCloud(const Eigen::Matrix3Xd& points,
 
 double LatentFitter::Objective(const FitTarget& target, const Eigen::Matrix3Xd& surface,
                                const Eigen::VectorXd& z) const {
+  return ObjectiveWithBonePrior(target, surface, z, options_.bone_prior);
+}
+
+double LatentFitter::ObjectiveWithBonePrior(const FitTarget& target,
+                                            const Eigen::Matrix3Xd& surface,
+                                            const Eigen::VectorXd& z, double bone_prior) const {
   double cost =
       TargetDataTerm(target, surface) + options_.latent_regularization * z.squaredNorm();
   const double prior_points = PriorPoints(target, options_.prior_points_cap);
   if (options_.latent_prior > 0) {
     cost += options_.latent_prior / prior_points * prior_.latent.SquaredMahalanobis(z);
   }
-  if (options_.fit_bones && options_.bone_prior > 0) {
+  if (options_.fit_bones && bone_prior > 0) {
     for (size_t b = 0; b < bones_.size(); ++b) {
       Eigen::VectorXd parameters(6);
       BoneTransformToParameters(bones_[b], parameters.data());
-      cost += options_.bone_prior / prior_points * prior_.bones[b].SquaredMahalanobis(parameters);
+      cost += bone_prior / prior_points * prior_.bones[b].SquaredMahalanobis(parameters);
     }
   }
   return cost;
@@ -961,7 +973,9 @@ double LatentFitter::StartObjective(const FitTarget* target, const Eigen::Matrix
   const FitTarget matched = MatchPointCloud(*points, surface, model_.neutral.triangles,
                                             cloud_options, options_.num_threads, &used, &mean);
   if (used < 3) return std::numeric_limits<double>::infinity();
-  double cost = Objective(matched, surface, z);
+  double cost = ObjectiveWithBonePrior(
+      matched, surface, z,
+      cloud_options.bone_prior >= 0 ? cloud_options.bone_prior : options_.bone_prior);
   if (cloud_options.landmarks.num_points() > 0 && cloud_options.landmark_weight > 0) {
     cost += cloud_options.landmark_weight * TargetDataTerm(cloud_options.landmarks, surface);
   }

@@ -460,6 +460,29 @@ TEST(LatentFitTest, BoneWithoutDataNearItEndsAtThePriorMean) {
       EXPECT_GT(distance, 5.0) << "without the prior nothing pulls the bone to its mean";
     }
   }
+  // A scan of the same points weighs the bone prior by PointCloudFitOptions::bone_prior,
+  // not by the other fits' weight.
+  const Eigen::Matrix3Xd scan = surface(Eigen::all, vertices);
+  for (const auto& [fit_weight, scan_weight] :
+       {std::make_pair(0.0, 0.01), std::make_pair(0.01, 0.0)}) {
+    LatentFitOptions options;
+    options.bone_prior = fit_weight;
+    options.latent_prior = 0.0;
+    options.solver.relative_force_tolerance = 1e-10;
+    LatentFitter fitter(model, options);
+    PointCloudFitOptions cloud;
+    cloud.bone_prior = scan_weight;
+    LatentFitResult fit;
+    ASSERT_TRUE(fitter.FitPointCloud(scan, cloud, fitter.PriorLatent(), &fit, &error)) << error;
+    Eigen::VectorXd p(6);
+    BoneTransformToParameters(fit.bones[0], p.data());
+    const double distance = std::sqrt(model.fit_prior.bones[0].SquaredMahalanobis(p));
+    if (scan_weight > 0) {
+      EXPECT_LT(distance, 0.05) << "scan: bone parameters " << p.transpose();
+    } else {
+      EXPECT_GT(distance, 5.0) << "scan: the other fits' weight does not count";
+    }
+  }
 }
 
 TEST(LatentFitTest, StartIsTheTrainingPoseClosestToTheTarget) {
