@@ -21,9 +21,9 @@ DEFINE_int32(round_iterations, 6, "Points, with --match_rounds: Levenberg-Marqua
              "per matching round.");
 DEFINE_double(landmark_weight, 0.03, "Points with landmarks: weight of the landmarks' mean "
               "squared distance against the scan's (1: as much as all scan points).");
-DEFINE_double(scan_bone_prior, -1.0, "Points: the bone prior's weight in scan fits (< 0: "
-              "--bone_prior, as every other fit). With landmarks, 0.1 put more scans near the "
-              "fit with correspondence; without, it held back a wide-open jaw (docs/fitting.md).");
+DEFINE_double(scan_bone_prior, 0.1, "Points: the bone prior's weight in scan fits (< 0: "
+              "--bone_prior's), centred on the bones the fit starts from (the chosen training "
+              "pose's, or the previous frame's) rather than on the prior's centre.");
 DEFINE_bool(choose_start, true, "Start from the best of the given start (prior centre or "
             "--initial_latent) and the training poses, by the fit's objective.");
 DEFINE_bool(retry_from_given, true, "With --choose_start: a fit from a training pose that "

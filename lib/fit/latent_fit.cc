@@ -667,11 +667,15 @@ bool LatentFitter::FitFrom(const FitTarget& target, const Eigen::VectorXd& initi
                                                    options_.latent_prior / total_weight),
                              nullptr, z.data());
   }
-  // Scans weigh the bone prior by their own weight (PointCloudFitOptions::bone_prior).
-  const double bone_prior = cloud_bone_prior_ >= 0 ? cloud_bone_prior_ : options_.bone_prior;
+  // Scans weigh the bone prior by their own weight and centre it on the bones their fit
+  // started from (PointCloudFitOptions::bone_prior).
+  const bool scan = cloud_bone_prior_ >= 0;
+  const double bone_prior = scan ? cloud_bone_prior_ : options_.bone_prior;
   if (fit_bones && bone_prior > 0) {
     for (size_t b = 0; b < model_.bones.size(); ++b) {
-      problem.AddResidualBlock(new GaussianPriorCost(prior_.bones[b].mean, prior_.bones[b].whitening,
+      const Eigen::VectorXd centre =
+          scan ? Eigen::VectorXd(cloud_bone_centres_[b]) : prior_.bones[b].mean;
+      problem.AddResidualBlock(new GaussianPriorCost(centre, prior_.bones[b].whitening,
                                                      bone_prior / total_weight),
                                nullptr, bone_parameters[b].data());
     }
@@ -853,6 +857,10 @@ bool LatentFitter::FitPointCloud(const Eigen::Matrix3Xd& points,
   cloud_landmark_weight_ = cloud_options.landmark_weight;
   cloud_bone_prior_ =
       cloud_options.bone_prior >= 0 ? cloud_options.bone_prior : options_.bone_prior;
+  cloud_bone_centres_.assign(bones_.size(), Eigen::Matrix<double, 6, 1>::Zero());
+  for (size_t b = 0; b < bones_.size(); ++b) {
+    BoneTransformToParameters(bones_[b], cloud_bone_centres_[b].data());
+  }
   if (cloud_options.rematch_every_evaluation) {
     // One Levenberg-Marquardt solve of the robust closest-point distances.
     direct_cloud_ = &points;
@@ -973,9 +981,9 @@ double LatentFitter::StartObjective(const FitTarget* target, const Eigen::Matrix
   const FitTarget matched = MatchPointCloud(*points, surface, model_.neutral.triangles,
                                             cloud_options, options_.num_threads, &used, &mean);
   if (used < 3) return std::numeric_limits<double>::infinity();
-  double cost = ObjectiveWithBonePrior(
-      matched, surface, z,
-      cloud_options.bone_prior >= 0 ? cloud_options.bone_prior : options_.bone_prior);
+  // Without the bone prior: a scan fit's is centred on its start, so every start is at
+  // its centre.
+  double cost = ObjectiveWithBonePrior(matched, surface, z, 0.0);
   if (cloud_options.landmarks.num_points() > 0 && cloud_options.landmark_weight > 0) {
     cost += cloud_options.landmark_weight * TargetDataTerm(cloud_options.landmarks, surface);
   }

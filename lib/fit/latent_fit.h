@@ -162,14 +162,16 @@ struct PointCloudFitOptions {
   // face to them (weight 1 is worse even with exact landmarks).
   FitTarget landmarks;
   double landmark_weight = 0.03;
-  // The bone prior's weight in scan fits; < 0: LatentFitOptions::bone_prior, as every
-  // other fit. A scan sees one side, and the jaw's motion shows most where it does not
-  // look (under the chin). On the demo's validation scans 0.01 (the default's), 0.03,
-  // 0.1 and 0.3 put 14, 15, 16 and 16 of 20 within 1.2x of the fit with correspondence
-  // (with landmarks 15, 16, 18 and 18), but on the test scans 0.1 pulled a wide-open jaw
-  // (21 degrees) back to 9 (5.6x the error; with landmarks: 16 of 20 within 1.2x against
-  // 14), so the default stays the other fits' (docs/fitting.md).
-  double bone_prior = -1.0;
+  // The bone prior of scan fits: its weight (< 0: LatentFitOptions::bone_prior's), and
+  // it is centred on the bones the fit starts from (the training pose ChooseStart picks,
+  // the given start, or a sequence's previous frame) instead of the prior's centre: the
+  // training poses' bone motions as the modes of the prior, the start's mode the one
+  // that holds. The start itself is chosen without it. A scan sees one side, and the
+  // jaw's motion shows most where it does not look (under the chin): on the demo's
+  // validation scans, 16 of 20 within 1.2x of the fit with correspondence (18 with
+  // landmarks) against 14 (15) with the other fits' prior (docs/fitting.md). Centred on
+  // the prior's centre, weight 0.1 held a scan's wide-open jaw shut (test mix_007).
+  double bone_prior = 0.1;
 
   // Checks every field (fit/fit_options.cc); false with *error naming the first bad one.
   bool Validate(std::string* error) const;
@@ -281,8 +283,9 @@ class LatentFitter {
                    const Eigen::VectorXd& z) const;
   // What ChooseStart compares: Objective for a target (non-null `target`), or for a
   // point cloud (non-null `points`, 3 x M) that of the matching it induces on `surface`
-  // (infinity if fewer than 3 points match) plus the landmark term of cloud_options. At
-  // the current bone transforms.
+  // (infinity if fewer than 3 points match) plus the landmark term of cloud_options,
+  // without the bone prior (see PointCloudFitOptions::bone_prior). At the current bone
+  // transforms.
   double StartObjective(const FitTarget* target, const Eigen::Matrix3Xd* points,
                         const PointCloudFitOptions& cloud_options, const Eigen::Matrix3Xd& surface,
                         const Eigen::VectorXd& z) const;
@@ -335,6 +338,8 @@ class LatentFitter {
   const FitTarget* cloud_landmarks_ = nullptr;
   double cloud_landmark_weight_ = 0.0;
   double cloud_bone_prior_ = -1.0;
+  // The scan fit's start: each bone's 6 parameters, where its bone prior is centred.
+  std::vector<Eigen::Matrix<double, 6, 1>> cloud_bone_centres_;
   // Where equilibrium solves start (see set_start_state).
   Eigen::Matrix3Xd accepted_state_;
 };

@@ -460,28 +460,40 @@ TEST(LatentFitTest, BoneWithoutDataNearItEndsAtThePriorMean) {
       EXPECT_GT(distance, 5.0) << "without the prior nothing pulls the bone to its mean";
     }
   }
-  // A scan of the same points weighs the bone prior by PointCloudFitOptions::bone_prior,
-  // not by the other fits' weight.
+  // A scan of the same points: its bone prior (PointCloudFitOptions::bone_prior) is
+  // centred on the bones the fit starts from, not on the prior's mean, and weighed by
+  // its own weight. From a start 3 standard deviations to the side the bone stays there
+  // with it, and goes to the mean with the other fits' prior (as above).
   const Eigen::Matrix3Xd scan = surface(Eigen::all, vertices);
-  for (const auto& [fit_weight, scan_weight] :
-       {std::make_pair(0.0, 0.01), std::make_pair(0.01, 0.0)}) {
+  const double side = 3 * std::sqrt(model.fit_prior.bones[0].covariance(5, 5));
+  double start_parameters[6] = {0, 0, 0, 0, 0, side};
+  const RigidTransform start = BoneTransformFromParameters(start_parameters);
+  const Eigen::Map<const Eigen::VectorXd> start_vector(start_parameters, 6);
+  for (const double scan_weight : {0.01, 0.0}) {
     LatentFitOptions options;
-    options.bone_prior = fit_weight;
+    options.bone_prior = 0.01;  // the other fits': centred on the prior's mean
     options.latent_prior = 0.0;
     options.solver.relative_force_tolerance = 1e-10;
     LatentFitter fitter(model, options);
+    fitter.set_bone_transforms({start});
     PointCloudFitOptions cloud;
     cloud.bone_prior = scan_weight;
     LatentFitResult fit;
     ASSERT_TRUE(fitter.FitPointCloud(scan, cloud, fitter.PriorLatent(), &fit, &error)) << error;
     Eigen::VectorXd p(6);
     BoneTransformToParameters(fit.bones[0], p.data());
-    const double distance = std::sqrt(model.fit_prior.bones[0].SquaredMahalanobis(p));
+    const double from_mean = std::sqrt(model.fit_prior.bones[0].SquaredMahalanobis(p));
+    const Eigen::VectorXd moved = model.fit_prior.bones[0].whitening * (p - start_vector);
+    EXPECT_GT(from_mean, 5.0) << "scan weight " << scan_weight << ": " << p.transpose();
     if (scan_weight > 0) {
-      EXPECT_LT(distance, 0.05) << "scan: bone parameters " << p.transpose();
-    } else {
-      EXPECT_GT(distance, 5.0) << "scan: the other fits' weight does not count";
+      EXPECT_LT(moved.norm(), 0.05) << "the scan's prior holds the start: " << p.transpose();
     }
+    // The start's objective leaves the bone prior out (every start is its centre).
+    const Eigen::VectorXd z = fitter.PriorLatent();
+    fitter.set_bone_transforms({start});
+    const double at_start = fitter.StartObjective(nullptr, &scan, cloud, surface, z);
+    fitter.set_bone_transforms(RestBoneTransforms(model));
+    EXPECT_EQ(fitter.StartObjective(nullptr, &scan, cloud, surface, z), at_start);
   }
 }
 
