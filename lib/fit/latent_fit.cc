@@ -633,7 +633,7 @@ bool LatentFitter::FitFrom(const FitTarget& target, const Eigen::VectorXd& initi
                                                       : TotalWeight(target);
   FitCost* data_cost = nullptr;
   if (direct_cloud_ != nullptr) {
-    data_cost = new FitCost(this, &equilibrium, *direct_cloud_, direct_cloud_options_);
+    data_cost = new FitCost(this, &equilibrium, *direct_cloud_, *cloud_options_);
     total_weight = static_cast<double>(direct_cloud_->cols());
     if (options_.prior_points_cap > 0) total_weight = std::min(total_weight, options_.prior_points_cap);
   } else {
@@ -643,11 +643,13 @@ bool LatentFitter::FitFrom(const FitTarget& target, const Eigen::VectorXd& initi
   // The data's residual blocks (the priors' come after): what the noise is estimated from.
   std::vector<ceres::ResidualBlockId> data_blocks = {
       problem.AddResidualBlock(data_cost, nullptr, blocks)};
-  if (cloud_landmarks_ != nullptr) {
+  if (cloud_options_ != nullptr && cloud_options_->landmarks.num_points() > 0 &&
+      cloud_options_->landmark_weight > 0) {
     // The scan's landmarks: their mean squared distance, times the weight.
     data_blocks.push_back(problem.AddResidualBlock(
-        new FitCost(this, &equilibrium, *cloud_landmarks_),
-        new ceres::ScaledLoss(nullptr, cloud_landmark_weight_, ceres::TAKE_OWNERSHIP), blocks));
+        new FitCost(this, &equilibrium, cloud_options_->landmarks),
+        new ceres::ScaledLoss(nullptr, cloud_options_->landmark_weight, ceres::TAKE_OWNERSHIP),
+        blocks));
   }
   // The parameters, all blocks concatenated (FitEquilibrium's key).
   auto key = [&]() {
@@ -669,8 +671,9 @@ bool LatentFitter::FitFrom(const FitTarget& target, const Eigen::VectorXd& initi
   }
   // Scans weigh the bone prior by their own weight and centre it on the bones their fit
   // started from (PointCloudFitOptions::bone_prior).
-  const bool scan = cloud_bone_prior_ >= 0;
-  const double bone_prior = scan ? cloud_bone_prior_ : options_.bone_prior;
+  const bool scan = cloud_options_ != nullptr;
+  const double bone_prior = scan && cloud_options_->bone_prior >= 0 ? cloud_options_->bone_prior
+                                                                    : options_.bone_prior;
   if (fit_bones && bone_prior > 0) {
     for (size_t b = 0; b < model_.bones.size(); ++b) {
       const Eigen::VectorXd centre =
@@ -852,11 +855,7 @@ bool LatentFitter::FitPointCloud(const Eigen::Matrix3Xd& points,
   }
   const Eigen::Matrix3Xi& triangles = model_.neutral.triangles;
   const FitTarget& landmarks = cloud_options.landmarks;
-  const bool with_landmarks = landmarks.num_points() > 0 && cloud_options.landmark_weight > 0;
-  cloud_landmarks_ = with_landmarks ? &landmarks : nullptr;
-  cloud_landmark_weight_ = cloud_options.landmark_weight;
-  cloud_bone_prior_ =
-      cloud_options.bone_prior >= 0 ? cloud_options.bone_prior : options_.bone_prior;
+  cloud_options_ = &cloud_options;
   cloud_bone_centres_.assign(bones_.size(), Eigen::Matrix<double, 6, 1>::Zero());
   for (size_t b = 0; b < bones_.size(); ++b) {
     BoneTransformToParameters(bones_[b], cloud_bone_centres_[b].data());
@@ -864,11 +863,9 @@ bool LatentFitter::FitPointCloud(const Eigen::Matrix3Xd& points,
   if (cloud_options.rematch_every_evaluation) {
     // One Levenberg-Marquardt solve of the robust closest-point distances.
     direct_cloud_ = &points;
-    direct_cloud_options_ = cloud_options;
     const bool ok = FitFrom(FitTarget(), z, result, error);
     direct_cloud_ = nullptr;
-    cloud_landmarks_ = nullptr;
-    cloud_bone_prior_ = -1.0;
+    cloud_options_ = nullptr;
     if (!ok) return false;
     result->round_distances.clear();
   } else {
@@ -910,8 +907,7 @@ bool LatentFitter::FitPointCloud(const Eigen::Matrix3Xd& points,
     surface = result->surface;
   }
   options_ = saved;
-  cloud_landmarks_ = nullptr;
-  cloud_bone_prior_ = -1.0;
+  cloud_options_ = nullptr;
   if (!ok) return false;
   result->iterations = total_iterations;
   result->round_distances = round_distances;

@@ -330,16 +330,13 @@ class LatentFitter {
   FitPrior prior_;
   // Counters of the current fit (LatentFitResult's solves ... jacobian_seconds).
   LatentFitResult stats_;
-  // Set by FitPointCloud while Fit solves the re-matched closest-point problem.
-  const Eigen::Matrix3Xd* direct_cloud_ = nullptr;
-  PointCloudFitOptions direct_cloud_options_;
-  // Set by FitPointCloud (both modes) while it fits: landmarks fitted with the scan
-  // (nullptr: none), their weight, and the bone prior's weight (< 0: not a scan fit).
-  const FitTarget* cloud_landmarks_ = nullptr;
-  double cloud_landmark_weight_ = 0.0;
-  double cloud_bone_prior_ = -1.0;
-  // The scan fit's start: each bone's 6 parameters, where its bone prior is centred.
+  // Set by FitPointCloud while it fits (both modes; nullptr: not a scan fit): its
+  // options (landmarks, bone prior), and each bone's 6 parameters at its start, where
+  // its bone prior is centred.
+  const PointCloudFitOptions* cloud_options_ = nullptr;
   std::vector<Eigen::Matrix<double, 6, 1>> cloud_bone_centres_;
+  // Set by FitPointCloud while FitFrom solves the re-matched closest-point problem.
+  const Eigen::Matrix3Xd* direct_cloud_ = nullptr;
   // Where equilibrium solves start (see set_start_state).
   Eigen::Matrix3Xd accepted_state_;
 };

@@ -6,6 +6,7 @@
 #include <limits>
 #include <map>
 #include <sstream>
+#include <utility>
 
 #include "dist/communicator.h"
 #include "dist/model_sharing.h"
@@ -657,8 +658,7 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
       // vertex errors, so that the fields compare by eye.
       std::vector<double> pooled;
       for (const Eigen::VectorXd& e : h.errors) pooled.insert(pooled.end(), e.data(), e.data() + e.size());
-      std::nth_element(pooled.begin(), pooled.begin() + pooled.size() * 95 / 100, pooled.end());
-      const double color_max = std::max(1e-12, pooled[pooled.size() * 95 / 100]);
+      const double color_max = PercentileColorMax(std::move(pooled));
       SurfaceMesh surface = model.neutral;
       surface.vertices = test_surfaces[t];
       if (!WriteObj(out + "/fitted/" + test_names[t] + "_target.obj", surface, error)) return false;

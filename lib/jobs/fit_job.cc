@@ -69,13 +69,10 @@ bool WriteFitOutputs(const FitJobOptions& options, const ActiveModel& model,
   if (!options.output_uncertainty.empty() && fit.surface_std.size() == fit.surface.cols()) {
     // Coloured up to the 95th percentile over the surface (a few large values at the
     // back of the head would wash out the face).
-    std::vector<double> values(fit.surface_std.data(),
-                               fit.surface_std.data() + fit.surface_std.size());
-    std::vector<double> sorted = values;
-    std::sort(sorted.begin(), sorted.end());
-    const double color_max =
-        std::max(sorted[static_cast<size_t>(0.95 * (sorted.size() - 1))], 1e-12);
-    if (!WritePlyWithScalar(options.output_uncertainty, surface, values, color_max, error)) {
+    const std::vector<double> values(fit.surface_std.data(),
+                                     fit.surface_std.data() + fit.surface_std.size());
+    if (!WritePlyWithScalar(options.output_uncertainty, surface, values,
+                            PercentileColorMax(values), error)) {
       return false;
     }
     log << "wrote " << options.output_uncertainty << note << " (standard deviation per vertex)\n";

@@ -740,6 +740,13 @@ bool ReadPly(const std::string& path, Eigen::Matrix3Xd* points, std::string* err
 
 }  // namespace
 
+double PercentileColorMax(std::vector<double> values) {
+  if (values.empty()) return 1e-12;
+  const auto at = values.begin() + values.size() * 95 / 100;
+  std::nth_element(values.begin(), at, values.end());
+  return std::max(1e-12, *at);
+}
+
 std::array<std::uint8_t, 3> ScalarColor(double value, double color_max) {
   CHECK_GT(color_max, 0.0) << "color_max must be positive";
   double t = value / color_max;

@@ -19,6 +19,11 @@ namespace aqs {
 // red, green, blue. CHECKs color_max > 0.
 std::array<std::uint8_t, 3> ScalarColor(double value, double color_max);
 
+// The colour_max of an error or uncertainty map: the 95th percentile of `values` (the
+// element at index size * 95 / 100 in sorted order), so that a few large values do not
+// wash out the rest; at least 1e-12 (and 1e-12 for no values).
+double PercentileColorMax(std::vector<double> values);
+
 // Writes `surface` as an ASCII PLY (format ascii 1.0) with one scalar per vertex, for
 // viewing an error map in ParaView, MeshLab or Blender:
 //

@@ -70,6 +70,15 @@ TEST(PlyColorTest, ViridisEndsAndClamping) {
   EXPECT_EQ(ScalarColor(15.0 / 16.0, 1.0), (Rgb{212, 226, 44}));
 }
 
+TEST(PlyColorTest, PercentileColorMaxIsThe95thPercentile) {
+  std::vector<double> values;
+  for (int i = 99; i >= 0; --i) values.push_back(i);  // 0 .. 99, in reverse
+  EXPECT_EQ(PercentileColorMax(values), 95.0);
+  EXPECT_EQ(PercentileColorMax({}), 1e-12);
+  EXPECT_EQ(PercentileColorMax({0.0, 0.0}), 1e-12);
+  EXPECT_EQ(PercentileColorMax({2.0}), 2.0);
+}
+
 TEST(PlyWriteTest, WrittenFileReadsBackExactly) {
   testing::TempDir dir;
   SurfaceMesh surface;
