@@ -344,11 +344,10 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
       // The same scan with its landmarks, where the test set has them.
       const std::string landmarks = options.test_set + "/scans/" + mix + "_landmarks.txt";
       if (fs::exists(landmarks)) {
-        std::vector<int> vertices;
-        Eigen::Matrix3Xd positions;
-        if (!ReadMarkers(landmarks, ns, &vertices, &positions, error)) return JobStatus::kBadInput;
         PointCloudFitOptions with_landmarks = options.points;
-        with_landmarks.landmarks = VertexTarget(vertices, positions);
+        if (!ReadMarkerTarget(landmarks, ns, &with_landmarks.landmarks, error)) {
+          return JobStatus::kBadInput;
+        }
         physics(mix, "physics_scan_landmarks", 0, nullptr, &cloud, with_landmarks,
                 truth.vertices);
       }

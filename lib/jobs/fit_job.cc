@@ -120,6 +120,15 @@ bool FitJobOptions::Validate(std::string* error) const {
   return ValidateFitTargetOptions(target_kind, fit, points, error);
 }
 
+bool ReadMarkerTarget(const std::string& path, int num_surface_vertices, FitTarget* target,
+                      std::string* error) {
+  std::vector<int> vertices;
+  Eigen::Matrix3Xd positions;
+  if (!ReadMarkers(path, num_surface_vertices, &vertices, &positions, error)) return false;
+  *target = VertexTarget(vertices, positions);
+  return true;
+}
+
 bool ReadMarkers(const std::string& path, int num_surface_vertices, std::vector<int>* vertices,
                  Eigen::Matrix3Xd* positions, std::string* error) {
   LineReader reader(path);
@@ -253,13 +262,11 @@ FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log) {
       return Fail(options.landmarks + ": --landmarks go with a point cloud (a scan), but " +
                   options.target + " is fitted as " + kind);
     }
-    std::vector<int> vertices;
-    Eigen::Matrix3Xd positions;
-    if (!ReadMarkers(options.landmarks, ns, &vertices, &positions, &error) ||
-        !CheckPointsNearModel(options.landmarks, model.neutral.vertices, positions, &error)) {
+    if (!ReadMarkerTarget(options.landmarks, ns, &cloud_options.landmarks, &error) ||
+        !CheckPointsNearModel(options.landmarks, model.neutral.vertices,
+                              cloud_options.landmarks.positions, &error)) {
       return Fail(error);
     }
-    cloud_options.landmarks = VertexTarget(vertices, positions);
   }
   SurfaceMesh truth;
   if (!options.compare_to.empty()) {

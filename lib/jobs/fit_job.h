@@ -63,6 +63,11 @@ struct FitJobResult {
 bool ReadMarkers(const std::string& path, int num_surface_vertices, std::vector<int>* vertices,
                  Eigen::Matrix3Xd* positions, std::string* error);
 
+// The same file as a fit target on those vertices (VertexTarget): markers, or a scan's
+// landmarks. Errors as ReadMarkers'.
+bool ReadMarkerTarget(const std::string& path, int num_surface_vertices, FitTarget* target,
+                      std::string* error);
+
 FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log);
 
 }  // namespace aqs

@@ -380,14 +380,10 @@ bool ReadSequenceFrames(const FitSequenceOptions& options, int ns,
   }
   for (size_t k = 0; k < frames->size(); ++k) {
     const auto& [path, origin] = landmark_files[k];
-    std::vector<int> vertices;
-    Eigen::Matrix3Xd positions;
-    if (!ReadMarkers(path, ns, &vertices, &positions, error)) {
+    if (!ReadMarkerTarget(path, ns, &(*frames)[k].landmarks, error)) {
       if (origin != path) *error = origin + ": " + *error;
       return false;
     }
-    (*frames)[k].landmarks = VertexTarget(vertices, positions);
-    (*frames)[k].landmarks_path = path;
   }
   return true;
 }

@@ -78,7 +78,6 @@ struct SequenceFrame {
   FitTarget target;            // markers and poses
   Eigen::Matrix3Xd cloud;      // points
   FitTarget landmarks;         // points with FitSequenceOptions::landmarks (else empty)
-  std::string landmarks_path;
 };
 
 // Resolves and reads the frames of `options.sequence` for a model with
