@@ -21,6 +21,8 @@ DEFINE_string(marker_counts, "20,60", "Marker sets to fit (markers/mix_NNN_mK.tx
 DEFINE_string(parts, "markers,poses,scans,sequence", "What to run: markers, poses, scans, sequence.");
 DEFINE_int32(max_mixes, -1, "Only the first N mixes (< 0: all).");
 DEFINE_int32(sequence_frames, -1, "Only the first N sequence frames (< 0: all).");
+DEFINE_bool(scan_from_pose_fit, false, "Diagnostic, with poses and scans: also fit each scan "
+            "from the fit with correspondence's latent and bones (physics_scan_from_pose).");
 DEFINE_bool(uncertainty, false, "Also estimate each physics fit's uncertainty (aqs_fit "
             "--output_uncertainty) and report how it compares with the fit's error.");
 
@@ -42,6 +44,7 @@ int main(int argc, char** argv) {
     return 1;
   }
   options.fit.uncertainty = FLAGS_uncertainty;
+  options.scan_from_pose_fit = FLAGS_scan_from_pose_fit;
   if (!options.Validate(&error)) {
     aqs::PrintError(aqs::FlagError(error, aqs::FitFlagNames()));
     return 1;

@@ -12,7 +12,10 @@ namespace aqs {
 // What aqs_bench_fit does: fits a trained model to a test set made by
 // scripts/make_fit_tests.py (mixes.csv, poses/, marker_sets/, markers/, scans/ (with
 // mix_NNN_landmarks.txt where present, also fitted as "physics_scan_landmarks"),
-// sequence/) and compares with ridge PCA and the neutral face.
+// sequence/) and compares with ridge PCA and the neutral face. Each scan fit is also
+// judged by its own objective (LatentFitter::StartObjective, data and latent prior):
+// whether the fit with correspondence's surface scores lower (the scan fit stopped in a
+// worse minimum) or higher (the scan itself prefers the wrong pose).
 struct FitBenchmarkOptions {
   std::string model;     // trained model directory; required
   std::string test_set;  // the generator's output folder; required
@@ -26,6 +29,10 @@ struct FitBenchmarkOptions {
   // leave-one-out over the model's training poses per marker set.
   std::vector<double> ridge_candidates = {0,    1e-6, 3e-6, 1e-5, 3e-5, 1e-4, 3e-4, 1e-3,
                                           3e-3, 1e-2, 3e-2, 0.1,  0.3,  1,    3,    10};
+  // Diagnostic (with poses and scans): each scan also fitted from the fit with
+  // correspondence's latent and bones, without a start choice ("physics_scan_from_pose"):
+  // how far the scan's own objective pulls a fit away from that answer.
+  bool scan_from_pose_fit = false;
   LatentFitOptions fit;
   PointCloudFitOptions points;
   FitStartOptions start;

@@ -1,0 +1,113 @@
+// The fit benchmark (jobs/fit_benchmark.h) on a small pre-trained bar and a test set of
+// two held-out poses and their scans: what it writes, and how it judges scan fits by
+// their own objective.
+
+#include "jobs/fit_benchmark.h"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include <gtest/gtest.h>
+
+#include "mesh/mesh_io.h"
+#include "model/model_io.h"
+#include "testing/file_contents.h"
+#include "testing/fit_fixtures.h"
+#include "testing/synthetic_muscles.h"
+#include "testing/temp_dir.h"
+#include "util/text_split.h"
+
+namespace aqs {
+namespace {
+
+// fit_benchmark.csv's rows as column name -> value, keyed by "mix method". The last
+// column (start) is quoted and may hold commas.
+std::map<std::string, std::map<std::string, std::string>> ReadRows(const std::string& path) {
+  std::map<std::string, std::map<std::string, std::string>> rows;
+  std::ifstream in(path);
+  std::string line;
+  std::getline(in, line);
+  const std::vector<std::string> header = SplitFields(line);
+  while (std::getline(in, line)) {
+    const size_t quote = line.find('"');
+    EXPECT_NE(quote, std::string::npos) << line;
+    if (quote == std::string::npos) continue;
+    std::vector<std::string> cells = SplitFields(line.substr(0, quote));
+    cells.push_back(line.substr(quote + 1, line.rfind('"') - quote - 1));
+    EXPECT_EQ(cells.size(), header.size()) << line;
+    std::map<std::string, std::string> row;
+    for (size_t c = 0; c < cells.size() && c < header.size(); ++c) row[header[c]] = cells[c];
+    rows[row["mix"] + " " + row["method"]] = row;
+  }
+  return rows;
+}
+
+TEST(FitBenchmarkTest, JudgesScanFitsByTheirOwnObjective) {
+  testing::TempDir dir;
+  ActiveModel model = testing::PretrainedBarForFits(false);
+  ASSERT_TRUE(testing::StoreTrainingEquilibria(&model));
+  std::string error;
+  ASSERT_TRUE(SaveModel(dir.File("model"), model, &error)) << error;
+  // Two held-out poses; each scan is its pose's surface vertices, in a shuffled order.
+  const testing::SyntheticMuscles held_out = testing::MakeSyntheticMuscles(1, 2, 0.3, 23);
+  std::filesystem::create_directories(dir.File("set/poses"));
+  std::filesystem::create_directories(dir.File("set/scans"));
+  std::string mixes = "mix,expressions\n";
+  for (int t = 0; t < 2; ++t) {
+    const std::string name = "mix_00" + std::to_string(t);
+    mixes += name + ",held out " + std::to_string(t) + "\n";
+    SurfaceMesh pose = model.neutral;
+    pose.vertices = held_out.test_surfaces[t];
+    ASSERT_TRUE(WriteObj(dir.File("set/poses/" + name + ".obj"), pose, &error)) << error;
+    const Eigen::Index n = pose.vertices.cols();
+    std::ostringstream ply;
+    ply << "ply\nformat ascii 1.0\nelement vertex " << n
+        << "\nproperty double x\nproperty double y\nproperty double z\nend_header\n";
+    for (Eigen::Index k = 0; k < n; ++k) {
+      const Eigen::Vector3d p = pose.vertices.col((k * 7) % n);  // n is not a multiple of 7
+      ply << p.x() << " " << p.y() << " " << p.z() << "\n";
+    }
+    dir.Write("set/scans/" + name + ".ply", ply.str());
+  }
+  dir.Write("set/mixes.csv", mixes);
+
+  FitBenchmarkOptions options;
+  options.model = dir.File("model");
+  options.test_set = dir.File("set");
+  options.output_dir = dir.File("out");
+  options.markers = false;
+  options.scan_from_pose_fit = true;
+  std::ostringstream log;
+  ASSERT_EQ(RunFitBenchmark(options, log, &error), JobStatus::kOk) << error << "\n" << log.str();
+  const auto rows = ReadRows(dir.File("out/fit_benchmark.csv"));
+  for (const std::string mix : {"mix_000", "mix_001"}) {
+    ASSERT_TRUE(rows.count(mix + " physics_pose")) << mix;
+    ASSERT_TRUE(rows.count(mix + " physics_scan")) << mix;
+    ASSERT_TRUE(rows.count(mix + " physics_scan_from_pose")) << mix;
+    // Fits of poses are not judged by a scan's objective.
+    EXPECT_EQ(rows.at(mix + " physics_pose").at("pose_fit_objective_ratio"), "nan");
+    const double scan_ratio =
+        std::stod(rows.at(mix + " physics_scan").at("pose_fit_objective_ratio"));
+    EXPECT_TRUE(std::isfinite(scan_ratio) && scan_ratio > 0) << scan_ratio;
+    // The fit from the fit with correspondence only lowers the scan's objective (its bone
+    // prior is centred on its start, where it is zero): that fit's objective is at least
+    // its own.
+    const auto& from_pose = rows.at(mix + " physics_scan_from_pose");
+    EXPECT_GE(std::stod(from_pose.at("pose_fit_objective_ratio")), 1.0 - 1e-9);
+    EXPECT_EQ(from_pose.at("start"), "the fit with correspondence");
+    EXPECT_TRUE(std::isfinite(std::stod(from_pose.at("mean_error"))));
+  }
+  const std::string md = testing::ReadAll(dir.File("out/fit_benchmark.md"));
+  EXPECT_NE(md.find("| scan from the fit with correspondence (diagnostic) |"), std::string::npos)
+      << md;
+  EXPECT_NE(md.find("stopped where the scan's objective is larger than at the fit with "
+                    "correspondence"),
+            std::string::npos)
+      << md;
+}
+
+}  // namespace
+}  // namespace aqs
