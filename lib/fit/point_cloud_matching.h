@@ -1,0 +1,24 @@
+#ifndef AQS_FIT_POINT_CLOUD_MATCHING_H_
+#define AQS_FIT_POINT_CLOUD_MATCHING_H_
+
+#include <Eigen/Core>
+
+#include "fit/latent_fit.h"
+
+namespace aqs {
+
+// Each scan point (points: 3 x M) matched to the closest point of `surface` (3 x
+// num_surface_vertices; `triangles` 3 x T, of the neutral), as a FitTarget of M points
+// (vertices and barycentric coordinates of the matched triangle, the scan points as
+// positions) with robust weights: 0 beyond options.max_distance, else the Cauchy weight
+// 1 / (1 + (d / options.robust_scale)^2) (1 if robust_scale <= 0); with
+// options.tangential_weight < 1 also the matched triangles' unit normals. *used: the
+// points of non-zero weight; *mean_distance: their mean distance (0 if none). The target
+// of one matching round, and what the start choice scores scans with.
+FitTarget MatchPointCloud(const Eigen::Matrix3Xd& points, const Eigen::Matrix3Xd& surface,
+                          const Eigen::Matrix3Xi& triangles, const PointCloudFitOptions& options,
+                          int num_threads, int* used, double* mean_distance);
+
+}  // namespace aqs
+
+#endif  // AQS_FIT_POINT_CLOUD_MATCHING_H_

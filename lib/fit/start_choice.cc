@@ -1,0 +1,130 @@
+// Where fits start: the objective of a fit at a simulated surface, and
+// LatentFitter::ChooseStart among the given start and the training poses.
+
+#include <limits>
+#include <string>
+#include <vector>
+
+#include <glog/logging.h>
+
+#include "fit/bone_parameters.h"
+#include "fit/fit_target.h"
+#include "fit/latent_fit.h"
+#include "fit/point_cloud_matching.h"
+#include "geometry/embedding.h"
+
+namespace aqs {
+
+double LatentFitter::Objective(const FitTarget& target, const Eigen::Matrix3Xd& surface,
+                               const Eigen::VectorXd& z) const {
+  return ObjectiveWithBonePrior(target, surface, z, options_.bone_prior);
+}
+
+double LatentFitter::ObjectiveWithBonePrior(const FitTarget& target,
+                                            const Eigen::Matrix3Xd& surface,
+                                            const Eigen::VectorXd& z, double bone_prior) const {
+  double cost =
+      TargetDataTerm(target, surface) + options_.latent_regularization * z.squaredNorm();
+  const double prior_points = PriorPoints(target, options_.prior_points_cap);
+  if (options_.latent_prior > 0) {
+    cost += options_.latent_prior / prior_points * prior_.latent.SquaredMahalanobis(z);
+  }
+  if (options_.fit_bones && bone_prior > 0) {
+    for (size_t b = 0; b < bones_.size(); ++b) {
+      Eigen::VectorXd parameters(6);
+      BoneTransformToParameters(bones_[b], parameters.data());
+      cost += bone_prior / prior_points * prior_.bones[b].SquaredMahalanobis(parameters);
+    }
+  }
+  return cost;
+}
+
+double LatentFitter::StartObjective(const FitTarget* target, const Eigen::Matrix3Xd* points,
+                                    const PointCloudFitOptions& cloud_options,
+                                    const Eigen::Matrix3Xd& surface,
+                                    const Eigen::VectorXd& z) const {
+  CHECK((target != nullptr) != (points != nullptr));
+  if (target != nullptr) return Objective(*target, surface, z);
+  int used = 0;
+  double mean = 0.0;
+  const FitTarget matched = MatchPointCloud(*points, surface, model_.neutral.triangles,
+                                            cloud_options, options_.num_threads, &used, &mean);
+  if (used < 3) return std::numeric_limits<double>::infinity();
+  // Without the bone prior: a scan fit's is centred on its start, so every start is at
+  // its centre.
+  double cost = ObjectiveWithBonePrior(matched, surface, z, 0.0);
+  if (cloud_options.landmarks.num_points() > 0 && cloud_options.landmark_weight > 0) {
+    cost += cloud_options.landmark_weight * TargetDataTerm(cloud_options.landmarks, surface);
+  }
+  return cost;
+}
+
+bool LatentFitter::ChooseStart(const FitTarget* target, const Eigen::Matrix3Xd* points,
+                               const PointCloudFitOptions& cloud_options,
+                               const FitStartOptions& options, Eigen::VectorXd* z,
+                               std::string* name, std::string* error) {
+  CHECK((target != nullptr) != (points != nullptr));
+  CHECK_EQ(z->size(), model_.latent_dim());
+  auto score = [&](const Eigen::Matrix3Xd& surface, const Eigen::VectorXd& latent) {
+    return StartObjective(target, points, cloud_options, surface, latent);
+  };
+  double best = std::numeric_limits<double>::infinity();
+  Eigen::VectorXd best_z = *z;
+  std::vector<RigidTransform> best_bones = bones_;
+  Eigen::Matrix3Xd best_state;
+  std::string best_name;
+  // The given start is a training pose's (e.g. the prior's centre, the neutral): that
+  // candidate covers it, with its stored equilibrium instead of a solve.
+  bool given_is_training_pose = false;
+  for (int p = 0; options.training_poses && p < model_.num_poses(); ++p) {
+    bool same = p < static_cast<int>(model_.states.size()) &&
+                model_.states[p].cols() == model_.mesh.num_vertices() &&
+                *z == Eigen::VectorXd(model_.latents.col(p));
+    for (size_t b = 0; same && b < bones_.size(); ++b) {
+      same = bones_[b].rotation == model_.bones[b].pose_transforms[p].rotation &&
+             bones_[b].translation == model_.bones[b].pose_transforms[p].translation;
+    }
+    given_is_training_pose |= same;
+  }
+  if (!given_is_training_pose) {
+    Eigen::Matrix3Xd state, surface;
+    std::string simulate_error;
+    if (Simulate(*z, &state, &surface, &simulate_error)) {
+      best = score(surface, *z);
+      best_state = state;
+      best_name = "given";
+    } else {
+      *error = simulate_error;
+    }
+  }
+  const std::vector<RigidTransform> given_bones = bones_;
+  for (int p = 0; options.training_poses && p < model_.num_poses(); ++p) {
+    if (p >= static_cast<int>(model_.states.size()) ||
+        model_.states[p].cols() != model_.mesh.num_vertices()) {
+      continue;
+    }
+    for (size_t b = 0; b < bones_.size(); ++b) bones_[b] = model_.bones[b].pose_transforms[p];
+    const Eigen::Matrix3Xd surface =
+        EmbeddedPositions(model_.embedding, model_.mesh.tets, model_.states[p]);
+    const double s = score(surface, model_.latents.col(p));
+    if (s < best) {
+      best = s;
+      best_z = model_.latents.col(p);
+      best_bones = bones_;
+      best_state = model_.states[p];
+      best_name = model_.poses[p].name;
+    }
+  }
+  bones_ = given_bones;
+  if (best_name.empty()) {
+    *error = "no start: " + *error;
+    return false;
+  }
+  set_bone_transforms(best_bones);
+  set_start_state(best_state);
+  *z = best_z;
+  *name = best_name;
+  return true;
+}
+
+}  // namespace aqs
