@@ -62,7 +62,8 @@ class LatentFitter::FitCost final : public ceres::CostFunction {
       if (target.normals.cols() == k) {
         const Eigen::Vector3d n = target.normals.col(i);
         const Eigen::Matrix3d nn = n * n.transpose();
-        s.projector = s.scale * (nn + target.tangential_weight * (Eigen::Matrix3d::Identity() - nn));
+        s.projector =
+            s.scale * (nn + target.tangential_weight * (Eigen::Matrix3d::Identity() - nn));
       }
       for (int c = 0; c < 3; ++c) {
         const int v = target.vertices(c, i);
@@ -73,7 +74,9 @@ class LatentFitter::FitCost final : public ceres::CostFunction {
   }
 
   // A cost with its own FitEquilibrium (no evaluation callback: NewCostFunction).
-  void Own(std::unique_ptr<FitEquilibrium> equilibrium) { own_equilibrium_ = std::move(equilibrium); }
+  void Own(std::unique_ptr<FitEquilibrium> equilibrium) {
+    own_equilibrium_ = std::move(equilibrium);
+  }
 
   // Cloud mode: matches the scan to the surface of state x; sets the stencils of the
   // matched points, the residuals and the gradient rows (R'(d) u / sqrt(M), 3 x M).
@@ -150,7 +153,8 @@ class LatentFitter::FitCost final : public ceres::CostFunction {
         const Stencil& s = stencils_[i];
         Eigen::Vector3d p = s.offset;
         for (int j = 0; j < 12; ++j) p += s.weight[j] * x.col(s.vertex[j]);
-        Eigen::Map<Eigen::Vector3d>(residuals + 3 * i) = s.projector * (p - target_->positions.col(i));
+        Eigen::Map<Eigen::Vector3d>(residuals + 3 * i) =
+            s.projector * (p - target_->positions.col(i));
       }
     }
     if (!want_z && !want_bones) return true;
@@ -216,7 +220,9 @@ class LatentFitter::FitCost final : public ceres::CostFunction {
       const Stencil& s = stencils[i];
       Eigen::MatrixXd dp = Eigen::MatrixXd::Zero(3, columns);
       for (int j = 0; j < 12; ++j) {
-        if (s.weight[j] != 0.0) dp += s.weight[j] * dx.middleRows(3 * static_cast<Eigen::Index>(s.vertex[j]), 3);
+        if (s.weight[j] != 0.0) {
+          dp += s.weight[j] * dx.middleRows(3 * static_cast<Eigen::Index>(s.vertex[j]), 3);
+        }
       }
       jac.middleRows(3 * i, 3) = s.projector * dp;
     }

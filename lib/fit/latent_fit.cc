@@ -61,7 +61,8 @@ double LatentFitter::FactorNonzeros() {
 Eigen::VectorXd LatentFitter::MeanLatent() const { return model_.latents.rowwise().mean(); }
 
 ceres::CostFunction* LatentFitter::NewCostFunction(const FitTarget& target) {
-  auto equilibrium = std::make_unique<FitEquilibrium>(this, options_.fit_bones && !model_.bones.empty());
+  auto equilibrium =
+      std::make_unique<FitEquilibrium>(this, options_.fit_bones && !model_.bones.empty());
   auto* cost = new FitCost(this, equilibrium.get(), target);
   cost->Own(std::move(equilibrium));
   return cost;
@@ -69,7 +70,8 @@ ceres::CostFunction* LatentFitter::NewCostFunction(const FitTarget& target) {
 
 ceres::CostFunction* LatentFitter::NewCloudCostFunction(const Eigen::Matrix3Xd& points,
                                                        const PointCloudFitOptions& options) {
-  auto equilibrium = std::make_unique<FitEquilibrium>(this, options_.fit_bones && !model_.bones.empty());
+  auto equilibrium =
+      std::make_unique<FitEquilibrium>(this, options_.fit_bones && !model_.bones.empty());
   auto* cost = new FitCost(this, equilibrium.get(), points, options);
   cost->Own(std::move(equilibrium));
   return cost;
@@ -202,7 +204,9 @@ bool LatentFitter::FitFrom(const FitTarget& target, const Eigen::VectorXd& initi
   if (direct_cloud_ != nullptr) {
     data_cost = new FitCost(this, &equilibrium, *direct_cloud_, *cloud_options_);
     total_weight = static_cast<double>(direct_cloud_->cols());
-    if (options_.prior_points_cap > 0) total_weight = std::min(total_weight, options_.prior_points_cap);
+    if (options_.prior_points_cap > 0) {
+      total_weight = std::min(total_weight, options_.prior_points_cap);
+    }
   } else {
     data_cost = new FitCost(this, &equilibrium, target);
     total_weight = PriorPoints(target, options_.prior_points_cap);
@@ -220,7 +224,8 @@ bool LatentFitter::FitFrom(const FitTarget& target, const Eigen::VectorXd& initi
   }
   // The parameters, all blocks concatenated (FitEquilibrium's key).
   auto key = [&]() {
-    Eigen::VectorXd k(z.size() + (fit_bones ? 6 * static_cast<Eigen::Index>(bone_parameters.size()) : 0));
+    const Eigen::Index bone_count = static_cast<Eigen::Index>(bone_parameters.size());
+    Eigen::VectorXd k(z.size() + (fit_bones ? 6 * bone_count : 0));
     k.head(z.size()) = z;
     for (size_t b = 0; fit_bones && b < bone_parameters.size(); ++b) {
       k.segment(z.size() + 6 * static_cast<Eigen::Index>(b), 6) = bone_parameters[b];
