@@ -7,7 +7,7 @@ Usage: /usr/bin/python3 scripts/make_fit_tests.py --ict ../shared/data/ict-face 
        [--seed 1] [--mixes 20] [--min_expressions 2] [--max_expressions 5]
        [--min_weight 0.3] [--max_weight 1.0] [--markers 20,60] [--marker_noise 0.01]
        [--scan_points 4000] [--scan_noise 0.02] [--scan_min_z 8] [--scan_outliers 0]
-       [--landmark_noise 0.1]
+       [--landmark_noise 0.1] [--scan_markers 0]
        [--frames 100] [--sequence_markers 60] [--sequence_expressions 6]
 
 Every mix is target = neutral + sum_i w_i (pose_i - neutral) over 2 to 5 of the 55
@@ -31,7 +31,9 @@ linear). Written into DIR (made if absent; files are replaced):
                              corners, the mouth corners, the middles of the upper and lower
                              lip, the nose tip, the chin: face_landmarks below), with
                              Gaussian noise of landmark_noise cm per coordinate (drawn from
-                             a generator of their own, so the other files do not change)
+                             a generator of their own, so the other files do not change);
+                             with --scan_markers K > 0 instead the K-marker set's vertices
+                             (markers the scan shows: painted dots, motion-capture markers)
   sequence/markers/frame_NNNN.txt, sequence/truth/frame_NNNN.obj, sequence/weights.csv:
                              a smooth sequence of `frames` frames (30 per second): each of
                              sequence_expressions expressions (jawOpen always among them)
@@ -188,6 +190,9 @@ def main():
     parser.add_argument("--scan_min_z", type=float, default=8.0)
     parser.add_argument("--scan_outliers", type=int, default=0)
     parser.add_argument("--landmark_noise", type=float, default=0.1)
+    parser.add_argument("--scan_markers", type=int, default=0,
+                        help="landmarks: the K-marker set's vertices instead of 10 tracker "
+                             "landmarks (K among --markers)")
     parser.add_argument("--frames", type=int, default=100)
     parser.add_argument("--sequence_markers", type=int, default=60)
     parser.add_argument("--sequence_expressions", type=int, default=6)
@@ -195,6 +200,9 @@ def main():
     marker_counts = [int(k) for k in args.markers.split(",") if k]
     if args.frames > 0 and args.sequence_markers not in marker_counts:
         marker_counts.append(args.sequence_markers)
+    if args.scan_markers > 0 and args.scan_markers not in marker_counts:
+        sys.exit("make_fit_tests.py: error: --scan_markers %d is not among --markers %s"
+                 % (args.scan_markers, args.markers))
     rng = np.random.default_rng(args.seed)
 
     neutral = read_vertices(os.path.join(args.ict, "skin_neutral.obj"))
@@ -246,15 +254,19 @@ def main():
                       args.scan_outliers, rng)
         write_atomically(os.path.join(args.out, "scans", label + ".ply"),
                          ply_text(points, "scan of %s: %s" % (label, recipe)))
-        positions = surface[landmarks] + landmark_rng.normal(0.0, args.landmark_noise,
-                                                             (len(landmarks), 3))
+        if args.scan_markers > 0:
+            scan_landmarks = marker_sets[args.scan_markers]
+            what = "the %d-marker set's vertices" % args.scan_markers
+        else:
+            scan_landmarks = landmarks
+            what = ("eye corners: left inner, left outer, right inner, right outer; mouth "
+                    "corners left, right; upper and lower lip; nose tip; chin")
+        positions = surface[scan_landmarks] + landmark_rng.normal(0.0, args.landmark_noise,
+                                                                  (len(scan_landmarks), 3))
         write_atomically(os.path.join(args.out, "scans", label + "_landmarks.txt"),
-                         markers_text(landmarks, positions,
-                                      "landmarks of the scan of %s: %s (eye corners: left "
-                                      "inner, left outer, right inner, right outer; mouth "
-                                      "corners left, right; upper and lower lip; nose tip; "
-                                      "chin)"
-                                      % (label, recipe)))
+                         markers_text(scan_landmarks, positions,
+                                      "landmarks of the scan of %s: %s (%s)"
+                                      % (label, recipe, what)))
     write_atomically(os.path.join(args.out, "mixes.csv"), "".join(manifest))
 
     if args.frames > 0:
