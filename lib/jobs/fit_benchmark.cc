@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include <Eigen/Geometry>
+#include <glog/logging.h>
 
 #include "equilibrium/stiffness_factorization.h"
 #include "eval/surface_pca.h"
@@ -258,15 +259,16 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
     }
     log << std::endl;  // progress of a long run
   };
-  // A physics fit to a target or a cloud, timed from the start choice to the result.
   // The current mix's fit with correspondence, where it succeeded (scans are judged by it).
   const LatentFitResult* pose_fit = nullptr;
   LatentFitResult pose_result;
+  // A physics fit to a target or a cloud, timed from the start choice to the result; with
+  // `from` (clouds only), from its latent and bones without a start choice. `kept`: the
+  // fit's result (empty if it failed). True if it succeeded.
   auto physics = [&](const std::string& mix, const std::string& method, int markers,
                      const FitTarget* target, const Eigen::Matrix3Xd* cloud,
                      const PointCloudFitOptions& cloud_options, const Eigen::Matrix3Xd& truth,
                      LatentFitResult* kept = nullptr, const LatentFitResult* from = nullptr) {
-    // From `from`'s latent and bones without a start choice, else from the chosen start.
     reset();
     WallTimer timer;
     Eigen::VectorXd z = options.start.mean_latent ? fitter.MeanLatent() : fitter.PriorLatent();
@@ -275,6 +277,7 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
     Row r = MakeRow(mix, method, markers);
     bool ok = false;
     if (from != nullptr) {
+      CHECK(cloud != nullptr) << "a fit from another fit's result is a scan's";
       fitter.set_bone_transforms(from->bones);
       fitter.set_start_state(from->state);
       ok = fitter.FitPointCloud(*cloud, cloud_options, from->latent, &fit, &fit_error);
@@ -385,9 +388,8 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
                 truth.vertices);
       }
       if (options.scan_from_pose_fit && pose_fit != nullptr) {
-        const LatentFitResult start = *pose_fit;
         physics(mix, "physics_scan_from_pose", 0, nullptr, &cloud, options.points,
-                truth.vertices, nullptr, &start);
+                truth.vertices, nullptr, pose_fit);
       }
     }
   }
