@@ -264,7 +264,7 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
   LatentFitResult pose_result;
   // A physics fit to a target or a cloud, timed from the start choice to the result; with
   // `from` (clouds only), from its latent and bones without a start choice. `kept`: the
-  // fit's result (empty if it failed). True if it succeeded.
+  // fit's result, if it succeeded. True if it succeeded.
   auto physics = [&](const std::string& mix, const std::string& method, int markers,
                      const FitTarget* target, const Eigen::Matrix3Xd* cloud,
                      const PointCloudFitOptions& cloud_options, const Eigen::Matrix3Xd& truth,
@@ -324,7 +324,7 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
                                                 fit.latent);
       }
     }
-    if (kept != nullptr) *kept = ok ? fit : LatentFitResult();
+    if (kept != nullptr && ok) *kept = fit;
     rows.push_back(r);
     print(r);
     return ok;
@@ -366,7 +366,6 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
       rows.push_back(p);
       print(p);
       const FitTarget target = FullSurfaceTarget(truth.vertices);
-      pose_fit = nullptr;
       if (physics(mix, "physics_pose", 0, &target, nullptr, options.points, truth.vertices,
                   &pose_result)) {
         pose_fit = &pose_result;
