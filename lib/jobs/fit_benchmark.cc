@@ -200,6 +200,27 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
   if (options.max_mixes >= 0 && static_cast<int>(mixes.size()) > options.max_mixes) {
     mixes.resize(options.max_mixes);
   }
+  // The sequence and its truth frames are checked before any fit, so that bad input
+  // there cannot throw away the fits' results at the end.
+  FitSequenceOptions sequence;
+  sequence.sequence = options.test_set + "/sequence/markers";
+  sequence.output_dir = options.output_dir + "/sequence";
+  sequence.model = options.model;
+  sequence.fit = options.fit;
+  sequence.points = options.points;
+  sequence.start = options.start;
+  sequence.max_frames = options.sequence_frames;
+  if (options.sequence) {
+    std::vector<SequenceFrame> frames;
+    if (!ReadSequenceFrames(sequence, ns, &frames, error)) return JobStatus::kBadInput;
+    for (const SequenceFrame& frame : frames) {
+      const std::string truth = options.test_set + "/sequence/truth/" + frame.name + ".obj";
+      if (!fs::exists(truth)) {
+        *error = "the sequence frame " + frame.origin + " has no truth surface '" + truth + "'";
+        return JobStatus::kBadInput;
+      }
+    }
+  }
   std::error_code code;
   fs::create_directories(options.output_dir, code);
 
@@ -518,14 +539,6 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
     }
   }
   if (options.sequence) {
-    FitSequenceOptions sequence;
-    sequence.sequence = options.test_set + "/sequence/markers";
-    sequence.output_dir = options.output_dir + "/sequence";
-    sequence.model = options.model;
-    sequence.fit = options.fit;
-    sequence.points = options.points;
-    sequence.start = options.start;
-    sequence.max_frames = options.sequence_frames;
     fs::remove_all(sequence.output_dir, code);
     FitSequenceResult result = RunFitSequence(sequence, model, log);
     if (result.status != JobStatus::kOk) {

@@ -45,13 +45,14 @@ std::map<std::string, std::map<std::string, std::string>> ReadRows(const std::st
   return rows;
 }
 
-TEST(FitBenchmarkTest, JudgesScanFitsByTheirOwnObjective) {
-  testing::TempDir dir;
+// A model (dir/model: the synthetic bar, pre-trained, with its training equilibria) and
+// a test set (dir/set) of two held-out poses, each scan its pose's surface vertices in a
+// shuffled order.
+void WriteModelAndSet(const testing::TempDir& dir) {
   ActiveModel model = testing::PretrainedBarForFits(false);
   ASSERT_TRUE(testing::StoreTrainingEquilibria(&model));
   std::string error;
   ASSERT_TRUE(SaveModel(dir.File("model"), model, &error)) << error;
-  // Two held-out poses; each scan is its pose's surface vertices, in a shuffled order.
   const testing::SyntheticMuscles held_out = testing::MakeSyntheticMuscles(1, 2, 0.3, 23);
   std::filesystem::create_directories(dir.File("set/poses"));
   std::filesystem::create_directories(dir.File("set/scans"));
@@ -73,7 +74,12 @@ TEST(FitBenchmarkTest, JudgesScanFitsByTheirOwnObjective) {
     dir.Write("set/scans/" + name + ".ply", ply.str());
   }
   dir.Write("set/mixes.csv", mixes);
+}
 
+TEST(FitBenchmarkTest, JudgesScanFitsByTheirOwnObjective) {
+  testing::TempDir dir;
+  ASSERT_NO_FATAL_FAILURE(WriteModelAndSet(dir));
+  std::string error;
   FitBenchmarkOptions options;
   options.model = dir.File("model");
   options.test_set = dir.File("set");
@@ -107,6 +113,37 @@ TEST(FitBenchmarkTest, JudgesScanFitsByTheirOwnObjective) {
                     "correspondence"),
             std::string::npos)
       << md;
+}
+
+TEST(FitBenchmarkTest, ChecksTheSequenceBeforeAnyFit) {
+  // A sequence part without the sequence's files fails before the fits (which would
+  // otherwise run, then be lost with the error), naming the folder.
+  testing::TempDir dir;
+  ASSERT_NO_FATAL_FAILURE(WriteModelAndSet(dir));
+  FitBenchmarkOptions options;
+  options.model = dir.File("model");
+  options.test_set = dir.File("set");
+  options.output_dir = dir.File("out");
+  options.markers = false;
+  options.sequence = true;
+  std::ostringstream log;
+  std::string error;
+  EXPECT_EQ(RunFitBenchmark(options, log, &error), JobStatus::kBadInput);
+  EXPECT_NE(error.find(dir.File("set") + "/sequence/markers"), std::string::npos) << error;
+  EXPECT_EQ(log.str().find("physics_pose"), std::string::npos) << "no fit ran:\n" << log.str();
+  // With the frames but one truth surface missing, the same, naming that file.
+  std::filesystem::create_directories(dir.File("set/sequence/markers"));
+  std::filesystem::create_directories(dir.File("set/sequence/truth"));
+  for (const std::string frame : {"f000", "f001"}) {
+    std::filesystem::copy_file(dir.File("set/poses/mix_000.obj"),
+                               dir.File("set/sequence/markers/" + frame + ".obj"));
+  }
+  std::filesystem::copy_file(dir.File("set/poses/mix_000.obj"),
+                             dir.File("set/sequence/truth/f000.obj"));
+  log.str("");
+  EXPECT_EQ(RunFitBenchmark(options, log, &error), JobStatus::kBadInput);
+  EXPECT_NE(error.find("truth/f001.obj"), std::string::npos) << error;
+  EXPECT_EQ(log.str().find("physics_pose"), std::string::npos) << log.str();
 }
 
 }  // namespace
