@@ -26,6 +26,9 @@ DEFINE_double(landmark_weight, 0.03, "Points with landmarks: weight of the landm
 DEFINE_double(scan_bone_prior, 0.1, "Points: the bone prior's weight in scan fits (< 0: "
               "--bone_prior's), centred on the bones the fit starts from (the chosen training "
               "pose's, or the previous frame's) rather than on the prior's centre.");
+DEFINE_double(scan_latent_prior, 0.01, "Points: the latent prior's weight in scan fits (< 0: "
+              "--latent_prior's). Lower than the other fits': a scan's distances stay small "
+              "where the surface slides along it (docs/fitting.md).");
 DEFINE_bool(choose_start, true, "Start from the best of the given start (prior centre or "
             "--initial_latent) and the training poses, by the fit's objective.");
 DEFINE_bool(retry_from_given, true, "With --choose_start: a fit from a training pose that "
@@ -50,6 +53,7 @@ bool FitOptionsFromFlags(LatentFitOptions* fit, PointCloudFitOptions* points,
   points->iterations_per_round = FLAGS_round_iterations;
   points->landmark_weight = FLAGS_landmark_weight;
   points->bone_prior = FLAGS_scan_bone_prior;
+  points->latent_prior = FLAGS_scan_latent_prior;
   start->training_poses = FLAGS_choose_start;
   start->retry_from_given = FLAGS_retry_from_given;
   if (FLAGS_start_latent != "prior" && FLAGS_start_latent != "mean") {
@@ -70,7 +74,8 @@ FlagNames FitFlagNames() {
                              {"points.relative_tolerance", "--round_tolerance"},
                              {"points.tangential_weight", "--tangential_weight"},
                              {"points.landmark_weight", "--landmark_weight"},
-                             {"points.bone_prior", "--scan_bone_prior"}});
+                             {"points.bone_prior", "--scan_bone_prior"},
+                             {"points.latent_prior", "--scan_latent_prior"}});
   return flags;
 }
 

@@ -5,7 +5,8 @@
 DEFINE_bool(fit_bones, true, "Also fit the model's bone motions (e.g. the jaw).");
 DEFINE_double(latent_prior, 0.03, "Weight of the latent prior (the model's prior.txt: a Gaussian "
               "of the training latents, centred on the neutral): the squared distance per target "
-              "point (model units^2) that one standard deviation is worth. 0: off.");
+              "point (model units^2) that one standard deviation is worth. 0: off. Models with a "
+              "larger latent fit markers closer at 0.01 (docs/fitting.md).");
 DEFINE_double(bone_prior, 0.01, "Weight of the bone-motion prior (prior.txt: a Gaussian of the "
               "training poses' bone motions, centred on rest), in the same units. 0: off.");
 DEFINE_double(prior_points_cap, 200, "The priors' weights are divided by the number of target "

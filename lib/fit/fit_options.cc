@@ -44,6 +44,9 @@ bool PointCloudFitOptions::Validate(std::string* error) const {
       .Require(std::isfinite(bone_prior) && bone_prior <= kMaxRegularization,
                "bone_prior must be finite and at most " + OptionValue(kMaxRegularization) +
                    " (< 0: the other fits' weight) (is " + OptionValue(bone_prior) + ")")
+      .Require(std::isfinite(latent_prior) && latent_prior <= kMaxRegularization,
+               "latent_prior must be finite and at most " + OptionValue(kMaxRegularization) +
+                   " (< 0: the other fits' weight) (is " + OptionValue(latent_prior) + ")")
       .Require(landmarks.vertices.cols() == landmarks.num_points() &&
                    landmarks.barycentric.cols() == landmarks.num_points() &&
                    (landmarks.weights.size() == 0 ||

@@ -236,14 +236,15 @@ bool LatentFitter::FitFrom(const FitTarget& target, const Eigen::VectorXd& initi
   if (options_.latent_regularization > 0) {
     problem.AddResidualBlock(new LatentPrior(d, options_.latent_regularization), nullptr, z.data());
   }
-  if (options_.latent_prior > 0) {
+  // Scans weigh the priors by their own weights (PointCloudFitOptions::latent_prior,
+  // bone_prior) and centre the bone prior on the bones their fit started from.
+  const bool scan = cloud_options_ != nullptr;
+  const double latent_prior = scan ? ScanLatentPrior(*cloud_options_) : options_.latent_prior;
+  if (latent_prior > 0) {
     problem.AddResidualBlock(new GaussianPriorCost(prior_.latent.mean, prior_.latent.whitening,
-                                                   options_.latent_prior / total_weight),
+                                                   latent_prior / total_weight),
                              nullptr, z.data());
   }
-  // Scans weigh the bone prior by their own weight and centre it on the bones their fit
-  // started from (PointCloudFitOptions::bone_prior).
-  const bool scan = cloud_options_ != nullptr;
   const double bone_prior = scan && cloud_options_->bone_prior >= 0 ? cloud_options_->bone_prior
                                                                     : options_.bone_prior;
   if (fit_bones && bone_prior > 0) {

@@ -54,4 +54,26 @@ FitTarget MatchPointCloud(const Eigen::Matrix3Xd& points, const Eigen::Matrix3Xd
   return target;
 }
 
+double CloudDataTerm(const Eigen::Matrix3Xd& points, const Eigen::Matrix3Xd& surface,
+                     const Eigen::Matrix3Xi& triangles, const PointCloudFitOptions& options,
+                     int num_threads, int* within) {
+  const TriangleBvh bvh(surface, triangles);
+  const std::vector<ClosestPointResult> closest = bvh.ClosestPoints(points, num_threads);
+  const double cap = options.max_distance;
+  const double s = options.robust_scale;
+  double sum = 0.0;
+  int count = 0;
+  for (const ClosestPointResult& c : closest) {
+    double d = c.distance;
+    if (cap > 0 && d > cap) {
+      d = cap;
+    } else {
+      ++count;
+    }
+    sum += s > 0 ? d * d / (1.0 + (d / s) * (d / s)) : d * d;
+  }
+  if (within != nullptr) *within = count;
+  return points.cols() > 0 ? sum / static_cast<double>(points.cols()) : 0.0;
+}
+
 }  // namespace aqs

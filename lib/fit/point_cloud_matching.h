@@ -19,6 +19,16 @@ FitTarget MatchPointCloud(const Eigen::Matrix3Xd& points, const Eigen::Matrix3Xd
                           const Eigen::Matrix3Xi& triangles, const PointCloudFitOptions& options,
                           int num_threads, int* used, double* mean_distance);
 
+// The data term a scan fit with options.rematch_every_evaluation minimizes (FitCost's
+// cloud mode), at `surface` (3 x num_surface_vertices; `triangles` 3 x T):
+//   (1/M) sum_i R(min(d_i, max_distance))^2,  R(d) = d / sqrt(1 + (d/s)^2),
+// d_i the distance of scan point i (points: 3 x M) to its closest point of the surface,
+// s = options.robust_scale (R(d) = d for s <= 0; no cap for max_distance <= 0).
+// *within (may be null): the points with d_i <= max_distance (all if no cap).
+double CloudDataTerm(const Eigen::Matrix3Xd& points, const Eigen::Matrix3Xd& surface,
+                     const Eigen::Matrix3Xi& triangles, const PointCloudFitOptions& options,
+                     int num_threads, int* within);
+
 }  // namespace aqs
 
 #endif  // AQS_FIT_POINT_CLOUD_MATCHING_H_

@@ -1,6 +1,7 @@
 // Where fits start: the objective of a fit at a simulated surface, and
 // LatentFitter::ChooseStart among the given start and the training poses.
 
+#include <algorithm>
 #include <limits>
 #include <string>
 #include <vector>
@@ -17,17 +18,21 @@ namespace aqs {
 
 double LatentFitter::Objective(const FitTarget& target, const Eigen::Matrix3Xd& surface,
                                const Eigen::VectorXd& z) const {
-  return ObjectiveWithBonePrior(target, surface, z, options_.bone_prior);
+  return ObjectiveWithPriors(target, surface, z, options_.latent_prior, options_.bone_prior);
 }
 
-double LatentFitter::ObjectiveWithBonePrior(const FitTarget& target,
-                                            const Eigen::Matrix3Xd& surface,
-                                            const Eigen::VectorXd& z, double bone_prior) const {
-  double cost =
-      TargetDataTerm(target, surface) + options_.latent_regularization * z.squaredNorm();
-  const double prior_points = PriorPoints(target, options_.prior_points_cap);
-  if (options_.latent_prior > 0) {
-    cost += options_.latent_prior / prior_points * prior_.latent.SquaredMahalanobis(z);
+double LatentFitter::ObjectiveWithPriors(const FitTarget& target, const Eigen::Matrix3Xd& surface,
+                                         const Eigen::VectorXd& z, double latent_prior,
+                                         double bone_prior) const {
+  return TargetDataTerm(target, surface) +
+         PriorTerms(z, latent_prior, bone_prior, PriorPoints(target, options_.prior_points_cap));
+}
+
+double LatentFitter::PriorTerms(const Eigen::VectorXd& z, double latent_prior, double bone_prior,
+                                double prior_points) const {
+  double cost = options_.latent_regularization * z.squaredNorm();
+  if (latent_prior > 0) {
+    cost += latent_prior / prior_points * prior_.latent.SquaredMahalanobis(z);
   }
   if (options_.fit_bones && bone_prior > 0) {
     for (size_t b = 0; b < bones_.size(); ++b) {
@@ -45,14 +50,26 @@ double LatentFitter::StartObjective(const FitTarget* target, const Eigen::Matrix
                                     const Eigen::VectorXd& z) const {
   CHECK((target != nullptr) != (points != nullptr));
   if (target != nullptr) return Objective(*target, surface, z);
-  int used = 0;
-  double mean = 0.0;
-  const FitTarget matched = MatchPointCloud(*points, surface, model_.neutral.triangles,
-                                            cloud_options, options_.num_threads, &used, &mean);
-  if (used < 3) return std::numeric_limits<double>::infinity();
   // Without the bone prior: a scan fit's is centred on its start, so every start is at
   // its centre.
-  double cost = ObjectiveWithBonePrior(matched, surface, z, 0.0);
+  const double latent_prior = ScanLatentPrior(cloud_options);
+  double cost = 0.0;
+  int used = 0;
+  if (cloud_options.rematch_every_evaluation) {
+    // What that fit minimizes (FitFrom: the priors over min(M, cap) points).
+    cost = CloudDataTerm(*points, surface, model_.neutral.triangles, cloud_options,
+                         options_.num_threads, &used);
+    const double m = static_cast<double>(points->cols());
+    const double cap = options_.prior_points_cap;
+    cost += PriorTerms(z, latent_prior, 0.0, cap > 0 ? std::min(m, cap) : m);
+  } else {
+    // What a matching round minimizes.
+    double mean = 0.0;
+    const FitTarget matched = MatchPointCloud(*points, surface, model_.neutral.triangles,
+                                              cloud_options, options_.num_threads, &used, &mean);
+    cost = ObjectiveWithPriors(matched, surface, z, latent_prior, 0.0);
+  }
+  if (used < 3) return std::numeric_limits<double>::infinity();
   if (cloud_options.landmarks.num_points() > 0 && cloud_options.landmark_weight > 0) {
     cost += cloud_options.landmark_weight * TargetDataTerm(cloud_options.landmarks, surface);
   }

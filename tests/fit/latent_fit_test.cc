@@ -342,6 +342,46 @@ TEST(LatentFitTest, ScanLandmarksPullTheFitInBothModes) {
               3.0 * squared, 1e-9 * squared);
 }
 
+TEST(LatentFitTest, ScanLatentPriorWeighsScanFitsOnly) {
+  // PointCloudFitOptions::latent_prior: < 0 takes the other fits' weight; otherwise it
+  // replaces it in scan fits and in the start's objective, and pulls the latent to the
+  // prior's centre as it grows.
+  const ActiveModel model = TrainedModel(false);
+  LatentFitOptions options;
+  options.latent_prior = 0.03;
+  LatentFitter fitter(model, options);
+  const Eigen::VectorXd truth = model.latents.col(5);
+  Eigen::Matrix3Xd state, scan;
+  std::string error;
+  ASSERT_TRUE(fitter.Simulate(truth, &state, &scan, &error)) << error;
+  ASSERT_GT(fitter.prior().latent.SquaredMahalanobis(truth), 0.1);
+  auto start_objective = [&](double weight) {
+    PointCloudFitOptions cloud;
+    cloud.latent_prior = weight;
+    return fitter.StartObjective(nullptr, &scan, cloud, scan, truth);
+  };
+  const double none = start_objective(0.0);
+  const double inherited = start_objective(-1.0);
+  EXPECT_EQ(inherited, start_objective(0.03));
+  EXPECT_GT(inherited, none);
+  EXPECT_NEAR(start_objective(0.3) - none, 10.0 * (inherited - none), 1e-9 * inherited);
+  std::vector<double> distances;  // from the prior's centre, Mahalanobis
+  for (const double weight : {0.0, 10.0}) {
+    PointCloudFitOptions cloud;
+    cloud.latent_prior = weight;
+    cloud.max_distance = 0.5;
+    fitter.set_start_state(model.mesh.vertices);
+    fitter.ForgetFactor();
+    LatentFitResult fit;
+    ASSERT_TRUE(fitter.FitPointCloud(scan, cloud, fitter.PriorLatent(), &fit, &error)) << error;
+    distances.push_back(std::sqrt(fitter.prior().latent.SquaredMahalanobis(fit.latent)));
+    if (weight == 0.0) {
+      EXPECT_LT(fit.mean_error, 1e-3) << "without a prior the scan is met";
+    }
+  }
+  EXPECT_LT(distances[1], 0.5 * distances[0]);
+}
+
 TEST(LatentFitTest, UncertaintyShrinksWithMoreDataAndNearTheFixedEnd) {
   // Markers of a pose the model makes, with noise of 0.01 per coordinate: the estimated
   // noise is about 0.01, and the surface's predicted standard deviation is smaller with

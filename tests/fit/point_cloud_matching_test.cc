@@ -1,5 +1,6 @@
 // MatchPointCloud (fit/point_cloud_matching.h): closest points of a scan on a surface,
-// with robust weights and the matched triangles' normals.
+// with robust weights and the matched triangles' normals; CloudDataTerm, the scan fit's
+// data term.
 
 #include "fit/point_cloud_matching.h"
 
@@ -78,6 +79,23 @@ TEST_F(PointCloudMatchingTest, PlainLeastSquaresAndNormals) {
     // Both triangles are counter-clockwise seen from +z.
     EXPECT_NEAR((target.normals.col(i) - Eigen::Vector3d(0, 0, 1)).norm(), 0, 1e-12);
   }
+}
+
+TEST_F(PointCloudMatchingTest, CloudDataTermIsTheMeanRobustSquaredDistanceCapped) {
+  PointCloudFitOptions options;
+  options.max_distance = 1.0;
+  options.robust_scale = 0.2;
+  int within = 0;
+  const double term = CloudDataTerm(points_, surface_, triangles_, options, 1, &within);
+  auto robust = [](double d) { return d * d / (1.0 + (d / 0.2) * (d / 0.2)); };
+  // The point 2 away counts at the cap.
+  EXPECT_NEAR(term, (robust(0.1) + robust(0.5) + robust(1.0) + 0.0) / 4, 1e-12);
+  EXPECT_EQ(within, 3);
+  options.max_distance = 0.0;
+  options.robust_scale = 0.0;
+  EXPECT_NEAR(CloudDataTerm(points_, surface_, triangles_, options, 1, &within),
+              (0.01 + 0.25 + 4.0) / 4, 1e-12);
+  EXPECT_EQ(within, 4);
 }
 
 }  // namespace
