@@ -76,15 +76,22 @@ void WriteModelAndSet(const testing::TempDir& dir) {
   dir.Write("set/mixes.csv", mixes);
 }
 
-TEST(FitBenchmarkTest, JudgesScanFitsByTheirOwnObjective) {
-  testing::TempDir dir;
-  ASSERT_NO_FATAL_FAILURE(WriteModelAndSet(dir));
-  std::string error;
+// The benchmark of dir/model on dir/set (WriteModelAndSet), poses and scans only, into
+// dir/out.
+FitBenchmarkOptions PosesAndScansOf(const testing::TempDir& dir) {
   FitBenchmarkOptions options;
   options.model = dir.File("model");
   options.test_set = dir.File("set");
   options.output_dir = dir.File("out");
   options.markers = false;
+  return options;
+}
+
+TEST(FitBenchmarkTest, JudgesScanFitsByTheirOwnObjective) {
+  testing::TempDir dir;
+  ASSERT_NO_FATAL_FAILURE(WriteModelAndSet(dir));
+  std::string error;
+  FitBenchmarkOptions options = PosesAndScansOf(dir);
   options.scan_from_pose_fit = true;
   std::ostringstream log;
   ASSERT_EQ(RunFitBenchmark(options, log, &error), JobStatus::kOk) << error << "\n" << log.str();
@@ -120,11 +127,7 @@ TEST(FitBenchmarkTest, ChecksTheSequenceBeforeAnyFit) {
   // otherwise run, then be lost with the error), naming the folder.
   testing::TempDir dir;
   ASSERT_NO_FATAL_FAILURE(WriteModelAndSet(dir));
-  FitBenchmarkOptions options;
-  options.model = dir.File("model");
-  options.test_set = dir.File("set");
-  options.output_dir = dir.File("out");
-  options.markers = false;
+  FitBenchmarkOptions options = PosesAndScansOf(dir);
   options.sequence = true;
   std::ostringstream log;
   std::string error;
