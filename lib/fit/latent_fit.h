@@ -26,17 +26,17 @@ struct LatentFitOptions {
   // centred on the neutral. Each adds residuals sqrt(weight / W) L^-1 (x - mean) to the
   // data residuals sqrt(w_k / W) (p_k - y_k), W = sum_k w_k (the number of target
   // points for markers, poses and scans; with matching rounds, the matched weight). The
-  // weights are squared lengths in model units: the squared distance per target point that one
-  // standard deviation of the prior is worth. So the priors weigh less against many
+  // weights are squared lengths in model units: the squared distance per target point
+  // that one standard deviation of the prior is worth. So the priors weigh less against many
   // points than against a few markers, as a Bayesian posterior with that per-point
   // noise variance would (up to prior_points_cap). 0: off.
   // The bone prior's default, 0.01, was chosen on the demo's fit benchmark (docs/fitting.md,
   // 2026-12-01 third session): against 0.03 it tracks the marker sequence at 0.099 instead
   // of 0.137 and leaves the marker mixes, full-correspondence fits and scans within 1%.
-  // The latent prior's: at 0.01 the full face (latent 16) fits 20 / 60 markers closer
-  // (validation mixes 0.0949 -> 0.0802 / 0.0549 -> 0.0486), the demo (latent 8) as
-  // closely, but the fit of ICT's mouthClose (lips pushed through each other) then needs
-  // 263 s of contact instead of 11 in the demo: 0.03 stays, scans have their own
+  // The latent prior's default stays 0.03: at 0.01 the full face (latent 16) fits 20 / 60
+  // markers closer (validation mixes 0.0949 -> 0.0802 / 0.0549 -> 0.0486) and the demo
+  // (latent 8) as closely, but the demo's fit of ICT's mouthClose (lips pushed through
+  // each other) then needs 263 s of contact instead of 11. Scans have their own weight
   // (PointCloudFitOptions::latent_prior; docs/fitting.md, "The latent prior's weight").
   double latent_prior = 0.03;
   double bone_prior = 0.01;
