@@ -14,6 +14,7 @@
 
 #include "fit/fit_equilibrium.h"
 #include "fit/latent_fit.h"
+#include "fit/point_cloud_matching.h"
 #include "geometry/embedding.h"
 #include "geometry/triangle_bvh.h"
 
@@ -118,13 +119,8 @@ class LatentFitter::FitCost final : public ceres::CostFunction {
         d = d > 0 ? cap : -cap;
         clamped = true;
       }
-      double value = d, slope = 1.0;
-      if (s > 0) {
-        const double q = 1.0 + (d / s) * (d / s);
-        value = d / std::sqrt(q);
-        slope = 1.0 / (q * std::sqrt(q));
-      }
-      residuals[i] = scale * value;
+      double slope = 1.0;
+      residuals[i] = scale * RobustDistance(d, s, &slope);
       cloud_rows->col(i) = clamped ? Eigen::Vector3d::Zero() : Eigen::Vector3d(scale * slope * u);
     }
   }

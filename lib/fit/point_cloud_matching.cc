@@ -70,7 +70,8 @@ double CloudDataTerm(const Eigen::Matrix3Xd& points, const Eigen::Matrix3Xd& sur
     } else {
       ++count;
     }
-    sum += s > 0 ? d * d / (1.0 + (d / s) * (d / s)) : d * d;
+    const double r = RobustDistance(d, s, nullptr);
+    sum += r * r;
   }
   if (within != nullptr) *within = count;
   return points.cols() > 0 ? sum / static_cast<double>(points.cols()) : 0.0;

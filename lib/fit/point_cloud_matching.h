@@ -1,6 +1,8 @@
 #ifndef AQS_FIT_POINT_CLOUD_MATCHING_H_
 #define AQS_FIT_POINT_CLOUD_MATCHING_H_
 
+#include <cmath>
+
 #include <Eigen/Core>
 
 #include "fit/latent_fit.h"
@@ -18,6 +20,18 @@ namespace aqs {
 FitTarget MatchPointCloud(const Eigen::Matrix3Xd& points, const Eigen::Matrix3Xd& surface,
                           const Eigen::Matrix3Xi& triangles, const PointCloudFitOptions& options,
                           int num_threads, int* used, double* mean_distance);
+
+// The robust distance of scan fits, R(d) = d / sqrt(1 + (d/s)^2) (R(d) = d for s <= 0),
+// and in *slope (may be null) its derivative R'(d) = (1 + (d/s)^2)^(-3/2).
+inline double RobustDistance(double d, double s, double* slope) {
+  if (s <= 0) {
+    if (slope != nullptr) *slope = 1.0;
+    return d;
+  }
+  const double q = 1.0 + (d / s) * (d / s);
+  if (slope != nullptr) *slope = 1.0 / (q * std::sqrt(q));
+  return d / std::sqrt(q);
+}
 
 // The data term a scan fit with options.rematch_every_evaluation minimizes (FitCost's
 // cloud mode), at `surface` (3 x num_surface_vertices; `triangles` 3 x T):
