@@ -201,7 +201,9 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
     mixes.resize(options.max_mixes);
   }
   // The sequence and its truth frames are checked before any fit, so that bad input
-  // there cannot throw away the fits' results at the end.
+  // there cannot throw away the fits' results at the end. (RunFitSequence reads the
+  // frames again: a second read of small marker files, kept rather than a second entry
+  // point into the sequence job.)
   FitSequenceOptions sequence;
   sequence.sequence = options.test_set + "/sequence/markers";
   sequence.output_dir = options.output_dir + "/sequence";
