@@ -11,8 +11,10 @@
 #include <glog/logging.h>
 
 #include "equilibrium/stiffness_factorization.h"
+#include "eval/scan_error_split.h"
 #include "eval/surface_pca.h"
 #include "fit/chosen_start_fit.h"
+#include "geometry/plane_cuts.h"
 #include "io/vertex_list_io.h"
 #include "jobs/fit_sequence.h"
 #include "mesh/mesh_io.h"
@@ -48,7 +50,18 @@ struct Row {
   // fit with correspondence over this fit's. Below 1: that fit's surface matches the scan
   // better, and this fit stopped in a worse minimum.
   double pose_fit_objective_ratio = std::nan("");
+  // Scans: the measured vertices the scan sees (within kScannedSpacings of its sampling
+  // spacing of a scan point, on the true pose), and over them the fit's error and, with
+  // poses, the fit with correspondence's, split along the true surface's normals (what a
+  // scan measures) and across them (eval/scan_error_split.h). NaN where not measured.
+  int scanned = 0;
+  NormalTangentialError scanned_error{std::nan(""), std::nan(""), std::nan("")};
+  NormalTangentialError pose_fit_scanned_error{std::nan(""), std::nan(""), std::nan("")};
 };
+
+// A vertex of the true pose is in the region a scan sees if a scan point lies within
+// this many of the scan's sampling spacings (MedianPointSpacing) of it.
+constexpr double kScannedSpacings = 2.0;
 
 // Pearson's correlation of a and b (same size; NaN if either is constant).
 double Correlation(const std::vector<double>& a, const std::vector<double>& b) {
@@ -284,6 +297,9 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
   };
   // The current mix's fit with correspondence, where it succeeded (scans are judged by it).
   const LatentFitResult* pose_fit = nullptr;
+  // The current mix's scanned vertices and its true surface's unit vertex normals.
+  std::vector<int> scanned;
+  Eigen::Matrix3Xd truth_normals;
   LatentFitResult pose_result;
   // A physics fit to a target or a cloud, timed from the start choice to the result; with
   // `from` (clouds only), from its latent and bones without a start choice. `kept`: the
@@ -336,6 +352,13 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
         }
         r.predicted_std = Mean(predicted);
         r.std_error_correlation = Correlation(predicted, errors);
+      }
+      if (cloud != nullptr && !scanned.empty()) {
+        r.scanned = static_cast<int>(scanned.size());
+        r.scanned_error = SplitError(fit.surface, truth, truth_normals, scanned);
+        if (pose_fit != nullptr) {
+          r.pose_fit_scanned_error = SplitError(pose_fit->surface, truth, truth_normals, scanned);
+        }
       }
       if (cloud != nullptr && pose_fit != nullptr) {
         fitter.set_bone_transforms(pose_fit->bones);
@@ -398,6 +421,14 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
       Eigen::Matrix3Xd cloud;
       const std::string path = options.test_set + "/scans/" + mix + ".ply";
       if (!ReadPointCloud(path, &cloud, error)) return JobStatus::kBadInput;
+      scanned.clear();
+      if (cloud.cols() >= 2) {
+        const double spacing = MedianPointSpacing(cloud);
+        if (spacing > 0) {
+          scanned = VerticesNearCloud(truth.vertices, measured, cloud, kScannedSpacings * spacing);
+        }
+      }
+      truth_normals = VertexNormals(truth.vertices, model.neutral.triangles);
       physics(mix, "physics_scan", 0, nullptr, &cloud, options.points, truth.vertices);
       // The same scan with its landmarks, where the test set has them.
       const std::string landmarks = options.test_set + "/scans/" + mix + "_landmarks.txt";
@@ -496,14 +527,27 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
           std::make_pair(std::string("Scans from the fit with correspondence"),
                          scan_from_pose)}) {
       if (pose.empty() || set.empty()) continue;
-      int within = 0, missed_minimum = 0, judged = 0;
+      int within = 0, missed_minimum = 0, judged = 0, split = 0, beyond = 0, closer_normal = 0;
       double worst = 0, fraction = 0, distance = 0;
+      std::vector<double> seen, normal, tangential, pose_normal, pose_tangential;
       for (const auto& [mix, row] : set) {
         const double ratio = row.mean / pose.at(mix).mean;
         within += ratio <= 1.2;
         if (ratio > 1.2 && !std::isnan(row.pose_fit_objective_ratio)) {
           ++judged;
           missed_minimum += row.pose_fit_objective_ratio < 1;
+        }
+        if (row.scanned > 0 && !std::isnan(row.pose_fit_scanned_error.normal)) {
+          ++split;
+          seen.push_back(row.scanned);
+          normal.push_back(row.scanned_error.normal);
+          tangential.push_back(row.scanned_error.tangential);
+          pose_normal.push_back(row.pose_fit_scanned_error.normal);
+          pose_tangential.push_back(row.pose_fit_scanned_error.tangential);
+          if (ratio > 1.2) {
+            ++beyond;
+            closer_normal += row.scanned_error.normal <= row.pose_fit_scanned_error.normal;
+          }
         }
         worst = std::max(worst, ratio);
         fraction += row.matched_fraction / set.size();
@@ -515,7 +559,18 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
          << " on average. Of the " << judged << " beyond 1.2x, " << missed_minimum
          << " stopped where the scan's objective is larger than at the fit with "
             "correspondence (a worse minimum), " << judged - missed_minimum
-         << " where it is smaller (the scan prefers that pose).\n";
+         << " where it is smaller (the scan prefers that pose).";
+      if (split > 0) {
+        md << " Over the region the scans see (" << Fixed(Mean(seen), 0) << " of the "
+           << measured.size() << " vertices on average: within " << Fixed(kScannedSpacings, 0)
+           << " scan spacings of a scan point), along the true surface's normals the fits are "
+              "at " << Fixed(Mean(normal), 4) << " (the fits with correspondence "
+           << Fixed(Mean(pose_normal), 4) << "), across them at " << Fixed(Mean(tangential), 4)
+           << " (" << Fixed(Mean(pose_tangential), 4) << "). Beyond 1.2x and as close to the true surface along its normals there as the fit "
+              "with correspondence, or closer (an excess that is a slide along the surface, "
+              "which a scan does not measure): " << closer_normal << " of the " << beyond << ".";
+      }
+      md << "\n";
     }
   }
   if (options.fit.uncertainty) {
@@ -574,12 +629,17 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
   std::ostringstream csv;
   csv << "mix,method,markers,mean_error,max_error,seconds,iterations,converged,jaw_degrees,"
          "matched_fraction,matched_distance,predicted_std,std_error_correlation,"
-         "pose_fit_objective_ratio,start\n";
+         "pose_fit_objective_ratio,scanned_vertices,scanned_normal_error,"
+         "scanned_tangential_error,pose_fit_scanned_normal_error,"
+         "pose_fit_scanned_tangential_error,start\n";
   for (const Row& r : rows) {
     csv << r.mix << ',' << r.method << ',' << r.markers << ',' << r.mean << ',' << r.max << ','
         << r.seconds << ',' << r.iterations << ',' << r.converged << ',' << r.jaw_degrees << ','
         << r.matched_fraction << ',' << r.matched_distance << ',' << r.predicted_std << ','
-        << r.std_error_correlation << "," << r.pose_fit_objective_ratio << ",\"" << r.start
+        << r.std_error_correlation << "," << r.pose_fit_objective_ratio << ',' << r.scanned << ','
+        << r.scanned_error.normal << ',' << r.scanned_error.tangential << ','
+        << r.pose_fit_scanned_error.normal << ',' << r.pose_fit_scanned_error.tangential << ",\""
+        << r.start
         << "\"\n";  // quoted: it may hold commas
   }
   if (!WriteFileAtomically(options.output_dir + "/fit_benchmark.csv", csv.str(), error) ||

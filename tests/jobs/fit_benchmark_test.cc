@@ -112,6 +112,21 @@ TEST(FitBenchmarkTest, JudgesScanFitsByTheirOwnObjective) {
     EXPECT_GE(std::stod(from_pose.at("pose_fit_objective_ratio")), 1.0 - 1e-9);
     EXPECT_EQ(from_pose.at("start"), "the fit with correspondence");
     EXPECT_TRUE(std::isfinite(std::stod(from_pose.at("mean_error"))));
+    // Scans split their error over the vertices they see, along the true surface's normals
+    // and across them (each at most the whole distance), and the fit with correspondence's
+    // over the same vertices; poses have no scanned region.
+    EXPECT_EQ(rows.at(mix + " physics_pose").at("scanned_vertices"), "0");
+    EXPECT_EQ(rows.at(mix + " physics_pose").at("scanned_normal_error"), "nan");
+    for (const std::string method : {"physics_scan", "physics_scan_from_pose"}) {
+      const auto& row = rows.at(mix + " " + method);
+      EXPECT_GT(std::stoi(row.at("scanned_vertices")), 0) << method;
+      for (const std::string who : {"", "pose_fit_"}) {
+        const double normal = std::stod(row.at(who + "scanned_normal_error"));
+        const double tangential = std::stod(row.at(who + "scanned_tangential_error"));
+        EXPECT_TRUE(normal >= 0 && tangential >= 0) << method << " " << who;
+        EXPECT_GT(normal + tangential, 0) << method << " " << who;
+      }
+    }
   }
   const std::string md = testing::ReadAll(dir.File("out/fit_benchmark.md"));
   EXPECT_NE(md.find("| scan from the fit with correspondence (diagnostic) |"), std::string::npos)
@@ -120,6 +135,7 @@ TEST(FitBenchmarkTest, JudgesScanFitsByTheirOwnObjective) {
                     "correspondence"),
             std::string::npos)
       << md;
+  EXPECT_NE(md.find("Over the region the scans see"), std::string::npos) << md;
 }
 
 TEST(FitBenchmarkTest, ChecksTheSequenceBeforeAnyFit) {

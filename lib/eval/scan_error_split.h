@@ -1,0 +1,47 @@
+#ifndef AQS_EVAL_SCAN_ERROR_SPLIT_H_
+#define AQS_EVAL_SCAN_ERROR_SPLIT_H_
+
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace aqs {
+
+// What a scan fit's vertex error is made of, over the region the scan sees. A scan
+// measures where the surface is, not where each of its points went: a fit can slide the
+// surface along itself (a mouth corner moving sideways over a smooth cheek) at no cost
+// to the scan. So the error of a fit against the true pose (with correspondence) splits
+// into a part along the truth's normals, which the scan measures, and a tangential part,
+// which it does not.
+
+// The median distance from each point of `cloud` (3 x M, M >= 2) to its nearest other
+// point: the scan's sampling spacing. Points are bucketed in a uniform grid of cell
+// (bounding-box diagonal) / sqrt(M) (a surface sampled by M points is about that far
+// apart); each point counts the nearest other within the 27 cells around its own (its
+// nearest neighbour if closer than a cell; the cell size if there is none). O(M) for a
+// scan of a surface.
+double MedianPointSpacing(const Eigen::Matrix3Xd& cloud);
+
+// The entries v of `candidates` (column indices of `vertices`, 3 x n) with a point of
+// `cloud` (3 x M) within `radius` (> 0) of vertices.col(v), in the order given.
+std::vector<int> VerticesNearCloud(const Eigen::Matrix3Xd& vertices,
+                                   const std::vector<int>& candidates,
+                                   const Eigen::Matrix3Xd& cloud, double radius);
+
+// Mean error of a surface against the truth over some vertices, split along the truth's
+// unit vertex normals n: normal = mean |(s - t) . n|, tangential = mean |(s - t) - ((s -
+// t) . n) n|, total = mean |s - t|.
+struct NormalTangentialError {
+  double normal = 0.0;
+  double tangential = 0.0;
+  double total = 0.0;
+};
+
+// The split of surface (3 x n) against truth (3 x n) with the truth's unit vertex normals
+// `normals` (3 x n) over `vertices` (indices into the columns; all zero if empty).
+NormalTangentialError SplitError(const Eigen::Matrix3Xd& surface, const Eigen::Matrix3Xd& truth,
+                                 const Eigen::Matrix3Xd& normals, const std::vector<int>& vertices);
+
+}  // namespace aqs
+
+#endif  // AQS_EVAL_SCAN_ERROR_SPLIT_H_
