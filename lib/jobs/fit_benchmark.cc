@@ -57,6 +57,9 @@ struct Row {
   int scanned = 0;
   NormalTangentialError scanned_error{std::nan(""), std::nan(""), std::nan("")};
   NormalTangentialError pose_fit_scanned_error{std::nan(""), std::nan(""), std::nan("")};
+  // The same fits' mean error over the measured vertices the scan does not see (NaN if
+  // it sees them all).
+  double unscanned_error = std::nan(""), pose_fit_unscanned_error = std::nan("");
 };
 
 // A vertex of the true pose is in the region a scan sees if a scan point lies within
@@ -297,8 +300,9 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
   };
   // The current mix's fit with correspondence, where it succeeded (scans are judged by it).
   const LatentFitResult* pose_fit = nullptr;
-  // The current mix's scanned vertices and its true surface's unit vertex normals.
-  std::vector<int> scanned;
+  // The current mix's measured vertices the scan sees and does not see, and its true
+  // surface's unit vertex normals.
+  std::vector<int> scanned, unscanned;
   Eigen::Matrix3Xd truth_normals;
   LatentFitResult pose_result;
   // A physics fit to a target or a cloud, timed from the start choice to the result; with
@@ -356,8 +360,15 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
       if (cloud != nullptr && !scanned.empty()) {
         r.scanned = static_cast<int>(scanned.size());
         r.scanned_error = SplitError(fit.surface, truth, truth_normals, scanned);
+        if (!unscanned.empty()) {
+          r.unscanned_error = SplitError(fit.surface, truth, truth_normals, unscanned).total;
+        }
         if (pose_fit != nullptr) {
           r.pose_fit_scanned_error = SplitError(pose_fit->surface, truth, truth_normals, scanned);
+          if (!unscanned.empty()) {
+            r.pose_fit_unscanned_error =
+                SplitError(pose_fit->surface, truth, truth_normals, unscanned).total;
+          }
         }
       }
       if (cloud != nullptr && pose_fit != nullptr) {
@@ -422,11 +433,17 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
       const std::string path = options.test_set + "/scans/" + mix + ".ply";
       if (!ReadPointCloud(path, &cloud, error)) return JobStatus::kBadInput;
       scanned.clear();
+      unscanned.clear();
       if (cloud.cols() >= 2) {
         const double spacing = MedianPointSpacing(cloud);
         if (spacing > 0) {
           scanned = VerticesNearCloud(truth.vertices, measured, cloud, kScannedSpacings * spacing);
         }
+      }
+      std::vector<char> seen(ns, 0);
+      for (int v : scanned) seen[v] = 1;
+      for (int v : measured) {
+        if (!seen[v]) unscanned.push_back(v);
       }
       truth_normals = VertexNormals(truth.vertices, model.neutral.triangles);
       physics(mix, "physics_scan", 0, nullptr, &cloud, options.points, truth.vertices);
@@ -529,7 +546,8 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
       if (pose.empty() || set.empty()) continue;
       int within = 0, missed_minimum = 0, judged = 0, split = 0, beyond = 0, closer_normal = 0;
       double worst = 0, fraction = 0, distance = 0;
-      std::vector<double> seen, normal, tangential, pose_normal, pose_tangential;
+      std::vector<double> seen, normal, tangential, pose_normal, pose_tangential, unseen,
+          pose_unseen;
       for (const auto& [mix, row] : set) {
         const double ratio = row.mean / pose.at(mix).mean;
         within += ratio <= 1.2;
@@ -544,6 +562,10 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
           tangential.push_back(row.scanned_error.tangential);
           pose_normal.push_back(row.pose_fit_scanned_error.normal);
           pose_tangential.push_back(row.pose_fit_scanned_error.tangential);
+          if (!std::isnan(row.unscanned_error)) {
+            unseen.push_back(row.unscanned_error);
+            pose_unseen.push_back(row.pose_fit_unscanned_error);
+          }
           if (ratio > 1.2) {
             ++beyond;
             closer_normal += row.scanned_error.normal <= row.pose_fit_scanned_error.normal;
@@ -566,7 +588,12 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
            << " scan spacings of a scan point), along the true surface's normals the fits are "
               "at " << Fixed(Mean(normal), 4) << " (the fits with correspondence "
            << Fixed(Mean(pose_normal), 4) << "), across them at " << Fixed(Mean(tangential), 4)
-           << " (" << Fixed(Mean(pose_tangential), 4) << "). Beyond 1.2x and as close to the true surface along its normals there as the fit "
+           << " (" << Fixed(Mean(pose_tangential), 4) << ")";
+        if (!unseen.empty()) {
+          md << "; over the vertices they do not see, at " << Fixed(Mean(unseen), 4) << " ("
+             << Fixed(Mean(pose_unseen), 4) << ")";
+        }
+        md << ". Beyond 1.2x and as close to the true surface along its normals there as the fit "
               "with correspondence, or closer (an excess that is a slide along the surface, "
               "which a scan does not measure): " << closer_normal << " of the " << beyond << ".";
       }
@@ -631,14 +658,15 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
          "matched_fraction,matched_distance,predicted_std,std_error_correlation,"
          "pose_fit_objective_ratio,scanned_vertices,scanned_normal_error,"
          "scanned_tangential_error,pose_fit_scanned_normal_error,"
-         "pose_fit_scanned_tangential_error,start\n";
+         "pose_fit_scanned_tangential_error,unscanned_error,pose_fit_unscanned_error,start\n";
   for (const Row& r : rows) {
     csv << r.mix << ',' << r.method << ',' << r.markers << ',' << r.mean << ',' << r.max << ','
         << r.seconds << ',' << r.iterations << ',' << r.converged << ',' << r.jaw_degrees << ','
         << r.matched_fraction << ',' << r.matched_distance << ',' << r.predicted_std << ','
         << r.std_error_correlation << "," << r.pose_fit_objective_ratio << ',' << r.scanned << ','
         << r.scanned_error.normal << ',' << r.scanned_error.tangential << ','
-        << r.pose_fit_scanned_error.normal << ',' << r.pose_fit_scanned_error.tangential << ",\""
+        << r.pose_fit_scanned_error.normal << ',' << r.pose_fit_scanned_error.tangential << ','
+        << r.unscanned_error << ',' << r.pose_fit_unscanned_error << ",\""
         << r.start
         << "\"\n";  // quoted: it may hold commas
   }

@@ -96,6 +96,9 @@ TEST(FitBenchmarkTest, JudgesScanFitsByTheirOwnObjective) {
   std::ostringstream log;
   ASSERT_EQ(RunFitBenchmark(options, log, &error), JobStatus::kOk) << error << "\n" << log.str();
   const auto rows = ReadRows(dir.File("out/fit_benchmark.csv"));
+  SurfaceMesh pose;
+  ASSERT_TRUE(ReadObj(dir.File("set/poses/mix_000.obj"), &pose, &error)) << error;
+  const int num_vertices = pose.num_vertices();
   for (const std::string mix : {"mix_000", "mix_001"}) {
     ASSERT_TRUE(rows.count(mix + " physics_pose")) << mix;
     ASSERT_TRUE(rows.count(mix + " physics_scan")) << mix;
@@ -113,18 +116,19 @@ TEST(FitBenchmarkTest, JudgesScanFitsByTheirOwnObjective) {
     EXPECT_EQ(from_pose.at("start"), "the fit with correspondence");
     EXPECT_TRUE(std::isfinite(std::stod(from_pose.at("mean_error"))));
     // Scans split their error over the vertices they see, along the true surface's normals
-    // and across them (each at most the whole distance), and the fit with correspondence's
-    // over the same vertices; poses have no scanned region.
+    // and across them, and the fit with correspondence's over the same vertices; poses
+    // have no scanned region. These scans hold every vertex of their pose: all are seen.
     EXPECT_EQ(rows.at(mix + " physics_pose").at("scanned_vertices"), "0");
     EXPECT_EQ(rows.at(mix + " physics_pose").at("scanned_normal_error"), "nan");
     for (const std::string method : {"physics_scan", "physics_scan_from_pose"}) {
       const auto& row = rows.at(mix + " " + method);
-      EXPECT_GT(std::stoi(row.at("scanned_vertices")), 0) << method;
+      EXPECT_EQ(std::stoi(row.at("scanned_vertices")), num_vertices) << method;
       for (const std::string who : {"", "pose_fit_"}) {
         const double normal = std::stod(row.at(who + "scanned_normal_error"));
         const double tangential = std::stod(row.at(who + "scanned_tangential_error"));
         EXPECT_TRUE(normal >= 0 && tangential >= 0) << method << " " << who;
         EXPECT_GT(normal + tangential, 0) << method << " " << who;
+        EXPECT_EQ(row.at(who + "unscanned_error"), "nan") << method << " " << who;
       }
     }
   }
