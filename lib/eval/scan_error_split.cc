@@ -62,6 +62,15 @@ std::vector<int> VerticesNearCloud(const Eigen::Matrix3Xd& vertices,
   return near_cloud;
 }
 
+std::vector<int> ScannedVertices(const Eigen::Matrix3Xd& vertices,
+                                 const std::vector<int>& candidates,
+                                 const Eigen::Matrix3Xd& cloud) {
+  if (cloud.cols() < 2) return {};
+  const double spacing = MedianPointSpacing(cloud);
+  if (!(spacing > 0)) return {};
+  return VerticesNearCloud(vertices, candidates, cloud, kScannedSpacings * spacing);
+}
+
 NormalTangentialError SplitError(const Eigen::Matrix3Xd& surface, const Eigen::Matrix3Xd& truth,
                                  const Eigen::Matrix3Xd& normals, const std::vector<int>& vertices) {
   CHECK_EQ(surface.cols(), truth.cols());

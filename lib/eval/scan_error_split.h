@@ -28,6 +28,18 @@ std::vector<int> VerticesNearCloud(const Eigen::Matrix3Xd& vertices,
                                    const std::vector<int>& candidates,
                                    const Eigen::Matrix3Xd& cloud, double radius);
 
+// A vertex is in the region a scan sees if a scan point lies within this many of the
+// scan's sampling spacings (MedianPointSpacing) of it.
+constexpr double kScannedSpacings = 2.0;
+
+// The region a scan sees: the entries of `candidates` (columns of `vertices`, 3 x n, the
+// true surface) within kScannedSpacings x MedianPointSpacing(cloud) of a point of
+// `cloud` (3 x M), in the order given; empty if the cloud has fewer than 2 distinct
+// points.
+std::vector<int> ScannedVertices(const Eigen::Matrix3Xd& vertices,
+                                 const std::vector<int>& candidates,
+                                 const Eigen::Matrix3Xd& cloud);
+
 // Mean error of a surface against the truth over some vertices, split along the truth's
 // unit vertex normals n: normal = mean |(s - t) . n|, tangential = mean |(s - t) - ((s -
 // t) . n) n|, total = mean |s - t|.

@@ -386,14 +386,8 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
       Eigen::Matrix3Xd cloud;
       const std::string path = options.test_set + "/scans/" + mix + ".ply";
       if (!ReadPointCloud(path, &cloud, error)) return JobStatus::kBadInput;
-      scanned.clear();
+      scanned = ScannedVertices(truth.vertices, measured, cloud);
       unscanned.clear();
-      if (cloud.cols() >= 2) {
-        const double spacing = MedianPointSpacing(cloud);
-        if (spacing > 0) {
-          scanned = VerticesNearCloud(truth.vertices, measured, cloud, kScannedSpacings * spacing);
-        }
-      }
       std::vector<char> seen(ns, 0);
       for (int v : scanned) seen[v] = 1;
       for (int v : measured) {

@@ -45,10 +45,6 @@ struct FitBenchmarkRow {
   double unscanned_error = std::nan(""), pose_fit_unscanned_error = std::nan("");
 };
 
-// A vertex of the true pose is in the region a scan sees if a scan point lies within
-// this many of the scan's sampling spacings (MedianPointSpacing) of it.
-constexpr double kScannedSpacings = 2.0;
-
 // The summary's tables and sentences (markdown) of `rows`, for the parts `options` ran:
 // markers (ridge PCA, physics and the neutral per marker count), poses and scans (mean
 // errors, times, how scans compare with the fits with correspondence and where their

@@ -8,7 +8,9 @@
 
 #include <Eigen/Geometry>
 
+#include "eval/scan_error_split.h"
 #include "fit/chosen_start_fit.h"
+#include "geometry/plane_cuts.h"
 #include "io/latent_io.h"
 #include "jobs/deformed_output.h"
 #include "jobs/model_pose.h"
@@ -98,6 +100,29 @@ FitJobResult NotConverged(const FitJobOptions& options, const ActiveModel& model
     result.message += " (no finite state: nothing written)";
   }
   return result;
+}
+
+// For a scan fit compared with the true pose (3 x num_surface_vertices) over `vertices`:
+// logs the error over those the scan sees, split along the pose's normals (what a scan
+// measures) and across them (a slide along the surface, which it does not), and the error
+// over the others (eval/scan_error_split.h).
+void LogScanErrorSplit(const Eigen::Matrix3Xd& surface, const SurfaceMesh& truth,
+                       const ActiveModel& model, const std::vector<int>& vertices,
+                       const Eigen::Matrix3Xd& cloud, std::ostream& log) {
+  const std::vector<int> seen = ScannedVertices(truth.vertices, vertices, cloud);
+  const Eigen::Matrix3Xd normals = VertexNormals(truth.vertices, model.neutral.triangles);
+  const NormalTangentialError split = SplitError(surface, truth.vertices, normals, seen);
+  std::vector<char> in_scan(truth.vertices.cols(), 0);
+  for (int v : seen) in_scan[v] = 1;
+  std::vector<int> unseen;
+  for (int v : vertices) {
+    if (!in_scan[v]) unseen.push_back(v);
+  }
+  log << "  of them, " << seen.size() << " within " << kScannedSpacings
+      << " scan spacings of a scan point: mean " << split.total << ", along the pose's normals "
+      << split.normal << " (what a scan measures), across them " << split.tangential
+      << "; the " << unseen.size() << " others: mean "
+      << SplitError(surface, truth.vertices, normals, unseen).total << "\n";
 }
 
 }  // namespace
@@ -383,6 +408,7 @@ FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log) {
         << " vertices: mean " << result.compare_mean << " rms " << result.compare_rms << " max "
         << result.compare_max << " (the neutral surface: mean " << rest_sum / vertices.size()
         << ")\n";
+    if (kind == "points") LogScanErrorSplit(fit.surface, truth, model, vertices, cloud, log);
   }
   if (fit.failed || !std::isfinite(fit.mean_error) || !std::isfinite(fit.rms_error) ||
       !std::isfinite(fit.max_error)) {

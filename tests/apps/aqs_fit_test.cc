@@ -290,6 +290,22 @@ TEST_F(AqsFitTest, MarkersAndPointCloudTargets) {
   ASSERT_EQ(run.exit_code, 0) << run.output;
   EXPECT_NE(run.output.find(": points"), std::string::npos) << run.output;
   EXPECT_EQ(run.output.find("at each matching round"), std::string::npos) << run.output;
+  // Compared with the pose it samples: the error over the vertices the scan sees (those
+  // with x > 0.8, each a scan point itself, and neighbours within 2 spacings) splits
+  // along the pose's normals and across them.
+  run = RunCommand(Fit("--target=" + dir_->File("scan.ply") + " --output=" + dir_->File("s.obj") +
+                       " --max_distance=0.5 --robust_scale=0.05 --compare_to=" +
+                       dir_->File("test1.obj")));
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  const size_t seen_at = run.output.find("  of them, ");
+  ASSERT_NE(seen_at, std::string::npos) << run.output;
+  const int seen = std::stoi(run.output.substr(seen_at + 11));
+  EXPECT_GE(seen, static_cast<int>(order.size())) << run.output;
+  EXPECT_LT(seen, data_->model.neutral.num_vertices()) << run.output;
+  EXPECT_NE(run.output.find("within 2 scan spacings of a scan point: mean "), std::string::npos)
+      << run.output;
+  EXPECT_NE(run.output.find("(what a scan measures), across them"), std::string::npos)
+      << run.output;
   // --match_rounds: rounds of matching with fixed correspondences (2 here).
   run = RunCommand(Fit("--target=" + dir_->File("scan.ply") + " --output=" + dir_->File("s.obj") +
                        " --max_distance=0.5 --robust_scale=0.05 --match_rounds --rounds=2"));
