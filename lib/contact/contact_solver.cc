@@ -9,7 +9,7 @@
 #include <glog/logging.h>
 
 #include "geometry/embedding.h"
-#include "geometry/plane_cuts.h"
+#include "geometry/vertex_normals.h"
 #include "geometry/triangle_intersections.h"
 #include "mesh/mesh_measures.h"
 #include "util/parallel_for.h"

@@ -56,10 +56,6 @@ int AssignEmbeddingSides(const CutMesh& cut_mesh, const std::vector<PlaneCut>& c
                          const Eigen::Matrix3Xd& points, const Eigen::Matrix3Xd& normals,
                          double margin, Embedding* embedding);
 
-// Area-weighted vertex normals of a triangle surface (3 x num_vertices, unit length;
-// zero for vertices in no triangle).
-Eigen::Matrix3Xd VertexNormals(const Eigen::Matrix3Xd& vertices, const Eigen::Matrix3Xi& triangles);
-
 // Parses "nx,ny,nz,offset[,qx,qy,qz]@xmin,ymin,zmin,xmax,ymax,zmax" (q: the quadratic
 // coefficients, default 0). Returns false with *error.
 bool ParsePlaneCut(const std::string& text, PlaneCut* cut, std::string* error);

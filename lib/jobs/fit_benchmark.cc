@@ -14,7 +14,7 @@
 #include "eval/scan_error_split.h"
 #include "eval/surface_pca.h"
 #include "fit/chosen_start_fit.h"
-#include "geometry/plane_cuts.h"
+#include "geometry/vertex_normals.h"
 #include "io/vertex_list_io.h"
 #include "jobs/fit_benchmark_report.h"
 #include "jobs/fit_sequence.h"

@@ -10,7 +10,7 @@
 
 #include "eval/scan_error_split.h"
 #include "fit/chosen_start_fit.h"
-#include "geometry/plane_cuts.h"
+#include "geometry/vertex_normals.h"
 #include "io/latent_io.h"
 #include "jobs/deformed_output.h"
 #include "jobs/model_pose.h"
