@@ -415,7 +415,13 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
   std::ostringstream md;
   md << "Test set " << options.test_set << ": " << mixes.size() << " mixes; errors in model units "
      << "(mean vertex distance over " << measured.size() << " vertices).\n\n";
-  md << FitBenchmarkTables(rows, options, measured.size());
+  FitBenchmarkParts parts;
+  parts.markers = options.markers;
+  parts.poses = options.poses;
+  parts.scans = options.scans;
+  parts.marker_counts = options.marker_counts;
+  parts.uncertainty = options.fit.uncertainty;
+  md << FitBenchmarkTables(rows, parts, measured.size());
   if (options.sequence) {
     fs::remove_all(sequence.output_dir, code);
     FitSequenceResult result = RunFitSequence(sequence, model, log);

@@ -34,7 +34,7 @@ using fit_benchmark::Mean;
 using fit_benchmark::Median;
 
 std::string FitBenchmarkTables(const std::vector<FitBenchmarkRow>& rows,
-                               const FitBenchmarkOptions& options, size_t num_measured) {
+                               const FitBenchmarkParts& parts, size_t num_measured) {
   auto select = [&](const std::string& method, int markers) {
     std::map<std::string, FitBenchmarkRow> by_mix;
     for (const FitBenchmarkRow& r : rows) {
@@ -44,11 +44,11 @@ std::string FitBenchmarkTables(const std::vector<FitBenchmarkRow>& rows,
   };
   std::ostringstream md;
   const std::map<std::string, FitBenchmarkRow> neutral = select("neutral", 0);
-  if (options.markers) {
+  if (parts.markers) {
     md << "| markers | neutral | ridge PCA | physics | physics < PCA | PCA > neutral | physics > "
           "neutral | physics worst / neutral | fit s median | max | factorizations median |\n"
        << "| ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n";
-    for (int k : options.marker_counts) {
+    for (int k : parts.marker_counts) {
       const auto p = select("pca", k), f = select("physics", k);
       std::vector<double> n_err, p_err, f_err, secs, work;
       int better = 0, pca_worse = 0, phys_worse = 0;
@@ -73,7 +73,7 @@ std::string FitBenchmarkTables(const std::vector<FitBenchmarkRow>& rows,
     }
     md << "\n";
   }
-  if (options.poses || options.scans) {
+  if (parts.poses || parts.scans) {
     const auto pose = select("physics_pose", 0), scan = select("physics_scan", 0),
                scan_landmarks = select("physics_scan_landmarks", 0),
                scan_from_pose = select("physics_scan_from_pose", 0),
@@ -168,7 +168,7 @@ std::string FitBenchmarkTables(const std::vector<FitBenchmarkRow>& rows,
       md << "\n";
     }
   }
-  if (options.fit.uncertainty) {
+  if (parts.uncertainty) {
     // How well each kind of fit knows its own error: the predicted standard deviation
     // against the error, and their correlation over the vertices of each fit.
     md << "\n| fit | mean error | predicted standard deviation | correlation over the vertices "

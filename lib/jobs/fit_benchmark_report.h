@@ -9,7 +9,6 @@
 #include <vector>
 
 #include "eval/scan_error_split.h"
-#include "jobs/fit_benchmark.h"
 
 namespace aqs {
 
@@ -45,13 +44,20 @@ struct FitBenchmarkRow {
   double unscanned_error = std::nan(""), pose_fit_unscanned_error = std::nan("");
 };
 
-// The summary's tables and sentences (markdown) of `rows`, for the parts `options` ran:
-// markers (ridge PCA, physics and the neutral per marker count), poses and scans (mean
-// errors, times, how scans compare with the fits with correspondence and where their
-// error lies), and, with options.fit.uncertainty, predicted against actual errors.
-// num_measured: the number of vertices the errors are measured over.
+// What a benchmark run fitted, for its tables (FitBenchmarkOptions' parts).
+struct FitBenchmarkParts {
+  bool markers = false, poses = false, scans = false;
+  std::vector<int> marker_counts;  // with markers
+  bool uncertainty = false;        // rows carry predicted standard deviations
+};
+
+// The summary's tables and sentences (markdown) of `rows`, for the parts run: markers
+// (ridge PCA, physics and the neutral per marker count), poses and scans (mean errors,
+// times, how scans compare with the fits with correspondence and where their error
+// lies), and, with uncertainty, predicted against actual errors. num_measured: the number
+// of vertices the errors are measured over.
 std::string FitBenchmarkTables(const std::vector<FitBenchmarkRow>& rows,
-                               const FitBenchmarkOptions& options, size_t num_measured);
+                               const FitBenchmarkParts& parts, size_t num_measured);
 
 // fit_benchmark.csv: a header line, then one line per row (the start quoted).
 std::string FitBenchmarkCsv(const std::vector<FitBenchmarkRow>& rows);
