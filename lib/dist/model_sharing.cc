@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "model/model_fingerprint.h"
+#include "util/fnv_hash.h"
 
 namespace aqs {
 namespace {

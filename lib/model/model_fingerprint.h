@@ -22,11 +22,6 @@ uint64_t ModelFingerprint(const ActiveModel& model);
 std::string FingerprintText(uint64_t fingerprint);
 bool ParseFingerprint(const std::string& text, uint64_t* fingerprint);
 
-// FNV-1a, 64 bits, of `bytes` bytes at `data`, continuing from `hash` (start with
-// kFnvOffsetBasis).
-constexpr uint64_t kFnvOffsetBasis = 1469598103934665603ull;
-uint64_t Fnv1a(const void* data, size_t bytes, uint64_t hash);
-
 }  // namespace aqs
 
 #endif  // AQS_MODEL_MODEL_FINGERPRINT_H_

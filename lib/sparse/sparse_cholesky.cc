@@ -6,7 +6,7 @@
 #include <cholmod.h>
 #include <glog/logging.h>
 
-#include "model/model_fingerprint.h"  // Fnv1a
+#include "util/fnv_hash.h"
 #include "util/wall_timer.h"
 
 namespace aqs {
