@@ -7,7 +7,7 @@
 
 #include <Eigen/Core>
 
-#include "equilibrium/boundary_conditions.h"
+#include "physics/boundary_conditions.h"
 #include "equilibrium/energy_term.h"
 #include "equilibrium/stiffness_factorization.h"
 #include "physics/actuation.h"

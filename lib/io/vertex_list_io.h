@@ -6,7 +6,7 @@
 
 #include <Eigen/Core>
 
-#include "equilibrium/boundary_conditions.h"
+#include "physics/boundary_conditions.h"
 
 namespace aqs {
 

@@ -8,7 +8,7 @@
 
 #include <Eigen/Core>
 
-#include "equilibrium/boundary_conditions.h"
+#include "physics/boundary_conditions.h"
 #include "geometry/embedding.h"
 #include "geometry/rigid_transform.h"
 #include "learn/decoder.h"

@@ -7,7 +7,7 @@
 #include <Eigen/Eigenvalues>
 #include <gtest/gtest.h>
 
-#include "equilibrium/boundary_conditions.h"
+#include "physics/boundary_conditions.h"
 #include "physics/stiffness_assembly.h"
 #include "testing/test_meshes.h"
 

@@ -4,7 +4,7 @@
 
 #include <gtest/gtest.h>
 
-#include "equilibrium/boundary_conditions.h"
+#include "physics/boundary_conditions.h"
 #include "physics/stiffness_assembly.h"
 #include "testing/test_meshes.h"
 

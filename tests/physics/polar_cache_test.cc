@@ -7,7 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "diff/actuation_force_products.h"
-#include "equilibrium/boundary_conditions.h"
+#include "physics/boundary_conditions.h"
 #include "physics/shape_target_model.h"
 #include "physics/stiffness_assembly.h"
 #include "sparse/stiffness_pattern.h"

@@ -6,7 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "physics/stiffness_assembly.h"
-#include "equilibrium/boundary_conditions.h"
+#include "physics/boundary_conditions.h"
 #include "testing/finite_difference.h"
 #include "testing/test_meshes.h"
 

@@ -5,7 +5,7 @@
 
 #include <Eigen/Core>
 
-#include "equilibrium/boundary_conditions.h"
+#include "physics/boundary_conditions.h"
 #include "mesh/tet_mesh.h"
 #include "physics/actuation.h"
 

@@ -1,4 +1,4 @@
-#include "equilibrium/boundary_conditions.h"
+#include "physics/boundary_conditions.h"
 
 #include <sstream>
 

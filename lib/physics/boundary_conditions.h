@@ -1,5 +1,5 @@
-#ifndef AQS_EQUILIBRIUM_BOUNDARY_CONDITIONS_H_
-#define AQS_EQUILIBRIUM_BOUNDARY_CONDITIONS_H_
+#ifndef AQS_PHYSICS_BOUNDARY_CONDITIONS_H_
+#define AQS_PHYSICS_BOUNDARY_CONDITIONS_H_
 
 #include <string>
 #include <vector>
@@ -29,4 +29,4 @@ std::vector<bool> FixedVertexMask(const BoundaryConditions& bc, int num_vertices
 
 }  // namespace aqs
 
-#endif  // AQS_EQUILIBRIUM_BOUNDARY_CONDITIONS_H_
+#endif  // AQS_PHYSICS_BOUNDARY_CONDITIONS_H_
