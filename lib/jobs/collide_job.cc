@@ -6,12 +6,12 @@
 #include <sstream>
 
 #include "fit/latent_fit.h"
+#include "geometry/points_near_model.h"
 #include "jobs/deformed_output.h"
 #include "jobs/model_pose.h"
 #include "mesh/mesh_io.h"
 #include "mesh/ply_io.h"
 #include "model/model_io.h"
-#include "prepare/pose_files.h"
 #include "util/atomic_file.h"
 #include "util/input_file.h"
 #include "util/option_checks.h"

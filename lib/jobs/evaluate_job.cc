@@ -14,6 +14,7 @@
 #include "eval/held_out_overlap.h"
 #include "eval/surface_pca.h"
 #include "fit/chosen_start_fit.h"
+#include "geometry/points_near_model.h"
 #include "jobs/report_script.h"
 #include "mesh/mesh_io.h"
 #include "mesh/ply_io.h"

@@ -10,6 +10,7 @@
 
 #include "eval/scan_error_split.h"
 #include "fit/chosen_start_fit.h"
+#include "geometry/points_near_model.h"
 #include "geometry/vertex_normals.h"
 #include "io/latent_io.h"
 #include "jobs/deformed_output.h"
@@ -17,7 +18,6 @@
 #include "mesh/mesh_io.h"
 #include "mesh/ply_io.h"
 #include "model/model_io.h"
-#include "prepare/pose_files.h"
 #include "util/blas.h"
 #include "util/file_extension.h"
 #include "util/input_file.h"

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "geometry/embedding.h"
+#include "geometry/points_near_model.h"
 #include "geometry/vertex_normals.h"
 #include "mesh/element_subset.h"
 #include "mesh/mesh_io.h"

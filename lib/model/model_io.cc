@@ -10,11 +10,11 @@
 
 #include <glog/logging.h>
 
+#include "geometry/points_near_model.h"
 #include "io/actuation_io.h"
 #include "mesh/mesh_io.h"
 #include "model/model_directory.h"
 #include "model/model_fingerprint.h"
-#include "prepare/pose_files.h"
 #include "util/atomic_file.h"
 #include "util/line_reader.h"
 #include "util/matrix_io.h"

@@ -33,19 +33,6 @@ bool ReadPoseSurfaces(const std::vector<std::string>& paths, int num_vertices, i
                       std::vector<std::string>* names, std::vector<Eigen::Matrix3Xd>* surfaces,
                       std::string* error);
 
-// Surfaces and points given for a model (poses, held-out poses, fit targets) must lie
-// within this many model sizes (the diagonal of the neutral's bounding box) of the
-// neutral's bounding-box centre: farther, they are in another frame or unit, or broken
-// (1e20 in a pose, 1e154 in a scan), and fitting or simulating towards them overflows or
-// runs on.
-constexpr double kMaxDistanceInModelSizes = 1e3;
-
-// Checks every column of `points` against kMaxDistanceInModelSizes for the neutral
-// surface's vertices `neutral`. Returns false with *error naming `path`, the point, its
-// distance and the model's size.
-bool CheckPointsNearModel(const std::string& path, const Eigen::Matrix3Xd& neutral,
-                          const Eigen::Matrix3Xd& points, std::string* error);
-
 }  // namespace aqs
 
 #endif  // AQS_PREPARE_POSE_FILES_H_

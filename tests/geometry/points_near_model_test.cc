@@ -1,0 +1,53 @@
+#include "geometry/points_near_model.h"
+
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include <gtest/gtest.h>
+
+namespace aqs {
+namespace {
+
+// The unit cube's corners: bounding-box centre (0.5, 0.5, 0.5), size sqrt(3).
+Eigen::Matrix3Xd UnitCubeCorners() {
+  Eigen::Matrix3Xd corners(3, 8);
+  for (int i = 0; i < 8; ++i) corners.col(i) << (i & 1), (i >> 1) & 1, (i >> 2) & 1;
+  return corners;
+}
+
+TEST(PointsNearModelTest, AcceptsPointsWithinTheLimitAndNamesTheFirstBeyondIt) {
+  const Eigen::Matrix3Xd neutral = UnitCubeCorners();
+  const double limit = kMaxDistanceInModelSizes * std::sqrt(3.0);
+  Eigen::Matrix3Xd points = Eigen::Matrix3Xd::Constant(3, 3, 0.5);
+  points(0, 1) = 0.5 + 0.999 * limit;
+  std::string error;
+  EXPECT_TRUE(CheckPointsNearModel("scan.ply", neutral, points, &error)) << error;
+
+  points(0, 2) = 0.5 + 1.001 * limit;
+  EXPECT_FALSE(CheckPointsNearModel("scan.ply", neutral, points, &error));
+  EXPECT_EQ(error.rfind("scan.ply: point 2 (", 0), 0u) << error;
+  EXPECT_NE(error.find("another frame or unit"), std::string::npos) << error;
+}
+
+TEST(PointsNearModelTest, RefusesNonFinitePoints) {
+  const Eigen::Matrix3Xd neutral = UnitCubeCorners();
+  Eigen::Matrix3Xd points = Eigen::Matrix3Xd::Zero(3, 2);
+  std::string error;
+  points(2, 1) = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(CheckPointsNearModel("pose.obj", neutral, points, &error));
+  EXPECT_EQ(error.rfind("pose.obj: point 1 (", 0), 0u) << error;
+  points(2, 1) = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(CheckPointsNearModel("pose.obj", neutral, points, &error));
+  points(2, 1) = 1e154;  // its squared norm overflows; the check must not pass it
+  EXPECT_FALSE(CheckPointsNearModel("pose.obj", neutral, points, &error));
+}
+
+TEST(PointsNearModelTest, AnEmptyNeutralChecksNothing) {
+  std::string error;
+  EXPECT_TRUE(CheckPointsNearModel("pose.obj", Eigen::Matrix3Xd(3, 0),
+                                   Eigen::Matrix3Xd::Constant(3, 1, 1e30), &error));
+}
+
+}  // namespace
+}  // namespace aqs
