@@ -21,6 +21,8 @@
 
 namespace aqs {
 
+struct PointOnLine;
+
 // The end-to-end training objective (see TrainEndToEnd) as a Ceres FirstOrderFunction
 // over the flat vector [decoder params (num_parameters); z_1; ...; z_P (latent_dim each)]:
 //
@@ -178,6 +180,45 @@ class EndToEndObjective final : public ceres::FirstOrderFunction {
   // The evaluation on this rank's poses and the reductions (collective when
   // distributed). cost and gradient receive the totals on rank 0.
   bool EvaluateHere(const double* parameters, double* cost, double* gradient) const;
+  // EvaluateHere's parts. On owned pose k (pose p = owned_[k]) with the worker of
+  // thread t (its own with a solver per pose) and actuation a (6 x num_elements):
+  // EvaluatePose solves the equilibrium (solved: 3 x num_vertices), records the pose's
+  // loss and errors and, with_gradient, its dL_p/da (dl_da: 6 x num_elements); a failure
+  // is left in failures_[p]. `line`: a line-search trial's line (null: none). It adds
+  // the pose's work to `counters`.
+  void EvaluatePose(int k, int t, const ActuationMatrix& a, const PointOnLine* line,
+                    bool with_gradient, Eigen::Matrix3Xd* solved, ActuationMatrix* dl_da,
+                    Counters* counters) const;
+  // Sets the worker's solver to pose k's fixed positions, actuation a and warm start, and
+  // its factor (the pose's stored one, else a refresh); returns how the solve starts,
+  // for the per-pose trace.
+  const char* StartPose(int k, const ActuationMatrix& a, Worker* w) const;
+  // From the converged solve in w: the equilibrium (solved), the loss (RecordPoseLoss)
+  // and, with_gradient, dL_p/da by the adjoint, leaving an unstable equilibrium or
+  // shifting the stiffness where K is not positive definite. Returns false with
+  // failures_[p] set. `trace` receives the adjoint's CG counts (with_gradient).
+  struct AdjointTrace {
+    int reused = 0;      // adjoints solved by CG on an earlier factor
+    int indefinite = 0;  // CG solves that found K indefinite
+  };
+  bool PoseGradient(int p, const ActuationMatrix& a, bool with_gradient, Worker* w,
+                    Eigen::Matrix3Xd* solved, ActuationMatrix* dl_da, Counters* counters,
+                    AdjointTrace* trace) const;
+  // pose_loss_[p], pose_mean_[p], pose_max_[p] at equilibrium x (3 x num_vertices);
+  // diff: the embedded surface minus the pose's (3 x num_surface_vertices); energy_da:
+  // dE/da at x when energy_regularization > 0 (else untouched).
+  void RecordPoseLoss(int p, const Eigen::Matrix3Xd& x, const ActuationMatrix& a, Worker* w,
+                      Eigen::Matrix3Xd* diff, ActuationMatrix* energy_da) const;
+  // The data term's factor 1/(P N) and the energy regularizer's (1/P) lambda_E /
+  // sum_e mu_e V_e.
+  double LossScale() const;
+  double EnergyScale() const;
+  // Distributed: every pose's loss, mean and max error summed onto rank 0 (collective).
+  void GatherPoseErrorsToRoot() const;
+  // The gradient (NumParameters()) on rank 0: the owned poses' dL/da back through the
+  // decoder (summed over ranks; collective when distributed), plus the regularizers'.
+  void BackPropagate(const double* parameters, const DecoderWorkspace& workspace,
+                     const std::vector<ActuationMatrix>& dl_da, double* gradient) const;
   void CollectStatesHere(const double* parameters, std::vector<Eigen::Matrix3Xd>* states) const;
   LatentRefitReport RefitHere(ActiveModel* model, double* parameters);
 
