@@ -10,8 +10,8 @@
 #include "contact/contact_solver.h"
 #include "geometry/distance/edge_distance.h"
 #include "geometry/distance/plane_distance.h"
-#include "geometry/vertex_normals.h"
 #include "geometry/triangle_grid.h"
+#include "geometry/vertex_normals.h"
 #include "mesh/mesh_measures.h"
 #include "util/parallel_for.h"
 

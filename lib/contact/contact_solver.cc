@@ -9,11 +9,11 @@
 #include <glog/logging.h>
 
 #include "geometry/embedding.h"
-#include "geometry/vertex_normals.h"
 #include "geometry/triangle_intersections.h"
+#include "geometry/vertex_normals.h"
 #include "mesh/mesh_measures.h"
-#include "util/parallel_for.h"
 #include "util/option_checks.h"
+#include "util/parallel_for.h"
 
 namespace aqs {
 

@@ -7,10 +7,10 @@
 
 #include <Eigen/Core>
 
-#include "physics/boundary_conditions.h"
 #include "equilibrium/energy_term.h"
 #include "equilibrium/stiffness_factorization.h"
 #include "physics/actuation.h"
+#include "physics/boundary_conditions.h"
 #include "physics/shape_target_model.h"
 
 namespace ceres {

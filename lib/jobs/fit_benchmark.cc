@@ -24,8 +24,8 @@
 #include "util/atomic_file.h"
 #include "util/blas.h"
 #include "util/line_reader.h"
-#include "util/wall_timer.h"
 #include "util/option_checks.h"
+#include "util/wall_timer.h"
 
 namespace aqs {
 namespace {

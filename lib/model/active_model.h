@@ -8,14 +8,14 @@
 
 #include <Eigen/Core>
 
-#include "physics/boundary_conditions.h"
 #include "geometry/embedding.h"
 #include "geometry/rigid_transform.h"
 #include "learn/decoder.h"
-#include "model/fit_prior.h"
 #include "mesh/surface_mesh.h"
 #include "mesh/tet_mesh.h"
+#include "model/fit_prior.h"
 #include "physics/actuation.h"
+#include "physics/boundary_conditions.h"
 
 namespace aqs {
 

@@ -5,8 +5,8 @@
 #include <Eigen/Cholesky>
 #include <gtest/gtest.h>
 
-#include "physics/stiffness_assembly.h"
 #include "physics/boundary_conditions.h"
+#include "physics/stiffness_assembly.h"
 #include "testing/finite_difference.h"
 #include "testing/test_meshes.h"
 

@@ -5,9 +5,9 @@
 
 #include <Eigen/Core>
 
-#include "physics/boundary_conditions.h"
 #include "mesh/tet_mesh.h"
 #include "physics/actuation.h"
+#include "physics/boundary_conditions.h"
 
 namespace aqs {
 namespace testing {
