@@ -8,6 +8,7 @@
 
 #include "eval/surface_autoencoder.h"
 #include "fit/latent_fit.h"
+#include "jobs/evaluation_report.h"
 #include "prepare/volumetric_targets.h"
 
 namespace aqs {
@@ -71,16 +72,6 @@ struct EvaluateJobOptions {
 
   // Checks every field; false with *error naming the first bad one (util/option_checks.h).
   bool Validate(std::string* error) const;
-};
-
-// One row of the evaluation: the vertex distances of one method on one pose.
-struct EvaluationRow {
-  std::string split;   // "train" or "test"
-  std::string pose;
-  // "neutral" (the rest surface, for reference), "physics", "autoencoder", "pca"; the
-  // error budget's "floor" (training and held-out poses) and "pretrain" (training).
-  std::string method;
-  double mean = 0.0, rms = 0.0, max = 0.0;
 };
 
 // Runs the evaluation: trains the baselines on the model's training poses, measures

@@ -1,0 +1,256 @@
+#include "jobs/evaluation_report.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <sstream>
+
+namespace aqs {
+
+const char* const kEvaluationMethods[kNumEvaluationMethods] = {"physics", "autoencoder", "pca",
+                                                               "pca_neutral"};
+const char* const kNeutralMethod = "neutral";
+
+namespace {
+
+std::string Number(double v) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.4f", v);
+  return text;
+}
+
+// How the auto-encoder's hidden layers compare with the decoder's, for the report.
+std::string LayoutNote(const std::vector<int>& decoder, const std::vector<int>& autoencoder) {
+  if (decoder == autoencoder) return "the same network layout";
+  auto widths = [](const std::vector<int>& w) {
+    if (w.empty()) return std::string("none (linear)");
+    std::string text;
+    for (size_t i = 0; i < w.size(); ++i) text += (i ? "," : "") + std::to_string(w[i]);
+    return text;
+  };
+  return "hidden layers " + widths(autoencoder) + " (the physics decoder's: " + widths(decoder) +
+         ")";
+}
+
+// How the auto-encoder's linear skip compares with the decoder's, for the report.
+std::string SkipNote(bool decoder, bool autoencoder) {
+  if (decoder == autoencoder) return decoder ? " and the same linear skip" : "";
+  return autoencoder ? " and a linear skip (the physics decoder has none)"
+                     : " and no linear skip (the physics decoder has one)";
+}
+
+}  // namespace
+
+Eigen::VectorXd VertexErrors(const Eigen::Matrix3Xd& a, const Eigen::Matrix3Xd& b) {
+  return (a - b).colwise().norm().transpose();
+}
+
+EvaluationRow SummarizeErrors(const std::string& split, const std::string& pose,
+                              const std::string& method, const Eigen::VectorXd& errors,
+                              const std::vector<int>& vertices) {
+  EvaluationRow row;
+  row.split = split;
+  row.pose = pose;
+  row.method = method;
+  double sum = 0, squares = 0, worst = 0;
+  int n = 0;
+  auto add = [&](double e) {
+    sum += e;
+    squares += e * e;
+    worst = std::max(worst, e);
+    ++n;
+  };
+  if (vertices.empty()) {
+    for (Eigen::Index i = 0; i < errors.size(); ++i) add(errors[i]);
+  } else {
+    for (int v : vertices) add(errors[v]);
+  }
+  row.mean = n > 0 ? sum / n : 0;
+  row.rms = n > 0 ? std::sqrt(squares / n) : 0;
+  row.max = worst;
+  return row;
+}
+
+std::string EvaluationTable(const std::vector<EvaluationRow>& rows, const std::string& split) {
+  // pose -> method -> row
+  std::vector<std::string> poses;
+  std::map<std::string, std::map<std::string, EvaluationRow>> table;
+  for (const EvaluationRow& row : rows) {
+    if (row.split != split) continue;
+    if (table.find(row.pose) == table.end()) poses.push_back(row.pose);
+    table[row.pose][row.method] = row;
+  }
+  if (poses.empty()) return "";
+  std::string out = "| " + split +
+                    " pose | neutral mean | physics mean | rms | max | autoencoder mean | "
+                    "rms | max | PCA mean | rms | max | PCA (neutral) mean | rms | max |\n"
+                    "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+  std::map<std::string, EvaluationRow> average;
+  double neutral_average = 0;
+  for (const std::string& pose : poses) {
+    const auto neutral = table[pose].find(kNeutralMethod);
+    const double neutral_mean = neutral == table[pose].end() ? 0.0 : neutral->second.mean;
+    neutral_average += neutral_mean / poses.size();
+    out += "| " + pose + " | " + Number(neutral_mean);
+    for (const char* method : kEvaluationMethods) {
+      const EvaluationRow& r = table[pose][method];
+      out += " | " + Number(r.mean) + " | " + Number(r.rms) + " | " + Number(r.max);
+      EvaluationRow& a = average[method];
+      a.mean += r.mean / poses.size();
+      a.rms += r.rms / poses.size();
+      a.max = std::max(a.max, r.max);
+    }
+    out += " |\n";
+  }
+  out += "| **mean** (max of max) | " + Number(neutral_average);
+  for (const char* method : kEvaluationMethods) {
+    const EvaluationRow& a = average[method];
+    out += " | **" + Number(a.mean) + "** | " + Number(a.rms) + " | " + Number(a.max);
+  }
+  out += " |\n";
+  return out;
+}
+
+std::string ErrorBudgetTable(const std::vector<EvaluationRow>& rows, const std::string& split,
+                             const std::vector<std::pair<std::string, std::string>>& columns) {
+  std::vector<std::string> poses;
+  std::map<std::string, std::map<std::string, EvaluationRow>> table;
+  for (const EvaluationRow& row : rows) {
+    if (row.split != split) continue;
+    if (table.find(row.pose) == table.end()) poses.push_back(row.pose);
+    table[row.pose][row.method] = row;
+  }
+  if (poses.empty()) return "";
+  std::string out = "| " + split + " pose |";
+  std::string rule = "|---|";
+  for (const auto& column : columns) {
+    out += " " + column.second + " |";
+    rule += "---:|";
+  }
+  out += "\n" + rule + "\n";
+  std::vector<double> sum(columns.size(), 0.0), worst(columns.size(), 0.0);
+  std::vector<int> count(columns.size(), 0);
+  for (const std::string& pose : poses) {
+    out += "| " + pose;
+    for (size_t c = 0; c < columns.size(); ++c) {
+      const auto it = table[pose].find(columns[c].first);
+      if (it == table[pose].end()) {
+        out += " | n/a";
+        continue;
+      }
+      out += " | " + Number(it->second.mean);
+      sum[c] += it->second.mean;
+      worst[c] = std::max(worst[c], it->second.max);
+      ++count[c];
+    }
+    out += " |\n";
+  }
+  out += "| **mean**";
+  for (size_t c = 0; c < columns.size(); ++c) {
+    out += count[c] == static_cast<int>(poses.size()) ? " | **" + Number(sum[c] / count[c]) + "**"
+                                                       : std::string(" | n/a");
+  }
+  out += " |\n| max vertex error";
+  for (size_t c = 0; c < columns.size(); ++c) {
+    out += count[c] > 0 ? " | " + Number(worst[c]) : std::string(" |");
+  }
+  out += " |\n";
+  return out;
+}
+
+EvaluationTables MakeEvaluationTables(const std::vector<EvaluationRow>& rows,
+                                      const EvaluationReportParts& parts) {
+  EvaluationTables tables;
+  tables.train = EvaluationTable(rows, "train");
+  tables.test = EvaluationTable(rows, "test");
+  if (!parts.error_budget) return tables;
+  std::ostringstream b;
+  b << "## Error budget\n\n"
+    << "Where the physics model's error comes from (mean vertex error over the same "
+    << parts.num_error_vertices << " vertices). **(a) floor**: the pose's own volumetric target "
+    << "(prepare's embedded simulation of the pose) simulated: what a perfect decoder could "
+    << "reach on this simulation mesh and embedding. **(b) after pre-training**: the "
+    << "pre-trained decoder's actuation of the pose's latent, simulated (pre-training fits the "
+    << "targets, not the surfaces). **(c) trained**: the end-to-end trained model simulated "
+    << "(the physics column above). (c) - (a) is what the decoder and its latent space still "
+    << "miss; (b) - (c) what end-to-end training recovered.\n\n"
+    << ErrorBudgetTable(rows, "train",
+                        {{kNeutralMethod, "neutral"}, {"floor", "(a) floor"},
+                         {"pretrain", "(b) after pre-training"}, {"physics", "(c) trained"}});
+  if (!parts.have_pretrain) {
+    b << "\n(b) is not recorded in this model: it is measured when pre-training ends "
+      << "(`--pretrain_simulate`, pretrain/surface_errors.* in the model directory).\n";
+  }
+  if (!parts.test_names.empty()) {
+    b << "\nHeld-out poses: **floor**: the pose's own volumetric target, made by prepare's "
+      << "embedded simulation with the bones where the physics fit put them, simulated; "
+      << "**physics fit**: latent and bones fitted through the simulator. physics - floor is "
+      << "what the learned latent space misses of this pose.\n\n"
+      << ErrorBudgetTable(rows, "test",
+                          {{kNeutralMethod, "neutral"}, {"floor", "floor"},
+                           {"physics", "physics fit"}, {"autoencoder", "autoencoder"},
+                           {"pca", "PCA"}, {"pca_neutral", "PCA (neutral)"}});
+    if (!parts.have_held_out_floor) b << "\n(The held-out floor could not be made; see the log.)\n";
+  }
+  if (parts.floor_failures > 0) {
+    b << "\n" << parts.floor_failures << " floor equilibria did not converge and are left out "
+      << "(n/a).\n";
+  }
+  tables.budget = b.str();
+  return tables;
+}
+
+std::string EvaluationMarkdown(const EvaluationReportParts& parts, const EvaluationTables& tables) {
+  std::ostringstream md;
+  md << "# Evaluation of " << parts.model << "\n\n"
+     << "Vertex distances between each method's surface and the pose (model units), over "
+     << parts.num_error_vertices
+     << " surface vertices. **neutral**: the rest surface itself (no motion), for reference. "
+     << "Latent size " << parts.latent_dim << " for every method: "
+     << "**physics** (this model: training latents, or latent and bone motion fitted to the "
+     << "held-out pose through the simulator), **autoencoder** (surface-only decoder with "
+     << LayoutNote(parts.decoder_hidden_dims, parts.autoencoder_hidden_dims)
+     << (parts.decoder_anchored ? " and the same anchoring" : "")
+     << SkipNote(parts.decoder_linear_skip, parts.autoencoder_linear_skip)
+     << ", trained on the same poses, latent fitted), **PCA** (linear, "
+     << parts.pca_components << " components about the training poses' mean, projection), "
+     << "**PCA (neutral)** (linear, " << parts.pca_neutral_components
+     << " components of the displacements from the neutral, uncentered: its zero is the "
+     << "neutral, like an anchored decoder's zero latent).\n\n";
+  md << "The auto-encoder trained " << parts.autoencoder_iterations << " L-BFGS iterations"
+     << (parts.autoencoder_scaled_steps ? " with scaled steps" : "") << " from seed "
+     << parts.autoencoder_seed << ", loss " << parts.autoencoder_initial_loss << " -> "
+     << parts.autoencoder_final_loss << " (" << parts.autoencoder_termination << ").\n\n";
+  if (!parts.overlap_note.empty()) md << "**Warning:** " << parts.overlap_note << "\n\n";
+  if (!parts.test_names.empty()) {
+    md << "Held-out latent fits start, for the physics model and the auto-encoder alike, from "
+       << (parts.training_pose_starts
+               ? "the best of the mean training latent and each training pose's latent (and, for "
+                 "the physics model, its bone motions and equilibrium) by the fit's own objective"
+               : "the mean training latent (the physics model: bones at rest, from the rest shape)")
+       << ":";
+    for (size_t t = 0; t < parts.test_names.size(); ++t) {
+      md << (t ? "; " : " ") << parts.test_names[t] << " from " << parts.physics_starts[t]
+         << " / " << parts.autoencoder_starts[t];
+    }
+    md << ".\n\n";
+  }
+  md << "## Training poses\n\n" << tables.train << "\n";
+  if (!tables.test.empty()) md << "## Held-out poses\n\n" << tables.test << "\n";
+  if (parts.error_budget) md << tables.budget << "\n";
+  return md.str();
+}
+
+std::string EvaluationCsv(const std::vector<EvaluationRow>& rows) {
+  std::string csv = "split,pose,method,mean,rms,max\n";
+  for (const EvaluationRow& r : rows) {
+    char line[256];
+    std::snprintf(line, sizeof(line), "%s,%s,%s,%.17g,%.17g,%.17g\n", r.split.c_str(),
+                  r.pose.c_str(), r.method.c_str(), r.mean, r.rms, r.max);
+    csv += line;
+  }
+  return csv;
+}
+
+}  // namespace aqs

@@ -1,0 +1,111 @@
+#include "jobs/evaluation_report.h"
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+namespace aqs {
+namespace {
+
+TEST(EvaluationReportTest, SummarizesTheListedVerticesOrAll) {
+  Eigen::Matrix3Xd a = Eigen::Matrix3Xd::Zero(3, 4), b = Eigen::Matrix3Xd::Zero(3, 4);
+  b(0, 1) = 3.0;
+  b(1, 1) = 4.0;  // vertex 1 is 5 away
+  b(2, 3) = 1.0;  // vertex 3 is 1 away
+  const Eigen::VectorXd errors = VertexErrors(a, b);
+  ASSERT_EQ(errors.size(), 4);
+  EXPECT_DOUBLE_EQ(errors[1], 5.0);
+
+  const EvaluationRow all = SummarizeErrors("test", "smile", "physics", errors, {});
+  EXPECT_EQ(all.split, "test");
+  EXPECT_EQ(all.pose, "smile");
+  EXPECT_EQ(all.method, "physics");
+  EXPECT_DOUBLE_EQ(all.mean, 6.0 / 4);
+  EXPECT_DOUBLE_EQ(all.rms, std::sqrt(26.0 / 4));
+  EXPECT_DOUBLE_EQ(all.max, 5.0);
+
+  const EvaluationRow some = SummarizeErrors("test", "smile", "physics", errors, {0, 3});
+  EXPECT_DOUBLE_EQ(some.mean, 0.5);
+  EXPECT_DOUBLE_EQ(some.rms, std::sqrt(0.5));
+  EXPECT_DOUBLE_EQ(some.max, 1.0);
+}
+
+std::vector<EvaluationRow> TwoPoses() {
+  std::vector<EvaluationRow> rows;
+  double value = 0.01;
+  for (const char* pose : {"a", "b"}) {
+    rows.push_back({"test", pose, kNeutralMethod, 0.5, 0.6, 0.7});
+    for (const char* method : kEvaluationMethods) {
+      rows.push_back({"test", pose, method, value, 2 * value, 3 * value});
+      value += 0.01;
+    }
+  }
+  rows.push_back({"test", "a", "floor", 0.001, 0.002, 0.003});
+  rows.push_back({"train", "c", "physics", 9, 9, 9});
+  return rows;
+}
+
+TEST(EvaluationReportTest, TableHasARowPerPoseAndTheMeans) {
+  const std::string table = EvaluationTable(TwoPoses(), "test");
+  // physics of a: 0.01 / 0.02 / 0.03; of b: 0.05 / 0.10 / 0.15.
+  EXPECT_NE(table.find("| a | 0.5000 | 0.0100 | 0.0200 | 0.0300 | 0.0200 |"), std::string::npos)
+      << table;
+  EXPECT_NE(table.find("| b | 0.5000 | 0.0500 | 0.1000 | 0.1500 |"), std::string::npos) << table;
+  EXPECT_NE(table.find("| **mean** (max of max) | 0.5000 | **0.0300** | 0.0600 | 0.1500 |"),
+            std::string::npos)
+      << table;
+  EXPECT_EQ(table.find("| c |"), std::string::npos) << "another split's pose";
+  EXPECT_EQ(EvaluationTable(TwoPoses(), "none"), "");
+}
+
+TEST(EvaluationReportTest, BudgetTableMarksMissingStagesNotAvailable) {
+  const std::string table =
+      ErrorBudgetTable(TwoPoses(), "test", {{"floor", "floor"}, {"physics", "physics fit"}});
+  EXPECT_NE(table.find("| test pose | floor | physics fit |"), std::string::npos) << table;
+  EXPECT_NE(table.find("| a | 0.0010 | 0.0100 |"), std::string::npos) << table;
+  EXPECT_NE(table.find("| b | n/a | 0.0500 |"), std::string::npos) << table;
+  // The floor's mean needs every pose; the largest vertex error does not.
+  EXPECT_NE(table.find("| **mean** | n/a | **0.0300** |"), std::string::npos) << table;
+  EXPECT_NE(table.find("| max vertex error | 0.0030 | 0.1500 |"), std::string::npos) << table;
+}
+
+TEST(EvaluationReportTest, MarkdownSaysWhatWasComparedAndCsvKeepsEveryDigit) {
+  EvaluationReportParts parts;
+  parts.model = "out/model";
+  parts.num_error_vertices = 9409;
+  parts.latent_dim = 8;
+  parts.decoder_hidden_dims = {64, 64};
+  parts.autoencoder_hidden_dims = {64, 64};
+  parts.decoder_linear_skip = true;
+  parts.test_names = {"a", "b"};
+  parts.physics_starts = {"mean latent", "jawOpen"};
+  parts.autoencoder_starts = {"jawOpen", "mean latent"};
+  parts.error_budget = true;
+  parts.floor_failures = 1;
+  const std::vector<EvaluationRow> rows = TwoPoses();
+  const EvaluationTables tables = MakeEvaluationTables(rows, parts);
+  EXPECT_NE(tables.budget.find("## Error budget"), std::string::npos);
+  EXPECT_NE(tables.budget.find("(b) is not recorded in this model"), std::string::npos);
+  EXPECT_NE(tables.budget.find("1 floor equilibria did not converge"), std::string::npos);
+  const std::string md = EvaluationMarkdown(parts, tables);
+  EXPECT_EQ(md.rfind("# Evaluation of out/model\n", 0), 0u) << md;
+  EXPECT_NE(md.find("over 9409 surface vertices"), std::string::npos);
+  EXPECT_NE(md.find("the same network layout"), std::string::npos);
+  EXPECT_NE(md.find("and no linear skip (the physics decoder has one)"), std::string::npos);
+  EXPECT_NE(md.find(": a from mean latent / jawOpen; b from jawOpen / mean latent."),
+            std::string::npos)
+      << md;
+  EXPECT_NE(md.find("## Held-out poses\n\n" + tables.test), std::string::npos);
+
+  parts.error_budget = false;
+  EXPECT_EQ(MakeEvaluationTables(rows, parts).budget, "");
+
+  const std::string csv = EvaluationCsv({{"train", "c", "physics", 0.1, 1.0 / 3, 2}});
+  EXPECT_EQ(csv, "split,pose,method,mean,rms,max\ntrain,c,physics,0.10000000000000001,"
+                 "0.33333333333333331,2\n");
+}
+
+}  // namespace
+}  // namespace aqs
