@@ -443,82 +443,92 @@ bool SaveLearnedState(const std::string& directory, const ActiveModel& model, st
   return Install(staging, learned, error);
 }
 
-bool LoadModel(const std::string& directory, ActiveModel* model_out, std::string* error) {
-  const std::string& dir = directory;
-  int version = 0;
-  if (!ReadManifest(dir + "/model.txt", &version, error)) return false;
-  ActiveModel model;
-  if (!ReadTetMesh(dir + "/mesh.mesh", &model.mesh, error)) return false;
-  const int nv = model.mesh.num_vertices();
-  const int ne = model.mesh.num_tets();
+namespace {
+
+// mu.bin (1 x num_elements, finite) into model->mu, with the checks every solve relies
+// on: a stiffness contrast a double-precision solve resolves, and a finite, positive
+// force scale 2 mean(mu V^(2/3)) (the solvers' tolerance).
+bool ReadStiffness(const std::string& dir, ActiveModel* model, std::string* error) {
+  ActiveModel& m = *model;
+  const int ne = m.mesh.num_tets();
   Eigen::MatrixXd matrix;
   if (!ReadFiniteMatrix(dir + "/mu.bin", 1, ne, &matrix, error)) return false;
-  model.mu = matrix.transpose();
-  {
-    // The force scale 2 mean(mu V^(2/3)) must be a number: the solvers' tolerance.
-    double scale = 0.0;
-    for (int e = 0; e < ne; ++e) {
-      const double volume = std::abs(SignedTetVolume(model.mesh, model.mesh.vertices, e));
-      scale += model.mu[e] * std::cbrt(volume * volume);
-    }
-    scale *= 2.0 / std::max(1, ne);
-    const double contrast = model.mu.maxCoeff() / model.mu.minCoeff();
-    if (!(contrast <= kMaxStiffnessContrast)) {
-      *error = dir + "/mu.bin: the stiffness ranges from " + FormatDouble(model.mu.minCoeff()) +
-               " to " + FormatDouble(model.mu.maxCoeff()) + ", a contrast above " +
-               FormatDouble(kMaxStiffnessContrast) + " that no solve resolves in double precision";
-      return false;
-    }
-    if (!(std::isfinite(scale) && scale > 0.0)) {
-      *error = dir + "/mu.bin: the force scale 2 mean(mu V^(2/3)) is " + FormatDouble(scale) +
-               ": mu or the mesh's size is so large or small that the forces overflow";
-      return false;
-    }
+  m.mu = matrix.transpose();
+  // The force scale 2 mean(mu V^(2/3)) must be a number: the solvers' tolerance.
+  double scale = 0.0;
+  for (int e = 0; e < ne; ++e) {
+    const double volume = std::abs(SignedTetVolume(m.mesh, m.mesh.vertices, e));
+    scale += m.mu[e] * std::cbrt(volume * volume);
   }
-  if (!ReadObj(dir + "/neutral.obj", &model.neutral, error)) return false;
+  scale *= 2.0 / std::max(1, ne);
+  const double contrast = m.mu.maxCoeff() / m.mu.minCoeff();
+  if (!(contrast <= kMaxStiffnessContrast)) {
+    *error = dir + "/mu.bin: the stiffness ranges from " + FormatDouble(m.mu.minCoeff()) +
+             " to " + FormatDouble(m.mu.maxCoeff()) + ", a contrast above " +
+             FormatDouble(kMaxStiffnessContrast) + " that no solve resolves in double precision";
+    return false;
+  }
+  if (!(std::isfinite(scale) && scale > 0.0)) {
+    *error = dir + "/mu.bin: the force scale 2 mean(mu V^(2/3)) is " + FormatDouble(scale) +
+             ": mu or the mesh's size is so large or small that the forces overflow";
+    return false;
+  }
+  return true;
+}
 
-  // poses.txt
-  {
-    LineReader reader(dir + "/poses.txt");
-    if (!reader.ok()) {
-      *error = reader.error();
-      return false;
-    }
-    std::vector<std::string> t;
-    while (reader.NextTokens(&t)) {
-      TrainingPose pose;
-      int index = 0;
-      if (t.size() != 4 || !ParseInt(t[0], &index) || index != model.num_poses() ||
-          !ParseDouble(t[2], &pose.embedding_mean_error) ||
-          !ParseDouble(t[3], &pose.embedding_max_error)) {
-        *error = reader.Where("expected '" + std::to_string(model.num_poses()) +
-                              " <name> <mean error> <max error>'");
-        return false;
-      }
-      pose.name = t[1];
-      model.poses.push_back(pose);
-    }
-    if (!reader.ok()) {
-      *error = reader.error();
-      return false;
-    }
+// poses.txt ('<index> <name> <mean error> <max error>' per pose, in order) and each
+// pose's surface (poses/<p>.bin: 3 x num_surface_vertices, near the model) and, where
+// present, its volumetric target (targets/<p>.bin: 6 x num_elements).
+bool ReadPoses(const std::string& dir, ActiveModel* model, std::string* error) {
+  ActiveModel& m = *model;
+  LineReader reader(dir + "/poses.txt");
+  if (!reader.ok()) {
+    *error = reader.error();
+    return false;
   }
-  const int ns = model.neutral.num_vertices();
-  for (int p = 0; p < model.num_poses(); ++p) {
+  std::vector<std::string> t;
+  while (reader.NextTokens(&t)) {
+    TrainingPose pose;
+    int index = 0;
+    if (t.size() != 4 || !ParseInt(t[0], &index) || index != m.num_poses() ||
+        !ParseDouble(t[2], &pose.embedding_mean_error) ||
+        !ParseDouble(t[3], &pose.embedding_max_error)) {
+      *error = reader.Where("expected '" + std::to_string(m.num_poses()) +
+                            " <name> <mean error> <max error>'");
+      return false;
+    }
+    pose.name = t[1];
+    m.poses.push_back(pose);
+  }
+  if (!reader.ok()) {
+    *error = reader.error();
+    return false;
+  }
+  const int ns = m.neutral.num_vertices();
+  const int ne = m.mesh.num_tets();
+  Eigen::MatrixXd matrix;
+  for (int p = 0; p < m.num_poses(); ++p) {
     if (!ReadFiniteMatrix(PoseFile(dir + "/poses", p), 3, ns, &matrix, error) ||
-        !CheckPointsNearModel(PoseFile(dir + "/poses", p), model.neutral.vertices, matrix,
+        !CheckPointsNearModel(PoseFile(dir + "/poses", p), m.neutral.vertices, matrix,
                               error)) {
       return false;
     }
-    model.poses[p].surface = matrix;
+    m.poses[p].surface = matrix;
     const std::string target = PoseFile(dir + "/targets", p);
     if (fs::exists(target)) {
       if (!ReadFiniteMatrix(target, 6, ne, &matrix, error)) return false;
-      model.poses[p].target = matrix;
+      m.poses[p].target = matrix;
     }
   }
+  return true;
+}
 
-  // fixed.txt and bones.txt
+// fixed.txt ('<vertex> <bone>' per fixed vertex: -1 static, else the bone that drives it)
+// and bones.txt (each bone's name, then its rigid motion in every training pose):
+// model->static_vertices and model->bones. At least one vertex must be fixed.
+bool ReadFixedVerticesAndBones(const std::string& dir, ActiveModel* model, std::string* error) {
+  ActiveModel& m = *model;
+  const int nv = m.mesh.num_vertices();
   std::vector<std::pair<int, int>> fixed;
   {
     LineReader reader(dir + "/fixed.txt");
@@ -557,27 +567,29 @@ bool LoadModel(const std::string& directory, ActiveModel* model_out, std::string
     while (reader.NextTokens(&t)) {
       int b = 0, p = 0;
       if (t.size() == 3 && t[0] == "bone") {
-        if (!ParseInt(t[1], &b) || b != static_cast<int>(model.bones.size())) {
+        if (!ParseInt(t[1], &b) || b != static_cast<int>(m.bones.size())) {
           *error = reader.Where("bones must be numbered 0, 1, ... in order");
           return false;
         }
         Bone bone;
         bone.name = t[2];
-        model.bones.push_back(bone);
+        m.bones.push_back(bone);
         continue;
       }
       RigidTransform transform;
       bool ok = t.size() == 14 && ParseInt(t[0], &b) && ParseInt(t[1], &p) &&
-                b == static_cast<int>(model.bones.size()) - 1 &&
-                p == static_cast<int>(model.bones[b].pose_transforms.size());
-      for (int i = 0; ok && i < 9; ++i) ok = ParseDouble(t[2 + i], &transform.rotation(i / 3, i % 3));
+                b == static_cast<int>(m.bones.size()) - 1 &&
+                p == static_cast<int>(m.bones[b].pose_transforms.size());
+      for (int i = 0; ok && i < 9; ++i) {
+        ok = ParseDouble(t[2 + i], &transform.rotation(i / 3, i % 3));
+      }
       for (int i = 0; ok && i < 3; ++i) ok = ParseDouble(t[11 + i], &transform.translation[i]);
       if (!ok) {
         *error = reader.Where("expected '<bone> <pose> r00 .. r22 t0 t1 t2' for the next pose of "
                               "the current bone");
         return false;
       }
-      model.bones[b].pose_transforms.push_back(transform);
+      m.bones[b].pose_transforms.push_back(transform);
     }
     if (!reader.ok()) {
       *error = reader.error();
@@ -586,82 +598,94 @@ bool LoadModel(const std::string& directory, ActiveModel* model_out, std::string
   }
   for (const auto& [v, b] : fixed) {
     if (b == -1) {
-      model.static_vertices.push_back(v);
-    } else if (b < static_cast<int>(model.bones.size())) {
-      model.bones[b].vertices.push_back(v);
+      m.static_vertices.push_back(v);
+    } else if (b < static_cast<int>(m.bones.size())) {
+      m.bones[b].vertices.push_back(v);
     } else {
       *error = dir + "/fixed.txt: vertex " + std::to_string(v) + " refers to bone " +
-               std::to_string(b) + ", but bones.txt defines " + std::to_string(model.bones.size());
+               std::to_string(b) + ", but bones.txt defines " + std::to_string(m.bones.size());
       return false;
     }
   }
+  return true;
+}
 
-  // embedding.txt
-  {
-    LineReader reader(dir + "/embedding.txt");
-    if (!reader.ok()) {
-      *error = reader.error();
+// embedding.txt: per surface vertex its element, barycentric weights, offset and
+// distance outside the mesh (model->embedding), checked to be barycentric and within
+// the model.
+bool ReadEmbedding(const std::string& dir, ActiveModel* model, std::string* error) {
+  ActiveModel& m = *model;
+  const int ns = m.neutral.num_vertices();
+  const int ne = m.mesh.num_tets();
+  LineReader reader(dir + "/embedding.txt");
+  if (!reader.ok()) {
+    *error = reader.error();
+    return false;
+  }
+  m.embedding.weights.resize(4, ns);
+  m.embedding.offsets.resize(3, ns);
+  std::vector<std::string> t;
+  int i = 0;
+  while (reader.NextTokens(&t)) {
+    int e = 0;
+    double outside = 0;
+    bool ok = i < ns && t.size() == 9 && ParseInt(t[0], &e) && e >= 0 && e < ne &&
+              ParseDouble(t[8], &outside);
+    for (int k = 0; ok && k < 4; ++k) ok = ParseDouble(t[1 + k], &m.embedding.weights(k, i));
+    for (int k = 0; ok && k < 3; ++k) ok = ParseDouble(t[5 + k], &m.embedding.offsets(k, i));
+    if (!ok) {
+      *error = reader.Where("expected '<element in [0, " + std::to_string(ne) +
+                            ")> w0 w1 w2 w3 ox oy oz outside_distance' for surface vertex " +
+                            std::to_string(i) + " of " + std::to_string(ns));
       return false;
     }
-    model.embedding.weights.resize(4, ns);
-    model.embedding.offsets.resize(3, ns);
-    std::vector<std::string> t;
-    int i = 0;
-    while (reader.NextTokens(&t)) {
-      int e = 0;
-      double outside = 0;
-      bool ok = i < ns && t.size() == 9 && ParseInt(t[0], &e) && e >= 0 && e < ne &&
-                ParseDouble(t[8], &outside);
-      for (int k = 0; ok && k < 4; ++k) ok = ParseDouble(t[1 + k], &model.embedding.weights(k, i));
-      for (int k = 0; ok && k < 3; ++k) ok = ParseDouble(t[5 + k], &model.embedding.offsets(k, i));
-      if (!ok) {
-        *error = reader.Where("expected '<element in [0, " + std::to_string(ne) +
-                              ")> w0 w1 w2 w3 ox oy oz outside_distance' for surface vertex " +
-                              std::to_string(i) + " of " + std::to_string(ns));
-        return false;
-      }
-      model.embedding.element.push_back(e);
-      model.embedding.outside_distance.push_back(outside);
-      ++i;
-    }
-    if (!reader.ok()) {
-      *error = reader.error();
+    m.embedding.element.push_back(e);
+    m.embedding.outside_distance.push_back(outside);
+    ++i;
+  }
+  if (!reader.ok()) {
+    *error = reader.error();
+    return false;
+  }
+  if (i != ns) {
+    *error = dir + "/embedding.txt: " + std::to_string(i) + " lines for " + std::to_string(ns) +
+             " surface vertices";
+    return false;
+  }
+  // Barycentric weights (non-negative, summing to 1) and offsets within the m.
+  const Eigen::Vector3d lower = m.neutral.vertices.rowwise().minCoeff();
+  const Eigen::Vector3d upper = m.neutral.vertices.rowwise().maxCoeff();
+  const double size = (upper - lower).norm();
+  for (int k = 0; k < ns; ++k) {
+    const auto w = m.embedding.weights.col(k);
+    const double offset = m.embedding.offsets.col(k).norm();
+    const double outside = m.embedding.outside_distance[k];
+    if (!(w.minCoeff() >= -1e-6 && w.maxCoeff() <= 1.0 + 1e-6 && std::abs(w.sum() - 1.0) <= 1e-6) ||
+        !(offset <= kMaxDistanceInModelSizes * size) ||
+        !(outside >= 0.0 && outside <= kMaxDistanceInModelSizes * size)) {
+      *error = dir + "/embedding.txt: surface vertex " + std::to_string(k) +
+               ": the weights must be barycentric (in [0, 1], summing to 1) and the offset and "
+               "outside distance within the model";
       return false;
-    }
-    if (i != ns) {
-      *error = dir + "/embedding.txt: " + std::to_string(i) + " lines for " + std::to_string(ns) +
-               " surface vertices";
-      return false;
-    }
-    // Barycentric weights (non-negative, summing to 1) and offsets within the model.
-    const Eigen::Vector3d lower = model.neutral.vertices.rowwise().minCoeff();
-    const Eigen::Vector3d upper = model.neutral.vertices.rowwise().maxCoeff();
-    const double size = (upper - lower).norm();
-    for (int k = 0; k < ns; ++k) {
-      const auto w = model.embedding.weights.col(k);
-      const double offset = model.embedding.offsets.col(k).norm();
-      const double outside = model.embedding.outside_distance[k];
-      if (!(w.minCoeff() >= -1e-6 && w.maxCoeff() <= 1.0 + 1e-6 && std::abs(w.sum() - 1.0) <= 1e-6) ||
-          !(offset <= kMaxDistanceInModelSizes * size) ||
-          !(outside >= 0.0 && outside <= kMaxDistanceInModelSizes * size)) {
-        *error = dir + "/embedding.txt: surface vertex " + std::to_string(k) +
-                 ": the weights must be barycentric (in [0, 1], summing to 1) and the offset and "
-                 "outside distance within the model";
-        return false;
-      }
     }
   }
+  return true;
+}
 
-  // The learned part, read as one unit: read again if a writer replaced learned/
-  // meanwhile (its directory is then another one).
+// The learned part (decoder, latents, states, prior) of a model of format `version`,
+// read as one unit: read again if a writer replaced learned/ meanwhile (its directory
+// is then another one). A model not yet pre-trained has none.
+bool ReadLearnedPart(const std::string& dir, int version, ActiveModel* model,
+                     std::string* error) {
+  ActiveModel& m = *model;
   if (version == 1) {
-    if (!ReadLearned(dir, dir + "/train/checkpoint.txt", &model, error)) return false;
+    if (!ReadLearned(dir, dir + "/train/checkpoint.txt", &m, error)) return false;
   } else {
     const std::string learned = dir + "/" + kLearned;
     for (int attempt = 0;; ++attempt) {
       const auto before = DirectoryIdentity(learned);
       if (before.second == 0) break;  // not pre-trained
-      const bool read = ReadLearned(learned, learned + "/checkpoint.txt", &model, error);
+      const bool read = ReadLearned(learned, learned + "/checkpoint.txt", &m, error);
       if (DirectoryIdentity(learned) == before) {
         if (!read) return false;
         break;
@@ -672,7 +696,23 @@ bool LoadModel(const std::string& directory, ActiveModel* model_out, std::string
       }
     }
   }
-  if (!ValidateModel(model, dir, error)) return false;
+  return true;
+}
+
+}  // namespace
+
+bool LoadModel(const std::string& directory, ActiveModel* model_out, std::string* error) {
+  const std::string& dir = directory;
+  int version = 0;
+  if (!ReadManifest(dir + "/model.txt", &version, error)) return false;
+  ActiveModel model;
+  if (!ReadTetMesh(dir + "/mesh.mesh", &model.mesh, error) ||
+      !ReadStiffness(dir, &model, error) ||
+      !ReadObj(dir + "/neutral.obj", &model.neutral, error) || !ReadPoses(dir, &model, error) ||
+      !ReadFixedVerticesAndBones(dir, &model, error) || !ReadEmbedding(dir, &model, error) ||
+      !ReadLearnedPart(dir, version, &model, error) || !ValidateModel(model, dir, error)) {
+    return false;
+  }
   if (model.decoder && model.fit_prior.empty()) model.fit_prior = LearnFitPrior(model);
   *model_out = std::move(model);
   return true;
