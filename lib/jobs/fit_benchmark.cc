@@ -122,6 +122,200 @@ double FactorizationUnit(const ActiveModel& model, int threads) {
   return Median(seconds);
 }
 
+// The physics fits of one benchmark run, mix after mix, and the rows so far (each
+// printed as it is added: progress of a long run). Every fit starts alike: the prior's
+// centre (or the mean latent), bones at rest, the rest shape, then the start choice as
+// aqs_fit's.
+class BenchmarkFits {
+ public:
+  BenchmarkFits(const FitBenchmarkOptions& options, const ActiveModel& model,
+                const std::vector<int>& measured, std::ostream& log)
+      : options_(options), model_(model), measured_(measured), log_(log),
+        fitter_(model, options.fit), rest_(RestBoneTransforms(model)) {}
+
+  LatentFitter& fitter() { return fitter_; }
+  const std::vector<Row>& rows() const { return rows_; }
+
+  // Adds a reference row (the neutral, PCA).
+  void Add(const Row& row) {
+    rows_.push_back(row);
+    Print(row);
+  }
+
+  // A new mix: no fit with correspondence yet, no scan.
+  void StartMix() {
+    pose_fit_ = nullptr;
+    scanned_.clear();
+    unscanned_.clear();
+  }
+
+  // The mix's scan: the measured vertices it sees (on the true surface, 3 x N) and does
+  // not see, and the true surface's unit vertex normals, by which scan fits' errors are
+  // split.
+  void SetScan(const Eigen::Matrix3Xd& truth, const Eigen::Matrix3Xd& cloud) {
+    scanned_ = ScannedVertices(truth, measured_, cloud);
+    unscanned_.clear();
+    std::vector<char> seen(truth.cols(), 0);
+    for (int v : scanned_) seen[v] = 1;
+    for (int v : measured_) {
+      if (!seen[v]) unscanned_.push_back(v);
+    }
+    truth_normals_ = VertexNormals(truth, model_.neutral.triangles);
+  }
+
+  // A physics fit to a target or a cloud, timed from the start choice to the result,
+  // added as a row; with `from` (clouds only), from its latent and bones without a start
+  // choice. The mix's fit with correspondence (PoseFit) judges scan fits. True if it
+  // succeeded.
+  bool Physics(const std::string& mix, const std::string& method, int markers,
+               const FitTarget* target, const Eigen::Matrix3Xd* cloud,
+               const PointCloudFitOptions& cloud_options, const Eigen::Matrix3Xd& truth,
+               const LatentFitResult* from = nullptr) {
+    LatentFitResult fit;
+    return Fit(mix, method, markers, target, cloud, cloud_options, truth, from, &fit);
+  }
+
+  // The mix's fit with correspondence (method "physics_pose"), kept for its scan fits;
+  // nullptr if it failed.
+  const LatentFitResult* PoseFit(const std::string& mix, const Eigen::Matrix3Xd& truth) {
+    const FitTarget target = FullSurfaceTarget(truth);
+    if (!Fit(mix, "physics_pose", 0, &target, nullptr, options_.points, truth, nullptr,
+             &pose_result_)) {
+      return nullptr;
+    }
+    pose_fit_ = &pose_result_;
+    return pose_fit_;
+  }
+
+ private:
+  bool Fit(const std::string& mix, const std::string& method, int markers,
+           const FitTarget* target, const Eigen::Matrix3Xd* cloud,
+           const PointCloudFitOptions& cloud_options, const Eigen::Matrix3Xd& truth,
+           const LatentFitResult* from, LatentFitResult* fit);
+  // The row's error split over what the scan sees (scan fits), and the scan's objective
+  // at the fit with correspondence over this fit's.
+  void JudgeScanFit(const LatentFitResult& fit, const Eigen::Matrix3Xd& truth,
+                    const Eigen::Matrix3Xd& cloud, const PointCloudFitOptions& cloud_options,
+                    Row* r);
+  void Print(const Row& r);
+
+  const FitBenchmarkOptions& options_;
+  const ActiveModel& model_;
+  const std::vector<int>& measured_;
+  std::ostream& log_;
+  LatentFitter fitter_;
+  const std::vector<RigidTransform> rest_;
+  std::vector<Row> rows_;
+  LatentFitResult pose_result_;
+  const LatentFitResult* pose_fit_ = nullptr;  // the mix's, where it succeeded
+  std::vector<int> scanned_, unscanned_;
+  Eigen::Matrix3Xd truth_normals_;
+};
+
+void BenchmarkFits::Print(const Row& r) {
+  log_ << std::left << std::setw(8) << r.mix << " " << std::setw(16)
+       << (r.method + (r.markers > 0 ? "_m" + std::to_string(r.markers) : "")) << std::right
+       << " mean " << Fixed(r.mean, 4) << " max " << Fixed(r.max, 3);
+  if (r.method.rfind("physics", 0) == 0) {
+    log_ << "  " << Fixed(r.seconds, 2) << " s (solves " << r.solves << "/" << r.factorizations
+         << " fact. " << Fixed(r.solve_seconds, 2) << " s, jacobians " << r.jacobians << " "
+         << Fixed(r.jacobian_seconds, 2) << " s), " << r.iterations << " it, jaw "
+         << Fixed(r.jaw_degrees, 1) << " deg" << (r.converged ? "" : ", not converged")
+         << ", start " << r.start;
+  }
+  if (r.method.rfind("physics_scan", 0) == 0) {
+    log_ << ", matched " << Fixed(100 * r.matched_fraction, 1) << "% at "
+         << Fixed(r.matched_distance, 4);
+  }
+  log_ << std::endl;  // progress of a long run
+}
+
+bool BenchmarkFits::Fit(const std::string& mix, const std::string& method, int markers,
+                        const FitTarget* target, const Eigen::Matrix3Xd* cloud,
+                        const PointCloudFitOptions& cloud_options,
+                        const Eigen::Matrix3Xd& truth, const LatentFitResult* from,
+                        LatentFitResult* kept) {
+  fitter_.set_bone_transforms(rest_);
+  fitter_.set_start_state(model_.mesh.vertices);
+  WallTimer timer;
+  Eigen::VectorXd z = options_.start.mean_latent ? fitter_.MeanLatent() : fitter_.PriorLatent();
+  std::string fit_error;
+  LatentFitResult fit;
+  Row r = MakeRow(mix, method, markers);
+  bool ok = false;
+  if (from != nullptr) {
+    CHECK(cloud != nullptr) << "a fit from another fit's result is a scan's";
+    fitter_.set_bone_transforms(from->bones);
+    fitter_.set_start_state(from->state);
+    ok = fitter_.FitPointCloud(*cloud, cloud_options, from->latent, &fit, &fit_error);
+    fit.start = "the fit with correspondence";
+  } else {
+    ok = FitFromChosenStart(&fitter_, target, cloud, cloud_options, options_.start, z, &fit,
+                            &fit_error);
+  }
+  r.seconds = timer.Seconds();
+  r.start = fit.start + (fit.retry_reason.empty() ? "" : fit.retry_kept ? " (retried, kept)"
+                                                                        : " (retried)");
+  if (!ok) {
+    r.converged = false;
+    r.mean = r.max = std::nan("");
+    log_ << mix << " " << method << ": " << fit_error << "\n";
+  } else {
+    Errors(fit.surface, truth, measured_, &r.mean, &r.max);
+    r.iterations = fit.iterations;
+    r.converged = fit.converged;
+    r.jaw_degrees = JawDegrees(fit.bones);
+    r.matched_fraction = fit.matched_fraction;
+    r.matched_distance = fit.mean_error;
+    r.solves = fit.solves;
+    r.factorizations = fit.solve_factorizations;
+    r.solve_seconds = fit.solve_seconds;
+    r.jacobians = fit.jacobians;
+    r.jacobian_seconds = fit.jacobian_seconds;
+    if (fit.surface_std.size() == fit.surface.cols()) {
+      std::vector<double> predicted, errors;
+      for (int v : measured_) {
+        predicted.push_back(fit.surface_std[v]);
+        errors.push_back((fit.surface.col(v) - truth.col(v)).norm());
+      }
+      r.predicted_std = Mean(predicted);
+      r.std_error_correlation = Correlation(predicted, errors);
+    }
+    if (cloud != nullptr) JudgeScanFit(fit, truth, *cloud, cloud_options, &r);
+  }
+  if (ok) *kept = fit;
+  rows_.push_back(r);
+  Print(r);
+  return ok;
+}
+
+void BenchmarkFits::JudgeScanFit(const LatentFitResult& fit, const Eigen::Matrix3Xd& truth,
+                                 const Eigen::Matrix3Xd& cloud,
+                                 const PointCloudFitOptions& cloud_options, Row* r) {
+  if (!scanned_.empty()) {
+    r->scanned = static_cast<int>(scanned_.size());
+    r->scanned_error = SplitError(fit.surface, truth, truth_normals_, scanned_);
+    if (!unscanned_.empty()) {
+      r->unscanned_error = SplitError(fit.surface, truth, truth_normals_, unscanned_).total;
+    }
+    if (pose_fit_ != nullptr) {
+      r->pose_fit_scanned_error = SplitError(pose_fit_->surface, truth, truth_normals_, scanned_);
+      if (!unscanned_.empty()) {
+        r->pose_fit_unscanned_error =
+            SplitError(pose_fit_->surface, truth, truth_normals_, unscanned_).total;
+      }
+    }
+  }
+  if (pose_fit_ == nullptr) return;
+  fitter_.set_bone_transforms(pose_fit_->bones);
+  const double at_pose_fit = fitter_.StartObjective(nullptr, &cloud, cloud_options,
+                                                    pose_fit_->surface, pose_fit_->latent);
+  fitter_.set_bone_transforms(fit.bones);
+  r->pose_fit_objective_ratio =
+      at_pose_fit / fitter_.StartObjective(nullptr, &cloud, cloud_options, fit.surface,
+                                           fit.latent);
+}
+
 }  // namespace
 
 bool FitBenchmarkOptions::Validate(std::string* error) const {
@@ -224,137 +418,23 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
 
   const double unit_before = FactorizationUnit(model, options.fit.num_threads);
   log << "one factorization of the stiffness at rest: " << Fixed(unit_before, 4) << " s\n";
-  LatentFitter fitter(model, options.fit);
-  const std::vector<RigidTransform> rest = RestBoneTransforms(model);
+  BenchmarkFits fits(options, model, measured, log);
   // BLAS threads for this model's factor size (util/blas.h).
-  const ScopedBlasThreads blas(BlasThreadsForFactor(fitter.FactorNonzeros(), BlasThreads()));
-  // Every fit from the same start: the prior's centre, bones at rest, the rest shape
-  // (then ChooseStart as aqs_fit does).
-  auto reset = [&]() {
-    fitter.set_bone_transforms(rest);
-    fitter.set_start_state(model.mesh.vertices);
-  };
-  std::vector<Row> rows;
-  auto print = [&](const Row& r) {
-    log << std::left << std::setw(8) << r.mix << " " << std::setw(16)
-        << (r.method + (r.markers > 0 ? "_m" + std::to_string(r.markers) : "")) << std::right
-        << " mean " << Fixed(r.mean, 4) << " max " << Fixed(r.max, 3);
-    if (r.method.rfind("physics", 0) == 0) {
-      log << "  " << Fixed(r.seconds, 2) << " s (solves " << r.solves << "/" << r.factorizations
-          << " fact. " << Fixed(r.solve_seconds, 2) << " s, jacobians " << r.jacobians << " "
-          << Fixed(r.jacobian_seconds, 2) << " s), " << r.iterations << " it, jaw "
-          << Fixed(r.jaw_degrees, 1) << " deg" << (r.converged ? "" : ", not converged")
-          << ", start " << r.start;
-    }
-    if (r.method.rfind("physics_scan", 0) == 0) {
-      log << ", matched " << Fixed(100 * r.matched_fraction, 1) << "% at "
-          << Fixed(r.matched_distance, 4);
-    }
-    log << std::endl;  // progress of a long run
-  };
-  // The current mix's fit with correspondence, where it succeeded (scans are judged by it).
-  const LatentFitResult* pose_fit = nullptr;
-  // The current mix's measured vertices the scan sees and does not see, and its true
-  // surface's unit vertex normals.
-  std::vector<int> scanned, unscanned;
-  Eigen::Matrix3Xd truth_normals;
-  LatentFitResult pose_result;
-  // A physics fit to a target or a cloud, timed from the start choice to the result; with
-  // `from` (clouds only), from its latent and bones without a start choice. `kept`: the
-  // fit's result, if it succeeded. True if it succeeded.
-  auto physics = [&](const std::string& mix, const std::string& method, int markers,
-                     const FitTarget* target, const Eigen::Matrix3Xd* cloud,
-                     const PointCloudFitOptions& cloud_options, const Eigen::Matrix3Xd& truth,
-                     LatentFitResult* kept = nullptr, const LatentFitResult* from = nullptr) {
-    reset();
-    WallTimer timer;
-    Eigen::VectorXd z = options.start.mean_latent ? fitter.MeanLatent() : fitter.PriorLatent();
-    std::string start, fit_error;
-    LatentFitResult fit;
-    Row r = MakeRow(mix, method, markers);
-    bool ok = false;
-    if (from != nullptr) {
-      CHECK(cloud != nullptr) << "a fit from another fit's result is a scan's";
-      fitter.set_bone_transforms(from->bones);
-      fitter.set_start_state(from->state);
-      ok = fitter.FitPointCloud(*cloud, cloud_options, from->latent, &fit, &fit_error);
-      fit.start = "the fit with correspondence";
-    } else {
-      ok = FitFromChosenStart(&fitter, target, cloud, cloud_options, options.start, z, &fit,
-                              &fit_error);
-    }
-    r.seconds = timer.Seconds();
-    r.start = fit.start + (fit.retry_reason.empty() ? "" : fit.retry_kept ? " (retried, kept)"
-                                                                          : " (retried)");
-    if (!ok) {
-      r.converged = false;
-      r.mean = r.max = std::nan("");
-      log << mix << " " << method << ": " << fit_error << "\n";
-    } else {
-      Errors(fit.surface, truth, measured, &r.mean, &r.max);
-      r.iterations = fit.iterations;
-      r.converged = fit.converged;
-      r.jaw_degrees = JawDegrees(fit.bones);
-      r.matched_fraction = fit.matched_fraction;
-      r.matched_distance = fit.mean_error;
-      r.solves = fit.solves;
-      r.factorizations = fit.solve_factorizations;
-      r.solve_seconds = fit.solve_seconds;
-      r.jacobians = fit.jacobians;
-      r.jacobian_seconds = fit.jacobian_seconds;
-      if (fit.surface_std.size() == fit.surface.cols()) {
-        std::vector<double> predicted, errors;
-        for (int v : measured) {
-          predicted.push_back(fit.surface_std[v]);
-          errors.push_back((fit.surface.col(v) - truth.col(v)).norm());
-        }
-        r.predicted_std = Mean(predicted);
-        r.std_error_correlation = Correlation(predicted, errors);
-      }
-      if (cloud != nullptr && !scanned.empty()) {
-        r.scanned = static_cast<int>(scanned.size());
-        r.scanned_error = SplitError(fit.surface, truth, truth_normals, scanned);
-        if (!unscanned.empty()) {
-          r.unscanned_error = SplitError(fit.surface, truth, truth_normals, unscanned).total;
-        }
-        if (pose_fit != nullptr) {
-          r.pose_fit_scanned_error = SplitError(pose_fit->surface, truth, truth_normals, scanned);
-          if (!unscanned.empty()) {
-            r.pose_fit_unscanned_error =
-                SplitError(pose_fit->surface, truth, truth_normals, unscanned).total;
-          }
-        }
-      }
-      if (cloud != nullptr && pose_fit != nullptr) {
-        fitter.set_bone_transforms(pose_fit->bones);
-        const double at_pose_fit = fitter.StartObjective(nullptr, cloud, cloud_options,
-                                                         pose_fit->surface, pose_fit->latent);
-        fitter.set_bone_transforms(fit.bones);
-        r.pose_fit_objective_ratio =
-            at_pose_fit / fitter.StartObjective(nullptr, cloud, cloud_options, fit.surface,
-                                                fit.latent);
-      }
-    }
-    if (kept != nullptr && ok) *kept = fit;
-    rows.push_back(r);
-    print(r);
-    return ok;
-  };
-
+  const ScopedBlasThreads blas(
+      BlasThreadsForFactor(fits.fitter().FactorNonzeros(), BlasThreads()));
   for (const std::string& mix : mixes) {
-    pose_fit = nullptr;
+    fits.StartMix();
     SurfaceMesh truth;
     const std::string pose_path = options.test_set + "/poses/" + mix + ".obj";
     if (!ReadObj(pose_path, &truth, error)) return JobStatus::kBadInput;
     if (truth.num_vertices() != ns) {
-      *error = pose_path + ": " + std::to_string(truth.num_vertices()) + " vertices, the model has " +
-               std::to_string(ns);
+      *error = pose_path + ": " + std::to_string(truth.num_vertices()) +
+               " vertices, the model has " + std::to_string(ns);
       return JobStatus::kBadInput;
     }
     Row neutral = MakeRow(mix, "neutral", 0);
     Errors(model.neutral.vertices, truth.vertices, measured, &neutral.mean, &neutral.max);
-    rows.push_back(neutral);
-    print(neutral);
+    fits.Add(neutral);
     if (options.markers) {
       for (int k : options.marker_counts) {
         const std::string path =
@@ -365,36 +445,24 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
         Row p = MakeRow(mix, "pca", k);
         Errors(pca.FitToVerticesRidge(vertices, positions, ridge[k]), truth.vertices, measured,
                &p.mean, &p.max);
-        rows.push_back(p);
-        print(p);
+        fits.Add(p);
         const FitTarget target = VertexTarget(vertices, positions);
-        physics(mix, "physics", k, &target, nullptr, options.points, truth.vertices);
+        fits.Physics(mix, "physics", k, &target, nullptr, options.points, truth.vertices);
       }
     }
+    const LatentFitResult* pose_fit = nullptr;
     if (options.poses) {
       Row p = MakeRow(mix, "pca_pose", 0);
       Errors(pca.Decode(pca.Encode(truth.vertices)), truth.vertices, measured, &p.mean, &p.max);
-      rows.push_back(p);
-      print(p);
-      const FitTarget target = FullSurfaceTarget(truth.vertices);
-      if (physics(mix, "physics_pose", 0, &target, nullptr, options.points, truth.vertices,
-                  &pose_result)) {
-        pose_fit = &pose_result;
-      }
+      fits.Add(p);
+      pose_fit = fits.PoseFit(mix, truth.vertices);
     }
     if (options.scans) {
       Eigen::Matrix3Xd cloud;
       const std::string path = options.test_set + "/scans/" + mix + ".ply";
       if (!ReadPointCloud(path, &cloud, error)) return JobStatus::kBadInput;
-      scanned = ScannedVertices(truth.vertices, measured, cloud);
-      unscanned.clear();
-      std::vector<char> seen(ns, 0);
-      for (int v : scanned) seen[v] = 1;
-      for (int v : measured) {
-        if (!seen[v]) unscanned.push_back(v);
-      }
-      truth_normals = VertexNormals(truth.vertices, model.neutral.triangles);
-      physics(mix, "physics_scan", 0, nullptr, &cloud, options.points, truth.vertices);
+      fits.SetScan(truth.vertices, cloud);
+      fits.Physics(mix, "physics_scan", 0, nullptr, &cloud, options.points, truth.vertices);
       // The same scan with its landmarks, where the test set has them.
       const std::string landmarks = options.test_set + "/scans/" + mix + "_landmarks.txt";
       if (fs::exists(landmarks)) {
@@ -402,15 +470,16 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
         if (!ReadMarkerTarget(landmarks, ns, &with_landmarks.landmarks, error)) {
           return JobStatus::kBadInput;
         }
-        physics(mix, "physics_scan_landmarks", 0, nullptr, &cloud, with_landmarks,
-                truth.vertices);
+        fits.Physics(mix, "physics_scan_landmarks", 0, nullptr, &cloud, with_landmarks,
+                     truth.vertices);
       }
       if (options.scan_from_pose_fit && pose_fit != nullptr) {
-        physics(mix, "physics_scan_from_pose", 0, nullptr, &cloud, options.points,
-                truth.vertices, nullptr, pose_fit);
+        fits.Physics(mix, "physics_scan_from_pose", 0, nullptr, &cloud, options.points,
+                     truth.vertices, pose_fit);
       }
     }
   }
+  const std::vector<Row>& rows = fits.rows();
 
   std::ostringstream md;
   md << "Test set " << options.test_set << ": " << mixes.size() << " mixes; errors in model units "
