@@ -200,47 +200,44 @@ bool ReadMarkers(const std::string& path, int num_surface_vertices, std::vector<
   return true;
 }
 
-FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log) {
-  WallTimer timer;
-  std::string error;
-  if (!options.Validate(&error)) return Fail(error);
-  if (options.model.empty() || options.target.empty() || options.output.empty()) {
-    return Fail("--model, --target and --output are required");
-  }
-  if (LowercaseExtension(options.output) != ".obj") return Fail(options.output + ": --output must be an .obj");
-  if (!options.output_volume.empty() && !IsDeformedMeshOutputPath(options.output_volume)) {
-    return Fail(options.output_volume + ": unknown output extension; known: .mesh, .vtu, .obj");
-  }
-  if (!options.output_uncertainty.empty() &&
-      LowercaseExtension(options.output_uncertainty) != ".ply") {
-    return Fail(options.output_uncertainty + ": --output_uncertainty must be a .ply");
-  }
-  for (const std::string* output : {&options.output, &options.output_volume, &options.latent_output,
-                                    &options.output_uncertainty}) {
-    if (!output->empty() && !CheckOutputFile(*output, &error)) return Fail(error);
-  }
-  ActiveModel model;
-  if (!LoadModel(options.model, &model, &error)) return Fail(error);
-  if (!model.decoder) return Fail(options.model + ": the model is not trained (no decoder)");
-  const int ns = model.num_surface_vertices();
+namespace {
 
-  // The target.
+// The target of a fit job, as read: its kind ("pose", "markers" or "points"), the target
+// with correspondence (pose, markers) or the cloud (points), and the cloud's options
+// (with the scan's landmarks, if any).
+struct JobTarget {
+  std::string kind;
+  FitTarget target;
+  Eigen::Matrix3Xd cloud;
+  PointCloudFitOptions cloud_options;
+};
+
+// Reads options.target (of options.target_kind, or told from its extension and vertex
+// count) and options.landmarks, each checked against the model. False with *error
+// naming the file.
+bool ReadJobTarget(const FitJobOptions& options, const ActiveModel& model, JobTarget* job,
+                   std::string* error) {
+  const int ns = model.num_surface_vertices();
   std::string kind = options.target_kind;
   const std::string ext = LowercaseExtension(options.target);
   SurfaceMesh target_surface;
+  auto fail = [error](const std::string& message) {
+    *error = message;
+    return false;
+  };
   if (kind == "auto") {
     if (ext == ".txt") {
       kind = "markers";
     } else if (ext == ".ply") {
       kind = "points";
     } else if (ext == ".obj") {
-      if (!ReadObj(options.target, &target_surface, &error)) return Fail(error);
+      if (!ReadObj(options.target, &target_surface, error)) return false;
       if (target_surface.num_vertices() == ns) {
         kind = "pose";
       } else if (target_surface.num_triangles() > 0) {
         // A surface with faces and nearly the neutral's vertex count is far more likely
         // a broken pose than a scan: say so rather than fit it as points.
-        return Fail(options.target + ": a surface with " +
+        return fail(options.target + ": a surface with " +
                     std::to_string(target_surface.num_vertices()) +
                     " vertices, but the model's surface has " + std::to_string(ns) +
                     ": a pose target needs the neutral's vertex order; to fit the file as a "
@@ -249,102 +246,87 @@ FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log) {
         kind = "points";
       }
     } else {
-      return Fail(options.target + ": cannot tell the target kind from the extension; give "
+      return fail(options.target + ": cannot tell the target kind from the extension; give "
                   "--target_kind=pose|markers|points");
     }
   }
-  FitTarget target;
-  Eigen::Matrix3Xd cloud;
+  job->kind = kind;
+  const Eigen::Matrix3Xd& neutral = model.neutral.vertices;
   if (kind == "pose") {
-    if (target_surface.num_vertices() == 0 && !ReadObj(options.target, &target_surface, &error)) {
-      return Fail(error);
+    if (target_surface.num_vertices() == 0 && !ReadObj(options.target, &target_surface, error)) {
+      return false;
     }
     if (target_surface.num_vertices() != ns) {
-      return Fail(options.target + ": " + std::to_string(target_surface.num_vertices()) +
+      return fail(options.target + ": " + std::to_string(target_surface.num_vertices()) +
                   " vertices, but the model's surface has " + std::to_string(ns) +
                   " (a pose target needs the neutral's vertex order)");
     }
-    if (!CheckPointsNearModel(options.target, model.neutral.vertices, target_surface.vertices, &error)) {
-      return Fail(error);
+    if (!CheckPointsNearModel(options.target, neutral, target_surface.vertices, error)) {
+      return false;
     }
-    target = FullSurfaceTarget(target_surface.vertices);
+    job->target = FullSurfaceTarget(target_surface.vertices);
   } else if (kind == "markers") {
     std::vector<int> vertices;
     Eigen::Matrix3Xd positions;
-    if (!ReadMarkers(options.target, ns, &vertices, &positions, &error)) return Fail(error);
-    if (!CheckPointsNearModel(options.target, model.neutral.vertices, positions, &error)) return Fail(error);
-    target = VertexTarget(vertices, positions);
+    if (!ReadMarkers(options.target, ns, &vertices, &positions, error) ||
+        !CheckPointsNearModel(options.target, neutral, positions, error)) {
+      return false;
+    }
+    job->target = VertexTarget(vertices, positions);
   } else if (kind == "points") {
-    if (!ReadPointCloud(options.target, &cloud, &error)) return Fail(error);
-    if (cloud.cols() < 3) return Fail(options.target + ": fewer than 3 points");
-    if (!CheckPointsNearModel(options.target, model.neutral.vertices, cloud, &error)) return Fail(error);
+    if (!ReadPointCloud(options.target, &job->cloud, error)) return false;
+    if (job->cloud.cols() < 3) return fail(options.target + ": fewer than 3 points");
+    if (!CheckPointsNearModel(options.target, neutral, job->cloud, error)) return false;
   } else {
-    return Fail("--target_kind must be auto, pose, markers or points, got '" + kind + "'");
+    return fail("--target_kind must be auto, pose, markers or points, got '" + kind + "'");
   }
-  PointCloudFitOptions cloud_options = options.points;
+  job->cloud_options = options.points;
   if (!options.landmarks.empty()) {
     if (kind != "points") {
-      return Fail(options.landmarks + ": --landmarks go with a point cloud (a scan), but " +
+      return fail(options.landmarks + ": --landmarks go with a point cloud (a scan), but " +
                   options.target + " is fitted as " + kind);
     }
-    if (!ReadMarkerTarget(options.landmarks, ns, &cloud_options.landmarks, &error) ||
-        !CheckPointsNearModel(options.landmarks, model.neutral.vertices,
-                              cloud_options.landmarks.positions, &error)) {
-      return Fail(error);
+    if (!ReadMarkerTarget(options.landmarks, ns, &job->cloud_options.landmarks, error) ||
+        !CheckPointsNearModel(options.landmarks, neutral,
+                              job->cloud_options.landmarks.positions, error)) {
+      return false;
     }
   }
-  SurfaceMesh truth;
-  if (!options.compare_to.empty()) {
-    if (!ReadObj(options.compare_to, &truth, &error) ||
-        !CheckPointsNearModel(options.compare_to, model.neutral.vertices, truth.vertices, &error)) {
-      return Fail(error);
-    }
-    if (truth.num_vertices() != ns) {
-      return Fail(options.compare_to + ": " + std::to_string(truth.num_vertices()) +
-                  " vertices, but the model's surface has " + std::to_string(ns));
-    }
-    for (int v : options.compare_vertices) {
-      if (v < 0 || v >= ns) {
-        return Fail("comparison vertex " + std::to_string(v) + " is outside the surface's " +
-                    std::to_string(ns) + " vertices");
-      }
-    }
-  }
-  log << "target " << options.target << ": " << kind << " ("
-      << (kind == "points" ? cloud.cols() : target.num_points()) << " points)\n";
+  return true;
+}
 
-  LatentFitOptions fit_options = options.fit;
-  fit_options.uncertainty = fit_options.uncertainty || !options.output_uncertainty.empty();
-  LatentFitter fitter(model, fit_options);
-  // BLAS threads for this model's factor size (util/blas.h).
-  const ScopedBlasThreads blas(BlasThreadsForFactor(fitter.FactorNonzeros(), BlasThreads()));
-  Eigen::VectorXd initial = options.start.mean_latent ? fitter.MeanLatent() : fitter.PriorLatent();
-  if (!options.initial_latent.empty()) {
-    std::vector<RigidTransform> bones;
-    if (!ReadLatentFile(options.initial_latent, model.latent_dim(), BoneNames(model), &initial,
-                        &bones, &error) ||
-        !CheckLatentActuations(model, initial, options.initial_latent, &error)) {
-      return Fail(error);
+// Reads options.compare_to (a surface in the neutral's vertex order, near the model)
+// into *truth and checks options.compare_vertices. False with *error naming the file or
+// vertex.
+bool ReadComparison(const FitJobOptions& options, const ActiveModel& model, SurfaceMesh* truth,
+                    std::string* error) {
+  const int ns = model.num_surface_vertices();
+  if (!ReadObj(options.compare_to, truth, error) ||
+      !CheckPointsNearModel(options.compare_to, model.neutral.vertices, truth->vertices, error)) {
+    return false;
+  }
+  if (truth->num_vertices() != ns) {
+    *error = options.compare_to + ": " + std::to_string(truth->num_vertices()) +
+             " vertices, but the model's surface has " + std::to_string(ns);
+    return false;
+  }
+  for (int v : options.compare_vertices) {
+    if (v < 0 || v >= ns) {
+      *error = "comparison vertex " + std::to_string(v) + " is outside the surface's " +
+               std::to_string(ns) + " vertices";
+      return false;
     }
-    fitter.set_bone_transforms(bones);
   }
-  FitJobResult result;
-  result.kind = kind;
-  const bool ok = FitFromChosenStart(&fitter, kind == "points" ? nullptr : &target,
-                                     kind == "points" ? &cloud : nullptr, cloud_options,
-                                     options.start, initial, &result.fit, &error);
-  if (result.fit.start.empty()) {  // no start could be simulated
-    result.status = JobStatus::kNotConverged;
-    result.message = error;
-    return result;
-  }
-  const LatentFitResult& fit = result.fit;
-  if (!fit.retry_reason.empty()) {
-    log << "retry from the given start: " << fit.retry_reason << "; "
-        << (fit.retry_kept ? "kept (a smaller objective)" : "not kept") << "\n";
-  }
-  log << "start: " << fit.start << "\n";
-  if (!ok) return NotConverged(options, model, result, error, log);
+  return true;
+}
+
+// Logs what a fit reached and cost: its error over the data, work, second start, scan
+// matching and landmarks, uncertainty, latent and bone motions.
+void LogFit(const FitJobOptions& options, const ActiveModel& model, const JobTarget& job,
+            const LatentFitResult& fit, std::ostream& log) {
+  const std::string& kind = job.kind;
+  const Eigen::Matrix3Xd& cloud = job.cloud;
+  const PointCloudFitOptions& cloud_options = job.cloud_options;
   log << std::setprecision(6) << "fit: " << fit.iterations << " iterations, error mean "
       << fit.mean_error << " rms " << fit.rms_error << " max " << fit.max_error << " over "
       << fit.used_points << " points (" << fit.message << ")\n";
@@ -389,27 +371,107 @@ FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log) {
     log << "bone " << model.bones[b].name << ": rotation " << aa.angle() * 180 / M_PI
         << " deg, translation " << fit.bones[b].translation.transpose() << "\n";
   }
-  if (!options.compare_to.empty()) {
-    const Eigen::VectorXd distances = (fit.surface - truth.vertices).colwise().norm().transpose();
-    std::vector<int> vertices = options.compare_vertices;
-    if (vertices.empty()) {
-      for (int i = 0; i < ns; ++i) vertices.push_back(i);
-    }
-    double sum = 0, squares = 0, rest_sum = 0;
-    for (int v : vertices) {
-      sum += distances[v];
-      squares += distances[v] * distances[v];
-      result.compare_max = std::max(result.compare_max, distances[v]);
-      rest_sum += (model.neutral.vertices.col(v) - truth.vertices.col(v)).norm();
-    }
-    result.compare_mean = sum / vertices.size();
-    result.compare_rms = std::sqrt(squares / vertices.size());
-    log << "versus " << options.compare_to << " over " << vertices.size()
-        << " vertices: mean " << result.compare_mean << " rms " << result.compare_rms << " max "
-        << result.compare_max << " (the neutral surface: mean " << rest_sum / vertices.size()
-        << ")\n";
-    if (kind == "points") LogScanErrorSplit(fit.surface, truth, model, vertices, cloud, log);
+}
+
+// Logs the fit's surface against the true one over options.compare_vertices (all if
+// empty) and records mean, rms and max in *result; for a scan, also the split of the
+// error over what the scan sees (LogScanErrorSplit).
+void CompareWithTruth(const FitJobOptions& options, const ActiveModel& model,
+                      const JobTarget& job, const SurfaceMesh& truth, FitJobResult* result,
+                      std::ostream& log) {
+  const LatentFitResult& fit = result->fit;
+  const int ns = model.num_surface_vertices();
+  const Eigen::VectorXd distances = (fit.surface - truth.vertices).colwise().norm().transpose();
+  std::vector<int> vertices = options.compare_vertices;
+  if (vertices.empty()) {
+    for (int i = 0; i < ns; ++i) vertices.push_back(i);
   }
+  double sum = 0, squares = 0, rest_sum = 0;
+  for (int v : vertices) {
+    sum += distances[v];
+    squares += distances[v] * distances[v];
+    result->compare_max = std::max(result->compare_max, distances[v]);
+    rest_sum += (model.neutral.vertices.col(v) - truth.vertices.col(v)).norm();
+  }
+  result->compare_mean = sum / vertices.size();
+  result->compare_rms = std::sqrt(squares / vertices.size());
+  log << "versus " << options.compare_to << " over " << vertices.size()
+      << " vertices: mean " << result->compare_mean << " rms " << result->compare_rms << " max "
+      << result->compare_max << " (the neutral surface: mean " << rest_sum / vertices.size()
+      << ")\n";
+  if (job.kind == "points") LogScanErrorSplit(fit.surface, truth, model, vertices, job.cloud, log);
+}
+
+}  // namespace
+
+FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log) {
+  WallTimer timer;
+  std::string error;
+  if (!options.Validate(&error)) return Fail(error);
+  if (options.model.empty() || options.target.empty() || options.output.empty()) {
+    return Fail("--model, --target and --output are required");
+  }
+  if (LowercaseExtension(options.output) != ".obj") {
+    return Fail(options.output + ": --output must be an .obj");
+  }
+  if (!options.output_volume.empty() && !IsDeformedMeshOutputPath(options.output_volume)) {
+    return Fail(options.output_volume + ": unknown output extension; known: .mesh, .vtu, .obj");
+  }
+  if (!options.output_uncertainty.empty() &&
+      LowercaseExtension(options.output_uncertainty) != ".ply") {
+    return Fail(options.output_uncertainty + ": --output_uncertainty must be a .ply");
+  }
+  for (const std::string* output : {&options.output, &options.output_volume, &options.latent_output,
+                                    &options.output_uncertainty}) {
+    if (!output->empty() && !CheckOutputFile(*output, &error)) return Fail(error);
+  }
+  ActiveModel model;
+  if (!LoadModel(options.model, &model, &error)) return Fail(error);
+  if (!model.decoder) return Fail(options.model + ": the model is not trained (no decoder)");
+  JobTarget job;
+  if (!ReadJobTarget(options, model, &job, &error)) return Fail(error);
+  const std::string& kind = job.kind;
+  SurfaceMesh truth;
+  if (!options.compare_to.empty() && !ReadComparison(options, model, &truth, &error)) {
+    return Fail(error);
+  }
+  log << "target " << options.target << ": " << kind << " ("
+      << (kind == "points" ? job.cloud.cols() : job.target.num_points()) << " points)\n";
+
+  LatentFitOptions fit_options = options.fit;
+  fit_options.uncertainty = fit_options.uncertainty || !options.output_uncertainty.empty();
+  LatentFitter fitter(model, fit_options);
+  // BLAS threads for this model's factor size (util/blas.h).
+  const ScopedBlasThreads blas(BlasThreadsForFactor(fitter.FactorNonzeros(), BlasThreads()));
+  Eigen::VectorXd initial = options.start.mean_latent ? fitter.MeanLatent() : fitter.PriorLatent();
+  if (!options.initial_latent.empty()) {
+    std::vector<RigidTransform> bones;
+    if (!ReadLatentFile(options.initial_latent, model.latent_dim(), BoneNames(model), &initial,
+                        &bones, &error) ||
+        !CheckLatentActuations(model, initial, options.initial_latent, &error)) {
+      return Fail(error);
+    }
+    fitter.set_bone_transforms(bones);
+  }
+  FitJobResult result;
+  result.kind = kind;
+  const bool ok = FitFromChosenStart(&fitter, kind == "points" ? nullptr : &job.target,
+                                     kind == "points" ? &job.cloud : nullptr, job.cloud_options,
+                                     options.start, initial, &result.fit, &error);
+  if (result.fit.start.empty()) {  // no start could be simulated
+    result.status = JobStatus::kNotConverged;
+    result.message = error;
+    return result;
+  }
+  const LatentFitResult& fit = result.fit;
+  if (!fit.retry_reason.empty()) {
+    log << "retry from the given start: " << fit.retry_reason << "; "
+        << (fit.retry_kept ? "kept (a smaller objective)" : "not kept") << "\n";
+  }
+  log << "start: " << fit.start << "\n";
+  if (!ok) return NotConverged(options, model, result, error, log);
+  LogFit(options, model, job, fit, log);
+  if (!options.compare_to.empty()) CompareWithTruth(options, model, job, truth, &result, log);
   if (fit.failed || !std::isfinite(fit.mean_error) || !std::isfinite(fit.rms_error) ||
       !std::isfinite(fit.max_error)) {
     return NotConverged(options, model, result,
