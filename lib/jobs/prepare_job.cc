@@ -62,6 +62,145 @@ bool PrepareJobOptions::Validate(std::string* error) const {
 
 namespace {
 
+// The neutral surface (vertices and faces) and the pose surfaces (its vertex order, near
+// it) into model->neutral and model->poses.
+bool ReadNeutralAndPoses(const PrepareJobOptions& options, ActiveModel* model,
+                         std::ostream& log, std::string* error) {
+  if (!ReadObj(options.neutral, &model->neutral, error)) return false;
+  if (model->neutral.num_vertices() == 0 || model->neutral.num_triangles() == 0) {
+    *error = options.neutral + ": the neutral surface needs vertices and faces";
+    return false;
+  }
+  log << "neutral " << options.neutral << ": " << model->neutral.num_vertices() << " vertices, "
+      << model->neutral.num_triangles() << " triangles\n";
+
+  std::vector<std::string> names;
+  std::vector<Eigen::Matrix3Xd> surfaces;
+  if (!ReadPoseSurfaces(options.pose_paths, model->neutral.num_vertices(), options.num_threads,
+                        &names, &surfaces, error)) {
+    return false;
+  }
+  for (size_t p = 0; p < names.size(); ++p) {
+    if (!CheckPointsNearModel(options.pose_paths[p], model->neutral.vertices, surfaces[p],
+                              error)) {
+      return false;
+    }
+    TrainingPose pose;
+    pose.name = names[p];
+    pose.surface = surfaces[p];
+    model->poses.push_back(pose);
+  }
+  log << "poses: " << model->num_poses() << "\n";
+  return true;
+}
+
+// The simulation mesh (read, or a lattice over the neutral within the memory limit),
+// cropped to the keep boxes, without weakly held elements, cut by the planes (*cut_mesh:
+// the cut's element copies) and validated, into model->mesh.
+bool BuildSimulationMesh(const PrepareJobOptions& options, ActiveModel* model,
+                         CutMesh* cut_mesh, std::ostream& log, std::string* error) {
+  WallTimer timer;
+  if (!options.tet_mesh.empty()) {
+    if (!ReadTetMesh(options.tet_mesh, &model->mesh, error)) return false;
+    log << "simulation mesh " << options.tet_mesh;
+  } else {
+    // The lattice's memory, from the surface's bounding box, before it is built.
+    double lattice_elements = 0.0;
+    const Eigen::Matrix3Xd& neutral = model->neutral.vertices;
+    const double lattice_bytes =
+        SurfaceTetMeshMemoryBytes(neutral.rowwise().minCoeff(), neutral.rowwise().maxCoeff(),
+                                  options.meshing, &lattice_elements);
+    std::ostringstream details;
+    details.precision(3);
+    details << "a lattice of " << lattice_elements << " elements at spacing "
+            << options.meshing.spacing << " over the neutral's bounding box";
+    if (!CheckMemoryEstimate(lattice_bytes, options.max_memory_bytes, "meshing the neutral",
+                             details.str(), error)) {
+      return false;
+    }
+    SurfaceTetMeshStats stats;
+    if (!MeshSurfaceInterior(model->neutral.vertices, model->neutral.triangles, options.meshing,
+                             &model->mesh, error, &stats)) {
+      *error = options.neutral + ": " + *error;
+      return false;
+    }
+    log << "simulation mesh: " << (options.meshing.type == LatticeType::kBcc ? "BCC" : "Kuhn")
+        << " lattice, spacing " << options.meshing.spacing;
+    if (options.meshing.shell_thickness > 0) log << ", shell " << options.meshing.shell_thickness;
+  }
+  if (!options.keep_boxes.empty()) {
+    model->mesh = CropToBoxes(model->mesh, options.keep_boxes);
+    if (model->mesh.num_tets() == 0) {
+      *error = "no simulation element lies inside the --keep_box boxes";
+      return false;
+    }
+  }
+  {
+    // Vertices that one or two elements hold (outer corners of elements kept for a
+    // surface vertex, the boxes' edges) make equilibria unstable.
+    int pruned = 0;
+    model->mesh = PruneWeaklyHeldElements(model->mesh, options.min_elements_per_vertex, &pruned);
+    if (model->mesh.num_tets() == 0) {
+      *error = "no simulation element is left after removing those at vertices held by fewer "
+               "than " + std::to_string(options.min_elements_per_vertex) + " elements";
+      return false;
+    }
+    if (pruned > 0) {
+      log << "; " << pruned << " element(s) at vertices held by fewer than "
+          << options.min_elements_per_vertex << " elements removed";
+    }
+  }
+  if (!options.cuts.empty()) {
+    *cut_mesh = ApplyPlaneCuts(model->mesh, options.cuts);
+    log << "; " << options.cuts.size() << " cut(s) duplicated "
+        << cut_mesh->mesh.num_tets() - model->mesh.num_tets() << " elements";
+    model->mesh = cut_mesh->mesh;
+  }
+  if (!ValidateTetMesh(model->mesh, "simulation mesh", error)) return false;
+  log << ": " << model->mesh.num_vertices() << " vertices, " << model->mesh.num_tets()
+      << " elements (" << timer.Seconds() << " s)\n";
+  return true;
+}
+
+// Whether the volumetric targets' embedded simulations (one solver per thread, and
+// every pose's target) fit in options.max_memory_bytes; false with *error if not.
+bool CheckTargetMemory(const PrepareJobOptions& options, const ActiveModel& model,
+                       std::string* error) {
+  const double elements = model.mesh.num_tets();
+  const double solvers = std::max(1, std::min(options.num_threads, model.num_poses()));
+  const double bytes = solvers * EquilibriumSolverMemoryBytes(elements) +
+                       sizeof(double) * 6.0 * elements * model.num_poses();
+  std::ostringstream details;
+  details.precision(3);
+  details << elements << " elements, " << solvers << " solver(s) in parallel, "
+          << model.num_poses() << " poses";
+  return CheckMemoryEstimate(bytes, options.max_memory_bytes,
+                             "the volumetric targets' embedded simulation", details.str(), error);
+}
+
+// The neutral's vertices embedded in the simulation mesh (model->embedding), on their
+// side of each cut.
+void EmbedNeutral(const PrepareJobOptions& options, const CutMesh& cut_mesh, ActiveModel* model,
+                  std::ostream& log) {
+  WallTimer timer;
+  model->embedding = EmbedPoints(model->mesh, model->neutral.vertices, options.num_threads);
+  if (!options.cuts.empty()) {
+    const int moved = AssignEmbeddingSides(
+        cut_mesh, options.cuts, model->neutral.vertices,
+        VertexNormals(model->neutral.vertices, model->neutral.triangles), options.cut_margin,
+        &model->embedding);
+    log << "cuts: " << moved << " surface vertices moved to their side's element copy\n";
+  }
+  int outside = 0;
+  double farthest = 0;
+  for (double d : model->embedding.outside_distance) {
+    outside += d > 0;
+    farthest = std::max(farthest, d);
+  }
+  log << "embedding: " << model->neutral.num_vertices() << " surface vertices, " << outside
+      << " outside the mesh (farthest " << farthest << ") (" << timer.Seconds() << " s)\n";
+}
+
 bool RunPrepare(const PrepareJobOptions& options, std::ostream& log, std::string* error,
                 JobStatus* status) {
   *status = JobStatus::kBadInput;
@@ -98,30 +237,7 @@ bool RunPrepare(const PrepareJobOptions& options, std::ostream& log, std::string
     return false;
   }
   ActiveModel model;
-  if (!ReadObj(options.neutral, &model.neutral, error)) return false;
-  if (model.neutral.num_vertices() == 0 || model.neutral.num_triangles() == 0) {
-    *error = options.neutral + ": the neutral surface needs vertices and faces";
-    return false;
-  }
-  log << "neutral " << options.neutral << ": " << model.neutral.num_vertices() << " vertices, "
-      << model.neutral.num_triangles() << " triangles\n";
-
-  std::vector<std::string> names;
-  std::vector<Eigen::Matrix3Xd> surfaces;
-  if (!ReadPoseSurfaces(options.pose_paths, model.neutral.num_vertices(), options.num_threads,
-                        &names, &surfaces, error)) {
-    return false;
-  }
-  for (size_t p = 0; p < names.size(); ++p) {
-    if (!CheckPointsNearModel(options.pose_paths[p], model.neutral.vertices, surfaces[p], error)) {
-      return false;
-    }
-    TrainingPose pose;
-    pose.name = names[p];
-    pose.surface = surfaces[p];
-    model.poses.push_back(pose);
-  }
-  log << "poses: " << model.num_poses() << "\n";
+  if (!ReadNeutralAndPoses(options, &model, log, error)) return false;
   // Mirror images: surfaces now (the memory estimates count them), bone motions after the
   // boundary rules have fitted the given poses'.
   const int given_poses = model.num_poses();
@@ -133,101 +249,11 @@ bool RunPrepare(const PrepareJobOptions& options, std::ostream& log, std::string
     log << "poses with their mirror images: " << model.num_poses() << "\n";
   }
 
-  WallTimer timer;
-  if (!options.tet_mesh.empty()) {
-    if (!ReadTetMesh(options.tet_mesh, &model.mesh, error)) return false;
-    log << "simulation mesh " << options.tet_mesh;
-  } else {
-    // The lattice's memory, from the surface's bounding box, before it is built.
-    double lattice_elements = 0.0;
-    const double lattice_bytes = SurfaceTetMeshMemoryBytes(
-        model.neutral.vertices.rowwise().minCoeff(), model.neutral.vertices.rowwise().maxCoeff(),
-        options.meshing, &lattice_elements);
-    std::ostringstream details;
-    details.precision(3);
-    details << "a lattice of " << lattice_elements << " elements at spacing "
-            << options.meshing.spacing << " over the neutral's bounding box";
-    if (!CheckMemoryEstimate(lattice_bytes, options.max_memory_bytes, "meshing the neutral",
-                             details.str(), error)) {
-      return false;
-    }
-    SurfaceTetMeshStats stats;
-    if (!MeshSurfaceInterior(model.neutral.vertices, model.neutral.triangles, options.meshing,
-                             &model.mesh, error, &stats)) {
-      *error = options.neutral + ": " + *error;
-      return false;
-    }
-    log << "simulation mesh: " << (options.meshing.type == LatticeType::kBcc ? "BCC" : "Kuhn")
-        << " lattice, spacing " << options.meshing.spacing;
-    if (options.meshing.shell_thickness > 0) log << ", shell " << options.meshing.shell_thickness;
-  }
-  if (!options.keep_boxes.empty()) {
-    model.mesh = CropToBoxes(model.mesh, options.keep_boxes);
-    if (model.mesh.num_tets() == 0) {
-      *error = "no simulation element lies inside the --keep_box boxes";
-      return false;
-    }
-  }
-  {
-    // Vertices that one or two elements hold (outer corners of elements kept for a
-    // surface vertex, the boxes' edges) make equilibria unstable.
-    int pruned = 0;
-    model.mesh = PruneWeaklyHeldElements(model.mesh, options.min_elements_per_vertex, &pruned);
-    if (model.mesh.num_tets() == 0) {
-      *error = "no simulation element is left after removing those at vertices held by fewer "
-               "than " + std::to_string(options.min_elements_per_vertex) + " elements";
-      return false;
-    }
-    if (pruned > 0) {
-      log << "; " << pruned << " element(s) at vertices held by fewer than "
-          << options.min_elements_per_vertex << " elements removed";
-    }
-  }
   CutMesh cut_mesh;
-  if (!options.cuts.empty()) {
-    cut_mesh = ApplyPlaneCuts(model.mesh, options.cuts);
-    log << "; " << options.cuts.size() << " cut(s) duplicated "
-        << cut_mesh.mesh.num_tets() - model.mesh.num_tets() << " elements";
-    model.mesh = cut_mesh.mesh;
-  }
-  if (!ValidateTetMesh(model.mesh, "simulation mesh", error)) return false;
-  log << ": " << model.mesh.num_vertices() << " vertices, " << model.mesh.num_tets()
-      << " elements (" << timer.Seconds() << " s)\n";
+  if (!BuildSimulationMesh(options, &model, &cut_mesh, log, error)) return false;
   model.mu = Eigen::VectorXd::Constant(model.mesh.num_tets(), options.mu);
-  {
-    // The embedded simulations: one solver per thread, and every pose's target.
-    const double elements = model.mesh.num_tets();
-    const double solvers = std::max(1, std::min(options.num_threads, model.num_poses()));
-    const double bytes = solvers * EquilibriumSolverMemoryBytes(elements) +
-                         sizeof(double) * 6.0 * elements * model.num_poses();
-    std::ostringstream details;
-    details.precision(3);
-    details << elements << " elements, " << solvers << " solver(s) in parallel, "
-            << model.num_poses() << " poses";
-    if (!CheckMemoryEstimate(bytes, options.max_memory_bytes,
-                             "the volumetric targets' embedded simulation", details.str(),
-                             error)) {
-      return false;
-    }
-  }
-
-  timer.Reset();
-  model.embedding = EmbedPoints(model.mesh, model.neutral.vertices, options.num_threads);
-  if (!options.cuts.empty()) {
-    const int moved = AssignEmbeddingSides(
-        cut_mesh, options.cuts, model.neutral.vertices,
-        VertexNormals(model.neutral.vertices, model.neutral.triangles), options.cut_margin,
-        &model.embedding);
-    log << "cuts: " << moved << " surface vertices moved to their side's element copy\n";
-  }
-  int outside = 0;
-  double farthest = 0;
-  for (double d : model.embedding.outside_distance) {
-    outside += d > 0;
-    farthest = std::max(farthest, d);
-  }
-  log << "embedding: " << model.neutral.num_vertices() << " surface vertices, " << outside
-      << " outside the mesh (farthest " << farthest << ") (" << timer.Seconds() << " s)\n";
+  if (!CheckTargetMemory(options, model, error)) return false;
+  EmbedNeutral(options, cut_mesh, &model, log);
 
   std::string rules_log;
   std::vector<std::string> pose_names;
@@ -247,7 +273,7 @@ bool RunPrepare(const PrepareJobOptions& options, std::ostream& log, std::string
     }
   }
 
-  timer.Reset();
+  WallTimer timer;
   log << "volumetric targets by embedded simulation:\n";
   VolumetricTargetOptions targets = options.targets;
   targets.num_threads = options.num_threads;
