@@ -40,6 +40,19 @@ std::string SkipNote(bool decoder, bool autoencoder) {
                      : " and no linear skip (the physics decoder has one)";
 }
 
+// The rows of one split as pose -> method -> row (*table), with the poses in their first
+// row's order (*poses). False if the split has no rows.
+bool GroupBySplit(const std::vector<EvaluationRow>& rows, const std::string& split,
+                  std::vector<std::string>* poses,
+                  std::map<std::string, std::map<std::string, EvaluationRow>>* table) {
+  for (const EvaluationRow& row : rows) {
+    if (row.split != split) continue;
+    if (table->find(row.pose) == table->end()) poses->push_back(row.pose);
+    (*table)[row.pose][row.method] = row;
+  }
+  return !poses->empty();
+}
+
 }  // namespace
 
 Eigen::VectorXd VertexErrors(const Eigen::Matrix3Xd& a, const Eigen::Matrix3Xd& b) {
@@ -73,15 +86,9 @@ EvaluationRow SummarizeErrors(const std::string& split, const std::string& pose,
 }
 
 std::string EvaluationTable(const std::vector<EvaluationRow>& rows, const std::string& split) {
-  // pose -> method -> row
   std::vector<std::string> poses;
   std::map<std::string, std::map<std::string, EvaluationRow>> table;
-  for (const EvaluationRow& row : rows) {
-    if (row.split != split) continue;
-    if (table.find(row.pose) == table.end()) poses.push_back(row.pose);
-    table[row.pose][row.method] = row;
-  }
-  if (poses.empty()) return "";
+  if (!GroupBySplit(rows, split, &poses, &table)) return "";
   std::string out = "| " + split +
                     " pose | neutral mean | physics mean | rms | max | autoencoder mean | "
                     "rms | max | PCA mean | rms | max | PCA (neutral) mean | rms | max |\n"
@@ -116,12 +123,7 @@ std::string ErrorBudgetTable(const std::vector<EvaluationRow>& rows, const std::
                              const std::vector<std::pair<std::string, std::string>>& columns) {
   std::vector<std::string> poses;
   std::map<std::string, std::map<std::string, EvaluationRow>> table;
-  for (const EvaluationRow& row : rows) {
-    if (row.split != split) continue;
-    if (table.find(row.pose) == table.end()) poses.push_back(row.pose);
-    table[row.pose][row.method] = row;
-  }
-  if (poses.empty()) return "";
+  if (!GroupBySplit(rows, split, &poses, &table)) return "";
   std::string out = "| " + split + " pose |";
   std::string rule = "|---|";
   for (const auto& column : columns) {
