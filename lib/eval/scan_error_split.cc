@@ -72,7 +72,8 @@ std::vector<int> ScannedVertices(const Eigen::Matrix3Xd& vertices,
 }
 
 NormalTangentialError SplitError(const Eigen::Matrix3Xd& surface, const Eigen::Matrix3Xd& truth,
-                                 const Eigen::Matrix3Xd& normals, const std::vector<int>& vertices) {
+                                 const Eigen::Matrix3Xd& normals,
+                                 const std::vector<int>& vertices) {
   CHECK_EQ(surface.cols(), truth.cols());
   CHECK_EQ(normals.cols(), truth.cols());
   NormalTangentialError split;

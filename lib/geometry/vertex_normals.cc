@@ -4,7 +4,8 @@
 
 namespace aqs {
 
-Eigen::Matrix3Xd VertexNormals(const Eigen::Matrix3Xd& vertices, const Eigen::Matrix3Xi& triangles) {
+Eigen::Matrix3Xd VertexNormals(const Eigen::Matrix3Xd& vertices,
+                               const Eigen::Matrix3Xi& triangles) {
   Eigen::Matrix3Xd normals = Eigen::Matrix3Xd::Zero(3, vertices.cols());
   for (Eigen::Index t = 0; t < triangles.cols(); ++t) {
     const Eigen::Vector3d a = vertices.col(triangles(0, t));

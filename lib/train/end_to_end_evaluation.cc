@@ -61,7 +61,8 @@ bool EndToEndObjective::StartOnLine(const Eigen::Matrix3Xd& from, const Eigen::M
   // O, 1 at E) through O and E with E's predicted slope gives E + tau delta + (1 - tau)^2
   // (O - E).
   const bool last_is_to = last.cols() == nv && (to.array() == last.array()).all();
-  const bool last_is_from = last.cols() == nv && !last_is_to && (from.array() == last.array()).all();
+  const bool last_is_from =
+      last.cols() == nv && !last_is_to && (from.array() == last.array()).all();
   if (last_is_to || last_is_from) {
     const Eigen::Matrix3Xd& e = last_is_to ? to : from;
     const Eigen::Matrix3Xd& o = last_is_to ? from : to;
