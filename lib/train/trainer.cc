@@ -195,6 +195,81 @@ void RefitLatents(ActiveModel* model, EndToEndObjective* objective, Eigen::Vecto
   log << line << std::flush;
 }
 
+// Logs the start of training: the poses, parameters and starting loss (and the
+// iterations a resumed run has done), how the poses spread over the ranks, and the
+// solver layout (TrainOptions::max_factor_cache_gb) for this rank's poses.
+void LogTrainingStart(const TrainOptions& options, const ActiveModel& model,
+                      const EndToEndObjective& objective, double cost, int iterations_before,
+                      std::ostream& log) {
+  const Communicator* communicator = options.communicator;
+  const int np = model.decoder->num_parameters();
+  char start_loss[32];
+  std::snprintf(start_loss, sizeof(start_loss), "%.12g", cost);
+  log << "train: " << model.num_poses() << " poses, " << np << " decoder parameters + "
+      << model.latent_dim() << " x " << model.num_poses() << " latents; start loss "
+      << start_loss << ", surface error mean " << objective.mean_surface_error() << " max "
+      << objective.max_surface_error();
+  if (iterations_before > 0) {
+    log << " (resuming after " << iterations_before << " iterations)";
+  }
+  log << "\n";
+  if (objective.distributed()) {
+    log << "train: poses over " << communicator->Description() << ", per rank:";
+    for (int r = 0; r < communicator->size(); ++r) {
+      log << " " << OwnedIndices(model.num_poses(), r, communicator->size()).size();
+    }
+    const int spare = communicator->size() - model.num_poses();
+    if (spare == 1) {
+      log << " (rank " << model.num_poses() << " has no pose and stays idle)";
+    } else if (spare > 1) {
+      log << " (ranks " << model.num_poses() << " to " << communicator->size() - 1
+          << " have no pose and stay idle)";
+    }
+    log << "\n";
+  }
+  {
+    // The solver layout (TrainOptions::max_factor_cache_gb), for this rank's poses.
+    const size_t owned = objective.owned_poses().size();
+    const double gb = objective.factor_gb(), total = owned * gb;
+    char layout[512];
+    if (objective.solver_per_pose()) {
+      std::snprintf(layout, sizeof(layout),
+                    "train: one solver and stiffness factor per pose (%zu x %.3g GB = %.3g GB, "
+                    "within the factor cache of %.3g GB)\n",
+                    owned, gb, total, options.max_factor_cache_gb);
+    } else if (total > options.max_factor_cache_gb) {
+      const int stored = objective.num_stored_factors();
+      std::snprintf(layout, sizeof(layout),
+                    "train: one solver per thread (the factors of %zu poses, %zu x %.3g GB = "
+                    "%.3g GB, exceed the factor cache of %.3g GB); %d of the poses keep "
+                    "their factor in single precision (%d x %.3g GB = %.3g GB)\n",
+                    owned, owned, gb, total, options.max_factor_cache_gb, stored, stored,
+                    objective.stored_factor_gb(), stored * objective.stored_factor_gb());
+    } else {
+      std::snprintf(layout, sizeof(layout), "train: one solver per thread\n");
+    }
+    log << layout;
+  }
+}
+
+// Ceres' L-BFGS for end-to-end training, reporting to `callback` at every iteration
+// (which saves the state); max_num_iterations is set per run.
+ceres::GradientProblemSolver::Options TrainingSolverOptions(const TrainOptions& options,
+                                                            ceres::IterationCallback* callback) {
+  ceres::GradientProblemSolver::Options solver_options;
+  solver_options.line_search_direction_type = ceres::LBFGS;
+  solver_options.max_lbfgs_rank = 10;
+  solver_options.max_line_search_step_expansion = options.max_step_expansion;
+  solver_options.use_approximate_eigenvalue_bfgs_scaling = options.lbfgs_scaling;
+  solver_options.function_tolerance = 1e-10;
+  solver_options.gradient_tolerance = 1e-12;
+  solver_options.parameter_tolerance = 1e-12;
+  solver_options.logging_type = ceres::SILENT;
+  solver_options.update_state_every_iteration = true;  // the callback saves `parameters`
+  solver_options.callbacks.push_back(callback);
+  return solver_options;
+}
+
 }  // namespace
 
 bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport* report,
@@ -236,7 +311,6 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
     }
   }
   Eigen::VectorXd parameters = objective->ModelParameters();
-  const int np = model->decoder->num_parameters();
   double cost = 0;
   if (!objective->Evaluate(parameters.data(), &cost, nullptr)) {
     *error = "the starting point cannot be simulated: " + objective->last_failure();
@@ -245,53 +319,7 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
   }
   report->initial_loss = cost;
   report->initial_mean_surface_error = objective->mean_surface_error();
-  char start_loss[32];
-  std::snprintf(start_loss, sizeof(start_loss), "%.12g", cost);
-  log << "train: " << model->num_poses() << " poses, " << np << " decoder parameters + "
-      << model->latent_dim() << " x " << model->num_poses() << " latents; start loss "
-      << start_loss << ", surface error mean " << objective->mean_surface_error() << " max "
-      << objective->max_surface_error();
-  if (report->iterations_before > 0) {
-    log << " (resuming after " << report->iterations_before << " iterations)";
-  }
-  log << "\n";
-  if (objective->distributed()) {
-    log << "train: poses over " << communicator->Description() << ", per rank:";
-    for (int r = 0; r < communicator->size(); ++r) {
-      log << " " << OwnedIndices(model->num_poses(), r, communicator->size()).size();
-    }
-    const int spare = communicator->size() - model->num_poses();
-    if (spare == 1) {
-      log << " (rank " << model->num_poses() << " has no pose and stays idle)";
-    } else if (spare > 1) {
-      log << " (ranks " << model->num_poses() << " to " << communicator->size() - 1
-          << " have no pose and stay idle)";
-    }
-    log << "\n";
-  }
-  {
-    // The solver layout (TrainOptions::max_factor_cache_gb), for this rank's poses.
-    const size_t owned = objective->owned_poses().size();
-    const double gb = objective->factor_gb(), total = owned * gb;
-    char layout[512];
-    if (objective->solver_per_pose()) {
-      std::snprintf(layout, sizeof(layout),
-                    "train: one solver and stiffness factor per pose (%zu x %.3g GB = %.3g GB, "
-                    "within the factor cache of %.3g GB)\n",
-                    owned, gb, total, options.max_factor_cache_gb);
-    } else if (total > options.max_factor_cache_gb) {
-      const int stored = objective->num_stored_factors();
-      std::snprintf(layout, sizeof(layout),
-                    "train: one solver per thread (the factors of %zu poses, %zu x %.3g GB = "
-                    "%.3g GB, exceed the factor cache of %.3g GB); %d of the poses keep "
-                    "their factor in single precision (%d x %.3g GB = %.3g GB)\n",
-                    owned, owned, gb, total, options.max_factor_cache_gb, stored, stored,
-                    objective->stored_factor_gb(), stored * objective->stored_factor_gb());
-    } else {
-      std::snprintf(layout, sizeof(layout), "train: one solver per thread\n");
-    }
-    log << layout;
-  }
+  LogTrainingStart(options, *model, *objective, cost, report->iterations_before, log);
   if (remaining <= 0) {
     log << "train: all " << options.max_iterations << " iterations are done already\n";
   }
@@ -304,17 +332,8 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
   TrainingCallback callback(options, model, objective, parameters, report->iterations_before, log);
   int done = report->iterations_before;
   if (remaining > 0) {
-    ceres::GradientProblemSolver::Options solver_options;
-    solver_options.line_search_direction_type = ceres::LBFGS;
-    solver_options.max_lbfgs_rank = 10;
-    solver_options.max_line_search_step_expansion = options.max_step_expansion;
-    solver_options.use_approximate_eigenvalue_bfgs_scaling = options.lbfgs_scaling;
-    solver_options.function_tolerance = 1e-10;
-    solver_options.gradient_tolerance = 1e-12;
-    solver_options.parameter_tolerance = 1e-12;
-    solver_options.logging_type = ceres::SILENT;
-    solver_options.update_state_every_iteration = true;  // the callback saves `parameters`
-    solver_options.callbacks.push_back(&callback);
+    ceres::GradientProblemSolver::Options solver_options =
+        TrainingSolverOptions(options, &callback);
     // The loss is only as smooth as the equilibria are converged, so the line search
     // can stall (zero step) far from a minimum. Then L-BFGS restarts from the current
     // point with an empty memory (a steepest-descent step first), as long as each
