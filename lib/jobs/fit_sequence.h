@@ -9,6 +9,7 @@
 
 #include "dist/communicator.h"
 #include "fit/latent_fit.h"
+#include "jobs/sequence_frames.h"
 #include "jobs/simulate_job.h"
 #include "model/active_model.h"
 
@@ -70,25 +71,6 @@ struct FitSequenceResult {
   double seconds = 0.0;    // fitting time of this run (after reading the targets)
   double frames_per_second = 0.0;
 };
-
-// One frame's target, read and checked.
-struct SequenceFrame {
-  std::string path, name, kind;
-  std::string origin;  // where it was listed ("list.txt:3") or the path
-  FitTarget target;            // markers and poses
-  Eigen::Matrix3Xd cloud;      // points
-  FitTarget landmarks;         // points with FitSequenceOptions::landmarks (else empty)
-};
-
-// Resolves and reads the frames of `options.sequence` for a model with
-// num_surface_vertices surface vertices. Errors (false, *error) name the file and line:
-// no frames, a missing file, an unreadable target (markers: repeated or out-of-range
-// vertices at path:line; scans: no points), kinds that differ from the first frame's,
-// a pose with another vertex count, two frames with the same name; with landmarks, a
-// sequence that is not of point clouds, another number of landmark files than frames,
-// an unreadable landmarks file.
-bool ReadSequenceFrames(const FitSequenceOptions& options, int num_surface_vertices,
-                        std::vector<SequenceFrame>* frames, std::string* error);
 
 // Fits the frames with `model` (which must be the one options.model names, for the
 // messages; with ranks, the same model on every rank) and writes the outputs. Progress

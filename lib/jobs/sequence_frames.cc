@@ -1,0 +1,210 @@
+#include "jobs/sequence_frames.h"
+
+#include <glob.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <map>
+#include <utility>
+
+#include "jobs/fit_job.h"
+#include "jobs/fit_sequence.h"
+#include "mesh/mesh_io.h"
+#include "mesh/ply_io.h"
+#include "util/file_extension.h"
+#include "util/line_reader.h"
+#include "util/text_split.h"
+
+namespace aqs {
+namespace {
+
+namespace fs = std::filesystem;
+
+// The frame files of a sequence specification, with where each was listed.
+bool ResolveFrames(const std::string& spec, std::vector<std::pair<std::string, std::string>>* out,
+                   std::string* error) {
+  std::error_code code;
+  std::vector<std::string> found;
+  if (spec.empty()) {
+    *error = "no sequence given";
+    return false;
+  }
+  if (fs::is_directory(spec, code)) {
+    for (const auto& entry : fs::directory_iterator(spec, code)) {
+      const std::string ext = LowercaseExtension(entry.path().string());
+      if (entry.is_regular_file() && (ext == ".obj" || ext == ".txt" || ext == ".ply")) {
+        found.push_back(entry.path().string());
+      }
+    }
+    std::sort(found.begin(), found.end());
+    for (const std::string& f : found) out->emplace_back(f, f);
+  } else if (spec.find_first_of("*?[") != std::string::npos) {
+    glob_t matches;
+    if (glob(spec.c_str(), 0, nullptr, &matches) == 0) {
+      for (size_t i = 0; i < matches.gl_pathc; ++i) found.push_back(matches.gl_pathv[i]);
+    }
+    globfree(&matches);
+    std::sort(found.begin(), found.end());
+    for (const std::string& f : found) out->emplace_back(f, f);
+  } else if (LowercaseExtension(spec) == ".txt" && spec.find(',') == std::string::npos) {
+    LineReader reader(spec);
+    if (!reader.ok()) {
+      *error = reader.error();
+      return false;
+    }
+    const fs::path base = fs::path(spec).parent_path();
+    std::vector<std::string> tokens;
+    while (reader.NextTokens(&tokens)) {
+      if (tokens.size() != 1) {
+        *error = reader.Where("expected one target file per line (a sequence list)");
+        return false;
+      }
+      const fs::path p(tokens[0]);
+      const std::string resolved = p.is_absolute() ? p.string() : (base / p).string();
+      if (!fs::exists(resolved)) {
+        *error = reader.Where("target file '" + resolved + "' does not exist");
+        return false;
+      }
+      out->emplace_back(resolved, spec + ":" + std::to_string(reader.line_number()));
+    }
+    if (!reader.ok()) {
+      *error = reader.error();
+      return false;
+    }
+  } else {
+    for (const std::string& item : SplitList(spec)) {
+      if (!fs::exists(item)) {
+        *error = "target file '" + item + "' does not exist";
+        return false;
+      }
+      out->emplace_back(item, item);
+    }
+  }
+  if (out->empty()) {
+    *error = "the sequence '" + spec + "' matches no target files (.obj, .txt, .ply)";
+    return false;
+  }
+  return true;
+}
+// Prefixes an error about a listed file with where it was listed.
+std::string From(const SequenceFrame& f, const std::string& message) {
+  return f.origin == f.path ? message : f.origin + ": " + message;
+}
+}  // namespace
+
+bool ReadSequenceFrames(const FitSequenceOptions& options, int ns,
+                        std::vector<SequenceFrame>* frames, std::string* error) {
+  std::vector<std::pair<std::string, std::string>> files;
+  if (!ResolveFrames(options.sequence, &files, error)) return false;
+  if (options.max_frames >= 0 && static_cast<int>(files.size()) > options.max_frames) {
+    files.resize(options.max_frames);
+  }
+  const std::string& forced = options.target_kind;
+  if (forced != "auto" && forced != "pose" && forced != "markers" && forced != "points") {
+    *error = "--target_kind must be auto, pose, markers or points, got '" + forced + "'";
+    return false;
+  }
+  std::map<std::string, std::string> names;
+  frames->clear();
+  for (const auto& [path, origin] : files) {
+    SequenceFrame f;
+    f.path = path;
+    f.origin = origin;
+    f.name = fs::path(path).stem().string();
+    const auto [it, inserted] = names.emplace(f.name, path);
+    if (!inserted) {
+      *error = From(f, path + ": frame name '" + f.name + "' is already taken by " + it->second +
+                           " (frames are named by file name)");
+      return false;
+    }
+    const std::string ext = LowercaseExtension(path);
+    SurfaceMesh surface;
+    f.kind = forced;
+    if (f.kind == "auto") {
+      if (ext == ".txt") {
+        f.kind = "markers";
+      } else if (ext == ".ply") {
+        f.kind = "points";
+      } else if (ext == ".obj") {
+        if (!ReadObj(path, &surface, error)) {
+          *error = From(f, *error);
+          return false;
+        }
+        // The first frame decides; a later OBJ of another vertex count is a mismatch.
+        const bool pose_sequence = frames->empty() ? surface.num_vertices() == ns
+                                                   : frames->front().kind == "pose";
+        f.kind = pose_sequence ? "pose" : "points";
+      } else {
+        *error = From(f, path + ": cannot tell the target kind from the extension (.obj, .txt "
+                             "or .ply); give --target_kind");
+        return false;
+      }
+    }
+    if (!frames->empty() && f.kind != frames->front().kind) {
+      *error = From(f, path + ": a " + f.kind + " target, but the sequence's first frame " +
+                           frames->front().path + " is a " + frames->front().kind +
+                           " target (a sequence has one kind)");
+      return false;
+    }
+    if (f.kind == "pose") {
+      if (surface.num_vertices() == 0 && !ReadObj(path, &surface, error)) {
+        *error = From(f, *error);
+        return false;
+      }
+      if (surface.num_vertices() != ns) {
+        *error = From(f, path + ": " + std::to_string(surface.num_vertices()) +
+                             " vertices, but the model's surface" +
+                             (frames->empty() ? std::string("") : " (and the first frame's)") +
+                             " has " + std::to_string(ns));
+        return false;
+      }
+      f.target = FullSurfaceTarget(surface.vertices);
+    } else if (f.kind == "markers") {
+      std::vector<int> vertices;
+      Eigen::Matrix3Xd positions;
+      if (!ReadMarkers(path, ns, &vertices, &positions, error)) {
+        *error = From(f, *error);
+        return false;
+      }
+      f.target = VertexTarget(vertices, positions);
+    } else {
+      if (!ReadPointCloud(path, &f.cloud, error)) {
+        *error = From(f, *error);
+        return false;
+      }
+      if (f.cloud.cols() < 3) {
+        *error = From(f, path + ": fewer than 3 points");
+        return false;
+      }
+    }
+    frames->push_back(std::move(f));
+  }
+  if (options.landmarks.empty()) return true;
+  // One landmarks file per frame, in the frames' order.
+  if (frames->front().kind != "points") {
+    *error = options.landmarks + ": landmarks go with a sequence of point clouds (scans), but " +
+             options.sequence + " is a sequence of " + frames->front().kind + " targets";
+    return false;
+  }
+  std::vector<std::pair<std::string, std::string>> landmark_files;
+  if (!ResolveFrames(options.landmarks, &landmark_files, error)) return false;
+  if (options.max_frames >= 0 && static_cast<int>(landmark_files.size()) > options.max_frames) {
+    landmark_files.resize(options.max_frames);
+  }
+  if (landmark_files.size() != frames->size()) {
+    *error = options.landmarks + ": " + std::to_string(landmark_files.size()) +
+             " landmark files for the " + std::to_string(frames->size()) + " frames of " +
+             options.sequence + " (one per frame, in the frames' order)";
+    return false;
+  }
+  for (size_t k = 0; k < frames->size(); ++k) {
+    const auto& [path, origin] = landmark_files[k];
+    if (!ReadMarkerTarget(path, ns, &(*frames)[k].landmarks, error)) {
+      if (origin != path) *error = origin + ": " + *error;
+      return false;
+    }
+  }
+  return true;
+}
+
+}  // namespace aqs

@@ -1,0 +1,37 @@
+#ifndef AQS_JOBS_SEQUENCE_FRAMES_H_
+#define AQS_JOBS_SEQUENCE_FRAMES_H_
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "fit/fit_target.h"
+
+namespace aqs {
+
+struct FitSequenceOptions;  // jobs/fit_sequence.h
+
+// One frame's target, read and checked.
+struct SequenceFrame {
+  std::string path, name, kind;
+  std::string origin;  // where it was listed ("list.txt:3") or the path
+  FitTarget target;            // markers and poses
+  Eigen::Matrix3Xd cloud;      // points
+  FitTarget landmarks;         // points with FitSequenceOptions::landmarks (else empty)
+};
+
+// Resolves and reads the frames of `options.sequence` (and `options.landmarks`, at most
+// `options.max_frames`, of `options.target_kind`) for a model with num_surface_vertices
+// surface vertices. Errors (false, *error) name the file and line:
+// no frames, a missing file, an unreadable target (markers: repeated or out-of-range
+// vertices at path:line; scans: no points), kinds that differ from the first frame's,
+// a pose with another vertex count, two frames with the same name; with landmarks, a
+// sequence that is not of point clouds, another number of landmark files than frames,
+// an unreadable landmarks file.
+bool ReadSequenceFrames(const FitSequenceOptions& options, int num_surface_vertices,
+                        std::vector<SequenceFrame>* frames, std::string* error);
+
+}  // namespace aqs
+
+#endif  // AQS_JOBS_SEQUENCE_FRAMES_H_

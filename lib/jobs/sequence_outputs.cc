@@ -1,0 +1,154 @@
+#include "jobs/sequence_outputs.h"
+
+#include <filesystem>
+
+#include <glog/logging.h>
+
+#include "fit/bone_parameters.h"
+#include "util/line_reader.h"
+#include "util/number_format.h"
+#include "util/text_split.h"
+
+namespace aqs {
+namespace {
+
+namespace fs = std::filesystem;
+
+// A CSV number (read back bit for bit, util/number_format.h).
+void Append(double v, std::string* out) {
+  *out += ',';
+  AppendDouble(v, out);
+}
+
+}  // namespace
+
+std::string SequenceCsvHeader(const ActiveModel& model) {
+  std::string h = "frame,name,kind,points,used_points,matched_fraction,mean_error,rms_error,"
+                  "max_error,iterations,seconds,converged,start,factorizations";
+  for (int i = 0; i < model.latent_dim(); ++i) h += ",z" + std::to_string(i + 1);
+  for (const Bone& b : model.bones) {
+    for (const char* p : {"rx", "ry", "rz", "tx", "ty", "tz"}) h += "," + b.name + "_" + p;
+  }
+  return h;
+}
+
+bool ReadFramesDone(const std::string& csv, const std::string& output_dir,
+                    const ActiveModel& model, const std::vector<SequenceFrame>& frames,
+                    std::vector<DoneFrame>* done, std::string* error) {
+  if (!fs::exists(csv)) return true;
+  LineReader reader(csv);
+  if (!reader.ok()) {
+    *error = reader.error();
+    return false;
+  }
+  const std::string header = SequenceCsvHeader(model);
+  const int d = model.latent_dim();
+  const size_t columns = 14 + d + 6 * model.bones.size();
+  while (reader.NextLine()) {
+    if (reader.line_number() == 1) {
+      if (reader.line() != header) {
+        *error = reader.Where("written for another model (the header differs): remove the "
+                              "folder or choose another --output_dir");
+        return false;
+      }
+      continue;
+    }
+    const std::vector<std::string> cells = SplitFields(reader.line());
+    const size_t f = done->size();
+    int index = -1;
+    if (cells.size() != columns || !ParseInt(cells[0], &index) || index != static_cast<int>(f)) {
+      *error = reader.Where("expected the row of frame " + std::to_string(f) + " (" +
+                            std::to_string(columns) + " columns)");
+      return false;
+    }
+    if (f >= frames.size() || cells[1] != frames[f].name) {
+      *error = reader.Where("frame " + std::to_string(f) + " is '" + cells[1] +
+                            "', but this sequence's is '" +
+                            (f < frames.size() ? frames[f].name : std::string("(none)")) +
+                            "': the folder holds another run; remove it or choose another "
+                            "--output_dir");
+      return false;
+    }
+    if (!fs::exists(output_dir + "/" + frames[f].name + ".obj")) break;  // redo from here
+    DoneFrame row;
+    row.line = reader.line();
+    row.latent.resize(d);
+    bool ok = true;
+    for (int i = 0; i < d && ok; ++i) ok = ParseDouble(cells[14 + i], &row.latent[i]);
+    for (size_t b = 0; b < model.bones.size() && ok; ++b) {
+      double p[6];
+      for (int k = 0; k < 6 && ok; ++k) ok = ParseDouble(cells[14 + d + 6 * b + k], &p[k]);
+      if (ok) row.bones.push_back(BoneTransformFromParameters(p));
+    }
+    if (!ok) {
+      *error = reader.Where("a latent or bone number is not a number");
+      return false;
+    }
+    done->push_back(row);
+  }
+  if (!reader.ok()) {
+    *error = reader.error();
+    return false;
+  }
+  return true;
+}
+
+int FrameBlockSize(int d, int nb, int ns) { return kFrameScalars + d + 6 * nb + 3 * ns; }
+
+void PackFrameBlock(const ActiveModel& model, const LatentFitResult& fit,
+                    const std::string& start, double seconds, std::vector<double>* block) {
+  int start_index = -3;
+  if (start == "previous") {
+    start_index = -2;
+  } else if (start == "given") {
+    start_index = -1;
+  } else {
+    for (int p = 0; p < model.num_poses() && start_index == -3; ++p) {
+      if (model.poses[p].name == start) start_index = p;
+    }
+  }
+  CHECK_NE(start_index, -3) << "unknown start " << start;
+  *block = {double(fit.used_points), fit.matched_fraction, fit.mean_error, fit.rms_error,
+            fit.max_error, double(fit.iterations), seconds, fit.converged ? 1.0 : 0.0,
+            double(start_index), double(fit.solve_factorizations + fit.jacobians)};
+  block->insert(block->end(), fit.latent.data(), fit.latent.data() + fit.latent.size());
+  for (const RigidTransform& t : fit.bones) {
+    double p[6];
+    BoneTransformToParameters(t, p);
+    block->insert(block->end(), p, p + 6);
+  }
+  block->insert(block->end(), fit.surface.data(), fit.surface.data() + fit.surface.size());
+  CHECK_EQ(static_cast<int>(block->size()),
+           FrameBlockSize(model.latent_dim(), static_cast<int>(model.bones.size()),
+                          model.num_surface_vertices()));
+}
+
+std::string FrameCsvRow(const ActiveModel& model, int f, const SequenceFrame& frame,
+                        const double* b) {
+  const bool is_cloud = frame.kind == "points";
+  const int start = static_cast<int>(b[8]);
+  std::string row = std::to_string(f) + "," + frame.name + "," + frame.kind + "," +
+                    std::to_string(is_cloud ? frame.cloud.cols() : frame.target.num_points()) +
+                    "," + std::to_string(static_cast<int>(b[0]));
+  for (int k = 1; k <= 4; ++k) Append(b[k], &row);
+  row += "," + std::to_string(static_cast<int>(b[5]));
+  Append(b[6], &row);
+  row += std::string(",") + (b[7] != 0.0 ? "1" : "0") + "," +
+         (start == -2 ? std::string("previous")
+                      : start == -1 ? std::string("given") : model.poses[start].name) +
+         "," + std::to_string(static_cast<int>(b[9]));
+  const int values = model.latent_dim() + 6 * static_cast<int>(model.bones.size());
+  for (int i = 0; i < values; ++i) Append(b[kFrameScalars + i], &row);
+  return row;
+}
+
+Eigen::Map<const Eigen::VectorXd> BlockLatent(const ActiveModel& model, const double* b) {
+  return Eigen::Map<const Eigen::VectorXd>(b + kFrameScalars, model.latent_dim());
+}
+
+Eigen::Map<const Eigen::Matrix3Xd> BlockSurface(const ActiveModel& model, const double* b) {
+  const int offset = kFrameScalars + model.latent_dim() + 6 * static_cast<int>(model.bones.size());
+  return Eigen::Map<const Eigen::Matrix3Xd>(b + offset, 3, model.num_surface_vertices());
+}
+
+}  // namespace aqs

@@ -1,0 +1,67 @@
+#ifndef AQS_JOBS_SEQUENCE_OUTPUTS_H_
+#define AQS_JOBS_SEQUENCE_OUTPUTS_H_
+
+// The outputs of a sequence fit (jobs/fit_sequence.h) and how a rerun resumes from
+// them: frames.csv's rows, and a fitted frame as one block of doubles (what a rank
+// sends to rank 0, which alone writes). Internal to jobs/.
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "fit/latent_fit.h"
+#include "jobs/sequence_frames.h"
+#include "model/active_model.h"
+#include "geometry/rigid_transform.h"
+
+namespace aqs {
+
+// frames.csv's header for `model`: 14 columns (frame, name, kind, points, used_points,
+// matched_fraction, mean_error, rms_error, max_error, iterations, seconds, converged,
+// start, factorizations), then z1..zd, then <bone>_rx, ry, rz, tx, ty, tz per bone.
+std::string SequenceCsvHeader(const ActiveModel& model);
+
+// A frame found done in an earlier run: its CSV row as written, its latent (d) and its
+// bones' motions.
+struct DoneFrame {
+  std::string line;
+  Eigen::VectorXd latent;
+  std::vector<RigidTransform> bones;
+};
+
+// Reads the frames already done from `csv` (output_dir/frames.csv; none if it does not
+// exist): its rows in order, frame 0 first, while the row's name is the frame's and
+// its OBJ exists in output_dir (from the first frame without it the run is redone).
+// Errors (false, *error at csv:line): a header for another model, rows of other frames
+// or another column count (the folder holds another run), numbers that do not parse.
+bool ReadFramesDone(const std::string& csv, const std::string& output_dir,
+                    const ActiveModel& model, const std::vector<SequenceFrame>& frames,
+                    std::vector<DoneFrame>* done, std::string* error);
+
+// A fitted frame as one block of doubles: kFrameScalars numbers (used points, matched
+// fraction, mean, rms and max error, iterations, seconds, converged, start,
+// factorizations), the latent (d), the bones' motion parameters (6 per bone, as
+// BoneTransformToParameters), the surface (3 x ns, column-major). The start is -2 for
+// "previous", -1 for "given", else the training pose's index.
+constexpr int kFrameScalars = 10;
+
+// Numbers in a block for latent size d, nb bones and ns surface vertices.
+int FrameBlockSize(int d, int nb, int ns);
+
+// `fit` (started from `start`: "previous", "given" or a training pose's name; fitted in
+// `seconds`) as a block, FrameBlockSize(...) numbers for `model`.
+void PackFrameBlock(const ActiveModel& model, const LatentFitResult& fit,
+                    const std::string& start, double seconds, std::vector<double>* block);
+
+// Frame f's row of frames.csv (no newline) from its block `b`.
+std::string FrameCsvRow(const ActiveModel& model, int f, const SequenceFrame& frame,
+                        const double* b);
+
+// The latent of block `b` (d numbers) and its surface (3 x ns).
+Eigen::Map<const Eigen::VectorXd> BlockLatent(const ActiveModel& model, const double* b);
+Eigen::Map<const Eigen::Matrix3Xd> BlockSurface(const ActiveModel& model, const double* b);
+
+}  // namespace aqs
+
+#endif  // AQS_JOBS_SEQUENCE_OUTPUTS_H_
