@@ -12,7 +12,6 @@
 namespace aqs {
 namespace {
 
-
 // Relative diagonal shifts tried, in turn, when the projected stiffness is singular.
 constexpr double kFirstShift = 1e-8;
 constexpr double kShiftGrowth = 100.0;
@@ -63,6 +62,253 @@ void LogStep(const StiffnessPattern& pattern, int step, const char* kind, double
   VLOG(3) << line.str();
 }
 
+// One minimization by MinimizeEnergyNewton: its state between steps and its steps.
+class NewtonMinimizer {
+ public:
+  NewtonMinimizer(const NewtonSolverOptions& options, const ShapeTargetModel::ActuationRef& a,
+                  StiffnessFactorization* factorization, Eigen::Matrix3Xd* x)
+      : options_(options),
+        a_(a),
+        factorization_(factorization),
+        pattern_(factorization->pattern()),
+        x_(x),
+        exact_limit_(options.exact_force_threshold) {
+    energy_ = factorization_->EnergyAndGradient(*x_, a_, &gradient_);
+    force_ = MaxFreeVertexNorm(pattern_, gradient_);
+    report_.initial_energy = energy_;
+    report_.initial_max_force = force_;
+  }
+
+  NewtonSolveReport Run() {
+    while (!MinimizerShouldStop(energy_, force_, options_.force_tolerance,
+                                report_.factorizations, options_.max_factorizations,
+                                "factorization", &message_, &report_.converged)) {
+      const bool exact = ExactIsDue();
+      Eigen::Matrix3Xd step;
+      bool reused = false;
+      if (exact) {
+        if (!ExactStep(&step, &reused)) continue;  // rejected: projected steps from here
+      } else {
+        if (!FactorizeProjected()) break;
+        if (StepAlongStoredNegativeCurvature()) continue;
+      }
+      if (!reused) step = -factorization_->Solve(gradient_);
+      double length = 0.0;
+      const bool accepted = LineSearch(step, &length);
+      if (VLOG_IS_ON(3)) {
+        LogStep(pattern_, report_.exact_steps + report_.projected_steps,
+                exact ? (reused ? "exact by CG" : "exact") : "projected",
+                exact ? 0.0 : last_shift_, energy_, gradient_, length, report_.factorizations);
+      }
+      if (accepted) {
+        ++(exact ? report_.exact_steps : report_.projected_steps);
+        if (!exact) ++projected_since_rejection_;
+        if (reused) ++report_.reused_steps;
+        projected_here_ = false;
+        no_reuse_here_ = false;
+        continue;
+      }
+      if (reused) {  // the inexact step failed: an exact one from a fresh factorization
+        no_reuse_here_ = true;
+        continue;
+      }
+      if (exact) {  // an exact step that does not descend: a projected one from here
+        RejectExact();
+        continue;
+      }
+      message_ << "the line search found no decrease of the energy at largest force " << force_
+               << " (the round-off floor of the energy)";
+      break;
+    }
+    report_.final_energy = energy_;
+    report_.final_max_force = force_;
+    report_.message = message_.str();
+    return report_;
+  }
+
+ private:
+  // Whether this step is tried on the exact stiffness: not where it was just rejected;
+  // while the force is at most exact_limit_, or after kExactRetrySteps projected steps
+  // below the threshold.
+  bool ExactIsDue() const {
+    return !projected_here_ &&
+           (force_ <= exact_limit_ || (projected_since_rejection_ >= kExactRetrySteps &&
+                                       force_ <= options_.exact_force_threshold));
+  }
+
+  // The exact K at x was rejected (not positive definite, or its step failed):
+  // projected steps from here until the force has fallen to kExactRetryFraction of this
+  // one, or for kExactRetrySteps steps.
+  void RejectExact() {
+    ++report_.exact_rejections;
+    projected_since_rejection_ = 0;
+    projected_here_ = true;
+    exact_limit_ = std::min(exact_limit_, kExactRetryFraction * force_);
+  }
+
+  // Assembles the exact K at x and the Newton step on it (*step): an inexact one by CG
+  // on the factor of an earlier state (*reused), or else from K's own factorization.
+  // False if K is not positive definite (found by CG or by CHOLMOD): rejected.
+  bool ExactStep(Eigen::Matrix3Xd* step, bool* reused) {
+    factorization_->Assemble(*x_, a_, StiffnessKind::kExact);
+    Eigen::MatrixXd free_step;
+    if (!no_reuse_here_ &&
+        factorization_->SolveReusingFactor(factorization_->GatherFree(gradient_),
+                                           options_.reuse, &free_step)) {
+      *reused = true;
+      *step = -factorization_->ScatterFree(free_step.data());
+      return true;
+    }
+    // CG met non-positive curvature: K is not positive definite, and its factorization
+    // would fail. Reject it without paying for that.
+    const bool indefinite = factorization_->last_reuse_found_indefinite();
+    if (!indefinite) ++report_.factorizations;
+    std::string error;
+    if (!indefinite && factorization_->FactorizeAssembled(0.0, &error)) return true;
+    VLOG(3) << "Newton: the exact stiffness at largest force " << force_ << " is not "
+            << "positive definite";
+    if (indefinite) {
+      VLOG(3) << "Newton: found by CG, along a direction of relative curvature "
+              << factorization_->last_reuse_relative_curvature();
+    }
+    // Still indefinite on a retry: the next projected factor serves a search for the
+    // negative curvature of this K.
+    if (report_.exact_rejections > 0 && options_.negative_curvature_steps) {
+      indefinite_values_ = factorization_->values();
+    }
+    VLOG(3) << "Newton: projected steps until the force is below "
+            << std::min(exact_limit_, kExactRetryFraction * force_) << " or for "
+            << kExactRetrySteps << " steps";
+    RejectExact();
+    return false;
+  }
+
+  // Assembles and factorizes the projected K at x: unshifted first, unless the last
+  // projected factor needed a shift (then a tenth of it), the shift growing until CHOLMOD
+  // succeeds. False (with the message) if it cannot be factorized within kLastShift or
+  // the factorization budget.
+  bool FactorizeProjected() {
+    factorization_->Assemble(*x_, a_, StiffnessKind::kProjected);
+    double shift = last_shift_ > 0.0 ? last_shift_ / 10.0 : 0.0;
+    bool factorized = false;
+    std::string error;
+    while (!factorized && report_.factorizations < options_.max_factorizations) {
+      ++report_.factorizations;
+      factorized = factorization_->FactorizeAssembled(shift, &error);
+      if (factorized) break;
+      shift = shift == 0.0 ? kFirstShift : shift * kShiftGrowth;
+      if (shift > kLastShift) break;
+    }
+    if (!factorized) {
+      message_ << "the projected stiffness could not be factorized, even shifted: " << error;
+      return false;
+    }
+    if (shift > 0.0) ++report_.shifted_factorizations;
+    last_shift_ = shift;
+    return true;
+  }
+
+  // With an exact K stored by a rejected retry (indefinite_values_, used up here): its
+  // direction of most negative curvature, found with the projected factor just made,
+  // and a step along it that lowers the energy. True if such a step was taken (x,
+  // gradient, energy and force updated; exact steps are due again at the usual
+  // threshold).
+  bool StepAlongStoredNegativeCurvature() {
+    if (indefinite_values_.empty()) return false;
+    std::vector<double> values;
+    values.swap(indefinite_values_);
+    Eigen::VectorXd direction;
+    double curvature = 0.0;
+    if (!FindNegativeCurvature(values, kNegativeCurvatureIterations, factorization_, &direction,
+                               &curvature)) {
+      return false;
+    }
+    const double before = energy_;
+    // A typical element size: the scale of the step.
+    const ShapeTargetModel& model = factorization_->model();
+    const double element_size =
+        std::cbrt(model.total_volume() / std::max(1, model.num_elements()));
+    const NegativeCurvatureStep along = StepAlongNegativeCurvature(
+        *factorization_, a_, direction, kNegativeCurvatureFirstLength * element_size,
+        kNegativeCurvatureTrials, x_, &energy_, &gradient_);
+    report_.energy_evaluations += along.energy_evaluations;
+    if (VLOG_IS_ON(3)) {
+      std::ostringstream line;
+      line << "Newton: negative curvature " << curvature << " (relative to mean diag K); ";
+      if (along.accepted) {
+        line << "a step along it moved a vertex by " << along.length << ", energy "
+             << std::setprecision(15) << before << " -> " << energy_;
+      } else {
+        line << "no step along it lowered the energy";
+      }
+      VLOG(3) << line.str();
+    }
+    if (!along.accepted) return false;
+    ++report_.negative_curvature_steps;
+    force_ = MaxFreeVertexNorm(pattern_, gradient_);
+    // Off the saddle: the exact K is worth trying again at the usual threshold.
+    exact_limit_ = options_.exact_force_threshold;
+    projected_here_ = false;
+    no_reuse_here_ = false;
+    return true;
+  }
+
+  // Backtracking along `step` from x: t = 1, 1/2, ... until sufficient decrease, or
+  // (below the energy's round-off) a smaller largest force. True if a trial was accepted
+  // (x, gradient, energy and force are the trial's, *length its t); false if `step` does
+  // not descend or no trial is accepted (*length 0).
+  bool LineSearch(const Eigen::Matrix3Xd& step, double* length) {
+    *length = 0.0;
+    const double slope = gradient_.cwiseProduct(step).sum();
+    if (!(slope < 0.0) || !std::isfinite(slope)) return false;
+    double t = 1.0;
+    for (int halving = 0; halving <= options_.line_search.max_halvings; ++halving, t *= 0.5) {
+      trial_ = *x_ + t * step;
+      const double trial_energy = factorization_->EnergyAndGradient(trial_, a_, &trial_gradient_);
+      ++report_.energy_evaluations;
+      if (!std::isfinite(trial_energy)) continue;
+      const double trial_force = MaxFreeVertexNorm(pattern_, trial_gradient_);
+      const bool sufficient =
+          options_.line_search.SufficientDecrease(energy_, trial_energy, t, slope);
+      // Below the energy's round-off the decrease test is noise: the force decides.
+      const bool round_off = trial_energy - energy_ <= kEnergyNoise * std::abs(energy_) &&
+                             trial_force < force_;
+      if (sufficient || round_off) {
+        x_->swap(trial_);
+        gradient_.swap(trial_gradient_);
+        energy_ = trial_energy;
+        force_ = trial_force;
+        *length = t;
+        return true;
+      }
+    }
+    return false;
+  }
+
+  const NewtonSolverOptions& options_;
+  const ShapeTargetModel::ActuationRef& a_;
+  StiffnessFactorization* factorization_;
+  const StiffnessPattern& pattern_;
+  Eigen::Matrix3Xd* x_;
+  Eigen::Matrix3Xd gradient_, trial_gradient_, trial_;
+  double energy_ = 0.0;
+  double force_ = 0.0;  // the largest free-vertex force at x
+  NewtonSolveReport report_;
+  std::ostringstream message_;
+  // Exact steps are tried while the force is at most this: the threshold, lowered to
+  // kExactRetryFraction of the force of a state where the exact stiffness was rejected
+  // (so that a region of indefinite K costs a few attempts, not one per step).
+  double exact_limit_;
+  // The relative diagonal shift that last made the projected K factorizable (0: none).
+  double last_shift_ = 0.0;
+  bool projected_here_ = false;        // the exact K was rejected at the current x
+  int projected_since_rejection_ = 0;  // accepted projected steps since the last rejection
+  bool no_reuse_here_ = false;  // a step by CG on an earlier factor failed at the current x
+  // The exact K of the current x, kept when it was rejected on a retry: the next
+  // projected factor then serves a search for its negative curvature.
+  std::vector<double> indefinite_values_;
+};
+
 }  // namespace
 
 bool NewtonSolverOptions::Validate(std::string* error) const {
@@ -82,191 +328,7 @@ NewtonSolveReport MinimizeEnergyNewton(const NewtonSolverOptions& options,
                                        const ShapeTargetModel::ActuationRef& a,
                                        StiffnessFactorization* factorization,
                                        Eigen::Matrix3Xd* x) {
-  NewtonSolveReport report;
-  const StiffnessPattern& pattern = factorization->pattern();
-  Eigen::Matrix3Xd gradient, trial_gradient, trial;
-  double energy = factorization->EnergyAndGradient(*x, a, &gradient);
-  double force = MaxFreeVertexNorm(pattern, gradient);
-  report.initial_energy = energy;
-  report.initial_max_force = force;
-  // Exact steps are tried while the force is at most this: the threshold, lowered to
-  // kExactRetryFraction of the force of a state where the exact stiffness was rejected
-  // (so that a region of indefinite K costs a few attempts, not one per step).
-  double exact_limit = options.exact_force_threshold;
-  // The relative diagonal shift that last made the projected K factorizable (0: none).
-  double last_shift = 0.0;
-  bool projected_here = false;  // the exact K was rejected at the current x
-  int projected_since_rejection = 0;  // accepted projected steps since the last rejection
-  bool no_reuse_here = false;   // a step by CG on an earlier factor failed at the current x
-  // The exact K of the current x, kept when it was rejected on a retry: the next
-  // projected factor then serves a search for its negative curvature.
-  std::vector<double> indefinite_values;
-  std::ostringstream message;
-  while (true) {
-    if (MinimizerShouldStop(energy, force, options.force_tolerance, report.factorizations,
-                            options.max_factorizations, "factorization", &message,
-                            &report.converged)) {
-      break;
-    }
-    const bool exact = !projected_here &&
-                       (force <= exact_limit ||
-                        (projected_since_rejection >= kExactRetrySteps &&
-                         force <= options.exact_force_threshold));
-    std::string error;
-    Eigen::Matrix3Xd step;
-    bool reused = false;
-    if (exact) {
-      factorization->Assemble(*x, a, StiffnessKind::kExact);
-      // An inexact Newton step by CG on the factor of an earlier state, if it converges.
-      Eigen::MatrixXd free_step;
-      if (!no_reuse_here &&
-          factorization->SolveReusingFactor(factorization->GatherFree(gradient), options.reuse,
-                                            &free_step)) {
-        reused = true;
-        step = -factorization->ScatterFree(free_step.data());
-      } else {
-        // CG met non-positive curvature: K is not positive definite, and its
-        // factorization would fail. Reject it without paying for that.
-        const bool indefinite = factorization->last_reuse_found_indefinite();
-        if (!indefinite) ++report.factorizations;
-        if (indefinite || !factorization->FactorizeAssembled(0.0, &error)) {
-          VLOG(3) << "Newton: the exact stiffness at largest force " << force << " is not "
-                  << "positive definite";
-          if (indefinite) {
-            VLOG(3) << "Newton: found by CG, along a direction of relative curvature "
-                    << factorization->last_reuse_relative_curvature();
-          }
-          // Still indefinite on a retry: the next projected factor serves a search for
-          // the negative curvature of this K.
-          if (report.exact_rejections > 0 && options.negative_curvature_steps) {
-            indefinite_values = factorization->values();
-          }
-          VLOG(3) << "Newton: projected steps until the force is below "
-                  << std::min(exact_limit, kExactRetryFraction * force) << " or for "
-                  << kExactRetrySteps << " steps";
-          ++report.exact_rejections;
-          projected_since_rejection = 0;
-          projected_here = true;
-          exact_limit = std::min(exact_limit, kExactRetryFraction * force);
-          continue;
-        }
-      }
-    } else {
-      factorization->Assemble(*x, a, StiffnessKind::kProjected);
-      // Unshifted first, unless the last step needed a shift: then a tenth of it.
-      double shift = last_shift > 0.0 ? last_shift / 10.0 : 0.0;
-      bool factorized = false;
-      while (!factorized && report.factorizations < options.max_factorizations) {
-        ++report.factorizations;
-        factorized = factorization->FactorizeAssembled(shift, &error);
-        if (factorized) break;
-        shift = shift == 0.0 ? kFirstShift : shift * kShiftGrowth;
-        if (shift > kLastShift) break;
-      }
-      if (!factorized) {
-        message << "the projected stiffness could not be factorized, even shifted: " << error;
-        break;
-      }
-      if (shift > 0.0) ++report.shifted_factorizations;
-      last_shift = shift;
-      if (!indefinite_values.empty()) {
-        std::vector<double> values;
-        values.swap(indefinite_values);
-        Eigen::VectorXd direction;
-        double curvature = 0.0;
-        if (FindNegativeCurvature(values, kNegativeCurvatureIterations, factorization,
-                                  &direction, &curvature)) {
-          const double before = energy;
-          // A typical element size: the scale of the step.
-          const ShapeTargetModel& model = factorization->model();
-          const double element_size =
-              std::cbrt(model.total_volume() / std::max(1, model.num_elements()));
-          const NegativeCurvatureStep along = StepAlongNegativeCurvature(
-              *factorization, a, direction, kNegativeCurvatureFirstLength * element_size,
-              kNegativeCurvatureTrials, x, &energy, &gradient);
-          report.energy_evaluations += along.energy_evaluations;
-          if (VLOG_IS_ON(3)) {
-            std::ostringstream line;
-            line << "Newton: negative curvature " << curvature << " (relative to mean diag K); ";
-            if (along.accepted) {
-              line << "a step along it moved a vertex by " << along.length << ", energy "
-                   << std::setprecision(15) << before << " -> " << energy;
-            } else {
-              line << "no step along it lowered the energy";
-            }
-            VLOG(3) << line.str();
-          }
-          if (along.accepted) {
-            ++report.negative_curvature_steps;
-            force = MaxFreeVertexNorm(pattern, gradient);
-            // Off the saddle: the exact K is worth trying again at the usual threshold.
-            exact_limit = options.exact_force_threshold;
-            projected_here = false;
-            no_reuse_here = false;
-            continue;
-          }
-        }
-      }
-    }
-    if (!reused) step = -factorization->Solve(gradient);
-    const double slope = gradient.cwiseProduct(step).sum();
-    bool accepted = false;
-    double accepted_length = 0.0;
-    if (slope < 0.0 && std::isfinite(slope)) {
-      double t = 1.0;
-      for (int halving = 0; halving <= options.line_search.max_halvings; ++halving, t *= 0.5) {
-        trial = *x + t * step;
-        const double trial_energy = factorization->EnergyAndGradient(trial, a, &trial_gradient);
-        ++report.energy_evaluations;
-        if (!std::isfinite(trial_energy)) continue;
-        const double trial_force = MaxFreeVertexNorm(pattern, trial_gradient);
-        const bool sufficient = options.line_search.SufficientDecrease(energy, trial_energy, t, slope);
-        // Below the energy's round-off the decrease test is noise: the force decides.
-        const bool round_off = trial_energy - energy <= kEnergyNoise * std::abs(energy) &&
-                               trial_force < force;
-        if (sufficient || round_off) {
-          x->swap(trial);
-          gradient.swap(trial_gradient);
-          energy = trial_energy;
-          force = trial_force;
-          accepted = true;
-          accepted_length = t;
-          break;
-        }
-      }
-    }
-    if (VLOG_IS_ON(3)) {
-      LogStep(pattern, report.exact_steps + report.projected_steps,
-              exact ? (reused ? "exact by CG" : "exact") : "projected", exact ? 0.0 : last_shift,
-              energy, gradient, accepted_length, report.factorizations);
-    }
-    if (accepted) {
-      ++(exact ? report.exact_steps : report.projected_steps);
-      if (!exact) ++projected_since_rejection;
-      if (reused) ++report.reused_steps;
-      projected_here = false;
-      no_reuse_here = false;
-      continue;
-    }
-    if (reused) {  // the inexact step failed: an exact one from a fresh factorization
-      no_reuse_here = true;
-      continue;
-    }
-    if (exact) {  // an exact step that does not descend: a projected one from here
-      ++report.exact_rejections;
-      projected_since_rejection = 0;
-      projected_here = true;
-      exact_limit = std::min(exact_limit, kExactRetryFraction * force);
-      continue;
-    }
-    message << "the line search found no decrease of the energy at largest force " << force
-            << " (the round-off floor of the energy)";
-    break;
-  }
-  report.final_energy = energy;
-  report.final_max_force = force;
-  report.message = message.str();
-  return report;
+  return NewtonMinimizer(options, a, factorization, x).Run();
 }
 
 }  // namespace aqs
