@@ -344,6 +344,180 @@ class DecoderReader {
   std::string error_;
 };
 
+// The decoder's sizes (the lines from the magic to output_scale, and the optional
+// "anchored" and "linear_skip" lines) into *spec. False with the reader's error.
+bool ReadDecoderSpec(DecoderReader* in, DecoderSpec* spec) {
+  std::vector<std::string> v;
+  if (!in->Keyword(kMagic, 1, &v)) return false;
+  int version = 0;
+  if (!ParseInt(v[0], &version) || version != kVersion) {
+    return in->Fail("unsupported decoder file version '" + v[0] + "' (this build reads " +
+                    std::to_string(kVersion) + ")");
+  }
+  DecoderSpec& s = *spec;
+  if (!in->Keyword("latent_dim", 1, &v) || !in->PositiveInt(v[0], "latent_dim", &s.latent_dim)) {
+    return false;
+  }
+  if (!in->Keyword("hidden_dims", -1, &v)) return false;
+  int num_hidden = 0;
+  if (!ParseInt(v[0], &num_hidden) || num_hidden < 0) {
+    return in->Fail("the number of hidden layers must be a non-negative integer, got '" + v[0] +
+                    "'");
+  }
+  if (static_cast<int>(v.size()) != num_hidden + 1) {
+    return in->Fail("'hidden_dims " + v[0] + "' must be followed by " + v[0] + " widths, got " +
+                    std::to_string(v.size() - 1));
+  }
+  s.hidden_dims.resize(num_hidden);
+  for (int l = 0; l < num_hidden; ++l) {
+    if (!in->PositiveInt(v[l + 1], "a hidden width", &s.hidden_dims[l])) return false;
+  }
+  if (!in->Keyword("activation", 1, &v)) return false;
+  if (!ActivationFromName(v[0], &s.activation)) {
+    return in->Fail("unknown activation '" + v[0] + "' (elu, tanh or softplus)");
+  }
+  if (!in->Keyword("output_scale", 1, &v) ||
+      !in->Double(v[0], "output_scale", &s.output_scale)) {
+    return false;
+  }
+  if (!(s.output_scale > 0.0)) {
+    return in->Fail("output_scale must be positive, got '" + v[0] + "'");
+  }
+  return true;
+}
+
+// The optional lines after the sizes (files before them have none), in this order:
+// "anchored 0|1", "linear_skip 0|1", into *spec; then the "field <kind>" line's tokens
+// (*field_line). False with the reader's error.
+bool ReadDecoderFlags(DecoderReader* in, DecoderSpec* spec, std::vector<std::string>* field_line) {
+  std::vector<std::string>& tokens = *field_line;
+  if (!in->Line("'field'", &tokens)) return false;
+  for (const auto& [key, value] :
+       {std::pair<std::string, bool*>{"anchored", &spec->anchored},
+        std::pair<std::string, bool*>{"linear_skip", &spec->linear_skip}}) {
+    if (tokens[0] != key) continue;
+    if (tokens.size() != 2 || (tokens[1] != "0" && tokens[1] != "1")) {
+      return in->Fail("'" + key + "' takes 0 or 1");
+    }
+    *value = tokens[1] == "1";
+    if (!in->Line("'field'", &tokens)) return false;
+  }
+  return true;
+}
+
+// A grid field's lines after num_elements (origin, spacing, grid_dims, num_nodes, the
+// nodes' grid coordinates in increasing grid index) into *f. False with the reader's
+// error.
+bool ReadGridField(DecoderReader* in, GridFieldDescription* f) {
+  std::vector<std::string> v;
+  if (!in->Keyword("origin", 3, &v)) return false;
+  for (int a = 0; a < 3; ++a) {
+    if (!in->Double(v[a], "origin", &f->origin[a])) return false;
+  }
+  if (!in->Keyword("spacing", 1, &v) || !in->Double(v[0], "spacing", &f->spacing)) {
+    return false;
+  }
+  if (!(f->spacing > 0.0)) return in->Fail("spacing must be positive, got '" + v[0] + "'");
+  if (!in->Keyword("grid_dims", 3, &v)) return false;
+  for (int a = 0; a < 3; ++a) {
+    if (!in->PositiveInt(v[a], "grid_dims", &f->grid_dims[a])) return false;
+    if (f->grid_dims[a] < 2) {
+      return in->Fail("grid_dims must be at least 2 along each axis, got " + v[a]);
+    }
+  }
+  if (f->grid_dims.cast<double>().prod() > 1e15) {
+    return in->Fail("grid_dims describe an implausibly large grid");
+  }
+  int num_nodes = 0;
+  if (!in->Keyword("num_nodes", 1, &v) || !in->PositiveInt(v[0], "num_nodes", &num_nodes)) {
+    return false;
+  }
+  if (num_nodes > std::numeric_limits<int>::max() / 6 ||
+      static_cast<double>(num_nodes) >
+          static_cast<double>(f->grid_dims[0]) * f->grid_dims[1] * f->grid_dims[2]) {
+    return in->Fail("num_nodes " + v[0] + " is more than the grid holds");
+  }
+  f->nodes.resize(3, num_nodes);
+  int64_t previous = -1;
+  for (int n = 0; n < num_nodes; ++n) {
+    if (!in->Values(3, "grid coordinates i j k of node", n, &v)) return false;
+    for (int a = 0; a < 3; ++a) {
+      int value = 0;
+      if (!ParseInt(v[a], &value) || value < 0 || value >= f->grid_dims[a]) {
+        return in->Fail("grid coordinate '" + v[a] + "' of node " + std::to_string(n) +
+                        " is not an integer in [0, " + std::to_string(f->grid_dims[a]) + ")");
+      }
+      f->nodes(a, n) = value;
+    }
+    const int64_t nx = f->grid_dims[0];
+    const int64_t ny = f->grid_dims[1];
+    const int64_t index = f->nodes(0, n) + nx * (f->nodes(1, n) + ny * f->nodes(2, n));
+    if (index <= previous) {
+      return in->Fail("node " + std::to_string(n) + " is out of order or repeated (nodes must "
+                      "be in increasing grid index i + nx (j + ny k))");
+    }
+    previous = index;
+  }
+  return true;
+}
+
+// The field: its "field <kind>" line's tokens (`field_line`) and the lines after it,
+// into *f. False with the reader's error.
+bool ReadDecoderField(DecoderReader* in, const std::vector<std::string>& field_line,
+                      GridFieldDescription* f) {
+  if (field_line[0] != "field" || field_line.size() != 2) {
+    return in->Fail("expected 'field grid' or 'field per_element'");
+  }
+  if (field_line[1] == "per_element") {
+    f->per_element = true;
+  } else if (field_line[1] != "grid") {
+    return in->Fail("unknown field '" + field_line[1] + "' (grid or per_element)");
+  }
+  std::vector<std::string> v;
+  if (!in->Keyword("num_elements", 1, &v) ||
+      !in->PositiveInt(v[0], "num_elements", &f->num_elements)) {
+    return false;
+  }
+  if (!f->per_element && !ReadGridField(in, f)) return false;
+  if (f->num_nodes() > std::numeric_limits<int>::max() / 6) return in->Fail("too many nodes");
+  return true;
+}
+
+// The parameter count the sizes imply, in 64 bits (Mlp CHECKs that it fits an int).
+int64_t DecoderParameterCount(const DecoderSpec& s, const GridFieldDescription& f) {
+  int64_t count = 0;
+  int64_t fan_in = s.latent_dim;
+  for (int width : s.hidden_dims) {
+    count += width * (fan_in + 1);
+    fan_in = width;
+  }
+  count += 6 * static_cast<int64_t>(f.num_nodes()) * (fan_in + 1);
+  if (s.linear_skip) count += 6 * static_cast<int64_t>(f.num_nodes()) * s.latent_dim;
+  return count;
+}
+
+// The "num_parameters" line, which must say `expected`, and the parameters, one per
+// line, into *p. False with the reader's error.
+bool ReadDecoderParameters(DecoderReader* in, int64_t expected, Eigen::VectorXd* p) {
+  std::vector<std::string> v;
+  if (!in->Keyword("num_parameters", 1, &v)) return false;
+  long long count = 0;
+  if (!ParseInt64(v[0], &count) || count != expected) {
+    return in->Fail("num_parameters '" + v[0] + "' does not match the layer sizes, which need " +
+                    std::to_string(expected));
+  }
+  if (expected > std::numeric_limits<int>::max()) {
+    return in->Fail("too many parameters (" + std::to_string(expected) + ")");
+  }
+  p->resize(expected);
+  for (int64_t i = 0; i < expected; ++i) {
+    if (!in->Values(1, "parameter", i, &v) || !in->Double(v[0], "parameter", &(*p)[i], i)) {
+      return false;
+    }
+  }
+  return true;
+}
+
 }  // namespace
 
 bool LoadDecoder(const std::string& path, DecoderSpec* spec, GridFieldDescription* field,
@@ -353,173 +527,16 @@ bool LoadDecoder(const std::string& path, DecoderSpec* spec, GridFieldDescriptio
     *error = in.open_error();
     return false;
   }
-  auto fail = [&in, error]() {
+  DecoderSpec s;
+  GridFieldDescription f;
+  Eigen::VectorXd p;
+  std::vector<std::string> field_line;
+  if (!ReadDecoderSpec(&in, &s) || !ReadDecoderFlags(&in, &s, &field_line) ||
+      !ReadDecoderField(&in, field_line, &f) ||
+      !ReadDecoderParameters(&in, DecoderParameterCount(s, f), &p) || !in.AtEnd()) {
     *error = in.error();
     return false;
-  };
-  std::vector<std::string> v;
-  if (!in.Keyword(kMagic, 1, &v)) return fail();
-  int version = 0;
-  if (!ParseInt(v[0], &version) || version != kVersion) {
-    in.Fail("unsupported decoder file version '" + v[0] + "' (this build reads " +
-            std::to_string(kVersion) + ")");
-    return fail();
   }
-  DecoderSpec s;
-  if (!in.Keyword("latent_dim", 1, &v) || !in.PositiveInt(v[0], "latent_dim", &s.latent_dim)) {
-    return fail();
-  }
-  if (!in.Keyword("hidden_dims", -1, &v)) return fail();
-  int num_hidden = 0;
-  if (!ParseInt(v[0], &num_hidden) || num_hidden < 0) {
-    in.Fail("the number of hidden layers must be a non-negative integer, got '" + v[0] + "'");
-    return fail();
-  }
-  if (static_cast<int>(v.size()) != num_hidden + 1) {
-    in.Fail("'hidden_dims " + v[0] + "' must be followed by " + v[0] + " widths, got " +
-            std::to_string(v.size() - 1));
-    return fail();
-  }
-  s.hidden_dims.resize(num_hidden);
-  for (int l = 0; l < num_hidden; ++l) {
-    if (!in.PositiveInt(v[l + 1], "a hidden width", &s.hidden_dims[l])) return fail();
-  }
-  if (!in.Keyword("activation", 1, &v)) return fail();
-  if (!ActivationFromName(v[0], &s.activation)) {
-    in.Fail("unknown activation '" + v[0] + "' (elu, tanh or softplus)");
-    return fail();
-  }
-  if (!in.Keyword("output_scale", 1, &v) ||
-      !in.Double(v[0], "output_scale", &s.output_scale)) {
-    return fail();
-  }
-  if (!(s.output_scale > 0.0)) {
-    in.Fail("output_scale must be positive, got '" + v[0] + "'");
-    return fail();
-  }
-
-  // Optional lines (files before them have none), in this order: "anchored 0|1",
-  // "linear_skip 0|1"; then "field <kind>".
-  std::vector<std::string> tokens;
-  if (!in.Line("'field'", &tokens)) return fail();
-  for (const auto& [key, value] : {std::pair<std::string, bool*>{"anchored", &s.anchored},
-                                   std::pair<std::string, bool*>{"linear_skip", &s.linear_skip}}) {
-    if (tokens[0] != key) continue;
-    if (tokens.size() != 2 || (tokens[1] != "0" && tokens[1] != "1")) {
-      in.Fail("'" + key + "' takes 0 or 1");
-      return fail();
-    }
-    *value = tokens[1] == "1";
-    if (!in.Line("'field'", &tokens)) return fail();
-  }
-  if (tokens[0] != "field" || tokens.size() != 2) {
-    in.Fail("expected 'field grid' or 'field per_element'");
-    return fail();
-  }
-  v.assign(tokens.begin() + 1, tokens.end());
-  GridFieldDescription f;
-  if (v[0] == "per_element") {
-    f.per_element = true;
-  } else if (v[0] != "grid") {
-    in.Fail("unknown field '" + v[0] + "' (grid or per_element)");
-    return fail();
-  }
-  if (!in.Keyword("num_elements", 1, &v) ||
-      !in.PositiveInt(v[0], "num_elements", &f.num_elements)) {
-    return fail();
-  }
-  if (!f.per_element) {
-    if (!in.Keyword("origin", 3, &v)) return fail();
-    for (int a = 0; a < 3; ++a) {
-      if (!in.Double(v[a], "origin", &f.origin[a])) return fail();
-    }
-    if (!in.Keyword("spacing", 1, &v) || !in.Double(v[0], "spacing", &f.spacing)) {
-      return fail();
-    }
-    if (!(f.spacing > 0.0)) {
-      in.Fail("spacing must be positive, got '" + v[0] + "'");
-      return fail();
-    }
-    if (!in.Keyword("grid_dims", 3, &v)) return fail();
-    for (int a = 0; a < 3; ++a) {
-      if (!in.PositiveInt(v[a], "grid_dims", &f.grid_dims[a])) return fail();
-      if (f.grid_dims[a] < 2) {
-        in.Fail("grid_dims must be at least 2 along each axis, got " + v[a]);
-        return fail();
-      }
-    }
-    if (f.grid_dims.cast<double>().prod() > 1e15) {
-      in.Fail("grid_dims describe an implausibly large grid");
-      return fail();
-    }
-    int num_nodes = 0;
-    if (!in.Keyword("num_nodes", 1, &v) || !in.PositiveInt(v[0], "num_nodes", &num_nodes)) {
-      return fail();
-    }
-    if (num_nodes > std::numeric_limits<int>::max() / 6 ||
-        static_cast<double>(num_nodes) >
-            static_cast<double>(f.grid_dims[0]) * f.grid_dims[1] * f.grid_dims[2]) {
-      in.Fail("num_nodes " + v[0] + " is more than the grid holds");
-      return fail();
-    }
-    f.nodes.resize(3, num_nodes);
-    int64_t previous = -1;
-    for (int n = 0; n < num_nodes; ++n) {
-      if (!in.Values(3, "grid coordinates i j k of node", n, &v)) {
-        return fail();
-      }
-      for (int a = 0; a < 3; ++a) {
-        int value = 0;
-        if (!ParseInt(v[a], &value) || value < 0 || value >= f.grid_dims[a]) {
-          in.Fail("grid coordinate '" + v[a] + "' of node " + std::to_string(n) +
-                  " is not an integer in [0, " + std::to_string(f.grid_dims[a]) + ")");
-          return fail();
-        }
-        f.nodes(a, n) = value;
-      }
-      const int64_t nx = f.grid_dims[0];
-      const int64_t ny = f.grid_dims[1];
-      const int64_t index = f.nodes(0, n) + nx * (f.nodes(1, n) + ny * f.nodes(2, n));
-      if (index <= previous) {
-        in.Fail("node " + std::to_string(n) + " is out of order or repeated (nodes must be in "
-                "increasing grid index i + nx (j + ny k))");
-        return fail();
-      }
-      previous = index;
-    }
-  }
-  if (f.num_nodes() > std::numeric_limits<int>::max() / 6) {
-    in.Fail("too many nodes");
-    return fail();
-  }
-
-  // The parameter count the sizes imply, in 64 bits (Mlp CHECKs that it fits an int).
-  int64_t expected = 0;
-  int64_t fan_in = s.latent_dim;
-  for (int width : s.hidden_dims) {
-    expected += width * (fan_in + 1);
-    fan_in = width;
-  }
-  expected += 6 * static_cast<int64_t>(f.num_nodes()) * (fan_in + 1);
-  if (s.linear_skip) expected += 6 * static_cast<int64_t>(f.num_nodes()) * s.latent_dim;
-  if (!in.Keyword("num_parameters", 1, &v)) return fail();
-  long long count = 0;
-  if (!ParseInt64(v[0], &count) || count != expected) {
-    in.Fail("num_parameters '" + v[0] + "' does not match the layer sizes, which need " +
-            std::to_string(expected));
-    return fail();
-  }
-  if (expected > std::numeric_limits<int>::max()) {
-    in.Fail("too many parameters (" + std::to_string(expected) + ")");
-    return fail();
-  }
-  Eigen::VectorXd p(expected);
-  for (int64_t i = 0; i < expected; ++i) {
-    if (!in.Values(1, "parameter", i, &v) || !in.Double(v[0], "parameter", &p[i], i)) {
-      return fail();
-    }
-  }
-  if (!in.AtEnd()) return fail();
   *spec = std::move(s);
   *field = std::move(f);
   *params = std::move(p);
