@@ -29,8 +29,19 @@ SimulateJobResult Fail(JobStatus status, const std::string& message) {
   return result;
 }
 
-// Every output path (and the gradient's) can be written: checked before any work.
+// There are outputs, of known kinds (.mesh, .vtu, .obj), and every output path (and the
+// gradient's) can be written: checked before any work.
 bool CheckOutputs(const SimulateJobOptions& options, std::string* error) {
+  if (options.outputs.empty()) {
+    *error = "no output given (--output)";
+    return false;
+  }
+  for (const std::string& output : options.outputs) {
+    if (!IsDeformedMeshOutputPath(output)) {
+      *error = output + ": unknown output extension; known: .mesh, .vtu, .obj";
+      return false;
+    }
+  }
   for (const std::string& output : options.outputs) {
     if (!CheckOutputFile(output, error)) return false;
   }
@@ -89,13 +100,6 @@ SimulateJobResult RunModelSimulateJob(const SimulateJobOptions& options, std::os
   }
   if (options.latent.empty() == options.pose.empty()) {
     return Fail(JobStatus::kBadInput, "with --model, give either --latent=Z.txt or --pose=NAME");
-  }
-  if (options.outputs.empty()) return Fail(JobStatus::kBadInput, "no output given (--output)");
-  for (const std::string& output : options.outputs) {
-    if (!IsDeformedMeshOutputPath(output)) {
-      return Fail(JobStatus::kBadInput,
-                  output + ": unknown output extension; known: .mesh, .vtu, .obj");
-    }
   }
   if (!CheckOutputs(options, &error)) return Fail(JobStatus::kBadInput, error);
   ActiveModel model;
@@ -163,108 +167,153 @@ SimulateJobResult RunModelSimulateJob(const SimulateJobOptions& options, std::os
   return result;
 }
 
-}  // namespace
 
-bool SimulateJobOptions::Validate(std::string* error) const {
-  std::string solver_error;
-  const bool solver_ok = solver.Validate(&solver_error);
-  return OptionChecks()
-      .Positive("mu", mu)
-      .Nested("solver", solver_ok, solver_error)
-      .ReachableTolerance("solver.relative_force_tolerance", solver.relative_force_tolerance)
-      .Done(error);
+// Mesh mode's inputs, read and checked.
+struct MeshSimulation {
+  TetMesh mesh;
+  Eigen::VectorXd mu;           // per element
+  BoundaryConditions bc;        // empty: a free body
+  ActuationMatrix actuation;    // 6 x elements (identity unless --actuation)
+  Eigen::Matrix3Xd initial;     // the solve's start (the mesh's rest state unless --initial)
+  Eigen::Matrix3Xd loss_target; // with --loss_target (else empty)
+};
+
+// The vertices of the tet mesh file `path` (a start or a target) into *vertices; it must
+// have the mesh's vertex count.
+bool ReadStateOfMesh(const std::string& path, const TetMesh& mesh, Eigen::Matrix3Xd* vertices,
+                     std::string* error) {
+  TetMesh state;
+  if (!ReadTetMeshFile(path, &state, error)) return false;
+  if (state.num_vertices() != mesh.num_vertices()) {
+    std::ostringstream out;
+    out << path << ": " << state.num_vertices() << " vertices, but the mesh has "
+        << mesh.num_vertices();
+    *error = out.str();
+    return false;
+  }
+  *vertices = state.vertices;
+  return true;
 }
 
-SimulateJobResult RunSimulateJob(const SimulateJobOptions& options, std::ostream& log) {
-  std::string error;
-  if (!options.Validate(&error)) return Fail(JobStatus::kBadInput, error);
-  if (!options.model.empty()) return RunModelSimulateJob(options, log);
-  WallTimer total;
-  // ---- Inputs (all checked before any work) ----
-  if (options.mesh.empty()) return Fail(JobStatus::kBadInput, "no mesh given (--mesh)");
-  if (options.outputs.empty()) return Fail(JobStatus::kBadInput, "no output given (--output)");
-  for (const std::string& output : options.outputs) {
-    if (!IsDeformedMeshOutputPath(output)) {
-      return Fail(JobStatus::kBadInput,
-                  output + ": unknown output extension; known: .mesh, .vtu, .obj");
-    }
+// The per-element stiffness: --mu, or --mu_per_element's file (one per line; a contrast
+// above kMaxStiffnessContrast is refused).
+bool ReadStiffness(const SimulateJobOptions& options, int num_elements, Eigen::VectorXd* mu,
+                   std::string* error) {
+  *mu = Eigen::VectorXd::Constant(num_elements, options.mu);
+  if (options.mu_per_element.empty()) return true;
+  if (!ReadScalarsPerLine(options.mu_per_element, num_elements, true, mu, error)) return false;
+  if (!(mu->maxCoeff() / mu->minCoeff() <= kMaxStiffnessContrast)) {
+    std::ostringstream out;
+    out << options.mu_per_element << ": the stiffness ranges from " << mu->minCoeff() << " to "
+        << mu->maxCoeff() << ", a contrast above " << kMaxStiffnessContrast
+        << " that no solve resolves in double precision";
+    *error = out.str();
+    return false;
   }
-  if (!options.gradient.empty() && options.loss_target.empty()) {
-    return Fail(JobStatus::kBadInput, "--gradient needs --loss_target (the loss to differentiate)");
-  }
-  if (!CheckOutputs(options, &error)) return Fail(JobStatus::kBadInput, error);
-  TetMesh mesh;
-  if (!ReadTetMesh(options.mesh, &mesh, &error)) return Fail(JobStatus::kBadInput, error);
+  return true;
+}
+
+// Reads and checks mesh mode's inputs (all before any work), logging what was read.
+bool ReadMeshSimulation(const SimulateJobOptions& options, MeshSimulation* in,
+                        std::ostream& log, std::string* error) {
+  if (!ReadTetMesh(options.mesh, &in->mesh, error)) return false;
+  const TetMesh& mesh = in->mesh;
   log << "mesh " << options.mesh << ": " << mesh.num_vertices() << " vertices, "
       << mesh.num_tets() << " elements\n";
-
-  Eigen::VectorXd mu = Eigen::VectorXd::Constant(mesh.num_tets(), options.mu);
-  if (!options.mu_per_element.empty()) {
-    if (!ReadScalarsPerLine(options.mu_per_element, mesh.num_tets(), true, &mu, &error)) {
-      return Fail(JobStatus::kBadInput, error);
-    }
-    if (!(mu.maxCoeff() / mu.minCoeff() <= kMaxStiffnessContrast)) {
-      std::ostringstream out;
-      out << options.mu_per_element << ": the stiffness ranges from " << mu.minCoeff() << " to "
-          << mu.maxCoeff() << ", a contrast above " << kMaxStiffnessContrast
-          << " that no solve resolves in double precision";
-      return Fail(JobStatus::kBadInput, out.str());
-    }
-  }
-  BoundaryConditions bc;
+  if (!ReadStiffness(options, mesh.num_tets(), &in->mu, error)) return false;
   if (!options.fixed.empty()) {
-    if (!ReadFixedVertices(options.fixed, mesh.vertices, &bc, &error)) {
-      return Fail(JobStatus::kBadInput, error);
+    if (!ReadFixedVertices(options.fixed, mesh.vertices, &in->bc, error)) return false;
+    if (in->bc.vertices.empty()) {
+      *error = options.fixed + ": lists no vertices";
+      return false;
     }
-    if (bc.vertices.empty()) {
-      return Fail(JobStatus::kBadInput, options.fixed + ": lists no vertices");
-    }
-    log << "fixed " << options.fixed << ": " << bc.vertices.size() << " vertices\n";
+    log << "fixed " << options.fixed << ": " << in->bc.vertices.size() << " vertices\n";
   } else {
     log << "no fixed vertices: the body is free (the equilibrium is defined up to a rigid "
            "motion; gradients need fixed vertices)\n";
   }
-  ActuationMatrix actuation = IdentityActuations(mesh.num_tets());
+  in->actuation = IdentityActuations(mesh.num_tets());
   if (!options.actuation.empty()) {
-    if (!ReadActuationTargets(options.actuation, mesh.num_tets(), &actuation, &error)) {
-      return Fail(JobStatus::kBadInput, error);
+    if (!ReadActuationTargets(options.actuation, mesh.num_tets(), &in->actuation, error)) {
+      return false;
     }
     log << "actuation " << options.actuation << "\n";
   }
-  Eigen::Matrix3Xd initial = mesh.vertices;
-  if (!options.initial.empty()) {
-    TetMesh start;
-    if (!ReadTetMeshFile(options.initial, &start, &error)) return Fail(JobStatus::kBadInput, error);
-    if (start.num_vertices() != mesh.num_vertices()) {
-      std::ostringstream out;
-      out << options.initial << ": " << start.num_vertices() << " vertices, but the mesh has "
-          << mesh.num_vertices();
-      return Fail(JobStatus::kBadInput, out.str());
-    }
-    initial = start.vertices;
+  in->initial = mesh.vertices;
+  if (!options.initial.empty() && !ReadStateOfMesh(options.initial, mesh, &in->initial, error)) {
+    return false;
   }
-  TetMesh target;
-  if (!options.loss_target.empty()) {
-    if (!ReadTetMeshFile(options.loss_target, &target, &error)) {
-      return Fail(JobStatus::kBadInput, error);
-    }
-    if (target.num_vertices() != mesh.num_vertices()) {
-      std::ostringstream out;
-      out << options.loss_target << ": " << target.num_vertices()
-          << " vertices, but the mesh has " << mesh.num_vertices();
-      return Fail(JobStatus::kBadInput, out.str());
-    }
+  if (!options.loss_target.empty() &&
+      !ReadStateOfMesh(options.loss_target, mesh, &in->loss_target, error)) {
+    return false;
   }
+  if (in->bc.vertices.empty() && options.solver.method == EquilibriumMethod::kNewton) {
+    *error = "no fixed vertices (--fixed): a free body's stiffness is singular, so Newton's "
+             "method cannot solve it; fix some vertices, or use --solver=lm (the "
+             "equilibrium is then defined up to a rigid motion, with no gradient)";
+    return false;
+  }
+  return true;
+}
 
-  if (bc.vertices.empty() && options.solver.method == EquilibriumMethod::kNewton) {
-    return Fail(JobStatus::kBadInput,
-                "no fixed vertices (--fixed): a free body's stiffness is singular, so Newton's "
-                "method cannot solve it; fix some vertices, or use --solver=lm (the "
-                "equilibrium is then defined up to a rigid motion, with no gradient)");
+// The loss's gradient dL/da at the solver's equilibrium x (L = 1/2 |x - target|^2), by
+// one differentiation sharing the solver's factorization, written to options.gradient
+// and added to the cells' fields. Where it cannot be had, result's status and message
+// say why; false (with *error) only if the file cannot be written.
+bool WriteLossGradient(const SimulateJobOptions& options, const MeshSimulation& in,
+                       QuasistaticSolver* solver, const Eigen::Matrix3Xd& x,
+                       std::vector<VtuField>* cell_fields, SimulateJobResult* result,
+                       std::ostream& log, std::string* error) {
+  WallTimer timer;
+  // Shares the solver's stiffness factorization (one CHOLMOD factor in memory).
+  EquilibriumDifferentiator differentiator(
+      solver->stiffness_factorization(),
+      EquilibriumDifferentiatorOptions{options.solver.num_threads});
+  if (in.bc.vertices.empty()) {
+    result->status = JobStatus::kDifferentiationFailed;
+    result->message =
+        "no gradient: a free body's stiffness is singular; fix some vertices (--fixed)";
+    return true;
   }
+  std::string prepare_error;
+  if (!differentiator.Prepare(x, in.actuation, &prepare_error)) {
+    result->status = JobStatus::kDifferentiationFailed;
+    result->message = "no gradient: " + prepare_error;
+    return true;
+  }
+  const ActuationMatrix gradient = differentiator.LossGradient(x - in.loss_target);
+  const DifferentiationTimings& t = differentiator.timings();
+  log << "gradient: |dL/da| = " << gradient.norm() << " in " << timer.Seconds()
+      << " s (assembly " << t.assembly << ", analysis " << t.analysis << ", factorization "
+      << t.factorization << ", solve " << t.solve << ", accumulation " << t.accumulation
+      << ")\n";
+  if (!WriteActuation(options.gradient, gradient,
+                      "dL/d(sxx syy szz sxy sxz syz) per element, L = 1/2 sum_v |x_v - y_v|^2"
+                      "\nmesh " + options.mesh + ", target " + options.loss_target,
+                      error)) {
+    return false;
+  }
+  log << "wrote " << options.gradient << "\n";
+  cell_fields->push_back(MakeVtuField("dL_da", gradient));
+  return true;
+}
+
+// Mesh mode: a tet mesh, its material, boundary conditions and actuation from files.
+SimulateJobResult RunMeshSimulateJob(const SimulateJobOptions& options, std::ostream& log) {
+  WallTimer total;
+  std::string error;
+  // ---- Inputs (all checked before any work) ----
+  if (options.mesh.empty()) return Fail(JobStatus::kBadInput, "no mesh given (--mesh)");
+  if (!options.gradient.empty() && options.loss_target.empty()) {
+    return Fail(JobStatus::kBadInput, "--gradient needs --loss_target (the loss to differentiate)");
+  }
+  if (!CheckOutputs(options, &error)) return Fail(JobStatus::kBadInput, error);
+  MeshSimulation in;
+  if (!ReadMeshSimulation(options, &in, log, &error)) return Fail(JobStatus::kBadInput, error);
+  const TetMesh& mesh = in.mesh;
 
   // ---- Solve ----
-  const ShapeTargetModel model(mesh, mu);
+  const ShapeTargetModel model(mesh, in.mu);
   if (!(std::isfinite(model.force_scale()) && model.force_scale() > 0.0)) {
     std::ostringstream out;
     out << "the force scale 2 mean(mu V^(2/3)) of the mesh is " << model.force_scale()
@@ -272,15 +321,14 @@ SimulateJobResult RunSimulateJob(const SimulateJobOptions& options, std::ostream
         << ") or the mesh's size is so large or small that the forces overflow";
     return Fail(JobStatus::kBadInput, out.str());
   }
-  QuasistaticSolver solver(model, bc, options.solver);
-  solver.actuation() = actuation;
-  solver.SetPositions(initial);
+  QuasistaticSolver solver(model, in.bc, options.solver);
+  solver.actuation() = in.actuation;
+  solver.SetPositions(in.initial);
   SimulateJobResult result;
   result.solve = solver.Solve();
   log << "solve: " << result.solve.Summary() << "\n";
   WarnUnstable(result.solve, log);
-  Eigen::Matrix3Xd x = solver.positions();
-
+  const Eigen::Matrix3Xd x = solver.positions();
   if (!result.solve.converged) {
     result.status = JobStatus::kNotConverged;
     result.message = "the equilibrium was not reached: " + result.solve.Summary();
@@ -295,40 +343,16 @@ SimulateJobResult RunSimulateJob(const SimulateJobOptions& options, std::ostream
   std::vector<VtuField> point_fields, cell_fields;
   point_fields.push_back(MakeVtuField("displacement", x - mesh.vertices));
   Eigen::Matrix3Xd energy_gradient;
-  model.EnergyAndGradient(x, actuation, &energy_gradient, options.solver.num_threads);
+  model.EnergyAndGradient(x, in.actuation, &energy_gradient, options.solver.num_threads);
   point_fields.push_back(MakeVtuField("residual_force", -energy_gradient));
-  ElementFields(model, x, actuation, &cell_fields);
+  ElementFields(model, x, in.actuation, &cell_fields);
   if (!options.loss_target.empty()) {
     result.has_loss = true;
-    result.loss = 0.5 * (x - target.vertices).squaredNorm();
+    result.loss = 0.5 * (x - in.loss_target).squaredNorm();
     log << std::setprecision(17) << "loss " << result.loss << std::setprecision(6) << "\n";
     if (!options.gradient.empty() && result.status == JobStatus::kOk) {
-      WallTimer timer;
-      // Shares the solver's stiffness factorization (one CHOLMOD factor in memory).
-      EquilibriumDifferentiator differentiator(
-          solver.stiffness_factorization(),
-          EquilibriumDifferentiatorOptions{options.solver.num_threads});
-      if (bc.vertices.empty()) {
-        result.status = JobStatus::kDifferentiationFailed;
-        result.message = "no gradient: a free body's stiffness is singular; fix some vertices (--fixed)";
-      } else if (!differentiator.Prepare(x, actuation, &error)) {
-        result.status = JobStatus::kDifferentiationFailed;
-        result.message = "no gradient: " + error;
-      } else {
-        const ActuationMatrix gradient = differentiator.LossGradient(x - target.vertices);
-        const DifferentiationTimings& t = differentiator.timings();
-        log << "gradient: |dL/da| = " << gradient.norm() << " in " << timer.Seconds()
-            << " s (assembly " << t.assembly << ", analysis " << t.analysis
-            << ", factorization " << t.factorization << ", solve " << t.solve
-            << ", accumulation " << t.accumulation << ")\n";
-        if (!WriteActuation(options.gradient, gradient,
-                            "dL/d(sxx syy szz sxy sxz syz) per element, L = 1/2 sum_v |x_v - y_v|^2"
-                            "\nmesh " + options.mesh + ", target " + options.loss_target,
-                            &error)) {
-          return Fail(JobStatus::kBadInput, error);
-        }
-        log << "wrote " << options.gradient << "\n";
-        cell_fields.push_back(MakeVtuField("dL_da", gradient));
+      if (!WriteLossGradient(options, in, &solver, x, &cell_fields, &result, log, &error)) {
+        return Fail(JobStatus::kBadInput, error);
       }
     } else if (!options.gradient.empty()) {
       log << "no gradient written: the equilibrium was not reached\n";
@@ -344,6 +368,25 @@ SimulateJobResult RunSimulateJob(const SimulateJobOptions& options, std::ostream
   }
   log << "total " << total.Seconds() << " s\n";
   return result;
+}
+
+}  // namespace
+
+bool SimulateJobOptions::Validate(std::string* error) const {
+  std::string solver_error;
+  const bool solver_ok = solver.Validate(&solver_error);
+  return OptionChecks()
+      .Positive("mu", mu)
+      .Nested("solver", solver_ok, solver_error)
+      .ReachableTolerance("solver.relative_force_tolerance", solver.relative_force_tolerance)
+      .Done(error);
+}
+
+SimulateJobResult RunSimulateJob(const SimulateJobOptions& options, std::ostream& log) {
+  std::string error;
+  if (!options.Validate(&error)) return Fail(JobStatus::kBadInput, error);
+  return options.model.empty() ? RunMeshSimulateJob(options, log)
+                               : RunModelSimulateJob(options, log);
 }
 
 }  // namespace aqs
