@@ -27,6 +27,150 @@ CollideJobResult Fail(JobStatus status, const std::string& message) {
   return result;
 }
 
+
+// The flags' outputs: a volume of a known kind, and every path writable (checked
+// before any work).
+bool CheckCollideOutputs(const CollideJobOptions& options, std::string* error) {
+  if (!options.output_volume.empty() && !IsDeformedMeshOutputPath(options.output_volume)) {
+    *error = options.output_volume + ": unknown output extension; known: .mesh, .vtu, .obj";
+    return false;
+  }
+  for (const std::string* output : {&options.output, &options.output_before,
+                                    &options.output_volume, &options.output_intersections,
+                                    &options.report}) {
+    if (!output->empty() && !CheckOutputFile(*output, error)) return false;
+  }
+  return true;
+}
+
+// The contact options against `model`: distances within kMaxDistanceInModelSizes of the
+// model's size (beyond it they mean a unit mistake, and make the candidate search and
+// the report's "far" distances meaningless), contact vertices on its surface.
+bool CheckContactForModel(const ContactOptions& contact, const ActiveModel& model,
+                          std::string* error) {
+  const double size = (model.neutral.vertices.rowwise().maxCoeff() -
+                       model.neutral.vertices.rowwise().minCoeff()).norm();
+  const double limit = kMaxDistanceInModelSizes * size;
+  for (const auto& [field, value] :
+       {std::pair<const char*, double>{"contact.thickness", contact.thickness},
+        {"contact.search_radius", contact.search_radius},
+        {"contact.max_depth", contact.max_depth},
+        {"contact.rest_tolerance", contact.rest_tolerance},
+        {"contact.margin", contact.margin}}) {
+    if (!(value <= limit)) {
+      std::ostringstream out;
+      out << field << " (" << value << ") is more than " << kMaxDistanceInModelSizes
+          << " times the model's size (" << size << ")";
+      *error = out.str();
+      return false;
+    }
+  }
+  for (int v : contact.surface_vertices) {
+    if (v >= model.num_surface_vertices()) {
+      *error = "contact vertex " + std::to_string(v) + " is outside the surface's " +
+               std::to_string(model.num_surface_vertices()) + " vertices";
+      return false;
+    }
+  }
+  return true;
+}
+
+// The obstacles of --obstacles (ObstacleSpec syntax), read, each with the index of the
+// model's bone it moves with (-1: fixed); logged.
+bool ReadObstacles(const std::string& spec, const ActiveModel& model,
+                   std::vector<MovingObstacle>* obstacles, std::ostream& log, std::string* error) {
+  std::vector<ObstacleSpec> specs;
+  if (!ParseObstacleSpecs(spec, &specs, error)) return false;
+  std::vector<Eigen::Matrix3Xd> obstacle_vertices;
+  std::vector<Eigen::Matrix3Xi> obstacle_triangles;
+  if (!ReadObstacleSurfaces(specs, &obstacle_vertices, &obstacle_triangles, error)) return false;
+  for (size_t i = 0; i < specs.size(); ++i) {
+    MovingObstacle obstacle;
+    obstacle.name = specs[i].path;
+    obstacle.vertices = obstacle_vertices[i];
+    obstacle.triangles = obstacle_triangles[i];
+    if (!specs[i].bone.empty()) {
+      for (size_t k = 0; k < model.bones.size(); ++k) {
+        if (model.bones[k].name == specs[i].bone) obstacle.bone = static_cast<int>(k);
+      }
+      if (obstacle.bone < 0) {
+        *error = "obstacle " + specs[i].path + ": the model has no bone '" + specs[i].bone + "'";
+        return false;
+      }
+    }
+    obstacles->push_back(std::move(obstacle));
+    log << "obstacle " << specs[i].path << ": " << obstacle_triangles[i].cols() << " triangles"
+        << (specs[i].bone.empty() ? "" : ", moving with " + specs[i].bone) << "\n";
+  }
+  return true;
+}
+
+// The pose without contact: its equilibrium *start and surface *surface_before (a
+// training pose from the equilibrium training left: the energy is not convex, and from
+// rest the solve may take another branch or crawl). If it fails, its unconverged surface
+// is still written to options.output_before, for inspection.
+bool SimulateWithoutContact(const CollideJobOptions& options, const ActiveModel& model,
+                            const ModelPose& pose, Eigen::Matrix3Xd* start,
+                            Eigen::Matrix3Xd* surface_before, std::ostream& log,
+                            std::string* error) {
+  LatentFitOptions fit_options;
+  fit_options.solver = options.contact.solver;
+  fit_options.num_threads = options.contact.num_threads;
+  LatentFitter fitter(model, fit_options);
+  fitter.set_bone_transforms(pose.bones);
+  if (pose.training_pose >= 0) fitter.StartFromTrainingPose(pose.training_pose);
+  if (fitter.Simulate(pose.latent, start, surface_before, error)) return true;
+  std::string write_error;
+  if (!options.output_before.empty() && surface_before->allFinite() &&
+      surface_before->cols() == model.num_surface_vertices()) {
+    SurfaceMesh before = model.neutral;
+    before.vertices = *surface_before;
+    if (WriteObj(options.output_before, before, &write_error)) {
+      log << "wrote " << options.output_before << " (NOT CONVERGED, for inspection)\n";
+    }
+  }
+  *error = "the pose without contact: " + *error;
+  return false;
+}
+
+// Writes the outputs of a resolved contact: the surface with contact, the one before
+// it, the surface with contact coloured by its new self-intersections (PLY), the volume (with the displacement by contact and
+// from rest) and the report.
+bool WriteCollideOutputs(const CollideJobOptions& options, const ActiveModel& model,
+                         const ContactSolver& solver, const Eigen::Matrix3Xd& start,
+                         const Eigen::Matrix3Xd& surface_before, const Eigen::Matrix3Xd& state,
+                         const ContactReport& report, std::ostream& log, std::string* error) {
+  SurfaceMesh surface = model.neutral;
+  surface.vertices = EmbeddedPositions(model.embedding, model.mesh.tets, state);
+  if (!WriteObj(options.output, surface, error)) return false;
+  log << "wrote " << options.output << "\n";
+  if (!options.output_before.empty()) {
+    SurfaceMesh before = model.neutral;
+    before.vertices = surface_before;
+    if (!WriteObj(options.output_before, before, error)) return false;
+    log << "wrote " << options.output_before << "\n";
+  }
+  if (!options.output_intersections.empty()) {
+    const std::vector<double> field = solver.NewIntersectionField(surface.vertices);
+    const double most = *std::max_element(field.begin(), field.end());
+    if (!WritePlyWithScalar(options.output_intersections, surface, field, std::max(1.0, most),
+                            error)) {
+      return false;
+    }
+    log << "wrote " << options.output_intersections << "\n";
+  }
+  if (!options.output_volume.empty()) {
+    const std::vector<VtuField> point_fields = {
+        MakeVtuField("contact_displacement", state - start),
+        MakeVtuField("displacement", state - model.mesh.vertices)};
+    if (!WriteDeformedMesh(options.output_volume, model.mesh, state, point_fields, {}, error)) {
+      return false;
+    }
+    log << "wrote " << options.output_volume << "\n";
+  }
+  return options.report.empty() || WriteFileAtomically(options.report, report.ToText(), error);
+}
+
 }  // namespace
 
 bool CollideJobOptions::Validate(std::string* error) const {
@@ -45,97 +189,20 @@ CollideJobResult RunCollideJob(const CollideJobOptions& options, std::ostream& l
   if (options.latent.empty() == options.pose.empty()) {
     return Fail(JobStatus::kBadInput, "give either --latent=Z.txt or --pose=NAME");
   }
-  if (!options.output_volume.empty() && !IsDeformedMeshOutputPath(options.output_volume)) {
-    return Fail(JobStatus::kBadInput,
-                options.output_volume + ": unknown output extension; known: .mesh, .vtu, .obj");
-  }
-  for (const std::string* output : {&options.output, &options.output_before, &options.output_volume,
-                                    &options.output_intersections, &options.report}) {
-    if (!output->empty() && !CheckOutputFile(*output, &error)) {
-      return Fail(JobStatus::kBadInput, error);
-    }
-  }
+  if (!CheckCollideOutputs(options, &error)) return Fail(JobStatus::kBadInput, error);
   ActiveModel model;
   if (!LoadModel(options.model, &model, &error)) return Fail(JobStatus::kBadInput, error);
   if (!model.decoder) return Fail(JobStatus::kBadInput, options.model + ": the model is not trained");
-  {
-    // Contact distances beyond the model's scale mean a unit mistake, and make the
-    // candidate search and the report's "far" distances meaningless.
-    const double size = (model.neutral.vertices.rowwise().maxCoeff() -
-                         model.neutral.vertices.rowwise().minCoeff()).norm();
-    const double limit = kMaxDistanceInModelSizes * size;
-    for (const auto& [field, value] :
-         {std::pair<const char*, double>{"contact.thickness", options.contact.thickness},
-          {"contact.search_radius", options.contact.search_radius},
-          {"contact.max_depth", options.contact.max_depth},
-          {"contact.rest_tolerance", options.contact.rest_tolerance},
-          {"contact.margin", options.contact.margin}}) {
-      if (!(value <= limit)) {
-        std::ostringstream out;
-        out << field << " (" << value << ") is more than " << kMaxDistanceInModelSizes
-            << " times the model's size (" << size << ")";
-        return Fail(JobStatus::kBadInput, out.str());
-      }
-    }
-  }
-  for (int v : options.contact.surface_vertices) {
-    if (v >= model.num_surface_vertices()) {
-      return Fail(JobStatus::kBadInput, "contact vertex " + std::to_string(v) +
-                                            " is outside the surface's " +
-                                            std::to_string(model.num_surface_vertices()) + " vertices");
-    }
-  }
   ModelPose pose;
-  if (!ResolveModelPose(model, options.latent, options.pose, &pose, &error)) {
-    return Fail(JobStatus::kBadInput, error);
-  }
-  const std::vector<RigidTransform>& bones = pose.bones;
-  // Obstacles, placed with their bones.
-  std::vector<ObstacleSpec> specs;
-  if (!ParseObstacleSpecs(options.obstacles, &specs, &error)) return Fail(JobStatus::kBadInput, error);
-  std::vector<Eigen::Matrix3Xd> obstacle_vertices;
-  std::vector<Eigen::Matrix3Xi> obstacle_triangles;
-  if (!ReadObstacleSurfaces(specs, &obstacle_vertices, &obstacle_triangles, &error)) {
-    return Fail(JobStatus::kBadInput, error);
-  }
   std::vector<MovingObstacle> obstacles;
-  for (size_t i = 0; i < specs.size(); ++i) {
-    MovingObstacle obstacle;
-    obstacle.name = specs[i].path;
-    obstacle.vertices = obstacle_vertices[i];
-    obstacle.triangles = obstacle_triangles[i];
-    if (!specs[i].bone.empty()) {
-      for (size_t k = 0; k < model.bones.size(); ++k) {
-        if (model.bones[k].name == specs[i].bone) obstacle.bone = static_cast<int>(k);
-      }
-      if (obstacle.bone < 0) return Fail(JobStatus::kBadInput, "obstacle " + specs[i].path + ": the model has no bone '" + specs[i].bone + "'");
-    }
-    obstacles.push_back(std::move(obstacle));
-    log << "obstacle " << specs[i].path << ": " << obstacle_triangles[i].cols() << " triangles"
-        << (specs[i].bone.empty() ? "" : ", moving with " + specs[i].bone) << "\n";
+  if (!CheckContactForModel(options.contact, model, &error) ||
+      !ResolveModelPose(model, options.latent, options.pose, &pose, &error) ||
+      !ReadObstacles(options.obstacles, model, &obstacles, log, &error)) {
+    return Fail(JobStatus::kBadInput, error);
   }
-  // The pose without contact.
-  LatentFitOptions fit_options;
-  fit_options.solver = options.contact.solver;
-  fit_options.num_threads = options.contact.num_threads;
-  LatentFitter fitter(model, fit_options);
-  fitter.set_bone_transforms(bones);
-  // A training pose starts from the equilibrium training left (the energy is not convex;
-  // from rest the solve may take another branch or crawl).
-  if (pose.training_pose >= 0) fitter.StartFromTrainingPose(pose.training_pose);
   Eigen::Matrix3Xd start, surface_before;
-  if (!fitter.Simulate(pose.latent, &start, &surface_before, &error)) {
-    // No contact without the pose; its unconverged surface, for inspection.
-    std::string write_error;
-    if (!options.output_before.empty() && surface_before.allFinite() &&
-        surface_before.cols() == model.num_surface_vertices()) {
-      SurfaceMesh before = model.neutral;
-      before.vertices = surface_before;
-      if (WriteObj(options.output_before, before, &write_error)) {
-        log << "wrote " << options.output_before << " (NOT CONVERGED, for inspection)\n";
-      }
-    }
-    return Fail(JobStatus::kNotConverged, "the pose without contact: " + error);
+  if (!SimulateWithoutContact(options, model, pose, &start, &surface_before, log, &error)) {
+    return Fail(JobStatus::kNotConverged, error);
   }
   ActuationMatrix a;
   DecoderWorkspace workspace;
@@ -143,41 +210,14 @@ CollideJobResult RunCollideJob(const CollideJobOptions& options, std::ostream& l
   ContactSolver solver(model, options.contact);
   CollideJobResult result;
   Eigen::Matrix3Xd state;
-  if (!solver.Resolve(a, bones, obstacles, start, &state, &result.report, &error)) {
+  if (!solver.Resolve(a, pose.bones, obstacles, start, &state, &result.report, &error)) {
     return Fail(JobStatus::kNotConverged, error);
   }
   for (const std::string& line : result.report.round_summaries) log << "  " << line << "\n";
   log << "contact: " << result.report.Summary() << "\n";
-  SurfaceMesh surface = model.neutral;
-  surface.vertices = EmbeddedPositions(model.embedding, model.mesh.tets, state);
-  if (!WriteObj(options.output, surface, &error)) return Fail(JobStatus::kBadInput, error);
-  log << "wrote " << options.output << "\n";
-  if (!options.output_before.empty()) {
-    surface.vertices = surface_before;
-    if (!WriteObj(options.output_before, surface, &error)) return Fail(JobStatus::kBadInput, error);
-    log << "wrote " << options.output_before << "\n";
-  }
-  if (!options.output_intersections.empty()) {
-    const std::vector<double> field = solver.NewIntersectionField(surface.vertices);
-    const double most = *std::max_element(field.begin(), field.end());
-    if (!WritePlyWithScalar(options.output_intersections, surface, field, std::max(1.0, most),
-                            &error)) {
-      return Fail(JobStatus::kBadInput, error);
-    }
-    log << "wrote " << options.output_intersections << "\n";
-  }
-  if (!options.output_volume.empty()) {
-    const std::vector<VtuField> point_fields = {MakeVtuField("contact_displacement", state - start),
-                                                MakeVtuField("displacement", state - model.mesh.vertices)};
-    if (!WriteDeformedMesh(options.output_volume, model.mesh, state, point_fields, {}, &error)) {
-      return Fail(JobStatus::kBadInput, error);
-    }
-    log << "wrote " << options.output_volume << "\n";
-  }
-  if (!options.report.empty()) {
-    if (!WriteFileAtomically(options.report, result.report.ToText(), &error)) {
-      return Fail(JobStatus::kBadInput, error);
-    }
+  if (!WriteCollideOutputs(options, model, solver, start, surface_before, state, result.report,
+                           log, &error)) {
+    return Fail(JobStatus::kBadInput, error);
   }
   if (!result.report.converged) {
     result.status = JobStatus::kNotConverged;

@@ -580,7 +580,8 @@ TEST_F(AqsFitTest, CollidePushesTheSurfaceOutOfAnObstacle) {
   const testing::CommandResult run =
       RunCommand(collide + " --output=" + dir_->File("collided.obj") + " --output_before=" +
                  dir_->File("free.obj") + " --output_volume=" + dir_->File("collided.vtu") +
-                 " --report=" + dir_->File("contact.txt"));
+                 " --report=" + dir_->File("contact.txt") + " --output_intersections=" +
+                 dir_->File("intersections.ply"));
   ASSERT_EQ(run.exit_code, 0) << run.output;
   const std::map<std::string, double> report = ReadReport(dir_->File("contact.txt"));
   ASSERT_EQ(report.count("converged"), 1u) << run.output;
@@ -605,6 +606,13 @@ TEST_F(AqsFitTest, CollidePushesTheSurfaceOutOfAnObstacle) {
   EXPECT_GT(moved, 0.5 * report.at("max_penetration_before"));
   EXPECT_LT(moved, 3.0 * report.at("max_penetration_before") + 0.02);
   EXPECT_TRUE(std::filesystem::exists(dir_->File("collided.vtu")));
+  // The intersections' PLY is the surface with contact (it was the one before contact
+  // whenever --output_before was given, until 2026-12-05).
+  Eigen::Matrix3Xd colored;
+  ASSERT_TRUE(ReadPointCloud(dir_->File("intersections.ply"), &colored, &error)) << error;
+  ASSERT_EQ(colored.cols(), after.vertices.cols());
+  EXPECT_LT((colored - after.vertices).cwiseAbs().maxCoeff(), 1e-5);
+  EXPECT_GT((colored - before.vertices).cwiseAbs().maxCoeff(), 1e-2);
 
   // Bad input: a clear message and exit status 1.
   std::ofstream(dir_->File("bad_box.obj")) << "v 0 0 0\nf 1 2 3\n";
