@@ -270,6 +270,65 @@ ceres::GradientProblemSolver::Options TrainingSolverOptions(const TrainOptions& 
   return solver_options;
 }
 
+// Ceres' L-BFGS on `problem` from *parameters ([decoder; latents]; `done` iterations
+// done before this run), with the latent refits of options (before iteration 0 of a
+// fresh run, then every latent_refit_every) and restarts from the accepted point where
+// the line search stalls (the loss is only as smooth as the equilibria are converged,
+// so it can stall far from a minimum: L-BFGS restarts with an empty memory, a
+// steepest-descent step first, as long as each restart makes progress), until the
+// iterations, the time budget (counted by budget_timer) or the progress run out.
+// Returns the iterations done in all; sets report's termination, latent_refits and
+// restarts.
+int RunTrainingSolves(const TrainOptions& options, const ceres::GradientProblem& problem,
+                      const WallTimer& budget_timer, int done, ActiveModel* model,
+                      EndToEndObjective* objective, TrainingCallback* callback,
+                      Eigen::VectorXd* parameters, TrainReport* report, std::ostream& log) {
+  ceres::GradientProblemSolver::Options solver_options = TrainingSolverOptions(options, callback);
+  const bool refits = options.latent_refit_iterations > 0;
+  const int every = options.latent_refit_every;
+  int next_refit = done == 0 ? 0
+                   : every > 0 ? (done / every + 1) * every
+                               : options.max_iterations;
+  for (int restarts = 0;;) {
+    if (refits && done >= next_refit) {
+      RefitLatents(model, objective, parameters, log);
+      callback->ForgetLastCost();  // the refitted latents start at another loss
+      ++report->latent_refits;
+      next_refit = every > 0 ? done + every : options.max_iterations;
+    }
+    ceres::GradientProblemSolver::Summary summary;
+    callback->SetIterationsBefore(done);
+    solver_options.max_num_iterations =
+        (refits ? std::min(options.max_iterations, next_refit) : options.max_iterations) - done;
+    ceres::Solve(solver_options, problem, parameters->data(), &summary);
+    const int steps = std::max(0, static_cast<int>(summary.iterations.size()) - 1);
+    done += steps;
+    report->termination = summary.message;
+    if (summary.termination_type == ceres::FAILURE && !objective->last_failure().empty()) {
+      // Name the pose and the cause of the failed evaluation (Ceres' message does not).
+      report->termination += " (" + objective->last_failure() + ")";
+    }
+    const bool stalled = summary.termination_type == ceres::CONVERGENCE ||
+                         summary.termination_type == ceres::FAILURE;
+    const bool out_of_time =
+        options.max_seconds > 0 && budget_timer.Seconds() > options.max_seconds;
+    if (out_of_time && !callback->budget_reached()) {
+      log << "  time budget of " << FormatDuration(options.max_seconds)
+          << " reached during a line search (its last step is dropped)\n";
+    }
+    if (out_of_time || callback->budget_reached() || done >= options.max_iterations) break;
+    // Reached the next latent refit: it and an L-BFGS run with an empty memory follow.
+    if (refits && done >= next_refit && !stalled) continue;
+    if (!stalled || steps == 0 || restarts >= options.max_restarts) break;
+    objective->UseStatesOf(parameters->data());  // restart from the accepted point
+    ++restarts;
+    ++report->restarts;
+    log << "  L-BFGS stopped (" << summary.message << "); restarting from iteration " << done
+        << "\n";
+  }
+  return done;
+}
+
 }  // namespace
 
 bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport* report,
@@ -284,14 +343,13 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
     return false;
   }
   const Communicator* communicator = options.communicator;
-  // Poses run in parallel with one thread each: keep BLAS single-threaded meanwhile.
-  const int blas_threads = BlasThreads();
-  if (options.num_threads > 1) SetBlasThreads(1);
+  // Poses run in parallel with one thread each: BLAS single-threaded meanwhile (until
+  // the final evaluation).
+  auto blas = std::make_unique<ScopedBlasThreads>(options.num_threads > 1 ? 1 : BlasThreads());
   if (communicator != nullptr && communicator->size() > 1 && !communicator->is_root()) {
     // Another rank: evaluations of its poses, as rank 0 commands.
     EndToEndObjective objective(options, *model);
     const bool ok = objective.Serve(model);
-    SetBlasThreads(blas_threads);
     error->clear();
     return ok;
   }
@@ -305,16 +363,12 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
   if (!options.model_directory.empty()) {
     std::error_code code;
     fs::create_directories(options.model_directory + "/train", code);
-    if (!PrepareLog(options.model_directory, report->iterations_before, error)) {
-      SetBlasThreads(blas_threads);
-      return false;
-    }
+    if (!PrepareLog(options.model_directory, report->iterations_before, error)) return false;
   }
   Eigen::VectorXd parameters = objective->ModelParameters();
   double cost = 0;
   if (!objective->Evaluate(parameters.data(), &cost, nullptr)) {
     *error = "the starting point cannot be simulated: " + objective->last_failure();
-    SetBlasThreads(blas_threads);
     return false;
   }
   report->initial_loss = cost;
@@ -332,59 +386,12 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
   TrainingCallback callback(options, model, objective, parameters, report->iterations_before, log);
   int done = report->iterations_before;
   if (remaining > 0) {
-    ceres::GradientProblemSolver::Options solver_options =
-        TrainingSolverOptions(options, &callback);
-    // The loss is only as smooth as the equilibria are converged, so the line search
-    // can stall (zero step) far from a minimum. Then L-BFGS restarts from the current
-    // point with an empty memory (a steepest-descent step first), as long as each
-    // restart makes progress and iterations and time remain.
-    // Refits: before iteration 0 of a fresh run, then every latent_refit_every (if > 0).
-    const bool refits = options.latent_refit_iterations > 0;
-    const int every = options.latent_refit_every;
-    int next_refit = done == 0 ? 0
-                     : every > 0 ? (done / every + 1) * every
-                                 : options.max_iterations;
-    for (int restarts = 0;;) {
-      if (refits && done >= next_refit) {
-        RefitLatents(model, objective, &parameters, log);
-        callback.ForgetLastCost();  // the refitted latents start at another loss
-        ++report->latent_refits;
-        next_refit = every > 0 ? done + every : options.max_iterations;
-      }
-      ceres::GradientProblemSolver::Summary summary;
-      callback.SetIterationsBefore(done);
-      solver_options.max_num_iterations =
-          (refits ? std::min(options.max_iterations, next_refit) : options.max_iterations) - done;
-      ceres::Solve(solver_options, problem, parameters.data(), &summary);
-      const int steps = std::max(0, static_cast<int>(summary.iterations.size()) - 1);
-      done += steps;
-      report->termination = summary.message;
-      if (summary.termination_type == ceres::FAILURE && !objective->last_failure().empty()) {
-        // Name the pose and the cause of the failed evaluation (Ceres' message does not).
-        report->termination += " (" + objective->last_failure() + ")";
-      }
-      const bool stalled = summary.termination_type == ceres::CONVERGENCE ||
-                           summary.termination_type == ceres::FAILURE;
-      const bool out_of_time =
-          options.max_seconds > 0 && budget_timer.Seconds() > options.max_seconds;
-      if (out_of_time && !callback.budget_reached()) {
-        log << "  time budget of " << FormatDuration(options.max_seconds)
-            << " reached during a line search (its last step is dropped)\n";
-      }
-      if (out_of_time || callback.budget_reached() || done >= options.max_iterations) break;
-      // Reached the next latent refit: it and an L-BFGS run with an empty memory follow.
-      if (refits && done >= next_refit && !stalled) continue;
-      if (!stalled || steps == 0 || restarts >= options.max_restarts) break;
-      objective->UseStatesOf(parameters.data());  // restart from the accepted point
-      ++restarts;
-      ++report->restarts;
-      log << "  L-BFGS stopped (" << summary.message << "); restarting from iteration " << done
-          << "\n";
-    }
+    done = RunTrainingSolves(options, problem, budget_timer, done, model, objective, &callback,
+                             &parameters, report, log);
   } else {
     report->termination = "no iterations left";
   }
-  SetBlasThreads(blas_threads);
+  blas.reset();
   // Final state: evaluate the returned parameters (also refreshes states and errors).
   report->iteration_cost = objective->total_counters().Since(cost_before);
   objective->set_time_limit(0.0);
