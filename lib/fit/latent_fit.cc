@@ -164,6 +164,75 @@ bool LatentFitter::Fit(const FitTarget& target, const Eigen::VectorXd& initial,
   return true;
 }
 
+namespace {
+
+// Ceres' Levenberg-Marquardt for a fit: dense QR (a latent and a few bones' parameters),
+// the options' iterations and tolerances.
+ceres::Solver::Options FitSolverOptions(const LatentFitOptions& options) {
+  ceres::Solver::Options solver_options;
+  solver_options.linear_solver_type = ceres::DENSE_QR;
+  solver_options.max_num_iterations = options.max_iterations;
+  solver_options.function_tolerance = options.function_tolerance;
+  solver_options.gradient_tolerance = 1e-14;
+  solver_options.parameter_tolerance = options.parameter_tolerance;
+  solver_options.logging_type = ceres::SILENT;
+  return solver_options;
+}
+
+// result's used_points, mean, rms and max error: the distances of `target`'s points
+// (those of positive weight, or all without weights) to their places on `surface`
+// (3 x num_surface_vertices).
+void MeasureTargetErrors(const FitTarget& target, const Eigen::Matrix3Xd& surface,
+                         LatentFitResult* result) {
+  int used = 0;
+  double sum = 0, sum_squares = 0, worst = 0;
+  for (int i = 0; i < target.num_points(); ++i) {
+    if (target.weights.size() > 0 && target.weights[i] <= 0) continue;
+    Eigen::Vector3d p = Eigen::Vector3d::Zero();
+    for (int c = 0; c < 3; ++c) p += target.barycentric(c, i) * surface.col(target.vertices(c, i));
+    const double distance = (p - target.positions.col(i)).norm();
+    ++used;
+    sum += distance;
+    sum_squares += distance * distance;
+    worst = std::max(worst, distance);
+  }
+  result->used_points = used;
+  result->mean_error = used > 0 ? sum / used : 0.0;
+  result->rms_error = used > 0 ? std::sqrt(sum_squares / used) : 0.0;
+  result->max_error = worst;
+}
+
+}  // namespace
+
+void LatentFitter::AddPriorBlocks(ceres::Problem* problem, double prior_points,
+                                  std::vector<Eigen::Matrix<double, 6, 1>>* bone_parameters,
+                                  Eigen::VectorXd* z) const {
+  if (options_.latent_regularization > 0) {
+    problem->AddResidualBlock(new LatentPrior(static_cast<int>(z->size()),
+                                              options_.latent_regularization),
+                              nullptr, z->data());
+  }
+  // Scans weigh the priors by their own weights (PointCloudFitOptions::latent_prior,
+  // bone_prior) and centre the bone prior on the bones their fit started from.
+  const bool scan = cloud_options_ != nullptr;
+  const double latent_prior = scan ? ScanLatentPrior(*cloud_options_) : options_.latent_prior;
+  if (latent_prior > 0) {
+    problem->AddResidualBlock(new GaussianPriorCost(prior_.latent.mean, prior_.latent.whitening,
+                                                    latent_prior / prior_points),
+                              nullptr, z->data());
+  }
+  const double bone_prior = scan && cloud_options_->bone_prior >= 0 ? cloud_options_->bone_prior
+                                                                    : options_.bone_prior;
+  if (bone_parameters == nullptr || bone_prior <= 0) return;
+  for (size_t b = 0; b < model_.bones.size(); ++b) {
+    const Eigen::VectorXd centre =
+        scan ? Eigen::VectorXd(cloud_bone_centres_[b]) : prior_.bones[b].mean;
+    problem->AddResidualBlock(new GaussianPriorCost(centre, prior_.bones[b].whitening,
+                                                    bone_prior / prior_points),
+                              nullptr, (*bone_parameters)[b].data());
+  }
+}
+
 bool LatentFitter::FitFrom(const FitTarget& target, const Eigen::VectorXd& initial,
                            LatentFitResult* result, std::string* error) {
   const int d = model_.latent_dim();
@@ -233,38 +302,9 @@ bool LatentFitter::FitFrom(const FitTarget& target, const Eigen::VectorXd& initi
     return k;
   };
   equilibrium.Seed(key(), state);  // the start's equilibrium is known
-  if (options_.latent_regularization > 0) {
-    problem.AddResidualBlock(new LatentPrior(d, options_.latent_regularization), nullptr, z.data());
-  }
-  // Scans weigh the priors by their own weights (PointCloudFitOptions::latent_prior,
-  // bone_prior) and centre the bone prior on the bones their fit started from.
-  const bool scan = cloud_options_ != nullptr;
-  const double latent_prior = scan ? ScanLatentPrior(*cloud_options_) : options_.latent_prior;
-  if (latent_prior > 0) {
-    problem.AddResidualBlock(new GaussianPriorCost(prior_.latent.mean, prior_.latent.whitening,
-                                                   latent_prior / total_weight),
-                             nullptr, z.data());
-  }
-  const double bone_prior = scan && cloud_options_->bone_prior >= 0 ? cloud_options_->bone_prior
-                                                                    : options_.bone_prior;
-  if (fit_bones && bone_prior > 0) {
-    for (size_t b = 0; b < model_.bones.size(); ++b) {
-      const Eigen::VectorXd centre =
-          scan ? Eigen::VectorXd(cloud_bone_centres_[b]) : prior_.bones[b].mean;
-      problem.AddResidualBlock(new GaussianPriorCost(centre, prior_.bones[b].whitening,
-                                                     bone_prior / total_weight),
-                               nullptr, bone_parameters[b].data());
-    }
-  }
-  ceres::Solver::Options solver_options;
-  solver_options.linear_solver_type = ceres::DENSE_QR;
-  solver_options.max_num_iterations = options_.max_iterations;
-  solver_options.function_tolerance = options_.function_tolerance;
-  solver_options.gradient_tolerance = 1e-14;
-  solver_options.parameter_tolerance = options_.parameter_tolerance;
-  solver_options.logging_type = ceres::SILENT;
+  AddPriorBlocks(&problem, total_weight, fit_bones ? &bone_parameters : nullptr, &z);
   ceres::Solver::Summary summary;
-  ceres::Solve(solver_options, &problem, &summary);
+  ceres::Solve(FitSolverOptions(options_), &problem, &summary);
   if (fit_bones) {
     for (size_t b = 0; b < model_.bones.size(); ++b) {
       bones_[b] = BoneTransformFromParameters(bone_parameters[b].data());
@@ -292,24 +332,7 @@ bool LatentFitter::FitFrom(const FitTarget& target, const Eigen::VectorXd& initi
   if (options_.uncertainty && summary.termination_type != ceres::FAILURE) {
     EstimateUncertainty(&problem, blocks, data_blocks, data_weight, &equilibrium, result);
   }
-  const int k = target.num_points();
-  Eigen::VectorXd distance(k);
-  int used = 0;
-  double sum = 0, sum_squares = 0, worst = 0;
-  for (int i = 0; i < k; ++i) {
-    Eigen::Vector3d p = Eigen::Vector3d::Zero();
-    for (int c = 0; c < 3; ++c) p += target.barycentric(c, i) * surface.col(target.vertices(c, i));
-    distance[i] = (p - target.positions.col(i)).norm();
-    if (target.weights.size() > 0 && target.weights[i] <= 0) continue;
-    ++used;
-    sum += distance[i];
-    sum_squares += distance[i] * distance[i];
-    worst = std::max(worst, distance[i]);
-  }
-  result->used_points = used;
-  result->mean_error = used > 0 ? sum / used : 0.0;
-  result->rms_error = used > 0 ? std::sqrt(sum_squares / used) : 0.0;
-  result->max_error = worst;
+  MeasureTargetErrors(target, surface, result);
   result->iterations = static_cast<int>(summary.iterations.size()) - 1;
   result->solves = stats_.solves;
   result->solve_factorizations = stats_.solve_factorizations;

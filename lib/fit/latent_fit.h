@@ -344,6 +344,13 @@ class LatentFitter {
                            const std::vector<ceres::ResidualBlockId>& data_blocks,
                            double data_weight, FitEquilibrium* equilibrium,
                            LatentFitResult* result);
+  // Adds the priors' residual blocks on *z and, where given (the bones are fitted), on
+  // *bone_parameters (6 per bone): latent_regularization |z|^2, and the Gaussian priors
+  // of the latent and of each bone, weighed per point over `prior_points` points (a
+  // scan's by its own weights, its bone prior centred on the bones it started from).
+  void AddPriorBlocks(ceres::Problem* problem, double prior_points,
+                      std::vector<Eigen::Matrix<double, 6, 1>>* bone_parameters,
+                      Eigen::VectorXd* z) const;
   // One Levenberg-Marquardt fit from `initial` (what Fit does without a second start).
   bool FitFrom(const FitTarget& target, const Eigen::VectorXd& initial, LatentFitResult* result,
                std::string* error);
