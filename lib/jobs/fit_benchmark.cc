@@ -23,6 +23,7 @@
 #include "model/model_io.h"
 #include "util/atomic_file.h"
 #include "util/blas.h"
+#include "util/input_file.h"
 #include "util/line_reader.h"
 #include "util/option_checks.h"
 #include "util/wall_timer.h"
@@ -32,6 +33,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using fit_benchmark::Fixed;
+using fit_benchmark::Max;
 using fit_benchmark::Mean;
 using fit_benchmark::Median;
 using Row = FitBenchmarkRow;
@@ -60,8 +62,6 @@ Row MakeRow(const std::string& mix, const std::string& method, int markers) {
   r.markers = markers;
   return r;
 }
-
-
 
 void Errors(const Eigen::Matrix3Xd& surface, const Eigen::Matrix3Xd& truth,
             const std::vector<int>& vertices, double* mean, double* max) {
@@ -316,6 +316,151 @@ void BenchmarkFits::JudgeScanFit(const LatentFitResult& fit, const Eigen::Matrix
                                            fit.latent);
 }
 
+
+// The PCA baseline's ridge weight per marker set (marker_sets/mK.txt, read into
+// *marker_sets): chosen by leave-one-out over the model's training surfaces, logged.
+bool ChooseRidges(const FitBenchmarkOptions& options, const ActiveModel& model,
+                  const std::vector<Eigen::Matrix3Xd>& training, const std::vector<int>& measured,
+                  std::map<int, std::vector<int>>* marker_sets, std::map<int, double>* ridge,
+                  std::ostream& log, std::string* error) {
+  const int ns = model.num_surface_vertices();
+  for (int k : options.marker_counts) {
+    const std::string path = options.test_set + "/marker_sets/m" + std::to_string(k) + ".txt";
+    if (!ReadVertexList(path, ns, &(*marker_sets)[k], error)) return false;
+    const RidgeChoice choice = ChooseRidgeLeaveOneOut(training, model.latent_dim(),
+                                                      (*marker_sets)[k], measured,
+                                                      options.ridge_candidates);
+    (*ridge)[k] = choice.ridge;
+    log << "ridge PCA, " << k << " markers: leave-one-out over " << training.size()
+        << " training poses (PCA of the others, "
+        << std::min(model.latent_dim(), model.num_poses() - 2) << " components):";
+    for (size_t c = 0; c < choice.candidates.size(); ++c) {
+      log << " " << choice.candidates[c] << ":" << Fixed(choice.errors[c], 4);
+    }
+    log << " -> ridge " << choice.ridge << "\n";
+  }
+  return true;
+}
+
+// Every file the mixes' fits read exists (poses/, markers/, scans/ as the parts ask):
+// checked before any fit, so that a missing file cannot stop the run half way.
+bool CheckMixFiles(const FitBenchmarkOptions& options, const std::vector<std::string>& mixes,
+                   std::string* error) {
+  for (const std::string& mix : mixes) {
+    std::vector<std::string> paths = {options.test_set + "/poses/" + mix + ".obj"};
+    if (options.markers) {
+      for (int k : options.marker_counts) {
+        paths.push_back(options.test_set + "/markers/" + mix + "_m" + std::to_string(k) +
+                        ".txt");
+      }
+    }
+    if (options.scans) paths.push_back(options.test_set + "/scans/" + mix + ".ply");
+    for (const std::string& path : paths) {
+      if (!fs::exists(path)) {
+        *error = path + ": missing (mix '" + mix + "' of " + options.test_set + "/mixes.csv)";
+        return false;
+      }
+    }
+  }
+  return true;
+}
+
+// The baselines and physics fits of one mix, added to *fits: the neutral, ridge PCA and
+// the physics fit per marker set, PCA and the physics fit of the pose, and the scan's
+// fits (with its landmarks where the test set has them).
+bool FitMix(const FitBenchmarkOptions& options, const ActiveModel& model, const SurfacePca& pca,
+            const std::vector<int>& measured, const std::map<int, double>& ridge,
+            const std::string& mix, BenchmarkFits* fits, std::string* error) {
+  const int ns = model.num_surface_vertices();
+  fits->StartMix();
+  SurfaceMesh truth;
+  const std::string pose_path = options.test_set + "/poses/" + mix + ".obj";
+  if (!ReadObj(pose_path, &truth, error)) return false;
+  if (truth.num_vertices() != ns) {
+    *error = pose_path + ": " + std::to_string(truth.num_vertices()) +
+             " vertices, the model has " + std::to_string(ns);
+    return false;
+  }
+  Row neutral = MakeRow(mix, "neutral", 0);
+  Errors(model.neutral.vertices, truth.vertices, measured, &neutral.mean, &neutral.max);
+  fits->Add(neutral);
+  if (options.markers) {
+    for (int k : options.marker_counts) {
+      const std::string path =
+          options.test_set + "/markers/" + mix + "_m" + std::to_string(k) + ".txt";
+      std::vector<int> vertices;
+      Eigen::Matrix3Xd positions;
+      if (!ReadMarkers(path, ns, &vertices, &positions, error)) return false;
+      Row p = MakeRow(mix, "pca", k);
+      Errors(pca.FitToVerticesRidge(vertices, positions, ridge.at(k)), truth.vertices, measured,
+             &p.mean, &p.max);
+      fits->Add(p);
+      const FitTarget target = VertexTarget(vertices, positions);
+      fits->Physics(mix, "physics", k, &target, nullptr, options.points, truth.vertices);
+    }
+  }
+  const LatentFitResult* pose_fit = nullptr;
+  if (options.poses) {
+    Row p = MakeRow(mix, "pca_pose", 0);
+    Errors(pca.Decode(pca.Encode(truth.vertices)), truth.vertices, measured, &p.mean, &p.max);
+    fits->Add(p);
+    pose_fit = fits->PoseFit(mix, truth.vertices);
+  }
+  if (!options.scans) return true;
+  Eigen::Matrix3Xd cloud;
+  const std::string path = options.test_set + "/scans/" + mix + ".ply";
+  if (!ReadPointCloud(path, &cloud, error)) return false;
+  fits->SetScan(truth.vertices, cloud);
+  fits->Physics(mix, "physics_scan", 0, nullptr, &cloud, options.points, truth.vertices);
+  // The same scan with its landmarks, where the test set has them.
+  const std::string landmarks = options.test_set + "/scans/" + mix + "_landmarks.txt";
+  if (fs::exists(landmarks)) {
+    PointCloudFitOptions with_landmarks = options.points;
+    if (!ReadMarkerTarget(landmarks, ns, &with_landmarks.landmarks, error)) return false;
+    fits->Physics(mix, "physics_scan_landmarks", 0, nullptr, &cloud, with_landmarks,
+                  truth.vertices);
+  }
+  if (options.scan_from_pose_fit && pose_fit != nullptr) {
+    fits->Physics(mix, "physics_scan_from_pose", 0, nullptr, &cloud, options.points,
+                  truth.vertices, pose_fit);
+  }
+  return true;
+}
+
+// The marker sequence fitted by RunFitSequence (into output_dir/sequence) and its
+// errors against the truth frames: the report's paragraph (*md). A frame that cannot be
+// fitted fails it (status and *error), after the frames before it are written.
+JobStatus BenchmarkSequence(const FitBenchmarkOptions& options, const FitSequenceOptions& sequence,
+                            const ActiveModel& model, const std::vector<int>& measured,
+                            std::string* md, std::ostream& log, std::string* error) {
+  std::error_code code;
+  fs::remove_all(sequence.output_dir, code);
+  const FitSequenceResult result = RunFitSequence(sequence, model, log);
+  if (result.status != JobStatus::kOk) {
+    *error = "the marker sequence: " + result.message;
+    return result.status;
+  }
+  std::vector<double> err;
+  for (const std::string& name : result.frame_names) {
+    SurfaceMesh truth, fitted;
+    const std::string truth_path = options.test_set + "/sequence/truth/" + name + ".obj";
+    if (!ReadObj(truth_path, &truth, error) ||
+        !ReadObj(sequence.output_dir + "/" + name + ".obj", &fitted, error)) {
+      return JobStatus::kBadInput;
+    }
+    double mean = 0, max = 0;
+    Errors(fitted.vertices, truth.vertices, measured, &mean, &max);
+    err.push_back(mean);
+  }
+  std::ostringstream out;
+  out << "\nMarker sequence (" << result.frame_names.size() << " frames): "
+      << Fixed(result.frames_per_second, 2) << " frames/s (" << Fixed(result.seconds, 1)
+      << " s), mean error " << Fixed(Mean(err), 4) << ", max of frames "
+      << Fixed(Max(err), 4) << ".\n";
+  *md = out.str();
+  return JobStatus::kOk;
+}
+
 }  // namespace
 
 bool FitBenchmarkOptions::Validate(std::string* error) const {
@@ -329,6 +474,7 @@ bool FitBenchmarkOptions::Validate(std::string* error) const {
   return OptionChecks()
       .Require(ridges_ok, "ridge_candidates must be finite and >= 0")
       .Require(counts_ok, "marker_counts must be >= 1")
+      .Require(sequence_frames != 0, "sequence_frames must be >= 1, or < 0 for all frames")
       .Nested("fit", fit_ok, fit_error)
       .Nested("points", points_ok, points_error)
       .Done(error);
@@ -339,6 +485,17 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
   if (!options.Validate(error)) return JobStatus::kBadInput;
   if (options.model.empty() || options.test_set.empty() || options.output_dir.empty()) {
     *error = "--model, --test_set and --output_dir are required";
+    return JobStatus::kBadInput;
+  }
+  std::error_code code;
+  fs::create_directories(options.output_dir, code);
+  if (code) {
+    *error = options.output_dir + ": cannot create the folder (" + code.message() + ")";
+    return JobStatus::kBadInput;
+  }
+  const std::string csv_path = options.output_dir + "/fit_benchmark.csv";
+  const std::string md_path = options.output_dir + "/fit_benchmark.md";
+  if (!CheckOutputFile(csv_path, error) || !CheckOutputFile(md_path, error)) {
     return JobStatus::kBadInput;
   }
   ActiveModel model;
@@ -364,6 +521,7 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
   if (options.max_mixes >= 0 && static_cast<int>(mixes.size()) > options.max_mixes) {
     mixes.resize(options.max_mixes);
   }
+  if (!CheckMixFiles(options, mixes, error)) return JobStatus::kBadInput;
   // The sequence and its truth frames are checked before any fit, so that bad input
   // there cannot throw away the fits' results at the end. (RunFitSequence reads the
   // frames again: a second read of small marker files, kept rather than a second entry
@@ -387,8 +545,6 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
       }
     }
   }
-  std::error_code code;
-  fs::create_directories(options.output_dir, code);
 
   // The PCA baseline: the model's own training surfaces, the model's latent size, a
   // ridge weight per marker set chosen by leave-one-out over those surfaces.
@@ -397,21 +553,9 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
   const SurfacePca pca(training, model.latent_dim());
   std::map<int, std::vector<int>> marker_sets;
   std::map<int, double> ridge;
-  if (options.markers) {
-    for (int k : options.marker_counts) {
-      const std::string path = options.test_set + "/marker_sets/m" + std::to_string(k) + ".txt";
-      if (!ReadVertexList(path, ns, &marker_sets[k], error)) return JobStatus::kBadInput;
-      const RidgeChoice choice = ChooseRidgeLeaveOneOut(training, model.latent_dim(), marker_sets[k],
-                                                        measured, options.ridge_candidates);
-      ridge[k] = choice.ridge;
-      log << "ridge PCA, " << k << " markers: leave-one-out over " << training.size()
-          << " training poses (PCA of the others, " << std::min(model.latent_dim(), model.num_poses() - 2)
-          << " components):";
-      for (size_t c = 0; c < choice.candidates.size(); ++c) {
-        log << " " << choice.candidates[c] << ":" << Fixed(choice.errors[c], 4);
-      }
-      log << " -> ridge " << choice.ridge << "\n";
-    }
+  if (options.markers &&
+      !ChooseRidges(options, model, training, measured, &marker_sets, &ridge, log, error)) {
+    return JobStatus::kBadInput;
   }
   log << "PCA: " << pca.num_components() << " components of the " << training.size()
       << " training poses\n";
@@ -422,113 +566,48 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
   // BLAS threads for this model's factor size (util/blas.h).
   const ScopedBlasThreads blas(
       BlasThreadsForFactor(fits.fitter().FactorNonzeros(), BlasThreads()));
-  for (const std::string& mix : mixes) {
-    fits.StartMix();
-    SurfaceMesh truth;
-    const std::string pose_path = options.test_set + "/poses/" + mix + ".obj";
-    if (!ReadObj(pose_path, &truth, error)) return JobStatus::kBadInput;
-    if (truth.num_vertices() != ns) {
-      *error = pose_path + ": " + std::to_string(truth.num_vertices()) +
-               " vertices, the model has " + std::to_string(ns);
-      return JobStatus::kBadInput;
-    }
-    Row neutral = MakeRow(mix, "neutral", 0);
-    Errors(model.neutral.vertices, truth.vertices, measured, &neutral.mean, &neutral.max);
-    fits.Add(neutral);
-    if (options.markers) {
-      for (int k : options.marker_counts) {
-        const std::string path =
-            options.test_set + "/markers/" + mix + "_m" + std::to_string(k) + ".txt";
-        std::vector<int> vertices;
-        Eigen::Matrix3Xd positions;
-        if (!ReadMarkers(path, ns, &vertices, &positions, error)) return JobStatus::kBadInput;
-        Row p = MakeRow(mix, "pca", k);
-        Errors(pca.FitToVerticesRidge(vertices, positions, ridge[k]), truth.vertices, measured,
-               &p.mean, &p.max);
-        fits.Add(p);
-        const FitTarget target = VertexTarget(vertices, positions);
-        fits.Physics(mix, "physics", k, &target, nullptr, options.points, truth.vertices);
-      }
-    }
-    const LatentFitResult* pose_fit = nullptr;
-    if (options.poses) {
-      Row p = MakeRow(mix, "pca_pose", 0);
-      Errors(pca.Decode(pca.Encode(truth.vertices)), truth.vertices, measured, &p.mean, &p.max);
-      fits.Add(p);
-      pose_fit = fits.PoseFit(mix, truth.vertices);
-    }
-    if (options.scans) {
-      Eigen::Matrix3Xd cloud;
-      const std::string path = options.test_set + "/scans/" + mix + ".ply";
-      if (!ReadPointCloud(path, &cloud, error)) return JobStatus::kBadInput;
-      fits.SetScan(truth.vertices, cloud);
-      fits.Physics(mix, "physics_scan", 0, nullptr, &cloud, options.points, truth.vertices);
-      // The same scan with its landmarks, where the test set has them.
-      const std::string landmarks = options.test_set + "/scans/" + mix + "_landmarks.txt";
-      if (fs::exists(landmarks)) {
-        PointCloudFitOptions with_landmarks = options.points;
-        if (!ReadMarkerTarget(landmarks, ns, &with_landmarks.landmarks, error)) {
-          return JobStatus::kBadInput;
-        }
-        fits.Physics(mix, "physics_scan_landmarks", 0, nullptr, &cloud, with_landmarks,
-                     truth.vertices);
-      }
-      if (options.scan_from_pose_fit && pose_fit != nullptr) {
-        fits.Physics(mix, "physics_scan_from_pose", 0, nullptr, &cloud, options.points,
-                     truth.vertices, pose_fit);
-      }
+  // From here a failure still writes the rows fitted before it.
+  JobStatus status = JobStatus::kOk;
+  size_t mixes_done = 0;
+  for (; mixes_done < mixes.size(); ++mixes_done) {
+    if (!FitMix(options, model, pca, measured, ridge, mixes[mixes_done], &fits, error)) {
+      status = JobStatus::kBadInput;
+      break;
     }
   }
-  const std::vector<Row>& rows = fits.rows();
+  std::string sequence_md;
+  if (status == JobStatus::kOk && options.sequence) {
+    status = BenchmarkSequence(options, sequence, model, measured, &sequence_md, log, error);
+  }
 
   std::ostringstream md;
   md << "Test set " << options.test_set << ": " << mixes.size() << " mixes; errors in model units "
      << "(mean vertex distance over " << measured.size() << " vertices).\n\n";
+  if (status != JobStatus::kOk) {
+    md << "**Stopped early** (" << mixes_done << " of " << mixes.size()
+       << " mixes fitted): " << *error << "\n\n";
+  }
   FitBenchmarkParts parts;
   parts.markers = options.markers;
   parts.poses = options.poses;
   parts.scans = options.scans;
   parts.marker_counts = options.marker_counts;
   parts.uncertainty = options.fit.uncertainty;
-  md << FitBenchmarkTables(rows, parts, measured.size());
-  if (options.sequence) {
-    fs::remove_all(sequence.output_dir, code);
-    FitSequenceResult result = RunFitSequence(sequence, model, log);
-    if (result.status != JobStatus::kOk) {
-      *error = result.message;
-      return result.status;
-    }
-    // Errors against the truth frames.
-    std::vector<double> err;
-    for (size_t f = 0; f < result.frame_names.size(); ++f) {
-      SurfaceMesh truth, fitted;
-      const std::string truth_path =
-          options.test_set + "/sequence/truth/" + result.frame_names[f] + ".obj";
-      if (!ReadObj(truth_path, &truth, error) ||
-          !ReadObj(sequence.output_dir + "/" + result.frame_names[f] + ".obj", &fitted, error)) {
-        return JobStatus::kBadInput;
-      }
-      double mean = 0, max = 0;
-      Errors(fitted.vertices, truth.vertices, measured, &mean, &max);
-      err.push_back(mean);
-    }
-    md << "\nMarker sequence (" << result.frame_names.size() << " frames): "
-       << Fixed(result.frames_per_second, 2) << " frames/s (" << Fixed(result.seconds, 1)
-       << " s), mean error " << Fixed(Mean(err), 4) << ", max of frames "
-       << Fixed(*std::max_element(err.begin(), err.end()), 4) << ".\n";
-  }
+  md << FitBenchmarkTables(fits.rows(), parts, measured.size()) << sequence_md;
   const double unit_after = FactorizationUnit(model, options.fit.num_threads);
   md << "\nOne factorization of the stiffness at rest (the unit of solver work): "
      << Fixed(unit_before, 4) << " s before the fits, " << Fixed(unit_after, 4)
      << " s after them (the machine's load shows in the difference).\n";
   log << "\n" << md.str();
-  if (!WriteFileAtomically(options.output_dir + "/fit_benchmark.csv", FitBenchmarkCsv(rows),
-                           error) ||
-      !WriteFileAtomically(options.output_dir + "/fit_benchmark.md", md.str(), error)) {
+  std::string write_error;
+  if (!WriteFileAtomically(csv_path, FitBenchmarkCsv(fits.rows()), &write_error) ||
+      !WriteFileAtomically(md_path, md.str(), &write_error)) {
+    *error = status == JobStatus::kOk ? write_error : *error + "; and " + write_error;
     return JobStatus::kBadInput;
   }
-  log << "wrote " << options.output_dir << "/fit_benchmark.csv and fit_benchmark.md\n";
-  return JobStatus::kOk;
+  log << "wrote " << csv_path << " and fit_benchmark.md"
+      << (status == JobStatus::kOk ? "" : " (the rows fitted before the failure)") << "\n";
+  return status;
 }
 
 }  // namespace aqs

@@ -41,8 +41,11 @@ struct FitBenchmarkOptions {
   bool Validate(std::string* error) const;
 };
 
-// Returns kOk, or kBadInput with a message naming the file at fault. Prints per-fit
-// lines and the summary tables to `log`.
+// Returns kOk, or kBadInput with a message naming the file at fault (every file the
+// mixes and the sequence read is checked to exist, and every output path to be
+// writable, before any fit), or the sequence's status where a frame cannot be fitted.
+// A failure after the first fit still writes the rows fitted before it (the report says
+// where it stopped). Prints per-fit lines and the summary tables to `log`.
 JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
                           std::string* error);
 

@@ -15,6 +15,10 @@ double Median(std::vector<double> v) {
   return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
+double Max(const std::vector<double>& v) {
+  return v.empty() ? 0 : *std::max_element(v.begin(), v.end());
+}
+
 double Mean(const std::vector<double>& v) {
   double s = 0;
   for (double x : v) s += x;
@@ -30,6 +34,7 @@ std::string Fixed(double value, int digits) {
 }  // namespace fit_benchmark
 
 using fit_benchmark::Fixed;
+using fit_benchmark::Max;
 using fit_benchmark::Mean;
 using fit_benchmark::Median;
 
@@ -68,7 +73,7 @@ std::string FitBenchmarkTables(const std::vector<FitBenchmarkRow>& rows,
       md << "| " << k << " | " << Fixed(Mean(n_err), 4) << " | " << Fixed(Mean(p_err), 4) << " | "
          << Fixed(Mean(f_err), 4) << " | " << better << " of " << n << " | " << pca_worse << " | "
          << phys_worse << " | " << Fixed(worst_ratio, 2) << " | " << Fixed(Median(secs), 2)
-         << " | " << Fixed(*std::max_element(secs.begin(), secs.end()), 2) << " | "
+         << " | " << Fixed(Max(secs), 2) << " | "
          << Fixed(Median(work), 0) << " |\n";
     }
     md << "\n";
@@ -96,15 +101,15 @@ std::string FitBenchmarkTables(const std::vector<FitBenchmarkRow>& rows,
         work.push_back(row.factorizations + row.jacobians);
       }
       md << "| " << name << " | " << Fixed(Mean(err), 4) << " | "
-         << Fixed(*std::max_element(err.begin(), err.end()), 4) << " | " << Fixed(Median(secs), 2)
-         << " | " << Fixed(*std::max_element(secs.begin(), secs.end()), 2) << " | "
+         << Fixed(Max(err), 4) << " | " << Fixed(Median(secs), 2)
+         << " | " << Fixed(Max(secs), 2) << " | "
          << Fixed(Median(its), 0) << " | " << Fixed(Median(work), 0) << " |\n";
     }
     if (!pca_pose.empty()) {
       std::vector<double> err;
       for (const auto& [mix, row] : pca_pose) err.push_back(row.mean);
       md << "| PCA projection (reference) | " << Fixed(Mean(err), 4) << " | "
-         << Fixed(*std::max_element(err.begin(), err.end()), 4) << " | | | | |\n";
+         << Fixed(Max(err), 4) << " | | | | |\n";
     }
     for (const auto& [name, set] :
          {std::make_pair(std::string("Scans"), scan),

@@ -64,9 +64,11 @@ std::string FitBenchmarkCsv(const std::vector<FitBenchmarkRow>& rows);
 
 namespace fit_benchmark {
 
-// The median and mean of v (0 if empty), and value as text with `digits` decimals.
+// The median, mean and largest of v (0 if empty), and value as text with `digits`
+// decimals.
 double Median(std::vector<double> v);
 double Mean(const std::vector<double>& v);
+double Max(const std::vector<double>& v);
 std::string Fixed(double value, int digits);
 
 }  // namespace fit_benchmark

@@ -99,6 +99,11 @@ bool ReadSequenceFrames(const FitSequenceOptions& options, int ns,
   if (options.max_frames >= 0 && static_cast<int>(files.size()) > options.max_frames) {
     files.resize(options.max_frames);
   }
+  if (files.empty()) {
+    *error = options.sequence + ": no frames to fit (at most " +
+             std::to_string(options.max_frames) + " asked for)";
+    return false;
+  }
   const std::string& forced = options.target_kind;
   if (forced != "auto" && forced != "pose" && forced != "markers" && forced != "points") {
     *error = "--target_kind must be auto, pose, markers or points, got '" + forced + "'";

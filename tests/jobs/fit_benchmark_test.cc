@@ -169,5 +169,34 @@ TEST(FitBenchmarkTest, ChecksTheSequenceBeforeAnyFit) {
   EXPECT_EQ(log.str().find("physics_pose"), std::string::npos) << log.str();
 }
 
+TEST(FitBenchmarkTest, KeepsTheRowsFittedBeforeAFailure) {
+  testing::TempDir dir;
+  ASSERT_NO_FATAL_FAILURE(WriteModelAndSet(dir));
+  FitBenchmarkOptions options = PosesAndScansOf(dir);
+  std::ostringstream log;
+  std::string error;
+  // A missing file of a later mix is found before any fit.
+  std::filesystem::rename(dir.File("set/scans/mix_001.ply"), dir.File("set/mix_001.ply"));
+  EXPECT_EQ(RunFitBenchmark(options, log, &error), JobStatus::kBadInput);
+  EXPECT_NE(error.find("scans/mix_001.ply: missing"), std::string::npos) << error;
+  EXPECT_EQ(log.str().find("physics_pose"), std::string::npos) << "no fit ran:\n" << log.str();
+  // A damaged one stops the run there, and the rows of the mixes before it are written.
+  dir.Write("set/scans/mix_001.ply", "ply\nformat ascii 1.0\nelement vertex 2\nend_header\n");
+  log.str("");
+  EXPECT_EQ(RunFitBenchmark(options, log, &error), JobStatus::kBadInput);
+  EXPECT_NE(error.find("mix_001.ply"), std::string::npos) << error;
+  const auto rows = ReadRows(dir.File("out/fit_benchmark.csv"));
+  EXPECT_TRUE(rows.count("mix_000 physics_pose"));
+  EXPECT_TRUE(rows.count("mix_000 physics_scan"));
+  EXPECT_TRUE(rows.count("mix_001 physics_pose")) << "the pose before the damaged scan";
+  EXPECT_FALSE(rows.count("mix_001 physics_scan"));
+  const std::string md = testing::ReadAll(dir.File("out/fit_benchmark.md"));
+  EXPECT_NE(md.find("**Stopped early** (1 of 2 mixes fitted)"), std::string::npos) << md;
+  // No frames to fit is refused before anything runs.
+  options.sequence_frames = 0;
+  EXPECT_EQ(RunFitBenchmark(options, log, &error), JobStatus::kBadInput);
+  EXPECT_NE(error.find("sequence_frames"), std::string::npos) << error;
+}
+
 }  // namespace
 }  // namespace aqs
