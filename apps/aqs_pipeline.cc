@@ -5,6 +5,7 @@
 // others wait, training shares the poses among all ranks, and the evaluation's fits of
 // held-out poses are shared too; rank 0 alone logs and writes.
 
+#include <algorithm>
 #include <filesystem>
 #include <iostream>
 #include <sstream>
@@ -35,6 +36,29 @@ int main(int argc, char** argv) {
   aqs::WallTimer total;
   std::string error;
   const std::vector<std::string> stages = aqs::SplitList(FLAGS_stages);
+  // Every stage is checked before the first runs: a typo after "prepare" must not be
+  // found only once prepare has replaced a trained model.
+  {
+    static const std::vector<std::string> kOrder = {"prepare", "pretrain", "train", "evaluate"};
+    int last = -1;
+    for (const std::string& stage : stages) {
+      const auto known = std::find(kOrder.begin(), kOrder.end(), stage);
+      if (known == kOrder.end()) {
+        error = "--stages: unknown stage '" + stage +
+                "' (known: prepare, pretrain, train, evaluate)";
+      } else if (known - kOrder.begin() <= last) {
+        error = "--stages: '" + stage + "' after a later stage or twice (the order is prepare, "
+                "pretrain, train, evaluate)";
+      }
+      if (!error.empty()) break;
+      last = static_cast<int>(known - kOrder.begin());
+    }
+    if (error.empty() && stages.empty()) error = "--stages: no stage given";
+    if (!error.empty()) {
+      aqs::PrintRankError(ranks.get(), error);
+      return 1;
+    }
+  }
   // The stages that write the model run under one hold of its writers' lock.
   bool writes = false, prepares = false;
   for (const std::string& stage : stages) {
@@ -100,7 +124,12 @@ int main(int argc, char** argv) {
     }
     // Every rank stops where one fails (train and evaluate agree inside; prepare and
     // pretrain report rank 0's status here).
-    if (ranks != nullptr) ok = ranks->Agree(ok, &error);
+    if (ranks != nullptr) {
+      ok = ranks->Agree(ok, &error);
+      int code = static_cast<int>(status);  // rank 0's: the same exit status everywhere
+      ranks->Broadcast(&code, 1, 0);
+      status = static_cast<aqs::JobStatus>(code);
+    }
     if (!ok) {
       // A stage that did not converge (prepare: exit 2, its model written) stops the
       // later ones too: they would build on it.

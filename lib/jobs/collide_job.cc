@@ -28,8 +28,8 @@ CollideJobResult Fail(JobStatus status, const std::string& message) {
 }
 
 
-// The flags' outputs: a volume of a known kind, and every path writable (checked
-// before any work).
+// The flags' outputs: a volume of a known kind, and every path writable and neither
+// inside the model nor the latent file (checked before any work).
 bool CheckCollideOutputs(const CollideJobOptions& options, std::string* error) {
   if (!options.output_volume.empty() && !IsDeformedMeshOutputPath(options.output_volume)) {
     *error = options.output_volume + ": unknown output extension; known: .mesh, .vtu, .obj";
@@ -38,7 +38,11 @@ bool CheckCollideOutputs(const CollideJobOptions& options, std::string* error) {
   for (const std::string* output : {&options.output, &options.output_before,
                                     &options.output_volume, &options.output_intersections,
                                     &options.report}) {
-    if (!output->empty() && !CheckOutputFile(*output, error)) return false;
+    if (output->empty()) continue;
+    if (!CheckOutputFile(*output, error) || !CheckOutputApart(*output, options.model, error) ||
+        !CheckOutputApart(*output, options.latent, error)) {
+      return false;
+    }
   }
   return true;
 }

@@ -20,6 +20,7 @@
 #include "train/progress.h"
 #include "util/atomic_file.h"
 #include "util/blas.h"
+#include "util/input_file.h"
 #include "util/matrix_io.h"
 #include "util/option_checks.h"
 #include "util/vertex_ranges.h"
@@ -39,6 +40,7 @@ bool ReadEvaluationInputs(const EvaluateJobOptions& options, bool distributed, b
     *error = "--model and --output_dir are required";
     return false;
   }
+  if (!CheckOutputApart(options.output_directory, options.model, error)) return false;
   bool ok = LoadModel(options.model, model, error);
   if (ok && !model->decoder) {
     *error = options.model + ": the model is not trained (no decoder)";
@@ -66,8 +68,9 @@ bool ReadEvaluationInputs(const EvaluateJobOptions& options, bool distributed, b
   std::error_code code;
   const std::string& out = options.output_directory;
   if (root) {
-    std::filesystem::create_directories(out + "/fields", code);
-    std::filesystem::create_directories(out + "/fitted", code);
+    for (const char* folder : {"/fields", "/fitted"}) {
+      if (!code) std::filesystem::create_directories(out + folder, code);
+    }
     if (code) *error = out + ": cannot create the output folders (" + code.message() + ")";
   }
   ok = !code;

@@ -487,6 +487,10 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
     *error = "--model, --test_set and --output_dir are required";
     return JobStatus::kBadInput;
   }
+  if (!CheckOutputApart(options.output_dir, options.model, error) ||
+      !CheckOutputApart(options.output_dir, options.test_set, error)) {
+    return JobStatus::kBadInput;
+  }
   std::error_code code;
   fs::create_directories(options.output_dir, code);
   if (code) {

@@ -423,7 +423,12 @@ FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log) {
   }
   for (const std::string* output : {&options.output, &options.output_volume, &options.latent_output,
                                     &options.output_uncertainty}) {
-    if (!output->empty() && !CheckOutputFile(*output, &error)) return Fail(error);
+    if (output->empty()) continue;
+    if (!CheckOutputFile(*output, &error)) return Fail(error);
+    for (const std::string* input : {&options.model, &options.target, &options.landmarks,
+                                     &options.initial_latent, &options.compare_to}) {
+      if (!CheckOutputApart(*output, *input, &error)) return Fail(error);
+    }
   }
   ActiveModel model;
   if (!LoadModel(options.model, &model, &error)) return Fail(error);

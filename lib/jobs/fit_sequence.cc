@@ -15,6 +15,7 @@
 #include "model/model_io.h"
 #include "util/atomic_file.h"
 #include "util/blas.h"
+#include "util/input_file.h"
 #include "util/matrix_io.h"
 #include "util/number_format.h"
 #include "util/wall_timer.h"
@@ -282,12 +283,25 @@ FitSequenceResult RunFitSequence(const FitSequenceOptions& options, const Active
   // Bad input every rank sees alike (same options): no collective needed.
   if (!CheckSharing(options, &error)) return fail(JobStatus::kBadInput, error);
   if (options.output_dir.empty()) return fail(JobStatus::kBadInput, "--output_dir is required");
+  if (!CheckOutputApart(options.output_dir, options.model, &error)) {
+    return fail(JobStatus::kBadInput, error);
+  }
   if (!model.decoder) return fail(JobStatus::kBadInput, options.model + ": the model is not trained");
   std::vector<SequenceFrame> frames;
   if (!ReadFramesOnEveryRank(options, model, ranks, &frames, &error)) {
     return fail(JobStatus::kBadInput, error);
   }
-  for (const SequenceFrame& f : frames) result.frame_names.push_back(f.name);
+  for (const SequenceFrame& f : frames) {
+    // Frame OBJs go to output_dir/<name>.obj: not into the targets' own folder (over a
+    // target, or as new targets of the sequence on a rerun).
+    std::error_code code;
+    const fs::path folder = fs::path(f.path).parent_path();
+    if (fs::equivalent(options.output_dir, folder.empty() ? fs::path(".") : folder, code)) {
+      return fail(JobStatus::kBadInput, options.output_dir + ": is the folder of the frame " +
+                                            f.path + "; write the outputs elsewhere");
+    }
+    result.frame_names.push_back(f.name);
+  }
   std::vector<DoneFrame> done;
   if (!OpenOutputFolder(options, model, frames, ranks, &done, &error)) {
     return fail(JobStatus::kBadInput, error);

@@ -30,7 +30,8 @@ SimulateJobResult Fail(JobStatus status, const std::string& message) {
 }
 
 // There are outputs, of known kinds (.mesh, .vtu, .obj), and every output path (and the
-// gradient's) can be written: checked before any work.
+// gradient's) can be written and is none of the inputs (nor inside the model): checked
+// before any work.
 bool CheckOutputs(const SimulateJobOptions& options, std::string* error) {
   if (options.outputs.empty()) {
     *error = "no output given (--output)";
@@ -42,10 +43,17 @@ bool CheckOutputs(const SimulateJobOptions& options, std::string* error) {
       return false;
     }
   }
-  for (const std::string& output : options.outputs) {
+  std::vector<std::string> outputs = options.outputs;
+  if (!options.gradient.empty()) outputs.push_back(options.gradient);
+  for (const std::string& output : outputs) {
     if (!CheckOutputFile(output, error)) return false;
+    for (const std::string* input :
+         {&options.model, &options.mesh, &options.fixed, &options.actuation, &options.initial,
+          &options.loss_target, &options.mu_per_element, &options.latent}) {
+      if (!CheckOutputApart(output, *input, error)) return false;
+    }
   }
-  return options.gradient.empty() || CheckOutputFile(options.gradient, error);
+  return true;
 }
 
 // A warning line if elements are inverted or flat (det F <= 0) at the state x: an

@@ -5,6 +5,7 @@
 
 #include <cerrno>
 #include <cstring>
+#include <filesystem>
 
 namespace aqs {
 namespace {
@@ -68,6 +69,41 @@ bool CheckOutputFile(const std::string& path, std::string* error) {
   }
   if (::stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode)) {
     *error = path + ": is a directory; expected a file name";
+    return false;
+  }
+  return true;
+}
+
+namespace {
+
+// `path` made absolute, with symbolic links, "." and ".." resolved as far as it exists,
+// without a trailing '/'.
+std::string ResolvedPath(const std::string& path) {
+  std::error_code code;
+  std::filesystem::path p = std::filesystem::weakly_canonical(std::filesystem::absolute(path),
+                                                              code);
+  if (code) p = std::filesystem::absolute(path).lexically_normal();
+  std::string text = p.string();
+  while (text.size() > 1 && text.back() == '/') text.pop_back();
+  return text;
+}
+
+}  // namespace
+
+bool CheckOutputApart(const std::string& output, const std::string& input, std::string* error) {
+  if (output.empty() || input.empty()) return true;
+  const std::string out = ResolvedPath(output);
+  const std::string in = ResolvedPath(input);
+  std::error_code code;
+  if (std::filesystem::is_directory(in, code)) {
+    if (out == in || out.compare(0, in.size() + 1, in + "/") == 0) {
+      *error = output + ": is inside the input folder " + input +
+               ", which an output must leave alone; write it elsewhere";
+      return false;
+    }
+  } else if (out == in) {
+    *error = output + ": is the input file " + input +
+             " itself, which the output would overwrite; write it elsewhere";
     return false;
   }
   return true;

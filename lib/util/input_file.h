@@ -24,6 +24,14 @@ bool CheckInputFile(const std::string& path, std::string* error);
 // written atomically (util/atomic_file.h) into that folder at the end.
 bool CheckOutputFile(const std::string& path, std::string* error);
 
+// Checks that the output `output` (a file or a folder) leaves the input `input` alone:
+// if `input` is a folder (a model directory, a test set, a sequence's folder), `output`
+// must not be it or lie inside it (a model directory holds its own files only, and a
+// foreign file makes it unloadable); if `input` is a file, `output` must not be that file
+// (symbolic links and "." and ".." resolved). Empty paths pass. Returns false with
+// *error naming both.
+bool CheckOutputApart(const std::string& output, const std::string& input, std::string* error);
+
 }  // namespace aqs
 
 #endif  // AQS_UTIL_INPUT_FILE_H_

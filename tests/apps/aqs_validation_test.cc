@@ -326,6 +326,46 @@ TEST_F(AqsValidationModelTest, FitRefusesBadFlagsTargetsAndOutputs) {
               dir.path());
 }
 
+TEST_F(AqsValidationModelTest, OutputsLeaveTheInputsAndTheModelAlone) {
+  // An output that is an input file, or inside the model directory, is refused before
+  // any work: it would overwrite the target, or leave the model unloadable.
+  testing::TempDir dir;
+  const std::string model = CopyOfModel(dir, "model");
+  fs::copy_file(dir_->File("poses/bend_x.obj"), dir.File("t.obj"));
+  const std::string target_before = ReadAll(dir.File("t.obj"));
+  const std::string neutral_before = ReadAll(model + "/neutral.obj");
+  fs::create_directories(dir.File("seq"));
+  fs::copy_file(dir_->File("poses/bend_x.obj"), dir.File("seq/a.obj"));
+  const std::string m = "--model=" + model;
+  ExpectCases("aqs_fit", m,
+              {
+                  {"--target={dir}t.obj --output={dir}t.obj", 1,
+                   "{dir}t.obj: is the input file {dir}t.obj itself"},
+                  {"--target={dir}t.obj --output={dir}./t.obj", 1, "is the input file"},
+                  {"--target={dir}t.obj --output=" + model + "/neutral.obj", 1,
+                   "is inside the input folder " + model},
+                  {"--target={dir}t.obj --output={dir}f.obj --latent_output=" + model + "/z.txt", 1,
+                   "is inside the input folder"},
+                  {"--sequence={dir}seq --output_dir={dir}seq", 1, "is the folder of the frame"},
+                  {"--sequence={dir}seq --output_dir=" + model + "/fits", 1,
+                   "is inside the input folder"},
+              },
+              dir.path());
+  ExpectCases("aqs_simulate", m + " --pose=bend_x",
+              {{"--output=" + model + "/mesh.mesh", 1, "is inside the input folder"}}, dir.path());
+  ExpectCases("aqs_collide", m + " --pose=bend_x",
+              {{"--output={dir}c.obj --report=" + model + "/r.txt", 1, "is inside the input folder"}},
+              dir.path());
+  ExpectCases("aqs_evaluate", m, {{"--output_dir=" + model, 1, "is inside the input folder"}},
+              dir.path());
+  EXPECT_EQ(ReadAll(dir.File("t.obj")), target_before);
+  EXPECT_EQ(ReadAll(model + "/neutral.obj"), neutral_before);
+  EXPECT_FALSE(fs::exists(dir.File("seq/frames.csv")));
+  // The model still loads: nothing was written into it.
+  ExpectCases("aqs_simulate", m + " --pose=bend_x", {{"--output={dir}s.obj", 0, "wrote "}},
+              dir.path());
+}
+
 TEST_F(AqsValidationModelTest, ExitTwoStillWritesTheOutputs) {
   testing::TempDir dir;
   // One Ceres iteration from rest cannot reach 1e-12 (--solver=lm): exit 2, and the surface is written.
@@ -380,6 +420,17 @@ TEST_F(AqsValidationModelTest, LearningAppsRefuseBadFlags) {
                   {"--checkpoint_every=0", 1, "--checkpoint_every must be >= 1"},
                   {"--adjoint_tolerance=0", 1, "--adjoint_tolerance must be in [1e-14, 0.01] (is 0)"},
                   {"--adjoint_tolerance=0.5", 1, "--adjoint_tolerance must be in [1e-14, 0.01] (is 0.5)"},
+              },
+              dir.path());
+  // Every stage is checked before the first runs: a typo must not cost a trained model.
+  ExpectCases("aqs_pipeline",
+              "--model={dir}m --neutral=" + dir_->File("neutral.obj") + " --poses=" +
+                  dir_->File("poses") + " --spacing=0.5 --fixed_box=-2,-2,-1,2,2,0.3",
+              {
+                  {"--stages=prepare,pretrian", 1, "--stages: unknown stage 'pretrian'"},
+                  {"--stages=train,prepare", 1, "--stages: 'prepare' after a later stage"},
+                  {"--stages=train,train", 1, "'train' after a later stage or twice"},
+                  {"--stages=", 1, "--stages: no stage given"},
               },
               dir.path());
   EXPECT_EQ(ReadAll(model + "/learned/decoder.txt"), before) << "the model was not touched";
