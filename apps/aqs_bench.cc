@@ -32,12 +32,14 @@
 #include "physics/stiffness_assembly.h"
 #include "sparse/sparse_cholesky.h"
 #include "sparse/stiffness_pattern.h"
-#include "physics/stiffness_assembly.h"
 #include "equilibrium/quasistatic_solver.h"
 #include "mesh/lattice.h"
 #include "physics/actuation_fields.h"
 #include "physics/rotation_variant_svd.h"
+#include "prepare/volumetric_targets.h"
 #include "util/atomic_file.h"
+#include "util/input_file.h"
+#include "util/memory_limit.h"
 #include "util/blas.h"
 #include "util/process_memory.h"
 #include "util/wall_timer.h"
@@ -237,16 +239,45 @@ int main(int argc, char** argv) {
   aqs::InitApp("Benchmark the simulator on cube lattices.\n  aqs_bench [--cubes=12,20,35]",
                &argc, &argv);
   std::vector<aqs::Row> rows;
-  std::printf("%8s %8s %9s %7s | %7s %12s %12s | %12s %12s %8s | %7s %7s %7s | %7s\n",
-              "elements", "dofs", "L_nnz", "unit_s", "lm_iter", "LM:solve(it)", "LM:warm(it)",
-              "solve(lb+f)", "warm(lb+f)", "gradient", "ceres", "c+post", "dynamic",
-              "peak_GB");
+  // Every size is checked before the first is measured.
+  std::vector<int> sizes;
+  std::string error;
+  if (!FLAGS_csv.empty() && !aqs::CheckOutputFile(FLAGS_csv, &error)) {
+    aqs::PrintError("--csv: " + error);
+    return 1;
+  }
+  if (!std::isfinite(FLAGS_amplitude) || !(FLAGS_tolerance > 0) || !std::isfinite(FLAGS_tolerance)) {
+    aqs::PrintError("--amplitude must be finite and --tolerance finite and > 0");
+    return 1;
+  }
   for (const std::string& item : aqs::SplitList(FLAGS_cubes)) {
     const int n = std::atoi(item.c_str());
     if (n < 1) {
       aqs::PrintError("--cubes takes positive integers, got '" + item + "'");
       return 1;
     }
+    aqs::LatticeOptions lattice;
+    lattice.nx = lattice.ny = lattice.nz = n;
+    lattice.spacing = 1.0 / n;
+    const double elements = 6.0 * n * n * n;
+    if (!aqs::ValidateLatticeOptions(lattice, &error)) {
+      aqs::PrintError("--cubes: " + error);
+      return 1;
+    }
+    if (aqs::EquilibriumSolverMemoryBytes(elements) > aqs::MaxMemoryBytes()) {
+      aqs::PrintError("--cubes: " + aqs::FormatBytes(aqs::EquilibriumSolverMemoryBytes(elements)) +
+                      " estimated for the solves of " +
+                      std::to_string(static_cast<long long>(elements)) +
+                      " elements, above --max_memory_gb");
+      return 1;
+    }
+    sizes.push_back(n);
+  }
+  std::printf("%8s %8s %9s %7s | %7s %12s %12s | %12s %12s %8s | %7s %7s %7s | %7s\n",
+              "elements", "dofs", "L_nnz", "unit_s", "lm_iter", "LM:solve(it)", "LM:warm(it)",
+              "solve(lb+f)", "warm(lb+f)", "gradient", "ceres", "c+post", "dynamic",
+              "peak_GB");
+  for (const int n : sizes) {
     const aqs::Row r = aqs::Measure(n);
     rows.push_back(r);
     auto ratio = [&r](double seconds) {

@@ -33,6 +33,8 @@
 #include "mesh/lattice.h"
 #include "model/model_io.h"
 #include "util/atomic_file.h"
+#include "util/input_file.h"
+#include "util/memory_limit.h"
 #include "util/wall_timer.h"
 
 DEFINE_string(lattice, "40,4,4", "Cubes of the bar lattice along x, y, z (empty: no lattice case).");
@@ -96,7 +98,17 @@ bool ParseMethod(const std::string& name, EquilibriumMethod* method) {
   return true;
 }
 
+// The table's header, before the first case (after every flag was checked).
+void PrintHeaderOnce() {
+  static bool printed = false;
+  if (printed) return;
+  printed = true;
+  std::printf("%-22s %7s %-7s %-4s %5s %6s %9s %5s %9s %9s %10s\n", "case", "elems", "method",
+              "conv", "fact", "lbfgs", "newton", "lm", "seconds", "s/fact", "diff/size");
+}
+
 void RunCase(const Case& c, const std::vector<std::string>& methods, std::vector<Row>* rows) {
+  PrintHeaderOnce();
   const double unit = FactorizationSeconds(c);
   const double size = (c.rest.rowwise().maxCoeff() - c.rest.rowwise().minCoeff()).norm();
   Eigen::Matrix3Xd reference;
@@ -167,8 +179,11 @@ int Main() {
     PrintError("--methods must name a method, --tolerance > 0, --max_iterations and --threads >= 1");
     return 1;
   }
-  std::printf("%-22s %7s %-7s %-4s %5s %6s %9s %5s %9s %9s %10s\n", "case", "elems", "method",
-              "conv", "fact", "lbfgs", "newton", "lm", "seconds", "s/fact", "diff/size");
+  std::string error;
+  if (!FLAGS_csv.empty() && !CheckOutputFile(FLAGS_csv, &error)) {
+    PrintError("--csv: " + error);
+    return 1;
+  }
   std::vector<Row> rows;
   if (!FLAGS_lattice.empty()) {
     std::vector<int> cubes;
@@ -177,13 +192,31 @@ int Main() {
       PrintError("--lattice must be three positive cube counts, e.g. 40,4,4");
       return 1;
     }
+    LatticeOptions lattice;
+    lattice.nx = cubes[0], lattice.ny = cubes[1], lattice.nz = cubes[2];
+    lattice.spacing = FLAGS_spacing;
+    if (!ValidateLatticeOptions(lattice, &error)) {
+      PrintError("--lattice, --spacing: " + error);
+      return 1;
+    }
+    const double elements = 6.0 * cubes[0] * cubes[1] * cubes[2];
+    if (EquilibriumSolverMemoryBytes(elements) > MaxMemoryBytes()) {
+      PrintError("--lattice: " + FormatBytes(EquilibriumSolverMemoryBytes(elements)) +
+                 " estimated for the solves of " + std::to_string(static_cast<long long>(elements)) +
+                 " elements, above --max_memory_gb");
+      return 1;
+    }
+    if (!(FLAGS_curl >= 0.0 && FLAGS_curl < 1.0)) {
+      PrintError("--curl must be in [0, 1) (the fibres contract by 1 - curl), is " +
+                 std::to_string(FLAGS_curl));
+      return 1;
+    }
     TetMesh mesh;
     std::unique_ptr<ShapeTargetModel> physics;
     RunCase(BarCase(cubes, &mesh, &physics), methods, &rows);
   }
   if (!FLAGS_model.empty()) {
     ActiveModel model;
-    std::string error;
     if (!LoadModel(FLAGS_model, &model, &error)) {
       PrintError(error);
       return 1;
@@ -258,7 +291,6 @@ int Main() {
                     row.difference);
       csv += line;
     }
-    std::string error;
     if (!WriteFileAtomically(FLAGS_csv, csv, &error)) {
       PrintError(error);
       return 1;

@@ -1,10 +1,12 @@
 #include "mesh/lattice.h"
 
-#include <glog/logging.h>
-
+#include <cmath>
 #include <limits>
+#include <sstream>
 #include <utility>
 #include <vector>
+
+#include <glog/logging.h>
 
 namespace aqs {
 namespace {
@@ -70,6 +72,24 @@ void AddBccFaces(const LatticeOptions& o, int axis, int num_corners, std::vector
 }
 
 }  // namespace
+
+bool ValidateLatticeOptions(const LatticeOptions& options, std::string* error) {
+  std::ostringstream out;
+  if (options.nx < 1 || options.ny < 1 || options.nz < 1) {
+    out << "the lattice's cube counts must be >= 1 (are " << options.nx << ", " << options.ny
+        << ", " << options.nz << ")";
+  } else if (!(options.spacing > 0.0) || !std::isfinite(options.spacing)) {
+    out << "the lattice's spacing must be finite and > 0 (is " << options.spacing << ")";
+  } else if (!options.origin.allFinite()) {
+    out << "the lattice's origin must be finite";
+  } else if (static_cast<double>(options.nx) * options.ny * options.nz * 48 >
+             static_cast<double>(std::numeric_limits<int>::max())) {
+    out << "a lattice of " << options.nx << " x " << options.ny << " x " << options.nz
+        << " cubes is too large (at most " << std::numeric_limits<int>::max() / 48 << " cubes)";
+  }
+  *error = out.str();
+  return error->empty();
+}
 
 TetMesh MakeLatticeMesh(const LatticeOptions& options) {
   CHECK_GE(options.nx, 1);

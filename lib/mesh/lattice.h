@@ -1,6 +1,8 @@
 #ifndef AQS_MESH_LATTICE_H_
 #define AQS_MESH_LATTICE_H_
 
+#include <string>
+
 #include <Eigen/Core>
 
 #include "mesh/tet_mesh.h"
@@ -29,6 +31,12 @@ struct LatticeOptions {
 // centres follow all corners, centre (i, j, k) at index
 // num_corners + i + nx (j + ny k).
 TetMesh MakeLatticeMesh(const LatticeOptions& options);
+
+// Whether MakeLatticeMesh can build `options`: cube counts >= 1, a finite positive
+// spacing, a finite origin, and element indices that fit an int (at most about 44
+// million cubes). False with *error naming the field. (The memory such a mesh's
+// simulation needs is the caller's to check.)
+bool ValidateLatticeOptions(const LatticeOptions& options, std::string* error);
 
 }  // namespace aqs
 

@@ -20,16 +20,24 @@ bool ParseVertexRanges(const std::string& text, std::vector<int>* vertices, std:
         *error = "vertex range '" + item + "': expected a-b with a <= b";
         return false;
       }
-      ++b;
+      b = b < kMaxVertexIndex ? b + 1 : kMaxVertexIndex + 1;  // b included
     } else {
       if (!ParseInt(item, &a)) {
         *error = "vertex range '" + item + "': not an index";
         return false;
       }
-      b = a + 1;
+      b = a < kMaxVertexIndex ? a + 1 : kMaxVertexIndex + 1;
     }
     if (a < 0) {
       *error = "vertex range '" + item + "': negative index";
+      return false;
+    }
+    // Before any allocation: an index or a count no mesh has (and b = a + 1 must not
+    // overflow).
+    if (a >= kMaxVertexIndex || b > kMaxVertexIndex ||
+        static_cast<long long>(out.size()) + (b - a) > kMaxVertexIndex) {
+      *error = "vertex range '" + item + "': beyond " + std::to_string(kMaxVertexIndex) +
+               " vertices, more than any mesh has";
       return false;
     }
     for (int v = a; v < b; ++v) out.push_back(v);

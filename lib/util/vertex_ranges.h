@@ -21,6 +21,9 @@ namespace aqs {
 // callers check against their vertex count). Returns false with *error naming the item
 // ("vertex range 'x': expected a:b with a <= b", "... a-b ...", "... not an index",
 // "... negative index"), and *vertices unchanged.
+// Indices and counts are refused from kMaxVertexIndex on ("... beyond N vertices"),
+// before anything is allocated.
+constexpr int kMaxVertexIndex = 50000000;
 bool ParseVertexRanges(const std::string& text, std::vector<int>* vertices, std::string* error);
 
 // The inverse: runs of consecutive indices as "a:b" (a to b-1), comma-separated, in the

@@ -98,6 +98,27 @@ TEST(AqsValidationTest, EveryAppRefusesUnknownAndIllTypedFlags) {
 // ---------------------------------------------------------------------------------
 // aqs_simulate on meshes (no model).
 
+TEST(AqsValidationTest, BenchmarksRefuseBadSizesBeforeAnyMeasurement) {
+  testing::TempDir dir;
+  ExpectCases("aqs_bench", "",
+              {
+                  {"--cubes=3,2000", 1, "--cubes: a lattice of 2000 x 2000 x 2000 cubes is too large"},
+                  {"--cubes=3,300", 1, "above --max_memory_gb"},
+                  {"--cubes=3 --amplitude=nan", 1, "--amplitude must be finite"},
+                  {"--cubes=3 --csv={dir}missing/b.csv", 1, "--csv: {dir}missing/b.csv: cannot write here"},
+              },
+              dir.path());
+  ExpectCases("aqs_bench_solve", "",
+              {
+                  {"--lattice=2000,2000,2000", 1, "is too large"},
+                  {"--lattice=4,4,4 --spacing=nan", 1, "the lattice's spacing must be finite and > 0"},
+                  {"--lattice=4,4,4 --spacing=-1", 1, "the lattice's spacing must be finite and > 0"},
+                  {"--lattice=4,4,4 --curl=5", 1, "--curl must be in [0, 1)"},
+                  {"--lattice=4,4,4 --csv={dir}missing/b.csv", 1, "cannot write here"},
+              },
+              dir.path());
+}
+
 TEST(AqsValidationTest, SimulateRefusesBadFlagsAndInputs) {
   testing::TempDir dir;
   const int elements = 7838;  // the finger

@@ -39,6 +39,17 @@ TEST(VertexRangesTest, BadItemsAreNamed) {
   EXPECT_EQ(ParseError(" 1"), "vertex range ' 1': not an index");
   EXPECT_EQ(ParseError("-3"), "vertex range '-3': negative index");
   EXPECT_EQ(ParseError("-3:2"), "vertex range '-3:2': negative index");
+  // Sizes no mesh has are refused before anything is allocated (2e9 indices were 8 GB),
+  // and INT_MAX does not overflow.
+  const std::string beyond = "vertices, more than any mesh has";
+  EXPECT_NE(ParseError("0:2000000000").find(beyond), std::string::npos);
+  EXPECT_NE(ParseError("0-2147483647").find(beyond), std::string::npos);
+  EXPECT_NE(ParseError("2147483647").find(beyond), std::string::npos);
+  EXPECT_NE(ParseError("0-50000000").find(beyond), std::string::npos);
+  EXPECT_NE(ParseError("0:30000000,0:30000000").find(beyond), std::string::npos);
+  std::vector<int> vertices;
+  std::string error;
+  EXPECT_TRUE(ParseVertexRanges("49999999", &vertices, &error)) << error;
 }
 
 TEST(VertexRangesTest, FormatIsTheInverse) {
