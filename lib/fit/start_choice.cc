@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <limits>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -133,8 +134,20 @@ bool LatentFitter::ChooseStart(const FitTarget* target, const Eigen::Matrix3Xd* 
     }
   }
   bones_ = given_bones;
+  if (points != nullptr && !std::isfinite(best)) {
+    // Every start that could be simulated matched fewer than 3 of the scan's points.
+    best_name.clear();
+    std::ostringstream out;
+    out << "fewer than 3 of the scan's " << points->cols() << " points lie within "
+        << "--max_distance (" << cloud_options.max_distance << ") of the surface of any start "
+        << "(the given one and the training poses): is the scan in another unit or frame "
+        << "than the model, or --max_distance too small?";
+    if (!error->empty()) out << " (the given start: " << *error << ")";
+    *error = out.str();
+  }
   if (best_name.empty()) {
-    *error = "no start: " + *error;
+    *error = "no start: " + (error->empty() ? std::string("no start could be simulated")
+                                             : *error);
     return false;
   }
   set_bone_transforms(best_bones);

@@ -1,7 +1,10 @@
 #include "geometry/points_near_model.h"
 
 #include <algorithm>
+#include <cmath>
 #include <sstream>
+
+#include <glog/logging.h>
 
 namespace aqs {
 
@@ -26,6 +29,40 @@ bool CheckPointsNearModel(const std::string& path, const Eigen::Matrix3Xd& neutr
     }
   }
   return true;
+}
+
+bool CheckTargetOffsetFromModel(const std::string& path, const Eigen::Matrix3Xd& neutral,
+                                const std::vector<int>& vertices,
+                                const Eigen::Matrix3Xd& points, std::string* error) {
+  if (neutral.cols() == 0 || points.cols() == 0) return true;
+  if (!vertices.empty()) CHECK_EQ(static_cast<Eigen::Index>(vertices.size()), points.cols());
+  const double size = std::max(
+      (neutral.rowwise().maxCoeff() - neutral.rowwise().minCoeff()).norm(), 1e-300);
+  constexpr Eigen::Index kMaxMeasured = 2000;
+  const Eigen::Index stride = vertices.empty() ? std::max<Eigen::Index>(
+                                                    1, points.cols() / kMaxMeasured)
+                                              : 1;
+  std::vector<double> distances;
+  for (Eigen::Index i = 0; i < points.cols(); i += stride) {
+    if (!vertices.empty()) {
+      distances.push_back((points.col(i) - neutral.col(vertices[i])).norm());
+    } else {
+      distances.push_back(
+          std::sqrt((neutral.colwise() - points.col(i)).colwise().squaredNorm().minCoeff()));
+    }
+  }
+  std::nth_element(distances.begin(), distances.begin() + distances.size() / 2,
+                   distances.end());
+  const double median = distances[distances.size() / 2];
+  if (median <= kMaxMedianOffsetInModelSizes * size) return true;
+  std::ostringstream out;
+  out.precision(4);
+  out << path << ": its points lie a median " << median << " from "
+      << (vertices.empty() ? "the model's nearest vertices" : "their vertices on the model")
+      << ", " << median / size << " times the model's size (" << size
+      << "): is it in another unit (millimetres for centimetres?) or frame?";
+  *error = out.str();
+  return false;
 }
 
 }  // namespace aqs

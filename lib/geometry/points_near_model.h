@@ -2,6 +2,7 @@
 #define AQS_GEOMETRY_POINTS_NEAR_MODEL_H_
 
 #include <string>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -20,6 +21,22 @@ constexpr double kMaxDistanceInModelSizes = 1e3;
 // against, and every point passes.
 bool CheckPointsNearModel(const std::string& path, const Eigen::Matrix3Xd& neutral,
                           const Eigen::Matrix3Xd& points, std::string* error);
+
+// A fit target's points must lie, in the median, within this many model sizes of the
+// neutral: a body with fixed vertices does not move that far, and a target farther away
+// is in another unit (millimetres for centimetres) or frame; fitting it runs on for
+// minutes towards a pose no solve reaches.
+constexpr double kMaxMedianOffsetInModelSizes = 1.0;
+
+// Checks the median distance of `points` (3 x n) to the neutral surface's vertices
+// `neutral`: to vertex vertices[i] for point i (markers, poses: `vertices` has n
+// entries), or, with `vertices` empty, to the nearest neutral vertex (a scan; at most
+// 2,000 points, evenly spaced, are measured). Returns false, if the median is above
+// kMaxMedianOffsetInModelSizes model sizes, with *error naming `path`, the median and
+// the model's size. With no points or no neutral vertices every target passes.
+bool CheckTargetOffsetFromModel(const std::string& path, const Eigen::Matrix3Xd& neutral,
+                                const std::vector<int>& vertices,
+                                const Eigen::Matrix3Xd& points, std::string* error);
 
 }  // namespace aqs
 

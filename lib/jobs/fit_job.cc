@@ -261,7 +261,11 @@ bool ReadJobTarget(const FitJobOptions& options, const ActiveModel& model, JobTa
                   " vertices, but the model's surface has " + std::to_string(ns) +
                   " (a pose target needs the neutral's vertex order)");
     }
-    if (!CheckPointsNearModel(options.target, neutral, target_surface.vertices, error)) {
+    std::vector<int> all(ns);
+    for (int v = 0; v < ns; ++v) all[v] = v;
+    if (!CheckPointsNearModel(options.target, neutral, target_surface.vertices, error) ||
+        !CheckTargetOffsetFromModel(options.target, neutral, all, target_surface.vertices,
+                                    error)) {
       return false;
     }
     job->target = FullSurfaceTarget(target_surface.vertices);
@@ -269,14 +273,18 @@ bool ReadJobTarget(const FitJobOptions& options, const ActiveModel& model, JobTa
     std::vector<int> vertices;
     Eigen::Matrix3Xd positions;
     if (!ReadMarkers(options.target, ns, &vertices, &positions, error) ||
-        !CheckPointsNearModel(options.target, neutral, positions, error)) {
+        !CheckPointsNearModel(options.target, neutral, positions, error) ||
+        !CheckTargetOffsetFromModel(options.target, neutral, vertices, positions, error)) {
       return false;
     }
     job->target = VertexTarget(vertices, positions);
   } else if (kind == "points") {
     if (!ReadPointCloud(options.target, &job->cloud, error)) return false;
     if (job->cloud.cols() < 3) return fail(options.target + ": fewer than 3 points");
-    if (!CheckPointsNearModel(options.target, neutral, job->cloud, error)) return false;
+    if (!CheckPointsNearModel(options.target, neutral, job->cloud, error) ||
+        !CheckTargetOffsetFromModel(options.target, neutral, {}, job->cloud, error)) {
+      return false;
+    }
   } else {
     return fail("--target_kind must be auto, pose, markers or points, got '" + kind + "'");
   }

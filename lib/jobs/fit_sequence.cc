@@ -71,7 +71,7 @@ struct SequenceRanks {
 bool ReadFramesOnEveryRank(const FitSequenceOptions& options, const ActiveModel& model,
                            const SequenceRanks& ranks, std::vector<SequenceFrame>* frames,
                            std::string* error) {
-  bool ok = ReadSequenceFrames(options, model.num_surface_vertices(), frames, error);
+  bool ok = ReadSequenceFrames(options, model.neutral.vertices, frames, error);
   if (!ranks.distributed) return ok;
   std::string names;
   for (const SequenceFrame& f : *frames) names += f.name + "\n";
@@ -178,9 +178,10 @@ class SequenceFrameFitter {
       fitted = FitFromChosenStart(fitter, is_cloud ? nullptr : &frame.target,
                                   is_cloud ? &frame.cloud : nullptr, cloud_options,
                                   options_.start, z, &fit, &fit_error);
-      if (fit.start.empty()) {  // no start could be simulated
+      if (fit.start.empty()) {  // no start could be simulated, or none reaches a scan
         *status = JobStatus::kNotConverged;
-        *message = frame.path + ": " + fit_error;
+        *message = frame.path + ": " + fit_error +
+                   " (frames before it are written; rerun to retry)";
         return false;
       }
       start = fit.start;

@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "jobs/fit_job.h"
+#include "geometry/points_near_model.h"
 #include "jobs/fit_sequence.h"
 #include "mesh/mesh_io.h"
 #include "mesh/ply_io.h"
@@ -92,8 +93,9 @@ std::string From(const SequenceFrame& f, const std::string& message) {
 }
 }  // namespace
 
-bool ReadSequenceFrames(const FitSequenceOptions& options, int ns,
+bool ReadSequenceFrames(const FitSequenceOptions& options, const Eigen::Matrix3Xd& neutral,
                         std::vector<SequenceFrame>* frames, std::string* error) {
+  const int ns = static_cast<int>(neutral.cols());
   std::vector<std::pair<std::string, std::string>> files;
   if (!ResolveFrames(options.sequence, &files, error)) return false;
   if (options.max_frames >= 0 && static_cast<int>(files.size()) > options.max_frames) {
@@ -163,11 +165,20 @@ bool ReadSequenceFrames(const FitSequenceOptions& options, int ns,
                              " has " + std::to_string(ns));
         return false;
       }
+      std::vector<int> all(ns);
+      for (int v = 0; v < ns; ++v) all[v] = v;
+      if (!CheckPointsNearModel(path, neutral, surface.vertices, error) ||
+          !CheckTargetOffsetFromModel(path, neutral, all, surface.vertices, error)) {
+        *error = From(f, *error);
+        return false;
+      }
       f.target = FullSurfaceTarget(surface.vertices);
     } else if (f.kind == "markers") {
       std::vector<int> vertices;
       Eigen::Matrix3Xd positions;
-      if (!ReadMarkers(path, ns, &vertices, &positions, error)) {
+      if (!ReadMarkers(path, ns, &vertices, &positions, error) ||
+          !CheckPointsNearModel(path, neutral, positions, error) ||
+          !CheckTargetOffsetFromModel(path, neutral, vertices, positions, error)) {
         *error = From(f, *error);
         return false;
       }
@@ -179,6 +190,11 @@ bool ReadSequenceFrames(const FitSequenceOptions& options, int ns,
       }
       if (f.cloud.cols() < 3) {
         *error = From(f, path + ": fewer than 3 points");
+        return false;
+      }
+      if (!CheckPointsNearModel(path, neutral, f.cloud, error) ||
+          !CheckTargetOffsetFromModel(path, neutral, {}, f.cloud, error)) {
+        *error = From(f, *error);
         return false;
       }
     }

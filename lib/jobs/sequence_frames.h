@@ -22,14 +22,15 @@ struct SequenceFrame {
 };
 
 // Resolves and reads the frames of `options.sequence` (and `options.landmarks`, at most
-// `options.max_frames`, of `options.target_kind`) for a model with num_surface_vertices
-// surface vertices. Errors (false, *error) name the file and line:
-// no frames, a missing file, an unreadable target (markers: repeated or out-of-range
-// vertices at path:line; scans: no points), kinds that differ from the first frame's,
-// a pose with another vertex count, two frames with the same name; with landmarks, a
-// sequence that is not of point clouds, another number of landmark files than frames,
-// an unreadable landmarks file.
-bool ReadSequenceFrames(const FitSequenceOptions& options, int num_surface_vertices,
+// `options.max_frames`, of `options.target_kind`) for a model whose neutral surface has
+// the vertices `neutral` (3 x num_surface_vertices). Errors (false, *error) name the
+// file and line: no frames, a missing file, an unreadable target (markers: repeated or
+// out-of-range vertices at path:line; scans: no points), a target far from the model
+// (another unit or frame: geometry/points_near_model.h), kinds that differ from the
+// first frame's, a pose with another vertex count, two frames with the same name; with
+// landmarks, a sequence that is not of point clouds, another number of landmark files
+// than frames, an unreadable landmarks file.
+bool ReadSequenceFrames(const FitSequenceOptions& options, const Eigen::Matrix3Xd& neutral,
                         std::vector<SequenceFrame>* frames, std::string* error);
 
 }  // namespace aqs

@@ -387,6 +387,48 @@ TEST_F(AqsValidationModelTest, OutputsLeaveTheInputsAndTheModelAlone) {
               dir.path());
 }
 
+TEST_F(AqsValidationModelTest, TargetsInAnotherUnitAreRefused) {
+  // A target in millimetres for a model in centimetres (x 10) is refused before the
+  // fit, which ran on for minutes towards it; a scan no start reaches is named as such.
+  testing::TempDir dir;
+  SurfaceMesh pose;
+  std::string error;
+  ASSERT_TRUE(ReadObj(dir_->File("poses/bend_x.obj"), &pose, &error)) << error;
+  SurfaceMesh scaled = pose;
+  scaled.vertices *= 10.0;
+  ASSERT_TRUE(WriteObj(dir.File("mm.obj"), scaled, &error)) << error;
+  fs::create_directories(dir.File("seq"));
+  ASSERT_TRUE(WriteObj(dir.File("seq/f0.obj"), scaled, &error)) << error;
+  std::ostringstream markers, ply;
+  ply << "ply\nformat ascii 1.0\nelement vertex " << pose.num_vertices()
+      << "\nproperty double x\nproperty double y\nproperty double z\nend_header\n";
+  for (int v = 0; v < pose.num_vertices(); ++v) {
+    const Eigen::Vector3d p = scaled.vertices.col(v);
+    if (v % 10 == 0) markers << v << " " << p.x() << " " << p.y() << " " << p.z() << "\n";
+    ply << p.x() << " " << p.y() << " " << p.z() << "\n";
+  }
+  dir.Write("mm.txt", markers.str());
+  dir.Write("mm.ply", ply.str());
+  SurfaceMesh shifted = pose;
+  shifted.vertices.row(2).array() += 0.01;  // no start's surface within 1e-9 of it
+  ASSERT_TRUE(WriteObj(dir.File("shifted.obj"), shifted, &error)) << error;
+  const std::string unit = "is it in another unit (millimetres for centimetres?) or frame?";
+  ExpectCases("aqs_fit", "--model=" + dir_->File("model") + " --output={dir}f.obj",
+              {
+                  {"--target={dir}mm.obj", 1, "{dir}mm.obj: its points lie a median"},
+                  {"--target={dir}mm.obj", 1, unit},
+                  {"--target={dir}mm.txt", 1, "{dir}mm.txt: its points lie a median"},
+                  {"--target={dir}mm.ply", 1, "from the model's nearest vertices"},
+                  {"--target={dir}shifted.obj --target_kind=points --max_distance=1e-9",
+                   2, "fewer than 3 of the scan's 1098 points lie within --max_distance"},
+              },
+              dir.path());
+  ExpectCases("aqs_fit", "--model=" + dir_->File("model"),
+              {{"--sequence={dir}seq --output_dir={dir}out", 1, "f0.obj: its points lie a median"}},
+              dir.path());
+  EXPECT_FALSE(fs::exists(dir.File("f.obj")));
+}
+
 TEST_F(AqsValidationModelTest, ExitTwoStillWritesTheOutputs) {
   testing::TempDir dir;
   // One Ceres iteration from rest cannot reach 1e-12 (--solver=lm): exit 2, and the surface is written.

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -47,6 +48,32 @@ TEST(PointsNearModelTest, AnEmptyNeutralChecksNothing) {
   std::string error;
   EXPECT_TRUE(CheckPointsNearModel("pose.obj", Eigen::Matrix3Xd(3, 0),
                                    Eigen::Matrix3Xd::Constant(3, 1, 1e30), &error));
+}
+
+TEST(PointsNearModelTest, TargetOffsetIsTheMedianDistanceToTheVertices) {
+  const Eigen::Matrix3Xd neutral = UnitCubeCorners();
+  const double size = std::sqrt(3.0);
+  std::vector<int> vertices = {0, 1, 2, 3, 4};
+  Eigen::Matrix3Xd points(3, 5);
+  for (int i = 0; i < 5; ++i) points.col(i) = neutral.col(vertices[i]);
+  // Two of five points far off: the median is still 0.
+  points(0, 0) += 100.0;
+  points(0, 1) += 100.0;
+  std::string error;
+  EXPECT_TRUE(CheckTargetOffsetFromModel("m.txt", neutral, vertices, points, &error)) << error;
+  // Three of five just within and beyond one model size.
+  points(1, 2) += 0.99 * size;
+  EXPECT_TRUE(CheckTargetOffsetFromModel("m.txt", neutral, vertices, points, &error)) << error;
+  points.col(2) = neutral.col(2) + Eigen::Vector3d(0, 1.01 * size, 0);
+  points.col(3) = neutral.col(3) + Eigen::Vector3d(0, 0, 2 * size);
+  EXPECT_FALSE(CheckTargetOffsetFromModel("m.txt", neutral, vertices, points, &error));
+  EXPECT_EQ(error.rfind("m.txt: its points lie a median ", 0), 0u) << error;
+  EXPECT_NE(error.find("another unit"), std::string::npos) << error;
+  // Without vertices (a scan): the nearest vertex counts. The cube scaled by 10 about
+  // its corner 0 is off by a median of several sizes.
+  EXPECT_TRUE(CheckTargetOffsetFromModel("s.ply", neutral, {}, neutral, &error)) << error;
+  EXPECT_FALSE(CheckTargetOffsetFromModel("s.ply", neutral, {}, 10.0 * neutral, &error));
+  EXPECT_NE(error.find("from the model's nearest vertices"), std::string::npos) << error;
 }
 
 }  // namespace
