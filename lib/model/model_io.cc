@@ -285,10 +285,11 @@ bool Install(const std::string& staging, const std::string& target, std::string*
 }
 
 // The learned state must give actuations a simulation can use: the training latents
-// decode to entries of at most kMaxActuationStretch in magnitude (a damaged decoder or
-// latent file otherwise sends every solve after absurd targets).
-bool CheckLearnedActuations(const std::string& source, const ActiveModel& model,
-                            std::string* error) {
+// and the fit prior's latent mean decode to entries of at most kMaxActuationStretch in
+// magnitude (a damaged decoder, latent or prior file otherwise sends every solve after
+// absurd targets). Errors name `source` (the decoder) or `prior_source`.
+bool CheckLearnedActuations(const std::string& source, const std::string& prior_source,
+                            const ActiveModel& model, std::string* error) {
   if (!model.decoder || model.num_poses() == 0) return true;
   std::vector<ActuationMatrix> actuations;
   DecoderWorkspace workspace;
@@ -299,6 +300,19 @@ bool CheckLearnedActuations(const std::string& source, const ActiveModel& model,
       *error = source + ": the decoder maps training pose '" + model.poses[p].name +
                "' to actuations with entries up to " + FormatDouble(largest) + " (more than " +
                FormatDouble(kMaxActuationStretch) + "): the decoder or the latents are damaged";
+      return false;
+    }
+  }
+  // Every fit starts from the prior's centre by default: it must decode as sanely.
+  if (!model.fit_prior.empty() && model.fit_prior.latent.size() == model.latent_dim()) {
+    ActuationMatrix a;
+    model.decoder->Decode(model.decoder_params.data(), model.fit_prior.latent.mean, &a,
+                          &workspace);
+    const double largest = a.cwiseAbs().maxCoeff();
+    if (!(largest <= kMaxActuationStretch)) {
+      *error = prior_source + ": the latent mean decodes to actuations with entries up to " +
+               FormatDouble(largest) + " (more than " + FormatDouble(kMaxActuationStretch) +
+               "): the prior is damaged (remove it to learn it again from the training latents)";
       return false;
     }
   }
@@ -364,7 +378,7 @@ bool ReadLearned(const std::string& dir, const std::string& checkpoint_path, Act
       }
     }
   }
-  return CheckLearnedActuations(dir + "/decoder.txt", *model, error);
+  return CheckLearnedActuations(dir + "/decoder.txt", dir + "/prior.txt", *model, error);
 }
 
 // Identity of the directory at `path` (device, inode); zeros if missing.

@@ -244,6 +244,13 @@ TEST_F(AqsValidationModelTest, DamagedModelsAreRefusedNamingTheFile) {
     const size_t space = lines.find(' ', first);
     lines.replace(space, lines.find(' ', space + 1) - space, " 2147483648");
     std::ofstream(embedding) << lines;
+    // A prior centred far outside the training latents (every fit starts there).
+    const std::string prior = CopyOfModel(dir, "far_prior") + "/learned/prior.txt";
+    std::string prior_text = ReadAll(prior);
+    const size_t mean = prior_text.find("latent_mean ");
+    ASSERT_NE(mean, std::string::npos) << prior_text;
+    prior_text.replace(mean, prior_text.find('\n', mean) - mean, "latent_mean 1e6 1e6");
+    std::ofstream(prior) << prior_text;
   }
   const std::string pose = " --target=" + dir_->File("poses/bend_x.obj") + " --output={dir}f.obj";
   ExpectCases("aqs_fit", "",
@@ -257,7 +264,10 @@ TEST_F(AqsValidationModelTest, DamagedModelsAreRefusedNamingTheFile) {
                 "huge_decoder/learned/decoder.txt: the decoder maps training pose 'bend_x' to "
                 "actuations with entries up to"},
                {"--model={dir}bad_weight" + pose, 1,
-                "bad_weight/embedding.txt: surface vertex 0: the weights must be barycentric"}},
+                "bad_weight/embedding.txt: surface vertex 0: the weights must be barycentric"},
+               {"--model={dir}far_prior" + pose, 1,
+                "far_prior/learned/prior.txt: the latent mean decodes to actuations with entries "
+                "up to"}},
               dir.path());
   ExpectCases("aqs_simulate", "--pose=bend_x --output={dir}s.obj",
               {{"--model={dir}empty_fixed", 1, "empty_fixed/fixed.txt: lists no fixed vertices"}},
