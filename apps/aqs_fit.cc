@@ -70,6 +70,21 @@ int main(int argc, char** argv) {
                           "--sequence goes with --output_dir, not with --target or --output");
       return 1;
     }
+    // The single target's flags would be dropped without a word.
+    for (const auto& [flag, value] :
+         {std::pair<const char*, const std::string*>{"--initial_latent", &FLAGS_initial_latent},
+          {"--latent_output", &FLAGS_latent_output},
+          {"--output_volume", &FLAGS_output_volume},
+          {"--output_uncertainty", &FLAGS_output_uncertainty},
+          {"--compare_to", &FLAGS_compare_to},
+          {"--compare_vertices", &FLAGS_compare_vertices}}) {
+      if (!value->empty()) {
+        aqs::PrintRankError(ranks.get(), std::string(flag) + " applies to one --target, not to "
+                                         "a --sequence (which writes frames.csv, latents.bin "
+                                         "and one OBJ per frame)");
+        return 1;
+      }
+    }
     aqs::FitSequenceOptions options;
     options.model = FLAGS_model;
     options.sequence = FLAGS_sequence;

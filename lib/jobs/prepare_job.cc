@@ -47,7 +47,9 @@ bool PrepareJobOptions::Validate(std::string* error) const {
   checks.Nested("meshing", meshing_ok, meshing_error)
       .NonNegative("cut_margin", cut_margin)
       .IntInRange("min_elements_per_vertex", min_elements_per_vertex, 0, 24)
-      .Positive("mu", mu)
+      // Any unit of stiffness fits; beyond, the forces of a mesh of ordinary size
+      // overflow (1e300 wrote a model of infinite forces).
+      .InRange("mu", mu, 1e-12, 1e12)
       .Nested("boundary", boundary_ok, boundary_error)
       .Nested("mirror", mirror_ok, mirror_error)
       .Nested("targets", targets_ok, targets_error)

@@ -38,7 +38,7 @@ struct PrepareJobOptions {
   // After meshing and cropping, elements at vertices that fewer elements hold are
   // removed (mesh/element_subset.h, PruneWeaklyHeldElements; 0 or 1: none).
   int min_elements_per_vertex = 4;
-  double mu = 1.0;
+  double mu = 1.0;  // the material's stiffness, in [1e-12, 1e12]
   BoundaryRuleOptions boundary;
   // Mirror images of the poses (prepare/mirror_poses.h; axis -1: none): appended after
   // the given poses as "mirror_NAME", with their bones' motions mirrored.

@@ -100,11 +100,12 @@ SimulateJobResult RunModelSimulateJob(const SimulateJobOptions& options, std::os
   WallTimer total;
   std::string error;
   if (!options.mesh.empty() || !options.fixed.empty() || !options.actuation.empty() ||
-      !options.loss_target.empty() || !options.mu_per_element.empty()) {
+      !options.loss_target.empty() || !options.mu_per_element.empty() ||
+      !options.gradient.empty() || !options.initial.empty()) {
     return Fail(JobStatus::kBadInput,
                 "with --model, the mesh, material, boundary conditions and actuation come from "
-                "the model: --mesh, --fixed, --actuation, --mu_per_element and --loss_target "
-                "do not apply");
+                "the model: --mesh, --fixed, --actuation, --mu_per_element, --loss_target, "
+                "--gradient and --initial do not apply");
   }
   if (options.latent.empty() == options.pose.empty()) {
     return Fail(JobStatus::kBadInput, "with --model, give either --latent=Z.txt or --pose=NAME");

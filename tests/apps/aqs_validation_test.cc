@@ -389,6 +389,18 @@ TEST_F(AqsValidationModelTest, OutputsLeaveTheInputsAndTheModelAlone) {
               dir.path());
   ExpectCases("aqs_evaluate", m, {{"--output_dir=" + model, 1, "is inside the input folder"}},
               dir.path());
+  // Flags of the other mode are refused, not dropped without a word.
+  ExpectCases("aqs_simulate", m + " --pose=bend_x --output={dir}s.obj",
+              {{"--gradient={dir}g.txt", 1, "--gradient and --initial do not apply"},
+               {"--initial={dir}t.obj", 1, "--gradient and --initial do not apply"}},
+              dir.path());
+  ExpectCases("aqs_fit", m + " --sequence={dir}seq --output_dir={dir}out",
+              {{"--initial_latent={dir}z.txt", 1, "--initial_latent applies to one --target"},
+               {"--output_uncertainty={dir}u.ply", 1, "--output_uncertainty applies to one"},
+               {"--compare_to={dir}t.obj", 1, "--compare_to applies to one --target"}},
+              dir.path());
+  EXPECT_FALSE(fs::exists(dir.File("g.txt")));
+  EXPECT_FALSE(fs::exists(dir.File("out")));
   EXPECT_EQ(ReadAll(dir.File("t.obj")), target_before);
   EXPECT_EQ(ReadAll(model + "/neutral.obj"), neutral_before);
   EXPECT_FALSE(fs::exists(dir.File("seq/frames.csv")));
@@ -523,6 +535,8 @@ TEST_F(AqsValidationModelTest, PrepareAndCollideRefuseBadFlags) {
                   {"--spacing=0.5 --attachment_stiffness=nan", 1, "--attachment_stiffness must be finite and > 0 (is nan)"},
                   {"--spacing=0.5 --prepare_tolerance=nan", 1, "--prepare_tolerance must be finite and > 0"},
                   {"--spacing=-1", 1, "--spacing must be finite and > 0 (is -1)"},
+                  {"--spacing=0.5 --mu=1e300", 1, "--mu must be in [1e-12, 1e+12] (is 1e+300)"},
+                  {"--spacing=0.5 --mu=0", 1, "--mu must be in [1e-12, 1e+12] (is 0)"},
                   {"--spacing=0.005", 1, "--max_memory_gb (8 GB) is below the estimated 636 GB that meshing the neutral needs (a lattice of 2.54e+09 elements"},
                   {"--spacing=0.2 --max_memory_gb=0.001", 1, "--max_memory_gb (1 MB) is below the estimated"},
                   {"--spacing=0.5 --bone_mesh=" + dir_->File("neutral.obj") +
