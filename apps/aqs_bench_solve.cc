@@ -10,7 +10,7 @@
 //   model poses   with --model: each pose of --poses (training poses by name: the
 //                 decoded latent of a trained model, else the pose's volumetric target;
 //                 the bones at the pose's motion) and of --latents (NAME=latent file of
-//                 aqs_fit, bones at rest), solved from the rest shape; with --springs,
+//                 aqs_fit, its bones), solved from the rest shape; with --springs,
 //                 prepare's embedded simulation of each pose of --poses instead.
 // Printed per case and method: converged, factorizations (all kinds), L-BFGS
 // iterations, Newton steps (projected + exact), LM iterations, seconds and seconds in
@@ -42,7 +42,8 @@ DEFINE_double(spacing, 0.25, "Cube edge of the bar lattice.");
 DEFINE_double(curl, 0.4, "Fibre contraction (above the middle) and stretch (below) of the bar.");
 DEFINE_string(poses, "", "With --model: training poses to solve from rest (comma-separated).");
 DEFINE_string(latents, "", "With --model: NAME=FILE pairs (comma-separated) of latent files to "
-              "decode and solve from rest, bones at rest.");
+              "decode and solve from rest, the bones where the file's bone lines put them (at "
+              "rest without).");
 DEFINE_bool(springs, false, "With --poses: solve prepare's embedded simulation instead (the passive "
             "body, S = I, pulled by springs onto the pose's surface; see aqs_prepare).");
 DEFINE_double(attachment_stiffness, 100.0, "With --springs: the springs' relative stiffness.");

@@ -3,8 +3,9 @@
 // --sequence, to an ordered sequence of them, frame after frame (resumable). Under
 // mpirun (or with --mpi) the frames of a sequence fitted with
 // --sequence_warm_start=false are shared among the ranks (docs/distributed.md).
-// Exit status: 0 done; 1 bad input, or MPI wanted but not built; 2 the fit could not
-// simulate its target.
+// Exit status: 0 done; 1 bad input, or MPI wanted but not built; 2 the fit failed (no
+// start, or a solve failed; finite results are still written, for inspection) or, for
+// a sequence, a frame's fit did (the frames before it are written).
 
 #include <iostream>
 

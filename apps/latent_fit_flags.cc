@@ -13,8 +13,8 @@ DEFINE_double(prior_points_cap, 200, "The priors' weights are divided by the num
               "points, at most this many (correlated points must not make them vanish). 0: no cap.");
 DEFINE_double(fit_regularization, 0.0, "Legacy isotropic latent prior |z|^2 (not scaled by the "
               "number of target points). 0: off.");
-DEFINE_int32(fit_iterations, 50, "Levenberg-Marquardt iterations of a fit (per matching round "
-             "for points).");
+DEFINE_int32(fit_iterations, 50, "Levenberg-Marquardt iterations of a fit (for points: of the "
+             "whole fit; with --match_rounds, --round_iterations per round instead).");
 DEFINE_double(fit_function_tolerance, 1e-4, "Levenberg-Marquardt stops when an iteration changes "
               "the cost by less than this fraction.");
 DEFINE_int32(fit_coarse_points, 0, "Poses with correspondence: also fit from the same start "
