@@ -27,7 +27,7 @@ void InitApp(const std::string& usage, int* argc, char*** argv);
 // Prints "<program>: error: <message>" to stderr.
 void PrintError(const std::string& message);
 
-// The one exit-status convention of the apps (README, "Workflow and apps"): 0 done;
+// The one exit-status convention of the apps (docs/apps.md, "Exit status"): 0 done;
 // 1 bad input (a file, a flag, an output that cannot be written, work above a resource
 // limit); 2 a solve did not converge (the outputs are written for inspection); 3 no
 // gradient (aqs_simulate).

@@ -18,6 +18,7 @@
 #include "util/input_file.h"
 #include "util/matrix_io.h"
 #include "util/number_format.h"
+#include "util/option_checks.h"
 #include "util/wall_timer.h"
 
 namespace aqs {
@@ -375,7 +376,10 @@ FitSequenceResult RunFitSequence(const FitSequenceOptions& options, const Active
 }
 
 bool FitSequenceOptions::Validate(std::string* error) const {
-  return ValidateFitTargetOptions(target_kind, fit, points, error);
+  if (!ValidateFitTargetOptions(target_kind, fit, points, error)) return false;
+  return OptionChecks()
+      .Require(max_frames != 0, "max_frames must be >= 1, or < 0 for all frames")
+      .Done(error);
 }
 
 FitSequenceResult RunFitSequenceJob(const FitSequenceOptions& options, std::ostream& log) {

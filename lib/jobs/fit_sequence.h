@@ -58,7 +58,8 @@ struct FitSequenceOptions {
   // Collective: every rank calls RunFitSequence(Job) with the same options.
   const Communicator* communicator = nullptr;
 
-  // Checks every field; false with *error naming the first bad one (util/option_checks.h).
+  // Checks the values (target_kind, fit, points, max_frames); false with *error naming
+  // the first bad one (util/option_checks.h). The paths are checked as they are read.
   bool Validate(std::string* error) const;
 };
 

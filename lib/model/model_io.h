@@ -24,7 +24,9 @@ namespace aqs {
 //     decoder.txt       the decoder (learn/decoder.h)
 //     latents.bin       latent_dim x num_poses
 //     states/NNNN.bin   last equilibrium per pose (3 x num_vertices), where known
+//     prior.txt         the fits' priors (model/fit_prior.h)
 //     checkpoint.txt    "iterations N" and "loss L": the model's TrainingCheckpoint
+//   pretrain/surface_errors.bin, .txt   what pre-training reached (eval/error_budget.h)
 //   train/log.csv     end-to-end training log (train/trainer.h)
 //
 // Binary files use util/matrix_io.h. NNNN is the zero-padded pose index. Format 1 had

@@ -47,7 +47,7 @@ bool MakeVolumetricTargets(const VolumetricTargetOptions& options, ActiveModel* 
 
 // The memory of the equilibrium solves of a mesh of num_elements elements (bytes): one
 // solver with its stiffness factorization, about 8 kB per element at 250,000 elements
-// (README, performance: 2.0 GB peak), growing as the cube root of the element count
+// (docs/benchmarks.md: 2.0 GB peak), growing as the cube root of the element count
 // above that (the factor's fill).
 double EquilibriumSolverMemoryBytes(double num_elements);
 

@@ -63,7 +63,7 @@ EndToEndObjective::EndToEndObjective(const TrainOptions& options, const ActiveMo
     stored_factors_.resize(num_stored_factors_);
   }
   // A factor of another pose is a poor preconditioner: with shared solvers a pose's
-  // solve starts by factorizing (StiffnessFactorization::RequestRefresh in Evaluate)
+  // solve starts by factorizing (StiffnessFactorization::RequestRefresh in StartPose)
   // unless its own stored factor is restored, and its later Newton steps and its adjoint
   // reuse that factor by CG. A pose's own earlier factor preconditions L-BFGS too.
   // (Solvers per thread choose it per solve: for the poses whose stored factor is

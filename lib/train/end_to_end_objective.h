@@ -26,14 +26,17 @@ struct PointOnLine;
 // The end-to-end training objective (see TrainEndToEnd) as a Ceres FirstOrderFunction
 // over the flat vector [decoder params (num_parameters); z_1; ...; z_P (latent_dim each)]:
 //
-//   L = (1/(P N)) sum_p sum_i |p_i(x*(a(z_p))) - y_pi|^2 + lambda (1/P) sum_p |z_p|^2.
+//   L = (1/(P N)) sum_p sum_i |p_i(x*(a(z_p))) - y_pi|^2 + lambda (1/P) sum_p |z_p|^2
+//       + decoder_regularization |params|^2
+//       + energy_regularization (1/P) sum_p E(x*_p, a_p) / (sum_e mu_e V_e)
 //
-// Evaluate() decodes all poses, solves their equilibria in parallel (per-thread solvers,
-// warm-started from each pose's last state) and, with a gradient, runs one adjoint
-// solve per pose and back-propagates through the embedding and the decoder. It returns
-// false (a failed step for Ceres, which then shortens the line-search step) if an
-// equilibrium cannot be reached or its stiffness is not positive definite, or once a
-// time limit has passed. A pose whose warm start fails is retried from the rest shape
+// (the terms of TrainOptions). Evaluate() decodes all poses, solves their equilibria in
+// parallel (a solver per pose while the factors fit TrainOptions::max_factor_cache_gb,
+// else per thread; warm-started from each pose's last state) and, with a gradient, runs
+// one adjoint solve per pose and back-propagates through the embedding and the decoder.
+// It returns false (a failed step for Ceres, which then shortens the line-search step)
+// if an equilibrium cannot be reached or its stiffness is not positive definite, or
+// once a time limit has passed. A pose whose warm start fails is retried from the rest shape
 // only until it has converged once: afterwards a failure is a step too long for the
 // branch training follows (retrying from rest would cost a long solve and could jump
 // to another branch of the non-convex energy). Not thread-safe (Ceres calls it from

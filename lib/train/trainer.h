@@ -121,6 +121,7 @@ struct TrainReport {
 //
 //   L = (1/(P N)) sum_p sum_i |p_i(x*(a(z_p))) - y_pi|^2 + latent_regularization (1/P) sum_p |z_p|^2
 //       + decoder_regularization |params|^2
+//       + energy_regularization (1/P) sum_p E(x*_p, a_p) / (sum_e mu_e V_e)
 //
 // (p_i: embedded surface vertex i, y_pi its position in pose p, N surface vertices,
 // x* the equilibrium under pose p's boundary conditions), by Ceres' L-BFGS
