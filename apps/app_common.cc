@@ -1,5 +1,6 @@
 #include "app_common.h"
 
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 
@@ -46,6 +47,13 @@ void InitApp(const std::string& usage, int* argc, char*** argv) {
   if (*argc > 1) {
     std::fprintf(stderr, "%s: error: unexpected argument '%s' (flags are --name=value)\n",
                  gflags::ProgramInvocationShortName(), (*argv)[1]);
+    std::exit(1);
+  }
+  // Every app takes it (some estimate no memory): checked in one place, in the flag's
+  // own unit (GB).
+  if (!(FLAGS_max_memory_gb > 0) || !std::isfinite(FLAGS_max_memory_gb)) {
+    std::fprintf(stderr, "%s: error: --max_memory_gb must be finite and > 0 (is %g)\n",
+                 gflags::ProgramInvocationShortName(), FLAGS_max_memory_gb);
     std::exit(1);
   }
 }

@@ -150,7 +150,8 @@ FlagNames EvaluateFlagNames() {
   const FlagNames targets = CommonFlagNames("held_out_targets.");
   flags.insert(flags.end(), targets.begin(), targets.end());
   flags.insert(flags.end(),
-               {{"autoencoder.latent_regularization", "--latent_regularization"},
+               {{"error_vertices", "--error_vertices"},
+                {"autoencoder.latent_regularization", "--latent_regularization"},
                 {"autoencoder.max_iterations", "--baseline_iterations"},
                 {"autoencoder_hidden_dims", "--baseline_hidden"},
                 {"autoencoder_linear_skip", "--baseline_linear_skip"},

@@ -75,7 +75,9 @@ FlagNames FitFlagNames() {
                              {"points.tangential_weight", "--tangential_weight"},
                              {"points.landmark_weight", "--landmark_weight"},
                              {"points.bone_prior", "--scan_bone_prior"},
-                             {"points.latent_prior", "--scan_latent_prior"}});
+                             {"points.latent_prior", "--scan_latent_prior"},
+                             {"compare_vertices", "--compare_vertices"},
+                             {"error_vertices", "--error_vertices"}});
   return flags;
 }
 

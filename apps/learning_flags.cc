@@ -1,5 +1,6 @@
 #include "learning_flags.h"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -7,6 +8,7 @@
 
 #include "app_common.h"
 #include "util/line_reader.h"
+#include "util/number_format.h"
 
 DEFINE_int32(latent_dim, 16, "Latent dimension d.");
 DEFINE_string(hidden, "128,128", "Hidden layer widths of the decoder (comma-separated).");
@@ -76,7 +78,15 @@ namespace {
 
 bool HiddenFromFlag(std::vector<int>* widths, std::string* error) {
   widths->clear();
-  for (const std::string& item : SplitList(FLAGS_hidden)) {
+  // An empty list is a decoder without hidden layers; an empty item is a typo.
+  const std::vector<std::string> items = SplitList(FLAGS_hidden);
+  if (static_cast<size_t>(std::count(FLAGS_hidden.begin(), FLAGS_hidden.end(), ',')) + 1 !=
+          items.size() &&
+      !FLAGS_hidden.empty()) {
+    *error = "--hidden has an empty width in '" + FLAGS_hidden + "'";
+    return false;
+  }
+  for (const std::string& item : items) {
     int width = 0;
     if (!ParseInt(item, &width) || width < 1) {
       *error = "--hidden takes positive widths, got '" + item + "'";
@@ -190,6 +200,11 @@ bool TrainOptionsFromFlags(TrainOptions* options, std::string* error) {
   options->decoder_regularization = FLAGS_decoder_regularization;
   options->energy_regularization = FLAGS_energy_regularization;
   options->max_iterations = FLAGS_train_iterations;
+  if (!(FLAGS_train_minutes >= 0) || !std::isfinite(FLAGS_train_minutes)) {
+    *error = "--train_minutes must be finite and >= 0 (is " + FormatDouble(FLAGS_train_minutes) +
+             ")";  // here, in minutes: max_seconds' check would print seconds
+    return false;
+  }
   options->max_seconds = 60.0 * FLAGS_train_minutes;
   options->solver.relative_force_tolerance = FLAGS_train_tolerance;
   if (!SolverMethodFromFlag(&options->solver, error)) return false;

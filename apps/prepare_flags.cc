@@ -87,6 +87,10 @@ bool PrepareOptionsFromFlags(PrepareJobOptions* options, std::string* error) {
     *error = "--spacing (the lattice cube edge, > 0) is required without --tet_mesh";
     return false;
   }
+  if (!FLAGS_tet_mesh.empty() && FLAGS_spacing != 0.0) {
+    *error = "give --spacing (a lattice is made) or --tet_mesh (that mesh is used), not both";
+    return false;
+  }
   options->meshing.spacing = FLAGS_spacing;
   if (FLAGS_lattice == "bcc") {
     options->meshing.type = LatticeType::kBcc;

@@ -1,5 +1,6 @@
 #include "contact/obstacle.h"
 
+#include <set>
 
 #include <glog/logging.h>
 
@@ -43,13 +44,21 @@ bool ParseObstacleSpecs(const std::string& text, std::vector<ObstacleSpec>* spec
                         std::string* error) {
   for (const std::string& item : SplitFields(text)) {
     const std::vector<std::string> fields = SplitTokens(item);
-    if (fields.empty()) continue;
+    if (fields.empty()) {
+      *error = "obstacles '" + text + "': an empty item (between commas)";
+      return false;
+    }
     ObstacleSpec spec;
     spec.path = fields[0];
+    std::set<std::string> keys;
     for (size_t i = 1; i < fields.size(); ++i) {
       const size_t eq = fields[i].find('=');
       const std::string key = fields[i].substr(0, eq == std::string::npos ? 0 : eq);
       const std::string value = eq == std::string::npos ? "" : fields[i].substr(eq + 1);
+      if (!key.empty() && !keys.insert(key).second) {
+        *error = "obstacle '" + item + "': '" + key + "=' is given twice";
+        return false;
+      }
       if (key == "bone" && !value.empty()) {
         spec.bone = value;
       } else if (key == "vertices") {

@@ -62,7 +62,8 @@ struct ObstacleSpec {
   std::string bone;     // empty: static
 };
 
-// Parses "path [vertices=a:b] [bone=name]" items separated by commas.
+// Parses "path [vertices=a:b] [bone=name]" items separated by commas. Errors (false,
+// *error naming the item): an empty item, a key given twice, an unknown key, a bad range.
 bool ParseObstacleSpecs(const std::string& text, std::vector<ObstacleSpec>* specs,
                         std::string* error);
 

@@ -25,6 +25,10 @@ bool LatentFitOptions::Validate(std::string* error) const {
       .IntInRange("num_threads", num_threads, 1, 1024)
       .Nested("solver", solver_ok, solver_error)
       .ReachableTolerance("solver.relative_force_tolerance", solver.relative_force_tolerance)
+      // Above, a solve stops where it starts: the fit returns its start.
+      .Require(solver.relative_force_tolerance <= 0.1,
+               "solver.relative_force_tolerance must be at most 0.1 (is " +
+                   OptionValue(solver.relative_force_tolerance) + ")")
       .Done(error);
 }
 
@@ -40,7 +44,7 @@ bool PointCloudFitOptions::Validate(std::string* error) const {
                    OptionValue(robust_scale) + ")")
       .NonNegative("relative_tolerance", relative_tolerance)
       .NonNegative("tangential_weight", tangential_weight)
-      .NonNegative("landmark_weight", landmark_weight)
+      .InRange("landmark_weight", landmark_weight, 0.0, kMaxRegularization)
       .Require(std::isfinite(bone_prior) && bone_prior <= kMaxRegularization,
                "bone_prior must be finite and at most " + OptionValue(kMaxRegularization) +
                    " (< 0: the other fits' weight) (is " + OptionValue(bone_prior) + ")")

@@ -51,8 +51,13 @@ bool ReadLatentFile(const std::string& path, int latent_dim,
   std::vector<RigidTransform> transforms(bone_names.size());
   std::vector<std::string> t;
   bool have_latent = false;
+  std::vector<bool> have_bone(bone_names.size(), false);
   while (reader.NextTokens(&t)) {
     if (t[0] == "latent") {
+      if (have_latent) {
+        *error = reader.Where("a second 'latent' line (a latent file holds one)");
+        return false;
+      }
       if (static_cast<int>(t.size()) != latent_dim + 1) {
         std::ostringstream out;
         out << "expected " << latent_dim << " latent numbers (the model's latent dimension), got "
@@ -81,6 +86,11 @@ bool ReadLatentFile(const std::string& path, int latent_dim,
         *error = reader.Where("the model has no bone named '" + t[1] + "'");
         return false;
       }
+      if (have_bone[b]) {
+        *error = reader.Where("bone '" + t[1] + "' is given a second time");
+        return false;
+      }
+      have_bone[b] = true;
       RigidTransform transform;
       for (int i = 0; i < 12; ++i) {
         double v = 0;

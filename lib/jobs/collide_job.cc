@@ -89,6 +89,10 @@ bool ReadObstacles(const std::string& spec, const ActiveModel& model,
   std::vector<Eigen::Matrix3Xi> obstacle_triangles;
   if (!ReadObstacleSurfaces(specs, &obstacle_vertices, &obstacle_triangles, error)) return false;
   for (size_t i = 0; i < specs.size(); ++i) {
+    if (!CheckPointsNearModel(specs[i].path, model.neutral.vertices, obstacle_vertices[i],
+                              error)) {
+      return false;
+    }
     MovingObstacle obstacle;
     obstacle.name = specs[i].path;
     obstacle.vertices = obstacle_vertices[i];

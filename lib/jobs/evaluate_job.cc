@@ -51,7 +51,7 @@ bool ReadEvaluationInputs(const EvaluateJobOptions& options, bool distributed, b
   const int ns = model->num_surface_vertices();
   for (int v : options.error_vertices) {
     if (v >= ns) {
-      *error = "error vertex " + std::to_string(v) + " is outside the surface's " +
+      *error = "error_vertices: error vertex " + std::to_string(v) + " is outside the surface's " +
                std::to_string(ns) + " vertices";
       return false;
     }

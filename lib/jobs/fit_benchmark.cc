@@ -515,7 +515,7 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
   }
   for (int v : measured) {
     if (v < 0 || v >= ns) {
-      *error = "error vertex " + std::to_string(v) + " is outside the surface's " +
+      *error = "error_vertices: error vertex " + std::to_string(v) + " is outside the surface's " +
                std::to_string(ns) + " vertices";
       return JobStatus::kBadInput;
     }

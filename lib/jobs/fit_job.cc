@@ -320,7 +320,8 @@ bool ReadComparison(const FitJobOptions& options, const ActiveModel& model, Surf
   }
   for (int v : options.compare_vertices) {
     if (v < 0 || v >= ns) {
-      *error = "comparison vertex " + std::to_string(v) + " is outside the surface's " +
+      *error = "compare_vertices: comparison vertex " + std::to_string(v) +
+               " is outside the surface's " +
                std::to_string(ns) + " vertices";
       return false;
     }
@@ -461,7 +462,8 @@ FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log) {
     std::vector<RigidTransform> bones;
     if (!ReadLatentFile(options.initial_latent, model.latent_dim(), BoneNames(model), &initial,
                         &bones, &error) ||
-        !CheckLatentActuations(model, initial, options.initial_latent, &error)) {
+        !CheckLatentActuations(model, initial, options.initial_latent, &error) ||
+        !CheckBoneMotions(model, bones, options.initial_latent, &error)) {
       return Fail(error);
     }
     fitter.set_bone_transforms(bones);

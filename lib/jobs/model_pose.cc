@@ -15,7 +15,8 @@ bool ResolveModelPose(const ActiveModel& model, const std::string& latent_file,
     for (const Bone& bone : model.bones) names.push_back(bone.name);
     return ReadLatentFile(latent_file, model.latent_dim(), names, &pose->latent, &pose->bones,
                           error) &&
-           CheckLatentActuations(model, pose->latent, latent_file, error);
+           CheckLatentActuations(model, pose->latent, latent_file, error) &&
+           CheckBoneMotions(model, pose->bones, latent_file, error);
   }
   const int p = model.PoseIndex(pose_name);
   if (p < 0) {
@@ -44,6 +45,28 @@ bool CheckLatentActuations(const ActiveModel& model, const Eigen::VectorXd& z,
       << "): it is far outside the model's training latents";
   *error = out.str();
   return false;
+}
+
+bool CheckBoneMotions(const ActiveModel& model, const std::vector<RigidTransform>& bones,
+                      const std::string& source, std::string* error) {
+  const Eigen::Matrix3Xd& neutral = model.neutral.vertices;
+  if (neutral.cols() == 0) return true;
+  const Eigen::Vector3d lower = neutral.rowwise().minCoeff();
+  const Eigen::Vector3d upper = neutral.rowwise().maxCoeff();
+  const Eigen::Vector3d centre = 0.5 * (lower + upper);
+  const double size = (upper - lower).norm();
+  for (size_t b = 0; b < bones.size() && b < model.bones.size(); ++b) {
+    const double moved =
+        (bones[b].rotation * centre + bones[b].translation - centre).norm();
+    if (!(moved <= size)) {
+      std::ostringstream out;
+      out << source << ": bone '" << model.bones[b].name << "' moves the model's centre by "
+          << moved << ", more than the model's size (" << size << "): another unit or frame?";
+      *error = out.str();
+      return false;
+    }
+  }
+  return true;
 }
 
 }  // namespace aqs

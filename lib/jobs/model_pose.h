@@ -22,7 +22,8 @@ struct ModelPose {
 
 // Exactly one of latent_file and pose_name must be non-empty (the caller checks).
 // Returns false with *error naming the file and line, or the unknown pose and the
-// model's poses, or a latent whose actuations are absurd (CheckLatentActuations).
+// model's poses, or a latent whose actuations are absurd (CheckLatentActuations), or
+// bones moved absurdly far (CheckBoneMotions).
 bool ResolveModelPose(const ActiveModel& model, const std::string& latent_file,
                       const std::string& pose_name, ModelPose* pose, std::string* error);
 
@@ -32,6 +33,13 @@ bool ResolveModelPose(const ActiveModel& model, const std::string& latent_file,
 // outside the training latents, whose solve would chase absurd targets.
 bool CheckLatentActuations(const ActiveModel& model, const Eigen::VectorXd& z,
                            const std::string& source, std::string* error);
+
+// Checks that no bone motion (one per model bone) moves the centre of the neutral's
+// bounding box by more than the model's size (its diagonal): a bone that far away is a
+// unit or frame mistake, and its solve inverts the elements it drags. Returns false with
+// *error naming `source` (the latent file), the bone and the distance.
+bool CheckBoneMotions(const ActiveModel& model, const std::vector<RigidTransform>& bones,
+                      const std::string& source, std::string* error);
 
 }  // namespace aqs
 

@@ -332,6 +332,11 @@ TEST_F(AqsValidationModelTest, FitRefusesBadFlagsTargetsAndOutputs) {
                   {target + " --fit_tolerance=0", 1, "--fit_tolerance must be finite and > 0 (is 0)"},
                   {target + " --fit_tolerance=nan", 1, "--fit_tolerance must be finite and > 0 (is nan)"},
                   {target + " --threads=0", 1, "--threads must be in [1, 1024] (is 0)"},
+                  {target + " --fit_tolerance=1", 1, "--fit_tolerance must be at most 0.1 (is 1)"},
+                  {target + " --landmark_weight=1e300", 1, "--landmark_weight must be in [0, 1e+06]"},
+                  {target + " --max_memory_gb=nan", 1, "--max_memory_gb must be finite and > 0 (is nan)"},
+                  {target + " --compare_to=" + pose_path + " --compare_vertices=0:99999", 1,
+                   "--compare_vertices: comparison vertex 1098 is outside"},
                   {target + " --target_kind=scan", 1, "--target_kind must be auto, pose, markers or points"},
                   {target + " --latent_output={dir}missing/z.txt", 1,
                    "{dir}missing/z.txt: cannot write here: the folder {dir}missing does not exist"},
@@ -484,6 +489,7 @@ TEST_F(AqsValidationModelTest, LearningAppsRefuseBadFlags) {
                   {"--output_scale=-1", 1, "--output_scale must be finite and > 0 (is -1)"},
                   {"--latent_regularization=-1", 1, "--latent_regularization must be in [0, 1e+06] (is -1)"},
                   {"--train_tolerance=0", 1, "--train_tolerance must be finite and > 0"},
+                  {"--hidden=8,,8", 1, "--hidden has an empty width in '8,,8'"},
                   {"--pretrain_latents=poses", 1,
                    "--pretrain_latents must be targets or surfaces, got 'poses'"},
                   {"--output_scale=1e308", 1,
@@ -502,6 +508,8 @@ TEST_F(AqsValidationModelTest, LearningAppsRefuseBadFlags) {
                   {"--hidden=8,8", 1, "--hidden=8,8 was asked for, but the model's decoder has hidden_dims=8"},
                   {"--activation=tanh", 1, "--activation=tanh was asked for"},
                   {"--train_restarts=-1", 1, "--train_restarts must be >= 0"},
+                  {"--train_minutes=-1", 1, "--train_minutes must be finite and >= 0 (is -1)"},
+                  {"--max_memory_gb=-5", 1, "--max_memory_gb must be finite and > 0 (is -5)"},
                   {"--checkpoint_every=0", 1, "--checkpoint_every must be >= 1"},
                   {"--adjoint_tolerance=0", 1, "--adjoint_tolerance must be in [1e-14, 0.01] (is 0)"},
                   {"--adjoint_tolerance=0.5", 1, "--adjoint_tolerance must be in [1e-14, 0.01] (is 0.5)"},
@@ -536,6 +544,8 @@ TEST_F(AqsValidationModelTest, PrepareAndCollideRefuseBadFlags) {
                   {"--spacing=0.5 --prepare_tolerance=nan", 1, "--prepare_tolerance must be finite and > 0"},
                   {"--spacing=-1", 1, "--spacing must be finite and > 0 (is -1)"},
                   {"--spacing=0.5 --mu=1e300", 1, "--mu must be in [1e-12, 1e+12] (is 1e+300)"},
+                  {"--spacing=0.5 --tet_mesh=" + dir_->File("model/mesh.mesh"), 1,
+                   "give --spacing (a lattice is made) or --tet_mesh (that mesh is used), not both"},
                   {"--spacing=0.5 --mu=0", 1, "--mu must be in [1e-12, 1e+12] (is 0)"},
                   {"--spacing=0.005", 1, "--max_memory_gb (8 GB) is below the estimated 636 GB that meshing the neutral needs (a lattice of 2.54e+09 elements"},
                   {"--spacing=0.2 --max_memory_gb=0.001", 1, "--max_memory_gb (1 MB) is below the estimated"},
@@ -553,6 +563,7 @@ TEST_F(AqsValidationModelTest, PrepareAndCollideRefuseBadFlags) {
               },
               dir.path());
   EXPECT_FALSE(fs::exists(dir.File("p"))) << "nothing written";
+  dir.Write("far.obj", "v 1e9 0 0\nv 1e9 1 0\nv 1e9 0 1\nf 1 2 3\n");
   ExpectCases("aqs_collide", "--model=" + dir_->File("model") + " --pose=bend_x --output={dir}c.obj",
               {
                   {"--path_steps=100000", 1, "--path_steps must be in [0, 256] (is 100000)"},
@@ -562,6 +573,10 @@ TEST_F(AqsValidationModelTest, PrepareAndCollideRefuseBadFlags) {
                   {"--report={dir}missing/r.txt", 1, "{dir}missing/r.txt: cannot write here"},
                   {"--search_radius=1e308", 1,
                    "--search_radius (1e+308) is more than 1000 times the model's size"},
+                  {"--obstacles='" + dir_->File("neutral.obj") + " vertices=0:3 vertices=0:2'", 1,
+                   "'vertices=' is given twice"},
+                  {"--obstacles=,,", 1, "an empty item (between commas)"},
+                  {"--obstacles={dir}far.obj", 1, "far.obj: point 0 ("},
               },
               dir.path());
   EXPECT_FALSE(fs::exists(dir.File("c.obj")));
