@@ -234,9 +234,10 @@ bool ReadJobTarget(const FitJobOptions& options, const ActiveModel& model, JobTa
       if (!ReadObj(options.target, &target_surface, error)) return false;
       if (target_surface.num_vertices() == ns) {
         kind = "pose";
-      } else if (target_surface.num_triangles() > 0) {
-        // A surface with faces and nearly the neutral's vertex count is far more likely
-        // a broken pose than a scan: say so rather than fit it as points.
+      } else if (target_surface.num_triangles() > 0 ||
+                 std::abs(target_surface.num_vertices() - ns) <= ns / 100) {
+        // A surface with faces, or points within 1% of the neutral's vertex count, is far
+        // more likely a broken pose than a scan: say so rather than fit it as points.
         return fail(options.target + ": a surface with " +
                     std::to_string(target_surface.num_vertices()) +
                     " vertices, but the model's surface has " + std::to_string(ns) +

@@ -3,6 +3,7 @@
 #include <glob.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <filesystem>
 #include <map>
 #include <utility>
@@ -137,9 +138,20 @@ bool ReadSequenceFrames(const FitSequenceOptions& options, const Eigen::Matrix3X
           *error = From(f, *error);
           return false;
         }
-        // The first frame decides; a later OBJ of another vertex count is a mismatch.
-        const bool pose_sequence = frames->empty() ? surface.num_vertices() == ns
-                                                   : frames->front().kind == "pose";
+        // The first frame decides; a later OBJ of another vertex count is a mismatch. An
+        // OBJ within 1% of the neutral's vertex count (with or without faces) is a broken
+        // pose rather than a scan, as for one target.
+        const int n = surface.num_vertices();
+        if (frames->empty() && n != ns && (surface.num_triangles() > 0 ||
+                                           std::abs(n - ns) <= ns / 100)) {
+          *error = From(f, path + ": a surface with " + std::to_string(n) +
+                               " vertices, but the model's surface has " + std::to_string(ns) +
+                               ": a pose target needs the neutral's vertex order; to fit the "
+                               "files as point clouds (scans), pass --target_kind=points");
+          return false;
+        }
+        const bool pose_sequence =
+            frames->empty() ? n == ns : frames->front().kind == "pose";
         f.kind = pose_sequence ? "pose" : "points";
       } else {
         *error = From(f, path + ": cannot tell the target kind from the extension (.obj, .txt "

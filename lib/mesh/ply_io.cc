@@ -189,6 +189,8 @@ class PlyLineReader {
     if (!any) return false;
     ++line_number_;
     if (!line->empty() && line->back() == '\r') line->pop_back();
+    // A UTF-8 byte-order mark before "ply" is not part of the header.
+    if (line_number_ == 1 && line->compare(0, 3, "\xEF\xBB\xBF") == 0) line->erase(0, 3);
     return true;
   }
   bool failed() const { return failed_; }

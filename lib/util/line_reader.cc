@@ -69,6 +69,9 @@ bool LineReader::NextLine() {
   if (!ok_ || !any) return false;
   ++line_number_;
   if (!line_.empty() && line_.back() == '\r') line_.pop_back();
+  // A UTF-8 byte-order mark (some Windows editors save one) is not part of the text:
+  // left in, it hid the first record ("\xEF\xBB\xBFv" is no 'v').
+  if (line_number_ == 1 && line_.compare(0, 3, "\xEF\xBB\xBF") == 0) line_.erase(0, 3);
   return true;
 }
 

@@ -31,8 +31,8 @@ class LineReader {
   int line_number() const { return line_number_; }
   const std::string& line() const { return line_; }
 
-  // Reads the next raw line (trailing '\r' removed). Returns false at end of file or
-  // on a read failure (then ok() is false).
+  // Reads the next raw line (trailing '\r' and, on line 1, a UTF-8 byte-order mark
+  // removed). Returns false at end of file or on a read failure (then ok() is false).
   bool NextLine();
   // Reads the next line that has at least one token once everything from
   // `comment_char` on is removed (pass '\0' for no comments); splits it into tokens.

@@ -314,6 +314,15 @@ TEST_F(AqsValidationModelTest, FitRefusesBadFlagsTargetsAndOutputs) {
     }
     dir.Write("fewer.obj", text);
   }
+  // The same without faces (the test sets' pose format): still a pose, not a scan.
+  {
+    std::string text;
+    std::istringstream in(ReadAll(dir.File("fewer.obj")));
+    for (std::string line; std::getline(in, line);) {
+      if (line.rfind("f ", 0) != 0) text += line + "\n";
+    }
+    dir.Write("fewer_points.obj", text);
+  }
   // A scan whose PLY header counts fewer points than it holds.
   std::string ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
                     "property float z\nend_header\n0 0 1\n0 0 2\n0 0 3\n0 0 4\n";
@@ -347,6 +356,8 @@ TEST_F(AqsValidationModelTest, FitRefusesBadFlagsTargetsAndOutputs) {
                   {" --target={dir}extra.obj", 1, "pass --target_kind=points"},
                   {" --target={dir}fewer.obj", 1,
                    "fewer.obj: a surface with 1097 vertices, but the model's surface has 1098"},
+                  {" --target={dir}fewer_points.obj", 1,
+                   "fewer_points.obj: a surface with 1097 vertices, but the model's surface has"},
                   {" --target={dir}extra.ply", 1, "extra.ply:11: data after the last of the header's elements"},
               },
               dir.path());

@@ -29,6 +29,16 @@ TEST(LineReaderTest, TokensSkipCommentsAndBlankLinesAndCountLines) {
   EXPECT_FALSE(reader.NextTokens(&tokens));
 }
 
+TEST(LineReaderTest, AByteOrderMarkIsNotPartOfTheFirstLine) {
+  testing::TempDir dir;
+  LineReader reader(dir.Write("bom.txt", "\xEF\xBB\xBFv 1 2 3\n\xEF\xBB\xBFv\n"));
+  std::vector<std::string> tokens;
+  ASSERT_TRUE(reader.NextTokens(&tokens));
+  EXPECT_EQ(tokens, (std::vector<std::string>{"v", "1", "2", "3"}));
+  ASSERT_TRUE(reader.NextTokens(&tokens));  // only the file's first line loses it
+  EXPECT_EQ(tokens, (std::vector<std::string>{"\xEF\xBB\xBFv"}));
+}
+
 TEST(LineReaderTest, SplitTokensReusesStorageAndDropsComments) {
   std::vector<std::string> tokens = {"old", "tokens", "here", "and", "more"};
   SplitTokens("  a\tbb  ccc # d e", '#', &tokens);
