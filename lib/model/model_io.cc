@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <sstream>
 
+#include <Eigen/LU>
 #include <glog/logging.h>
 
 #include "geometry/points_near_model.h"
@@ -468,6 +469,13 @@ bool ReadStiffness(const std::string& dir, ActiveModel* model, std::string* erro
   Eigen::MatrixXd matrix;
   if (!ReadFiniteMatrix(dir + "/mu.bin", 1, ne, &matrix, error)) return false;
   m.mu = matrix.transpose();
+  for (int e = 0; e < ne; ++e) {
+    if (!(m.mu[e] > 0)) {
+      *error = dir + "/mu.bin: the stiffness of element " + std::to_string(e) + " is " +
+               FormatDouble(m.mu[e]) + ", not positive";
+      return false;
+    }
+  }
   // The force scale 2 mean(mu V^(2/3)) must be a number: the solvers' tolerance.
   double scale = 0.0;
   for (int e = 0; e < ne; ++e) {
@@ -551,6 +559,7 @@ bool ReadFixedVerticesAndBones(const std::string& dir, ActiveModel* model, std::
       return false;
     }
     std::vector<std::string> t;
+    std::vector<int> first_line(nv, 0);  // where each vertex is fixed (0: not yet)
     while (reader.NextTokens(&t)) {
       int v = 0, b = 0;
       if (t.size() != 2 || !ParseInt(t[0], &v) || !ParseInt(t[1], &b) || v < 0 || v >= nv ||
@@ -558,6 +567,12 @@ bool ReadFixedVerticesAndBones(const std::string& dir, ActiveModel* model, std::
         *error = reader.Where("expected '<vertex in [0, " + std::to_string(nv) + ")> <bone>'");
         return false;
       }
+      if (first_line[v] > 0) {
+        *error = reader.Where("vertex " + std::to_string(v) + " is fixed again (first on line " +
+                              std::to_string(first_line[v]) + ")");
+        return false;
+      }
+      first_line[v] = reader.line_number();
       fixed.emplace_back(v, b);
     }
     if (!reader.ok()) {
@@ -601,6 +616,14 @@ bool ReadFixedVerticesAndBones(const std::string& dir, ActiveModel* model, std::
       if (!ok) {
         *error = reader.Where("expected '<bone> <pose> r00 .. r22 t0 t1 t2' for the next pose of "
                               "the current bone");
+        return false;
+      }
+      const Eigen::Matrix3d& r = transform.rotation;
+      if (!((r.transpose() * r - Eigen::Matrix3d::Identity()).norm() <= 1e-6) ||
+          !(std::abs(r.determinant() - 1.0) <= 1e-6) || !transform.translation.allFinite()) {
+        *error = reader.Where("the motion of bone '" + m.bones[b].name + "' in pose " +
+                              std::to_string(p) + " is not a proper rotation and a finite "
+                              "translation");
         return false;
       }
       m.bones[b].pose_transforms.push_back(transform);

@@ -126,10 +126,45 @@ TEST(ModelIoTest, DamagedModelsFailNamingTheFile) {
   ASSERT_TRUE(SaveModel(path, model, &error)) << error;
   {
     std::ofstream out(path + "/fixed.txt", std::ios::app);
-    out << "0 7\n";  // bone 7 does not exist
+    out << "0 7\n";  // vertex 0 is fixed already
+  }
+  EXPECT_FALSE(LoadModel(path, &back, &error));
+  EXPECT_NE(error.find("fixed.txt:12: vertex 0 is fixed again (first on line 2)"),
+            std::string::npos)
+      << error;
+  ASSERT_TRUE(SaveModel(path, model, &error)) << error;
+  {
+    std::ofstream out(path + "/fixed.txt", std::ios::app);
+    out << "1000000 7\n";
+  }
+  EXPECT_FALSE(LoadModel(path, &back, &error));
+  EXPECT_NE(error.find("fixed.txt:12: expected '<vertex in [0, "), std::string::npos) << error;
+  ASSERT_TRUE(SaveModel(path, model, &error)) << error;
+  {
+    // A vertex not fixed yet, with a bone that does not exist.
+    std::istringstream lines(testing::ReadAll(path + "/fixed.txt"));
+    std::set<int> listed;
+    for (std::string line; std::getline(lines, line);) {
+      if (!line.empty() && line[0] != '#') listed.insert(std::stoi(line));
+    }
+    int free_vertex = 0;
+    while (listed.count(free_vertex)) ++free_vertex;
+    std::ofstream out(path + "/fixed.txt", std::ios::app);
+    out << free_vertex << " 7\n";
   }
   EXPECT_FALSE(LoadModel(path, &back, &error));
   EXPECT_NE(error.find("refers to bone 7"), std::string::npos) << error;
+  ASSERT_TRUE(SaveModel(path, model, &error)) << error;
+  {
+    std::fstream out(path + "/mu.bin", std::ios::in | std::ios::out | std::ios::binary);
+    out.seekp(24 + 8 * 3);  // after the header: element 3
+    const double negative = -1.0;
+    out.write(reinterpret_cast<const char*>(&negative), sizeof(negative));
+  }
+  EXPECT_FALSE(LoadModel(path, &back, &error));
+  EXPECT_NE(error.find("mu.bin: the stiffness of element 3 is -1, not positive"),
+            std::string::npos)
+      << error;
 }
 
 // A model whose fixed.txt is empty or a directory, or whose binary files hold a NaN, is
