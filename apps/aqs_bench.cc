@@ -246,7 +246,8 @@ int main(int argc, char** argv) {
     aqs::PrintError("--csv: " + error);
     return 1;
   }
-  if (!std::isfinite(FLAGS_amplitude) || !(FLAGS_tolerance > 0) || !std::isfinite(FLAGS_tolerance)) {
+  if (!std::isfinite(FLAGS_amplitude) || !(FLAGS_tolerance > 0) ||
+      !std::isfinite(FLAGS_tolerance)) {
     aqs::PrintError("--amplitude must be finite and --tolerance finite and > 0");
     return 1;
   }

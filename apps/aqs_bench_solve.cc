@@ -203,7 +203,8 @@ int Main() {
     const double elements = 6.0 * cubes[0] * cubes[1] * cubes[2];
     if (EquilibriumSolverMemoryBytes(elements) > MaxMemoryBytes()) {
       PrintError("--lattice: " + FormatBytes(EquilibriumSolverMemoryBytes(elements)) +
-                 " estimated for the solves of " + std::to_string(static_cast<long long>(elements)) +
+                 " estimated for the solves of " +
+                 std::to_string(static_cast<long long>(elements)) +
                  " elements, above --max_memory_gb");
       return 1;
     }

@@ -217,12 +217,14 @@ struct FitStartOptions {
 // fixed:
 //
 //   min  (1/sum w) sum_k w_k |p_k(x*(a(z), bones)) - y_k|^2 + latent_regularization |z|^2
-//        + (latent_prior / W') |L_z^-1 (z - z_0)|^2 + (bone_prior / W') sum_b |L_b^-1 (b - b_0)|^2
+//        + (latent_prior / W') |L_z^-1 (z - z_0)|^2
+//        + (bone_prior / W') sum_b |L_b^-1 (b - b_0)|^2
 //
-// (the Gaussian priors of the model's FitPrior, W' the capped point count: AddPriorBlocks,
-// docs/fitting.md "What a fit minimizes"; scans replace the data term by robust
-// closest-point distances) as a Ceres least-squares problem (Levenberg-Marquardt over the latent_dim numbers of
-// z, plus 6 per bone) whose Jacobian comes from implicit differentiation: with one
+// (the Gaussian priors of the model's FitPrior, W' the capped point count:
+// AddPriorBlocks, docs/fitting.md "What a fit minimizes"; scans replace the data term
+// by robust closest-point distances) as a Ceres least-squares problem
+// (Levenberg-Marquardt over the latent_dim numbers of z, plus 6 per bone) whose
+// Jacobian comes from implicit differentiation: with one
 // stiffness factorization, latent_dim Jacobian-vector products through da/dz (the
 // decoder's forward-mode Jacobian) and 6 per bone through the fixed vertices it moves.
 // Equilibria are warm-started from the last one. The model must outlive the fitter.

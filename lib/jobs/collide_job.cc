@@ -142,8 +142,8 @@ bool SimulateWithoutContact(const CollideJobOptions& options, const ActiveModel&
 }
 
 // Writes the outputs of a resolved contact: the surface with contact, the one before
-// it, the surface with contact coloured by its new self-intersections (PLY), the volume (with the displacement by contact and
-// from rest) and the report.
+// it, the surface with contact coloured by its new self-intersections (PLY), the volume
+// (with the displacement by contact and from rest) and the report.
 bool WriteCollideOutputs(const CollideJobOptions& options, const ActiveModel& model,
                          const ContactSolver& solver, const Eigen::Matrix3Xd& start,
                          const Eigen::Matrix3Xd& surface_before, const Eigen::Matrix3Xd& state,
@@ -200,7 +200,9 @@ CollideJobResult RunCollideJob(const CollideJobOptions& options, std::ostream& l
   if (!CheckCollideOutputs(options, &error)) return Fail(JobStatus::kBadInput, error);
   ActiveModel model;
   if (!LoadModel(options.model, &model, &error)) return Fail(JobStatus::kBadInput, error);
-  if (!model.decoder) return Fail(JobStatus::kBadInput, options.model + ": the model is not trained");
+  if (!model.decoder) {
+    return Fail(JobStatus::kBadInput, options.model + ": the model is not trained");
+  }
   ModelPose pose;
   std::vector<MovingObstacle> obstacles;
   if (!CheckContactForModel(options.contact, model, &error) ||

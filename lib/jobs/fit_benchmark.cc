@@ -540,7 +540,9 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
   sequence.max_frames = options.sequence_frames;
   if (options.sequence) {
     std::vector<SequenceFrame> frames;
-    if (!ReadSequenceFrames(sequence, model.neutral.vertices, &frames, error)) return JobStatus::kBadInput;
+    if (!ReadSequenceFrames(sequence, model.neutral.vertices, &frames, error)) {
+      return JobStatus::kBadInput;
+    }
     for (const SequenceFrame& frame : frames) {
       const std::string truth = options.test_set + "/sequence/truth/" + frame.name + ".obj";
       if (!fs::exists(truth)) {
