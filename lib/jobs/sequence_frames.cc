@@ -1,93 +1,41 @@
 #include "jobs/sequence_frames.h"
 
-#include <glob.h>
-
-#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <map>
-#include <utility>
 
-#include "jobs/fit_job.h"
 #include "geometry/points_near_model.h"
+#include "jobs/fit_job.h"
 #include "jobs/fit_sequence.h"
 #include "mesh/mesh_io.h"
 #include "mesh/ply_io.h"
 #include "util/file_extension.h"
-#include "util/line_reader.h"
-#include "util/text_split.h"
+#include "util/file_list.h"
 
 namespace aqs {
 namespace {
 
 namespace fs = std::filesystem;
 
-// The frame files of a sequence specification, with where each was listed.
-bool ResolveFrames(const std::string& spec, std::vector<std::pair<std::string, std::string>>* out,
-                   std::string* error) {
-  std::error_code code;
-  std::vector<std::string> found;
+// The frame files of a sequence specification, with where each was listed
+// (util/file_list.h: a folder's .obj, .txt and .ply files, a glob, a .txt list or a comma
+// list).
+bool ResolveFrames(const std::string& spec, std::vector<ListedFile>* out, std::string* error) {
   if (spec.empty()) {
     *error = "no sequence given";
     return false;
   }
-  if (fs::is_directory(spec, code)) {
-    for (const auto& entry : fs::directory_iterator(spec, code)) {
-      const std::string ext = LowercaseExtension(entry.path().string());
-      if (entry.is_regular_file() && (ext == ".obj" || ext == ".txt" || ext == ".ply")) {
-        found.push_back(entry.path().string());
-      }
-    }
-    std::sort(found.begin(), found.end());
-    for (const std::string& f : found) out->emplace_back(f, f);
-  } else if (spec.find_first_of("*?[") != std::string::npos) {
-    glob_t matches;
-    if (glob(spec.c_str(), 0, nullptr, &matches) == 0) {
-      for (size_t i = 0; i < matches.gl_pathc; ++i) found.push_back(matches.gl_pathv[i]);
-    }
-    globfree(&matches);
-    std::sort(found.begin(), found.end());
-    for (const std::string& f : found) out->emplace_back(f, f);
-  } else if (LowercaseExtension(spec) == ".txt" && spec.find(',') == std::string::npos) {
-    LineReader reader(spec);
-    if (!reader.ok()) {
-      *error = reader.error();
-      return false;
-    }
-    const fs::path base = fs::path(spec).parent_path();
-    std::vector<std::string> tokens;
-    while (reader.NextTokens(&tokens)) {
-      if (tokens.size() != 1) {
-        *error = reader.Where("expected one target file per line (a sequence list)");
-        return false;
-      }
-      const fs::path p(tokens[0]);
-      const std::string resolved = p.is_absolute() ? p.string() : (base / p).string();
-      if (!fs::exists(resolved)) {
-        *error = reader.Where("target file '" + resolved + "' does not exist");
-        return false;
-      }
-      out->emplace_back(resolved, spec + ":" + std::to_string(reader.line_number()));
-    }
-    if (!reader.ok()) {
-      *error = reader.error();
-      return false;
-    }
-  } else {
-    for (const std::string& item : SplitList(spec)) {
-      if (!fs::exists(item)) {
-        *error = "target file '" + item + "' does not exist";
-        return false;
-      }
-      out->emplace_back(item, item);
-    }
-  }
+  FileListOptions options;
+  options.folder_extensions = {".obj", ".txt", ".ply"};
+  options.what = "target file";
+  if (!ResolveFileList(spec, options, out, error)) return false;
   if (out->empty()) {
     *error = "the sequence '" + spec + "' matches no target files (.obj, .txt, .ply)";
     return false;
   }
   return true;
 }
+
 // Prefixes an error about a listed file with where it was listed.
 std::string From(const SequenceFrame& f, const std::string& message) {
   return f.origin == f.path ? message : f.origin + ": " + message;
@@ -97,7 +45,7 @@ std::string From(const SequenceFrame& f, const std::string& message) {
 bool ReadSequenceFrames(const FitSequenceOptions& options, const Eigen::Matrix3Xd& neutral,
                         std::vector<SequenceFrame>* frames, std::string* error) {
   const int ns = static_cast<int>(neutral.cols());
-  std::vector<std::pair<std::string, std::string>> files;
+  std::vector<ListedFile> files;
   if (!ResolveFrames(options.sequence, &files, error)) return false;
   if (options.max_frames >= 0 && static_cast<int>(files.size()) > options.max_frames) {
     files.resize(options.max_frames);
@@ -219,7 +167,7 @@ bool ReadSequenceFrames(const FitSequenceOptions& options, const Eigen::Matrix3X
              options.sequence + " is a sequence of " + frames->front().kind + " targets";
     return false;
   }
-  std::vector<std::pair<std::string, std::string>> landmark_files;
+  std::vector<ListedFile> landmark_files;
   if (!ResolveFrames(options.landmarks, &landmark_files, error)) return false;
   if (options.max_frames >= 0 && static_cast<int>(landmark_files.size()) > options.max_frames) {
     landmark_files.resize(options.max_frames);

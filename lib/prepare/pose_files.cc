@@ -1,7 +1,6 @@
 #include "prepare/pose_files.h"
 
 #include <fnmatch.h>
-#include <glob.h>
 
 #include <algorithm>
 #include <cmath>
@@ -10,9 +9,8 @@
 #include <sstream>
 
 #include "mesh/mesh_io.h"
-#include "util/line_reader.h"
+#include "util/file_list.h"
 #include "util/parallel_for.h"
-#include "util/text_split.h"
 
 namespace aqs {
 namespace {
@@ -34,59 +32,19 @@ std::string PoseNameFromPath(const std::string& path) {
 bool ResolvePosePaths(const std::string& spec, const std::string& exclude,
                       std::vector<std::string>* paths, std::string* error,
                       const std::string& base_dir) {
-  std::vector<std::string> found;
-  std::error_code code;
   if (spec.empty()) {
     *error = "no poses given";
     return false;
   }
-  if (fs::is_directory(spec, code)) {
-    for (const auto& entry : fs::directory_iterator(spec, code)) {
-      if (entry.is_regular_file() && entry.path().extension() == ".obj") {
-        found.push_back(entry.path().string());
-      }
-    }
-  } else if (spec.find_first_of("*?[") != std::string::npos) {
-    glob_t matches;
-    if (glob(spec.c_str(), 0, nullptr, &matches) == 0) {
-      for (size_t i = 0; i < matches.gl_pathc; ++i) found.push_back(matches.gl_pathv[i]);
-    }
-    globfree(&matches);
-  } else if (fs::path(spec).extension() == ".txt") {
-    LineReader reader(spec);
-    if (!reader.ok()) {
-      *error = reader.error();
-      return false;
-    }
-    const fs::path base = base_dir.empty() ? fs::path(spec).parent_path() : fs::path(base_dir);
-    std::vector<std::string> tokens;
-    while (reader.NextTokens(&tokens)) {
-      if (tokens.size() != 1) {
-        *error = reader.Where("expected one path per line");
-        return false;
-      }
-      fs::path p(tokens[0]);
-      if (!p.has_extension()) p += ".obj";
-      const std::string resolved = p.is_absolute() ? p.string() : (base / p).string();
-      if (!fs::exists(resolved)) {
-        *error = reader.Where("pose file '" + resolved + "' does not exist");
-        return false;
-      }
-      found.push_back(resolved);
-    }
-    if (!reader.ok()) {
-      *error = reader.error();
-      return false;
-    }
-  } else {
-    for (const std::string& item : SplitList(spec)) {
-      if (!fs::exists(item)) {
-        *error = "pose file '" + item + "' does not exist";
-        return false;
-      }
-      found.push_back(item);
-    }
-  }
+  FileListOptions options;
+  options.folder_extensions = {".obj"};
+  options.default_extension = ".obj";
+  options.base_dir = base_dir;
+  options.what = "pose file";
+  std::vector<ListedFile> files;
+  if (!ResolveFileList(spec, options, &files, error)) return false;
+  std::vector<std::string> found;
+  for (const ListedFile& file : files) found.push_back(file.path);
   found.erase(std::remove_if(found.begin(), found.end(),
                              [&](const std::string& p) { return Excluded(p, exclude); }),
               found.end());
