@@ -260,22 +260,31 @@ bool EvaluateHeldOutPoses(const EvaluateJobOptions& options, const ActiveModel& 
     }
     rows->push_back(SummarizeErrors("test", test_names[t], kNeutralMethod,
                                     VertexErrors(model.neutral.vertices, truth), measured));
-    h.surfaces[0] = h.fit.surface;
+    // A failed physics fit has no surface: its row is left out (n/a in the tables).
+    if (!h.fit.failed) h.surfaces[0] = h.fit.surface;
     h.surfaces[1] = autoencoder.Decode(ae_latent);
     h.surfaces[2] = baselines.pca.Decode(baselines.pca.Encode(truth));
     h.surfaces[3] = baselines.pca_neutral.Decode(baselines.pca_neutral.Encode(truth));
+    std::ostringstream means;
+    means << "neutral " << rows->back().mean;
     for (int m = 0; m < kNumEvaluationMethods; ++m) {
+      if (h.surfaces[m].cols() == 0) {
+        means << ", " << kEvaluationMethods[m] << " n/a";
+        continue;
+      }
       h.errors[m] = VertexErrors(h.surfaces[m], truth);
       rows->push_back(
           SummarizeErrors("test", test_names[t], kEvaluationMethods[m], h.errors[m], measured));
+      means << ", " << kEvaluationMethods[m] << " " << rows->back().mean;
     }
-    const size_t n = rows->size();
     log << "  " << test_names[t] << ": fitted in "
-        << FormatDuration(fit_seconds[t] + pose_timer.Seconds()) << " (physics "
-        << h.fit.iterations << " iterations from " << h.fit.start << ", auto-encoder from "
-        << h.ae_start << "), mean error: neutral " << (*rows)[n - 5].mean << ", physics "
-        << (*rows)[n - 4].mean << ", autoencoder " << (*rows)[n - 3].mean << ", PCA "
-        << (*rows)[n - 2].mean << ", PCA about the neutral " << (*rows)[n - 1].mean << "\n";
+        << FormatDuration(fit_seconds[t] + pose_timer.Seconds()) << " (physics ";
+    if (h.fit.failed) {
+      log << "fit FAILED, left out: " << h.fit.message;
+    } else {
+      log << h.fit.iterations << " iterations from " << h.fit.start;
+    }
+    log << ", auto-encoder from " << h.ae_start << "), mean error: " << means.str() << "\n";
   }
   return true;
 }
@@ -295,13 +304,16 @@ void HeldOutFloors(const EvaluateJobOptions& options, const ActiveModel& model,
   held.poses.clear();
   held.states.clear();
   for (Bone& bone : held.bones) bone.pose_transforms.clear();
+  const std::vector<RigidTransform> rest = RestBoneTransforms(model);
   for (size_t t = 0; t < test_names.size(); ++t) {
     TrainingPose pose;
     pose.name = test_names[t];
     pose.surface = test_surfaces[t];
     held.poses.push_back(pose);
+    // Bones where the physics fit put them (at rest where it failed).
+    const LatentFitResult& fit = (*held_out)[t].fit;
     for (size_t b = 0; b < held.bones.size(); ++b) {
-      held.bones[b].pose_transforms.push_back((*held_out)[t].fit.bones[b]);
+      held.bones[b].pose_transforms.push_back(fit.failed ? rest[b] : fit.bones[b]);
     }
   }
   std::ostringstream target_log;
@@ -318,8 +330,9 @@ void HeldOutFloors(const EvaluateJobOptions& options, const ActiveModel& model,
   std::vector<Eigen::Matrix3Xd> starts;
   for (size_t t = 0; t < test_names.size(); ++t) {
     targets.push_back(held.poses[t].target);
-    bones.push_back((*held_out)[t].fit.bones);
-    starts.push_back((*held_out)[t].fit.state);
+    const LatentFitResult& fit = (*held_out)[t].fit;
+    bones.push_back(fit.failed ? rest : fit.bones);
+    starts.push_back(fit.failed ? model.mesh.vertices : fit.state);
   }
   const std::vector<SimulatedPose> floors =
       SimulateActuations(model, targets, bones, starts, simulation);
@@ -507,6 +520,7 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
   for (const HeldOut& h : held_out) {
     parts.physics_starts.push_back(h.fit.start);
     parts.autoencoder_starts.push_back(h.ae_start);
+    parts.fit_failures += h.fit.failed ? 1 : 0;
   }
   if (options.error_budget && !test_names.empty()) {
     HeldOutFloors(options, model, budget_simulation, test_names, test_surfaces, &held_out, &rows,

@@ -240,6 +240,10 @@ std::string EvaluationMarkdown(const EvaluationReportParts& parts, const Evaluat
   }
   md << "## Training poses\n\n" << tables.train << "\n";
   if (!tables.test.empty()) md << "## Held-out poses\n\n" << tables.test << "\n";
+  if (parts.fit_failures > 0) {
+    md << "**" << parts.fit_failures << " held-out physics fit(s) failed** and are left out "
+       << "(n/a; the log says why).\n\n";
+  }
   if (parts.error_budget) md << tables.budget << "\n";
   return md.str();
 }

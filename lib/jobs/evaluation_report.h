@@ -78,6 +78,8 @@ struct EvaluationReportParts {
   bool error_budget = false;
   bool have_pretrain = false, have_held_out_floor = false;
   int floor_failures = 0;
+  // Held-out poses whose physics fit failed (left out: n/a).
+  int fit_failures = 0;
 };
 
 // evaluation.md's parts: the training and held-out tables (EvaluationTable) and the

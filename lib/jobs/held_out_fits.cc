@@ -9,13 +9,17 @@ namespace {
 
 // A held-out fit's start as a number, to gather it among ranks: the training pose's
 // index, or -1 for the mean training latent; and back.
+// A fit's start as a number between ranks: the training pose's index, -1 for the mean
+// latent, -2 for a failed fit.
 int StartIndex(const ActiveModel& model, const std::string& start) {
+  if (start == kFailedFitStart) return -2;
   for (int p = 0; p < model.num_poses(); ++p) {
     if (model.poses[p].name == start) return p;
   }
   return -1;
 }
 std::string StartName(const ActiveModel& model, int index) {
+  if (index == -2) return kFailedFitStart;
   return index >= 0 && index < model.num_poses() ? model.poses[index].name : kMeanLatentStart;
 }
 
@@ -49,13 +53,6 @@ Eigen::VectorXd AutoencoderStart(const SurfaceAutoencoder& autoencoder, const Ac
   return best;
 }
 
-// The physics fits of the held-out poses (each with a fitter of its own, from the mean
-// training latent at rest or, with training_pose_starts, from the best of that and the
-// training poses; LatentFitResult::start names it),
-// shared among the ranks of `communicator` (null: one process): pose t is fitted by
-// rank t % size, and rank 0 receives every result (*fits, *seconds: each fit's wall
-// time on its rank). Collective; false with *error on every rank if a fit fails (the
-// first failing pose's message).
 bool FitHeldOutPoses(const ActiveModel& model, const LatentFitOptions& options,
                      bool training_pose_starts, const std::vector<std::string>& names,
                      const std::vector<Eigen::Matrix3Xd>& surfaces,
@@ -66,8 +63,6 @@ bool FitHeldOutPoses(const ActiveModel& model, const LatentFitOptions& options,
   const int size = communicator == nullptr ? 1 : communicator->size();
   fits->assign(count, LatentFitResult());
   seconds->assign(count, 0.0);
-  int first_failure = count;
-  std::string failure;
   for (int t : OwnedIndices(count, rank, size)) {
     WallTimer timer;
     LatentFitter fitter(model, options);
@@ -77,24 +72,27 @@ bool FitHeldOutPoses(const ActiveModel& model, const LatentFitOptions& options,
     LatentFitResult& fit = (*fits)[t];
     FitStartOptions start_options;
     start_options.training_poses = training_pose_starts;
+    std::string failure;
     if (!FitFromChosenStart(&fitter, &target, nullptr, PointCloudFitOptions(), start_options,
                             fitter.MeanLatent(), &fit, &failure)) {
-      failure = "held-out pose '" + names[t] + "': " + failure;
-      first_failure = t;
-      break;
+      // Left out of the evaluation (n/a), not the end of it: the other fits stand.
+      fit = LatentFitResult();
+      fit.failed = true;
+      fit.start = kFailedFitStart;
+      fit.message = "held-out pose '" + names[t] + "': " + failure;
     }
     if (fit.start == "given") fit.start = kMeanLatentStart;
     (*seconds)[t] = timer.Seconds();
   }
-  if (size == 1) {
-    if (first_failure < count) *error = failure;
-    return first_failure == count;
-  }
-  communicator->MinToAll(&first_failure, 1);
-  if (first_failure < count) {
-    communicator->BroadcastText(&failure, first_failure % size);
-    *error = failure;
-    return false;
+  if (size == 1) return true;
+  // Why each failed fit failed, from the rank that fitted it, for rank 0's log.
+  for (int t = 0; t < count; ++t) {
+    int failed = rank == t % size && (*fits)[t].failed ? 1 : 0;
+    communicator->Broadcast(&failed, 1, t % size);
+    if (!failed) continue;
+    std::string message = (*fits)[t].message;
+    communicator->BroadcastText(&message, t % size);
+    (*fits)[t].message = message;
   }
   // Rank 0 gathers every fit: latent, bones, state, surface, errors, counts, seconds.
   const int d = model.latent_dim();
@@ -105,6 +103,11 @@ bool FitHeldOutPoses(const ActiveModel& model, const LatentFitOptions& options,
   std::vector<double> send;
   for (int t : OwnedIndices(count, rank, size)) {
     const LatentFitResult& f = (*fits)[t];
+    if (f.failed) {  // zeros in the block's place; the start index says it failed
+      send.insert(send.end(), block - 8, 0.0);
+      send.insert(send.end(), {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, (*seconds)[t], -2.0});
+      continue;
+    }
     send.insert(send.end(), f.latent.data(), f.latent.data() + d);
     for (const RigidTransform& b : f.bones) {
       send.insert(send.end(), b.rotation.data(), b.rotation.data() + 9);
@@ -148,6 +151,13 @@ bool FitHeldOutPoses(const ActiveModel& model, const LatentFitOptions& options,
       (*seconds)[t] = x[6];
       f.start = StartName(model, static_cast<int>(x[7]));
       x += 8;
+      if (f.start == kFailedFitStart) {
+        const std::string message = f.message;
+        f = LatentFitResult();
+        f.failed = true;
+        f.start = kFailedFitStart;
+        f.message = message;
+      }
     }
   }
   return true;

@@ -35,8 +35,13 @@ Eigen::VectorXd AutoencoderStart(const SurfaceAutoencoder& autoencoder, const Ac
 // (LatentFitResult::start names it, kMeanLatentStart for the mean latent). Shared among
 // the ranks of `communicator` (null: one process): pose t is fitted by rank t % size,
 // and rank 0 receives every result (*fits, *seconds: each fit's wall time on its rank).
-// Collective; false with *error on every rank if a fit fails (the first failing pose's
-// message).
+// A fit that fails (no start can be simulated, or its solve fails) does not stop the
+// others: its result has failed = true, message = why ("held-out pose 'x': ..."), start
+// kFailedFitStart and no surface or state; the evaluation leaves it out (n/a). Collective;
+// returns true (*error is not set: the failures are in *fits).
+// LatentFitResult::start of a held-out fit that failed.
+inline constexpr const char* kFailedFitStart = "failed";
+
 bool FitHeldOutPoses(const ActiveModel& model, const LatentFitOptions& options,
                      bool training_pose_starts, const std::vector<std::string>& names,
                      const std::vector<Eigen::Matrix3Xd>& surfaces,
