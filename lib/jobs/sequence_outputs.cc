@@ -80,8 +80,16 @@ bool ReadFramesDone(const std::string& csv, const std::string& output_dir,
       for (int k = 0; k < 6 && ok; ++k) ok = ParseDouble(cells[14 + d + 6 * b + k], &p[k]);
       if (ok) row.bones.push_back(BoneTransformFromParameters(p));
     }
+    // The row's own figures (points ... factorizations, but the start's name): finite
+    // numbers, as written.
+    for (int c = 3; c < 14 && ok; ++c) {
+      double value = 0.0;
+      ok = c == 12 || ParseDouble(cells[c], &value);
+    }
     if (!ok) {
-      *error = reader.Where("a latent or bone number is not a number");
+      *error = reader.Where("a number of the row (a figure, the latent or a bone's motion) is "
+                            "not a finite number: the file is damaged; remove the folder or "
+                            "choose another --output_dir");
       return false;
     }
     done->push_back(row);

@@ -34,7 +34,8 @@ struct DoneFrame {
 // exist): its rows in order, frame 0 first, while the row's name is the frame's and
 // its OBJ exists in output_dir (from the first frame without it the run is redone).
 // Errors (false, *error at csv:line): a header for another model, rows of other frames
-// or another column count (the folder holds another run), numbers that do not parse.
+// or another column count (the folder holds another run), a figure, latent or bone
+// number that is not a finite number (a damaged file).
 bool ReadFramesDone(const std::string& csv, const std::string& output_dir,
                     const ActiveModel& model, const std::vector<SequenceFrame>& frames,
                     std::vector<DoneFrame>* done, std::string* error);

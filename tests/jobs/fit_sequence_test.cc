@@ -157,6 +157,23 @@ TEST_F(FitSequenceTest, IndependentFramesResumeWithTheSameResults) {
               ReadAll(dir_->File("whole/" + std::string(name) + ".obj")))
         << name;
   }
+  // A damaged row (a figure that is not a number) is refused, naming its line, rather
+  // than copied into the rewritten frames.csv.
+  std::string csv = ReadAll(dir_->File("resumed/frames.csv"));
+  const size_t row = csv.find('\n') + 1;  // frame 0's row
+  size_t field = row;
+  for (int c = 0; c < 6; ++c) field = csv.find(',', field) + 1;  // mean_error
+  csv.replace(field, csv.find(',', field) - field, "nan");
+  std::ofstream(dir_->File("resumed/frames.csv")) << csv;
+  FitSequenceOptions options = Options();
+  for (int t : {0, 1, 2}) options.sequence += Target(t) + ",";
+  options.output_dir = dir_->File("resumed");
+  options.warm_start = false;
+  std::ostringstream log;
+  const FitSequenceResult damaged = RunFitSequence(options, *model_, log);
+  EXPECT_EQ(damaged.status, JobStatus::kBadInput);
+  EXPECT_NE(damaged.message.find("frames.csv:2: a number of the row"), std::string::npos)
+      << damaged.message;
 }
 
 }  // namespace
