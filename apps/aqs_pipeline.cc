@@ -58,6 +58,39 @@ int main(int argc, char** argv) {
       aqs::PrintRankError(ranks.get(), error);
       return 1;
     }
+    // And every stage's flags: a bad training flag must not wait for prepare and
+    // pre-training to finish.
+    for (const std::string& stage : stages) {
+      aqs::FlagNames flags;
+      bool ok = true;
+      if (stage == "prepare") {
+        aqs::PrepareJobOptions options;
+        flags = aqs::PrepareFlagNames();
+        ok = aqs::PrepareOptionsFromFlags(&options, &error) && options.Validate(&error);
+      } else if (stage == "pretrain") {
+        aqs::PretrainOptions options;
+        aqs::PoseSimulationOptions simulation;
+        bool simulate = true;
+        flags = aqs::PretrainFlagNames();
+        ok = aqs::PretrainOptionsFromFlags(&options, &error) &&
+             aqs::PretrainSimulationFromFlags(&simulation, &simulate, &error) &&
+             options.Validate(&error) && (!simulate || simulation.Validate(&error));
+      } else if (stage == "train") {
+        aqs::TrainOptions options;
+        aqs::ExpectedDecoder expected;
+        flags = aqs::TrainFlagNames();
+        ok = aqs::TrainOptionsFromFlags(&options, &error) &&
+             aqs::ExpectedDecoderFromFlags(&expected, &error) && options.Validate(&error);
+      } else {
+        aqs::EvaluateJobOptions options;
+        flags = aqs::EvaluateFlagNames();
+        ok = aqs::EvaluateOptionsFromFlags(&options, &error) && options.Validate(&error);
+      }
+      if (!ok) {
+        aqs::PrintRankError(ranks.get(), stage + ": " + aqs::FlagError(error, flags));
+        return 1;
+      }
+    }
   }
   // The stages that write the model run under one hold of its writers' lock.
   bool writes = false, prepares = false;

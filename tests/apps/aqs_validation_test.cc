@@ -540,6 +540,10 @@ TEST_F(AqsValidationModelTest, LearningAppsRefuseBadFlags) {
                   {"--stages=train,prepare", 1, "--stages: 'prepare' after a later stage"},
                   {"--stages=train,train", 1, "'train' after a later stage or twice"},
                   {"--stages=", 1, "--stages: no stage given"},
+                  // A bad training flag, before prepare replaces the model.
+                  {"--stages=prepare,pretrain,train --train_minutes=-1", 1,
+                   "train: --train_minutes must be finite and >= 0 (is -1)"},
+                  {"--stages=prepare,evaluate --baseline_iterations=-1", 1, "evaluate: "},
               },
               dir.path());
   EXPECT_EQ(ReadAll(model + "/learned/decoder.txt"), before) << "the model was not touched";
