@@ -7,6 +7,10 @@
 #include <gflags/gflags.h>
 #include <glog/logging.h>
 
+#include "all_flags.h"
+#include "util/line_reader.h"
+#include "util/text_split.h"
+
 DEFINE_string(model, "", "Model directory (written by aqs_prepare, read and updated by the "
               "later stages).");
 DEFINE_string(pose_dir, "", "Folder that relative entries of .txt pose lists (--poses, "
@@ -26,6 +30,60 @@ DEFINE_double(max_memory_gb, 8.0, "Memory limit in GB: the work whose memory is 
               "refused with exit status 1 and the estimate above it.");
 
 namespace aqs {
+namespace {
+
+// gflags reads a --flagfile's flags but passes over names it does not know, where the
+// same flag on the command line is an error: a misspelt flag in a config would silently
+// keep its default. Checks every "--name[=value]" line of the flagfiles in `list`
+// (comma-separated; nested --flagfile lines too): the name must be a flag of this app,
+// or of another ActiveQS app (kAllAppFlagNames: a flagfile is shared by the stages).
+// False with *error at file:line.
+bool CheckFlagfiles(const std::string& list, int depth, std::string* error) {
+  if (depth > 8) {
+    *error = "--flagfile: nested more than 8 deep (a flagfile that includes itself?)";
+    return false;
+  }
+  for (const std::string& path : SplitList(list)) {
+    LineReader reader(path);
+    if (!reader.ok()) {
+      *error = reader.error();
+      return false;
+    }
+    while (reader.NextLine()) {
+      std::string line = reader.line();
+      line.erase(0, line.find_first_not_of(" \t"));
+      if (line.size() < 2 || line[0] != '-') continue;  // blank, comment, or not a flag
+      const size_t start = line.find_first_not_of('-');
+      const size_t end = line.find_first_of("= \t", start);
+      const std::string name = line.substr(start, end == std::string::npos ? end : end - start);
+      gflags::CommandLineFlagInfo info;
+      bool known = gflags::GetCommandLineFlagInfo(name.c_str(), &info);
+      if (!known && name.compare(0, 2, "no") == 0) {  // --noflag for a bool
+        known = gflags::GetCommandLineFlagInfo(name.substr(2).c_str(), &info) &&
+                info.type == "bool";
+      }
+      for (const char* app_flag : kAllAppFlagNames) {
+        known = known || name == app_flag ||
+                (name.compare(0, 2, "no") == 0 && name.substr(2) == app_flag);
+      }
+      if (!known) {
+        *error = reader.Where("unknown flag --" + name + " (no ActiveQS app has it)");
+        return false;
+      }
+      if (name == "flagfile" && end != std::string::npos &&
+          !CheckFlagfiles(line.substr(end + 1), depth + 1, error)) {
+        return false;
+      }
+    }
+    if (!reader.ok()) {
+      *error = reader.error();
+      return false;
+    }
+  }
+  return true;
+}
+
+}  // namespace
 
 void InitApp(const std::string& usage, int* argc, char*** argv) {
   gflags::SetUsageMessage(usage);
@@ -47,6 +105,13 @@ void InitApp(const std::string& usage, int* argc, char*** argv) {
   if (*argc > 1) {
     std::fprintf(stderr, "%s: error: unexpected argument '%s' (flags are --name=value)\n",
                  gflags::ProgramInvocationShortName(), (*argv)[1]);
+    std::exit(1);
+  }
+  std::string flagfiles, flagfile_error;
+  if (gflags::GetCommandLineOption("flagfile", &flagfiles) && !flagfiles.empty() &&
+      !CheckFlagfiles(flagfiles, 0, &flagfile_error)) {
+    std::fprintf(stderr, "%s: error: %s\n", gflags::ProgramInvocationShortName(),
+                 flagfile_error.c_str());
     std::exit(1);
   }
   // Every app takes it (some estimate no memory): checked in one place, in the flag's

@@ -98,6 +98,25 @@ TEST(AqsValidationTest, EveryAppRefusesUnknownAndIllTypedFlags) {
 // ---------------------------------------------------------------------------------
 // aqs_simulate on meshes (no model).
 
+TEST(AqsValidationTest, FlagfilesRefuseNamesNoAppHas) {
+  // gflags passes over unknown names in a flagfile: a misspelt flag kept its default.
+  // Another stage's flag is fine (the stages share a flagfile).
+  testing::TempDir dir;
+  dir.Write("typo.flags", "# a config\n--latent_dimm=3\n");
+  dir.Write("shared.flags", "--neutral=n.obj\n--nomirror_poses\n--flagfile={dir}typo.flags\n");
+  const std::string shared = Replaced(ReadAll(dir.File("shared.flags")), dir.path());
+  dir.Write("shared.flags", shared);
+  dir.Write("other.flags", "--neutral=n.obj\n--nomirror_poses\n");
+  ExpectCases("aqs_train", "--model={dir}missing",
+              {
+                  {"--flagfile={dir}typo.flags", 1,
+                   "{dir}typo.flags:2: unknown flag --latent_dimm (no ActiveQS app has it)"},
+                  {"--flagfile={dir}shared.flags", 1, "{dir}typo.flags:2: unknown flag"},
+                  {"--flagfile={dir}other.flags", 1, "{dir}missing/model.txt"},
+              },
+              dir.path());
+}
+
 TEST(AqsValidationTest, BenchmarksRefuseBadSizesBeforeAnyMeasurement) {
   testing::TempDir dir;
   ExpectCases("aqs_bench", "",
