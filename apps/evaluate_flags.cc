@@ -139,6 +139,7 @@ bool EvaluateOptionsFromFlags(EvaluateJobOptions* options, std::string* error) {
     options->python = FLAGS_python;
   }
   options->num_threads = FLAGS_threads;
+  options->max_memory_bytes = MaxMemoryBytes();
   options->held_out_targets.num_threads = FLAGS_threads;
   return true;
 }

@@ -191,6 +191,21 @@ SurfaceAutoencoder::~SurfaceAutoencoder() = default;
 SurfaceAutoencoder::SurfaceAutoencoder(SurfaceAutoencoder&&) noexcept = default;
 SurfaceAutoencoder& SurfaceAutoencoder::operator=(SurfaceAutoencoder&&) noexcept = default;
 
+double SurfaceAutoencoderMemoryBytes(const SurfaceAutoencoderOptions& options,
+                                     int num_vertices, int num_surfaces) {
+  const double outputs = 3.0 * num_vertices;
+  double parameters = 0.0, fan_in = options.latent_dim;
+  for (int width : options.hidden_dims) {
+    parameters += width * (fan_in + 1.0);
+    fan_in = width;
+  }
+  parameters += outputs * (fan_in + 1.0);
+  if (options.linear_skip) parameters += outputs * options.latent_dim;
+  parameters += static_cast<double>(options.latent_dim) * num_surfaces;
+  constexpr double kArrays = 4.0 * kLbfgsRank;  // iterate, gradient, samples, history
+  return 8.0 * (kArrays * parameters + 4.0 * outputs * num_surfaces);
+}
+
 bool SurfaceAutoencoder::Train(const Eigen::Matrix3Xd& neutral,
                                const std::vector<Eigen::Matrix3Xd>& surfaces,
                                const SurfaceAutoencoderOptions& options, std::ostream& log,

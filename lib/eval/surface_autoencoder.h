@@ -117,6 +117,13 @@ class SurfaceAutoencoderObjective final : public ceres::FirstOrderFunction {
 // objective evaluation (three products with the output layer) takes about 20 ms, and
 // Ceres' L-BFGS bookkeeping on the long vector (the two-loop recursion: 40 passes;
 // line-search copies) several times that: it dominates the time per iteration.
+// The memory (bytes) training an auto-encoder with `options` on num_surfaces surfaces of
+// num_vertices vertices takes, by the count above (about 40 arrays of its parameters,
+// counted in 64 bits, and the 3N x P matrices): to refuse, before any work, a network
+// that would exhaust memory (or overflow an int's parameter count, which Mlp CHECKs).
+double SurfaceAutoencoderMemoryBytes(const SurfaceAutoencoderOptions& options,
+                                     int num_vertices, int num_surfaces);
+
 class SurfaceAutoencoder {
  public:
   SurfaceAutoencoder();

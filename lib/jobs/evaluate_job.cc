@@ -22,6 +22,7 @@
 #include "util/blas.h"
 #include "util/input_file.h"
 #include "util/matrix_io.h"
+#include "util/memory_limit.h"
 #include "util/option_checks.h"
 #include "util/vertex_ranges.h"
 #include "util/wall_timer.h"
@@ -407,6 +408,7 @@ bool EvaluateJobOptions::Validate(std::string* error) const {
       .Require(widths_ok, "autoencoder_hidden_dims: every width must be > 0")
       .Nested("held_out_targets", targets_ok, targets_error)
       .IntInRange("num_threads", num_threads, 1, 1024)
+      .Positive("max_memory_bytes", max_memory_bytes)
       .Done(error);
 }
 
@@ -426,6 +428,19 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
   if (!ReadEvaluationInputs(options, distributed, root, &model, &test_names, &test_surfaces,
                             error)) {
     return false;
+  }
+  {
+    // The baseline's network, before any fit: one too large fails only at its training,
+    // or aborts there (every rank sees the same model and options).
+    const double bytes = SurfaceAutoencoderMemoryBytes(BaselineAutoencoderOptions(options, model),
+                                                       model.num_surface_vertices(),
+                                                       model.num_poses());
+    if (!(bytes <= options.max_memory_bytes)) {
+      *error = "autoencoder_hidden_dims: the auto-encoder baseline would take about " +
+               FormatBytes(bytes) + " to train, above the memory limit of " +
+               FormatBytes(options.max_memory_bytes) + " (max_memory_bytes)";
+      return false;
+    }
   }
   const int ns = model.num_surface_vertices();
   const std::string& out = options.output_directory;

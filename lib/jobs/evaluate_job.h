@@ -56,6 +56,9 @@ struct EvaluateJobOptions {
   // (held_out_targets) with the bones where the physics fit put them, then the target
   // simulated. The equilibria use fit.solver's tolerance.
   bool error_budget = true;
+  // Work whose memory is estimated before it is allocated (the auto-encoder baseline) is
+  // refused above this many bytes.
+  double max_memory_bytes = 8e9;
   VolumetricTargetOptions held_out_targets;
   // The pictures and the HTML page (index.html) by an external script, run at the end
   // as `python report_script --evaluation <output_directory> --model <model>`

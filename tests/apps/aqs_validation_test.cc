@@ -427,7 +427,11 @@ TEST_F(AqsValidationModelTest, OutputsLeaveTheInputsAndTheModelAlone) {
               {{"--output={dir}c.obj --report=" + model + "/r.txt", 1,
                 "is inside the input folder"}},
               dir.path());
-  ExpectCases("aqs_evaluate", m, {{"--output_dir=" + model, 1, "is inside the input folder"}},
+  ExpectCases("aqs_evaluate", m,
+              {{"--output_dir=" + model, 1, "is inside the input folder"},
+               // A baseline too large for memory, before any fit (it aborted in training).
+               {"--output_dir={dir}ev --baseline_hidden=100000,100000", 1,
+                "--baseline_hidden: the auto-encoder baseline would take about"}},
               dir.path());
   // Flags of the other mode are refused, not dropped without a word.
   ExpectCases("aqs_simulate", m + " --pose=bend_x --output={dir}s.obj",
