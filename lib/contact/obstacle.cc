@@ -105,6 +105,23 @@ bool ReadObstacleSurfaces(const std::vector<ObstacleSpec>& specs,
       *error = spec.path + ": no triangle lies in the requested vertex range";
       return false;
     }
+    // A triangle of no area has no normal: the signed distance to it, and the contact
+    // solve that follows it, are undefined (a file of such triangles ran on for minutes).
+    const double size = (surface.vertices.rowwise().maxCoeff() -
+                         surface.vertices.rowwise().minCoeff()).norm();
+    for (int t : kept) {
+      const Eigen::Vector3d a = surface.vertices.col(surface.triangles(0, t));
+      const Eigen::Vector3d b = surface.vertices.col(surface.triangles(1, t));
+      const Eigen::Vector3d c = surface.vertices.col(surface.triangles(2, t));
+      if (!((b - a).cross(c - a).norm() > 1e-12 * size * size)) {
+        *error = spec.path + ": triangle " + std::to_string(t) + " (vertices " +
+                 std::to_string(surface.triangles(0, t) + 1) + ", " +
+                 std::to_string(surface.triangles(1, t) + 1) + ", " +
+                 std::to_string(surface.triangles(2, t) + 1) +
+                 ", 1-based) has no area: an obstacle's triangles need a normal";
+        return false;
+      }
+    }
     Eigen::Matrix3Xi tris(3, kept.size());
     for (size_t i = 0; i < kept.size(); ++i) tris.col(i) = surface.triangles.col(kept[i]);
     vertices->push_back(surface.vertices);

@@ -28,20 +28,35 @@ CollideJobResult Fail(JobStatus status, const std::string& message) {
 }
 
 
-// The flags' outputs: a volume of a known kind, and every path writable and neither
-// inside the model nor the latent file (checked before any work).
+// The flags' outputs: a volume of a known kind, and every path writable, none inside
+// the model, the latent or an obstacle file, and no two at one path (checked before any
+// work).
 bool CheckCollideOutputs(const CollideJobOptions& options, std::string* error) {
   if (!options.output_volume.empty() && !IsDeformedMeshOutputPath(options.output_volume)) {
     *error = options.output_volume + ": unknown output extension; known: .mesh, .vtu, .obj";
     return false;
   }
-  for (const std::string* output : {&options.output, &options.output_before,
-                                    &options.output_volume, &options.output_intersections,
-                                    &options.report}) {
-    if (output->empty()) continue;
-    if (!CheckOutputFile(*output, error) || !CheckOutputApart(*output, options.model, error) ||
-        !CheckOutputApart(*output, options.latent, error)) {
+  std::vector<ObstacleSpec> obstacles;
+  if (!ParseObstacleSpecs(options.obstacles, &obstacles, error)) return false;
+  const std::vector<const std::string*> outputs = {
+      &options.output, &options.output_before, &options.output_volume,
+      &options.output_intersections, &options.report};
+  for (size_t i = 0; i < outputs.size(); ++i) {
+    const std::string& output = *outputs[i];
+    if (output.empty()) continue;
+    if (!CheckOutputFile(output, error) || !CheckOutputApart(output, options.model, error) ||
+        !CheckOutputApart(output, options.latent, error)) {
       return false;
+    }
+    for (const ObstacleSpec& obstacle : obstacles) {
+      if (!CheckOutputApart(output, obstacle.path, error)) return false;
+    }
+    for (size_t j = 0; j < i; ++j) {  // two outputs at one path: the last would win
+      std::string same;
+      if (!CheckOutputApart(output, *outputs[j], &same)) {
+        *error = output + ": given for two outputs; each needs its own file";
+        return false;
+      }
     }
   }
   return true;

@@ -425,7 +425,10 @@ TEST_F(AqsValidationModelTest, OutputsLeaveTheInputsAndTheModelAlone) {
               {{"--output=" + model + "/mesh.mesh", 1, "is inside the input folder"}}, dir.path());
   ExpectCases("aqs_collide", m + " --pose=bend_x",
               {{"--output={dir}c.obj --report=" + model + "/r.txt", 1,
-                "is inside the input folder"}},
+                "is inside the input folder"},
+               {"--obstacles={dir}t.obj --output={dir}t.obj", 1, "is the input file"},
+               {"--output={dir}c.obj --output_before={dir}c.obj", 1,
+                "{dir}c.obj: given for two outputs"}},
               dir.path());
   ExpectCases("aqs_evaluate", m,
               {{"--output_dir=" + model, 1, "is inside the input folder"},
@@ -607,6 +610,7 @@ TEST_F(AqsValidationModelTest, PrepareAndCollideRefuseBadFlags) {
               dir.path());
   EXPECT_FALSE(fs::exists(dir.File("p"))) << "nothing written";
   dir.Write("far.obj", "v 1e9 0 0\nv 1e9 1 0\nv 1e9 0 1\nf 1 2 3\n");
+  dir.Write("flat.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n");  // three points on a line
   ExpectCases("aqs_collide", "--model=" + dir_->File("model") + " --pose=bend_x --output={dir}c.obj",
               {
                   {"--path_steps=100000", 1, "--path_steps must be in [0, 256] (is 100000)"},
@@ -620,6 +624,8 @@ TEST_F(AqsValidationModelTest, PrepareAndCollideRefuseBadFlags) {
                    "'vertices=' is given twice"},
                   {"--obstacles=,,", 1, "an empty item (between commas)"},
                   {"--obstacles={dir}far.obj", 1, "far.obj: point 0 ("},
+                  {"--obstacles={dir}flat.obj", 1,
+                   "flat.obj: triangle 0 (vertices 1, 2, 3, 1-based) has no area"},
               },
               dir.path());
   EXPECT_FALSE(fs::exists(dir.File("c.obj")));
