@@ -549,6 +549,13 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
         *error = "the sequence frame " + frame.origin + " has no truth surface '" + truth + "'";
         return JobStatus::kBadInput;
       }
+      SurfaceMesh surface;
+      if (!ReadObj(truth, &surface, error)) return JobStatus::kBadInput;
+      if (surface.num_vertices() != ns) {
+        *error = truth + ": " + std::to_string(surface.num_vertices()) +
+                 " vertices, the model has " + std::to_string(ns);
+        return JobStatus::kBadInput;
+      }
     }
   }
 

@@ -11,8 +11,8 @@ bool ParseVertexRanges(const std::string& text, std::vector<int>* vertices, std:
     const size_t colon = item.find(':'), dash = item.find('-');
     int a = 0, b = 0;
     if (colon != std::string::npos) {
-      if (!ParseInt(item.substr(0, colon), &a) || !ParseInt(item.substr(colon + 1), &b) || b < a) {
-        *error = "vertex range '" + item + "': expected a:b with a <= b";
+      if (!ParseInt(item.substr(0, colon), &a) || !ParseInt(item.substr(colon + 1), &b) || b <= a) {
+        *error = "vertex range '" + item + "': expected a:b with a < b (a:a is empty)";
         return false;
       }
     } else if (dash != std::string::npos && dash > 0) {
@@ -41,6 +41,11 @@ bool ParseVertexRanges(const std::string& text, std::vector<int>* vertices, std:
       return false;
     }
     for (int v = a; v < b; ++v) out.push_back(v);
+  }
+  if (out.empty() && !text.empty()) {
+    // "" is the empty set (callers read it as "not given"); "," is a mistake.
+    *error = "vertex ranges '" + text + "': no vertex listed";
+    return false;
   }
   *vertices = out;
   return true;

@@ -25,14 +25,15 @@ TEST(VertexRangesTest, ParsesHalfOpenClosedAndSingleItemsInOrder) {
   EXPECT_EQ(Parse("2-5"), std::vector<int>({2, 3, 4, 5}));
   EXPECT_EQ(Parse("7"), std::vector<int>({7}));
   EXPECT_EQ(Parse("9,0:2,,4-4,1"), std::vector<int>({9, 0, 1, 4, 1}));
-  EXPECT_EQ(Parse("3:3"), std::vector<int>());
   EXPECT_EQ(Parse(""), std::vector<int>());
-  EXPECT_EQ(Parse(",,"), std::vector<int>());
 }
 
 TEST(VertexRangesTest, BadItemsAreNamed) {
-  EXPECT_EQ(ParseError("0:2,5:3"), "vertex range '5:3': expected a:b with a <= b");
-  EXPECT_EQ(ParseError("1:x"), "vertex range '1:x': expected a:b with a <= b");
+  EXPECT_EQ(ParseError("0:2,5:3"), "vertex range '5:3': expected a:b with a < b (a:a is empty)");
+  EXPECT_EQ(ParseError("1:x"), "vertex range '1:x': expected a:b with a < b (a:a is empty)");
+  // Lists of no vertex: callers read an empty list as "all vertices".
+  EXPECT_EQ(ParseError("3:3"), "vertex range '3:3': expected a:b with a < b (a:a is empty)");
+  EXPECT_EQ(ParseError(",,"), "vertex ranges ',,': no vertex listed");
   EXPECT_EQ(ParseError("4-2"), "vertex range '4-2': expected a-b with a <= b");
   EXPECT_EQ(ParseError("3-"), "vertex range '3-': expected a-b with a <= b");
   EXPECT_EQ(ParseError("abc"), "vertex range 'abc': not an index");
