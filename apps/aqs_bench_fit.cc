@@ -4,6 +4,7 @@
 // fit_benchmark.csv and fit_benchmark.md. A benchmark, not a test (docs/fitting.md).
 // Exit status: 0 done; 1 bad input.
 
+#include <algorithm>
 #include <iostream>
 
 #include <gflags/gflags.h>
@@ -11,6 +12,8 @@
 #include "app_common.h"
 #include "fit_flags.h"
 #include "jobs/fit_benchmark.h"
+#include "util/line_reader.h"
+#include "util/text_split.h"
 #include "util/vertex_ranges.h"
 
 DECLARE_string(model);
@@ -45,21 +48,26 @@ int main(int argc, char** argv) {
   }
   options.fit.uncertainty = FLAGS_uncertainty;
   options.scan_from_pose_fit = FLAGS_scan_from_pose_fit;
-  if (!options.Validate(&error)) {
-    aqs::PrintError(aqs::FlagError(error, aqs::FitFlagNames()));
-    return 1;
-  }
   options.marker_counts.clear();
   for (const std::string& k : aqs::SplitList(FLAGS_marker_counts)) {
-    try {
-      options.marker_counts.push_back(std::stoi(k));
-    } catch (...) {
-      aqs::PrintError("--marker_counts: '" + k + "' is not a number");
+    int count = 0;
+    if (!aqs::ParseInt(k, &count)) {
+      aqs::PrintError("--marker_counts: '" + k + "' is not a whole number");
       return 1;
     }
+    if (std::count(options.marker_counts.begin(), options.marker_counts.end(), count) > 0) {
+      aqs::PrintError("--marker_counts: " + k + " is given twice");
+      return 1;
+    }
+    options.marker_counts.push_back(count);
+  }
+  const std::vector<std::string> parts = aqs::SplitList(FLAGS_parts);
+  if (parts.empty()) {
+    aqs::PrintError("--parts: no part given (markers, poses, scans, sequence)");
+    return 1;
   }
   options.markers = options.poses = options.scans = options.sequence = false;
-  for (const std::string& part : aqs::SplitList(FLAGS_parts)) {
+  for (const std::string& part : parts) {
     if (part == "markers") {
       options.markers = true;
     } else if (part == "poses") {
@@ -73,9 +81,16 @@ int main(int argc, char** argv) {
       return 1;
     }
   }
+  aqs::FlagNames flags = aqs::FitFlagNames();
+  flags.insert(flags.end(), {{"marker_counts", "--marker_counts"},
+                             {"sequence_frames", "--sequence_frames"}});
+  if (!options.Validate(&error)) {
+    aqs::PrintError(aqs::FlagError(error, flags));
+    return 1;
+  }
   const aqs::JobStatus status = aqs::RunFitBenchmark(options, std::cout, &error);
   // A benchmark exits 1 for bad input and for a failed case (docs/apps.md, "Exit
   // status"), also when a sequence frame did not converge.
   return aqs::FinishJob(status == aqs::JobStatus::kOk ? status : aqs::JobStatus::kBadInput,
-                        error, aqs::FlagNames());
+                        error, flags);
 }

@@ -19,6 +19,7 @@
 #include "mpi_flags.h"
 #include "model/model_directory.h"
 #include "prepare_flags.h"
+#include "util/input_file.h"
 #include "util/wall_timer.h"
 
 DECLARE_string(model);
@@ -84,7 +85,14 @@ int main(int argc, char** argv) {
       } else {
         aqs::EvaluateJobOptions options;
         flags = aqs::EvaluateFlagNames();
-        ok = aqs::EvaluateOptionsFromFlags(&options, &error) && options.Validate(&error);
+        ok = aqs::EvaluateOptionsFromFlags(&options, &error) && options.Validate(&error) &&
+             aqs::CheckOutputApart(options.output_directory, options.model, &error);
+        std::error_code code;
+        if (ok && std::filesystem::exists(options.output_directory, code) &&
+            !std::filesystem::is_directory(options.output_directory, code)) {
+          error = "--output_dir: " + options.output_directory + " is a file, not a folder";
+          ok = false;
+        }
       }
       if (!ok) {
         aqs::PrintRankError(ranks.get(), stage + ": " + aqs::FlagError(error, flags));

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <iomanip>
 #include <map>
+#include <set>
 #include <sstream>
 
 #include <Eigen/Geometry>
@@ -82,17 +83,34 @@ bool ReadMixes(const std::string& path, std::vector<std::string>* mixes, std::st
     *error = reader.error() + " (make the test set with scripts/make_fit_tests.py)";
     return false;
   }
+  std::set<std::string> seen;
   while (reader.NextLine()) {
-    if (reader.line_number() == 1 || reader.line().empty()) continue;
+    if (reader.line_number() == 1) {
+      if (reader.line().compare(0, 4, "mix,") != 0) {
+        *error = reader.Where("expected the header 'mix,...' (a test set of "
+                              "scripts/make_fit_tests.py)");
+        return false;
+      }
+      continue;
+    }
+    if (reader.line().empty()) continue;
     const std::string name = reader.line().substr(0, reader.line().find(','));
     if (name.empty()) {
       *error = reader.Where("expected 'mix,expressions'");
+      return false;
+    }
+    if (!seen.insert(name).second) {
+      *error = reader.Where("mix '" + name + "' is listed again");
       return false;
     }
     mixes->push_back(name);
   }
   if (!reader.ok()) {
     *error = reader.error();
+    return false;
+  }
+  if (mixes->empty()) {
+    *error = path + ": lists no mix";
     return false;
   }
   return true;
@@ -474,6 +492,8 @@ bool FitBenchmarkOptions::Validate(std::string* error) const {
   return OptionChecks()
       .Require(ridges_ok, "ridge_candidates must be finite and >= 0")
       .Require(counts_ok, "marker_counts must be >= 1")
+      .Require(!markers || !marker_counts.empty(),
+               "marker_counts must list a count for the markers part")
       .Require(sequence_frames != 0, "sequence_frames must be >= 1, or < 0 for all frames")
       .Nested("fit", fit_ok, fit_error)
       .Nested("points", points_ok, points_error)

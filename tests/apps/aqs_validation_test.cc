@@ -129,6 +129,17 @@ TEST(AqsValidationTest, BenchmarksRefuseBadSizesBeforeAnyMeasurement) {
                    "--csv: {dir}missing/b.csv: cannot write here"},
               },
               dir.path());
+  // Flags, before the model and the test set are read.
+  ExpectCases("aqs_bench_fit", "--model={dir}m --output_dir={dir}out",
+              {
+                  {"--test_set={dir}set --marker_counts=20.5", 1,
+                   "--marker_counts: '20.5' is not a whole number"},
+                  {"--test_set={dir}set --marker_counts=20,20", 1, "20 is given twice"},
+                  {"--test_set={dir}set --parts=,", 1, "--parts: no part given"},
+                  {"--test_set={dir}set --marker_counts=, --parts=markers", 1,
+                   "--marker_counts must list a count for the markers part"},
+              },
+              dir.path());
   ExpectCases("aqs_bench_solve", "",
               {
                   {"--lattice=2000,2000,2000", 1, "is too large"},
