@@ -304,6 +304,12 @@ bool CheckLearnedActuations(const std::string& source, const std::string& prior_
       return false;
     }
   }
+  if (!model.fit_prior.empty() && !model.fit_prior.center.empty() &&
+      model.PoseIndex(model.fit_prior.center) < 0) {
+    *error = prior_source + ": the priors are centred on '" + model.fit_prior.center +
+             "', which is not a training pose of this model";
+    return false;
+  }
   // Every fit starts from the prior's centre by default: it must decode as sanely.
   if (!model.fit_prior.empty() && model.fit_prior.latent.size() == model.latent_dim()) {
     ActuationMatrix a;

@@ -283,6 +283,14 @@ TEST_F(AqsValidationModelTest, DamagedModelsAreRefusedNamingTheFile) {
     ASSERT_NE(mean, std::string::npos) << prior_text;
     prior_text.replace(mean, prior_text.find('\n', mean) - mean, "latent_mean 1e6 1e6");
     std::ofstream(prior) << prior_text;
+    // A centre that is no training pose.
+    const std::string centre = CopyOfModel(dir, "bad_centre") + "/learned/prior.txt";
+    std::string centre_text = ReadAll(centre);
+    const size_t centre_at = centre_text.find("center ");
+    ASSERT_NE(centre_at, std::string::npos) << centre_text;
+    centre_text.replace(centre_at, centre_text.find('\n', centre_at) - centre_at,
+                        "center no_such_pose");
+    std::ofstream(centre) << centre_text;
   }
   const std::string pose = " --target=" + dir_->File("poses/bend_x.obj") + " --output={dir}f.obj";
   ExpectCases("aqs_fit", "",
@@ -297,6 +305,8 @@ TEST_F(AqsValidationModelTest, DamagedModelsAreRefusedNamingTheFile) {
                 "actuations with entries up to"},
                {"--model={dir}bad_weight" + pose, 1,
                 "bad_weight/embedding.txt: surface vertex 0: the weights must be barycentric"},
+               {"--model={dir}bad_centre" + pose, 1,
+                "bad_centre/learned/prior.txt: the priors are centred on 'no_such_pose'"},
                {"--model={dir}far_prior" + pose, 1,
                 "far_prior/learned/prior.txt: the latent mean decodes to actuations with entries "
                 "up to"}},
