@@ -135,6 +135,9 @@ bool PrepareOptionsFromFlags(PrepareJobOptions* options, std::string* error) {
       return false;
     }
     options->boundary.bones.push_back(bone);
+  } else if (!FLAGS_bone_region.empty() || !FLAGS_bone_poses.empty()) {
+    *error = "--bone_region and --bone_poses describe a bone: they need --bone_mesh";
+    return false;
   }
   if (!FLAGS_mirror_poses.empty()) {
     const std::string axes = "xyz";

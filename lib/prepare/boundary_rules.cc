@@ -216,6 +216,11 @@ bool ApplyBoundaryRules(const BoundaryRuleOptions& options, const TetMesh& mesh,
              "--fixed_list (a body without fixed vertices has no unique equilibrium)";
     return false;
   }
+  if (count(fixed) == nv && options.bones.empty()) {
+    *error = "every simulation vertex (" + std::to_string(nv) + ") is fixed at rest: nothing "
+             "can move (check --fixed_depth, --fixed_box, --fixed_inside and --fixed_list)";
+    return false;
+  }
   model->static_vertices.clear();
   model->bones.clear();
   std::vector<int> owner(nv, -1);
@@ -233,6 +238,11 @@ bool ApplyBoundaryRules(const BoundaryRuleOptions& options, const TetMesh& mesh,
       }
     }
     log << "bone '" << bone.name << "' drives " << bone.vertices.size() << " fixed vertices\n";
+    if (bone.vertices.empty()) {
+      *error = "bone '" + bone.name + "': no fixed vertex lies in its region (--bone_region), "
+               "so it would drive nothing";
+      return false;
+    }
     model->bones.push_back(bone);
   }
   const std::vector<bool> cleared = VerticesNearBones(mesh, fixed, owner, options.bone_clearance);
