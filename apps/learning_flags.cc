@@ -34,6 +34,8 @@ DEFINE_double(energy_regularization, 0.0,
               "of F and the targets), averaged over the poses. Penalizes actuations that "
               "fight each other (pre-stress near buckling). 0: none.");
 DEFINE_int32(pretrain_iterations, 500, "L-BFGS iterations of pre-training.");
+DEFINE_double(pretrain_minutes, 0.0, "Stop pre-training after this many minutes of its "
+              "iterations, keeping the point reached (0: no limit).");
 DEFINE_string(pretrain_latents, "targets", "Where pre-training's latents start: 'targets' (the "
               "volumetric targets' principal components, fitted with the decoder) or 'surfaces' "
               "(the pose surfaces' principal components about the neutral, held while the "
@@ -124,6 +126,12 @@ bool PretrainOptionsFromFlags(PretrainOptions* options, std::string* error) {
   options->latent_regularization = FLAGS_latent_regularization;
   options->decoder_regularization = FLAGS_decoder_regularization;
   options->max_iterations = FLAGS_pretrain_iterations;
+  if (!(FLAGS_pretrain_minutes >= 0) || !std::isfinite(FLAGS_pretrain_minutes)) {
+    *error = "--pretrain_minutes must be finite and >= 0 (is " +
+             FormatDouble(FLAGS_pretrain_minutes) + ")";
+    return false;
+  }
+  options->max_seconds = 60.0 * FLAGS_pretrain_minutes;
   if (!PretrainLatentStartFromName(FLAGS_pretrain_latents, &options->latent_start)) {
     *error = "--pretrain_latents must be targets or surfaces, got '" + FLAGS_pretrain_latents + "'";
     return false;

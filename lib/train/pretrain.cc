@@ -35,6 +35,22 @@ Eigen::MatrixXd SurfaceLatents(const ActiveModel& model, int latent_dim) {
   return WhitenedPcaScores(surfaces, Eigen::VectorXd::Ones(n3), latent_dim, &neutral);
 }
 
+// Ends Ceres' iterations successfully once max_seconds (> 0) have passed since its
+// construction.
+class TimeBudget final : public ceres::IterationCallback {
+ public:
+  explicit TimeBudget(double max_seconds) : max_seconds_(max_seconds) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
+    return max_seconds_ > 0.0 && timer_.Seconds() > max_seconds_
+               ? ceres::SOLVER_TERMINATE_SUCCESSFULLY
+               : ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  double max_seconds_;
+  WallTimer timer_;
+};
+
 }  // namespace
 
 const char* PretrainLatentStartName(PretrainLatentStart start) {
@@ -61,6 +77,7 @@ bool PretrainOptions::Validate(std::string* error) const {
       .InRange("latent_regularization", latent_regularization, 0.0, kMaxRegularization)
       .InRange("decoder_regularization", decoder_regularization, 0.0, kMaxRegularization)
       .IntAtLeast("max_iterations", max_iterations, 0)
+      .NonNegative("max_seconds", max_seconds)
       .IntInRange("num_threads", num_threads, 1, 1024)
       .IntAtLeast("log_every", log_every, 0)
       .Positive("max_memory_bytes", max_memory_bytes)
@@ -192,6 +209,8 @@ bool Pretrain(const PretrainOptions& options, ActiveModel* model, PretrainReport
   solver_options.logging_type = ceres::SILENT;
   ProgressLogger progress("pretrain", options.log_every, options.max_iterations, log);
   solver_options.callbacks.push_back(&progress);
+  TimeBudget budget(options.max_seconds);
+  solver_options.callbacks.push_back(&budget);
   solver_options.update_state_every_iteration = false;
   ceres::GradientProblemSolver::Summary summary;
   ceres::Solve(solver_options, problem, parameters.data(), &summary);

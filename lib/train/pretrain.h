@@ -39,6 +39,10 @@ struct PretrainOptions {
   // Weight of the decoder regularizer |params|^2 (weight decay; TrainOptions'). 0: none.
   double decoder_regularization = 0.0;
   int max_iterations = 500;
+  // Stop (successfully, keeping the point reached) once this much wall time was spent
+  // in the L-BFGS iterations (0: no limit): its tolerances are seldom reached, and a
+  // long pre-training keeps nothing until it ends.
+  double max_seconds = 0.0;
   unsigned seed = 1;
   int num_threads = 2;
   // Progress line every this many iterations (0: none).

@@ -553,6 +553,7 @@ TEST_F(AqsValidationModelTest, LearningAppsRefuseBadFlags) {
                   {"--latent_regularization=-1", 1, "--latent_regularization must be in [0, 1e+06] (is -1)"},
                   {"--train_tolerance=0", 1, "--train_tolerance must be finite and > 0"},
                   {"--hidden=8,,8", 1, "--hidden has an empty width in '8,,8'"},
+                  {"--pretrain_minutes=-1", 1, "--pretrain_minutes must be finite and >= 0 (is -1)"},
                   {"--pretrain_latents=poses", 1,
                    "--pretrain_latents must be targets or surfaces, got 'poses'"},
                   {"--output_scale=1e308", 1,
