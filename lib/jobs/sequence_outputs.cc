@@ -69,7 +69,11 @@ bool ReadFramesDone(const std::string& csv, const std::string& output_dir,
                             "--output_dir");
       return false;
     }
-    if (!fs::exists(output_dir + "/" + frames[f].name + ".obj")) break;  // redo from here
+    // Redo from the first frame whose OBJ is missing or empty (outputs are written
+    // atomically, so an empty one was made by something else).
+    std::error_code code;
+    const std::string obj = output_dir + "/" + frames[f].name + ".obj";
+    if (!fs::exists(obj, code) || fs::file_size(obj, code) == 0 || code) break;
     DoneFrame row;
     row.line = reader.line();
     row.latent.resize(d);

@@ -21,7 +21,9 @@
 #include "train/progress.h"
 #include "util/atomic_file.h"
 #include "util/blas.h"
+#include "util/line_reader.h"
 #include "util/parallel_for.h"
+#include "util/text_split.h"
 #include "util/wall_timer.h"
 
 namespace aqs {
@@ -34,10 +36,26 @@ constexpr char kLogHeader[] =
     "iteration,loss,mean_surface_error,max_surface_error,gradient_norm,step_norm,seconds,"
     "function_evaluations,factorizations_per_pose,cg_solves_per_pose\n";
 
+// Whether `line` is a whole row of the log: the header's number of fields, each a finite
+// number (a run killed while appending leaves a partial row).
+bool IsWholeLogRow(const std::string& line) {
+  const std::vector<std::string> fields = SplitFields(line);
+  if (fields.size() != static_cast<size_t>(std::count(kLogHeader, kLogHeader +
+                                                      sizeof(kLogHeader) - 1, ',')) + 1) {
+    return false;
+  }
+  for (const std::string& field : fields) {
+    double value = 0.0;
+    if (!ParseDouble(field, &value)) return false;
+  }
+  return true;
+}
+
 // Prepares the CSV log for a run that continues after `iteration` iterations: keeps the
-// rows of iterations 0..iteration (a killed run may have logged further than it saved;
-// a row repeated by an earlier version is kept once), or starts a new log when there is
-// no checkpoint (iteration 0: the run logs its row 0 again). Replaced atomically.
+// whole rows of iterations 0..iteration (a killed run may have logged further than it
+// saved, or left a partial row; a row repeated by an earlier version is kept once), or
+// starts a new log when there is no checkpoint (iteration 0: the run logs its row 0
+// again). Replaced atomically.
 bool PrepareLog(const std::string& dir, int iteration, std::string* error) {
   std::string kept = kLogHeader;
   if (iteration > 0) {
@@ -47,7 +65,8 @@ bool PrepareLog(const std::string& dir, int iteration, std::string* error) {
     int last = -1;
     while (std::getline(in, line)) {
       int it = -1;
-      if (std::sscanf(line.c_str(), "%d,", &it) == 1 && it > last && it <= iteration) {
+      if (std::sscanf(line.c_str(), "%d,", &it) == 1 && it > last && it <= iteration &&
+          IsWholeLogRow(line)) {
         kept += line + "\n";
         last = it;
       }
