@@ -26,6 +26,56 @@ DECLARE_string(model);
 DEFINE_string(stages, "prepare,pretrain,train,evaluate", "Stages to run, in order.");
 DEFINE_bool(restart, false, "Train: ignore an earlier run's iteration count.");
 
+namespace {
+
+// The options of one stage, read from the flags.
+struct StageOptions {
+  aqs::FlagNames flags;  // the stage's field names -> flags, for messages
+  aqs::PrepareJobOptions prepare;
+  aqs::PretrainOptions pretrain;
+  aqs::PoseSimulationOptions simulation;
+  bool simulate = true;
+  aqs::TrainOptions train;
+  aqs::ExpectedDecoder expected;
+  aqs::EvaluateJobOptions evaluate;
+};
+
+// Reads `stage`'s options from the flags into *o. With `validate`, also checks them as
+// the stage's job would (and evaluate's output folder), before any stage runs.
+bool ReadStageOptions(const std::string& stage, bool validate, StageOptions* o,
+                      std::string* error) {
+  if (stage == "prepare") {
+    o->flags = aqs::PrepareFlagNames();
+    return aqs::PrepareOptionsFromFlags(&o->prepare, error) &&
+           (!validate || o->prepare.Validate(error));
+  }
+  if (stage == "pretrain") {
+    o->flags = aqs::PretrainFlagNames();
+    return aqs::PretrainOptionsFromFlags(&o->pretrain, error) &&
+           aqs::PretrainSimulationFromFlags(&o->simulation, &o->simulate, error) &&
+           (!validate || (o->pretrain.Validate(error) &&
+                          (!o->simulate || o->simulation.Validate(error))));
+  }
+  if (stage == "train") {
+    o->flags = aqs::TrainFlagNames();
+    return aqs::TrainOptionsFromFlags(&o->train, error) &&
+           aqs::ExpectedDecoderFromFlags(&o->expected, error) &&
+           (!validate || o->train.Validate(error));
+  }
+  o->flags = aqs::EvaluateFlagNames();
+  if (!aqs::EvaluateOptionsFromFlags(&o->evaluate, error)) return false;
+  if (!validate) return true;
+  const std::string& dir = o->evaluate.output_directory;
+  std::error_code code;
+  if (std::filesystem::exists(dir, code) && !std::filesystem::is_directory(dir, code)) {
+    *error = "--output_dir: " + dir + " is a file, not a folder";
+    return false;
+  }
+  return o->evaluate.Validate(error) && aqs::CheckOutputApart(dir, o->evaluate.model, error);
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
   aqs::InitApp("Run the ActiveQS stages from one flagfile.\n"
                "  aqs_pipeline --flagfile=configs/face_demo.flags [--stages=prepare,pretrain,train]",
@@ -60,44 +110,20 @@ int main(int argc, char** argv) {
       return 1;
     }
     // And every stage's flags: a bad training flag must not wait for prepare and
-    // pre-training to finish.
-    for (const std::string& stage : stages) {
-      aqs::FlagNames flags;
-      bool ok = true;
-      if (stage == "prepare") {
-        aqs::PrepareJobOptions options;
-        flags = aqs::PrepareFlagNames();
-        ok = aqs::PrepareOptionsFromFlags(&options, &error) && options.Validate(&error);
-      } else if (stage == "pretrain") {
-        aqs::PretrainOptions options;
-        aqs::PoseSimulationOptions simulation;
-        bool simulate = true;
-        flags = aqs::PretrainFlagNames();
-        ok = aqs::PretrainOptionsFromFlags(&options, &error) &&
-             aqs::PretrainSimulationFromFlags(&simulation, &simulate, &error) &&
-             options.Validate(&error) && (!simulate || simulation.Validate(&error));
-      } else if (stage == "train") {
-        aqs::TrainOptions options;
-        aqs::ExpectedDecoder expected;
-        flags = aqs::TrainFlagNames();
-        ok = aqs::TrainOptionsFromFlags(&options, &error) &&
-             aqs::ExpectedDecoderFromFlags(&expected, &error) && options.Validate(&error);
-      } else {
-        aqs::EvaluateJobOptions options;
-        flags = aqs::EvaluateFlagNames();
-        ok = aqs::EvaluateOptionsFromFlags(&options, &error) && options.Validate(&error) &&
-             aqs::CheckOutputApart(options.output_directory, options.model, &error);
-        std::error_code code;
-        if (ok && std::filesystem::exists(options.output_directory, code) &&
-            !std::filesystem::is_directory(options.output_directory, code)) {
-          error = "--output_dir: " + options.output_directory + " is a file, not a folder";
-          ok = false;
-        }
+    // pre-training to finish. On rank 0, which alone reads prepare's and pre-training's
+    // inputs; the other ranks agree with it.
+    bool ok = true;
+    for (size_t k = 0; root && ok && k < stages.size(); ++k) {
+      StageOptions options;
+      if (!ReadStageOptions(stages[k], true, &options, &error)) {
+        error = stages[k] + ": " + aqs::FlagError(error, options.flags);
+        ok = false;
       }
-      if (!ok) {
-        aqs::PrintRankError(ranks.get(), stage + ": " + aqs::FlagError(error, flags));
-        return 1;
-      }
+    }
+    if (ranks != nullptr) ok = ranks->Agree(ok, &error);
+    if (!ok) {
+      aqs::PrintRankError(ranks.get(), error);
+      return 1;
     }
   }
   // The stages that write the model run under one hold of its writers' lock.
@@ -128,40 +154,26 @@ int main(int argc, char** argv) {
     aqs::WallTimer timer;
     bool ok = false;
     aqs::JobStatus status = aqs::JobStatus::kBadInput;  // when not ok
-    aqs::FlagNames flags;
+    StageOptions options;
+    const aqs::FlagNames& flags = options.flags;
     if (!root && (stage == "prepare" || stage == "pretrain")) {
       ok = true;  // rank 0's work: wait for its status below
+    } else if (!ReadStageOptions(stage, false, &options, &error)) {
+      ok = false;
     } else if (stage == "prepare") {
-      aqs::PrepareJobOptions options;
-      flags = aqs::PrepareFlagNames();
-      ok = aqs::PrepareOptionsFromFlags(&options, &error) &&
-           aqs::RunPrepareJob(options, std::cout, &error, &status);
+      ok = aqs::RunPrepareJob(options.prepare, std::cout, &error, &status);
     } else if (stage == "pretrain") {
-      aqs::PretrainOptions options;
-      aqs::PoseSimulationOptions simulation;
-      bool simulate = true;
-      flags = aqs::PretrainFlagNames();
-      ok = aqs::PretrainOptionsFromFlags(&options, &error) &&
-           aqs::PretrainSimulationFromFlags(&simulation, &simulate, &error) &&
-           aqs::RunPretrainJob(FLAGS_model, options, simulate ? &simulation : nullptr, std::cout,
+      ok = aqs::RunPretrainJob(FLAGS_model, options.pretrain,
+                               options.simulate ? &options.simulation : nullptr, std::cout,
                                &error);
     } else if (stage == "train") {
-      aqs::TrainOptions options;
-      aqs::ExpectedDecoder expected;
-      flags = aqs::TrainFlagNames();
-      options.communicator = ranks.get();
-      ok = aqs::TrainOptionsFromFlags(&options, &error) &&
-           aqs::ExpectedDecoderFromFlags(&expected, &error) &&
-           aqs::RunTrainJob(FLAGS_model, options, FLAGS_restart, out, &error, expected);
-    } else if (stage == "evaluate") {
-      aqs::EvaluateJobOptions options;
-      std::vector<aqs::EvaluationRow> rows;
-      flags = aqs::EvaluateFlagNames();
-      ok = aqs::EvaluateOptionsFromFlags(&options, &error);
-      options.communicator = ranks.get();
-      ok = ok && aqs::RunEvaluateJob(options, out, &rows, &error);
+      options.train.communicator = ranks.get();
+      ok = aqs::RunTrainJob(FLAGS_model, options.train, FLAGS_restart, out, &error,
+                            options.expected);
     } else {
-      error = "unknown stage '" + stage + "' (known: prepare, pretrain, train, evaluate)";
+      std::vector<aqs::EvaluationRow> rows;
+      options.evaluate.communicator = ranks.get();
+      ok = aqs::RunEvaluateJob(options.evaluate, out, &rows, &error);
     }
     // Every rank stops where one fails (train and evaluate agree inside; prepare and
     // pretrain report rank 0's status here).
