@@ -82,15 +82,29 @@ bool ReadNeutralAndPoses(const PrepareJobOptions& options, ActiveModel* model,
                         &names, &surfaces, error)) {
     return false;
   }
+  bool all_neutral = true;
   for (size_t p = 0; p < names.size(); ++p) {
     if (!CheckPointsNearModel(options.pose_paths[p], model->neutral.vertices, surfaces[p],
                               error)) {
       return false;
     }
+    // A surface given twice weighs twice in training (a copied file under two names).
+    for (size_t q = 0; q < p; ++q) {
+      if (surfaces[p] == surfaces[q]) {
+        *error = options.pose_paths[p] + ": pose '" + names[p] + "' is the same surface as "
+                 "pose '" + names[q] + "' (" + options.pose_paths[q] + ")";
+        return false;
+      }
+    }
+    all_neutral = all_neutral && surfaces[p] == model->neutral.vertices;
     TrainingPose pose;
     pose.name = names[p];
     pose.surface = surfaces[p];
     model->poses.push_back(pose);
+  }
+  if (all_neutral && !names.empty()) {
+    *error = "every pose is the neutral surface " + options.neutral + ": nothing to learn";
+    return false;
   }
   log << "poses: " << model->num_poses() << "\n";
   return true;

@@ -1,6 +1,7 @@
 #include "jobs/prepare_job.h"
 
 #include <cmath>
+#include <filesystem>
 #include <sstream>
 
 #include <gtest/gtest.h>
@@ -175,6 +176,19 @@ TEST_F(PrepareJobTest, BadInputsFailClearly) {
   EXPECT_FALSE(RunPrepareJob(options, log, &error));
   EXPECT_NE(error.find("small.obj: 162 vertices, but the neutral surface has 642"),
             std::string::npos) << error;
+  // Only the neutral itself, and a pose given twice (a copy under another name).
+  options = options_;
+  options.pose_paths = {options_.neutral};
+  EXPECT_FALSE(RunPrepareJob(options, log, &error));
+  EXPECT_NE(error.find("every pose is the neutral surface"), std::string::npos) << error;
+  ASSERT_FALSE(options_.pose_paths.empty());
+  std::filesystem::copy_file(options_.pose_paths[0], dir_.File("copy.obj"),
+                             std::filesystem::copy_options::overwrite_existing);
+  options = options_;
+  options.pose_paths.push_back(dir_.File("copy.obj"));
+  EXPECT_FALSE(RunPrepareJob(options, log, &error));
+  EXPECT_NE(error.find("copy.obj: pose 'copy' is the same surface as pose"), std::string::npos)
+      << error;
   // No poses.
   options = options_;
   options.pose_paths.clear();
@@ -191,9 +205,12 @@ TEST_F(PrepareJobTest, BadInputsFailClearly) {
       1, 2,                 //
       2, 3;
   ASSERT_TRUE(WriteObj(dir_.File("patch.obj"), patch, &error));
+  SurfaceMesh lifted = patch;
+  lifted.vertices(2, 2) = 0.1;
+  ASSERT_TRUE(WriteObj(dir_.File("lifted.obj"), lifted, &error));
   options = options_;
   options.neutral = dir_.File("patch.obj");
-  options.pose_paths = {dir_.File("patch.obj")};
+  options.pose_paths = {dir_.File("lifted.obj")};
   EXPECT_FALSE(RunPrepareJob(options, log, &error));
   EXPECT_NE(error.find("patch.obj"), std::string::npos) << error;
   EXPECT_NE(error.find("encloses"), std::string::npos) << error;
