@@ -24,7 +24,8 @@
 
 DECLARE_string(model);
 DEFINE_string(stages, "prepare,pretrain,train,evaluate", "Stages to run, in order.");
-DEFINE_bool(restart, false, "Train: ignore an earlier run's iteration count.");
+DEFINE_bool(restart, false, "Pre-train anew, not from an earlier stopped run's checkpoint; "
+            "train: ignore an earlier run's iteration count.");
 
 namespace {
 
@@ -51,6 +52,7 @@ bool ReadStageOptions(const std::string& stage, bool validate, StageOptions* o,
   }
   if (stage == "pretrain") {
     o->flags = aqs::PretrainFlagNames();
+    o->pretrain.resume = !FLAGS_restart;
     return aqs::PretrainOptionsFromFlags(&o->pretrain, error) &&
            aqs::PretrainSimulationFromFlags(&o->simulation, &o->simulate, error) &&
            (!validate || (o->pretrain.Validate(error) &&

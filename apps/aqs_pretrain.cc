@@ -1,7 +1,8 @@
 // aqs_pretrain: a decoder and one latent per pose fitted to a prepared model's
 // volumetric targets (supervised), to start end-to-end training from.
 // It holds the model's writers' lock and replaces the model as a whole
-// (docs/model_format.md, "Writing").
+// (docs/model_format.md, "Writing"). It writes checkpoints into the model's pretrain/
+// folder every minute; run again after a kill, it resumes from the last (--restart: not).
 // Exit status: 0 done; 1 bad input (a file, a flag, a decoder whose memory estimate is
 // above --max_memory_gb) or a model another process is writing.
 
@@ -14,6 +15,8 @@
 #include "learning_flags.h"
 
 DECLARE_string(model);
+DEFINE_bool(restart, false, "Pre-train anew, not from the checkpoint of an earlier run that "
+            "was stopped (with the same model and decoder flags it would resume).");
 
 int main(int argc, char** argv) {
   aqs::InitApp("Pre-train the decoder of a prepared model.\n"
@@ -29,6 +32,7 @@ int main(int argc, char** argv) {
     aqs::PrintError(error);
     return 1;
   }
+  options.resume = !FLAGS_restart;
   const bool ok = aqs::RunPretrainJob(FLAGS_model, options, simulate ? &simulation : nullptr,
                                       std::cout, &error);
   return aqs::FinishJob(ok ? aqs::JobStatus::kOk : aqs::JobStatus::kBadInput, error,

@@ -86,7 +86,9 @@ bool RunPretrainJob(const std::string& model_directory, const PretrainOptions& o
     return false;
   }
   PretrainReport report;
-  if (!Pretrain(options, &model, &report, log, error)) return false;
+  PretrainOptions run = options;
+  run.checkpoint_directory = ResolveModelPath(model_directory) + "/pretrain";
+  if (!Pretrain(run, &model, &report, log, error)) return false;
   PretrainSurfaceErrors surface_errors;
   if (simulation != nullptr) {
     // Stage (b) of the error budget: what the decoder reproduces of the targets, as

@@ -15,7 +15,11 @@ namespace aqs {
 // (model/model_directory.h; it fails with "model DIR is in use by process PID" while
 // another process writes the model), loads the model directory, pre-trains a new
 // decoder and latents (train/pretrain.h), and saves the model (any earlier training
-// checkpoint, states and log are discarded: they belong to the old decoder). With
+// checkpoint, states and log are discarded: they belong to the old decoder). Pre-training
+// checkpoints go to the model's pretrain/ folder (options.checkpoint_directory is
+// replaced by it; train/pretrain_checkpoint.h): a killed run, run again with the same
+// options and options.resume, continues from the last one; saving the model removes
+// them. With
 // `simulation` (may be null: skipped), every pose's pre-trained latent is then decoded
 // and simulated from rest: the surface errors, stage (b) of the error budget
 // (eval/error_budget.h), are logged per pose next to the embedding floor and written to

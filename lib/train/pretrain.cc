@@ -1,5 +1,6 @@
 #include "train/pretrain.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <limits>
 #include <sstream>
@@ -9,6 +10,7 @@
 #include <ceres/iteration_callback.h>
 
 #include "train/latent_init.h"
+#include "train/pretrain_checkpoint.h"
 #include "train/pretrain_objective.h"
 #include "train/progress.h"
 #include "util/option_checks.h"
@@ -36,10 +38,11 @@ Eigen::MatrixXd SurfaceLatents(const ActiveModel& model, int latent_dim) {
 }
 
 // Ends Ceres' iterations successfully once max_seconds (> 0) have passed since its
-// construction.
+// construction (or max_seconds less `spent`).
 class TimeBudget final : public ceres::IterationCallback {
  public:
-  explicit TimeBudget(double max_seconds) : max_seconds_(max_seconds) {}
+  TimeBudget(double max_seconds, double spent)
+      : max_seconds_(max_seconds > 0.0 ? std::max(1e-9, max_seconds - spent) : 0.0) {}
   ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
     return max_seconds_ > 0.0 && timer_.Seconds() > max_seconds_
                ? ceres::SOLVER_TERMINATE_SUCCESSFULLY
@@ -78,6 +81,7 @@ bool PretrainOptions::Validate(std::string* error) const {
       .InRange("decoder_regularization", decoder_regularization, 0.0, kMaxRegularization)
       .IntAtLeast("max_iterations", max_iterations, 0)
       .NonNegative("max_seconds", max_seconds)
+      .NonNegative("checkpoint_seconds", checkpoint_seconds)
       .IntInRange("num_threads", num_threads, 1, 1024)
       .IntAtLeast("log_every", log_every, 0)
       .Positive("max_memory_bytes", max_memory_bytes)
@@ -185,6 +189,29 @@ bool Pretrain(const PretrainOptions& options, ActiveModel* model, PretrainReport
                        : "from the targets' principal components")
       << "\n";
 
+  // A checkpoint of an earlier run of this pre-training: its point and its budget spent.
+  PretrainCheckpoint start;
+  const bool checkpoints = !options.checkpoint_directory.empty();
+  if (checkpoints) {
+    start.key = MakePretrainCheckpointKey(options, *model);
+    std::string why_not;
+    PretrainCheckpoint found;
+    if (!options.resume) {
+      log << "pretrain: starting anew (an earlier run's checkpoint in "
+          << options.checkpoint_directory << " is not resumed)\n";
+    } else if (ReadPretrainCheckpoint(options.checkpoint_directory, start.key,
+                                      static_cast<int>(parameters.size()), &found, &why_not)) {
+      start = std::move(found);
+      parameters = start.parameters;
+      report->iterations_before = start.iterations;
+      log << "pretrain: resuming after iteration " << start.iterations << " ("
+          << FormatDuration(start.seconds) << " spent, loss " << start.loss
+          << ") from the checkpoint in " << options.checkpoint_directory << "\n";
+    } else if (!why_not.empty()) {
+      log << "pretrain: not resuming the checkpoint in " << options.checkpoint_directory
+          << ": " << why_not << "; starting anew\n";
+    }
+  }
   auto* objective = new PretrainObjective(*decoder, targets, weights,
                                          options.latent_regularization,
                                          options.decoder_regularization);
@@ -202,18 +229,37 @@ bool Pretrain(const PretrainOptions& options, ActiveModel* model, PretrainReport
   ceres::GradientProblemSolver::Options solver_options;
   solver_options.line_search_direction_type = ceres::LBFGS;
   solver_options.max_lbfgs_rank = kLbfgsRank;
-  solver_options.max_num_iterations = options.max_iterations;
+  const int remaining = std::max(0, options.max_iterations - start.iterations);
+  const bool spent = options.max_seconds > 0.0 && start.seconds >= options.max_seconds;
+  solver_options.max_num_iterations = spent ? 0 : remaining;
   solver_options.function_tolerance = 1e-12;
   solver_options.gradient_tolerance = 1e-12;
   solver_options.parameter_tolerance = 1e-14;
   solver_options.logging_type = ceres::SILENT;
-  ProgressLogger progress("pretrain", options.log_every, options.max_iterations, log);
+  ProgressLogger progress("pretrain", options.log_every, options.max_iterations, log,
+                          start.iterations);
   solver_options.callbacks.push_back(&progress);
-  TimeBudget budget(options.max_seconds);
+  TimeBudget budget(options.max_seconds, start.seconds);
   solver_options.callbacks.push_back(&budget);
-  solver_options.update_state_every_iteration = false;
+  PretrainCheckpointWriter writer(options.checkpoint_directory, start,
+                                  options.checkpoint_seconds, parameters.data(),
+                                  static_cast<int>(parameters.size()));
+  if (checkpoints) solver_options.callbacks.push_back(&writer);
+  // The checkpoints read the point reached from `parameters`.
+  solver_options.update_state_every_iteration = checkpoints;
   ceres::GradientProblemSolver::Summary summary;
-  ceres::Solve(solver_options, problem, parameters.data(), &summary);
+  if (solver_options.max_num_iterations > 0) {
+    ceres::Solve(solver_options, problem, parameters.data(), &summary);
+  } else {
+    summary.message = start.iterations > 0 ? "the checkpoint had used the whole budget"
+                                          : "no iterations in the budget";
+  }
+  const int run_iterations = std::max(0, static_cast<int>(summary.iterations.size()) - 1);
+  report->checkpoints = writer.checkpoints();
+  if (!writer.error().empty()) {
+    *error = "pre-training stopped: its checkpoint could not be written: " + writer.error();
+    return false;
+  }
   double mse = 0;
   report->final_loss = objective->Loss(parameters.data(), nullptr, &mse);
   if (!std::isfinite(report->final_loss) || !parameters.allFinite()) {
@@ -222,7 +268,12 @@ bool Pretrain(const PretrainOptions& options, ActiveModel* model, PretrainReport
     return false;
   }
   report->rms_actuation_error = std::sqrt(mse);
-  report->iterations = static_cast<int>(summary.iterations.size()) - 1;
+  report->iterations = start.iterations + run_iterations;
+  if (checkpoints && run_iterations > 0 && !writer.Write(report->iterations, report->final_loss)) {
+    *error = "pre-training's last checkpoint could not be written: " + writer.error();
+    return false;
+  }
+  report->checkpoints = writer.checkpoints();
   report->termination = summary.message;
   report->seconds = timer.Seconds();
   log << "pretrain: " << report->iterations << " iterations, loss " << report->initial_loss

@@ -44,6 +44,14 @@ struct PretrainOptions {
   // long pre-training keeps nothing until it ends.
   double max_seconds = 0.0;
   unsigned seed = 1;
+  // Checkpoints (train/pretrain_checkpoint.h) go into this folder (empty: none; in a
+  // model directory, pretrain/), at most every checkpoint_seconds of iterations (0:
+  // every iteration) and at the end. With resume, a checkpoint there that belongs to
+  // this model, its targets and these options is the start: its iterations and time
+  // count towards max_iterations and max_seconds.
+  std::string checkpoint_directory;
+  double checkpoint_seconds = 60.0;
+  bool resume = true;
   int num_threads = 2;
   // Progress line every this many iterations (0: none).
   int log_every = 25;
@@ -56,13 +64,15 @@ struct PretrainOptions {
 };
 
 struct PretrainReport {
-  int iterations = 0;
+  int iterations = 0;         // in all runs (iterations_before included)
+  int iterations_before = 0;  // done by earlier runs (from the checkpoint)
+  int checkpoints = 0;        // written by this run
   double initial_loss = 0.0;
   double final_loss = 0.0;
   // sqrt of the volume-weighted mean squared actuation error |a - S|_F^2 over poses
   // and elements, at the end (in strain units: 0.01 = 1%).
   double rms_actuation_error = 0.0;
-  double seconds = 0.0;
+  double seconds = 0.0;  // this run's
   std::string termination;
 };
 
@@ -86,8 +96,10 @@ bool PretrainMemoryBytes(const PretrainOptions& options, const ActiveModel& mode
 //
 // with w_e = V_e / sum V (|.|_F the Frobenius norm of the 3x3 matrices), by Ceres'
 // L-BFGS (GradientProblemSolver). Latents start as options.latent_start says (with
-// kSurfaces they stay there), parameters at random (small outputs). Every pose needs a
-// target.
+// kSurfaces they stay there), parameters at random (small outputs); or, with a
+// checkpoint to resume (options.checkpoint_directory, resume), at the checkpoint's point,
+// with the rest of the budget (L-BFGS' history starts anew there). Every pose needs a
+// target. A checkpoint that cannot be written stops pre-training with the error.
 // Sets model->decoder, decoder_params and latents, and clears the states and the
 // training checkpoint (they belonged to the old decoder). Progress lines go to `log`.
 // Fails with *error, before allocating, on invalid options (options.Validate) and on

@@ -31,9 +31,10 @@ ceres::CallbackReturnType ProgressLogger::operator()(const ceres::IterationSumma
     const double elapsed = timer_.Seconds();
     char line[320];
     std::snprintf(line, sizeof(line), "  %s iter %5d/%d  loss %.6e  |g| %.3e  %s  ETA %s\n",
-                  label_.c_str(), s.iteration, total_, s.cost, s.gradient_norm,
+                  label_.c_str(), done_before_ + s.iteration, total_, s.cost, s.gradient_norm,
                   FormatDuration(elapsed).c_str(),
-                  FormatDuration(EstimateRemaining(s.iteration, total_, elapsed)).c_str());
+                  FormatDuration(EstimateRemaining(s.iteration, total_ - done_before_, elapsed))
+                      .c_str());
     log_ << line << std::flush;
   }
   return ceres::SOLVER_CONTINUE;

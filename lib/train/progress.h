@@ -19,16 +19,22 @@ double EstimateRemaining(int done, int total, double elapsed);
 
 // A Ceres iteration callback that prints, every `every` iterations (0: never),
 //   "  <label> iter    k/total  loss ...  |g| ...  <elapsed>  ETA <remaining>"
-// to `log`, timed from construction. It never stops the solver.
+// to `log`, timed from construction. k counts from `done_before` (iterations of an
+// earlier run this one resumes; the ETA is for the rest). It never stops the solver.
 class ProgressLogger final : public ceres::IterationCallback {
  public:
-  ProgressLogger(std::string label, int every, int total, std::ostream& log)
-      : label_(std::move(label)), every_(every), total_(total), log_(log) {}
+  ProgressLogger(std::string label, int every, int total, std::ostream& log,
+                 int done_before = 0)
+      : label_(std::move(label)),
+        every_(every),
+        total_(total),
+        done_before_(done_before),
+        log_(log) {}
   ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override;
 
  private:
   std::string label_;
-  int every_, total_;
+  int every_, total_, done_before_;
   std::ostream& log_;
   WallTimer timer_;
 };

@@ -27,13 +27,7 @@ std::vector<std::pair<int, double>> TrainingLogRows(const std::string& path) {
   return rows;
 }
 
-ActiveModel PretrainedSyntheticBar(const SyntheticBarSpec& spec, PretrainReport* report) {
-  SyntheticMuscles data = MakeSyntheticMuscles(spec.num_poses, 0, 0.3, spec.seed);
-  std::ostringstream log;
-  std::string error;
-  VolumetricTargetOptions targets;
-  targets.num_threads = spec.num_threads;
-  EXPECT_TRUE(MakeVolumetricTargets(targets, &data.model, log, &error)) << error;
+PretrainOptions SyntheticPretrainOptions(const SyntheticBarSpec& spec) {
   PretrainOptions pretrain;
   pretrain.spec.latent_dim = spec.latent_dim;
   pretrain.spec.hidden_dims = {spec.hidden};
@@ -44,6 +38,17 @@ ActiveModel PretrainedSyntheticBar(const SyntheticBarSpec& spec, PretrainReport*
   pretrain.latent_start = spec.latent_start;
   pretrain.log_every = 0;
   pretrain.num_threads = spec.num_threads;
+  return pretrain;
+}
+
+ActiveModel PretrainedSyntheticBar(const SyntheticBarSpec& spec, PretrainReport* report) {
+  SyntheticMuscles data = MakeSyntheticMuscles(spec.num_poses, 0, 0.3, spec.seed);
+  std::ostringstream log;
+  std::string error;
+  VolumetricTargetOptions targets;
+  targets.num_threads = spec.num_threads;
+  EXPECT_TRUE(MakeVolumetricTargets(targets, &data.model, log, &error)) << error;
+  const PretrainOptions pretrain = SyntheticPretrainOptions(spec);
   PretrainReport own_report;
   EXPECT_TRUE(Pretrain(pretrain, &data.model, report != nullptr ? report : &own_report, log,
                        &error))

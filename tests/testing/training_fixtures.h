@@ -31,6 +31,9 @@ struct SyntheticBarSpec {
   int num_threads = 2;
 };
 
+// The pre-training options PretrainedSyntheticBar uses for `spec` (no progress lines).
+PretrainOptions SyntheticPretrainOptions(const SyntheticBarSpec& spec);
+
 // The synthetic bar (testing/synthetic_muscles.h: MakeSyntheticMuscles(num_poses, 0,
 // 0.3, seed)) with its volumetric targets and a small decoder pre-trained on them (no
 // states; PretrainOptions' latent regularization), and the pre-training's report in

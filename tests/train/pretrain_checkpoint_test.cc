@@ -1,0 +1,233 @@
+// Pre-training checkpoints: what they hold, when they are resumed and when not, and a
+// pre-training killed between a checkpoint's two files.
+
+#include "train/pretrain_checkpoint.h"
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "jobs/learning_jobs.h"
+#include "model/model_io.h"
+#include "testing/fault_kill.h"
+#include "testing/temp_dir.h"
+#include "testing/training_fixtures.h"
+
+namespace aqs {
+namespace {
+
+namespace fs = std::filesystem;
+
+PretrainCheckpointKey SomeKey() {
+  PretrainCheckpointKey key;
+  key.model = "00000000000000ab";
+  key.targets = "00000000000000cd";
+  key.options = "latent_dim=2 hidden=8";
+  return key;
+}
+
+PretrainCheckpoint SomeCheckpoint(int iterations) {
+  PretrainCheckpoint checkpoint;
+  checkpoint.key = SomeKey();
+  checkpoint.iterations = iterations;
+  checkpoint.seconds = 1.25 * iterations;
+  checkpoint.loss = 1.0 / (3.0 + iterations);
+  checkpoint.parameters = Eigen::VectorXd::LinSpaced(7, -1.0, 1.0 + iterations);
+  return checkpoint;
+}
+
+// The slots are written in turn; the checkpoint read is always the one last written,
+// exactly (numbers round-trip).
+TEST(PretrainCheckpointTest, RoundTripsAndAlternatesSlots) {
+  testing::TempDir dir;
+  std::string error, why_not;
+  PretrainCheckpoint read;
+  EXPECT_FALSE(ReadPretrainCheckpoint(dir.path(), SomeKey(), 7, &read, &why_not));
+  EXPECT_EQ(why_not, "");  // none: not an error
+  for (int iterations : {4, 9, 13}) {
+    ASSERT_TRUE(WritePretrainCheckpoint(dir.path(), SomeCheckpoint(iterations), &error)) << error;
+    ASSERT_TRUE(ReadPretrainCheckpoint(dir.path(), SomeKey(), 7, &read, &why_not)) << why_not;
+    const PretrainCheckpoint expected = SomeCheckpoint(iterations);
+    EXPECT_EQ(read.iterations, iterations);
+    EXPECT_EQ(read.seconds, expected.seconds);
+    EXPECT_EQ(read.loss, expected.loss);
+    EXPECT_EQ(read.parameters, expected.parameters);
+  }
+  EXPECT_TRUE(fs::exists(dir.File("parameters_a.bin")));
+  EXPECT_TRUE(fs::exists(dir.File("parameters_b.bin")));
+}
+
+// A checkpoint of other options, another model, other targets or another parameter
+// count is not resumed, and the reason says which.
+TEST(PretrainCheckpointTest, ACheckpointOfSomethingElseIsNotResumed) {
+  testing::TempDir dir;
+  std::string error, why_not;
+  ASSERT_TRUE(WritePretrainCheckpoint(dir.path(), SomeCheckpoint(4), &error)) << error;
+  PretrainCheckpoint read;
+  PretrainCheckpointKey key = SomeKey();
+  key.options = "latent_dim=3 hidden=8";
+  EXPECT_FALSE(ReadPretrainCheckpoint(dir.path(), key, 7, &read, &why_not));
+  EXPECT_NE(why_not.find("other options"), std::string::npos) << why_not;
+  key = SomeKey();
+  key.model = "00000000000000ff";
+  EXPECT_FALSE(ReadPretrainCheckpoint(dir.path(), key, 7, &read, &why_not));
+  EXPECT_NE(why_not.find("another prepared model"), std::string::npos) << why_not;
+  key = SomeKey();
+  key.targets = "00000000000000ff";
+  EXPECT_FALSE(ReadPretrainCheckpoint(dir.path(), key, 7, &read, &why_not));
+  EXPECT_NE(why_not.find("targets"), std::string::npos) << why_not;
+  EXPECT_FALSE(ReadPretrainCheckpoint(dir.path(), SomeKey(), 8, &read, &why_not));
+  EXPECT_NE(why_not.find("7 parameters"), std::string::npos) << why_not;
+}
+
+// A damaged checkpoint (a line missing, its parameters file gone) is not resumed, and the
+// reason names the file.
+TEST(PretrainCheckpointTest, ADamagedCheckpointNamesItsFile) {
+  testing::TempDir dir;
+  std::string error, why_not;
+  ASSERT_TRUE(WritePretrainCheckpoint(dir.path(), SomeCheckpoint(4), &error)) << error;
+  PretrainCheckpoint read;
+  fs::remove(dir.File("parameters_a.bin"));
+  EXPECT_FALSE(ReadPretrainCheckpoint(dir.path(), SomeKey(), 7, &read, &why_not));
+  EXPECT_NE(why_not.find("parameters_a.bin"), std::string::npos) << why_not;
+  std::ifstream in(dir.File("checkpoint.txt"));
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  text = text.substr(0, text.find("loss "));
+  std::ofstream(dir.File("checkpoint.txt")) << text;
+  EXPECT_FALSE(ReadPretrainCheckpoint(dir.path(), SomeKey(), 7, &read, &why_not));
+  EXPECT_NE(why_not.find("checkpoint.txt: no 'loss' line"), std::string::npos) << why_not;
+}
+
+class PretrainResumeTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    spec_.num_poses = 3;
+    spec_.num_threads = 1;
+    spec_.pretrain_iterations = 0;
+    model_ = testing::PretrainedSyntheticBar(spec_);
+    options_ = testing::SyntheticPretrainOptions(spec_);
+    options_.checkpoint_directory = dir_.File("pretrain");
+    options_.checkpoint_seconds = 0.0;
+  }
+
+  PretrainReport Run(int iterations, bool resume = true, ActiveModel* out = nullptr) {
+    ActiveModel model = model_;
+    PretrainOptions options = options_;
+    options.max_iterations = iterations;
+    options.resume = resume;
+    PretrainReport report;
+    std::ostringstream log;
+    std::string error;
+    EXPECT_TRUE(Pretrain(options, &model, &report, log, &error)) << error;
+    if (out != nullptr) *out = model;
+    return report;
+  }
+
+  PretrainCheckpoint Saved() {
+    PretrainCheckpoint checkpoint;
+    std::string why_not;
+    const int count = static_cast<int>(model_.decoder_params.size() + model_.latents.size());
+    EXPECT_TRUE(ReadPretrainCheckpoint(options_.checkpoint_directory,
+                                       MakePretrainCheckpointKey(options_, model_), count,
+                                       &checkpoint, &why_not))
+        << why_not;
+    return checkpoint;
+  }
+
+  testing::TempDir dir_;
+  testing::SyntheticBarSpec spec_;
+  ActiveModel model_;
+  PretrainOptions options_;
+};
+
+// A run writes a checkpoint at every iteration (checkpoint_seconds 0) and holds its
+// last point; the next run with a larger budget starts there, at the loss saved, and
+// counts the iterations before it; with the budget used up it adds none; without
+// resume it starts anew.
+TEST_F(PretrainResumeTest, ResumesAtTheCheckpointAndCountsItsIterations) {
+  ActiveModel first;
+  const PretrainReport fresh = Run(6, true, &first);
+  EXPECT_EQ(fresh.iterations_before, 0);
+  EXPECT_EQ(fresh.iterations, 6);
+  EXPECT_GE(fresh.checkpoints, 6);
+  const PretrainCheckpoint saved = Saved();
+  EXPECT_EQ(saved.iterations, 6);
+  EXPECT_EQ(saved.loss, fresh.final_loss);
+  const Eigen::Index np = first.decoder_params.size();
+  EXPECT_EQ(saved.parameters.head(np), first.decoder_params);
+  EXPECT_EQ(saved.parameters.tail(first.latents.size()),
+            Eigen::Map<const Eigen::VectorXd>(first.latents.data(), first.latents.size()));
+
+  ActiveModel same;
+  const PretrainReport used_up = Run(6, true, &same);
+  EXPECT_EQ(used_up.iterations_before, 6);
+  EXPECT_EQ(used_up.iterations, 6);
+  EXPECT_EQ(same.decoder_params, first.decoder_params);
+
+  const PretrainReport resumed = Run(10);
+  EXPECT_EQ(resumed.iterations_before, 6);
+  EXPECT_EQ(resumed.iterations, 10);
+  EXPECT_NEAR(resumed.initial_loss, saved.loss, 1e-12 * saved.loss);
+  EXPECT_LT(resumed.final_loss, saved.loss);
+  EXPECT_EQ(Saved().iterations, 10);
+
+  const PretrainReport anew = Run(3, /*resume=*/false);
+  EXPECT_EQ(anew.iterations_before, 0);
+  EXPECT_NEAR(anew.initial_loss, fresh.initial_loss, 1e-12 * fresh.initial_loss);
+  EXPECT_EQ(Saved().iterations, 3);
+  std::printf("pre-training: fresh %.6e -> %.6e (6 iterations), resumed %.6e -> %.6e (4 more)\n",
+              fresh.initial_loss, fresh.final_loss, resumed.initial_loss, resumed.final_loss);
+}
+
+// Other options (here the seed of the decoder's weights) do not resume the checkpoint.
+TEST_F(PretrainResumeTest, OtherOptionsStartAnew) {
+  Run(4);
+  options_.seed = 2;
+  const PretrainReport other = Run(5);
+  EXPECT_EQ(other.iterations_before, 0);
+  EXPECT_EQ(other.iterations, 5);
+}
+
+// aqs_pretrain's library call killed (SIGKILL) after the parameters of its second
+// checkpoint are written and before checkpoint.txt names them: the first checkpoint is
+// whole (its own slot), and the next run resumes it, at its loss. Saving the model at the
+// end removes the checkpoint.
+TEST(PretrainKillTest, AKilledRunResumesItsLastWholeCheckpoint) {
+  testing::TempDir dir;
+  const std::string path = dir.File("m");
+  ASSERT_NO_FATAL_FAILURE(testing::WritePretrainedSyntheticModel(path, 3, 11, 8, 2));
+  ASSERT_EQ(testing::RunProgram({AQS_KILL_AT, "pretrain_checkpoint:parameters_written", "1",
+                                 path, "8", "pretrain"}),
+            "killed");
+  testing::SyntheticBarSpec spec;
+  spec.num_threads = 1;
+  spec.pretrain_iterations = 8;
+  PretrainOptions options = testing::SyntheticPretrainOptions(spec);
+  ActiveModel model;
+  std::string error, why_not;
+  ASSERT_TRUE(LoadModel(path, &model, &error)) << error;
+  PretrainCheckpoint saved;
+  ASSERT_TRUE(ReadPretrainCheckpoint(path + "/pretrain", MakePretrainCheckpointKey(options, model),
+                                     static_cast<int>(model.decoder_params.size() +
+                                                      model.latents.size()),
+                                     &saved, &why_not))
+      << why_not;
+  EXPECT_EQ(saved.iterations, 1);
+  std::ostringstream log;
+  ASSERT_TRUE(RunPretrainJob(path, options, nullptr, log, &error)) << error;
+  EXPECT_NE(log.str().find("resuming after iteration 1 "), std::string::npos) << log.str();
+  char start[64];
+  std::snprintf(start, sizeof(start), "iterations, loss %.6g -> ", saved.loss);
+  EXPECT_NE(log.str().find(start), std::string::npos) << start << "\n" << log.str();
+  EXPECT_FALSE(fs::exists(path + "/pretrain/checkpoint.txt"));
+  ActiveModel done;
+  ASSERT_TRUE(LoadModel(path, &done, &error)) << error;
+}
+
+}  // namespace
+}  // namespace aqs
