@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <limits>
+#include <sstream>
 #include <utility>
 
 #include <ceres/cost_function.h>
@@ -448,6 +449,17 @@ bool LatentFitter::FitPointCloud(const Eigen::Matrix3Xd& points,
   result->mean_error = used > 0 ? sum / used : 0.0;
   result->rms_error = used > 0 ? std::sqrt(sum_squares / used) : 0.0;
   result->max_error = worst;
+  if (used < 3 && landmarks.num_points() == 0) {
+    // Points beyond max_distance weigh a constant: with (almost) none near, nothing held
+    // the fit (it ends where it started, "converged", with no error to report).
+    std::ostringstream out;
+    out << "fewer than 3 of the scan's " << points.cols() << " points (" << used
+        << ") lie within --max_distance (" << cloud_options.max_distance
+        << ") of the fitted surface: is the scan in the model's frame and units, or "
+           "--max_distance too small?";
+    *error = out.str();
+    return false;
+  }
   return true;
 }
 

@@ -264,6 +264,8 @@ class LatentFitter {
   // at every evaluation, s = robust_scale: the Cauchy-weighted squared distance of the
   // rounds); otherwise rounds of matching, then fitting with fixed correspondences. The
   // landmark term is PointCloudFitOptions::landmarks' (none if it has no points).
+  // Returns false with *error as Fit does, and also when, without landmarks, fewer than 3
+  // scan points lie within max_distance of the fitted surface (nothing held the fit).
   bool FitPointCloud(const Eigen::Matrix3Xd& points, const PointCloudFitOptions& cloud_options,
                      const Eigen::VectorXd& initial, LatentFitResult* result, std::string* error);
 

@@ -180,10 +180,7 @@ class SequenceFrameFitter {
                                   is_cloud ? &frame.cloud : nullptr, cloud_options,
                                   options_.start, z, &fit, &fit_error);
       if (fit.start.empty()) {  // no start could be simulated, or none reaches a scan
-        *status = JobStatus::kNotConverged;
-        *message = frame.path + ": " + fit_error +
-                   " (frames before it are written; rerun to retry)";
-        return false;
+        return Failed(frame, fit, "", frame_timer.Seconds(), fit_error, block, status, message);
       }
       start = fit.start;
     } else {
@@ -191,9 +188,7 @@ class SequenceFrameFitter {
                         : fitter->Fit(frame.target, z, &fit, &fit_error);
     }
     if (!fitted) {
-      *status = JobStatus::kNotConverged;
-      *message = frame.path + ": " + fit_error + " (frames before it are written; rerun to retry)";
-      return false;
+      return Failed(frame, fit, start, frame_timer.Seconds(), fit_error, block, status, message);
     }
     if (warm_) z_ = fit.latent;
     PackFrameBlock(model_, fit, start, frame_timer.Seconds(), block);
@@ -201,6 +196,22 @@ class SequenceFrameFitter {
   }
 
  private:
+  // A frame that cannot be fitted: with warm starts the sequence stops there (false, with
+  // *status and *message); independent frames go on: *block says it failed
+  // (PackFailedFrameBlock), *message why, and the frame counts as fitted (true).
+  bool Failed(const SequenceFrame& frame, const LatentFitResult& fit, const std::string& start,
+              double seconds, const std::string& fit_error, std::vector<double>* block,
+              JobStatus* status, std::string* message) {
+    *message = frame.path + ": " + fit_error;
+    if (warm_) {
+      *status = JobStatus::kNotConverged;
+      *message += " (frames before it are written; rerun to retry)";
+      return false;
+    }
+    PackFailedFrameBlock(model_, fit, start, seconds, block);
+    return true;
+  }
+
   const FitSequenceOptions& options_;
   const ActiveModel& model_;
   const std::vector<SequenceFrame>& frames_;
@@ -209,22 +220,36 @@ class SequenceFrameFitter {
 };
 
 // One round's fitted frames [begin, end) on rank 0 (*blocks, FrameBlockSize numbers per
-// frame, in order) and the first frame that failed (n, the sequence's length, if none) on
-// every rank. This rank fits frame begin + rank (if < end); with a failure, *status and
-// *message are that rank's (the caller shares the first failing frame's).
+// frame, in order) and the first frame that stopped the sequence (n, the sequence's
+// length, if none) on every rank. This rank fits frame begin + rank (if < end); when that
+// stops the sequence, *status and *message are that rank's (the caller shares the first
+// failing frame's). Independent frames that could not be fitted do not stop it:
+// *failures (every rank, one per frame of the round) holds why ("" for those fitted).
 int FitRound(SequenceFrameFitter* fitter, const SequenceRanks& ranks, int begin, int end, int n,
              int block_size, std::vector<double>* blocks, JobStatus* status,
-             std::string* message) {
+             std::string* message, std::vector<std::string>* failures) {
   const int mine = begin + ranks.rank;  // this rank's frame, if < end
   std::vector<double> block;
   const bool fitted = mine >= end || fitter->Fit(mine, &block, status, message);
   if (!fitted) block.assign(block_size, 0.0);  // sent, not written
+  const bool failed_here = fitted && mine < end && BlockFailed(block.data());
   int first_failure = fitted ? n : mine;
+  failures->assign(end - begin, "");
   if (!ranks.distributed) {
     *blocks = block;
+    if (failed_here) (*failures)[0] = *message;
     return first_failure;
   }
   ranks.comm->MinToAll(&first_failure, 1);
+  std::vector<int> fine(ranks.size, 1);  // 0 where a rank's frame could not be fitted
+  fine[ranks.rank] = failed_here ? 0 : 1;
+  ranks.comm->MinToAll(fine.data(), ranks.size);
+  for (int k = 0; k < end - begin; ++k) {
+    if (fine[k] != 0) continue;
+    std::string why = k == ranks.rank ? *message : std::string();
+    ranks.comm->BroadcastText(&why, k);
+    (*failures)[k] = why;
+  }
   std::vector<int> counts(ranks.size, 0);
   for (int k = 0; k < end - begin; ++k) counts[k] = block_size;
   if (ranks.root) blocks->resize(static_cast<size_t>(block_size) * (end - begin));
@@ -244,9 +269,11 @@ bool WriteRound(const FitSequenceOptions& options, const ActiveModel& model,
   bool ok = true;
   for (int f = begin; f < written && ok; ++f) {
     const double* b = blocks.data() + static_cast<size_t>(block_size) * (f - begin);
-    SurfaceMesh surface = model.neutral;
-    surface.vertices = BlockSurface(model, b);
-    ok = WriteObj(options.output_dir + "/" + frames[f].name + ".obj", surface, error);
+    if (!BlockFailed(b)) {  // a frame that could not be fitted has no OBJ
+      SurfaceMesh surface = model.neutral;
+      surface.vertices = BlockSurface(model, b);
+      ok = WriteObj(options.output_dir + "/" + frames[f].name + ".obj", surface, error);
+    }
     track->col(f) = BlockLatent(model, b);
     *csv += FrameCsvRow(model, f, frames[f], b) + "\n";
   }
@@ -256,13 +283,20 @@ bool WriteRound(const FitSequenceOptions& options, const ActiveModel& model,
 
 // The progress line of frame f (of n; block `b`), with frames per second and an ETA
 // from `fitted` frames in `elapsed` seconds; with ranks, the rank that fitted it.
+// A frame that could not be fitted logs why (`failure`) instead of its errors.
 void LogFrame(const std::vector<SequenceFrame>& frames, int f, const double* b, int fitted,
-              double elapsed, const SequenceRanks& ranks, int rank_of_frame, std::ostream& log) {
+              double elapsed, const SequenceRanks& ranks, int rank_of_frame,
+              const std::string& failure, std::ostream& log) {
   const int n = static_cast<int>(frames.size());
   const double fps = fitted / std::max(elapsed, 1e-9);
-  log << "frame " << f + 1 << "/" << n << " " << frames[f].name << ": error mean "
-      << std::setprecision(4) << b[2] << " over " << static_cast<int>(b[0]) << " points, "
-      << static_cast<int>(b[5]) << " it, " << std::setprecision(3) << b[6] << " s";
+  log << "frame " << f + 1 << "/" << n << " " << frames[f].name;
+  if (BlockFailed(b)) {
+    log << ": could not be fitted (" << failure << "), " << std::setprecision(3) << b[6] << " s";
+  } else {
+    log << ": error mean " << std::setprecision(4) << b[2] << " over " << static_cast<int>(b[0])
+        << " points, " << static_cast<int>(b[5]) << " it, " << std::setprecision(3) << b[6]
+        << " s";
+  }
   if (ranks.distributed) log << " (rank " << rank_of_frame << ")";
   log << "; " << std::setprecision(3) << fps << " frames/s, ETA "
       << FormatSeconds((n - f - 1) / fps) << std::endl;
@@ -308,6 +342,16 @@ FitSequenceResult RunFitSequence(const FitSequenceOptions& options, const Active
   if (!OpenOutputFolder(options, model, frames, ranks, &done, &error)) {
     return fail(JobStatus::kBadInput, error);
   }
+  if (options.warm_start) {
+    // Frames an independent run could not fit: fitted again, and every frame after them
+    // (each continues from the one before).
+    done.erase(std::find_if(done.begin(), done.end(), [](const DoneFrame& d) { return d.failed; }),
+               done.end());
+  }
+  int failed_before = static_cast<int>(
+      std::count_if(done.begin(), done.end(), [](const DoneFrame& d) { return d.failed; }));
+  if (ranks.distributed) ranks.comm->Broadcast(&failed_before, 1, 0);
+  std::string first_failure_message;
   const int n = static_cast<int>(frames.size());
   LogSequenceStart(options, frames, ranks, log);
 
@@ -339,8 +383,9 @@ FitSequenceResult RunFitSequence(const FitSequenceOptions& options, const Active
     std::vector<double> blocks;
     JobStatus status = JobStatus::kOk;
     std::string message;
-    const int first_failure =
-        FitRound(&fitter, ranks, begin, end, n, block_size, &blocks, &status, &message);
+    std::vector<std::string> failures;
+    const int first_failure = FitRound(&fitter, ranks, begin, end, n, block_size, &blocks,
+                                       &status, &message, &failures);
     // Rank 0 writes the round's frames before the first failing one.
     const int written = std::min(end, first_failure);
     bool ok = !ranks.root || written <= begin ||
@@ -348,9 +393,15 @@ FitSequenceResult RunFitSequence(const FitSequenceOptions& options, const Active
     if (!ranks.Agree(ok, &error)) return fail(JobStatus::kBadInput, error);
     for (int f = begin; f < written; ++f) {
       ++result.frames_fitted;
+      const std::string& failure = failures[f - begin];
+      if (!failure.empty()) {
+        ++result.frames_failed;
+        if (first_failure_message.empty()) first_failure_message = failure;
+      }
       if (!ranks.root) continue;
       const double* b = blocks.data() + static_cast<size_t>(block_size) * (f - begin);
-      LogFrame(frames, f, b, result.frames_fitted, timer.Seconds(), ranks, f - begin, log);
+      LogFrame(frames, f, b, result.frames_fitted, timer.Seconds(), ranks, f - begin, failure,
+               log);
     }
     if (first_failure < n) {
       int code = static_cast<int>(status);
@@ -372,6 +423,17 @@ FitSequenceResult RunFitSequence(const FitSequenceOptions& options, const Active
   log << "fitted " << result.frames_fitted << " frames in " << std::setprecision(4)
       << result.seconds << " s (" << result.frames_per_second << " frames/s); wrote "
       << options.output_dir << "/frames.csv, latents.bin and one OBJ per frame\n";
+  const int failed = failed_before + result.frames_failed;
+  if (failed > 0) {
+    return fail(JobStatus::kNotConverged,
+                std::to_string(failed) + " of " + std::to_string(n) +
+                    " frames could not be fitted (" +
+                    (first_failure_message.empty() ? std::string("in an earlier run")
+                                                   : "the first in this run: " +
+                                                         first_failure_message) +
+                    "); frames.csv says converged -1 for them, and they have no OBJ; the "
+                    "other frames are written");
+  }
   return result;
 }
 

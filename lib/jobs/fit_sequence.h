@@ -68,6 +68,7 @@ struct FitSequenceResult {
   std::string message;
   std::vector<std::string> frame_names;  // all frames, in order
   int frames_fitted = 0;   // written in this run (every rank: all ranks' frames)
+  int frames_failed = 0;   // of those, independent frames that could not be fitted
   int frames_resumed = 0;  // found done in output_dir
   double seconds = 0.0;    // fitting time of this run (after reading the targets)
   double frames_per_second = 0.0;
@@ -76,9 +77,15 @@ struct FitSequenceResult {
 // Fits the frames with `model` (which must be the one options.model names, for the
 // messages; with ranks, the same model on every rank) and writes the outputs. Progress
 // lines with frames per second and an ETA go to `log` (rank 0's; the other ranks log
-// nothing). With ranks, a failure on any rank (a frame that cannot be fitted, bad
-// input, an output that cannot be written) stops every rank with the same status and
-// message (the first failing frame's).
+// nothing). With warm starts, a frame that cannot be fitted (its equilibrium cannot be
+// computed, or no start reaches it) stops the sequence there (kNotConverged). Independent
+// frames go on past it: it gets a row with converged -1 and no OBJ
+// (jobs/sequence_outputs.h), the others are fitted and written, and the result is then
+// kNotConverged, its message counting such frames (with those of an earlier run the
+// folder holds; a warm-started rerun fits them again). With ranks, a failure on any
+// rank (bad input, an output that cannot be written, a warm-started frame) stops every
+// rank with the same status and message (the first failing frame's); every rank returns
+// the same result.
 FitSequenceResult RunFitSequence(const FitSequenceOptions& options, const ActiveModel& model,
                                  std::ostream& log);
 

@@ -1,6 +1,8 @@
 #include "jobs/sequence_outputs.h"
 
+#include <algorithm>
 #include <filesystem>
+#include <limits>
 
 #include <glog/logging.h>
 
@@ -69,13 +71,31 @@ bool ReadFramesDone(const std::string& csv, const std::string& output_dir,
                             "--output_dir");
       return false;
     }
+    DoneFrame row;
+    row.line = reader.line();
+    row.failed = cells[11] == "-1";
+    if (row.failed) {
+      // Could not be fitted: no OBJ, "nan" for the matched fraction, the errors, the
+      // latent and the bones.
+      bool nans = true;
+      for (size_t c = 5; c < cells.size() && nans; ++c) {
+        nans = (c >= 9 && c < 14) || cells[c] == "nan";
+      }
+      if (!nans) {
+        *error = reader.Where("a frame that could not be fitted (converged -1) has numbers "
+                              "where 'nan' was written: the file is damaged; remove the "
+                              "folder or choose another --output_dir");
+        return false;
+      }
+      row.latent = Eigen::VectorXd::Constant(d, std::numeric_limits<double>::quiet_NaN());
+      done->push_back(row);
+      continue;
+    }
     // Redo from the first frame whose OBJ is missing or empty (outputs are written
     // atomically, so an empty one was made by something else).
     std::error_code code;
     const std::string obj = output_dir + "/" + frames[f].name + ".obj";
     if (!fs::exists(obj, code) || fs::file_size(obj, code) == 0 || code) break;
-    DoneFrame row;
-    row.line = reader.line();
     row.latent.resize(d);
     bool ok = true;
     for (int i = 0; i < d && ok; ++i) ok = ParseDouble(cells[14 + i], &row.latent[i]);
@@ -135,6 +155,23 @@ void PackFrameBlock(const ActiveModel& model, const LatentFitResult& fit,
                           model.num_surface_vertices()));
 }
 
+void PackFailedFrameBlock(const ActiveModel& model, const LatentFitResult& fit,
+                          const std::string& start, double seconds, std::vector<double>* block) {
+  LatentFitResult counts;
+  counts.iterations = fit.iterations;
+  counts.solve_factorizations = fit.solve_factorizations;
+  counts.jacobians = fit.jacobians;
+  counts.latent.resize(model.latent_dim());
+  counts.bones.resize(model.bones.size());
+  counts.surface.resize(3, model.num_surface_vertices());
+  PackFrameBlock(model, counts, start.empty() ? "given" : start, seconds, block);
+  constexpr double kNan = std::numeric_limits<double>::quiet_NaN();
+  for (int k : {1, 2, 3, 4}) (*block)[k] = kNan;
+  (*block)[7] = kFrameFailed;
+  if (start.empty()) (*block)[8] = -4.0;  // none chosen
+  std::fill(block->begin() + kFrameScalars, block->end(), kNan);
+}
+
 std::string FrameCsvRow(const ActiveModel& model, int f, const SequenceFrame& frame,
                         const double* b) {
   const bool is_cloud = frame.kind == "points";
@@ -145,9 +182,11 @@ std::string FrameCsvRow(const ActiveModel& model, int f, const SequenceFrame& fr
   for (int k = 1; k <= 4; ++k) Append(b[k], &row);
   row += "," + std::to_string(static_cast<int>(b[5]));
   Append(b[6], &row);
-  row += std::string(",") + (b[7] != 0.0 ? "1" : "0") + "," +
-         (start == -2 ? std::string("previous")
-                      : start == -1 ? std::string("given") : model.poses[start].name) +
+  row += std::string(",") + (BlockFailed(b) ? "-1" : b[7] != 0.0 ? "1" : "0") + "," +
+         (start == -4   ? std::string("none")
+          : start == -2 ? std::string("previous")
+          : start == -1 ? std::string("given")
+                        : model.poses[start].name) +
          "," + std::to_string(static_cast<int>(b[9]));
   const int values = model.latent_dim() + 6 * static_cast<int>(model.bones.size());
   for (int i = 0; i < values; ++i) Append(b[kFrameScalars + i], &row);

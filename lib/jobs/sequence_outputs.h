@@ -20,6 +20,11 @@ namespace aqs {
 // frames.csv's header for `model`: 14 columns (frame, name, kind, points, used_points,
 // matched_fraction, mean_error, rms_error, max_error, iterations, seconds, converged,
 // start, factorizations), then z1..zd, then <bone>_rx, ry, rz, tx, ty, tz per bone.
+// converged: 1 the fit met its tolerance, 0 it stopped at its iteration limit, -1 the
+// frame could not be fitted (independent frames only: its equilibrium could not be
+// computed, or no start reached it): then it has no OBJ, its errors, latent and bone
+// motions are "nan" (and so is its column of latents.bin), and start is "none" if no
+// start was chosen.
 std::string SequenceCsvHeader(const ActiveModel& model);
 
 // A frame found done in an earlier run: its CSV row as written, its latent (d) and its
@@ -28,11 +33,13 @@ struct DoneFrame {
   std::string line;
   Eigen::VectorXd latent;
   std::vector<RigidTransform> bones;
+  bool failed = false;  // converged -1: could not be fitted (latent and bones: none)
 };
 
 // Reads the frames already done from `csv` (output_dir/frames.csv; none if it does not
 // exist): its rows in order, frame 0 first, while the row's name is the frame's and
-// its OBJ exists in output_dir (from the first frame without it the run is redone).
+// its OBJ exists in output_dir (from the first frame without it the run is redone; a
+// frame that could not be fitted, converged -1, has none and is done).
 // Errors (false, *error at csv:line): a header for another model, rows of other frames
 // or another column count (the folder holds another run), a figure, latent or bone
 // number that is not a finite number (a damaged file).
@@ -47,6 +54,10 @@ bool ReadFramesDone(const std::string& csv, const std::string& output_dir,
 // "previous", -1 for "given", else the training pose's index.
 constexpr int kFrameScalars = 10;
 
+// The converged value of a block (and of frames.csv) for a frame that could not be
+// fitted.
+constexpr double kFrameFailed = -1.0;
+
 // Numbers in a block for latent size d, nb bones and ns surface vertices.
 int FrameBlockSize(int d, int nb, int ns);
 
@@ -54,6 +65,15 @@ int FrameBlockSize(int d, int nb, int ns);
 // `seconds`) as a block, FrameBlockSize(...) numbers for `model`.
 void PackFrameBlock(const ActiveModel& model, const LatentFitResult& fit,
                     const std::string& start, double seconds, std::vector<double>* block);
+
+// The block of a frame that could not be fitted: what `fit` counted (iterations,
+// factorizations; started from `start`, "" if none was chosen) in `seconds`, converged
+// kFrameFailed, and NaN for the errors, latent, bones and surface.
+void PackFailedFrameBlock(const ActiveModel& model, const LatentFitResult& fit,
+                          const std::string& start, double seconds, std::vector<double>* block);
+
+// Whether block `b` is of a frame that could not be fitted.
+inline bool BlockFailed(const double* b) { return b[7] == kFrameFailed; }
 
 // Frame f's row of frames.csv (no newline) from its block `b`.
 std::string FrameCsvRow(const ActiveModel& model, int f, const SequenceFrame& frame,

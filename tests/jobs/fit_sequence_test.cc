@@ -4,6 +4,7 @@
 
 #include "jobs/fit_sequence.h"
 
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -19,6 +20,7 @@
 #include "train/pretrain.h"
 #include "util/text_split.h"
 #include "testing/synthetic_muscles.h"
+#include "util/matrix_io.h"
 
 namespace aqs {
 namespace {
@@ -174,6 +176,88 @@ TEST_F(FitSequenceTest, IndependentFramesResumeWithTheSameResults) {
   EXPECT_EQ(damaged.status, JobStatus::kBadInput);
   EXPECT_NE(damaged.message.find("frames.csv:2: a number of the row"), std::string::npos)
       << damaged.message;
+}
+
+// Independent frames go on past a frame that cannot be fitted (here a scan shifted
+// beyond every start's reach): its row says converged -1 with "nan" figures, it has no
+// OBJ, the frames after it are fitted (as they are alone), and the run ends
+// kNotConverged, counting it. A rerun takes the failed frame as done; a warm-started run
+// in the folder fits it again.
+TEST_F(FitSequenceTest, IndependentFramesGoOnPastAFrameThatCannotBeFitted) {
+  const Eigen::Matrix3Xd& neutral = model_->neutral.vertices;
+  const double size = (neutral.rowwise().maxCoeff() - neutral.rowwise().minCoeff()).norm();
+  std::string error;
+  std::vector<std::string> scans;
+  for (int t = 0; t < 3; ++t) {
+    SurfaceMesh target;
+    ASSERT_TRUE(ReadObj(Target(t), &target, &error)) << error;
+    SurfaceMesh scan;  // every other vertex, as a point cloud
+    scan.vertices.resize(3, (target.vertices.cols() + 1) / 2);
+    for (Eigen::Index i = 0; i < scan.vertices.cols(); ++i) {
+      scan.vertices.col(i) = target.vertices.col(2 * i);
+    }
+    if (t == 1) {  // half the model's size across its thinnest extent
+      Eigen::Index thin = 0;
+      (neutral.rowwise().maxCoeff() - neutral.rowwise().minCoeff()).minCoeff(&thin);
+      scan.vertices.row(thin).array() += 0.5 * size;
+    }
+    scans.push_back(dir_->File("s" + std::to_string(t) + ".obj"));
+    ASSERT_TRUE(WriteObj(scans.back(), scan, &error)) << error;
+  }
+  auto run = [&](const std::vector<int>& order, const std::string& out, bool warm_start) {
+    FitSequenceOptions options = Options();
+    options.target_kind = "points";
+    options.points.max_distance = 0.05 * size;
+    for (int t : order) options.sequence += scans[t] + ",";
+    options.output_dir = dir_->File(out);
+    options.warm_start = warm_start;
+    std::ostringstream log;
+    FitSequenceResult result = RunFitSequence(options, *model_, log);
+    std::printf("%s", log.str().c_str());
+    return result;
+  };
+  const FitSequenceResult result = run({0, 1, 2}, "gaps", false);
+  EXPECT_EQ(result.status, JobStatus::kNotConverged);
+  EXPECT_EQ(result.frames_fitted, 3);
+  EXPECT_EQ(result.frames_failed, 1);
+  EXPECT_NE(result.message.find("1 of 3 frames could not be fitted (the first in this run: " +
+                                scans[1] + ": no start"),
+            std::string::npos)
+      << result.message;
+  EXPECT_TRUE(std::filesystem::exists(dir_->File("gaps/s0.obj")));
+  EXPECT_FALSE(std::filesystem::exists(dir_->File("gaps/s1.obj")));
+  EXPECT_TRUE(std::filesystem::exists(dir_->File("gaps/s2.obj")));
+  const auto rows = Rows(dir_->File("gaps/frames.csv"));
+  ASSERT_EQ(rows.count("s1"), 1u);
+  const std::vector<std::string>& failed = rows.at("s1");
+  EXPECT_EQ(failed[11], "-1");
+  EXPECT_EQ(failed[12], "none");
+  for (size_t c : {5u, 6u, 7u, 8u, 14u}) EXPECT_EQ(failed[c], "nan") << c;
+  const FitSequenceResult alone_result = run({0, 2}, "gaps_alone", false);
+  EXPECT_EQ(alone_result.status, JobStatus::kOk) << alone_result.message;
+  const auto alone = Rows(dir_->File("gaps_alone/frames.csv"));
+  EXPECT_EQ(rows.at("s0"), alone.at("s0"));
+  EXPECT_EQ(rows.at("s2"), alone.at("s2"));
+  Eigen::MatrixXd track;
+  ASSERT_TRUE(ReadMatrixFile(dir_->File("gaps/latents.bin"), 2, 3, &track, &error)) << error;
+  EXPECT_TRUE(track.col(1).array().isNaN().all());
+  EXPECT_TRUE(track.col(2).allFinite());
+
+  const FitSequenceResult again = run({0, 1, 2}, "gaps", false);
+  EXPECT_EQ(again.status, JobStatus::kNotConverged);
+  EXPECT_EQ(again.frames_resumed, 3);
+  EXPECT_EQ(again.frames_fitted, 0);
+  EXPECT_NE(again.message.find("1 of 3 frames could not be fitted (in an earlier run)"),
+            std::string::npos)
+      << again.message;
+
+  const FitSequenceResult warm = run({0, 1, 2}, "gaps", true);
+  EXPECT_EQ(warm.frames_resumed, 1);
+  EXPECT_EQ(warm.status, JobStatus::kNotConverged);
+  // From s0's result no scan point is near either: that fit fails too (it used to end
+  // "converged" where it started, with 0 points and error 0).
+  EXPECT_NE(warm.message.find(scans[1] + ": fewer than 3 of the scan's"), std::string::npos)
+      << warm.message;
 }
 
 }  // namespace
