@@ -55,9 +55,11 @@ bool IsWholeLogRow(const std::string& line) {
 // whole rows of iterations 0..iteration (a killed run may have logged further than it
 // saved, or left a partial row; a row repeated by an earlier version is kept once), or
 // starts a new log when there is no checkpoint (iteration 0: the run logs its row 0
-// again). Replaced atomically.
-bool PrepareLog(const std::string& dir, int iteration, std::string* error) {
+// again). Replaced atomically. *last_row is the last iteration kept (-1: none): less
+// than `iteration` if the log was cut or replaced apart from the model.
+bool PrepareLog(const std::string& dir, int iteration, int* last_row, std::string* error) {
   std::string kept = kLogHeader;
+  *last_row = -1;
   if (iteration > 0) {
     std::ifstream in(LogPath(dir));
     std::string line;
@@ -71,6 +73,7 @@ bool PrepareLog(const std::string& dir, int iteration, std::string* error) {
         last = it;
       }
     }
+    *last_row = last;
   }
   return WriteFileAtomically(LogPath(dir), kept, error);
 }
@@ -382,7 +385,19 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
   if (!options.model_directory.empty()) {
     std::error_code code;
     fs::create_directories(options.model_directory + "/train", code);
-    if (!PrepareLog(options.model_directory, report->iterations_before, error)) return false;
+    int last_row = -1;
+    if (!PrepareLog(options.model_directory, report->iterations_before, &last_row, error)) {
+      return false;
+    }
+    if (report->iterations_before > 0 && last_row < report->iterations_before) {
+      // The learned state is whole (it is saved as one unit); only the record is short.
+      log << "train: warning: " << options.model_directory << "/train/log.csv has rows up to "
+          << (last_row < 0 ? std::string("none") : "iteration " + std::to_string(last_row))
+          << ", but the checkpoint is of iteration " << report->iterations_before
+          << " (the log was cut or replaced apart from the model): its rows "
+          << last_row + 1 << " to " << report->iterations_before
+          << " are missing; training resumes after the checkpoint\n";
+    }
   }
   Eigen::VectorXd parameters = objective->ModelParameters();
   double cost = 0;

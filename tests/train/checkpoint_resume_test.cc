@@ -213,6 +213,33 @@ TEST_F(CheckpointResumeTest, EmptyCheckpointDoesNotTruncateTheLog) {
   EXPECT_TRUE(RowsAreZeroTo(testing::TrainingLogRows(LogPath()), 1));
 }
 
+// A log cut apart from the model (here to its first two rows) is kept as it is, the run
+// says which rows are missing, and training resumes after the checkpoint.
+TEST_F(CheckpointResumeTest, AShortLogIsReportedAndTrainingResumes) {
+  ASSERT_TRUE(Train(4));
+  std::ifstream in(LogPath());
+  std::string header, row0, row1;
+  std::getline(in, header);
+  std::getline(in, row0);
+  std::getline(in, row1);
+  in.close();
+  std::ofstream(LogPath()) << header << "\n" << row0 << "\n" << row1 << "\n";
+  TrainOptions options = options_;
+  options.max_iterations = 5;
+  std::ostringstream log;
+  std::string error;
+  ASSERT_TRUE(RunTrainJob(path_, options, false, log, &error)) << error;
+  EXPECT_NE(log.str().find("train/log.csv has rows up to iteration 1, but the checkpoint is of "
+                           "iteration 4 (the log was cut or replaced apart from the model): "
+                           "its rows 2 to 4 are missing"),
+            std::string::npos)
+      << log.str();
+  EXPECT_EQ(SavedIterations(), 5);
+  const std::vector<std::pair<int, double>> rows = testing::TrainingLogRows(LogPath());
+  ASSERT_EQ(rows.size(), 3u);
+  EXPECT_EQ(rows.back().first, 5);
+}
+
 // A file of the user's inside learned/, which a checkpoint would delete, stops training
 // before any work; pre-training likewise refuses a model holding foreign files.
 TEST_F(CheckpointResumeTest, ForeignFilesStopTheJobsBeforeTheWork) {
