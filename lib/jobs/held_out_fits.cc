@@ -53,11 +53,11 @@ Eigen::VectorXd AutoencoderStart(const SurfaceAutoencoder& autoencoder, const Ac
   return best;
 }
 
-bool FitHeldOutPoses(const ActiveModel& model, const LatentFitOptions& options,
+void FitHeldOutPoses(const ActiveModel& model, const LatentFitOptions& options,
                      bool training_pose_starts, const std::vector<std::string>& names,
                      const std::vector<Eigen::Matrix3Xd>& surfaces,
                      const Communicator* communicator, std::vector<LatentFitResult>* fits,
-                     std::vector<double>* seconds, std::string* error) {
+                     std::vector<double>* seconds) {
   const int count = static_cast<int>(names.size());
   const int rank = communicator == nullptr ? 0 : communicator->rank();
   const int size = communicator == nullptr ? 1 : communicator->size();
@@ -84,7 +84,7 @@ bool FitHeldOutPoses(const ActiveModel& model, const LatentFitOptions& options,
     if (fit.start == "given") fit.start = kMeanLatentStart;
     (*seconds)[t] = timer.Seconds();
   }
-  if (size == 1) return true;
+  if (size == 1) return;
   // Why each failed fit failed, from the rank that fitted it, for rank 0's log.
   for (int t = 0; t < count; ++t) {
     int failed = rank == t % size && (*fits)[t].failed ? 1 : 0;
@@ -125,7 +125,7 @@ bool FitHeldOutPoses(const ActiveModel& model, const LatentFitOptions& options,
   }
   std::vector<double> received(rank == 0 ? static_cast<size_t>(block) * count : 0);
   communicator->GatherToRoot(send.data(), counts, received.data());
-  if (rank != 0) return true;
+  if (rank != 0) return;
   const double* x = received.data();
   for (int r = 0; r < size; ++r) {
     for (int t : OwnedIndices(count, r, size)) {
@@ -160,7 +160,6 @@ bool FitHeldOutPoses(const ActiveModel& model, const LatentFitOptions& options,
       }
     }
   }
-  return true;
 }
 
 }  // namespace aqs

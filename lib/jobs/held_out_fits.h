@@ -37,16 +37,16 @@ Eigen::VectorXd AutoencoderStart(const SurfaceAutoencoder& autoencoder, const Ac
 // and rank 0 receives every result (*fits, *seconds: each fit's wall time on its rank).
 // A fit that fails (no start can be simulated, or its solve fails) does not stop the
 // others: its result has failed = true, message = why ("held-out pose 'x': ..."), start
-// kFailedFitStart and no surface or state; the evaluation leaves it out (n/a). Collective;
-// returns true (*error is not set: the failures are in *fits).
-// LatentFitResult::start of a held-out fit that failed.
-inline constexpr const char* kFailedFitStart = "failed";
-
-bool FitHeldOutPoses(const ActiveModel& model, const LatentFitOptions& options,
+// kFailedFitStart and no surface or state; the evaluation leaves it out (n/a).
+// Collective: every rank calls it with the same arguments.
+void FitHeldOutPoses(const ActiveModel& model, const LatentFitOptions& options,
                      bool training_pose_starts, const std::vector<std::string>& names,
                      const std::vector<Eigen::Matrix3Xd>& surfaces,
                      const Communicator* communicator, std::vector<LatentFitResult>* fits,
-                     std::vector<double>* seconds, std::string* error);
+                     std::vector<double>* seconds);
+
+// LatentFitResult::start of a held-out fit that failed.
+inline constexpr const char* kFailedFitStart = "failed";
 
 }  // namespace aqs
 
