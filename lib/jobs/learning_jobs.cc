@@ -1,6 +1,8 @@
 #include "jobs/learning_jobs.h"
 
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <sstream>
 
 #include "dist/communicator.h"
@@ -9,6 +11,7 @@
 #include "model/model_directory.h"
 #include "model/model_io.h"
 #include "train/progress.h"
+#include "util/atomic_file.h"
 #include "util/wall_timer.h"
 
 namespace aqs {
@@ -115,7 +118,21 @@ bool RunPretrainJob(const std::string& model_directory, const PretrainOptions& o
         << "; surface error over all surface vertices (model units):\n"
         << TrainingBudgetTable(model, &surface_errors, {});
   }
+  // The CSV log of pre-training goes into the new model (which replaces the folder).
+  std::string pretrain_log;
+  {
+    std::ifstream in(run.checkpoint_directory + "/" + kPretrainLogName);
+    pretrain_log.assign(std::istreambuf_iterator<char>(in), {});
+  }
   if (!SaveModel(model_directory, model, error)) return false;
+  if (!pretrain_log.empty()) {
+    std::error_code code;
+    std::filesystem::create_directories(run.checkpoint_directory, code);
+    if (!WriteFileAtomically(run.checkpoint_directory + "/" + kPretrainLogName, pretrain_log,
+                             error)) {
+      return false;
+    }
+  }
   if (simulation != nullptr &&
       !WritePretrainSurfaceErrors(model_directory, model, surface_errors, error)) {
     return false;

@@ -416,7 +416,7 @@ bool SaveModel(const std::string& directory, const ActiveModel& model,
   if (!CreateStagingDirectory(staging, error)) return false;
   bool ok = WriteAll(staging, model, error);
   for (const char* record : {"train/log.csv", "pretrain/surface_errors.bin",
-                             "pretrain/surface_errors.txt"}) {
+                             "pretrain/surface_errors.txt", "pretrain/log.csv"}) {
     const std::string from = target + "/" + record;
     if (!ok || !options.keep_records || !fs::exists(from)) continue;
     const std::string to = staging + "/" + record;

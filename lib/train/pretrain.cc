@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <limits>
 #include <sstream>
 
@@ -13,6 +15,8 @@
 #include "train/pretrain_checkpoint.h"
 #include "train/pretrain_objective.h"
 #include "train/progress.h"
+#include "util/iteration_log.h"
+#include "util/number_format.h"
 #include "util/option_checks.h"
 #include "util/wall_timer.h"
 
@@ -51,6 +55,31 @@ class TimeBudget final : public ceres::IterationCallback {
 
  private:
   double max_seconds_;
+  WallTimer timer_;
+};
+
+// Appends one row per iteration, "iteration,loss,gradient_norm,seconds", to the CSV log
+// at `path`, counting iterations and seconds after an earlier run's (`before`; its last
+// row is the checkpoint's, so a resumed run's row 0 is not repeated).
+class CsvLog final : public ceres::IterationCallback {
+ public:
+  CsvLog(std::string path, int iterations_before, double seconds_before)
+      : path_(std::move(path)), iterations_(iterations_before), seconds_(seconds_before) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
+    if (s.iteration == 0 && iterations_ > 0) return ceres::SOLVER_CONTINUE;
+    std::string row = std::to_string(iterations_ + s.iteration);
+    for (double value : {s.cost, s.gradient_norm, seconds_ + timer_.Seconds()}) {
+      row += ",";
+      AppendDouble(value, &row);
+    }
+    std::ofstream(path_, std::ios::app) << row << "\n";
+    return ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  std::string path_;
+  int iterations_;
+  double seconds_;
   WallTimer timer_;
 };
 
@@ -212,6 +241,23 @@ bool Pretrain(const PretrainOptions& options, ActiveModel* model, PretrainReport
           << ": " << why_not << "; starting anew\n";
     }
   }
+  // The CSV log beside the checkpoints, cut back to the checkpoint resumed.
+  const std::string log_path =
+      checkpoints ? options.checkpoint_directory + "/" + kPretrainLogName : std::string();
+  if (checkpoints) {
+    std::error_code code;
+    std::filesystem::create_directories(options.checkpoint_directory, code);
+    int last_row = -1;
+    if (!PrepareIterationLog(log_path, kPretrainLogHeader, start.iterations, &last_row,
+                             error)) {
+      return false;
+    }
+    if (start.iterations > 0 && last_row < start.iterations) {
+      log << "pretrain: warning: " << log_path << " has rows up to " << last_row
+          << ", the checkpoint is of iteration " << start.iterations
+          << ": rows are missing (the log was cut or replaced)\n";
+    }
+  }
   auto* objective = new PretrainObjective(*decoder, targets, weights,
                                          options.latent_regularization,
                                          options.decoder_regularization);
@@ -244,7 +290,13 @@ bool Pretrain(const PretrainOptions& options, ActiveModel* model, PretrainReport
   PretrainCheckpointWriter writer(options.checkpoint_directory, start,
                                   options.checkpoint_seconds, parameters.data(),
                                   static_cast<int>(parameters.size()));
-  if (checkpoints) solver_options.callbacks.push_back(&writer);
+  CsvLog csv_log(log_path, start.iterations, start.seconds);
+  if (checkpoints) {
+    // The row of an iteration goes before its checkpoint: a kill in between leaves a row
+    // more than the checkpoint, which the next run drops.
+    solver_options.callbacks.push_back(&csv_log);
+    solver_options.callbacks.push_back(&writer);
+  }
   // The checkpoints read the point reached from `parameters`.
   solver_options.update_state_every_iteration = checkpoints;
   ceres::GradientProblemSolver::Summary summary;

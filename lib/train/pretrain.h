@@ -30,6 +30,12 @@ const char* PretrainLatentStartName(PretrainLatentStart start);
 // Inverse of PretrainLatentStartName. Returns false for an unknown name.
 bool PretrainLatentStartFromName(const std::string& name, PretrainLatentStart* start);
 
+// Pre-training's CSV log in the checkpoint directory (with checkpoints only): one row
+// per iteration, kPretrainLogHeader's fields, row 0 the start (a resumed run continues
+// the rows up to its checkpoint).
+inline constexpr char kPretrainLogName[] = "log.csv";
+inline constexpr char kPretrainLogHeader[] = "iteration,loss,gradient_norm,seconds\n";
+
 struct PretrainOptions {
   DecoderSpec spec;                 // latent dimension, layers, activation, output scale
   GridActuationFieldOptions field;  // the decoder's output grid
@@ -44,9 +50,9 @@ struct PretrainOptions {
   // long pre-training keeps nothing until it ends.
   double max_seconds = 0.0;
   unsigned seed = 1;
-  // Checkpoints (train/pretrain_checkpoint.h) go into this folder (empty: none; in a
-  // model directory, pretrain/), at most every checkpoint_seconds of iterations (0:
-  // every iteration) and at the end. With resume, a checkpoint there that belongs to
+  // Checkpoints (train/pretrain_checkpoint.h) and the CSV log (kPretrainLogName) go into
+  // this folder (empty: none; in a model directory, pretrain/), checkpoints at most every
+  // checkpoint_seconds of iterations (0: every iteration) and at the end. With resume, a checkpoint there that belongs to
   // this model, its targets and these options is the start: its iterations and time
   // count towards max_iterations and max_seconds.
   std::string checkpoint_directory;

@@ -21,9 +21,8 @@
 #include "train/progress.h"
 #include "util/atomic_file.h"
 #include "util/blas.h"
-#include "util/line_reader.h"
+#include "util/iteration_log.h"
 #include "util/parallel_for.h"
-#include "util/text_split.h"
 #include "util/wall_timer.h"
 
 namespace aqs {
@@ -35,48 +34,6 @@ std::string LogPath(const std::string& dir) { return dir + "/train/log.csv"; }
 constexpr char kLogHeader[] =
     "iteration,loss,mean_surface_error,max_surface_error,gradient_norm,step_norm,seconds,"
     "function_evaluations,factorizations_per_pose,cg_solves_per_pose\n";
-
-// Whether `line` is a whole row of the log: the header's number of fields, each a finite
-// number (a run killed while appending leaves a partial row).
-bool IsWholeLogRow(const std::string& line) {
-  const std::vector<std::string> fields = SplitFields(line);
-  if (fields.size() != static_cast<size_t>(std::count(kLogHeader, kLogHeader +
-                                                      sizeof(kLogHeader) - 1, ',')) + 1) {
-    return false;
-  }
-  for (const std::string& field : fields) {
-    double value = 0.0;
-    if (!ParseDouble(field, &value)) return false;
-  }
-  return true;
-}
-
-// Prepares the CSV log for a run that continues after `iteration` iterations: keeps the
-// whole rows of iterations 0..iteration (a killed run may have logged further than it
-// saved, or left a partial row; a row repeated by an earlier version is kept once), or
-// starts a new log when there is no checkpoint (iteration 0: the run logs its row 0
-// again). Replaced atomically. *last_row is the last iteration kept (-1: none): less
-// than `iteration` if the log was cut or replaced apart from the model.
-bool PrepareLog(const std::string& dir, int iteration, int* last_row, std::string* error) {
-  std::string kept = kLogHeader;
-  *last_row = -1;
-  if (iteration > 0) {
-    std::ifstream in(LogPath(dir));
-    std::string line;
-    std::getline(in, line);  // header
-    int last = -1;
-    while (std::getline(in, line)) {
-      int it = -1;
-      if (std::sscanf(line.c_str(), "%d,", &it) == 1 && it > last && it <= iteration &&
-          IsWholeLogRow(line)) {
-        kept += line + "\n";
-        last = it;
-      }
-    }
-    *last_row = last;
-  }
-  return WriteFileAtomically(LogPath(dir), kept, error);
-}
 
 class TrainingCallback final : public ceres::IterationCallback {
  public:
@@ -149,7 +106,7 @@ class TrainingCallback final : public ceres::IterationCallback {
                     objective_.max_surface_error(), s.gradient_norm, s.step_norm, elapsed,
                     s.line_search_function_evaluations, factorizations, cg_solves);
       // Appended before the checkpoint of this iteration: a kill in between leaves one
-      // row more than the checkpoint, which the next run drops (PrepareLog).
+      // row more than the checkpoint, which the next run drops (PrepareIterationLog).
       std::ofstream(LogPath(options_.model_directory), std::ios::app) << row;
       const bool checkpoint = options_.checkpoint_every > 0 &&
                               s.iteration > 0 && s.iteration % options_.checkpoint_every == 0;
@@ -386,7 +343,8 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
     std::error_code code;
     fs::create_directories(options.model_directory + "/train", code);
     int last_row = -1;
-    if (!PrepareLog(options.model_directory, report->iterations_before, &last_row, error)) {
+    if (!PrepareIterationLog(LogPath(options.model_directory), kLogHeader,
+                             report->iterations_before, &last_row, error)) {
       return false;
     }
     if (report->iterations_before > 0 && last_row < report->iterations_before) {

@@ -139,6 +139,19 @@ class PretrainResumeTest : public ::testing::Test {
     return checkpoint;
   }
 
+  // Whether pretrain/log.csv has the rows of iterations 0..last, once each, in order.
+  ::testing::AssertionResult LogRowsAreZeroTo(int last) {
+    const auto rows = testing::TrainingLogRows(options_.checkpoint_directory + "/log.csv");
+    std::string got;
+    bool ok = static_cast<int>(rows.size()) == last + 1;
+    for (size_t i = 0; i < rows.size(); ++i) {
+      got += std::to_string(rows[i].first) + " ";
+      ok = ok && rows[i].first == static_cast<int>(i);
+    }
+    if (ok) return ::testing::AssertionSuccess();
+    return ::testing::AssertionFailure() << "log rows " << got << "; expected 0.." << last;
+  }
+
   testing::TempDir dir_;
   testing::SyntheticBarSpec spec_;
   ActiveModel model_;
@@ -169,12 +182,18 @@ TEST_F(PretrainResumeTest, ResumesAtTheCheckpointAndCountsItsIterations) {
   EXPECT_EQ(used_up.iterations, 6);
   EXPECT_EQ(same.decoder_params, first.decoder_params);
 
+  EXPECT_TRUE(LogRowsAreZeroTo(6));
+
   const PretrainReport resumed = Run(10);
   EXPECT_EQ(resumed.iterations_before, 6);
   EXPECT_EQ(resumed.iterations, 10);
   EXPECT_NEAR(resumed.initial_loss, saved.loss, 1e-12 * saved.loss);
   EXPECT_LT(resumed.final_loss, saved.loss);
   EXPECT_EQ(Saved().iterations, 10);
+  EXPECT_TRUE(LogRowsAreZeroTo(10));
+  const auto rows = testing::TrainingLogRows(options_.checkpoint_directory + "/log.csv");
+  EXPECT_EQ(rows[6].second, saved.loss);
+  EXPECT_EQ(rows[10].second, resumed.final_loss);
 
   const PretrainReport anew = Run(3, /*resume=*/false);
   EXPECT_EQ(anew.iterations_before, 0);
@@ -225,6 +244,12 @@ TEST(PretrainKillTest, AKilledRunResumesItsLastWholeCheckpoint) {
   std::snprintf(start, sizeof(start), "iterations, loss %.6g -> ", saved.loss);
   EXPECT_NE(log.str().find(start), std::string::npos) << start << "\n" << log.str();
   EXPECT_FALSE(fs::exists(path + "/pretrain/checkpoint.txt"));
+  // The log went into the saved model, whole: rows 0..8 once each (the killed run had
+  // logged row 2 past its checkpoint of iteration 1).
+  const auto rows = testing::TrainingLogRows(path + "/pretrain/log.csv");
+  ASSERT_EQ(rows.size(), 9u);
+  for (int i = 0; i <= 8; ++i) EXPECT_EQ(rows[i].first, i);
+  EXPECT_EQ(rows[1].second, saved.loss);
   ActiveModel done;
   ASSERT_TRUE(LoadModel(path, &done, &error)) << error;
 }

@@ -1,0 +1,46 @@
+#include "util/iteration_log.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+#include <vector>
+
+#include "util/atomic_file.h"
+#include "util/line_reader.h"
+#include "util/text_split.h"
+
+namespace aqs {
+
+bool IsWholeLogRow(const std::string& line, const std::string& header) {
+  const std::vector<std::string> fields = SplitFields(line);
+  if (fields.size() != static_cast<size_t>(std::count(header.begin(), header.end(), ',')) + 1) {
+    return false;
+  }
+  for (const std::string& field : fields) {
+    double value = 0.0;
+    if (!ParseDouble(field, &value)) return false;
+  }
+  return true;
+}
+
+bool PrepareIterationLog(const std::string& path, const std::string& header, int iteration,
+                         int* last_row, std::string* error) {
+  std::string kept = header;
+  *last_row = -1;
+  if (iteration > 0) {
+    std::ifstream in(path);
+    std::string line;
+    std::getline(in, line);  // header
+    while (std::getline(in, line)) {
+      int it = -1;
+      if (std::sscanf(line.c_str(), "%d,", &it) == 1 && it > *last_row && it <= iteration &&
+          IsWholeLogRow(line, header)) {
+        kept += line + "\n";
+        *last_row = it;
+      }
+    }
+  }
+  return WriteFileAtomically(path, kept, error);
+}
+
+}  // namespace aqs
