@@ -7,7 +7,8 @@
 Reads DIR/evaluation.csv (per pose and method: mean, rms, max vertex error; the error
 budget's rows `floor` and `pretrain`), the held-out poses' surfaces DIR/fitted/<pose>_target.obj
 and DIR/fitted/<pose>_<method>.obj (method: physics, autoencoder, pca, floor), and, with
---model, the model's neutral.obj and train/log.csv (the training curve). Writes into the
+--model, the model's neutral.obj, train/log.csv (the training curve) and pretrain/log.csv
+(the pre-training curve, where recorded). Writes into the
 output folder (default: DIR):
 
     images/<pose>.png        per held-out pose: front views of the pose, of each method's
@@ -16,6 +17,7 @@ output folder (default: DIR):
     images/train_<pose>.png  the budget's error maps of the training poses with the
                              largest trained error (from DIR/budget/training_errors.bin)
     images/training_curve.png
+    images/pretraining_curve.png
     index.html               the tables, the error budget and the pictures
 
 Error maps colour the distance of every vertex to the pose (model units) on the pose's
@@ -179,6 +181,21 @@ def read_training_log(path):
             except (KeyError, TypeError, ValueError):
                 raise InputError("%s:%d: expected iteration,loss,mean_surface_error,"
                                  "max_surface_error,..." % (path, number))
+    return columns
+
+
+def read_pretraining_log(path):
+    """Columns of pretrain/log.csv (iteration, loss, gradient_norm, seconds) as lists."""
+    with open(path, newline="") as f:
+        reader = csv.DictReader(f)
+        columns = {}
+        for number, row in enumerate(reader, 2):
+            try:
+                for key in ("iteration", "loss", "gradient_norm", "seconds"):
+                    columns.setdefault(key, []).append(float(row[key]))
+            except (KeyError, TypeError, ValueError):
+                raise InputError("%s:%d: expected iteration,loss,gradient_norm,seconds"
+                                 % (path, number))
     return columns
 
 
@@ -372,6 +389,19 @@ def training_curve(path, log, floor):
     right.semilogy(it, log["loss"], color="tab:orange", label="loss")
     right.set_ylabel("loss (log scale)", color="tab:orange")
     ax.set_title("End-to-end training")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def pretraining_curve(path, log):
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(7.5, 3.0))
+    ax.semilogy(log["iteration"], log["loss"], color="tab:orange")
+    ax.set_xlabel("L-BFGS iteration (0: the decoder's random start)")
+    ax.set_ylabel("loss (log scale)")
+    ax.grid(True, alpha=0.3)
+    ax.set_title("Pre-training: decoder and latents fitted to the volumetric targets")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -742,6 +772,20 @@ def main(argv):
                 print("evaluation_report: wrote %s" % curve_path)
         else:
             notes.append("No training curve: %s is missing." % log_path)
+        pretrain_path = os.path.join(args.model, "pretrain", "log.csv")
+        if os.path.exists(pretrain_path):
+            log = read_pretraining_log(pretrain_path)
+            if log.get("iteration"):
+                curve_path = os.path.join(images, "pretraining_curve.png")
+                pretraining_curve(curve_path, log)
+                figures.append({"kind": "curve", "src": "images/pretraining_curve.png",
+                                "alt": "pre-training curve", "caption":
+                                "Pre-training (%s): the loss (actuation error and "
+                                "regularizers) from %s to %s in %d iterations, %s s." % (
+                                    html.escape(pretrain_path), number(log["loss"][0]),
+                                    number(log["loss"][-1]), int(log["iteration"][-1]),
+                                    number(log["seconds"][-1]))})
+                print("evaluation_report: wrote %s" % curve_path)
     title = "Evaluation of %s" % (args.model or evaluation)
     index = os.path.join(output, "index.html")
     write_html(index, title, rows, figures, notes)

@@ -114,6 +114,11 @@ def make_evaluation(root):
         for it in range(6):
             f.write("%d,%g,%g,%g,0.1,0.1,%d,1\n" % (it, 0.01 / (it + 1), 0.05 / (it + 1),
                                                     0.5 / (it + 1), it))
+    os.makedirs(os.path.join(model, "pretrain"), exist_ok=True)
+    with open(os.path.join(model, "pretrain", "log.csv"), "w") as f:
+        f.write("iteration,loss,gradient_norm,seconds\n")
+        for it in range(4):
+            f.write("%d,%g,%g,%g\n" % (it, 0.1 / (it + 1), 0.01, 0.5 * it))
     return evaluation, model
 
 
@@ -156,7 +161,8 @@ def main():
             failures.append("the script failed (exit %d):\n%s" % (result.returncode,
                                                                   result.stdout))
         for name in ("images/smile.png", "images/budget.png", "images/training_curve.png",
-                     "images/train_train_0.png", "images/train_train_1.png", "index.html"):
+                     "images/pretraining_curve.png", "images/train_train_0.png",
+                     "images/train_train_1.png", "index.html"):
             path = os.path.join(evaluation, name)
             if not os.path.isfile(path) or os.path.getsize(path) == 0:
                 failures.append("%s was not written" % name)
@@ -168,7 +174,7 @@ def main():
         if os.path.isfile(index):
             page = open(index).read()
             for needle in ("images/smile.png", "images/budget.png", "images/training_curve.png",
-                           "images/train_train_1.png",
+                           "images/pretraining_curve.png", "images/train_train_1.png",
                            "<table>", "(a) floor", "(b) after pre-training", "smile",
                            "train_1", "0.1000"):
                 if needle not in page:
