@@ -106,7 +106,9 @@ class StiffnessFactorization {
   bool factorized() const { return cholesky_.factorized(); }
   // Runs CHOLMOD's symbolic analysis now (it otherwise runs in the first factorization),
   // e.g. to read the factor's size (cholesky().factor_nonzeros()) before factorizing.
-  void Analyze() { cholesky_.Analyze(); }
+  // False with *error (may be null) if it fails (SparseCholesky::Analyze); the sizes
+  // then read 0, and the first factorization tries again and reports the failure.
+  bool Analyze(std::string* error = nullptr) { return cholesky_.Analyze(error); }
   // Whether the factor is of values() as assembled (unshifted), so that Solve is exact.
   bool factor_current() const { return factor_current_; }
 

@@ -13,9 +13,8 @@ namespace aqs {
 
 struct SparseCholesky::Impl {
   cholmod_common common;
-  cholmod_sparse matrix;  // header only: points at the caller's pattern and our values
+  cholmod_sparse matrix;  // header only: points at the caller's pattern (and values)
   cholmod_factor* factor = nullptr;
-  std::vector<double> values;
   const std::vector<int64_t>* column_starts;
   const std::vector<int64_t>* row_indices;
 };
@@ -55,21 +54,33 @@ SparseCholesky::~SparseCholesky() {
   cholmod_l_finish(&impl_->common);
 }
 
-void SparseCholesky::Analyze() {
-  if (impl_->factor != nullptr) return;
+bool SparseCholesky::Analyze(std::string* error) {
+  if (impl_->factor != nullptr) return true;
   WallTimer timer;
-  // The analysis looks at the pattern only, but CHOLMOD wants a value array present.
-  impl_->values.assign(impl_->row_indices->size(), 0.0);
-  impl_->matrix.x = impl_->values.data();
+  // The analysis looks at the pattern only.
+  impl_->matrix.xtype = CHOLMOD_PATTERN;
+  impl_->matrix.x = nullptr;
   impl_->factor = cholmod_l_analyze(&impl_->matrix, &impl_->common);
-  CHECK(impl_->factor != nullptr) << "CHOLMOD symbolic analysis failed (status "
-                                  << impl_->common.status << ", out of memory?)";
+  impl_->matrix.xtype = CHOLMOD_REAL;
   analyze_seconds_ = timer.Seconds();
+  if (impl_->factor != nullptr) return true;
+  if (error != nullptr) {
+    std::ostringstream out;
+    out << "CHOLMOD's symbolic analysis of the " << n_ << " x " << n_ << " matrix ("
+        << impl_->row_indices->size() << " stored non-zeros) failed (status "
+        << impl_->common.status
+        << (impl_->common.status == CHOLMOD_OUT_OF_MEMORY ? ": out of memory" : "") << ")";
+    *error = out.str();
+  }
+  return false;
 }
 
 bool SparseCholesky::Factorize(const std::vector<double>& values, std::string* error) {
   CHECK_EQ(values.size(), impl_->row_indices->size());
-  Analyze();
+  if (!Analyze(error)) {
+    factorized_ = false;
+    return false;
+  }
   WallTimer timer;
   impl_->matrix.x = const_cast<double*>(values.data());
   const int ok = cholmod_l_factorize(&impl_->matrix, impl_->factor, &impl_->common);

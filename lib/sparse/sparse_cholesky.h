@@ -45,12 +45,16 @@ class SparseCholesky {
   SparseCholesky& operator=(const SparseCholesky&) = delete;
 
   // Numeric factorization of the matrix with these values (CSC order of the pattern).
-  // Returns false, with *error saying so, if the matrix is not positive definite;
+  // Returns false, with *error saying so, if the symbolic analysis or the factorization
+  // fails (out of memory), or if the matrix is not positive definite;
   // failed_column() is then the (original, unpermuted) index of the column where a
   // non-positive pivot appeared.
   bool Factorize(const std::vector<double>& values, std::string* error);
-  // Runs the symbolic analysis now (it otherwise runs in the first Factorize).
-  void Analyze();
+  // Runs the symbolic analysis now (it otherwise runs in the first Factorize). Returns
+  // false with *error (may be null) if CHOLMOD cannot (out of memory: the ordering's
+  // and the elimination tree's work space for a very large matrix); a later call tries
+  // again.
+  bool Analyze(std::string* error = nullptr);
 
   bool factorized() const { return factorized_; }
   int failed_column() const { return failed_column_; }

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cstdint>
 
+#include <glog/logging.h>
+
 #include "sparse/sparse_cholesky.h"
 
 namespace aqs {
@@ -43,7 +45,13 @@ std::vector<int> FillReducingVertexOrder(const Eigen::Matrix4Xi& tets,
   }
   column_starts[n] = static_cast<int64_t>(row_indices.size());
   SparseCholesky analysis(n, &column_starts, &row_indices);
-  analysis.Analyze();
+  std::string error;
+  if (!analysis.Analyze(&error)) {
+    // The vertices' own order is as valid, only slower to factorize; the factorizations
+    // that follow would meet the same shortage and report it.
+    LOG(WARNING) << "no fill-reducing vertex order: " << error;
+    return free_vertices;
+  }
   const std::vector<int64_t> perm = analysis.Permutation();
   std::vector<int> order(n);
   for (int k = 0; k < n; ++k) order[k] = free_vertices[perm[k]];

@@ -15,7 +15,8 @@ namespace aqs {
 // block order has the fill and supernodes CHOLMOD would produce itself.
 //
 // tets: 4 x num_elements; fixed: one flag per vertex (fixed vertices are left out).
-// Returns the free vertex indices in elimination order.
+// Returns the free vertex indices in elimination order (in their own order, with a
+// logged warning, if CHOLMOD's analysis fails: out of memory).
 std::vector<int> FillReducingVertexOrder(const Eigen::Matrix4Xi& tets,
                                          const std::vector<bool>& fixed);
 

@@ -44,6 +44,7 @@ EndToEndObjective::EndToEndObjective(const TrainOptions& options, const ActiveMo
   // One solver per pose if all their factors fit the budget: the first solver's
   // symbolic analysis gives the factor's size.
   auto first = std::make_unique<QuasistaticSolver>(physics_, bc, solver_options);
+  // (If the analysis fails, the sizes read 0 and the first solve reports the failure.)
   first->stiffness_factorization()->Analyze();
   // A solver's factor and its element SVD cache (physics/polar_cache.h). A solver per
   // pose preconditions its L-BFGS phase with its own earlier factor

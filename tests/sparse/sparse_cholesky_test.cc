@@ -1,5 +1,11 @@
 #include "sparse/sparse_cholesky.h"
 
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
 #include <random>
 
 #include <Eigen/Cholesky>
@@ -7,6 +13,7 @@
 
 #include "physics/boundary_conditions.h"
 #include "physics/stiffness_assembly.h"
+#include "testing/fault_kill.h"
 #include "testing/finite_difference.h"
 #include "testing/test_meshes.h"
 
@@ -59,6 +66,50 @@ TEST_F(SparseCholeskyTest, FactorBytesBoundTheFactorsStorage) {
   const double n = pattern_.num_dofs();
   EXPECT_GE(cholesky.factor_bytes(), 8.0 * cholesky.factor_nonzeros());
   EXPECT_LE(cholesky.factor_bytes(), 16.0 * n * (n + 1) / 2 + 64.0 * n);
+}
+
+// A symbolic analysis that runs out of memory (the child process's address space capped
+// just above what it holds) fails with a message instead of aborting the process, and so
+// does the factorization that needs it.
+TEST(SparseCholeskyMemoryTest, AnalysisOutOfMemoryIsAnError) {
+  // The upper triangle of a 7-point grid Laplacian on 60^3 nodes.
+  const int k = 60, n = k * k * k;
+  std::vector<int64_t> column_starts(n + 1, 0), row_indices;
+  row_indices.reserve(4 * static_cast<size_t>(n));
+  for (int c = 0; c < n; ++c) {
+    column_starts[c] = static_cast<int64_t>(row_indices.size());
+    for (int step : {k * k, k, 1}) {
+      if (c - step >= 0) row_indices.push_back(c - step);
+    }
+    std::sort(row_indices.begin() + column_starts[c], row_indices.end());
+    row_indices.push_back(c);
+  }
+  column_starts[n] = static_cast<int64_t>(row_indices.size());
+  const std::vector<double> values(row_indices.size(), 1.0);
+  const std::string outcome = testing::RunInChildKilledAt(-1, [&]() {
+    std::ifstream statm("/proc/self/statm");
+    long pages = 0;
+    statm >> pages;
+    struct rlimit limit;
+    limit.rlim_cur = limit.rlim_max =
+        static_cast<rlim_t>(pages) * static_cast<rlim_t>(sysconf(_SC_PAGESIZE)) + (2 << 20);
+    if (pages <= 0 || setrlimit(RLIMIT_AS, &limit) != 0) return false;
+    try {
+      SparseCholesky cholesky(n, &column_starts, &row_indices);
+      std::string error;
+      if (cholesky.Analyze(&error) || error.find("out of memory") == std::string::npos) {
+        std::fprintf(stderr, "analysis: '%s'\n", error.c_str());
+        return false;
+      }
+      error.clear();
+      return !cholesky.Factorize(values, &error) &&
+             error.find("symbolic analysis") != std::string::npos;
+    } catch (const std::exception& e) {  // not what is tested: end the child here
+      std::fprintf(stderr, "exception: %s\n", e.what());
+      return false;
+    }
+  });
+  EXPECT_EQ(outcome, "exit 0");
 }
 
 TEST_F(SparseCholeskyTest, ReportsIndefiniteMatrixAndRecovers) {
