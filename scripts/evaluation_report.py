@@ -169,34 +169,29 @@ def read_evaluation_csv(path):
     return rows
 
 
-def read_training_log(path):
-    """Columns of train/log.csv (iteration, loss, mean_surface_error, ...) as lists."""
+def read_log_columns(path, keys):
+    """The columns `keys` of a CSV log with a header line, as lists of floats."""
     with open(path, newline="") as f:
         reader = csv.DictReader(f)
         columns = {}
         for number, row in enumerate(reader, 2):
             try:
-                for key in ("iteration", "loss", "mean_surface_error", "max_surface_error"):
+                for key in keys:
                     columns.setdefault(key, []).append(float(row[key]))
             except (KeyError, TypeError, ValueError):
-                raise InputError("%s:%d: expected iteration,loss,mean_surface_error,"
-                                 "max_surface_error,..." % (path, number))
+                raise InputError("%s:%d: expected %s,..." % (path, number, ",".join(keys)))
     return columns
+
+
+def read_training_log(path):
+    """Columns of train/log.csv (iteration, loss, mean_surface_error, ...) as lists."""
+    return read_log_columns(path, ("iteration", "loss", "mean_surface_error",
+                                   "max_surface_error"))
 
 
 def read_pretraining_log(path):
     """Columns of pretrain/log.csv (iteration, loss, gradient_norm, seconds) as lists."""
-    with open(path, newline="") as f:
-        reader = csv.DictReader(f)
-        columns = {}
-        for number, row in enumerate(reader, 2):
-            try:
-                for key in ("iteration", "loss", "gradient_norm", "seconds"):
-                    columns.setdefault(key, []).append(float(row[key]))
-            except (KeyError, TypeError, ValueError):
-                raise InputError("%s:%d: expected iteration,loss,gradient_norm,seconds"
-                                 % (path, number))
-    return columns
+    return read_log_columns(path, ("iteration", "loss", "gradient_norm", "seconds"))
 
 
 def parse_vertex_ranges(text, count):
