@@ -396,7 +396,7 @@ def pretraining_curve(path, log):
     ax.set_xlabel("L-BFGS iteration (0: the decoder's random start)")
     ax.set_ylabel("loss (log scale)")
     ax.grid(True, alpha=0.3)
-    ax.set_title("Pre-training: decoder and latents fitted to the volumetric targets")
+    ax.set_title("Pre-training: the decoder (and latents) fitted to the volumetric targets")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

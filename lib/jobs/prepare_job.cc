@@ -13,6 +13,7 @@
 #include "model/model_directory.h"
 #include "model/model_io.h"
 #include "prepare/pose_files.h"
+#include "prepare/target_store.h"
 #include "util/option_checks.h"
 #include "util/wall_timer.h"
 
@@ -293,6 +294,8 @@ bool RunPrepare(const PrepareJobOptions& options, std::ostream& log, std::string
   log << "volumetric targets by embedded simulation:\n";
   VolumetricTargetOptions targets = options.targets;
   targets.num_threads = options.num_threads;
+  // Each pose's target is kept beside the model as it is made, for a rerun after a stop.
+  targets.store_directory = TargetStorePath(output);
   std::vector<std::string> unconverged;
   if (!MakeVolumetricTargets(targets, &model, log, error, &unconverged)) return false;
   double mean = 0, worst = 0;
@@ -306,6 +309,10 @@ bool RunPrepare(const PrepareJobOptions& options, std::ostream& log, std::string
   save.overwrite = options.overwrite;
   if (!SaveModel(output, model, save, error)) return false;
   log << "wrote model " << options.output << " (" << total.Seconds() << " s in all)\n";
+  std::string store_error;
+  if (!RemoveTargetStore(targets.store_directory, &store_error)) {
+    log << "warning: " << store_error << " (the targets kept while preparing)\n";
+  }
   if (!unconverged.empty()) {
     *status = JobStatus::kNotConverged;
     *error = "the embedded simulation did not converge for " + std::to_string(unconverged.size()) +

@@ -10,6 +10,7 @@
 
 #include "equilibrium/embedded_attachments.h"
 #include "geometry/embedding.h"
+#include "prepare/target_store.h"
 #include "util/parallel_for.h"
 #include "util/wall_timer.h"
 #include "util/option_checks.h"
@@ -71,8 +72,20 @@ bool MakeVolumetricTargets(const VolumetricTargetOptions& options, ActiveModel* 
   solver_options.num_threads = 1;  // parallel over poses instead
   std::mutex log_mutex;
   std::vector<std::string> failures(num_poses);
+  TargetStore store;
+  if (!options.store_directory.empty() &&
+      !store.Open(options.store_directory, VolumetricTargetKey(options, *model), error)) {
+    return false;
+  }
+  int from_store = 0;
   ParallelFor(threads, 0, num_poses, [&](int t, int p) {
     WallTimer timer;
+    TrainingPose& pose = model->poses[p];
+    if (store.Load(p, physics.num_elements(), &pose, &failures[p])) {
+      std::lock_guard<std::mutex> lock(log_mutex);
+      ++from_store;
+      return;
+    }
     Worker& w = workers[t];
     if (!w.solver) {
       w.solver = std::make_unique<QuasistaticSolver>(physics, PoseBoundaryConditions(*model, 0),
@@ -81,7 +94,6 @@ bool MakeVolumetricTargets(const VolumetricTargetOptions& options, ActiveModel* 
                                                         stiffness, model->mesh.vertices);
       w.solver->AddEnergyTerm(w.springs.get());
     }
-    TrainingPose& pose = model->poses[p];
     const BoundaryConditions bc = PoseBoundaryConditions(*model, p);
     const Eigen::Matrix3Xd rest_fixed = ModelBoundaryConditions(*model, RestBoneTransforms(*model)).positions;
     const Eigen::Matrix3Xd rest_points =
@@ -116,7 +128,11 @@ bool MakeVolumetricTargets(const VolumetricTargetOptions& options, ActiveModel* 
         (w.springs->Points(x) - pose.surface).colwise().norm();
     pose.embedding_mean_error = distance.mean();
     pose.embedding_max_error = distance.maxCoeff();
+    std::string store_error;
+    const bool stored = options.store_directory.empty() ||
+                        store.Save(p, pose, failures[p], &store_error);
     std::lock_guard<std::mutex> lock(log_mutex);
+    if (!stored) log << "  warning: pose '" << pose.name << "' not kept: " << store_error << "\n";
     log << "  " << std::left << std::setw(22) << pose.name << std::right << " surface error mean "
         << std::setprecision(3) << pose.embedding_mean_error << " max " << pose.embedding_max_error
         << " (pose moves up to " << (pose.surface - model->neutral.vertices).colwise().norm().maxCoeff()
@@ -125,6 +141,10 @@ bool MakeVolumetricTargets(const VolumetricTargetOptions& options, ActiveModel* 
         << timer.Seconds() << " s" << (report.converged ? "" : ", NOT CONVERGED") << "\n"
         << std::flush;
   }, 1);
+  if (from_store > 0) {
+    log << "  " << from_store << " of " << num_poses << " poses' targets were taken from "
+        << options.store_directory << " (an earlier run of the same preparation)\n";
+  }
   for (const std::string& failure : failures) {
     if (failure.empty()) continue;
     if (unconverged == nullptr) {

@@ -23,6 +23,10 @@ struct VolumetricTargetOptions {
   // A pose whose direct solve fails is retried in this many steps, moving the targets
   // and bones from rest to the pose.
   int continuation_steps = 4;
+  // Keep every pose's target in this folder as it is made (prepare/target_store.h;
+  // empty: none), and take the poses found there for this model and these options
+  // instead of solving them again: a stopped prepare resumes.
+  std::string store_directory;
 
   // Checks every field; false with *error naming the first bad one (util/option_checks.h).
   bool Validate(std::string* error) const;
