@@ -17,7 +17,7 @@ namespace aqs {
 // decoder and latents (train/pretrain.h), and saves the model (any earlier training
 // checkpoint, states and log are discarded: they belong to the old decoder). Pre-training
 // checkpoints go to the model's pretrain/ folder (options.checkpoint_directory is
-// replaced by it; train/pretrain_checkpoint.h): a killed run, run again with the same
+// replaced by it; train/solver_checkpoint.h): a killed run, run again with the same
 // options and options.resume, continues from the last one; saving the model removes
 // them. With
 // `simulation` (may be null: skipped), every pose's pre-trained latent is then decoded

@@ -49,7 +49,7 @@ bool IsModelFileName(const std::string& folder, const std::string& name) {
   static const std::set<std::string> kTrain = {"checkpoint.txt", "log.csv"};
   static const std::set<std::string> kLearned = {"decoder.txt", "latents.bin", "prior.txt",
                                                  "checkpoint.txt"};
-  // eval/error_budget.h: what pre-training reached; train/pretrain_checkpoint.h.
+  // eval/error_budget.h: what pre-training reached; train/solver_checkpoint.h.
   static const std::set<std::string> kPretrain = {"surface_errors.bin", "surface_errors.txt",
                                                   "checkpoint.txt", "parameters_a.bin",
                                                   "parameters_b.bin", "log.csv"};

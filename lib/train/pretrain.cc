@@ -11,10 +11,12 @@
 #include <ceres/gradient_problem_solver.h>
 #include <ceres/iteration_callback.h>
 
+#include "model/model_fingerprint.h"
 #include "train/latent_init.h"
-#include "train/pretrain_checkpoint.h"
+#include "train/solver_checkpoint.h"
 #include "train/pretrain_objective.h"
 #include "train/progress.h"
+#include "util/fnv_hash.h"
 #include "util/iteration_log.h"
 #include "util/number_format.h"
 #include "util/option_checks.h"
@@ -84,6 +86,35 @@ class CsvLog final : public ceres::IterationCallback {
 };
 
 }  // namespace
+
+CheckpointKey PretrainCheckpointKey(const PretrainOptions& options, const ActiveModel& model) {
+  uint64_t hash = kFnvOffsetBasis;
+  for (const TrainingPose& pose : model.poses) {
+    const Eigen::Index size = pose.target.size();
+    hash = Fnv1a(&size, sizeof(size), hash);
+    hash = Fnv1a(pose.target.data(), sizeof(double) * size, hash);
+  }
+  const DecoderSpec& spec = options.spec;
+  std::string hidden;
+  for (size_t i = 0; i < spec.hidden_dims.size(); ++i) {
+    hidden += (i ? "," : "") + std::to_string(spec.hidden_dims[i]);
+  }
+  std::ostringstream text;
+  text << "latent_dim=" << spec.latent_dim << " hidden=" << (hidden.empty() ? "none" : hidden)
+       << " activation=" << ActivationName(spec.activation)
+       << " output_scale=" << FormatDouble(spec.output_scale) << " anchored=" << spec.anchored
+       << " linear_skip=" << spec.linear_skip
+       << " node_spacing=" << FormatDouble(options.field.node_spacing)
+       << " node_spacing_factor=" << FormatDouble(options.field.node_spacing_factor)
+       << " per_element=" << options.field.per_element
+       << " latent_start=" << PretrainLatentStartName(options.latent_start)
+       << " latent_regularization=" << FormatDouble(options.latent_regularization)
+       << " decoder_regularization=" << FormatDouble(options.decoder_regularization)
+       << " seed=" << options.seed;
+  return {{"model", FingerprintText(ModelFingerprint(model))},
+          {"targets", FingerprintText(hash)},
+          {"options", text.str()}};
+}
 
 const char* PretrainLatentStartName(PretrainLatentStart start) {
   return start == PretrainLatentStart::kSurfaces ? "surfaces" : "targets";
@@ -219,16 +250,16 @@ bool Pretrain(const PretrainOptions& options, ActiveModel* model, PretrainReport
       << "\n";
 
   // A checkpoint of an earlier run of this pre-training: its point and its budget spent.
-  PretrainCheckpoint start;
+  SolverCheckpoint start;
   const bool checkpoints = !options.checkpoint_directory.empty();
   if (checkpoints) {
-    start.key = MakePretrainCheckpointKey(options, *model);
+    start.key = PretrainCheckpointKey(options, *model);
     std::string why_not;
-    PretrainCheckpoint found;
+    SolverCheckpoint found;
     if (!options.resume) {
       log << "pretrain: starting anew (an earlier run's checkpoint in "
           << options.checkpoint_directory << " is not resumed)\n";
-    } else if (ReadPretrainCheckpoint(options.checkpoint_directory, start.key,
+    } else if (ReadSolverCheckpoint(options.checkpoint_directory, start.key,
                                       static_cast<int>(parameters.size()), &found, &why_not)) {
       start = std::move(found);
       parameters = start.parameters;
@@ -287,9 +318,9 @@ bool Pretrain(const PretrainOptions& options, ActiveModel* model, PretrainReport
   solver_options.callbacks.push_back(&progress);
   TimeBudget budget(options.max_seconds, start.seconds);
   solver_options.callbacks.push_back(&budget);
-  PretrainCheckpointWriter writer(options.checkpoint_directory, start,
-                                  options.checkpoint_seconds, parameters.data(),
-                                  static_cast<int>(parameters.size()));
+  SolverCheckpointWriter writer(options.checkpoint_directory, start,
+                                options.checkpoint_seconds, parameters.data(),
+                                static_cast<int>(parameters.size()));
   CsvLog csv_log(log_path, start.iterations, start.seconds);
   if (checkpoints) {
     // The row of an iteration goes before its checkpoint: a kill in between leaves a row

@@ -7,6 +7,7 @@
 #include "learn/decoder.h"
 #include "learn/grid_actuation_field.h"
 #include "model/active_model.h"
+#include "train/solver_checkpoint.h"
 #include "util/memory_limit.h"
 
 namespace aqs {
@@ -50,7 +51,7 @@ struct PretrainOptions {
   // long pre-training keeps nothing until it ends.
   double max_seconds = 0.0;
   unsigned seed = 1;
-  // Checkpoints (train/pretrain_checkpoint.h) and the CSV log (kPretrainLogName) go into
+  // Checkpoints (train/solver_checkpoint.h, PretrainCheckpointKey) and the CSV log (kPretrainLogName) go into
   // this folder (empty: none; in a model directory, pretrain/), checkpoints at most every
   // checkpoint_seconds of iterations (0: every iteration) and at the end. With resume, a checkpoint there that belongs to
   // this model, its targets and these options is the start: its iterations and time
@@ -81,6 +82,12 @@ struct PretrainReport {
   double seconds = 0.0;  // this run's
   std::string termination;
 };
+
+// What a pre-training checkpoint belongs to: the model as prepared ("model":
+// ModelFingerprint), its volumetric targets ("targets": a hash of their numbers) and
+// every option that shapes the decoder or the loss ("options": spec, field, latent start,
+// regularizers, seed), not the budget, threads or memory limit.
+CheckpointKey PretrainCheckpointKey(const PretrainOptions& options, const ActiveModel& model);
 
 // The memory Pretrain needs for `model` with `options`, planned before anything is
 // allocated: the decoder (learn/decoder.h, DecoderMemoryBytes, for a batch of all

@@ -1,14 +1,13 @@
-#include "train/pretrain_checkpoint.h"
+#include "train/solver_checkpoint.h"
 
+#include <cmath>
 #include <filesystem>
 #include <map>
 #include <sstream>
 #include <utility>
 
-#include "model/model_fingerprint.h"
 #include "util/atomic_file.h"
 #include "util/fault_injection.h"
-#include "util/fnv_hash.h"
 #include "util/line_reader.h"
 #include "util/matrix_io.h"
 #include "util/number_format.h"
@@ -32,51 +31,17 @@ std::string CurrentSlot(const std::string& directory) {
   return "";
 }
 
-std::string WidthsText(const std::vector<int>& widths) {
-  std::string text;
-  for (size_t i = 0; i < widths.size(); ++i) text += (i ? "," : "") + std::to_string(widths[i]);
-  return text.empty() ? "none" : text;
-}
-
 }  // namespace
 
-PretrainCheckpointKey MakePretrainCheckpointKey(const PretrainOptions& options,
-                                                const ActiveModel& model) {
-  PretrainCheckpointKey key;
-  key.model = FingerprintText(ModelFingerprint(model));
-  uint64_t hash = kFnvOffsetBasis;
-  for (const TrainingPose& pose : model.poses) {
-    const Eigen::Index size = pose.target.size();
-    hash = Fnv1a(&size, sizeof(size), hash);
-    hash = Fnv1a(pose.target.data(), sizeof(double) * size, hash);
-  }
-  key.targets = FingerprintText(hash);
-  const DecoderSpec& spec = options.spec;
-  std::ostringstream text;
-  text << "latent_dim=" << spec.latent_dim << " hidden=" << WidthsText(spec.hidden_dims)
-       << " activation=" << ActivationName(spec.activation)
-       << " output_scale=" << FormatDouble(spec.output_scale) << " anchored=" << spec.anchored
-       << " linear_skip=" << spec.linear_skip
-       << " node_spacing=" << FormatDouble(options.field.node_spacing)
-       << " node_spacing_factor=" << FormatDouble(options.field.node_spacing_factor)
-       << " per_element=" << options.field.per_element
-       << " latent_start=" << PretrainLatentStartName(options.latent_start)
-       << " latent_regularization=" << FormatDouble(options.latent_regularization)
-       << " decoder_regularization=" << FormatDouble(options.decoder_regularization)
-       << " seed=" << options.seed;
-  key.options = text.str();
-  return key;
-}
-
-bool ReadPretrainCheckpoint(const std::string& directory, const PretrainCheckpointKey& key,
-                            int num_parameters, PretrainCheckpoint* checkpoint,
-                            std::string* why_not) {
+bool ReadSolverCheckpoint(const std::string& directory, const CheckpointKey& key,
+                          int num_parameters, SolverCheckpoint* checkpoint,
+                          std::string* why_not) {
   why_not->clear();
   const std::string path = TextPath(directory);
   std::error_code code;
   if (!std::filesystem::exists(path, code)) return false;
   LineReader reader(path);
-  std::map<std::string, std::string> values;
+  std::map<std::string, std::string> values, keys;
   std::string slot;
   long long count = -1;
   while (reader.NextLine()) {
@@ -85,6 +50,16 @@ bool ReadPretrainCheckpoint(const std::string& directory, const PretrainCheckpoi
     const size_t space = line.find(' ');
     const std::string name = line.substr(0, space);
     const std::string value = space == std::string::npos ? "" : line.substr(space + 1);
+    if (name == "key") {
+      const size_t split = value.find(' ');
+      const std::string key_name = value.substr(0, split);
+      if (keys.count(key_name) > 0) {
+        *why_not = reader.Where("key '" + key_name + "' given twice");
+        return false;
+      }
+      keys[key_name] = split == std::string::npos ? "" : value.substr(split + 1);
+      continue;
+    }
     if (values.count(name) > 0) {
       *why_not = reader.Where("'" + name + "' given twice");
       return false;
@@ -105,27 +80,26 @@ bool ReadPretrainCheckpoint(const std::string& directory, const PretrainCheckpoi
     *why_not = reader.error();
     return false;
   }
-  for (const char* name : {"model", "targets", "options", "iterations", "seconds", "loss",
-                           "parameters"}) {
+  for (const char* name : {"iterations", "seconds", "loss", "parameters"}) {
     if (values.count(name) == 0) {
       *why_not = path + ": no '" + name + "' line";
       return false;
     }
   }
-  if (values["model"] != key.model) {
-    *why_not = "it belongs to another prepared model (fingerprint " + values["model"] +
-               ", this model's is " + key.model + ")";
+  for (const auto& [name, value] : key) {
+    const auto saved = keys.find(name);
+    if (saved == keys.end() || saved->second != value) {
+      *why_not = "'" + name + "' differs (" +
+                 (saved == keys.end() ? std::string("none") : saved->second) + "; now " +
+                 value + ")";
+      return false;
+    }
+  }
+  if (keys.size() != key.size()) {
+    *why_not = path + ": it has other key entries than this run's";
     return false;
   }
-  if (values["targets"] != key.targets) {
-    *why_not = "it belongs to other volumetric targets (the model was prepared again)";
-    return false;
-  }
-  if (values["options"] != key.options) {
-    *why_not = "it belongs to other options (" + values["options"] + "; now " + key.options + ")";
-    return false;
-  }
-  PretrainCheckpoint read;
+  SolverCheckpoint read;
   read.key = key;
   if (!ParseInt(values["iterations"], &read.iterations) || read.iterations < 0 ||
       !ParseDouble(values["seconds"], &read.seconds) || !(read.seconds >= 0) ||
@@ -134,8 +108,8 @@ bool ReadPretrainCheckpoint(const std::string& directory, const PretrainCheckpoi
     return false;
   }
   if (count != num_parameters) {
-    *why_not = path + ": it holds " + std::to_string(count) + " parameters, the decoder and "
-               "latents have " + std::to_string(num_parameters);
+    *why_not = path + ": it holds " + std::to_string(count) + " parameters, this run has " +
+               std::to_string(num_parameters);
     return false;
   }
   Eigen::MatrixXd parameters;
@@ -151,8 +125,8 @@ bool ReadPretrainCheckpoint(const std::string& directory, const PretrainCheckpoi
   return true;
 }
 
-bool WritePretrainCheckpoint(const std::string& directory, const PretrainCheckpoint& checkpoint,
-                             std::string* error) {
+bool WriteSolverCheckpoint(const std::string& directory, const SolverCheckpoint& checkpoint,
+                           std::string* error) {
   std::error_code code;
   std::filesystem::create_directories(directory, code);
   if (code) {
@@ -161,23 +135,21 @@ bool WritePretrainCheckpoint(const std::string& directory, const PretrainCheckpo
   }
   const std::string slot = CurrentSlot(directory) == kSlots[0] ? kSlots[1] : kSlots[0];
   if (!WriteMatrixFile(directory + "/" + slot, checkpoint.parameters, error)) return false;
-  FaultPoint("pretrain_checkpoint:parameters_written");
+  FaultPoint("solver_checkpoint:parameters_written");
   std::ostringstream text;
-  text << "# ActiveQS pre-training checkpoint (train/pretrain_checkpoint.h)\n"
-       << "model " << checkpoint.key.model << "\n"
-       << "targets " << checkpoint.key.targets << "\n"
-       << "options " << checkpoint.key.options << "\n"
-       << "iterations " << checkpoint.iterations << "\n"
+  text << "# ActiveQS solver checkpoint (train/solver_checkpoint.h)\n";
+  for (const auto& [name, value] : checkpoint.key) text << "key " << name << " " << value << "\n";
+  text << "iterations " << checkpoint.iterations << "\n"
        << "seconds " << FormatDouble(checkpoint.seconds) << "\n"
        << "loss " << FormatDouble(checkpoint.loss) << "\n"
        << "parameters " << slot << " " << checkpoint.parameters.size() << "\n";
   return WriteFileAtomically(TextPath(directory), text.str(), error);
 }
 
-PretrainCheckpointWriter::PretrainCheckpointWriter(std::string directory,
-                                                   const PretrainCheckpoint& start,
-                                                   double every_seconds, const double* parameters,
-                                                   int num_parameters)
+SolverCheckpointWriter::SolverCheckpointWriter(std::string directory,
+                                               const SolverCheckpoint& start,
+                                               double every_seconds, const double* parameters,
+                                               int num_parameters)
     : directory_(std::move(directory)),
       every_seconds_(every_seconds),
       parameters_(parameters),
@@ -187,7 +159,7 @@ PretrainCheckpointWriter::PretrainCheckpointWriter(std::string directory,
   checkpoint_.key = start.key;
 }
 
-ceres::CallbackReturnType PretrainCheckpointWriter::operator()(
+ceres::CallbackReturnType SolverCheckpointWriter::operator()(
     const ceres::IterationSummary& summary) {
   if (summary.iteration == 0 || since_write_.Seconds() < every_seconds_) {
     return ceres::SOLVER_CONTINUE;
@@ -196,12 +168,12 @@ ceres::CallbackReturnType PretrainCheckpointWriter::operator()(
                                                                     : ceres::SOLVER_ABORT;
 }
 
-bool PretrainCheckpointWriter::Write(int iterations, double loss) {
+bool SolverCheckpointWriter::Write(int iterations, double loss) {
   checkpoint_.iterations = iterations;
   checkpoint_.seconds = start_seconds_ + run_timer_.Seconds();
   checkpoint_.loss = loss;
   checkpoint_.parameters = Eigen::Map<const Eigen::VectorXd>(parameters_, num_parameters_);
-  if (!WritePretrainCheckpoint(directory_, checkpoint_, &error_)) return false;
+  if (!WriteSolverCheckpoint(directory_, checkpoint_, &error_)) return false;
   since_write_.Reset();
   ++checkpoints_;
   return true;

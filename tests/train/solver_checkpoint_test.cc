@@ -1,7 +1,8 @@
-// Pre-training checkpoints: what they hold, when they are resumed and when not, and a
-// pre-training killed between a checkpoint's two files.
+// Solver checkpoints (train/solver_checkpoint.h) and pre-training's use of them: what
+// they hold, when they are resumed and when not, and a pre-training killed between a
+// checkpoint's two files.
 
-#include "train/pretrain_checkpoint.h"
+#include "train/solver_checkpoint.h"
 
 #include <cmath>
 #include <cstdio>
@@ -23,16 +24,14 @@ namespace {
 
 namespace fs = std::filesystem;
 
-PretrainCheckpointKey SomeKey() {
-  PretrainCheckpointKey key;
-  key.model = "00000000000000ab";
-  key.targets = "00000000000000cd";
-  key.options = "latent_dim=2 hidden=8";
-  return key;
+CheckpointKey SomeKey() {
+  return {{"model", "00000000000000ab"},
+          {"targets", "00000000000000cd"},
+          {"options", "latent_dim=2 hidden=8"}};
 }
 
-PretrainCheckpoint SomeCheckpoint(int iterations) {
-  PretrainCheckpoint checkpoint;
+SolverCheckpoint SomeCheckpoint(int iterations) {
+  SolverCheckpoint checkpoint;
   checkpoint.key = SomeKey();
   checkpoint.iterations = iterations;
   checkpoint.seconds = 1.25 * iterations;
@@ -43,16 +42,16 @@ PretrainCheckpoint SomeCheckpoint(int iterations) {
 
 // The slots are written in turn; the checkpoint read is always the one last written,
 // exactly (numbers round-trip).
-TEST(PretrainCheckpointTest, RoundTripsAndAlternatesSlots) {
+TEST(SolverCheckpointTest, RoundTripsAndAlternatesSlots) {
   testing::TempDir dir;
   std::string error, why_not;
-  PretrainCheckpoint read;
-  EXPECT_FALSE(ReadPretrainCheckpoint(dir.path(), SomeKey(), 7, &read, &why_not));
+  SolverCheckpoint read;
+  EXPECT_FALSE(ReadSolverCheckpoint(dir.path(), SomeKey(), 7, &read, &why_not));
   EXPECT_EQ(why_not, "");  // none: not an error
   for (int iterations : {4, 9, 13}) {
-    ASSERT_TRUE(WritePretrainCheckpoint(dir.path(), SomeCheckpoint(iterations), &error)) << error;
-    ASSERT_TRUE(ReadPretrainCheckpoint(dir.path(), SomeKey(), 7, &read, &why_not)) << why_not;
-    const PretrainCheckpoint expected = SomeCheckpoint(iterations);
+    ASSERT_TRUE(WriteSolverCheckpoint(dir.path(), SomeCheckpoint(iterations), &error)) << error;
+    ASSERT_TRUE(ReadSolverCheckpoint(dir.path(), SomeKey(), 7, &read, &why_not)) << why_not;
+    const SolverCheckpoint expected = SomeCheckpoint(iterations);
     EXPECT_EQ(read.iterations, iterations);
     EXPECT_EQ(read.seconds, expected.seconds);
     EXPECT_EQ(read.loss, expected.loss);
@@ -64,42 +63,49 @@ TEST(PretrainCheckpointTest, RoundTripsAndAlternatesSlots) {
 
 // A checkpoint of other options, another model, other targets or another parameter
 // count is not resumed, and the reason says which.
-TEST(PretrainCheckpointTest, ACheckpointOfSomethingElseIsNotResumed) {
+TEST(SolverCheckpointTest, ACheckpointOfSomethingElseIsNotResumed) {
   testing::TempDir dir;
   std::string error, why_not;
-  ASSERT_TRUE(WritePretrainCheckpoint(dir.path(), SomeCheckpoint(4), &error)) << error;
-  PretrainCheckpoint read;
-  PretrainCheckpointKey key = SomeKey();
-  key.options = "latent_dim=3 hidden=8";
-  EXPECT_FALSE(ReadPretrainCheckpoint(dir.path(), key, 7, &read, &why_not));
-  EXPECT_NE(why_not.find("other options"), std::string::npos) << why_not;
+  ASSERT_TRUE(WriteSolverCheckpoint(dir.path(), SomeCheckpoint(4), &error)) << error;
+  SolverCheckpoint read;
+  CheckpointKey key = SomeKey();
+  key[2].second = "latent_dim=3 hidden=8";
+  EXPECT_FALSE(ReadSolverCheckpoint(dir.path(), key, 7, &read, &why_not));
+  EXPECT_NE(why_not.find("'options' differs (latent_dim=2 hidden=8; now latent_dim=3 "
+                         "hidden=8)"),
+            std::string::npos)
+      << why_not;
   key = SomeKey();
-  key.model = "00000000000000ff";
-  EXPECT_FALSE(ReadPretrainCheckpoint(dir.path(), key, 7, &read, &why_not));
-  EXPECT_NE(why_not.find("another prepared model"), std::string::npos) << why_not;
+  key[0].second = "00000000000000ff";
+  EXPECT_FALSE(ReadSolverCheckpoint(dir.path(), key, 7, &read, &why_not));
+  EXPECT_NE(why_not.find("'model' differs"), std::string::npos) << why_not;
   key = SomeKey();
-  key.targets = "00000000000000ff";
-  EXPECT_FALSE(ReadPretrainCheckpoint(dir.path(), key, 7, &read, &why_not));
-  EXPECT_NE(why_not.find("targets"), std::string::npos) << why_not;
-  EXPECT_FALSE(ReadPretrainCheckpoint(dir.path(), SomeKey(), 8, &read, &why_not));
+  key[1].second = "00000000000000ff";
+  EXPECT_FALSE(ReadSolverCheckpoint(dir.path(), key, 7, &read, &why_not));
+  EXPECT_NE(why_not.find("'targets' differs"), std::string::npos) << why_not;
+  key = SomeKey();
+  key.push_back({"surfaces", "1"});
+  EXPECT_FALSE(ReadSolverCheckpoint(dir.path(), key, 7, &read, &why_not));
+  EXPECT_NE(why_not.find("'surfaces' differs (none; now 1)"), std::string::npos) << why_not;
+  EXPECT_FALSE(ReadSolverCheckpoint(dir.path(), SomeKey(), 8, &read, &why_not));
   EXPECT_NE(why_not.find("7 parameters"), std::string::npos) << why_not;
 }
 
 // A damaged checkpoint (a line missing, its parameters file gone) is not resumed, and the
 // reason names the file.
-TEST(PretrainCheckpointTest, ADamagedCheckpointNamesItsFile) {
+TEST(SolverCheckpointTest, ADamagedCheckpointNamesItsFile) {
   testing::TempDir dir;
   std::string error, why_not;
-  ASSERT_TRUE(WritePretrainCheckpoint(dir.path(), SomeCheckpoint(4), &error)) << error;
-  PretrainCheckpoint read;
+  ASSERT_TRUE(WriteSolverCheckpoint(dir.path(), SomeCheckpoint(4), &error)) << error;
+  SolverCheckpoint read;
   fs::remove(dir.File("parameters_a.bin"));
-  EXPECT_FALSE(ReadPretrainCheckpoint(dir.path(), SomeKey(), 7, &read, &why_not));
+  EXPECT_FALSE(ReadSolverCheckpoint(dir.path(), SomeKey(), 7, &read, &why_not));
   EXPECT_NE(why_not.find("parameters_a.bin"), std::string::npos) << why_not;
   std::ifstream in(dir.File("checkpoint.txt"));
   std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   text = text.substr(0, text.find("loss "));
   std::ofstream(dir.File("checkpoint.txt")) << text;
-  EXPECT_FALSE(ReadPretrainCheckpoint(dir.path(), SomeKey(), 7, &read, &why_not));
+  EXPECT_FALSE(ReadSolverCheckpoint(dir.path(), SomeKey(), 7, &read, &why_not));
   EXPECT_NE(why_not.find("checkpoint.txt: no 'loss' line"), std::string::npos) << why_not;
 }
 
@@ -128,12 +134,12 @@ class PretrainResumeTest : public ::testing::Test {
     return report;
   }
 
-  PretrainCheckpoint Saved() {
-    PretrainCheckpoint checkpoint;
+  SolverCheckpoint Saved() {
+    SolverCheckpoint checkpoint;
     std::string why_not;
     const int count = static_cast<int>(model_.decoder_params.size() + model_.latents.size());
-    EXPECT_TRUE(ReadPretrainCheckpoint(options_.checkpoint_directory,
-                                       MakePretrainCheckpointKey(options_, model_), count,
+    EXPECT_TRUE(ReadSolverCheckpoint(options_.checkpoint_directory,
+                                       PretrainCheckpointKey(options_, model_), count,
                                        &checkpoint, &why_not))
         << why_not;
     return checkpoint;
@@ -168,7 +174,7 @@ TEST_F(PretrainResumeTest, ResumesAtTheCheckpointAndCountsItsIterations) {
   EXPECT_EQ(fresh.iterations_before, 0);
   EXPECT_EQ(fresh.iterations, 6);
   EXPECT_GE(fresh.checkpoints, 6);
-  const PretrainCheckpoint saved = Saved();
+  const SolverCheckpoint saved = Saved();
   EXPECT_EQ(saved.iterations, 6);
   EXPECT_EQ(saved.loss, fresh.final_loss);
   const Eigen::Index np = first.decoder_params.size();
@@ -220,7 +226,7 @@ TEST(PretrainKillTest, AKilledRunResumesItsLastWholeCheckpoint) {
   testing::TempDir dir;
   const std::string path = dir.File("m");
   ASSERT_NO_FATAL_FAILURE(testing::WritePretrainedSyntheticModel(path, 3, 11, 8, 2));
-  ASSERT_EQ(testing::RunProgram({AQS_KILL_AT, "pretrain_checkpoint:parameters_written", "1",
+  ASSERT_EQ(testing::RunProgram({AQS_KILL_AT, "solver_checkpoint:parameters_written", "1",
                                  path, "8", "pretrain"}),
             "killed");
   testing::SyntheticBarSpec spec;
@@ -230,8 +236,8 @@ TEST(PretrainKillTest, AKilledRunResumesItsLastWholeCheckpoint) {
   ActiveModel model;
   std::string error, why_not;
   ASSERT_TRUE(LoadModel(path, &model, &error)) << error;
-  PretrainCheckpoint saved;
-  ASSERT_TRUE(ReadPretrainCheckpoint(path + "/pretrain", MakePretrainCheckpointKey(options, model),
+  SolverCheckpoint saved;
+  ASSERT_TRUE(ReadSolverCheckpoint(path + "/pretrain", PretrainCheckpointKey(options, model),
                                      static_cast<int>(model.decoder_params.size() +
                                                       model.latents.size()),
                                      &saved, &why_not))

@@ -1,0 +1,85 @@
+#ifndef AQS_TRAIN_SOLVER_CHECKPOINT_H_
+#define AQS_TRAIN_SOLVER_CHECKPOINT_H_
+
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+#include <ceres/iteration_callback.h>
+
+#include "util/wall_timer.h"
+
+namespace aqs {
+
+// Checkpoints of a Ceres GradientProblemSolver run (pre-training, the auto-encoder
+// baseline), so that a killed run resumes where it was. A folder:
+//
+//   checkpoint.txt     "key <name> <value>" per key entry, "iterations N", "seconds S",
+//                      "loss L", "parameters <file> <count>"
+//   parameters_a.bin   one of two slots, written in turn (util/matrix_io.h, count x 1:
+//   parameters_b.bin   the solver's parameter vector)
+//
+// A checkpoint is written into the slot checkpoint.txt does not name, then
+// checkpoint.txt (atomically) names it: a process killed at any moment leaves a whole
+// checkpoint, the old or the new one.
+
+// What a checkpoint's parameters belong to: named values (names without spaces, values
+// on one line) that must all be equal for the checkpoint to be resumed: what the data
+// and the options that shape the result are, not the budget (iterations, time),
+// threads or memory limit, which a resumed run may change.
+using CheckpointKey = std::vector<std::pair<std::string, std::string>>;
+
+struct SolverCheckpoint {
+  CheckpointKey key;
+  int iterations = 0;     // iterations done, in all runs
+  double seconds = 0.0;   // wall time spent in them, in all runs
+  double loss = 0.0;      // the objective at `parameters`
+  Eigen::VectorXd parameters;
+};
+
+// Reads the checkpoint in `directory` if there is one that belongs to `key` with
+// `num_parameters` parameters. Returns true with *checkpoint filled if so. Returns false
+// with *why_not empty if there is no checkpoint, or saying why the one there is not
+// used ("'options' differs (saved; now)", a damaged file named with its line).
+bool ReadSolverCheckpoint(const std::string& directory, const CheckpointKey& key,
+                          int num_parameters, SolverCheckpoint* checkpoint,
+                          std::string* why_not);
+
+// Writes `checkpoint` into `directory` (created if missing) as described above.
+// Returns false with *error on failure (the checkpoint there before is kept).
+bool WriteSolverCheckpoint(const std::string& directory, const SolverCheckpoint& checkpoint,
+                           std::string* error);
+
+// A Ceres iteration callback that writes a checkpoint of the solver's current point
+// (the array `parameters` of `num_parameters`, which the solver must update every
+// iteration: update_state_every_iteration) at most every `every_seconds` seconds
+// (0: every iteration), counting iterations and time after `start`'s. A failed write
+// stops the solver (SOLVER_ABORT, error() says why): work that cannot be kept is not
+// done. Write() writes the point reached (at the end of a solve).
+class SolverCheckpointWriter final : public ceres::IterationCallback {
+ public:
+  SolverCheckpointWriter(std::string directory, const SolverCheckpoint& start,
+                         double every_seconds, const double* parameters, int num_parameters);
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& summary) override;
+  bool Write(int iterations, double loss);
+  const std::string& error() const { return error_; }
+  int checkpoints() const { return checkpoints_; }
+
+ private:
+  std::string directory_;
+  SolverCheckpoint checkpoint_;
+  double every_seconds_;
+  const double* parameters_;
+  int num_parameters_;
+  int start_iterations_;
+  double start_seconds_;
+  WallTimer run_timer_;
+  WallTimer since_write_;
+  int checkpoints_ = 0;
+  std::string error_;
+};
+
+}  // namespace aqs
+
+#endif  // AQS_TRAIN_SOLVER_CHECKPOINT_H_
