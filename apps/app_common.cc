@@ -86,6 +86,9 @@ bool CheckFlagfiles(const std::string& list, int depth, std::string* error) {
 }  // namespace
 
 void InitApp(const std::string& usage, int* argc, char*** argv) {
+  // Line-buffered standard output, as on a terminal, also into a file or a pipe: a long
+  // run's log shows each line as it is printed, and a killed run keeps what it printed.
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);
   gflags::SetUsageMessage(usage);
   gflags::ParseCommandLineNonHelpFlags(argc, argv, true);
   // gflags' own --helpshort lists only the flags of the file holding main(). An app also

@@ -17,7 +17,9 @@ namespace aqs {
 // *error naming the flag for any other --solver value.
 bool SolverMethodFromFlag(QuasistaticSolverOptions* options, std::string* error);
 
-// Parses gflags (with `usage`), sets up glog to print warnings and errors on stderr.
+// Makes standard output line-buffered (a log file shows each line as it is printed and
+// keeps it if the process is killed), parses gflags (with `usage`), sets up glog to
+// print warnings and errors on stderr.
 // --helpshort lists every flag the app takes (its own, app_common.cc's and those of the
 // apps/*_flags.cc units it links), grouped by defining file, and exits with status 1 as
 // gflags' --help does. Exits with status 1 and a message if positional arguments are

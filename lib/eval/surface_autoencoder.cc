@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <sstream>
 #include <string>
 
 #include <ceres/gradient_problem.h>
@@ -16,6 +17,9 @@
 #include "fit/latent_prior.h"
 #include "train/latent_init.h"
 #include "train/progress.h"
+#include "train/solver_checkpoint.h"
+#include "util/fnv_hash.h"
+#include "util/number_format.h"
 #include "util/wall_timer.h"
 #include "util/option_checks.h"
 
@@ -112,6 +116,9 @@ std::string CheckOptions(const SurfaceAutoencoderOptions& options) {
     return "latent_regularization must be a non-negative number";
   }
   if (options.max_iterations < 0) return "max_iterations must not be negative";
+  if (!(options.checkpoint_seconds >= 0) || !std::isfinite(options.checkpoint_seconds)) {
+    return "checkpoint_seconds must be a non-negative number";
+  }
   return "";
 }
 
@@ -183,6 +190,7 @@ bool SurfaceAutoencoderOptions::Validate(std::string* error) const {
       .InRange("latent_regularization", latent_regularization, 0.0, kMaxRegularization)
       .IntAtLeast("max_iterations", max_iterations, 0)
       .IntAtLeast("log_every", log_every, 0)
+      .NonNegative("checkpoint_seconds", checkpoint_seconds)
       .Done(error);
 }
 
@@ -204,6 +212,32 @@ double SurfaceAutoencoderMemoryBytes(const SurfaceAutoencoderOptions& options,
   parameters += static_cast<double>(options.latent_dim) * num_surfaces;
   constexpr double kArrays = 4.0 * kLbfgsRank;  // iterate, gradient, samples, history
   return 8.0 * (kArrays * parameters + 4.0 * outputs * num_surfaces);
+}
+
+CheckpointKey AutoencoderCheckpointKey(const SurfaceAutoencoderOptions& options,
+                                       const Eigen::Matrix3Xd& neutral,
+                                       const std::vector<Eigen::Matrix3Xd>& surfaces) {
+  uint64_t hash = Fnv1a(neutral.data(), sizeof(double) * neutral.size(), kFnvOffsetBasis);
+  for (const Eigen::Matrix3Xd& surface : surfaces) {
+    const Eigen::Index size = surface.size();
+    hash = Fnv1a(&size, sizeof(size), hash);
+    hash = Fnv1a(surface.data(), sizeof(double) * size, hash);
+  }
+  std::string hidden;
+  for (size_t i = 0; i < options.hidden_dims.size(); ++i) {
+    hidden += (i ? "," : "") + std::to_string(options.hidden_dims[i]);
+  }
+  std::ostringstream text;
+  text << "latent_dim=" << options.latent_dim << " hidden=" << (hidden.empty() ? "none" : hidden)
+       << " activation=" << ActivationName(options.activation)
+       << " output_scale=" << FormatDouble(options.output_scale)
+       << " anchored=" << options.anchored << " linear_skip=" << options.linear_skip
+       << " latent_regularization=" << FormatDouble(options.latent_regularization)
+       << " lbfgs_scaling=" << options.lbfgs_scaling << " seed=" << options.seed;
+  char surfaces_hash[20];
+  std::snprintf(surfaces_hash, sizeof(surfaces_hash), "%016llx",
+                static_cast<unsigned long long>(hash));
+  return {{"surfaces", surfaces_hash}, {"options", text.str()}};
 }
 
 bool SurfaceAutoencoder::Train(const Eigen::Matrix3Xd& neutral,
@@ -264,6 +298,24 @@ bool SurfaceAutoencoder::Train(const Eigen::Matrix3Xd& neutral,
       WhitenedPcaScores(displacements, Eigen::VectorXd::Ones(3 * n), d);
   log << "surface autoencoder: " << p << " surfaces x " << n << " vertices, latent " << d << ", "
       << np << " network parameters\n";
+  // A checkpoint of an earlier run of this training.
+  const bool checkpoints = !options.checkpoint_directory.empty();
+  SolverCheckpoint start;
+  if (checkpoints) {
+    start.key = AutoencoderCheckpointKey(options, neutral, surfaces);
+    SolverCheckpoint found;
+    std::string why_not;
+    if (ReadSolverCheckpoint(options.checkpoint_directory, start.key,
+                             static_cast<int>(x.size()), &found, &why_not)) {
+      start = std::move(found);
+      x = start.parameters;
+      log << "surface autoencoder: resuming after iteration " << start.iterations << " (loss "
+          << start.loss << ") from the checkpoint in " << options.checkpoint_directory << "\n";
+    } else if (!why_not.empty()) {
+      log << "surface autoencoder: not resuming the checkpoint in "
+          << options.checkpoint_directory << ": " << why_not << "; starting anew\n";
+    }
+  }
 
   auto* objective = new SurfaceAutoencoderObjective(*mlp, displacements, options.output_scale,
                                                     options.latent_regularization);
@@ -274,21 +326,42 @@ bool SurfaceAutoencoder::Train(const Eigen::Matrix3Xd& neutral,
   solver_options.line_search_direction_type = ceres::LBFGS;
   solver_options.max_lbfgs_rank = kLbfgsRank;
   solver_options.use_approximate_eigenvalue_bfgs_scaling = options.lbfgs_scaling;
-  solver_options.max_num_iterations = options.max_iterations;
+  solver_options.max_num_iterations = std::max(0, options.max_iterations - start.iterations);
   solver_options.function_tolerance = 1e-12;
   solver_options.gradient_tolerance = 1e-12;
   solver_options.parameter_tolerance = 1e-14;
   solver_options.logging_type = ceres::SILENT;
   ProgressLogger progress("surface autoencoder", options.log_every, options.max_iterations,
-                          log);
+                          log, start.iterations);
   solver_options.callbacks.push_back(&progress);
-  solver_options.update_state_every_iteration = false;
+  SolverCheckpointWriter writer(options.checkpoint_directory, start, options.checkpoint_seconds,
+                                x.data(), static_cast<int>(x.size()));
+  if (checkpoints) solver_options.callbacks.push_back(&writer);
+  // The checkpoints read the point reached from x.
+  solver_options.update_state_every_iteration = checkpoints;
   ceres::GradientProblemSolver::Summary summary;
-  ceres::Solve(solver_options, problem, x.data(), &summary);
+  if (solver_options.max_num_iterations > 0) {
+    ceres::Solve(solver_options, problem, x.data(), &summary);
+  } else {
+    summary.message = "the checkpoint had used the whole budget";
+  }
+  if (!writer.error().empty()) {
+    *error = "surface autoencoder training stopped: its checkpoint could not be written: " +
+             writer.error();
+    return false;
+  }
   double mse = 0;
   report.final_loss = objective->Loss(x.data(), nullptr, &mse, &report.max_error);
   report.rms_error = std::sqrt(mse);
-  report.iterations = std::max(0, static_cast<int>(summary.iterations.size()) - 1);
+  const int run_iterations = std::max(0, static_cast<int>(summary.iterations.size()) - 1);
+  report.iterations = start.iterations + run_iterations;
+  report.iterations_before = start.iterations;
+  if (checkpoints && run_iterations > 0 && std::isfinite(report.final_loss) &&
+      !writer.Write(report.iterations, report.final_loss)) {
+    *error = "surface autoencoder training's last checkpoint could not be written: " +
+             writer.error();
+    return false;
+  }
   report.termination = summary.message;
   report.seconds = timer.Seconds();
   if (!std::isfinite(report.final_loss)) {

@@ -11,6 +11,7 @@
 #include <Eigen/Core>
 
 #include "learn/mlp.h"
+#include "train/solver_checkpoint.h"
 
 namespace aqs {
 
@@ -43,13 +44,28 @@ struct SurfaceAutoencoderOptions {
   unsigned seed = 1;
   // Progress line every this many L-BFGS iterations (0: none).
   int log_every = 0;
+  // Checkpoints of training (train/solver_checkpoint.h) go into this folder (empty:
+  // none), at most every checkpoint_seconds of iterations (0: every iteration) and at the
+  // end; a checkpoint there of the same surfaces and options (all but max_iterations,
+  // log_every and the checkpoint fields) is resumed, its iterations counting towards
+  // max_iterations (L-BFGS' memory starts anew there).
+  std::string checkpoint_directory;
+  double checkpoint_seconds = 60.0;
 
   // Checks every field; false with *error naming the first bad one (util/option_checks.h).
   bool Validate(std::string* error) const;
 };
 
+// What a checkpoint of SurfaceAutoencoder::Train belongs to (train/solver_checkpoint.h):
+// "surfaces", a hash of the neutral and the training surfaces, and "options", every
+// option that shapes the result (not max_iterations, log_every or the checkpoints').
+CheckpointKey AutoencoderCheckpointKey(const SurfaceAutoencoderOptions& options,
+                                       const Eigen::Matrix3Xd& neutral,
+                                       const std::vector<Eigen::Matrix3Xd>& surfaces);
+
 struct SurfaceAutoencoderReport {
-  int iterations = 0;
+  int iterations = 0;         // in all runs (iterations_before included)
+  int iterations_before = 0;  // done by an earlier run (from its checkpoint)
   double initial_loss = 0.0;
   double final_loss = 0.0;
   // sqrt of the data term at the end: the RMS distance between the decoded and the

@@ -477,7 +477,10 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
   timer.Reset();
   const SurfacePca pca(train_surfaces, model.latent_dim());
   const SurfacePca pca_neutral(train_surfaces, model.latent_dim(), &model.neutral.vertices);
-  const SurfaceAutoencoderOptions ae_options = BaselineAutoencoderOptions(options, model);
+  SurfaceAutoencoderOptions ae_options = BaselineAutoencoderOptions(options, model);
+  // Checkpoints of the baseline's training (the evaluation's longest part on the full
+  // face: 13 minutes), so that a rerun after a stop resumes it; removed at the end.
+  ae_options.checkpoint_directory = out + "/" + kAutoencoderCheckpointFolder;
   SurfaceAutoencoder autoencoder;
   if (!autoencoder.Train(model.neutral.vertices, train_surfaces, ae_options, log, error)) {
     *error = "the auto-encoder baseline: " + *error;
@@ -494,6 +497,7 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
   parts.autoencoder_linear_skip = ae_options.linear_skip;
   const SurfaceAutoencoderReport& ae = autoencoder.report();
   parts.autoencoder_iterations = ae.iterations;
+  parts.autoencoder_resumed_after = ae.iterations_before;
   parts.autoencoder_scaled_steps = ae_options.lbfgs_scaling;
   parts.autoencoder_seed = ae_options.seed;
   parts.autoencoder_initial_loss = ae.initial_loss;
@@ -563,6 +567,14 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
       << (options.write_fields ? ", fields/*.ply, fitted/*.obj" : "") << " ("
       << FormatDuration(total.Seconds()) << ")\n";
   *rows_out = rows;
+  {
+    std::error_code code;
+    std::filesystem::remove_all(ae_options.checkpoint_directory, code);
+    if (code) {
+      log << "warning: " << ae_options.checkpoint_directory << ": cannot remove ("
+          << code.message() << ")\n";
+    }
+  }
   if (!options.report_script.empty()) {
     std::vector<std::string> arguments = {"--evaluation", out, "--model", options.model};
     if (!options.error_vertices.empty()) {

@@ -77,6 +77,9 @@ struct EvaluateJobOptions {
   bool Validate(std::string* error) const;
 };
 
+// The folder of the auto-encoder baseline's training checkpoints in the output folder.
+inline constexpr char kAutoencoderCheckpointFolder[] = "autoencoder_checkpoint";
+
 // Runs the evaluation: trains the baselines on the model's training poses, measures
 // all three methods on the training poses (physics: its training latents and bone
 // motions, re-simulated; autoencoder: its training latents; PCA: projection) and on the
@@ -91,7 +94,10 @@ struct EvaluateJobOptions {
 // (util/matrix_io.h, num_surface_vertices x 3 num_poses: per training pose in the
 // model's order the per-vertex errors of the floor, after pre-training and trained; NaN
 // where not measured). Then runs the report script if set. Returns false with *error
-// on bad input. Each held-out pose's physics fit starts from rest with a fitter of its
+// on bad input. While the auto-encoder baseline trains, its checkpoints go to
+// <output>/kAutoencoderCheckpointFolder (train/solver_checkpoint.h): a rerun after a stop
+// resumes its training there; the folder is removed once the tables are written. Each
+// held-out pose's physics fit starts from rest with a fitter of its
 // own, so its result does not depend on the other poses nor on which rank fits it: a
 // distributed run writes the same outputs as one process with the same thread counts.
 // Distributed: rank 0 logs and writes; every rank returns the same status, with

@@ -223,7 +223,13 @@ std::string EvaluationMarkdown(const EvaluationReportParts& parts, const Evaluat
   md << "The auto-encoder trained " << parts.autoencoder_iterations << " L-BFGS iterations"
      << (parts.autoencoder_scaled_steps ? " with scaled steps" : "") << " from seed "
      << parts.autoencoder_seed << ", loss " << parts.autoencoder_initial_loss << " -> "
-     << parts.autoencoder_final_loss << " (" << parts.autoencoder_termination << ").\n\n";
+     << parts.autoencoder_final_loss << " (" << parts.autoencoder_termination << ")";
+  if (parts.autoencoder_resumed_after > 0) {
+    md << "; it resumed a stopped run's checkpoint after iteration "
+       << parts.autoencoder_resumed_after
+       << " (L-BFGS restarts there: the result differs a little from an uninterrupted run's)";
+  }
+  md << ".\n\n";
   if (!parts.overlap_note.empty()) md << "**Warning:** " << parts.overlap_note << "\n\n";
   if (!parts.test_names.empty()) {
     md << "Held-out latent fits start, for the physics model and the auto-encoder alike, from "

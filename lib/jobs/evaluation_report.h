@@ -62,6 +62,10 @@ struct EvaluationReportParts {
   bool decoder_linear_skip = false, autoencoder_linear_skip = false;
   // The auto-encoder's training: iterations, loss before and after, why it stopped.
   int autoencoder_iterations = 0;
+  // > 0: its training resumed an earlier, stopped run's checkpoint after this many
+  // iterations (L-BFGS' memory restarts there, so the result differs a little from an
+  // uninterrupted run's).
+  int autoencoder_resumed_after = 0;
   bool autoencoder_scaled_steps = false;
   int autoencoder_seed = 0;
   double autoencoder_initial_loss = 0.0, autoencoder_final_loss = 0.0;

@@ -113,6 +113,12 @@ TEST_F(AqsFitTest, EvaluationTablesAndFieldsAreWritten) {
   EXPECT_NE(pipeline_output_->find("| train pose | neutral | (a) floor | (b) after pre-training"),
             std::string::npos);
   EXPECT_TRUE(std::filesystem::exists(dir_->File("model/pretrain/surface_errors.txt")));
+  // Pre-training's log went into the model; its checkpoint, and the auto-encoder
+  // baseline's, are gone once their jobs ended.
+  EXPECT_TRUE(std::filesystem::exists(dir_->File("model/pretrain/log.csv")));
+  EXPECT_FALSE(std::filesystem::exists(dir_->File("model/pretrain/checkpoint.txt")));
+  EXPECT_FALSE(std::filesystem::exists(dir_->File("evaluation/autoencoder_checkpoint")));
+  EXPECT_FALSE(std::filesystem::exists(dir_->File("model.aqs-targets")));
   // The report: written, or a message that says what is missing (a Python without
   // matplotlib); never a failed evaluation.
   const bool written = std::filesystem::exists(dir_->File("evaluation/index.html"));
@@ -121,6 +127,7 @@ TEST_F(AqsFitTest, EvaluationTablesAndFieldsAreWritten) {
   if (written) {
     EXPECT_TRUE(std::filesystem::exists(dir_->File("evaluation/images/test0.png")));
     EXPECT_TRUE(std::filesystem::exists(dir_->File("evaluation/images/training_curve.png")));
+    EXPECT_TRUE(std::filesystem::exists(dir_->File("evaluation/images/pretraining_curve.png")));
     EXPECT_TRUE(std::filesystem::exists(dir_->File("evaluation/images/budget.png")));
   }
 }

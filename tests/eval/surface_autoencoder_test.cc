@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "testing/finite_difference.h"
+#include "testing/temp_dir.h"
 
 namespace aqs {
 namespace {
@@ -264,6 +265,50 @@ TEST(SurfaceAutoencoderTest, LinearSkipFitCostMatchesTheDecoder) {
   const Eigen::MatrixXd numeric = testing::CentralDifferenceJacobian(residuals, z, 1e-4);
   EXPECT_LT(testing::RelativeError(jacobian, numeric), 1e-8);
   EXPECT_GT(numeric.norm(), 1e-3);
+}
+
+// Training with checkpoints: a second run with a larger budget resumes at the first's
+// last point (its loss) and counts its iterations; other options start anew.
+TEST(SurfaceAutoencoderTest, TrainingResumesFromItsCheckpoint) {
+  testing::TempDir dir;
+  const std::vector<Eigen::Matrix3Xd> surfaces = TrainingSurfaces();
+  const Eigen::Matrix3Xd neutral = BentGrid(0.6, 0.0);
+  SurfaceAutoencoderOptions options;
+  options.latent_dim = 2;
+  options.hidden_dims = {8};
+  options.output_scale = 0.5;
+  options.max_iterations = 10;
+  options.checkpoint_directory = dir.File("checkpoint");
+  options.checkpoint_seconds = 0.0;
+  std::ostringstream log;
+  std::string error;
+  SurfaceAutoencoder first;
+  ASSERT_TRUE(first.Train(neutral, surfaces, options, log, &error)) << error;
+  EXPECT_EQ(first.report().iterations, 10);
+  options.max_iterations = 15;
+  SurfaceAutoencoder resumed;
+  ASSERT_TRUE(resumed.Train(neutral, surfaces, options, log, &error)) << error;
+  EXPECT_NE(log.str().find("resuming after iteration 10"), std::string::npos) << log.str();
+  EXPECT_EQ(resumed.report().iterations, 15);
+  EXPECT_EQ(resumed.report().iterations_before, 10);
+  EXPECT_NEAR(resumed.report().initial_loss, first.report().final_loss,
+              1e-12 * first.report().final_loss);
+  EXPECT_LT(resumed.report().final_loss, first.report().final_loss);
+  // The budget used up: no iteration, the same decoder.
+  SurfaceAutoencoder same;
+  ASSERT_TRUE(same.Train(neutral, surfaces, options, log, &error)) << error;
+  EXPECT_EQ(same.report().iterations, 15);
+  EXPECT_EQ(same.Decode(Eigen::Vector2d(0.3, -0.2)), resumed.Decode(Eigen::Vector2d(0.3, -0.2)));
+  // Another seed: anew, and the log says why.
+  options.seed = 7;
+  std::ostringstream other_log;
+  SurfaceAutoencoder other;
+  ASSERT_TRUE(other.Train(neutral, surfaces, options, other_log, &error)) << error;
+  EXPECT_NE(other_log.str().find("not resuming the checkpoint in " + options.checkpoint_directory +
+                                 ": 'options' differs"),
+            std::string::npos)
+      << other_log.str();
+  EXPECT_EQ(other.report().iterations, 15);
 }
 
 TEST(SurfaceAutoencoderTest, BadInputs) {

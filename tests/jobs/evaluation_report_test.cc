@@ -98,6 +98,11 @@ TEST(EvaluationReportTest, MarkdownSaysWhatWasComparedAndCsvKeepsEveryDigit) {
             std::string::npos)
       << md;
   EXPECT_NE(md.find("## Held-out poses\n\n" + tables.test), std::string::npos);
+  EXPECT_EQ(md.find("resumed"), std::string::npos) << md;
+  parts.autoencoder_resumed_after = 432;
+  EXPECT_NE(EvaluationMarkdown(parts, tables)
+                .find("; it resumed a stopped run's checkpoint after iteration 432 (L-BFGS"),
+            std::string::npos);
 
   parts.error_budget = false;
   EXPECT_EQ(MakeEvaluationTables(rows, parts).budget, "");
