@@ -51,11 +51,12 @@ struct PretrainOptions {
   // long pre-training keeps nothing until it ends.
   double max_seconds = 0.0;
   unsigned seed = 1;
-  // Checkpoints (train/solver_checkpoint.h, PretrainCheckpointKey) and the CSV log (kPretrainLogName) go into
-  // this folder (empty: none; in a model directory, pretrain/), checkpoints at most every
-  // checkpoint_seconds of iterations (0: every iteration) and at the end. With resume, a checkpoint there that belongs to
-  // this model, its targets and these options is the start: its iterations and time
-  // count towards max_iterations and max_seconds.
+  // Checkpoints (train/solver_checkpoint.h, PretrainCheckpointKey) and the CSV log
+  // (kPretrainLogName) go into this folder (empty: none; in a model directory,
+  // pretrain/), checkpoints at most every checkpoint_seconds of iterations (0: every
+  // iteration) and at the end. With resume, a checkpoint there that belongs to this
+  // model, its targets and these options is the start: its iterations and time count
+  // towards max_iterations and max_seconds.
   std::string checkpoint_directory;
   double checkpoint_seconds = 60.0;
   bool resume = true;
