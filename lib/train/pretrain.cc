@@ -85,6 +85,45 @@ class CsvLog final : public ceres::IterationCallback {
   WallTimer timer_;
 };
 
+// With options.checkpoint_directory: *start gets this pre-training's key and, with
+// options.resume, the checkpoint there that belongs to it (its point into *parameters);
+// the CSV log at log_path is cut back to that checkpoint. Says in `log` what it resumed,
+// or why not. False with *error if the log cannot be written.
+bool OpenCheckpoints(const PretrainOptions& options, const ActiveModel& model,
+                     const std::string& log_path, Eigen::VectorXd* parameters,
+                     SolverCheckpoint* start, std::ostream& log, std::string* error) {
+  const std::string& directory = options.checkpoint_directory;
+  start->key = PretrainCheckpointKey(options, model);
+  std::string why_not;
+  SolverCheckpoint found;
+  if (!options.resume) {
+    log << "pretrain: starting anew (an earlier run's checkpoint in " << directory
+        << " is not resumed)\n";
+  } else if (ReadSolverCheckpoint(directory, start->key, static_cast<int>(parameters->size()),
+                                  &found, &why_not)) {
+    *start = std::move(found);
+    *parameters = start->parameters;
+    log << "pretrain: resuming after iteration " << start->iterations << " ("
+        << FormatDuration(start->seconds) << " spent, loss " << start->loss
+        << ") from the checkpoint in " << directory << "\n";
+  } else if (!why_not.empty()) {
+    log << "pretrain: not resuming the checkpoint in " << directory << ": " << why_not
+        << "; starting anew\n";
+  }
+  std::error_code code;
+  std::filesystem::create_directories(directory, code);
+  int last_row = -1;
+  if (!PrepareIterationLog(log_path, kPretrainLogHeader, start->iterations, &last_row, error)) {
+    return false;
+  }
+  if (start->iterations > 0 && last_row < start->iterations) {
+    log << "pretrain: warning: " << log_path << " has rows up to " << last_row
+        << ", the checkpoint is of iteration " << start->iterations
+        << ": rows are missing (the log was cut or replaced)\n";
+  }
+  return true;
+}
+
 }  // namespace
 
 CheckpointKey PretrainCheckpointKey(const PretrainOptions& options, const ActiveModel& model) {
@@ -252,43 +291,13 @@ bool Pretrain(const PretrainOptions& options, ActiveModel* model, PretrainReport
   // A checkpoint of an earlier run of this pre-training: its point and its budget spent.
   SolverCheckpoint start;
   const bool checkpoints = !options.checkpoint_directory.empty();
-  if (checkpoints) {
-    start.key = PretrainCheckpointKey(options, *model);
-    std::string why_not;
-    SolverCheckpoint found;
-    if (!options.resume) {
-      log << "pretrain: starting anew (an earlier run's checkpoint in "
-          << options.checkpoint_directory << " is not resumed)\n";
-    } else if (ReadSolverCheckpoint(options.checkpoint_directory, start.key,
-                                      static_cast<int>(parameters.size()), &found, &why_not)) {
-      start = std::move(found);
-      parameters = start.parameters;
-      report->iterations_before = start.iterations;
-      log << "pretrain: resuming after iteration " << start.iterations << " ("
-          << FormatDuration(start.seconds) << " spent, loss " << start.loss
-          << ") from the checkpoint in " << options.checkpoint_directory << "\n";
-    } else if (!why_not.empty()) {
-      log << "pretrain: not resuming the checkpoint in " << options.checkpoint_directory
-          << ": " << why_not << "; starting anew\n";
-    }
-  }
-  // The CSV log beside the checkpoints, cut back to the checkpoint resumed.
   const std::string log_path =
       checkpoints ? options.checkpoint_directory + "/" + kPretrainLogName : std::string();
-  if (checkpoints) {
-    std::error_code code;
-    std::filesystem::create_directories(options.checkpoint_directory, code);
-    int last_row = -1;
-    if (!PrepareIterationLog(log_path, kPretrainLogHeader, start.iterations, &last_row,
-                             error)) {
-      return false;
-    }
-    if (start.iterations > 0 && last_row < start.iterations) {
-      log << "pretrain: warning: " << log_path << " has rows up to " << last_row
-          << ", the checkpoint is of iteration " << start.iterations
-          << ": rows are missing (the log was cut or replaced)\n";
-    }
+  if (checkpoints && !OpenCheckpoints(options, *model, log_path, &parameters, &start, log,
+                                      error)) {
+    return false;
   }
+  report->iterations_before = start.iterations;
   auto* objective = new PretrainObjective(*decoder, targets, weights,
                                          options.latent_regularization,
                                          options.decoder_regularization);
