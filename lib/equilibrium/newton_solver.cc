@@ -152,7 +152,12 @@ class NewtonMinimizer {
   bool ExactStep(Eigen::Matrix3Xd* step, bool* reused) {
     factorization_->Assemble(*x_, a_, StiffnessKind::kExact);
     Eigen::MatrixXd free_step;
-    if (!no_reuse_here_ &&
+    // Steps by CG have a budget of their own, as large as the factorizations': they cost
+    // no factorization, and at the energy's round-off floor their steps can be accepted
+    // forever (the force wavering in its last digits).
+    const bool try_reuse = !no_reuse_here_ && reuse_attempts_ < options_.max_factorizations;
+    if (try_reuse) ++reuse_attempts_;
+    if (try_reuse &&
         factorization_->SolveReusingFactor(factorization_->GatherFree(gradient_),
                                            options_.reuse, &free_step)) {
       *reused = true;
@@ -161,7 +166,7 @@ class NewtonMinimizer {
     }
     // CG met non-positive curvature: K is not positive definite, and its factorization
     // would fail. Reject it without paying for that.
-    const bool indefinite = factorization_->last_reuse_found_indefinite();
+    const bool indefinite = try_reuse && factorization_->last_reuse_found_indefinite();
     if (!indefinite) ++report_.factorizations;
     std::string error;
     if (!indefinite && factorization_->FactorizeAssembled(0.0, &error)) return true;
@@ -293,6 +298,7 @@ class NewtonMinimizer {
   Eigen::Matrix3Xd gradient_, trial_gradient_, trial_;
   double energy_ = 0.0;
   double force_ = 0.0;  // the largest free-vertex force at x
+  int reuse_attempts_ = 0;  // exact steps tried by CG on an earlier factor
   NewtonSolveReport report_;
   std::ostringstream message_;
   // Exact steps are tried while the force is at most this: the threshold, lowered to

@@ -40,6 +40,7 @@ bool VolumetricTargetOptions::Validate(std::string* error) const {
   const bool solver_ok = solver.Validate(&solver_error);
   return OptionChecks()
       .Positive("relative_stiffness", relative_stiffness)
+      .InRange("relative_stiffness", relative_stiffness, 0.0, kMaxRelativeStiffness)
       .Nested("solver", solver_ok, solver_error)
       .ReachableTolerance("solver.relative_force_tolerance", solver.relative_force_tolerance)
       .IntInRange("num_threads", num_threads, 1, 1024)

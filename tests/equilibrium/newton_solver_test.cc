@@ -1,6 +1,7 @@
 #include "equilibrium/newton_solver.h"
 
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <memory>
 #include <random>
@@ -79,6 +80,30 @@ TEST(NewtonSolverTest, ProjectedNewtonAloneConvergesFromRest) {
   EXPECT_GT(report.projected_steps, 0) << "far from equilibrium at rest";
   EXPECT_GT(report.exact_steps, 0) << "exact near the end";
   EXPECT_GT(std::abs(ExtentAngle(x, mesh)), 90.0);
+}
+
+// A tolerance no solve reaches (0): at the energy's round-off floor steps by CG on an
+// earlier factor can be accepted forever (the force wavering in its last digits); they
+// have a budget as large as the factorizations', so the solve ends within both.
+TEST(NewtonSolverTest, AnUnreachableToleranceEndsWithinTheBudget) {
+  const TetMesh mesh = BarMesh(16, 2, 2, 0.5);
+  const ShapeTargetModel model(mesh, 1.0);
+  const BoundaryConditions bc = LeftFaceFixed(mesh);
+  StiffnessFactorization factorization(model, FixedVertexMask(bc, mesh.num_vertices()), 2);
+  Eigen::Matrix3Xd x = mesh.vertices;
+  const ActuationMatrix a = CurlActuation(mesh, 0.4);
+  ASSERT_TRUE(MinimizeEnergyNewton(Options(model, 1e-10), a, &factorization, &x).converged);
+  // From the equilibrium (the factor there held for CG), on to force 0.
+  NewtonSolverOptions options = Options(model, 0.0);
+  options.max_factorizations = 20;
+  const NewtonSolveReport report = MinimizeEnergyNewton(options, a, &factorization, &x);
+  EXPECT_FALSE(report.converged) << report.message;
+  EXPECT_LE(report.factorizations, 20) << report.message;
+  EXPECT_LE(report.reused_steps, 20) << report.message;
+  std::printf("tolerance 0: %d exact steps (%d by CG), %d projected, %d factorizations, "
+              "largest force %.3g; %s\n",
+              report.exact_steps, report.reused_steps, report.projected_steps,
+              report.factorizations, report.final_max_force, report.message.c_str());
 }
 
 TEST(NewtonSolverTest, ProjectedAndExactStepsReachTheSameEquilibrium) {
