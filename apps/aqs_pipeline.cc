@@ -151,8 +151,17 @@ int main(int argc, char** argv) {
     aqs::PrintRankError(ranks.get(), error);
     return 1;
   }
-  for (const std::string& stage : stages) {
-    out << "=== " << stage << "\n" << std::flush;
+  for (size_t s = 0; s < stages.size(); ++s) {
+    const std::string& stage = stages[s];
+    out << "=== " << stage;
+    if (s > 0) {
+      // prepare writes a new model: a rerun after a stop goes on from the stopped stage,
+      // which resumes from its checkpoints.
+      std::string rest;
+      for (size_t k = s; k < stages.size(); ++k) rest += (k > s ? "," : "") + stages[k];
+      out << " (if stopped, go on with --stages=" << rest << ")";
+    }
+    out << "\n" << std::flush;
     aqs::WallTimer timer;
     bool ok = false;
     aqs::JobStatus status = aqs::JobStatus::kBadInput;  // when not ok

@@ -40,7 +40,8 @@ TEST(AqsPipelineTest, PreparesPretrainsTrainsAndResumes) {
   const testing::CommandResult run =
       RunCommand(AppPath("aqs_pipeline") + " --flagfile=" + dir.File("run.flags"));
   ASSERT_EQ(run.exit_code, 0) << run.output;
-  for (const char* expected : {"=== prepare", "volumetric targets", "=== pretrain",
+  for (const char* expected : {"=== prepare\n", "volumetric targets",
+                               "=== pretrain (if stopped, go on with --stages=pretrain,train)",
                                "=== train", "train iter     4/4", "pipeline done"}) {
     EXPECT_NE(run.output.find(expected), std::string::npos) << expected << "\n" << run.output;
   }
