@@ -22,6 +22,7 @@
 #include "util/number_format.h"
 #include "util/wall_timer.h"
 #include "util/option_checks.h"
+#include "util/text_split.h"
 
 namespace aqs {
 namespace {
@@ -223,12 +224,8 @@ CheckpointKey AutoencoderCheckpointKey(const SurfaceAutoencoderOptions& options,
     hash = Fnv1a(&size, sizeof(size), hash);
     hash = Fnv1a(surface.data(), sizeof(double) * size, hash);
   }
-  std::string hidden;
-  for (size_t i = 0; i < options.hidden_dims.size(); ++i) {
-    hidden += (i ? "," : "") + std::to_string(options.hidden_dims[i]);
-  }
   std::ostringstream text;
-  text << "latent_dim=" << options.latent_dim << " hidden=" << (hidden.empty() ? "none" : hidden)
+  text << "latent_dim=" << options.latent_dim << " hidden=" << JoinInts(options.hidden_dims, "none")
        << " activation=" << ActivationName(options.activation)
        << " output_scale=" << FormatDouble(options.output_scale)
        << " anchored=" << options.anchored << " linear_skip=" << options.linear_skip

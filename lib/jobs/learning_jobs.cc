@@ -12,6 +12,7 @@
 #include "model/model_io.h"
 #include "train/progress.h"
 #include "util/atomic_file.h"
+#include "util/text_split.h"
 #include "util/wall_timer.h"
 
 namespace aqs {
@@ -47,18 +48,14 @@ bool CheckExpectedDecoder(const std::string& model_directory, const ActiveModel&
                           const ExpectedDecoder& expected, std::string* error) {
   if (!model.decoder) return true;  // TrainEndToEnd says the model is not pre-trained
   const DecoderSpec& spec = model.decoder->spec();
-  auto widths = [](const std::vector<int>& dims) {
-    std::string text;
-    for (size_t i = 0; i < dims.size(); ++i) text += (i > 0 ? "," : "") + std::to_string(dims[i]);
-    return text.empty() ? std::string("none") : text;
-  };
   std::string mismatch;
   if (expected.latent_dim > 0 && expected.latent_dim != spec.latent_dim) {
     mismatch = "latent_dim=" + std::to_string(expected.latent_dim) + " was asked for, but the " +
                "model's decoder has latent_dim=" + std::to_string(spec.latent_dim);
   } else if (!expected.hidden_dims.empty() && expected.hidden_dims != spec.hidden_dims) {
-    mismatch = "hidden_dims=" + widths(expected.hidden_dims) + " was asked for, but the " +
-               "model's decoder has hidden_dims=" + widths(spec.hidden_dims);
+    mismatch = "hidden_dims=" + JoinInts(expected.hidden_dims, "none") +
+               " was asked for, but the model's decoder has hidden_dims=" +
+               JoinInts(spec.hidden_dims, "none");
   } else if (!expected.activation.empty() && expected.activation != ActivationName(spec.activation)) {
     mismatch = "activation=" + expected.activation + " was asked for, but the model's decoder "
                "has activation=" + ActivationName(spec.activation);

@@ -20,6 +20,7 @@
 #include "util/iteration_log.h"
 #include "util/number_format.h"
 #include "util/option_checks.h"
+#include "util/text_split.h"
 #include "util/wall_timer.h"
 
 namespace aqs {
@@ -134,12 +135,8 @@ CheckpointKey PretrainCheckpointKey(const PretrainOptions& options, const Active
     hash = Fnv1a(pose.target.data(), sizeof(double) * size, hash);
   }
   const DecoderSpec& spec = options.spec;
-  std::string hidden;
-  for (size_t i = 0; i < spec.hidden_dims.size(); ++i) {
-    hidden += (i ? "," : "") + std::to_string(spec.hidden_dims[i]);
-  }
   std::ostringstream text;
-  text << "latent_dim=" << spec.latent_dim << " hidden=" << (hidden.empty() ? "none" : hidden)
+  text << "latent_dim=" << spec.latent_dim << " hidden=" << JoinInts(spec.hidden_dims, "none")
        << " activation=" << ActivationName(spec.activation)
        << " output_scale=" << FormatDouble(spec.output_scale) << " anchored=" << spec.anchored
        << " linear_skip=" << spec.linear_skip

@@ -24,4 +24,11 @@ std::vector<std::string> SplitList(const std::string& text, char separator) {
   return items;
 }
 
+std::string JoinInts(const std::vector<int>& values, const std::string& empty) {
+  if (values.empty()) return empty;
+  std::string text;
+  for (size_t i = 0; i < values.size(); ++i) text += (i > 0 ? "," : "") + std::to_string(values[i]);
+  return text;
+}
+
 }  // namespace aqs

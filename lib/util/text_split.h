@@ -1,7 +1,7 @@
 #ifndef AQS_UTIL_TEXT_SPLIT_H_
 #define AQS_UTIL_TEXT_SPLIT_H_
 
-// The list splitters of flags and small text fields (the whitespace token splitter of
+// The list splitters (and a joiner) of flags and small text fields (the whitespace token splitter of
 // file lines is SplitTokens, util/line_reader.h).
 
 #include <string>
@@ -18,6 +18,10 @@ std::vector<std::string> SplitList(const std::string& text, char separator = ','
 // does not start another (empty) field ("a," -> {"a"}), and "" has no fields. For CSV
 // rows and number lists, where an empty field is an error the caller reports.
 std::vector<std::string> SplitFields(const std::string& text, char separator = ',');
+
+// The inverse for integers: {64, 64} -> "64,64"; {} -> `empty` (e.g. "none" for a
+// network without hidden layers).
+std::string JoinInts(const std::vector<int>& values, const std::string& empty = "");
 
 }  // namespace aqs
 

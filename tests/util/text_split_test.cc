@@ -27,6 +27,14 @@ TEST(TextSplitTest, SplitFieldsKeepsEmptyFieldsAsGetlineDoes) {
   EXPECT_EQ(SplitFields("1;2", ';'), (Strings{"1", "2"}));
 }
 
+TEST(TextSplitTest, JoinIntsIsTheInverseOfSplittingAList) {
+  EXPECT_EQ(JoinInts({64, 64}), "64,64");
+  EXPECT_EQ(JoinInts({-3}), "-3");
+  EXPECT_EQ(JoinInts({}), "");
+  EXPECT_EQ(JoinInts({}, "none"), "none");
+  EXPECT_EQ(SplitList(JoinInts({8, 16, 32})), std::vector<std::string>({"8", "16", "32"}));
+}
+
 TEST(FileExtensionTest, LowerCaseWithDotAsFilesystemTakesIt) {
   EXPECT_EQ(LowercaseExtension("dir.d/Mesh.MSH"), ".msh");
   EXPECT_EQ(LowercaseExtension("a/b.tar.GZ"), ".gz");
