@@ -152,10 +152,9 @@ class NewtonMinimizer {
   bool ExactStep(Eigen::Matrix3Xd* step, bool* reused) {
     factorization_->Assemble(*x_, a_, StiffnessKind::kExact);
     Eigen::MatrixXd free_step;
-    // Steps by CG have a budget of their own, as large as the factorizations': they cost
-    // no factorization, and at the energy's round-off floor their steps can be accepted
-    // forever (the force wavering in its last digits).
-    const bool try_reuse = !no_reuse_here_ && reuse_attempts_ < options_.max_factorizations;
+    // Steps by CG have a budget of their own (max_reused_steps): they cost no
+    // factorization, and at the energy's round-off floor they can be accepted forever.
+    const bool try_reuse = !no_reuse_here_ && reuse_attempts_ < options_.max_reused_steps;
     if (try_reuse) ++reuse_attempts_;
     if (try_reuse &&
         factorization_->SolveReusingFactor(factorization_->GatherFree(gradient_),
@@ -325,6 +324,8 @@ bool NewtonSolverOptions::Validate(std::string* error) const {
     out << "exact_force_threshold must be >= 0 (is " << exact_force_threshold << ")";
   } else if (max_factorizations < 1) {
     out << "max_factorizations must be >= 1 (is " << max_factorizations << ")";
+  } else if (max_reused_steps < 0) {
+    out << "max_reused_steps must be >= 0 (is " << max_reused_steps << ")";
   }
   *error = out.str();
   return error->empty() && line_search.Validate(error);

@@ -20,10 +20,13 @@ struct NewtonSolverOptions {
   // state already near a stable equilibrium); 0: projected only.
   double exact_force_threshold = std::numeric_limits<double>::infinity();
   // Factorizations at most (each step factorizes once; a step whose exact stiffness is
-  // not positive definite, or needs a diagonal shift, factorizes again). Exact steps by
-  // CG on an earlier factor (reuse) are tried at most as many times; later exact steps
-  // factorize, so that the solve ends within this budget.
+  // not positive definite, or needs a diagonal shift, factorizes again).
   int max_factorizations = 100;
+  // Exact steps by CG on an earlier factor (reuse), which cost no factorization, are
+  // tried at most this many times; later exact steps factorize, so that the solve ends
+  // within max_factorizations. (At the energy's round-off floor such steps can be
+  // accepted without end, the force wavering in its last digits.)
+  int max_reused_steps = 100;
   // Where the exact K is still indefinite on a retry, a step along its direction of most
   // negative curvature (found with the projected factor; see negative_curvature.h)
   // replaces the projected step: it leaves a saddle that projected steps leave only

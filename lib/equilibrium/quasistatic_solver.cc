@@ -226,6 +226,8 @@ bool QuasistaticSolver::RunNewton(double exact_threshold, QuasistaticSolveReport
   newton.force_tolerance = report->force_tolerance;
   newton.exact_force_threshold = exact_threshold;
   newton.max_factorizations = std::max(1, options_.max_iterations - report->iterations);
+  // Steps by CG: the whole solve's budget, whatever L-BFGS used of it.
+  newton.max_reused_steps = options_.max_iterations;
   newton.reuse = options_.factor_reuse;
   newton.negative_curvature_steps = options_.negative_curvature_steps;
   Eigen::Matrix3Xd x = positions();

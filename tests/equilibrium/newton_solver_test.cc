@@ -84,7 +84,7 @@ TEST(NewtonSolverTest, ProjectedNewtonAloneConvergesFromRest) {
 
 // A tolerance no solve reaches (0): at the energy's round-off floor steps by CG on an
 // earlier factor can be accepted forever (the force wavering in its last digits); they
-// have a budget as large as the factorizations', so the solve ends within both.
+// have a budget of their own (max_reused_steps), so the solve ends within both.
 TEST(NewtonSolverTest, AnUnreachableToleranceEndsWithinTheBudget) {
   const TetMesh mesh = BarMesh(16, 2, 2, 0.5);
   const ShapeTargetModel model(mesh, 1.0);
@@ -96,6 +96,7 @@ TEST(NewtonSolverTest, AnUnreachableToleranceEndsWithinTheBudget) {
   // From the equilibrium (the factor there held for CG), on to force 0.
   NewtonSolverOptions options = Options(model, 0.0);
   options.max_factorizations = 20;
+  options.max_reused_steps = 20;
   const NewtonSolveReport report = MinimizeEnergyNewton(options, a, &factorization, &x);
   EXPECT_FALSE(report.converged) << report.message;
   EXPECT_LE(report.factorizations, 20) << report.message;
