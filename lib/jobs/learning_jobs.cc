@@ -12,6 +12,7 @@
 #include "model/model_io.h"
 #include "train/progress.h"
 #include "util/atomic_file.h"
+#include "util/make_directory.h"
 #include "util/text_split.h"
 #include "util/wall_timer.h"
 
@@ -122,13 +123,11 @@ bool RunPretrainJob(const std::string& model_directory, const PretrainOptions& o
     pretrain_log.assign(std::istreambuf_iterator<char>(in), {});
   }
   if (!SaveModel(model_directory, model, error)) return false;
-  if (!pretrain_log.empty()) {
-    std::error_code code;
-    std::filesystem::create_directories(run.checkpoint_directory, code);
-    if (!WriteFileAtomically(run.checkpoint_directory + "/" + kPretrainLogName, pretrain_log,
-                             error)) {
-      return false;
-    }
+  if (!pretrain_log.empty() &&
+      (!MakeDirectory(run.checkpoint_directory, error) ||
+       !WriteFileAtomically(run.checkpoint_directory + "/" + kPretrainLogName, pretrain_log,
+                            error))) {
+    return false;
   }
   if (simulation != nullptr &&
       !WritePretrainSurfaceErrors(model_directory, model, surface_errors, error)) {

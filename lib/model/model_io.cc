@@ -18,6 +18,7 @@
 #include "model/model_fingerprint.h"
 #include "util/atomic_file.h"
 #include "util/line_reader.h"
+#include "util/make_directory.h"
 #include "util/matrix_io.h"
 #include "util/number_format.h"
 #include "util/path_lock.h"
@@ -55,16 +56,6 @@ bool ReadFiniteMatrix(const std::string& path, Eigen::Index rows, Eigen::Index c
     }
   }
   *matrix = std::move(read);
-  return true;
-}
-
-bool MakeDirectory(const std::string& path, std::string* error) {
-  std::error_code code;
-  fs::create_directories(path, code);
-  if (code) {
-    *error = path + ": cannot create directory (" + code.message() + ")";
-    return false;
-  }
   return true;
 }
 

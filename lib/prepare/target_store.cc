@@ -9,6 +9,7 @@
 #include "model/model_fingerprint.h"
 #include "util/atomic_file.h"
 #include "util/line_reader.h"
+#include "util/make_directory.h"
 #include "util/matrix_io.h"
 #include "util/number_format.h"
 
@@ -55,11 +56,7 @@ bool TargetStore::Open(const std::string& directory, const std::string& key, std
       }
     }
   }
-  fs::create_directories(directory, code);
-  if (code) {
-    *error = directory + ": cannot create (" + code.message() + ")";
-    return false;
-  }
+  if (!MakeDirectory(directory, error)) return false;
   if (ReadWhole(directory + "/key.txt") == key) return true;
   return WriteFileAtomically(directory + "/key.txt", key, error);
 }

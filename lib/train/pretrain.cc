@@ -18,6 +18,7 @@
 #include "train/progress.h"
 #include "util/fnv_hash.h"
 #include "util/iteration_log.h"
+#include "util/make_directory.h"
 #include "util/number_format.h"
 #include "util/option_checks.h"
 #include "util/text_split.h"
@@ -111,10 +112,9 @@ bool OpenCheckpoints(const PretrainOptions& options, const ActiveModel& model,
     log << "pretrain: not resuming the checkpoint in " << directory << ": " << why_not
         << "; starting anew\n";
   }
-  std::error_code code;
-  std::filesystem::create_directories(directory, code);
   int last_row = -1;
-  if (!PrepareIterationLog(log_path, kPretrainLogHeader, start->iterations, &last_row, error)) {
+  if (!MakeDirectory(directory, error) ||
+      !PrepareIterationLog(log_path, kPretrainLogHeader, start->iterations, &last_row, error)) {
     return false;
   }
   if (start->iterations > 0 && last_row < start->iterations) {
@@ -344,7 +344,6 @@ bool Pretrain(const PretrainOptions& options, ActiveModel* model, PretrainReport
                                           : "no iterations in the budget";
   }
   const int run_iterations = std::max(0, static_cast<int>(summary.iterations.size()) - 1);
-  report->checkpoints = writer.checkpoints();
   if (!writer.error().empty()) {
     *error = "pre-training stopped: its checkpoint could not be written: " + writer.error();
     return false;

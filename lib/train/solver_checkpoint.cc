@@ -9,6 +9,7 @@
 #include "util/atomic_file.h"
 #include "util/fault_injection.h"
 #include "util/line_reader.h"
+#include "util/make_directory.h"
 #include "util/matrix_io.h"
 #include "util/number_format.h"
 
@@ -127,12 +128,7 @@ bool ReadSolverCheckpoint(const std::string& directory, const CheckpointKey& key
 
 bool WriteSolverCheckpoint(const std::string& directory, const SolverCheckpoint& checkpoint,
                            std::string* error) {
-  std::error_code code;
-  std::filesystem::create_directories(directory, code);
-  if (code) {
-    *error = "cannot create " + directory + " (" + code.message() + ")";
-    return false;
-  }
+  if (!MakeDirectory(directory, error)) return false;
   const std::string slot = CurrentSlot(directory) == kSlots[0] ? kSlots[1] : kSlots[0];
   if (!WriteMatrixFile(directory + "/" + slot, checkpoint.parameters, error)) return false;
   FaultPoint("solver_checkpoint:parameters_written");

@@ -1,0 +1,14 @@
+#ifndef AQS_UTIL_MAKE_DIRECTORY_H_
+#define AQS_UTIL_MAKE_DIRECTORY_H_
+
+#include <string>
+
+namespace aqs {
+
+// Creates the directory `path` and any missing parents (an existing one is fine).
+// Returns false with *error ("<path>: cannot create directory (<why>)") on failure.
+bool MakeDirectory(const std::string& path, std::string* error);
+
+}  // namespace aqs
+
+#endif  // AQS_UTIL_MAKE_DIRECTORY_H_
