@@ -1,4 +1,6 @@
 // aqs_pipeline: the stages from one flagfile: prepare, pre-train, train, evaluate. Every stage's flags are accepted; --stages picks which run.
+// Run again after a stop, it goes on: prepare and pre-training keep a model made from the
+// same inputs and flags (--restart: anew), training and the evaluation resume.
 // A stage that fails stops the pipeline with its message and its exit status: 1 bad
 // input, 2 prepare's embedded simulation did not converge (its model is written). Under
 // mpirun (or with --mpi; docs/distributed.md) rank 0 prepares and pre-trains while the
@@ -24,8 +26,10 @@
 
 DECLARE_string(model);
 DEFINE_string(stages, "prepare,pretrain,train,evaluate", "Stages to run, in order.");
-DEFINE_bool(restart, false, "Pre-train anew, not from an earlier stopped run's checkpoint; "
-            "train: ignore an earlier run's iteration count.");
+DEFINE_bool(restart, false, "Start anew: prepare and pre-train again even where the model at "
+            "--model was made from the same inputs and flags (without it they are kept, so "
+            "that a rerun after a stop goes on), pre-train from the start, not from a stopped "
+            "run's checkpoint, and train: ignore an earlier run's iteration count.");
 
 namespace {
 
@@ -47,6 +51,7 @@ bool ReadStageOptions(const std::string& stage, bool validate, StageOptions* o,
                       std::string* error) {
   if (stage == "prepare") {
     o->flags = aqs::PrepareFlagNames();
+    o->prepare.keep_same_model = !FLAGS_restart;
     return aqs::PrepareOptionsFromFlags(&o->prepare, error) &&
            (!validate || o->prepare.Validate(error));
   }
@@ -151,17 +156,14 @@ int main(int argc, char** argv) {
     aqs::PrintRankError(ranks.get(), error);
     return 1;
   }
-  for (size_t s = 0; s < stages.size(); ++s) {
-    const std::string& stage = stages[s];
-    out << "=== " << stage;
-    if (s > 0) {
-      // prepare writes a new model: a rerun after a stop goes on from the stopped stage,
-      // which resumes from its checkpoints.
-      std::string rest;
-      for (size_t k = s; k < stages.size(); ++k) rest += (k > s ? "," : "") + stages[k];
-      out << " (if stopped, go on with --stages=" << rest << ")";
-    }
-    out << "\n" << std::flush;
+  // A rerun of the same command after a stop keeps what is done and goes on.
+  out << "pipeline: stages " << FLAGS_stages
+      << (FLAGS_restart ? " from the start (--restart)"
+                        : "; a model made from the same inputs and flags is kept, and stopped "
+                          "work resumes (--restart: start anew)")
+      << "\n";
+  for (const std::string& stage : stages) {
+    out << "=== " << stage << "\n" << std::flush;
     aqs::WallTimer timer;
     bool ok = false;
     aqs::JobStatus status = aqs::JobStatus::kBadInput;  // when not ok
@@ -176,7 +178,7 @@ int main(int argc, char** argv) {
     } else if (stage == "pretrain") {
       ok = aqs::RunPretrainJob(FLAGS_model, options.pretrain,
                                options.simulate ? &options.simulation : nullptr, std::cout,
-                               &error);
+                               &error, !FLAGS_restart);
     } else if (stage == "train") {
       options.train.communicator = ranks.get();
       ok = aqs::RunTrainJob(FLAGS_model, options.train, FLAGS_restart, out, &error,

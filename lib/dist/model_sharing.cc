@@ -5,26 +5,9 @@
 #include <vector>
 
 #include "model/model_fingerprint.h"
-#include "util/fnv_hash.h"
 
 namespace aqs {
 namespace {
-
-// The decoder's architecture as a hash (0: no decoder).
-uint64_t DecoderArchitecture(const ActiveModel& model) {
-  if (!model.decoder) return 0;
-  const ActuationDecoder& d = *model.decoder;
-  std::vector<double> numbers = {static_cast<double>(d.latent_dim()),
-                                 static_cast<double>(d.spec().activation),
-                                 d.spec().output_scale,
-                                 d.spec().anchored ? 1.0 : 0.0,
-                                 d.spec().linear_skip ? 1.0 : 0.0,
-                                 static_cast<double>(d.num_nodes()),
-                                 static_cast<double>(d.num_elements()),
-                                 static_cast<double>(d.num_parameters())};
-  for (int width : d.spec().hidden_dims) numbers.push_back(width);
-  return Fnv1a(numbers.data(), sizeof(double) * numbers.size(), kFnvOffsetBasis) | 1;
-}
 
 void Split(uint64_t value, int* words) {
   words[0] = static_cast<int>(static_cast<uint32_t>(value >> 32));
@@ -40,7 +23,7 @@ bool ShareModel(const Communicator& comm, const std::string& directory, bool loa
   // Identity: rank 0's fingerprint and decoder architecture against each rank's.
   int own[4], root[4];
   Split(ModelFingerprint(*model), own);
-  Split(DecoderArchitecture(*model), own + 2);
+  Split(DecoderArchitectureFingerprint(*model), own + 2);
   std::copy(own, own + 4, root);
   comm.Broadcast(root, 4, 0);
   std::string mismatch;

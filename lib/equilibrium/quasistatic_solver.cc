@@ -15,9 +15,24 @@
 #include "equilibrium/preconditioned_lbfgs.h"
 #include "equilibrium/shape_target_cost_function.h"
 #include "sparse/vertex_ordering.h"
+#include "util/number_format.h"
 #include "util/wall_timer.h"
 
 namespace aqs {
+
+std::string QuasistaticSolverOptions::KeyText() const {
+  const FactorReuseOptions& r = factor_reuse;
+  std::ostringstream text;
+  text << static_cast<int>(method) << " " << FormatDouble(relative_force_tolerance) << " "
+       << max_iterations << " " << max_lbfgs_iterations << " " << lbfgs_reuses_factor << " "
+       << lbfgs_reused_factor_stall_iterations << " " << negative_curvature_steps << " "
+       << ensure_stable << " " << static_cast<int>(ordering) << " " << use_postordering << " "
+       << FormatDouble(newton_relative_force) << " reuse " << r.max_iterations << " "
+       << FormatDouble(r.relative_tolerance) << " " << r.probe_iterations << " "
+       << FormatDouble(r.probe_tolerance) << " " << r.max_columns << " " << r.refresh_iterations
+       << " " << FormatDouble(function_tolerance) << " " << FormatDouble(parameter_tolerance);
+  return text.str();
+}
 
 bool QuasistaticSolverOptions::Validate(std::string* error) const {
   std::ostringstream out;

@@ -126,6 +126,10 @@ struct QuasistaticSolverOptions {
 
   // Checks every field; false with *error naming the first bad one (by field name).
   bool Validate(std::string* error) const;
+  // What shapes a solve's result, as one line of text: every field but num_threads and
+  // log_progress, doubles exactly (the keys of stored results: prepare's targets, the
+  // evaluation's fits). A new field that changes results belongs here.
+  std::string KeyText() const;
 };
 
 struct QuasistaticSolveReport {

@@ -104,25 +104,6 @@ class SurfaceFitCost final : public ceres::CostFunction {
   Eigen::VectorXd offset_;  // 3K: neutral_v - y, vertex after vertex
 };
 
-// Empty if the options are usable, else what is wrong with them.
-std::string CheckOptions(const SurfaceAutoencoderOptions& options) {
-  if (options.latent_dim < 1) return "latent_dim must be at least 1";
-  for (int width : options.hidden_dims) {
-    if (width < 1) return "hidden layer widths must be positive";
-  }
-  if (!(options.output_scale > 0) || !std::isfinite(options.output_scale)) {
-    return "output_scale must be a positive number";
-  }
-  if (!(options.latent_regularization >= 0) || !std::isfinite(options.latent_regularization)) {
-    return "latent_regularization must be a non-negative number";
-  }
-  if (options.max_iterations < 0) return "max_iterations must not be negative";
-  if (!(options.checkpoint_seconds >= 0) || !std::isfinite(options.checkpoint_seconds)) {
-    return "checkpoint_seconds must be a non-negative number";
-  }
-  return "";
-}
-
 }  // namespace
 
 SurfaceAutoencoderObjective::SurfaceAutoencoderObjective(const Mlp& mlp,
@@ -242,9 +223,8 @@ bool SurfaceAutoencoder::Train(const Eigen::Matrix3Xd& neutral,
                                const SurfaceAutoencoderOptions& options, std::ostream& log,
                                std::string* error) {
   WallTimer timer;
-  const std::string bad_options = CheckOptions(options);
-  if (!bad_options.empty()) {
-    *error = "surface autoencoder options: " + bad_options;
+  if (!options.Validate(error)) {
+    *error = "surface autoencoder options: " + *error;
     return false;
   }
   const int p = static_cast<int>(surfaces.size());

@@ -1,12 +1,22 @@
-// Validate() of the fit options (LatentFitOptions, PointCloudFitOptions).
+// Validate() (and KeyText()) of the fit options (LatentFitOptions, PointCloudFitOptions).
 
 #include <cmath>
 #include <string>
 
 #include "fit/latent_fit.h"
+#include "util/number_format.h"
 #include "util/option_checks.h"
 
 namespace aqs {
+
+std::string LatentFitOptions::KeyText() const {
+  return "priors " + FormatDouble(latent_prior) + " " + FormatDouble(bone_prior) + " " +
+         FormatDouble(prior_points_cap) + " " + FormatDouble(latent_regularization) +
+         "\nfit " + std::to_string(fit_bones) + " " + std::to_string(max_iterations) + " " +
+         FormatDouble(function_tolerance) + " " + FormatDouble(parameter_tolerance) + " " +
+         std::to_string(coarse_points) + " " + std::to_string(uncertainty) + "\nsolver " +
+         solver.KeyText() + "\n";
+}
 
 bool LatentFitOptions::Validate(std::string* error) const {
   std::string solver_error;

@@ -79,6 +79,10 @@ struct LatentFitOptions {
 
   // Checks every field (fit/fit_options.cc); false with *error naming the first bad one.
   bool Validate(std::string* error) const;
+  // What shapes a fit's result, as text (every field but num_threads; the solver's
+  // QuasistaticSolverOptions::KeyText): the key of stored fits (aqs_evaluate's). A new
+  // field that changes results belongs here.
+  std::string KeyText() const;
 };
 
 struct LatentFitResult {

@@ -21,6 +21,7 @@
 #include "util/atomic_file.h"
 #include "util/blas.h"
 #include "util/input_file.h"
+#include "util/keyed_store.h"
 #include "util/matrix_io.h"
 #include "util/memory_limit.h"
 #include "util/option_checks.h"
@@ -459,17 +460,27 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
       HeldOutOverlapNote(model, test_names, test_surfaces, options.error_vertices);
   if (!parts.overlap_note.empty()) log << "warning: " << parts.overlap_note << "\n";
   // The physics fits of the held-out poses first: the part shared among ranks.
+  // Kept as they come (removed at the end), so that a rerun after a stop goes on.
+  const std::string fit_store = out + "/" + kHeldOutFitFolder;
   WallTimer timer;
-  std::vector<LatentFitResult> fits;
-  std::vector<double> fit_seconds;
+  HeldOutFits held_out_fits;
   FitHeldOutPoses(model, options.fit, options.training_pose_starts, test_names, test_surfaces,
-                  communicator, &fits, &fit_seconds);
+                  fit_store, communicator, &held_out_fits);
   if (!test_names.empty()) {
-    log << "held-out poses: " << test_names.size() << " physics fits in "
+    log << "held-out poses: " << test_names.size() - held_out_fits.kept << " physics fits in "
         << FormatDuration(timer.Seconds())
-        << (distributed ? " over " + communicator->Description() : std::string()) << "\n";
+        << (distributed ? " over " + communicator->Description() : std::string());
+    if (held_out_fits.kept > 0) {
+      log << ", " << held_out_fits.kept << " taken from " << fit_store << " (a stopped run's)";
+    }
+    log << "\n";
+    if (!held_out_fits.store_warning.empty()) {
+      log << "warning: " << held_out_fits.store_warning << "\n";
+    }
   }
   if (!root) return true;
+  const std::vector<LatentFitResult>& fits = held_out_fits.fits;
+  const std::vector<double>& fit_seconds = held_out_fits.seconds;
 
   // The baselines, trained on the same poses with the same latent size.
   std::vector<Eigen::Matrix3Xd> train_surfaces;
@@ -567,13 +578,9 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
       << (options.write_fields ? ", fields/*.ply, fitted/*.obj" : "") << " ("
       << FormatDuration(total.Seconds()) << ")\n";
   *rows_out = rows;
-  {
-    std::error_code code;
-    std::filesystem::remove_all(ae_options.checkpoint_directory, code);
-    if (code) {
-      log << "warning: " << ae_options.checkpoint_directory << ": cannot remove ("
-          << code.message() << ")\n";
-    }
+  for (const std::string& kept : {ae_options.checkpoint_directory, fit_store}) {
+    std::string remove_error;
+    if (!RemoveDirectory(kept, &remove_error)) log << "warning: " << remove_error << "\n";
   }
   if (!options.report_script.empty()) {
     std::vector<std::string> arguments = {"--evaluation", out, "--model", options.model};

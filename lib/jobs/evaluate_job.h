@@ -79,6 +79,8 @@ struct EvaluateJobOptions {
 
 // The folder of the auto-encoder baseline's training checkpoints in the output folder.
 inline constexpr char kAutoencoderCheckpointFolder[] = "autoencoder_checkpoint";
+// The folder of the held-out physics fits kept as they are made, in the output folder.
+inline constexpr char kHeldOutFitFolder[] = "held_out_fits";
 
 // Runs the evaluation: trains the baselines on the model's training poses, measures
 // all three methods on the training poses (physics: its training latents and bone
@@ -95,8 +97,10 @@ inline constexpr char kAutoencoderCheckpointFolder[] = "autoencoder_checkpoint";
 // model's order the per-vertex errors of the floor, after pre-training and trained; NaN
 // where not measured). Then runs the report script if set. Returns false with *error
 // on bad input. While the auto-encoder baseline trains, its checkpoints go to
-// <output>/kAutoencoderCheckpointFolder (train/solver_checkpoint.h): a rerun after a stop
-// resumes its training there; the folder is removed once the tables are written. Each
+// <output>/kAutoencoderCheckpointFolder (train/solver_checkpoint.h), and the held-out
+// physics fits are kept in <output>/kHeldOutFitFolder as they are made
+// (jobs/held_out_fits.h): a rerun after a stop resumes the baseline's training and
+// takes the fits already made; both folders are removed once the tables are written. Each
 // held-out pose's physics fit starts from rest with a fitter of its
 // own, so its result does not depend on the other poses nor on which rank fits it: a
 // distributed run writes the same outputs as one process with the same thread counts.

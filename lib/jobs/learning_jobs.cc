@@ -1,8 +1,6 @@
 #include "jobs/learning_jobs.h"
 
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <sstream>
 
 #include "dist/communicator.h"
@@ -12,7 +10,9 @@
 #include "model/model_io.h"
 #include "train/progress.h"
 #include "util/atomic_file.h"
+#include "util/keyed_store.h"
 #include "util/make_directory.h"
+#include "util/number_format.h"
 #include "util/text_split.h"
 #include "util/wall_timer.h"
 
@@ -67,11 +67,24 @@ bool CheckExpectedDecoder(const std::string& model_directory, const ActiveModel&
   return false;
 }
 
+// What a finished pre-training was (its record, pretrain/key.txt): the checkpoint key
+// (model, targets, every option that shapes the decoder), the budget and whether the
+// poses were simulated after it.
+std::string PretrainRecord(const PretrainOptions& options, const ActiveModel& model,
+                           bool simulated) {
+  std::string text;
+  for (const auto& [name, value] : PretrainCheckpointKey(options, model)) {
+    text += "key " + name + " " + value + "\n";
+  }
+  return text + "budget " + std::to_string(options.max_iterations) + " " +
+         FormatDouble(options.max_seconds) + "\nsimulated " + std::to_string(simulated) + "\n";
+}
+
 }  // namespace
 
 bool RunPretrainJob(const std::string& model_directory, const PretrainOptions& options,
                     const PoseSimulationOptions* simulation, std::ostream& log,
-                    std::string* error) {
+                    std::string* error, bool keep_pretrained) {
   if (!options.Validate(error)) return false;
   if (simulation != nullptr) {
     std::string simulation_error;
@@ -86,9 +99,16 @@ bool RunPretrainJob(const std::string& model_directory, const PretrainOptions& o
       !CheckReplaceable(model_directory, true, error)) {
     return false;
   }
-  PretrainReport report;
   PretrainOptions run = options;
   run.checkpoint_directory = ResolveModelPath(model_directory) + "/pretrain";
+  const std::string record_path = run.checkpoint_directory + "/" + kPretrainRecordName;
+  const std::string record = PretrainRecord(run, model, simulation != nullptr);
+  if (keep_pretrained && model.decoder && ReadWholeFile(record_path) == record) {
+    log << "pretrain: the model's decoder was pre-trained with these flags (" << record_path
+        << "): kept, with " << model.checkpoint.iterations << " training iterations since\n";
+    return true;
+  }
+  PretrainReport report;
   if (!Pretrain(run, &model, &report, log, error)) return false;
   PretrainSurfaceErrors surface_errors;
   if (simulation != nullptr) {
@@ -117,11 +137,7 @@ bool RunPretrainJob(const std::string& model_directory, const PretrainOptions& o
         << TrainingBudgetTable(model, &surface_errors, {});
   }
   // The CSV log of pre-training goes into the new model (which replaces the folder).
-  std::string pretrain_log;
-  {
-    std::ifstream in(run.checkpoint_directory + "/" + kPretrainLogName);
-    pretrain_log.assign(std::istreambuf_iterator<char>(in), {});
-  }
+  const std::string pretrain_log = ReadWholeFile(run.checkpoint_directory + "/" + kPretrainLogName);
   if (!SaveModel(model_directory, model, error)) return false;
   if (!pretrain_log.empty() &&
       (!MakeDirectory(run.checkpoint_directory, error) ||
@@ -133,6 +149,8 @@ bool RunPretrainJob(const std::string& model_directory, const PretrainOptions& o
       !WritePretrainSurfaceErrors(model_directory, model, surface_errors, error)) {
     return false;
   }
+  // Last: its presence says the pre-training (and its record) is whole.
+  if (!WriteFileAtomically(record_path, record, error)) return false;
   log << "wrote model " << model_directory << "\n";
   return true;
 }

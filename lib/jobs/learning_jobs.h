@@ -29,9 +29,18 @@ namespace aqs {
 // Invalid options (Validate) and a memory estimate above options.max_memory_bytes
 // (PretrainMemoryBytes) fail before the model is touched; messages start with the
 // options' field names ("spec.latent_dim ...", "simulation.solver.num_threads ...").
+// At the end it writes the record pretrain/key.txt (kPretrainRecordName): the
+// checkpoint key (PretrainCheckpointKey), the budget and whether the poses were
+// simulated. With keep_pretrained, a model whose decoder has the record of this
+// pre-training (the same model, targets, options, budget and simulation) is kept as it
+// is, with any training since, and nothing is written (aqs_pipeline, so that a rerun
+// after a stop goes on where it stopped).
 bool RunPretrainJob(const std::string& model_directory, const PretrainOptions& options,
                     const PoseSimulationOptions* simulation, std::ostream& log,
-                    std::string* error);
+                    std::string* error, bool keep_pretrained = false);
+
+// The record of a finished pre-training in the model's pretrain/ folder.
+inline constexpr char kPretrainRecordName[] = "key.txt";
 
 // What the caller of RunTrainJob expects of the model's decoder (aqs_train's
 // --latent_dim, --hidden and --activation when given): training cannot change the

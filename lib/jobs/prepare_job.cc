@@ -11,9 +11,11 @@
 #include "mesh/element_subset.h"
 #include "mesh/mesh_io.h"
 #include "model/model_directory.h"
+#include "model/model_fingerprint.h"
 #include "model/model_io.h"
 #include "prepare/pose_files.h"
 #include "prepare/target_store.h"
+#include "util/keyed_store.h"
 #include "util/option_checks.h"
 #include "util/wall_timer.h"
 
@@ -218,6 +220,40 @@ void EmbedNeutral(const PrepareJobOptions& options, const CutMesh& cut_mesh, Act
       << " outside the mesh (farthest " << farthest << ") (" << timer.Seconds() << " s)\n";
 }
 
+// Whether the model at `output` is `model` as built (ModelFingerprint) with targets of
+// `target_key` (all converged): then it is kept (PrepareJobOptions::keep_same_model), and
+// the log says so; otherwise the log says why it is prepared anew (nothing if there is
+// no model).
+bool KeepsSameModel(const std::string& output, const std::string& target_key,
+                    const ActiveModel& model, std::ostream& log) {
+  std::error_code code;
+  if (!std::filesystem::exists(output + "/model.txt", code)) return false;
+  ActiveModel existing;
+  std::string error;
+  std::string why;
+  if (!LoadModel(output, &existing, &error)) {
+    why = "it cannot be read (" + error + ")";
+  } else if (ModelFingerprint(existing) != ModelFingerprint(model)) {
+    why = "its mesh, material, fixed vertices, bones, embedding or poses differ from these "
+          "inputs' and flags'";
+  } else if (existing.target_key.empty()) {
+    why = "it records no key of its targets (some did not converge, or an older version "
+          "wrote it)";
+  } else if (existing.target_key != target_key) {
+    why = "its targets were made with other options";
+  } else {
+    log << "prepare: the model at " << output << " is the model of these inputs and flags "
+        << "(targets " << target_key << "): kept, with its learned state ("
+        << (existing.decoder ? std::to_string(existing.checkpoint.iterations) +
+                                   " training iterations"
+                             : std::string("not pre-trained"))
+        << ")\n";
+    return true;
+  }
+  log << "prepare: the model at " << output << " is prepared anew: " << why << "\n";
+  return false;
+}
+
 bool RunPrepare(const PrepareJobOptions& options, std::ostream& log, std::string* error,
                 JobStatus* status) {
   *status = JobStatus::kBadInput;
@@ -290,10 +326,16 @@ bool RunPrepare(const PrepareJobOptions& options, std::ostream& log, std::string
     }
   }
 
-  WallTimer timer;
-  log << "volumetric targets by embedded simulation:\n";
   VolumetricTargetOptions targets = options.targets;
   targets.num_threads = options.num_threads;
+  const std::string target_key = VolumetricTargetFingerprint(targets, model);
+  if (options.keep_same_model && KeepsSameModel(output, target_key, model, log)) {
+    *status = JobStatus::kOk;
+    return true;
+  }
+
+  WallTimer timer;
+  log << "volumetric targets by embedded simulation:\n";
   // Each pose's target is kept beside the model as it is made, for a rerun after a stop.
   targets.store_directory = TargetStorePath(output);
   std::vector<std::string> unconverged;
@@ -305,12 +347,13 @@ bool RunPrepare(const PrepareJobOptions& options, std::ostream& log, std::string
   }
   log << "targets: mean surface error " << mean << ", max " << worst << " (" << timer.Seconds()
       << " s)\n";
+  if (unconverged.empty()) model.target_key = target_key;
   SaveModelOptions save;
   save.overwrite = options.overwrite;
   if (!SaveModel(output, model, save, error)) return false;
   log << "wrote model " << options.output << " (" << total.Seconds() << " s in all)\n";
   std::string store_error;
-  if (!RemoveTargetStore(targets.store_directory, &store_error)) {
+  if (!RemoveDirectory(targets.store_directory, &store_error)) {
     log << "warning: " << store_error << " (the targets kept while preparing)\n";
   }
   if (!unconverged.empty()) {

@@ -48,6 +48,13 @@ struct PrepareJobOptions {
   // Replace whatever is at `output`; without it, only a missing path, an empty
   // directory or an ActiveQS model is replaced, and anything else is refused at once.
   bool overwrite = false;
+  // Keep the model at `output` when it is the model this job would make: the same
+  // mesh, material, fixed vertices, bones, embedding and poses (ModelFingerprint of the
+  // model built, before its targets) and targets made with the same options, all
+  // converged (ActiveModel::target_key). Then nothing is written, and the model keeps its
+  // learned state and checkpoints. aqs_pipeline sets it, so that a rerun after a stop
+  // goes on where it stopped (not with --restart).
+  bool keep_same_model = false;
   int num_threads = 2;
   // Memory limit (bytes): the lattice (before meshing) and the simulation (before the
   // volumetric targets) are estimated, and the job stops with exit status 1 and the
@@ -68,6 +75,7 @@ struct PrepareJobOptions {
 // written. If the embedded simulation of some poses does not converge, the model is
 // still written (their targets from the states the solves ended in, for inspection)
 // and the job returns false with *status kNotConverged and *error naming the poses.
+// The model records its targets' key (ActiveModel::target_key) when all converged.
 bool RunPrepareJob(const PrepareJobOptions& options, std::ostream& log, std::string* error,
                    JobStatus* status = nullptr);
 

@@ -57,6 +57,13 @@ struct ActiveModel {
   SurfaceMesh neutral;               // the neutral surface (polygons kept)
   Embedding embedding;               // each neutral vertex in an element of `mesh`
   std::vector<TrainingPose> poses;
+  // What the volumetric targets were made with (model.txt's `targets` line): the
+  // fingerprint of VolumetricTargetKey (prepare/target_store.h: the model as prepared and
+  // the target options), set by aqs_prepare when every pose's embedded simulation
+  // converged; empty otherwise and in models written before it was recorded. A rerun of
+  // the pipeline keeps a model whose targets were made from the same (RunPrepareJob,
+  // PrepareJobOptions::keep_same_model).
+  std::string target_key;
 
   // The learned part (absent before pre-training: decoder == nullptr).
   std::shared_ptr<const ActuationDecoder> decoder;

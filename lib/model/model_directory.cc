@@ -52,7 +52,7 @@ bool IsModelFileName(const std::string& folder, const std::string& name) {
   // eval/error_budget.h: what pre-training reached; train/solver_checkpoint.h.
   static const std::set<std::string> kPretrain = {"surface_errors.bin", "surface_errors.txt",
                                                   "checkpoint.txt", "parameters_a.bin",
-                                                  "parameters_b.bin", "log.csv"};
+                                                  "parameters_b.bin", "log.csv", "key.txt"};
   if (folder.empty()) return kTop.count(name) > 0;
   if (folder == "train") return kTrain.count(name) > 0;
   if (folder == "pretrain") return kPretrain.count(name) > 0;

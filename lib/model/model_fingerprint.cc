@@ -1,6 +1,7 @@
 #include "model/model_fingerprint.h"
 
 #include <cstdio>
+#include <vector>
 
 #include "util/fnv_hash.h"
 
@@ -55,6 +56,39 @@ uint64_t ModelFingerprint(const ActiveModel& model) {
   for (const TrainingPose& pose : model.poses) {
     h.Add(pose.name);
     h.AddMatrix(pose.surface);
+  }
+  return h.hash();
+}
+
+uint64_t DecoderArchitectureFingerprint(const ActiveModel& model) {
+  if (!model.decoder) return 0;
+  const ActuationDecoder& d = *model.decoder;
+  std::vector<double> numbers = {static_cast<double>(d.latent_dim()),
+                                 static_cast<double>(d.spec().activation),
+                                 d.spec().output_scale,
+                                 d.spec().anchored ? 1.0 : 0.0,
+                                 d.spec().linear_skip ? 1.0 : 0.0,
+                                 static_cast<double>(d.num_nodes()),
+                                 static_cast<double>(d.num_elements()),
+                                 static_cast<double>(d.num_parameters())};
+  for (int width : d.spec().hidden_dims) numbers.push_back(width);
+  return Fnv1a(numbers.data(), sizeof(double) * numbers.size(), kFnvOffsetBasis) | 1;
+}
+
+uint64_t LearnedStateFingerprint(const ActiveModel& model) {
+  Hasher h;
+  const uint64_t architecture = DecoderArchitectureFingerprint(model);
+  h.Add(&architecture, 1);
+  h.AddMatrix(model.decoder_params);
+  h.AddMatrix(model.latents);
+  for (const Eigen::Matrix3Xd& state : model.states) h.AddMatrix(state);
+  const FitPrior& prior = model.fit_prior;
+  h.Add(prior.center);
+  h.AddMatrix(prior.latent.mean);
+  h.AddMatrix(prior.latent.covariance);
+  for (const GaussianPrior& g : prior.bones) {
+    h.AddMatrix(g.mean);
+    h.AddMatrix(g.covariance);
   }
   return h.hash();
 }

@@ -17,6 +17,17 @@ namespace aqs {
 // double exactly), and differs for another mesh, pose set, pose order or embedding.
 uint64_t ModelFingerprint(const ActiveModel& model);
 
+// A 64-bit fingerprint of a model's decoder architecture (latent size, activation,
+// output scale, anchoring, linear skip, control nodes, elements, parameter count, hidden
+// widths); 0 for a model without a decoder. Not its parameters.
+uint64_t DecoderArchitectureFingerprint(const ActiveModel& model);
+
+// A 64-bit fingerprint of what training made of a model, which results computed with
+// it belong to: the decoder's architecture and parameters, the latents, the stored
+// equilibria and the fit priors (as ModelFingerprint, the same after a save and load).
+// Not the training checkpoint's counters.
+uint64_t LearnedStateFingerprint(const ActiveModel& model);
+
 // The fingerprint as 16 lowercase hexadecimal digits, and back (false if `text` is
 // not 1 to 16 hexadecimal digits).
 std::string FingerprintText(uint64_t fingerprint);

@@ -160,6 +160,7 @@ bool WriteAll(const std::string& dir, const ActiveModel& model, std::string* err
            << "poses " << model.num_poses() << "\n"
            << "bones " << model.bones.size() << "\n"
            << "trained " << (model.decoder ? 1 : 0) << "\n";
+  if (!model.target_key.empty()) manifest << "targets " << model.target_key << "\n";
   if (!WriteText(dir + "/model.txt", manifest.str(), error) ||
       !WriteMeditMesh(dir + "/mesh.mesh", model.mesh, error) ||
       !WriteMatrixFile(dir + "/mu.bin", model.mu.transpose(), error) ||
@@ -234,8 +235,10 @@ bool WriteAll(const std::string& dir, const ActiveModel& model, std::string* err
          WriteLearned(dir + "/" + kLearned, model, error);
 }
 
-// Reads "key value" lines of model.txt.
-bool ReadManifest(const std::string& path, int* version, std::string* error) {
+// Reads "key value" lines of model.txt: the format version and (may be null) the
+// targets' key (ActiveModel::target_key; "" if absent or not a fingerprint).
+bool ReadManifest(const std::string& path, int* version, std::string* error,
+                  std::string* target_key = nullptr) {
   LineReader reader(path);
   if (!reader.ok()) {
     *error = reader.error() + " (is this an ActiveQS model directory?)";
@@ -243,8 +246,13 @@ bool ReadManifest(const std::string& path, int* version, std::string* error) {
   }
   std::vector<std::string> tokens;
   *version = -1;
+  uint64_t fingerprint = 0;
   while (reader.NextTokens(&tokens)) {
-    if (tokens.size() == 2 && tokens[0] == "format" && ParseInt(tokens[1], version)) break;
+    if (tokens.size() == 2 && tokens[0] == "format") ParseInt(tokens[1], version);
+    if (target_key != nullptr && tokens.size() == 2 && tokens[0] == "targets" &&
+        ParseFingerprint(tokens[1], &fingerprint)) {
+      *target_key = FingerprintText(fingerprint);
+    }
   }
   if (!reader.ok()) {
     *error = reader.error();
@@ -738,8 +746,8 @@ bool ReadLearnedPart(const std::string& dir, int version, ActiveModel* model,
 bool LoadModel(const std::string& directory, ActiveModel* model_out, std::string* error) {
   const std::string& dir = directory;
   int version = 0;
-  if (!ReadManifest(dir + "/model.txt", &version, error)) return false;
   ActiveModel model;
+  if (!ReadManifest(dir + "/model.txt", &version, error, &model.target_key)) return false;
   if (!ReadTetMesh(dir + "/mesh.mesh", &model.mesh, error) ||
       !ReadStiffness(dir, &model, error) ||
       !ReadObj(dir + "/neutral.obj", &model.neutral, error) || !ReadPoses(dir, &model, error) ||

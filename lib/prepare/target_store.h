@@ -5,6 +5,7 @@
 
 #include "model/active_model.h"
 #include "prepare/volumetric_targets.h"
+#include "util/keyed_store.h"
 
 namespace aqs {
 
@@ -18,20 +19,22 @@ namespace aqs {
 //              did not converge, "failed <message>"; written after the .bin, so its
 //              presence means the pose is done
 //
-// Every file is written atomically.
+// Every file is written atomically (util/keyed_store.h); the folder is removed once the
+// model is saved (RemoveDirectory).
 
 // What a pose's target depends on: the model as prepared so far (ModelFingerprint:
 // mesh, mu, fixed vertices, bones, neutral, embedding, poses) and the options that
 // shape the solves (spring stiffness, continuation, solver method and tolerances).
 std::string VolumetricTargetKey(const VolumetricTargetOptions& options, const ActiveModel& model);
 
+// VolumetricTargetKey as 16 hexadecimal digits (an FNV-1a hash of its text): what
+// ActiveModel::target_key records.
+std::string VolumetricTargetFingerprint(const VolumetricTargetOptions& options,
+                                        const ActiveModel& model);
+
 // Where aqs_prepare keeps the targets of the model at `model_directory`: beside it,
 // "<model>.aqs-targets" (the model folder itself is replaced as a whole at the end).
 std::string TargetStorePath(const std::string& model_directory);
-
-// Removes a store folder and everything in it (once the model is saved); a missing one
-// is fine.
-bool RemoveTargetStore(const std::string& directory, std::string* error);
 
 class TargetStore {
  public:
@@ -49,10 +52,10 @@ class TargetStore {
   bool Save(int p, const TrainingPose& pose, const std::string& failure,
             std::string* error) const;
 
-  const std::string& directory() const { return directory_; }
+  const std::string& directory() const { return store_.directory(); }
 
  private:
-  std::string directory_;
+  KeyedStore store_;
 };
 
 }  // namespace aqs

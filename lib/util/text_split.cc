@@ -31,4 +31,11 @@ std::string JoinInts(const std::vector<int>& values, const std::string& empty) {
   return text;
 }
 
+std::string OneLine(std::string text) {
+  for (char& c : text) {
+    if (c == '\n' || c == '\r') c = ' ';
+  }
+  return text;
+}
+
 }  // namespace aqs

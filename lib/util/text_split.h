@@ -1,7 +1,7 @@
 #ifndef AQS_UTIL_TEXT_SPLIT_H_
 #define AQS_UTIL_TEXT_SPLIT_H_
 
-// The list splitters (and a joiner) of flags and small text fields (the whitespace token splitter of
+// The list splitters (and a joiner, and a line flattener) of flags and small text fields (the whitespace token splitter of
 // file lines is SplitTokens, util/line_reader.h).
 
 #include <string>
@@ -22,6 +22,10 @@ std::vector<std::string> SplitFields(const std::string& text, char separator = '
 // The inverse for integers: {64, 64} -> "64,64"; {} -> `empty` (e.g. "none" for a
 // network without hidden layers).
 std::string JoinInts(const std::vector<int>& values, const std::string& empty = "");
+
+// `text` with every line break (\n, \r) replaced by a space: a message kept as one line
+// of a record file.
+std::string OneLine(std::string text);
 
 }  // namespace aqs
 

@@ -40,8 +40,7 @@ TEST(AqsPipelineTest, PreparesPretrainsTrainsAndResumes) {
   const testing::CommandResult run =
       RunCommand(AppPath("aqs_pipeline") + " --flagfile=" + dir.File("run.flags"));
   ASSERT_EQ(run.exit_code, 0) << run.output;
-  for (const char* expected : {"=== prepare\n", "volumetric targets",
-                               "=== pretrain (if stopped, go on with --stages=pretrain,train)",
+  for (const char* expected : {"=== prepare\n", "volumetric targets", "=== pretrain\n",
                                "=== train", "train iter     4/4", "pipeline done"}) {
     EXPECT_NE(run.output.find(expected), std::string::npos) << expected << "\n" << run.output;
   }
@@ -78,6 +77,43 @@ TEST(AqsPipelineTest, PreparesPretrainsTrainsAndResumes) {
   EXPECT_NE(again.output.find("exceed the factor cache of 0 GB)"), std::string::npos)
       << again.output;
   EXPECT_NE(again.output.find("train iter     7/7"), std::string::npos) << again.output;
+
+  // The whole pipeline again, with one more iteration: prepare and pre-training keep the
+  // model (the same inputs and flags), training resumes after its 7 iterations.
+  const std::string pipeline = AppPath("aqs_pipeline") + " --flagfile=" + dir.File("run.flags");
+  again = RunCommand(pipeline + " --train_iterations=8");
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  for (const char* expected :
+       {"is the model of these inputs and flags (targets ", "): kept, with its learned state (7 "
+        "training iterations)", "pretrain: the model's decoder was pre-trained with these "
+        "flags (", "): kept, with 7 training iterations since", "resuming after 7 iterations",
+        "train iter     8/8"}) {
+    EXPECT_NE(again.output.find(expected), std::string::npos) << expected << "\n" << again.output;
+  }
+  EXPECT_EQ(again.output.find("volumetric targets by embedded simulation"), std::string::npos)
+      << again.output;
+  // Targets of other options: prepared anew, and so pre-trained anew.
+  again = RunCommand(pipeline + " --attachment_stiffness=50 --stages=prepare,pretrain");
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  for (const char* expected : {"is prepared anew: its targets were made with other options",
+                               "volumetric targets by embedded simulation", "wrote model"}) {
+    EXPECT_NE(again.output.find(expected), std::string::npos) << expected << "\n" << again.output;
+  }
+  EXPECT_EQ(again.output.find("pre-trained with these flags"), std::string::npos) << again.output;
+  // Other pre-training flags: pre-trained anew on the kept model.
+  again = RunCommand(pipeline + " --attachment_stiffness=50 --stages=prepare,pretrain "
+                     "--pretrain_iterations=30");
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  EXPECT_NE(again.output.find("kept, with its learned state (0 training iterations)"),
+            std::string::npos) << again.output;
+  EXPECT_EQ(again.output.find("pre-trained with these flags"), std::string::npos) << again.output;
+  // --restart prepares and pre-trains anew whatever the model.
+  again = RunCommand(pipeline + " --attachment_stiffness=50 --stages=prepare,pretrain "
+                     "--pretrain_iterations=30 --restart");
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  EXPECT_EQ(again.output.find("kept"), std::string::npos) << again.output;
+  EXPECT_NE(again.output.find("volumetric targets by embedded simulation"), std::string::npos)
+      << again.output;
 }
 
 TEST(AqsPipelineTest, MissingFlagsAndBadStagesFail) {

@@ -1,5 +1,6 @@
 // The evaluation's held-out fits over MPI (run by mpirun with 2 ranks): the same
-// tables and fitted surfaces as one process, bit for bit.
+// tables and fitted surfaces as one process, bit for bit, also when a rerun takes the
+// fits a stopped run kept.
 
 #include <filesystem>
 #include <fstream>
@@ -81,6 +82,76 @@ TEST(MpiEvaluationTest, HeldOutFitsGiveTheOutputsOfOneProcess) {
   std::printf("%d held-out fits over %d ranks: evaluation.csv and %d fitted surfaces identical "
               "to one process\n",
               5, world.size(), compared);
+}
+
+// A distributed evaluation stopped after its fits keeps them (rank 0 writes the other
+// ranks' as they arrive); the rerun takes those left and fits the others, and writes
+// the outputs of one process.
+TEST(MpiEvaluationTest, ARerunTakesTheKeptFitsAndFitsTheRest) {
+  const Communicator& world = World();
+  testing::SharedTempDir dir;
+  EvaluateJobOptions options;
+  options.model = dir.File("m");
+  options.error_budget = false;
+  options.autoencoder.max_iterations = 40;
+  options.num_threads = 1;
+  options.fit.num_threads = 1;
+  options.fit.max_iterations = 10;
+  const testing::SyntheticMuscles held_out = testing::MakeSyntheticMuscles(1, 4, 0.3, 29);
+  for (size_t t = 0; t < held_out.test_surfaces.size(); ++t) {
+    options.test_paths.push_back(dir.File("held_out_" + std::to_string(t) + ".obj"));
+  }
+  options.output_directory = dir.File("many");
+  const std::string store = options.output_directory + "/" + kHeldOutFitFolder;
+  std::string error;
+  if (world.is_root()) {
+    EXPECT_TRUE(SaveModel(options.model, testing::PretrainedBar(3), &error)) << error;
+    for (size_t t = 0; t < held_out.test_surfaces.size(); ++t) {
+      SurfaceMesh surface = held_out.model.neutral;
+      surface.vertices = held_out.test_surfaces[t];
+      EXPECT_TRUE(WriteObj(options.test_paths[t], surface, &error)) << error;
+    }
+    // evaluation.md cannot be written (a folder has its name): the run stops after its
+    // fits.
+    fs::create_directories(options.output_directory + "/evaluation.md");
+  }
+  world.Barrier();
+  std::ostringstream log;
+  std::vector<EvaluationRow> one_rows, rows;
+  EvaluateJobOptions distributed = options;
+  distributed.communicator = &world;
+  const bool stopped = RunEvaluateJob(distributed, log, &rows, &error);
+  world.Barrier();
+  if (world.is_root()) {
+    EXPECT_FALSE(stopped);
+    EXPECT_NE(error.find("evaluation.md"), std::string::npos) << error;
+    for (int t = 0; t < 4; ++t) {
+      EXPECT_TRUE(fs::exists(store + "/000" + std::to_string(t) + ".txt")) << t;
+    }
+    // Two of the four were not kept (one of each rank's).
+    fs::remove(store + "/0000.txt");
+    fs::remove(store + "/0001.txt");
+    fs::remove(options.output_directory + "/evaluation.md");
+    EvaluateJobOptions one = options;
+    one.output_directory = dir.File("one");
+    EXPECT_TRUE(RunEvaluateJob(one, log, &one_rows, &error)) << error;
+  }
+  world.Barrier();
+  std::ostringstream rerun_log;
+  EXPECT_TRUE(RunEvaluateJob(distributed, rerun_log, &rows, &error)) << error;
+  if (!world.is_root()) return;
+  EXPECT_NE(rerun_log.str().find("held-out poses: 2 physics fits in "), std::string::npos)
+      << rerun_log.str();
+  EXPECT_NE(rerun_log.str().find(", 2 taken from " + store), std::string::npos)
+      << rerun_log.str();
+  EXPECT_FALSE(fs::exists(store)) << "removed once the tables are written";
+  const std::string csv = ReadAll(dir.File("many/evaluation.csv"));
+  EXPECT_FALSE(csv.empty());
+  EXPECT_EQ(csv, ReadAll(dir.File("one/evaluation.csv")));
+  for (const auto& entry : fs::directory_iterator(dir.File("one/fitted"))) {
+    const std::string name = entry.path().filename();
+    EXPECT_EQ(ReadAll(dir.File("many/fitted/" + name)), ReadAll(entry.path())) << name;
+  }
 }
 
 }  // namespace

@@ -1,8 +1,10 @@
 // The evaluation's held-out fits (jobs/held_out_fits.h): a fit that fails is left out,
-// and the others stand.
+// and the others stand; fits kept in a store (jobs/held_out_fit_store.h) are taken by
+// a rerun, bit for bit, for the same model, learned state, options and poses only.
 
 #include "jobs/held_out_fits.h"
 
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -10,42 +12,157 @@
 
 #include "testing/fit_fixtures.h"
 #include "testing/synthetic_muscles.h"
+#include "testing/temp_dir.h"
 
 namespace aqs {
 namespace {
 
-TEST(HeldOutFitsTest, AFailedFitIsMarkedAndTheOthersStand) {
-  ActiveModel model = testing::PretrainedBarForFits(false);
-  ASSERT_TRUE(testing::StoreTrainingEquilibria(&model));
-  const testing::SyntheticMuscles held_out = testing::MakeSyntheticMuscles(1, 2, 0.3, 23);
-  // Two bent poses the model never saw, fitted from the mean latent at rest.
-  const std::vector<std::string> names = {"bent", "bent_too"};
-  const std::vector<Eigen::Matrix3Xd> surfaces = {held_out.test_surfaces[0],
-                                                  held_out.test_surfaces[1]};
-  LatentFitOptions options;
-  options.num_threads = 1;
-  std::vector<LatentFitResult> fits;
-  std::vector<double> seconds;
-  // With the default solver, both fit.
-  FitHeldOutPoses(model, options, false, names, surfaces, nullptr, &fits, &seconds);
-  ASSERT_EQ(fits.size(), 2u);
-  for (const LatentFitResult& fit : fits) {
-    EXPECT_FALSE(fit.failed) << fit.message;
-    EXPECT_EQ(fit.surface.cols(), model.num_surface_vertices());
+namespace fs = std::filesystem;
+
+class HeldOutFitsTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    model_ = testing::PretrainedBarForFits(false);
+    ASSERT_TRUE(testing::StoreTrainingEquilibria(&model_));
+    const testing::SyntheticMuscles held_out = testing::MakeSyntheticMuscles(1, 2, 0.3, 23);
+    // Two bent poses the model never saw, fitted from the mean latent at rest.
+    surfaces_ = {held_out.test_surfaces[0], held_out.test_surfaces[1]};
+    options_.num_threads = 1;
   }
-  // One solver iteration: no equilibrium from rest, so no start can be simulated. Every
-  // fit fails, each with its pose's name, and the others stand.
+
+  HeldOutFits Fit(const LatentFitOptions& options, const std::string& store = "") const {
+    HeldOutFits out;
+    FitHeldOutPoses(model_, options, false, names_, surfaces_, store, nullptr, &out);
+    EXPECT_EQ(out.fits.size(), 2u);
+    EXPECT_EQ(out.seconds.size(), 2u);
+    EXPECT_EQ(out.store_warning, "");
+    return out;
+  }
+
+  ActiveModel model_;
+  std::vector<std::string> names_ = {"bent", "bent_too"};
+  std::vector<Eigen::Matrix3Xd> surfaces_;
+  LatentFitOptions options_;
+  testing::TempDir dir_;
+};
+
+// One solver iteration: no equilibrium from rest, so no start can be simulated.
+LatentFitOptions Failing(LatentFitOptions options) {
   options.solver.max_iterations = 1;
   options.solver.max_lbfgs_iterations = 1;
-  FitHeldOutPoses(model, options, false, names, surfaces, nullptr, &fits, &seconds);
-  ASSERT_EQ(fits.size(), 2u);
-  for (size_t t = 0; t < fits.size(); ++t) {
-    EXPECT_TRUE(fits[t].failed) << t;
-    EXPECT_EQ(fits[t].start, kFailedFitStart);
-    EXPECT_EQ(fits[t].surface.cols(), 0);
-    EXPECT_EQ(fits[t].message.rfind("held-out pose '" + names[t] + "': ", 0), 0u)
-        << fits[t].message;
+  return options;
+}
+
+void ExpectSameFit(const LatentFitResult& a, const LatentFitResult& b, int t) {
+  EXPECT_EQ(a.failed, b.failed) << t;
+  EXPECT_EQ(a.start, b.start) << t;
+  EXPECT_EQ(a.message, b.message) << t;
+  EXPECT_EQ(a.latent, b.latent) << t;
+  EXPECT_EQ(a.state, b.state) << t;
+  EXPECT_EQ(a.surface, b.surface) << t;
+  ASSERT_EQ(a.bones.size(), b.bones.size()) << t;
+  for (size_t i = 0; i < a.bones.size(); ++i) {
+    EXPECT_EQ(a.bones[i].rotation, b.bones[i].rotation) << t;
+    EXPECT_EQ(a.bones[i].translation, b.bones[i].translation) << t;
   }
+  EXPECT_EQ(a.rms_error, b.rms_error) << t;
+  EXPECT_EQ(a.mean_error, b.mean_error) << t;
+  EXPECT_EQ(a.max_error, b.max_error) << t;
+  EXPECT_EQ(a.iterations, b.iterations) << t;
+  EXPECT_EQ(a.used_points, b.used_points) << t;
+  EXPECT_EQ(a.converged, b.converged) << t;
+}
+
+TEST_F(HeldOutFitsTest, AFailedFitIsMarkedAndTheOthersStand) {
+  // With the default solver, both fit.
+  HeldOutFits out = Fit(options_);
+  for (const LatentFitResult& fit : out.fits) {
+    EXPECT_FALSE(fit.failed) << fit.message;
+    EXPECT_EQ(fit.surface.cols(), model_.num_surface_vertices());
+  }
+  // Every fit fails, each with its pose's name, and the others stand.
+  out = Fit(Failing(options_));
+  for (size_t t = 0; t < out.fits.size(); ++t) {
+    EXPECT_TRUE(out.fits[t].failed) << t;
+    EXPECT_EQ(out.fits[t].start, kFailedFitStart);
+    EXPECT_EQ(out.fits[t].surface.cols(), 0);
+    EXPECT_EQ(out.fits[t].message.rfind("held-out pose '" + names_[t] + "': ", 0), 0u)
+        << out.fits[t].message;
+  }
+}
+
+TEST_F(HeldOutFitsTest, ARerunTakesTheKeptFitsBitForBit) {
+  const std::string store = dir_.File("evaluation/held_out_fits");
+  const HeldOutFits first = Fit(options_, store);
+  EXPECT_EQ(first.kept, 0);
+  EXPECT_TRUE(fs::exists(store + "/key.txt"));
+  for (const char* file : {"/0000.bin", "/0000.txt", "/0001.bin", "/0001.txt"}) {
+    EXPECT_TRUE(fs::exists(store + file)) << file;
+  }
+  // Both taken, as they were.
+  HeldOutFits second = Fit(options_, store);
+  EXPECT_EQ(second.kept, 2);
+  for (int t = 0; t < 2; ++t) ExpectSameFit(second.fits[t], first.fits[t], t);
+  EXPECT_EQ(second.seconds, first.seconds);
+  // A stop before pose 1's record was written: pose 1 is fitted again, to the same
+  // result (each fit starts from rest with a fitter of its own).
+  fs::remove(store + "/0001.txt");
+  second = Fit(options_, store);
+  EXPECT_EQ(second.kept, 1);
+  for (int t = 0; t < 2; ++t) ExpectSameFit(second.fits[t], first.fits[t], t);
+  // A damaged block is not taken.
+  fs::resize_file(store + "/0000.bin", 16);
+  EXPECT_EQ(Fit(options_, store).kept, 1);
+  EXPECT_EQ(Fit(options_, store).kept, 2);
+}
+
+TEST_F(HeldOutFitsTest, KeptFitsOfAnotherModelOptionsOrPoseAreNotTaken) {
+  const std::string store = dir_.File("held_out_fits");
+  Fit(options_, store);
+  EXPECT_EQ(Fit(options_, store).kept, 2);
+  // Other fit options: the store is emptied, and kept anew.
+  LatentFitOptions other = options_;
+  other.latent_prior *= 2;
+  EXPECT_EQ(Fit(other, store).kept, 0);
+  EXPECT_EQ(Fit(other, store).kept, 2);
+  other.solver.relative_force_tolerance *= 0.5;
+  EXPECT_EQ(Fit(other, store).kept, 0);
+  EXPECT_EQ(Fit(options_, store).kept, 0);
+  // Another learned state (a retrained model's latents).
+  model_.latents(0, 0) += 1e-9;
+  EXPECT_EQ(Fit(options_, store).kept, 0);
+  EXPECT_EQ(Fit(options_, store).kept, 2);
+  // Another surface under the same name, or another name: that pose is fitted again.
+  surfaces_[1](0, 0) += 1e-9;
+  EXPECT_EQ(Fit(options_, store).kept, 1);
+  std::swap(names_[0], names_[1]);
+  EXPECT_EQ(Fit(options_, store).kept, 0);
+  // Fitting threads are not part of the key.
+  LatentFitOptions threads = options_;
+  threads.num_threads = 2;
+  HeldOutFits out;
+  FitHeldOutPoses(model_, threads, false, names_, surfaces_, store, nullptr, &out);
+  EXPECT_EQ(out.kept, 2);
+}
+
+TEST_F(HeldOutFitsTest, FailedFitsAreKeptWithTheirMessage) {
+  const std::string store = dir_.File("held_out_fits");
+  const HeldOutFits first = Fit(Failing(options_), store);
+  const HeldOutFits second = Fit(Failing(options_), store);
+  EXPECT_EQ(second.kept, 2);
+  for (int t = 0; t < 2; ++t) {
+    EXPECT_TRUE(second.fits[t].failed);
+    ExpectSameFit(second.fits[t], first.fits[t], t);
+  }
+}
+
+TEST_F(HeldOutFitsTest, AStoreThatCannotBeMadeIsAWarningAndTheFitsStand) {
+  const std::string blocker = dir_.Write("file", "not a folder");
+  HeldOutFits out;
+  FitHeldOutPoses(model_, options_, false, names_, surfaces_, blocker + "/store", nullptr, &out);
+  EXPECT_NE(out.store_warning.find(blocker), std::string::npos) << out.store_warning;
+  ASSERT_EQ(out.fits.size(), 2u);
+  for (const LatentFitResult& fit : out.fits) EXPECT_FALSE(fit.failed) << fit.message;
 }
 
 }  // namespace

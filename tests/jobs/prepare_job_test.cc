@@ -74,6 +74,63 @@ TEST_F(PrepareJobTest, SurfaceWithHolesBecomesAModel) {
   EXPECT_NE(log.str().find("fixed by depth > 1.2"), std::string::npos) << log.str();
 }
 
+// keep_same_model (aqs_pipeline's rerun): a model of the same inputs and options is
+// kept as it is; another pose surface, mesh option or target option makes a new one;
+// a model whose targets did not all converge records no key and is never kept.
+TEST_F(PrepareJobTest, TheSameModelIsKeptAndAnotherIsMadeAnew) {
+  std::ostringstream log;
+  std::string error;
+  ASSERT_TRUE(RunPrepareJob(options_, log, &error)) << error;
+  ActiveModel first;
+  ASSERT_TRUE(LoadModel(options_.output, &first, &error)) << error;
+  EXPECT_EQ(first.target_key.size(), 16u);
+  PrepareJobOptions keep = options_;
+  keep.keep_same_model = true;
+  const auto written = std::filesystem::last_write_time(options_.output + "/model.txt");
+  log.str("");
+  ASSERT_TRUE(RunPrepareJob(keep, log, &error)) << error;
+  EXPECT_NE(log.str().find("is the model of these inputs and flags (targets " +
+                           first.target_key + "): kept, with its learned state (not "
+                           "pre-trained)"),
+            std::string::npos)
+      << log.str();
+  EXPECT_EQ(std::filesystem::last_write_time(options_.output + "/model.txt"), written);
+  // Another pose surface.
+  SurfaceMesh pose;
+  ASSERT_TRUE(ReadObj(options_.pose_paths[2], &pose, &error)) << error;
+  pose.vertices(0, 7) += 1e-3;
+  ASSERT_TRUE(WriteObj(options_.pose_paths[2], pose, &error)) << error;
+  log.str("");
+  ASSERT_TRUE(RunPrepareJob(keep, log, &error)) << error;
+  EXPECT_NE(log.str().find("is prepared anew: its mesh, material, fixed vertices, bones, "
+                           "embedding or poses differ"),
+            std::string::npos)
+      << log.str();
+  // Another target option.
+  keep.targets.relative_stiffness *= 2;
+  log.str("");
+  ASSERT_TRUE(RunPrepareJob(keep, log, &error)) << error;
+  EXPECT_NE(log.str().find("is prepared anew: its targets were made with other options"),
+            std::string::npos)
+      << log.str();
+  // Targets that do not converge: the model is written (status kNotConverged) without a
+  // key, and a rerun makes it again.
+  keep.targets.solver.max_iterations = 1;
+  keep.targets.solver.max_lbfgs_iterations = 1;
+  keep.targets.continuation_steps = 1;
+  JobStatus status = JobStatus::kOk;
+  EXPECT_FALSE(RunPrepareJob(keep, log, &error, &status));
+  EXPECT_EQ(status, JobStatus::kNotConverged) << error;
+  ActiveModel unconverged;
+  ASSERT_TRUE(LoadModel(options_.output, &unconverged, &error)) << error;
+  EXPECT_TRUE(unconverged.target_key.empty());
+  log.str("");
+  EXPECT_FALSE(RunPrepareJob(keep, log, &error, &status));
+  EXPECT_NE(log.str().find("is prepared anew: it records no key of its targets"),
+            std::string::npos)
+      << log.str();
+}
+
 // Elements at vertices that fewer than min_elements_per_vertex elements hold (here
 // the outer corners of elements kept for a surface vertex) are removed; the surface
 // vertices they held are embedded just outside the mesh.

@@ -447,6 +447,52 @@ TEST(ModelIoTest, DamagedCheckpointFailsNamingTheFile) {
   EXPECT_EQ(back.checkpoint.loss, 0.5);
 }
 
+// The learned state's fingerprint and the targets' key survive saving and loading; the
+// fingerprint changes with any learned number (not with the training counters), the
+// model's own fingerprint does not.
+TEST(ModelIoTest, LearnedStateFingerprintAndTargetKeyRoundTrip) {
+  ActiveModel model = TrainedSyntheticModel();
+  model.target_key = "0123456789abcdef";
+  testing::TempDir dir;
+  std::string error;
+  ASSERT_TRUE(SaveModel(dir.File("a"), model, &error)) << error;
+  EXPECT_NE(ReadAll(dir.File("a/model.txt")).find("\ntargets 0123456789abcdef\n"),
+            std::string::npos);
+  ActiveModel back;
+  ASSERT_TRUE(LoadModel(dir.File("a"), &back, &error)) << error;
+  EXPECT_EQ(back.target_key, model.target_key);
+  // (The model in memory has no fit prior yet: saving learns it.)
+  const uint64_t learned = LearnedStateFingerprint(back);
+  EXPECT_NE(LearnedStateFingerprint(model), learned);
+  model = back;
+  ASSERT_TRUE(SaveModel(dir.File("b"), model, &error)) << error;
+  ASSERT_TRUE(LoadModel(dir.File("b"), &back, &error)) << error;
+  EXPECT_EQ(LearnedStateFingerprint(back), learned);
+  back.checkpoint.iterations += 3;
+  EXPECT_EQ(LearnedStateFingerprint(back), learned);
+  ActiveModel other = model;
+  other.decoder_params[0] += 1e-12;
+  EXPECT_NE(LearnedStateFingerprint(other), learned);
+  EXPECT_EQ(ModelFingerprint(other), ModelFingerprint(model));
+  other = model;
+  other.latents(0, 1) += 1e-12;
+  EXPECT_NE(LearnedStateFingerprint(other), learned);
+  other = model;
+  other.fit_prior.latent.mean[0] += 1e-12;
+  EXPECT_NE(LearnedStateFingerprint(other), learned);
+  other = model;
+  ASSERT_EQ(other.states.size(), 3u);
+  ASSERT_EQ(other.states[1].cols(), model.mesh.num_vertices());  // the one stored state
+  other.states[1](2, 0) += 1e-12;
+  EXPECT_NE(LearnedStateFingerprint(other), learned);
+  // Without a key (unconverged targets, or an older model): none is written or read.
+  model.target_key.clear();
+  ASSERT_TRUE(SaveModel(dir.File("a"), model, &error)) << error;
+  EXPECT_EQ(ReadAll(dir.File("a/model.txt")).find("targets"), std::string::npos);
+  ASSERT_TRUE(LoadModel(dir.File("a"), &back, &error)) << error;
+  EXPECT_TRUE(back.target_key.empty());
+}
+
 // The checkpoint names the fingerprint of the model its learned state belongs to: the
 // fingerprint survives saving and loading, a learned/ copied from another model (same
 // mesh, other poses) is refused naming the file, and a checkpoint without the line (an

@@ -97,9 +97,9 @@ TEST_F(TargetStoreTest, ADamagedRecordIsSolvedAgain) {
     EXPECT_LT((second.poses[p].target - first.poses[p].target).cwiseAbs().maxCoeff(), 1e-5) << p;
   }
   std::string error;
-  ASSERT_TRUE(RemoveTargetStore(options_.store_directory, &error)) << error;
+  ASSERT_TRUE(RemoveDirectory(options_.store_directory, &error)) << error;
   EXPECT_FALSE(fs::exists(options_.store_directory));
-  EXPECT_TRUE(RemoveTargetStore(options_.store_directory, &error)) << "a missing one is fine";
+  EXPECT_TRUE(RemoveDirectory(options_.store_directory, &error)) << "a missing one is fine";
 }
 
 }  // namespace

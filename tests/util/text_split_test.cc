@@ -45,5 +45,11 @@ TEST(FileExtensionTest, LowerCaseWithDotAsFilesystemTakesIt) {
   EXPECT_EQ(LowercaseExtension("Pose.Obj"), ".obj");
 }
 
+TEST(TextSplitTest, OneLineReplacesLineBreaksBySpaces) {
+  EXPECT_EQ(OneLine("a\nb\r\nc"), "a b  c");
+  EXPECT_EQ(OneLine(""), "");
+  EXPECT_EQ(OneLine("no break"), "no break");
+}
+
 }  // namespace
 }  // namespace aqs
