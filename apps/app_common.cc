@@ -8,6 +8,7 @@
 #include <glog/logging.h>
 
 #include "all_flags.h"
+#include "util/allocation_policy.h"
 #include "util/line_reader.h"
 #include "util/text_split.h"
 
@@ -89,6 +90,9 @@ void InitApp(const std::string& usage, int* argc, char*** argv) {
   // Line-buffered standard output, as on a terminal, also into a file or a pipe: a long
   // run's log shows each line as it is printed, and a killed run keeps what it printed.
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
+  // Large blocks (L-BFGS vectors of millions of parameters) from the heap and reused, not
+  // mapped and zeroed again at every step (util/allocation_policy.h).
+  ReuseLargeAllocations(kAppKeptAllocationBytes);
   gflags::SetUsageMessage(usage);
   gflags::ParseCommandLineNonHelpFlags(argc, argv, true);
   // gflags' own --helpshort lists only the flags of the file holding main(). An app also
