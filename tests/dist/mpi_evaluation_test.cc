@@ -27,9 +27,10 @@ std::string ReadAll(const std::string& path) {
   return buffer.str();
 }
 
-TEST(MpiEvaluationTest, HeldOutFitsGiveTheOutputsOfOneProcess) {
-  const Communicator& world = World();
-  testing::SharedTempDir dir;
+// The evaluation of a pre-trained bar on `count` held-out poses of it (seed: which),
+// single-threaded; rank 0 writes the model and the poses into `dir`.
+EvaluateJobOptions BarEvaluation(const Communicator& world, const testing::SharedTempDir& dir,
+                                 int count, unsigned seed) {
   EvaluateJobOptions options;
   options.model = dir.File("m");
   options.error_budget = false;
@@ -37,8 +38,7 @@ TEST(MpiEvaluationTest, HeldOutFitsGiveTheOutputsOfOneProcess) {
   options.num_threads = 1;
   options.fit.num_threads = 1;
   options.fit.max_iterations = 10;
-  // Five held-out poses of the same bar (three on rank 0, two on rank 1).
-  const testing::SyntheticMuscles held_out = testing::MakeSyntheticMuscles(1, 5, 0.3, 23);
+  const testing::SyntheticMuscles held_out = testing::MakeSyntheticMuscles(1, count, 0.3, seed);
   for (size_t t = 0; t < held_out.test_surfaces.size(); ++t) {
     options.test_paths.push_back(dir.File("held_out_" + std::to_string(t) + ".obj"));
   }
@@ -51,6 +51,15 @@ TEST(MpiEvaluationTest, HeldOutFitsGiveTheOutputsOfOneProcess) {
       EXPECT_TRUE(WriteObj(options.test_paths[t], surface, &error)) << error;
     }
   }
+  return options;
+}
+
+TEST(MpiEvaluationTest, HeldOutFitsGiveTheOutputsOfOneProcess) {
+  const Communicator& world = World();
+  testing::SharedTempDir dir;
+  // Five held-out poses of the same bar (three on rank 0, two on rank 1).
+  EvaluateJobOptions options = BarEvaluation(world, dir, 5, 23);
+  std::string error;
   world.Barrier();
   std::ostringstream log;
   std::vector<EvaluationRow> one_rows, rows;
@@ -90,27 +99,11 @@ TEST(MpiEvaluationTest, HeldOutFitsGiveTheOutputsOfOneProcess) {
 TEST(MpiEvaluationTest, ARerunTakesTheKeptFitsAndFitsTheRest) {
   const Communicator& world = World();
   testing::SharedTempDir dir;
-  EvaluateJobOptions options;
-  options.model = dir.File("m");
-  options.error_budget = false;
-  options.autoencoder.max_iterations = 40;
-  options.num_threads = 1;
-  options.fit.num_threads = 1;
-  options.fit.max_iterations = 10;
-  const testing::SyntheticMuscles held_out = testing::MakeSyntheticMuscles(1, 4, 0.3, 29);
-  for (size_t t = 0; t < held_out.test_surfaces.size(); ++t) {
-    options.test_paths.push_back(dir.File("held_out_" + std::to_string(t) + ".obj"));
-  }
+  EvaluateJobOptions options = BarEvaluation(world, dir, 4, 29);
   options.output_directory = dir.File("many");
   const std::string store = options.output_directory + "/" + kHeldOutFitFolder;
   std::string error;
   if (world.is_root()) {
-    EXPECT_TRUE(SaveModel(options.model, testing::PretrainedBar(3), &error)) << error;
-    for (size_t t = 0; t < held_out.test_surfaces.size(); ++t) {
-      SurfaceMesh surface = held_out.model.neutral;
-      surface.vertices = held_out.test_surfaces[t];
-      EXPECT_TRUE(WriteObj(options.test_paths[t], surface, &error)) << error;
-    }
     // evaluation.md cannot be written (a folder has its name): the run stops after its
     // fits.
     fs::create_directories(options.output_directory + "/evaluation.md");
