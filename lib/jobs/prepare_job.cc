@@ -220,20 +220,31 @@ void EmbedNeutral(const PrepareJobOptions& options, const CutMesh& cut_mesh, Act
       << " outside the mesh (farthest " << farthest << ") (" << timer.Seconds() << " s)\n";
 }
 
-// Whether the model at `output` is `model` as built (ModelFingerprint) with targets of
-// `target_key` (all converged): then it is kept (PrepareJobOptions::keep_same_model), and
-// the log says so; otherwise the log says why it is prepared anew (nothing if there is
-// no model).
-bool KeepsSameModel(const std::string& output, const std::string& target_key,
-                    const ActiveModel& model, std::ostream& log) {
+// What PrepareJobOptions::keep_same_model does with the model at `output`.
+enum class ExistingModel {
+  kReplace,  // none there, an unreadable one, or another model without a learned state
+  kKeep,     // `model` as built (ModelFingerprint) with targets of `target_key`
+  kRefuse,   // another model with a learned state, which preparing anew would discard
+};
+
+// Compares the model at `output` with `model` as built and the targets' key; the log
+// says what is kept or why the model is prepared anew; *error says why it is refused.
+ExistingModel CheckExistingModel(const std::string& output, const std::string& target_key,
+                                 const ActiveModel& model, std::ostream& log, std::string* error) {
   std::error_code code;
-  if (!std::filesystem::exists(output + "/model.txt", code)) return false;
+  if (!std::filesystem::exists(output + "/model.txt", code)) return ExistingModel::kReplace;
   ActiveModel existing;
-  std::string error;
+  std::string load_error;
+  if (!LoadModel(output, &existing, &load_error)) {
+    log << "prepare: the model at " << output << " is prepared anew: it cannot be read ("
+        << load_error << ")\n";
+    return ExistingModel::kReplace;
+  }
+  const std::string learned =
+      existing.decoder ? std::to_string(existing.checkpoint.iterations) + " training iterations"
+                       : std::string("not pre-trained");
   std::string why;
-  if (!LoadModel(output, &existing, &error)) {
-    why = "it cannot be read (" + error + ")";
-  } else if (ModelFingerprint(existing) != ModelFingerprint(model)) {
+  if (ModelFingerprint(existing) != ModelFingerprint(model)) {
     why = "its mesh, material, fixed vertices, bones, embedding or poses differ from these "
           "inputs' and flags'";
   } else if (existing.target_key.empty()) {
@@ -243,15 +254,17 @@ bool KeepsSameModel(const std::string& output, const std::string& target_key,
     why = "its targets were made with other options";
   } else {
     log << "prepare: the model at " << output << " is the model of these inputs and flags "
-        << "(targets " << target_key << "): kept, with its learned state ("
-        << (existing.decoder ? std::to_string(existing.checkpoint.iterations) +
-                                   " training iterations"
-                             : std::string("not pre-trained"))
-        << ")\n";
-    return true;
+        << "(targets " << target_key << "): kept, with its learned state (" << learned << ")\n";
+    return ExistingModel::kKeep;
+  }
+  if (existing.decoder) {
+    *error = "the model at " + output + " is not the model of these inputs and flags (" + why +
+             "), and preparing it anew would discard its learned state (pre-trained, " +
+             learned + "): --restart replaces it, or prepare into another --model";
+    return ExistingModel::kRefuse;
   }
   log << "prepare: the model at " << output << " is prepared anew: " << why << "\n";
-  return false;
+  return ExistingModel::kReplace;
 }
 
 bool RunPrepare(const PrepareJobOptions& options, std::ostream& log, std::string* error,
@@ -329,9 +342,13 @@ bool RunPrepare(const PrepareJobOptions& options, std::ostream& log, std::string
   VolumetricTargetOptions targets = options.targets;
   targets.num_threads = options.num_threads;
   const std::string target_key = VolumetricTargetFingerprint(targets, model);
-  if (options.keep_same_model && KeepsSameModel(output, target_key, model, log)) {
-    *status = JobStatus::kOk;
-    return true;
+  if (options.keep_same_model) {
+    const ExistingModel existing = CheckExistingModel(output, target_key, model, log, error);
+    if (existing == ExistingModel::kRefuse) return false;
+    if (existing == ExistingModel::kKeep) {
+      *status = JobStatus::kOk;
+      return true;
+    }
   }
 
   WallTimer timer;

@@ -52,8 +52,12 @@ struct PrepareJobOptions {
   // mesh, material, fixed vertices, bones, embedding and poses (ModelFingerprint of the
   // model built, before its targets) and targets made with the same options, all
   // converged (ActiveModel::target_key). Then nothing is written, and the model keeps its
-  // learned state and checkpoints. aqs_pipeline sets it, so that a rerun after a stop
-  // goes on where it stopped (not with --restart).
+  // learned state and checkpoints. Another model that holds a learned state (a decoder)
+  // is not replaced: the job fails with what differs (bad input), so that work is not
+  // discarded without being asked (overwrite = false does not ask for it: it concerns
+  // what is not a model). An unreadable model, or one not pre-trained, is prepared anew.
+  // aqs_pipeline sets it, so that a rerun after a stop goes on where it stopped (not
+  // with --restart).
   bool keep_same_model = false;
   int num_threads = 2;
   // Memory limit (bytes): the lattice (before meshing) and the simulation (before the

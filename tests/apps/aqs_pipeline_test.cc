@@ -92,14 +92,25 @@ TEST(AqsPipelineTest, PreparesPretrainsTrainsAndResumes) {
   }
   EXPECT_EQ(again.output.find("volumetric targets by embedded simulation"), std::string::npos)
       << again.output;
-  // Targets of other options: prepared anew, and so pre-trained anew.
+  // Targets of other options: the trained model is not replaced without --restart.
   again = RunCommand(pipeline + " --attachment_stiffness=50 --stages=prepare,pretrain");
+  ASSERT_EQ(again.exit_code, 1) << again.output;
+  EXPECT_NE(again.output.find("aqs_pipeline: error: prepare: the model at " + dir.File("model") +
+                              " is not the model of these inputs and flags (its targets were "
+                              "made with other options), and preparing it anew would discard "
+                              "its learned state (pre-trained, 8 training iterations): "
+                              "--restart replaces it"),
+            std::string::npos)
+      << again.output;
+  ASSERT_TRUE(LoadModel(dir.File("model"), &model, &error)) << error;
+  EXPECT_EQ(model.checkpoint.iterations, 8) << "untouched";
+  // --restart prepares and pre-trains anew.
+  again = RunCommand(pipeline + " --attachment_stiffness=50 --stages=prepare,pretrain --restart");
   ASSERT_EQ(again.exit_code, 0) << again.output;
-  for (const char* expected : {"is prepared anew: its targets were made with other options",
-                               "volumetric targets by embedded simulation", "wrote model"}) {
+  for (const char* expected : {"volumetric targets by embedded simulation", "wrote model"}) {
     EXPECT_NE(again.output.find(expected), std::string::npos) << expected << "\n" << again.output;
   }
-  EXPECT_EQ(again.output.find("pre-trained with these flags"), std::string::npos) << again.output;
+  EXPECT_EQ(again.output.find("kept"), std::string::npos) << again.output;
   // Other pre-training flags: pre-trained anew on the kept model.
   again = RunCommand(pipeline + " --attachment_stiffness=50 --stages=prepare,pretrain "
                      "--pretrain_iterations=30");
@@ -107,13 +118,14 @@ TEST(AqsPipelineTest, PreparesPretrainsTrainsAndResumes) {
   EXPECT_NE(again.output.find("kept, with its learned state (0 training iterations)"),
             std::string::npos) << again.output;
   EXPECT_EQ(again.output.find("pre-trained with these flags"), std::string::npos) << again.output;
-  // --restart prepares and pre-trains anew whatever the model.
-  again = RunCommand(pipeline + " --attachment_stiffness=50 --stages=prepare,pretrain "
-                     "--pretrain_iterations=30 --restart");
+  // A model not pre-trained (a pipeline stopped before pre-training ended) of other
+  // inputs is prepared anew.
+  again = RunCommand(pipeline + " --stages=prepare --restart");
   ASSERT_EQ(again.exit_code, 0) << again.output;
-  EXPECT_EQ(again.output.find("kept"), std::string::npos) << again.output;
-  EXPECT_NE(again.output.find("volumetric targets by embedded simulation"), std::string::npos)
-      << again.output;
+  again = RunCommand(pipeline + " --attachment_stiffness=50 --stages=prepare");
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  EXPECT_NE(again.output.find("is prepared anew: its targets were made with other options"),
+            std::string::npos) << again.output;
 }
 
 TEST(AqsPipelineTest, MissingFlagsAndBadStagesFail) {
