@@ -103,10 +103,21 @@ bool RunPretrainJob(const std::string& model_directory, const PretrainOptions& o
   run.checkpoint_directory = ResolveModelPath(model_directory) + "/pretrain";
   const std::string record_path = run.checkpoint_directory + "/" + kPretrainRecordName;
   const std::string record = PretrainRecord(run, model, simulation != nullptr);
-  if (keep_pretrained && model.decoder && ReadWholeFile(record_path) == record) {
-    log << "pretrain: the model's decoder was pre-trained with these flags (" << record_path
-        << "): kept, with " << model.checkpoint.iterations << " training iterations since\n";
-    return true;
+  if (keep_pretrained && model.decoder) {
+    const std::string kept = ReadWholeFile(record_path);
+    if (kept == record) {
+      log << "pretrain: the model's decoder was pre-trained with these flags (" << record_path
+          << "): kept, with " << model.checkpoint.iterations << " training iterations since\n";
+      return true;
+    }
+    if (model.checkpoint.iterations > 0) {
+      *error = "the model's decoder was pre-trained " +
+               std::string(kept.empty() ? "without a record of how (" : "with other flags (") +
+               record_path + ") and trained " + std::to_string(model.checkpoint.iterations) +
+               " iterations since, which pre-training anew would discard: --restart "
+               "pre-trains anew";
+      return false;
+    }
   }
   PretrainReport report;
   if (!Pretrain(run, &model, &report, log, error)) return false;

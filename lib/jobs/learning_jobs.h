@@ -34,7 +34,8 @@ namespace aqs {
 // simulated. With keep_pretrained, a model whose decoder has the record of this
 // pre-training (the same model, targets, options, budget and simulation) is kept as it
 // is, with any training since, and nothing is written (aqs_pipeline, so that a rerun
-// after a stop goes on where it stopped).
+// after a stop goes on where it stopped); a decoder pre-trained otherwise (or without a
+// record) and trained since is not replaced: the job fails saying so.
 bool RunPretrainJob(const std::string& model_directory, const PretrainOptions& options,
                     const PoseSimulationOptions* simulation, std::ostream& log,
                     std::string* error, bool keep_pretrained = false);

@@ -92,6 +92,14 @@ TEST(AqsPipelineTest, PreparesPretrainsTrainsAndResumes) {
   }
   EXPECT_EQ(again.output.find("volumetric targets by embedded simulation"), std::string::npos)
       << again.output;
+  // Other pre-training flags: a trained decoder is not replaced without --restart.
+  again = RunCommand(pipeline + " --stages=pretrain --pretrain_iterations=30");
+  ASSERT_EQ(again.exit_code, 1) << again.output;
+  EXPECT_NE(again.output.find("aqs_pipeline: error: pretrain: the model's decoder was "
+                              "pre-trained with other flags (" + dir.File("model") +
+                              "/pretrain/key.txt) and trained 8 iterations since, which "
+                              "pre-training anew would discard: --restart pre-trains anew"),
+            std::string::npos) << again.output;
   // Targets of other options: the trained model is not replaced without --restart.
   again = RunCommand(pipeline + " --attachment_stiffness=50 --stages=prepare,pretrain");
   ASSERT_EQ(again.exit_code, 1) << again.output;
@@ -111,7 +119,7 @@ TEST(AqsPipelineTest, PreparesPretrainsTrainsAndResumes) {
     EXPECT_NE(again.output.find(expected), std::string::npos) << expected << "\n" << again.output;
   }
   EXPECT_EQ(again.output.find("kept"), std::string::npos) << again.output;
-  // Other pre-training flags: pre-trained anew on the kept model.
+  // Other pre-training flags on the model not trained since: pre-trained anew.
   again = RunCommand(pipeline + " --attachment_stiffness=50 --stages=prepare,pretrain "
                      "--pretrain_iterations=30");
   ASSERT_EQ(again.exit_code, 0) << again.output;
