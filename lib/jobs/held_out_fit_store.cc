@@ -7,7 +7,6 @@
 #include "util/fnv_hash.h"
 #include "util/line_reader.h"
 #include "util/matrix_io.h"
-#include "util/number_format.h"
 #include "util/text_split.h"
 
 namespace aqs {
@@ -137,7 +136,8 @@ bool HeldOutFitStore::Save(const ActiveModel& model, int t, const std::string& n
                            double seconds, std::string* error) const {
   std::vector<double> block;
   PackHeldOutFit(model, fit, seconds, &block);
-  const Eigen::Map<const Eigen::MatrixXd> column(block.data(), static_cast<Eigen::Index>(block.size()), 1);
+  const Eigen::Map<const Eigen::MatrixXd> column(block.data(),
+                                                 static_cast<Eigen::Index>(block.size()), 1);
   if (!WriteMatrixFile(store_.ItemPath(t, "bin"), column, error)) return false;
   std::string record = "pose " + OneLine(name) + "\nsurface " + SurfaceFingerprint(surface) + "\n";
   if (!fit.message.empty()) record += "message " + OneLine(fit.message) + "\n";

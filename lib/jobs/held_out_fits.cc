@@ -1,8 +1,8 @@
 #include "jobs/held_out_fits.h"
 
 #include "dist/communicator.h"
-#include "jobs/held_out_fit_store.h"
 #include "fit/chosen_start_fit.h"
+#include "jobs/held_out_fit_store.h"
 #include "util/wall_timer.h"
 
 namespace aqs {

@@ -8,9 +8,9 @@
 #include "util/atomic_file.h"
 #include "util/fnv_hash.h"
 #include "util/line_reader.h"
-#include "util/text_split.h"
 #include "util/matrix_io.h"
 #include "util/number_format.h"
+#include "util/text_split.h"
 
 namespace aqs {
 

@@ -1,8 +1,9 @@
 #ifndef AQS_UTIL_TEXT_SPLIT_H_
 #define AQS_UTIL_TEXT_SPLIT_H_
 
-// The list splitters (and a joiner, and a line flattener) of flags and small text fields (the whitespace token splitter of
-// file lines is SplitTokens, util/line_reader.h).
+// The list splitters (and a joiner, and a line flattener) of flags and small text
+// fields (the whitespace token splitter of file lines is SplitTokens,
+// util/line_reader.h).
 
 #include <string>
 #include <vector>
