@@ -11,7 +11,8 @@ namespace aqs {
 // next such block is mapped again, and the kernel zeroes each of its pages on first
 // touch. Ceres' L-BFGS allocates vectors of the problem's size at every line-search step:
 // on the full face (5 million decoder parameters, 40 MB per vector) pre-training spent
-// 28 of its 99 s in the kernel doing so (docs/benchmarks.md).
+// 28 of its 99 s in the kernel doing so, and the auto-encoder baseline 48 of 143 s
+// (docs/benchmarks.md).
 //
 // ReuseLargeAllocations takes every block from the heap (glibc's M_MMAP_MAX = 0) and
 // keeps up to `kept_bytes` of freed memory at the heap's top for reuse instead of
