@@ -490,7 +490,7 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
   const SurfacePca pca_neutral(train_surfaces, model.latent_dim(), &model.neutral.vertices);
   SurfaceAutoencoderOptions ae_options = BaselineAutoencoderOptions(options, model);
   // Checkpoints of the baseline's training (the evaluation's longest part on the full
-  // face: 13 minutes), so that a rerun after a stop resumes it; removed at the end.
+  // face: 8.5 minutes), so that a rerun after a stop resumes it; removed at the end.
   ae_options.checkpoint_directory = out + "/" + kAutoencoderCheckpointFolder;
   SurfaceAutoencoder autoencoder;
   if (!autoencoder.Train(model.neutral.vertices, train_surfaces, ae_options, log, error)) {
