@@ -509,6 +509,7 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
   const SurfaceAutoencoderReport& ae = autoencoder.report();
   parts.autoencoder_iterations = ae.iterations;
   parts.autoencoder_resumed_after = ae.iterations_before;
+  parts.physics_fits_kept = held_out_fits.kept;
   parts.autoencoder_scaled_steps = ae_options.lbfgs_scaling;
   parts.autoencoder_seed = ae_options.seed;
   parts.autoencoder_initial_loss = ae.initial_loss;

@@ -242,7 +242,13 @@ std::string EvaluationMarkdown(const EvaluationReportParts& parts, const Evaluat
       md << (t ? "; " : " ") << parts.test_names[t] << " from " << parts.physics_starts[t]
          << " / " << parts.autoencoder_starts[t];
     }
-    md << ".\n\n";
+    md << ".";
+    if (parts.physics_fits_kept > 0) {
+      md << " " << parts.physics_fits_kept << " of the " << parts.test_names.size()
+         << " physics fits were a stopped run's, kept in its output folder (the same "
+         << "model, learned state, fit options and poses: the same results).";
+    }
+    md << "\n\n";
   }
   md << "## Training poses\n\n" << tables.train << "\n";
   if (!tables.test.empty()) md << "## Held-out poses\n\n" << tables.test << "\n";

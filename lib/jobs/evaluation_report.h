@@ -66,6 +66,8 @@ struct EvaluationReportParts {
   // iterations (L-BFGS' memory restarts there, so the result differs a little from an
   // uninterrupted run's).
   int autoencoder_resumed_after = 0;
+  // Held-out physics fits taken from a stopped run's store (jobs/held_out_fits.h).
+  int physics_fits_kept = 0;
   bool autoencoder_scaled_steps = false;
   int autoencoder_seed = 0;
   double autoencoder_initial_loss = 0.0, autoencoder_final_loss = 0.0;

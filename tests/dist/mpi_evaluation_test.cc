@@ -138,6 +138,9 @@ TEST(MpiEvaluationTest, ARerunTakesTheKeptFitsAndFitsTheRest) {
   EXPECT_NE(rerun_log.str().find(", 2 taken from " + store), std::string::npos)
       << rerun_log.str();
   EXPECT_FALSE(fs::exists(store)) << "removed once the tables are written";
+  EXPECT_NE(ReadAll(dir.File("many/evaluation.md"))
+                .find("2 of the 4 physics fits were a stopped run's"),
+            std::string::npos);
   const std::string csv = ReadAll(dir.File("many/evaluation.csv"));
   EXPECT_FALSE(csv.empty());
   EXPECT_EQ(csv, ReadAll(dir.File("one/evaluation.csv")));

@@ -99,6 +99,12 @@ TEST(EvaluationReportTest, MarkdownSaysWhatWasComparedAndCsvKeepsEveryDigit) {
       << md;
   EXPECT_NE(md.find("## Held-out poses\n\n" + tables.test), std::string::npos);
   EXPECT_EQ(md.find("resumed"), std::string::npos) << md;
+  EXPECT_EQ(md.find("stopped run"), std::string::npos) << md;
+  parts.physics_fits_kept = 1;
+  EXPECT_NE(EvaluationMarkdown(parts, tables)
+                .find("b from jawOpen / mean latent. 1 of the 2 physics fits were a stopped "
+                      "run's, kept in its output folder"),
+            std::string::npos);
   parts.autoencoder_resumed_after = 432;
   EXPECT_NE(EvaluationMarkdown(parts, tables)
                 .find("; it resumed a stopped run's checkpoint after iteration 432 (L-BFGS"),
