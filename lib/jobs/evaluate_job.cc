@@ -21,7 +21,7 @@
 #include "util/atomic_file.h"
 #include "util/blas.h"
 #include "util/input_file.h"
-#include "util/keyed_store.h"
+#include "util/make_directory.h"
 #include "util/matrix_io.h"
 #include "util/memory_limit.h"
 #include "util/option_checks.h"

@@ -10,7 +10,6 @@
 #include "model/model_io.h"
 #include "train/progress.h"
 #include "util/atomic_file.h"
-#include "util/keyed_store.h"
 #include "util/make_directory.h"
 #include "util/number_format.h"
 #include "util/text_split.h"

@@ -15,7 +15,7 @@
 #include "model/model_io.h"
 #include "prepare/pose_files.h"
 #include "prepare/target_store.h"
-#include "util/keyed_store.h"
+#include "util/make_directory.h"
 #include "util/option_checks.h"
 #include "util/wall_timer.h"
 

@@ -6,6 +6,9 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <fstream>
+#include <iterator>
+#include <string>
 
 #include "util/fault_injection.h"
 
@@ -74,6 +77,11 @@ bool WriteFileAtomically(const std::string& path, const std::string& content,
   AtomicFileWriter writer(path);
   writer.stream().write(content.data(), static_cast<std::streamsize>(content.size()));
   return writer.Commit(error);
+}
+
+std::string ReadWholeFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
 }
 
 }  // namespace aqs

@@ -39,6 +39,10 @@ class AtomicFileWriter {
 bool WriteFileAtomically(const std::string& path, const std::string& content,
                          std::string* error);
 
+// The text of the file at `path` ("" if it cannot be read): what WriteFileAtomically
+// wrote, for records compared whole (store keys, pre-training's record).
+std::string ReadWholeFile(const std::string& path);
+
 }  // namespace aqs
 
 #endif  // AQS_UTIL_ATOMIC_FILE_H_

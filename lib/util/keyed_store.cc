@@ -2,8 +2,6 @@
 
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 
 #include "util/atomic_file.h"
 #include "util/make_directory.h"
@@ -39,21 +37,6 @@ std::string KeyedStore::ItemPath(int index, const char* extension) const {
   char name[32];
   std::snprintf(name, sizeof(name), "/%04d.%s", index, extension);
   return directory_ + name;
-}
-
-std::string ReadWholeFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), {});
-}
-
-bool RemoveDirectory(const std::string& directory, std::string* error) {
-  std::error_code code;
-  fs::remove_all(directory, code);
-  if (code) {
-    *error = directory + ": cannot remove (" + code.message() + ")";
-    return false;
-  }
-  return true;
 }
 
 }  // namespace aqs

@@ -33,13 +33,6 @@ class KeyedStore {
   std::string directory_;
 };
 
-// The text of the file at `path` ("" if it cannot be read).
-std::string ReadWholeFile(const std::string& path);
-
-// Removes `directory` and everything in it; a missing one is fine. False with *error
-// ("<directory>: cannot remove (<why>)") on failure.
-bool RemoveDirectory(const std::string& directory, std::string* error);
-
 }  // namespace aqs
 
 #endif  // AQS_UTIL_KEYED_STORE_H_

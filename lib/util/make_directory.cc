@@ -15,4 +15,14 @@ bool MakeDirectory(const std::string& path, std::string* error) {
   return true;
 }
 
+bool RemoveDirectory(const std::string& directory, std::string* error) {
+  std::error_code code;
+  std::filesystem::remove_all(directory, code);
+  if (code) {
+    *error = directory + ": cannot remove (" + code.message() + ")";
+    return false;
+  }
+  return true;
+}
+
 }  // namespace aqs

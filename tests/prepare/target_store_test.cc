@@ -14,6 +14,7 @@
 #include "prepare/volumetric_targets.h"
 #include "testing/synthetic_muscles.h"
 #include "testing/temp_dir.h"
+#include "util/make_directory.h"
 
 namespace aqs {
 namespace {

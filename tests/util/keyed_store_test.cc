@@ -10,6 +10,8 @@
 #include <gtest/gtest.h>
 
 #include "testing/temp_dir.h"
+#include "util/atomic_file.h"
+#include "util/make_directory.h"
 
 namespace aqs {
 namespace {
