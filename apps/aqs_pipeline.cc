@@ -3,9 +3,10 @@
 // same inputs and flags (--restart: anew), training and the evaluation resume.
 // A stage that fails stops the pipeline with its message and its exit status: 1 bad
 // input, 2 prepare's embedded simulation did not converge (its model is written). Under
-// mpirun (or with --mpi; docs/distributed.md) rank 0 prepares and pre-trains while the
-// others wait, training shares the poses among all ranks, and the evaluation's fits of
-// held-out poses are shared too; rank 0 alone logs and writes.
+// mpirun (or with --mpi; docs/distributed.md) rank 0 prepares and pre-trains, and shares
+// the per-pose simulations of both (prepare's targets, pre-training's simulation of every
+// pose) with the other ranks; training shares the poses among all ranks, and the
+// evaluation's fits of held-out poses are shared too; rank 0 alone logs and writes.
 
 #include <algorithm>
 #include <filesystem>
@@ -169,16 +170,20 @@ int main(int argc, char** argv) {
     aqs::JobStatus status = aqs::JobStatus::kBadInput;  // when not ok
     StageOptions options;
     const aqs::FlagNames& flags = options.flags;
-    if (!root && (stage == "prepare" || stage == "pretrain")) {
-      ok = true;  // rank 0's work: wait for its status below
+    if (!root && stage == "prepare") {
+      // Rank 0 reads the inputs; this rank makes a share of the targets.
+      options.prepare.communicator = ranks.get();
+      ok = aqs::PrepareTargetOptionsFromFlags(&options.prepare, &error) &&
+           aqs::RunPrepareJob(options.prepare, out, &error, &status);
     } else if (!ReadStageOptions(stage, false, &options, &error)) {
       ok = false;
     } else if (stage == "prepare") {
+      options.prepare.communicator = ranks.get();
       ok = aqs::RunPrepareJob(options.prepare, std::cout, &error, &status);
     } else if (stage == "pretrain") {
       ok = aqs::RunPretrainJob(FLAGS_model, options.pretrain,
-                               options.simulate ? &options.simulation : nullptr, std::cout,
-                               &error, !FLAGS_restart);
+                               options.simulate ? &options.simulation : nullptr, out, &error,
+                               !FLAGS_restart, ranks.get());
     } else if (stage == "train") {
       options.train.communicator = ranks.get();
       ok = aqs::RunTrainJob(FLAGS_model, options.train, FLAGS_restart, out, &error,

@@ -151,14 +151,19 @@ bool PrepareOptionsFromFlags(PrepareJobOptions* options, std::string* error) {
   }
   options->mirror.plane = FLAGS_mirror_plane;
   options->mirror.tolerance = FLAGS_mirror_tolerance;
+  if (!PrepareTargetOptionsFromFlags(options, error)) return false;
+  options->meshing.num_threads = FLAGS_threads;
+  options->boundary.num_threads = FLAGS_threads;
+  options->max_memory_bytes = MaxMemoryBytes();
+  return true;
+}
+
+bool PrepareTargetOptionsFromFlags(PrepareJobOptions* options, std::string* error) {
   options->targets.relative_stiffness = FLAGS_attachment_stiffness;
   options->targets.solver.relative_force_tolerance = FLAGS_prepare_tolerance;
   if (!SolverMethodFromFlag(&options->targets.solver, error)) return false;
   options->num_threads = FLAGS_threads;
-  options->meshing.num_threads = FLAGS_threads;
-  options->boundary.num_threads = FLAGS_threads;
   options->targets.num_threads = FLAGS_threads;
-  options->max_memory_bytes = MaxMemoryBytes();
   return true;
 }
 

@@ -12,6 +12,10 @@ namespace aqs {
 // false with *error for missing or malformed flags.
 bool PrepareOptionsFromFlags(PrepareJobOptions* options, std::string* error);
 
+// Only what a rank other than 0 of a distributed prepare uses (targets, num_threads;
+// PrepareJobOptions::communicator): from the flags alone, no file read.
+bool PrepareTargetOptionsFromFlags(PrepareJobOptions* options, std::string* error);
+
 // PrepareJobOptions' fields and the aqs_prepare flags that set them (for FlagError).
 FlagNames PrepareFlagNames();
 

@@ -11,6 +11,7 @@
 #include "geometry/embedding.h"
 #include "physics/shape_target_model.h"
 #include "util/atomic_file.h"
+#include "util/blas.h"
 #include "util/line_reader.h"
 #include "util/matrix_io.h"
 #include "util/parallel_for.h"
@@ -89,6 +90,9 @@ std::vector<SimulatedPose> SimulateActuations(
   QuasistaticSolverOptions solver_options = options.solver;
   solver_options.num_threads = 1;
   const int threads = std::max(1, std::min(options.num_threads, count));
+  // One pose per thread, BLAS single-threaded meanwhile (as in training; threaded BLAS
+  // called by every pose's factorization at once is slower than one thread).
+  const ScopedBlasThreads blas(threads > 1 ? 1 : BlasThreads());
   std::vector<std::unique_ptr<QuasistaticSolver>> solvers(threads);
   ParallelFor(threads, 0, count, [&](int t, int k) {
     if (!solvers[t]) {

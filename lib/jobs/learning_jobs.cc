@@ -3,9 +3,13 @@
 #include <filesystem>
 #include <sstream>
 
+#include <glog/logging.h>
+
 #include "dist/communicator.h"
+#include "dist/model_broadcast.h"
 #include "dist/model_sharing.h"
 #include "geometry/embedding.h"
+#include "jobs/shared_pose_work.h"
 #include "model/model_directory.h"
 #include "model/model_io.h"
 #include "train/progress.h"
@@ -79,73 +83,136 @@ std::string PretrainRecord(const PretrainOptions& options, const ActiveModel& mo
          FormatDouble(options.max_seconds) + "\nsimulated " + std::to_string(simulated) + "\n";
 }
 
-}  // namespace
+// How far PretrainHere got.
+enum class PretrainResult { kFailed, kKept, kPretrained };
 
-bool RunPretrainJob(const std::string& model_directory, const PretrainOptions& options,
-                    const PoseSimulationOptions* simulation, std::ostream& log,
-                    std::string* error, bool keep_pretrained) {
-  if (!options.Validate(error)) return false;
+// RunPretrainJob up to the pre-trained decoder: checks, the lock, the model, the record
+// of an earlier pre-training (kept?) and the pre-training itself; *record is the record
+// this pre-training writes at the end.
+PretrainResult PretrainHere(const std::string& model_directory, const PretrainOptions& options,
+                            const PoseSimulationOptions* simulation, std::ostream& log,
+                            bool keep_pretrained, PathLock* lock, ActiveModel* model,
+                            PretrainOptions* run, std::string* record, std::string* error) {
+  if (!options.Validate(error)) return PretrainResult::kFailed;
   if (simulation != nullptr) {
     std::string simulation_error;
     if (!simulation->Validate(&simulation_error)) {
       *error = "simulation." + simulation_error;
-      return false;
+      return PretrainResult::kFailed;
     }
   }
-  PathLock lock;
-  ActiveModel model;
-  if (!LockAndLoad(model_directory, log, &lock, &model, error) ||
+  if (!LockAndLoad(model_directory, log, lock, model, error) ||
       !CheckReplaceable(model_directory, true, error)) {
-    return false;
+    return PretrainResult::kFailed;
   }
-  PretrainOptions run = options;
-  run.checkpoint_directory = ResolveModelPath(model_directory) + "/pretrain";
-  const std::string record_path = run.checkpoint_directory + "/" + kPretrainRecordName;
-  const std::string record = PretrainRecord(run, model, simulation != nullptr);
-  if (keep_pretrained && model.decoder) {
+  *run = options;
+  run->checkpoint_directory = ResolveModelPath(model_directory) + "/pretrain";
+  const std::string record_path = run->checkpoint_directory + "/" + kPretrainRecordName;
+  *record = PretrainRecord(*run, *model, simulation != nullptr);
+  if (keep_pretrained && model->decoder) {
     const std::string kept = ReadWholeFile(record_path);
-    if (kept == record) {
+    if (kept == *record) {
       log << "pretrain: the model's decoder was pre-trained with these flags (" << record_path
-          << "): kept, with " << model.checkpoint.iterations << " training iterations since\n";
-      return true;
+          << "): kept, with " << model->checkpoint.iterations << " training iterations since\n";
+      return PretrainResult::kKept;
     }
-    if (model.checkpoint.iterations > 0) {
+    if (model->checkpoint.iterations > 0) {
       *error = "the model's decoder was pre-trained " +
                std::string(kept.empty() ? "without a record of how (" : "with other flags (") +
-               record_path + ") and trained " + std::to_string(model.checkpoint.iterations) +
+               record_path + ") and trained " + std::to_string(model->checkpoint.iterations) +
                " iterations since, which pre-training anew would discard: --restart "
                "pre-trains anew";
-      return false;
+      return PretrainResult::kFailed;
     }
   }
   PretrainReport report;
-  if (!Pretrain(run, &model, &report, log, error)) return false;
-  PretrainSurfaceErrors surface_errors;
-  if (simulation != nullptr) {
-    // Stage (b) of the error budget: what the decoder reproduces of the targets, as
-    // surfaces. Simulated from rest, as training's first evaluation would.
-    WallTimer timer;
-    std::vector<std::vector<RigidTransform>> bones;
-    for (int p = 0; p < model.num_poses(); ++p) bones.push_back(TrainingPoseBones(model, p));
-    const std::vector<SimulatedPose> simulated =
-        SimulateActuations(model, DecodeTrainingLatents(model), bones, {}, *simulation);
-    surface_errors.distances.resize(model.num_surface_vertices(), model.num_poses());
-    model.states.assign(model.num_poses(), Eigen::Matrix3Xd());
-    for (int p = 0; p < model.num_poses(); ++p) {
-      surface_errors.distances.col(p) = VertexDistances(simulated[p].surface, model.poses[p].surface);
-      surface_errors.converged.push_back(simulated[p].converged ? 1 : 0);
-      if (simulated[p].converged) {
-        model.states[p] = simulated[p].state;
-      } else {
-        log << "  pose '" << model.poses[p].name
-            << "': the pre-trained actuation's equilibrium did not converge: "
-            << simulated[p].message << "\n";
-      }
-    }
-    log << "pretrain: the pre-trained poses simulated in " << FormatDuration(timer.Seconds())
-        << "; surface error over all surface vertices (model units):\n"
-        << TrainingBudgetTable(model, &surface_errors, {});
+  if (!Pretrain(*run, model, &report, log, error)) return PretrainResult::kFailed;
+  return PretrainResult::kPretrained;
+}
+
+// Every pose simulated (shared among the ranks of `comm`, or in this process if null),
+// on rank 0: stage (b) of the error budget into *surface_errors and the equilibria into
+// model->states, logged.
+bool SimulatePretrainedPoses(const Communicator* comm, const PoseSimulationOptions& simulation,
+                             ActiveModel* model, PretrainSurfaceErrors* surface_errors,
+                             std::ostream& log, std::string* error) {
+  // Stage (b) of the error budget: what the decoder reproduces of the targets, as
+  // surfaces. Simulated from rest, as training's first evaluation would.
+  WallTimer timer;
+  std::vector<SimulatedPose> simulated;
+  if (comm != nullptr) {
+    // The other ranks take the model without its targets (most of its bytes; unused).
+    std::vector<ActuationMatrix> targets(model->num_poses());
+    for (int p = 0; p < model->num_poses(); ++p) targets[p].swap(model->poses[p].target);
+    const bool shared = BroadcastModel(*comm, model, error);
+    for (int p = 0; p < model->num_poses(); ++p) targets[p].swap(model->poses[p].target);
+    if (!shared) return false;
+    simulated = SimulateTrainingPosesOnRanks(*comm, *model, simulation);
+  } else {
+    simulated = SimulateTrainingPosesOnRanks(LocalCommunicator(), *model, simulation);
   }
+  surface_errors->distances.resize(model->num_surface_vertices(), model->num_poses());
+  model->states.assign(model->num_poses(), Eigen::Matrix3Xd());
+  for (int p = 0; p < model->num_poses(); ++p) {
+    surface_errors->distances.col(p) =
+        VertexDistances(simulated[p].surface, model->poses[p].surface);
+    surface_errors->converged.push_back(simulated[p].converged ? 1 : 0);
+    if (simulated[p].converged) {
+      model->states[p] = simulated[p].state;
+    } else {
+      log << "  pose '" << model->poses[p].name
+          << "': the pre-trained actuation's equilibrium did not converge: "
+          << simulated[p].message << "\n";
+    }
+  }
+  log << "pretrain: the pre-trained poses simulated in " << FormatDuration(timer.Seconds())
+      << (comm != nullptr ? " (shared among " + std::to_string(comm->size()) + " ranks)"
+                          : std::string())
+      << "; surface error over all surface vertices (model units):\n"
+      << TrainingBudgetTable(*model, surface_errors, {});
+  return true;
+}
+
+// On a rank other than 0 of a distributed pre-training: waits for rank 0's pre-trained
+// model, if it simulates the poses, and simulates its share of them.
+bool ServePretrain(const Communicator& comm, const PoseSimulationOptions* simulation,
+                   std::string* error) {
+  int simulate = 0;
+  comm.Broadcast(&simulate, 1, 0);
+  if (!simulate) return true;
+  CHECK(simulation != nullptr) << "rank 0 simulates the pre-trained poses, this rank was not "
+                                  "given the options";
+  ActiveModel model;
+  if (!BroadcastModel(comm, &model, error)) return false;
+  SimulateTrainingPosesOnRanks(comm, model, *simulation);
+  return true;
+}
+
+}  // namespace
+
+bool RunPretrainJob(const std::string& model_directory, const PretrainOptions& options,
+                    const PoseSimulationOptions* simulation, std::ostream& log,
+                    std::string* error, bool keep_pretrained, const Communicator* communicator) {
+  const Communicator* comm =
+      communicator != nullptr && communicator->size() > 1 ? communicator : nullptr;
+  if (comm != nullptr && !comm->is_root()) return ServePretrain(*comm, simulation, error);
+  PathLock lock;
+  ActiveModel model;
+  PretrainOptions run;
+  std::string record;
+  const PretrainResult result = PretrainHere(model_directory, options, simulation, log,
+                                             keep_pretrained, &lock, &model, &run, &record, error);
+  if (comm != nullptr) {
+    int simulate = result == PretrainResult::kPretrained && simulation != nullptr ? 1 : 0;
+    comm->Broadcast(&simulate, 1, 0);
+  }
+  if (result != PretrainResult::kPretrained) return result == PretrainResult::kKept;
+  PretrainSurfaceErrors surface_errors;
+  if (simulation != nullptr &&
+      !SimulatePretrainedPoses(comm, *simulation, &model, &surface_errors, log, error)) {
+    return false;
+  }
+  const std::string record_path = run.checkpoint_directory + "/" + kPretrainRecordName;
   // The CSV log of pre-training goes into the new model (which replaces the folder).
   const std::string pretrain_log = ReadWholeFile(run.checkpoint_directory + "/" + kPretrainLogName);
   if (!SaveModel(model_directory, model, error)) return false;

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "dist/communicator.h"
 #include "eval/error_budget.h"
 #include "train/pretrain.h"
 #include "train/trainer.h"
@@ -36,9 +37,16 @@ namespace aqs {
 // is, with any training since, and nothing is written (aqs_pipeline, so that a rerun
 // after a stop goes on where it stopped); a decoder pre-trained otherwise (or without a
 // record) and trained since is not replaced: the job fails saying so.
+// With `communicator` spanning several ranks (aqs_pipeline under MPI), every rank calls
+// it with the same simulation options: rank 0 does the job, and the simulation of every
+// pose is shared among the ranks (jobs/shared_pose_work.h; the model travels from rank 0,
+// dist/model_broadcast.h); the other ranks use only `simulation`, read and write
+// nothing, and return false only if the model cannot reach them (*error then on every
+// rank); rank 0's status is the job's.
 bool RunPretrainJob(const std::string& model_directory, const PretrainOptions& options,
                     const PoseSimulationOptions* simulation, std::ostream& log,
-                    std::string* error, bool keep_pretrained = false);
+                    std::string* error, bool keep_pretrained = false,
+                    const Communicator* communicator = nullptr);
 
 // The record of a finished pre-training in the model's pretrain/ folder.
 inline constexpr char kPretrainRecordName[] = "key.txt";

@@ -5,9 +5,11 @@
 #include <filesystem>
 #include <sstream>
 
+#include "dist/model_broadcast.h"
 #include "geometry/embedding.h"
 #include "geometry/points_near_model.h"
 #include "geometry/vertex_normals.h"
+#include "jobs/shared_pose_work.h"
 #include "mesh/element_subset.h"
 #include "mesh/mesh_io.h"
 #include "model/model_directory.h"
@@ -267,25 +269,40 @@ ExistingModel CheckExistingModel(const std::string& output, const std::string& t
   return ExistingModel::kReplace;
 }
 
-bool RunPrepare(const PrepareJobOptions& options, std::ostream& log, std::string* error,
-                JobStatus* status) {
-  *status = JobStatus::kBadInput;
+// What rank 0 (or the one process) prepares before the volumetric targets.
+struct PreparedModel {
+  PathLock lock;  // the output's writers' lock, held until the model is saved
+  std::string output;
+  ActiveModel model;
+  VolumetricTargetOptions targets;  // with the job's threads
+  std::string target_key;           // VolumetricTargetFingerprint
   WallTimer total;
-  if (!options.Validate(error)) return false;
+};
+
+// How far BuildModel got.
+enum class BuildResult { kFailed, kKept, kMakeTargets };
+
+// Everything before the volumetric targets: checks, the output's lock, the surfaces, the
+// simulation mesh, the embedding, the boundary rules and, with keep_same_model, the
+// comparison with the model at the output.
+BuildResult BuildModel(const PrepareJobOptions& options, PreparedModel* prepared,
+                       std::ostream& log, std::string* error) {
+  if (!options.Validate(error)) return BuildResult::kFailed;
   if (options.neutral.empty()) {
     *error = "no neutral surface given (--neutral)";
-    return false;
+    return BuildResult::kFailed;
   }
   if (options.output.empty()) {
     *error = "no output model directory given (--output)";
-    return false;
+    return BuildResult::kFailed;
   }
   if (options.pose_paths.empty()) {
     *error = "the pose set is empty (--poses)";
-    return false;
+    return BuildResult::kFailed;
   }
   // The output: locked, and checked before the work.
-  std::string output = options.output;
+  std::string& output = prepared->output;
+  output = options.output;
   while (output.size() > 1 && output.back() == '/') output.pop_back();
   {
     const std::filesystem::path parent = std::filesystem::path(output).parent_path();
@@ -293,17 +310,16 @@ bool RunPrepare(const PrepareJobOptions& options, std::ostream& log, std::string
     if (!parent.empty()) std::filesystem::create_directories(parent, code);
     if (code) {
       *error = parent.string() + ": cannot create directory (" + code.message() + ")";
-      return false;
+      return BuildResult::kFailed;
     }
   }
-  PathLock lock;
-  if (!LockModelForWriting(output, &log, &lock, error)) return false;
+  if (!LockModelForWriting(output, &log, &prepared->lock, error)) return BuildResult::kFailed;
   if (!CheckModelDestination(output, options.overwrite, error)) {
     *error += " (--overwrite replaces it)";
-    return false;
+    return BuildResult::kFailed;
   }
-  ActiveModel model;
-  if (!ReadNeutralAndPoses(options, &model, log, error)) return false;
+  ActiveModel& model = prepared->model;
+  if (!ReadNeutralAndPoses(options, &model, log, error)) return BuildResult::kFailed;
   // Mirror images: surfaces now (the memory estimates count them), bone motions after the
   // boundary rules have fitted the given poses'.
   const int given_poses = model.num_poses();
@@ -311,14 +327,16 @@ bool RunPrepare(const PrepareJobOptions& options, std::ostream& log, std::string
   if (options.mirror.enabled()) {
     log << "mirror images in the plane " << "xyz"[options.mirror.axis] << " = "
         << options.mirror.plane << ":\n";
-    if (!AddMirrorPoses(options.mirror, &model, &mirror_sources, log, error)) return false;
+    if (!AddMirrorPoses(options.mirror, &model, &mirror_sources, log, error)) {
+      return BuildResult::kFailed;
+    }
     log << "poses with their mirror images: " << model.num_poses() << "\n";
   }
 
   CutMesh cut_mesh;
-  if (!BuildSimulationMesh(options, &model, &cut_mesh, log, error)) return false;
+  if (!BuildSimulationMesh(options, &model, &cut_mesh, log, error)) return BuildResult::kFailed;
   model.mu = Eigen::VectorXd::Constant(model.mesh.num_tets(), options.mu);
-  if (!CheckTargetMemory(options, model, error)) return false;
+  if (!CheckTargetMemory(options, model, error)) return BuildResult::kFailed;
   EmbedNeutral(options, cut_mesh, &model, log);
 
   std::string rules_log;
@@ -328,7 +346,7 @@ bool RunPrepare(const PrepareJobOptions& options, std::ostream& log, std::string
   boundary.num_threads = options.num_threads;
   if (!ApplyBoundaryRules(boundary, model.mesh, model.neutral, pose_names, &model, &rules_log,
                           error)) {
-    return false;
+    return BuildResult::kFailed;
   }
   log << rules_log;
   if (!mirror_sources.empty()) {
@@ -339,24 +357,39 @@ bool RunPrepare(const PrepareJobOptions& options, std::ostream& log, std::string
     }
   }
 
-  VolumetricTargetOptions targets = options.targets;
-  targets.num_threads = options.num_threads;
-  const std::string target_key = VolumetricTargetFingerprint(targets, model);
+  prepared->targets = options.targets;
+  prepared->targets.num_threads = options.num_threads;
+  prepared->target_key = VolumetricTargetFingerprint(prepared->targets, model);
   if (options.keep_same_model) {
-    const ExistingModel existing = CheckExistingModel(output, target_key, model, log, error);
-    if (existing == ExistingModel::kRefuse) return false;
-    if (existing == ExistingModel::kKeep) {
-      *status = JobStatus::kOk;
-      return true;
-    }
+    const ExistingModel existing =
+        CheckExistingModel(output, prepared->target_key, model, log, error);
+    if (existing == ExistingModel::kRefuse) return BuildResult::kFailed;
+    if (existing == ExistingModel::kKeep) return BuildResult::kKept;
   }
+  return BuildResult::kMakeTargets;
+}
 
+
+// The volumetric targets (shared among the ranks of `comm` if not null: every rank
+// calls MakeVolumetricTargetsOnRanks) and the model saved; on rank 0 or the one process.
+bool FinishModel(const PrepareJobOptions& options, const Communicator* comm,
+                 PreparedModel* prepared, std::ostream& log, std::string* error,
+                 JobStatus* status) {
+  ActiveModel& model = prepared->model;
+  VolumetricTargetOptions& targets = prepared->targets;
+  const std::string& output = prepared->output;
   WallTimer timer;
   log << "volumetric targets by embedded simulation:\n";
   // Each pose's target is kept beside the model as it is made, for a rerun after a stop.
   targets.store_directory = TargetStorePath(output);
   std::vector<std::string> unconverged;
-  if (!MakeVolumetricTargets(targets, &model, log, error, &unconverged)) return false;
+  if (comm != nullptr) {
+    if (!MakeVolumetricTargetsOnRanks(*comm, targets, &model, log, error, &unconverged)) {
+      return false;
+    }
+  } else if (!MakeVolumetricTargets(targets, &model, log, error, &unconverged)) {
+    return false;
+  }
   double mean = 0, worst = 0;
   for (const TrainingPose& pose : model.poses) {
     mean += pose.embedding_mean_error / model.num_poses();
@@ -364,11 +397,11 @@ bool RunPrepare(const PrepareJobOptions& options, std::ostream& log, std::string
   }
   log << "targets: mean surface error " << mean << ", max " << worst << " (" << timer.Seconds()
       << " s)\n";
-  if (unconverged.empty()) model.target_key = target_key;
+  if (unconverged.empty()) model.target_key = prepared->target_key;
   SaveModelOptions save;
   save.overwrite = options.overwrite;
   if (!SaveModel(output, model, save, error)) return false;
-  log << "wrote model " << options.output << " (" << total.Seconds() << " s in all)\n";
+  log << "wrote model " << options.output << " (" << prepared->total.Seconds() << " s in all)\n";
   std::string store_error;
   if (!RemoveDirectory(targets.store_directory, &store_error)) {
     log << "warning: " << store_error << " (the targets kept while preparing)\n";
@@ -385,12 +418,60 @@ bool RunPrepare(const PrepareJobOptions& options, std::ostream& log, std::string
   return true;
 }
 
+// On a rank other than 0 of a distributed prepare: waits for rank 0's model, if it
+// makes targets, and makes its share of them (options.targets and num_threads only).
+bool ServePrepare(const PrepareJobOptions& options, const Communicator& comm,
+                  std::string* error, JobStatus* status) {
+  *status = JobStatus::kBadInput;
+  int make_targets = 0;
+  comm.Broadcast(&make_targets, 1, 0);
+  if (make_targets) {
+    ActiveModel model;
+    if (!BroadcastModel(comm, &model, error)) return false;
+    VolumetricTargetOptions targets = options.targets;
+    targets.num_threads = options.num_threads;
+    targets.store_directory.clear();
+    std::ostringstream quiet;  // sent to rank 0
+    if (!MakeVolumetricTargetsOnRanks(comm, targets, &model, quiet, error, nullptr)) {
+      return false;
+    }
+  }
+  *status = JobStatus::kOk;
+  return true;
+}
+
+// The job on rank 0 or in one process (`comm` null).
+bool RunPrepare(const PrepareJobOptions& options, const Communicator* comm, std::ostream& log,
+                std::string* error, JobStatus* status) {
+  *status = JobStatus::kBadInput;
+  PreparedModel prepared;
+  const BuildResult built = BuildModel(options, &prepared, log, error);
+  if (comm != nullptr) {
+    int make_targets = built == BuildResult::kMakeTargets ? 1 : 0;
+    comm->Broadcast(&make_targets, 1, 0);
+  }
+  if (built == BuildResult::kFailed) return false;
+  if (built == BuildResult::kKept) {
+    *status = JobStatus::kOk;
+    return true;
+  }
+  if (comm != nullptr) {
+    // The other ranks take rank 0's model (no targets yet).
+    if (!BroadcastModel(*comm, &prepared.model, error)) return false;
+  }
+  return FinishModel(options, comm, &prepared, log, error, status);
+}
+
 }  // namespace
 
 bool RunPrepareJob(const PrepareJobOptions& options, std::ostream& log, std::string* error,
                    JobStatus* status) {
   JobStatus ignored;
-  return RunPrepare(options, log, error, status != nullptr ? status : &ignored);
+  if (status == nullptr) status = &ignored;
+  const Communicator* comm = options.communicator;
+  if (comm == nullptr || comm->size() == 1) return RunPrepare(options, nullptr, log, error, status);
+  if (comm->is_root()) return RunPrepare(options, comm, log, error, status);
+  return ServePrepare(options, *comm, error, status);
 }
 
 }  // namespace aqs

@@ -7,6 +7,7 @@
 
 #include <Eigen/Geometry>
 
+#include "dist/communicator.h"
 #include "geometry/plane_cuts.h"
 #include "geometry/surface_tet_mesher.h"
 #include "prepare/boundary_rules.h"
@@ -60,6 +61,12 @@ struct PrepareJobOptions {
   // with --restart).
   bool keep_same_model = false;
   int num_threads = 2;
+  // The ranks of a distributed run (docs/distributed.md; null or one rank: this process
+  // alone). Rank 0 does the job, and the volumetric targets' embedded simulations are
+  // shared among the ranks (jobs/shared_pose_work.h); the other ranks call RunPrepareJob
+  // too, and use only `targets` and `num_threads` (they read no file: the model comes
+  // from rank 0).
+  const Communicator* communicator = nullptr;
   // Memory limit (bytes): the lattice (before meshing) and the simulation (before the
   // volumetric targets) are estimated, and the job stops with exit status 1 and the
   // estimate if either is above it (util/memory_limit.h).

@@ -7,10 +7,12 @@
 
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
+#include <glog/logging.h>
 
 #include "equilibrium/embedded_attachments.h"
 #include "geometry/embedding.h"
 #include "prepare/target_store.h"
+#include "util/blas.h"
 #include "util/parallel_for.h"
 #include "util/wall_timer.h"
 #include "util/option_checks.h"
@@ -55,15 +57,16 @@ double EquilibriumSolverMemoryBytes(double num_elements) {
          std::max(1.0, std::cbrt(num_elements / kMeasuredElements));
 }
 
-bool MakeVolumetricTargets(const VolumetricTargetOptions& options, ActiveModel* model,
-                           std::ostream& log, std::string* error,
-                           std::vector<std::string>* unconverged) {
-  if (!options.Validate(error)) return false;
+void MakeVolumetricTargetsOf(const VolumetricTargetOptions& options,
+                             const std::vector<int>& poses, const TargetStore* store,
+                             ActiveModel* model, std::ostream& log,
+                             std::vector<std::string>* failures) {
+  CHECK_EQ(static_cast<int>(failures->size()), model->num_poses());
+  const int count = static_cast<int>(poses.size());
+  if (count == 0) return;
   const ShapeTargetModel physics(model->mesh, model->mu);
-  const int num_poses = model->num_poses();
   const Eigen::VectorXd stiffness = AttachmentStiffness(*model, options.relative_stiffness);
-
-  const int threads = std::max(1, std::min(options.num_threads, num_poses));
+  const int threads = std::max(1, std::min(options.num_threads, count));
   struct Worker {
     std::unique_ptr<QuasistaticSolver> solver;
     std::unique_ptr<EmbeddedAttachments> springs;
@@ -71,22 +74,17 @@ bool MakeVolumetricTargets(const VolumetricTargetOptions& options, ActiveModel* 
   std::vector<Worker> workers(threads);
   QuasistaticSolverOptions solver_options = options.solver;
   solver_options.num_threads = 1;  // parallel over poses instead
+  // And BLAS single-threaded meanwhile: each pose's factorizations calling a threaded
+  // OpenBLAS at once made the full face's 44 targets take 26.8 s on 2 threads against
+  // 15.5 s on one (docs/benchmarks.md).
+  const ScopedBlasThreads blas(threads > 1 ? 1 : BlasThreads());
   std::mutex log_mutex;
-  std::vector<std::string> failures(num_poses);
-  TargetStore store;
-  if (!options.store_directory.empty() &&
-      !store.Open(options.store_directory, VolumetricTargetKey(options, *model), error)) {
-    return false;
-  }
-  int from_store = 0;
-  ParallelFor(threads, 0, num_poses, [&](int t, int p) {
+  ParallelFor(threads, 0, count, [&](int t, int k) {
     WallTimer timer;
+    const int p = poses[k];
     TrainingPose& pose = model->poses[p];
-    if (store.Load(p, physics.num_elements(), &pose, &failures[p])) {
-      std::lock_guard<std::mutex> lock(log_mutex);
-      ++from_store;
-      return;
-    }
+    std::string& failure = (*failures)[p];
+    failure.clear();
     Worker& w = workers[t];
     if (!w.solver) {
       w.solver = std::make_unique<QuasistaticSolver>(physics, PoseBoundaryConditions(*model, 0),
@@ -96,7 +94,8 @@ bool MakeVolumetricTargets(const VolumetricTargetOptions& options, ActiveModel* 
       w.solver->AddEnergyTerm(w.springs.get());
     }
     const BoundaryConditions bc = PoseBoundaryConditions(*model, p);
-    const Eigen::Matrix3Xd rest_fixed = ModelBoundaryConditions(*model, RestBoneTransforms(*model)).positions;
+    const Eigen::Matrix3Xd rest_fixed =
+        ModelBoundaryConditions(*model, RestBoneTransforms(*model)).positions;
     const Eigen::Matrix3Xd rest_points =
         EmbeddedPositions(model->embedding, model->mesh.tets, model->mesh.vertices);
     // Direct solve from rest; if it fails, continuation from rest to the pose.
@@ -115,37 +114,60 @@ bool MakeVolumetricTargets(const VolumetricTargetOptions& options, ActiveModel* 
         report = w.solver->Solve();
       }
     }
+    pose.target.resize(6, 0);
     if (!report.converged) {
-      failures[p] = "pose '" + pose.name + "': the embedded simulation did not converge: " +
-                    report.Summary();
-      if (unconverged == nullptr || !w.solver->positions().allFinite()) return;
+      failure = "pose '" + pose.name + "': the embedded simulation did not converge: " +
+                report.Summary();
+      if (!w.solver->positions().allFinite()) return;
     }
     const Eigen::Matrix3Xd x = w.solver->positions();
     pose.target.resize(6, physics.num_elements());
     for (int e = 0; e < physics.num_elements(); ++e) {
-      pose.target.col(e) = ActuationFromSymmetric(SymmetricPolarFactor(physics.DeformationGradient(x, e)));
+      pose.target.col(e) =
+          ActuationFromSymmetric(SymmetricPolarFactor(physics.DeformationGradient(x, e)));
     }
-    const Eigen::VectorXd distance =
-        (w.springs->Points(x) - pose.surface).colwise().norm();
+    const Eigen::VectorXd distance = (w.springs->Points(x) - pose.surface).colwise().norm();
     pose.embedding_mean_error = distance.mean();
     pose.embedding_max_error = distance.maxCoeff();
     std::string store_error;
-    const bool stored = options.store_directory.empty() ||
-                        store.Save(p, pose, failures[p], &store_error);
+    const bool stored = store == nullptr || store->Save(p, pose, failure, &store_error);
     std::lock_guard<std::mutex> lock(log_mutex);
     if (!stored) log << "  warning: pose '" << pose.name << "' not kept: " << store_error << "\n";
     log << "  " << std::left << std::setw(22) << pose.name << std::right << " surface error mean "
         << std::setprecision(3) << pose.embedding_mean_error << " max " << pose.embedding_max_error
-        << " (pose moves up to " << (pose.surface - model->neutral.vertices).colwise().norm().maxCoeff()
-        << "), " << report.Path()
+        << " (pose moves up to "
+        << (pose.surface - model->neutral.vertices).colwise().norm().maxCoeff() << "), "
+        << report.Path()
         << (steps > 1 ? " in " + std::to_string(steps) + " steps" : std::string()) << ", "
         << timer.Seconds() << " s" << (report.converged ? "" : ", NOT CONVERGED") << "\n"
         << std::flush;
   }, 1);
-  if (from_store > 0) {
-    log << "  " << from_store << " of " << num_poses << " poses' targets were taken from "
-        << options.store_directory << " (an earlier run of the same preparation)\n";
+}
+
+bool MakeVolumetricTargets(const VolumetricTargetOptions& options, ActiveModel* model,
+                           std::ostream& log, std::string* error,
+                           std::vector<std::string>* unconverged) {
+  if (!options.Validate(error)) return false;
+  const int num_poses = model->num_poses();
+  std::vector<std::string> failures(num_poses);
+  TargetStore store;
+  const bool storing = !options.store_directory.empty();
+  if (storing &&
+      !store.Open(options.store_directory, VolumetricTargetKey(options, *model), error)) {
+    return false;
   }
+  std::vector<int> remaining;
+  for (int p = 0; p < num_poses; ++p) {
+    if (!storing || !store.Load(p, model->mesh.num_tets(), &model->poses[p], &failures[p])) {
+      remaining.push_back(p);
+    }
+  }
+  if (remaining.size() < static_cast<size_t>(num_poses)) {
+    log << "  " << num_poses - remaining.size() << " of " << num_poses
+        << " poses' targets were taken from " << options.store_directory
+        << " (an earlier run of the same preparation)\n";
+  }
+  MakeVolumetricTargetsOf(options, remaining, storing ? &store : nullptr, model, log, &failures);
   for (const std::string& failure : failures) {
     if (failure.empty()) continue;
     if (unconverged == nullptr) {

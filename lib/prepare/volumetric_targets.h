@@ -11,6 +11,8 @@
 
 namespace aqs {
 
+class TargetStore;
+
 // The largest VolumetricTargetOptions::relative_stiffness.
 inline constexpr double kMaxRelativeStiffness = 1e8;
 
@@ -54,6 +56,19 @@ struct VolumetricTargetOptions {
 bool MakeVolumetricTargets(const VolumetricTargetOptions& options, ActiveModel* model,
                            std::ostream& log, std::string* error,
                            std::vector<std::string>* unconverged = nullptr);
+
+// MakeVolumetricTargets for the poses `poses` of `model` alone (each pose's target and
+// embedding errors; the other poses are untouched), none taken from a store:
+// (*failures)[p] (num_poses entries) becomes pose p's message if its solve did not
+// converge (its target then from the state the solve ended in, or empty (6 x 0) if that
+// is not finite), else "". With `store` (may be null), each pose is kept there as it is
+// made (a failure to keep it is a warning in `log`). options.store_directory is not
+// used. For poses shared among processes (jobs/shared_pose_work.h); the caller has
+// validated the options (options.Validate).
+void MakeVolumetricTargetsOf(const VolumetricTargetOptions& options,
+                             const std::vector<int>& poses, const TargetStore* store,
+                             ActiveModel* model, std::ostream& log,
+                             std::vector<std::string>* failures);
 
 // The memory of the equilibrium solves of a mesh of num_elements elements (bytes): one
 // solver with its stiffness factorization, about 8 kB per element at 250,000 elements

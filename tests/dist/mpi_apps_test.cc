@@ -1,7 +1,8 @@
 // The apps over MPI, run by mpirun from this (ordinary) test: aqs_train on 2 ranks and
 // resumed on 1, spare ranks, a rank killed with SIGKILL mid-run (the job stops, the
 // checkpoint resumes), aqs_evaluate's and aqs_fit --sequence's outputs against one
-// process, aqs_pipeline, and bad input stopping every rank with one message.
+// process, aqs_pipeline (every stage's per-pose work shared), and bad input stopping every
+// rank with one message.
 
 #include <cstdio>
 #include <filesystem>
@@ -237,6 +238,10 @@ TEST(MpiAppsTest, PipelineRunsEveryStageOverTheRanks) {
   // The latent refit before training (as the demo and full-face configs have it) is
   // shared by the ranks and logged once.
   EXPECT_EQ(Count(run.output, "latent refit: loss"), 1) << run.output;
+  // Prepare's targets and pre-training's simulation of every pose are shared too.
+  EXPECT_EQ(Count(run.output, "poses shared among 2 ranks"), 1) << run.output;
+  EXPECT_EQ(Count(run.output, "pre-trained poses simulated in"), 1) << run.output;
+  EXPECT_EQ(Count(run.output, "(shared among 2 ranks)"), 1) << run.output;
   for (const char* stage : {"=== prepare done", "=== pretrain done", "=== train done",
                             "=== evaluate done", "pipeline done"}) {
     EXPECT_EQ(Count(run.output, stage), 1) << stage << "\n" << run.output;
