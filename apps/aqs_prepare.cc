@@ -6,13 +6,16 @@
 // Exit status: 0 done; 1 bad input (the message says which file or flag), an output
 // that is not a model, a model another process is writing, or a lattice or simulation
 // above --max_memory_gb; 2 the embedded simulation of some poses did not converge (the
-// model is written, for inspection).
+// model is written, for inspection). Under mpirun (or with --mpi; docs/distributed.md)
+// rank 0 reads the inputs and does the job, and the volumetric targets' embedded
+// simulations are shared among the ranks; rank 0 logs and writes.
 
 #include <iostream>
 
 #include <gflags/gflags.h>
 
 #include "app_common.h"
+#include "mpi_flags.h"
 #include "prepare_flags.h"
 
 int main(int argc, char** argv) {
@@ -21,15 +24,31 @@ int main(int argc, char** argv) {
       "  aqs_prepare --neutral=N.obj --poses=DIR --model=MODEL --spacing=H [--shell=T]\n"
       "              [--fixed_depth=D | --fixed_box=... | --fixed_inside=... | --fixed_list=...]\n"
       "              [--bone_mesh=B.obj --bone_poses=DIR/{pose}.b.obj --bone_region=BOX]\n"
-      "              [--overwrite]",
+      "              [--overwrite]\n"
+      "  mpirun -np N aqs_prepare ...   (the targets' simulations shared among N ranks)",
       &argc, &argv);
+  const std::unique_ptr<aqs::Communicator> ranks = aqs::StartRanks(&argc, &argv);
+  const bool root = ranks == nullptr || ranks->is_root();
   aqs::PrepareJobOptions options;
+  options.communicator = ranks.get();
   std::string error;
-  if (!aqs::PrepareOptionsFromFlags(&options, &error)) {
-    aqs::PrintError(error);
+  // Rank 0 reads the inputs; the other ranks only need the targets' options.
+  bool ok = root ? aqs::PrepareOptionsFromFlags(&options, &error)
+                 : aqs::PrepareTargetOptionsFromFlags(&options, &error);
+  if (ranks != nullptr) ok = ranks->Agree(ok, &error);
+  if (!ok) {
+    aqs::PrintRankError(ranks.get(), aqs::FlagError(error, aqs::PrepareFlagNames()));
     return 1;
   }
   aqs::JobStatus status = aqs::JobStatus::kOk;
-  aqs::RunPrepareJob(options, std::cout, &error, &status);
-  return aqs::FinishJob(status, error, aqs::PrepareFlagNames());
+  ok = aqs::RunPrepareJob(options, std::cout, &error, &status);
+  if (ranks == nullptr) return aqs::FinishJob(status, error, aqs::PrepareFlagNames());
+  // Rank 0's status on every rank; its message once.
+  ok = ranks->Agree(ok, &error);
+  int code = static_cast<int>(status);
+  ranks->Broadcast(&code, 1, 0);
+  status = static_cast<aqs::JobStatus>(code);
+  if (ok) return 0;
+  aqs::PrintRankError(ranks.get(), aqs::FlagError(error, aqs::PrepareFlagNames()));
+  return aqs::ExitStatus(status == aqs::JobStatus::kOk ? aqs::JobStatus::kBadInput : status);
 }

@@ -4,7 +4,9 @@
 // (docs/model_format.md, "Writing"). It writes checkpoints into the model's pretrain/
 // folder every minute; run again after a kill, it resumes from the last (--restart: not).
 // Exit status: 0 done; 1 bad input (a file, a flag, a decoder whose memory estimate is
-// above --max_memory_gb) or a model another process is writing.
+// above --max_memory_gb) or a model another process is writing. Under mpirun (or with
+// --mpi; docs/distributed.md) rank 0 pre-trains, and the simulation of every pre-trained
+// pose is shared among the ranks; rank 0 logs and writes.
 
 #include <iostream>
 
@@ -13,6 +15,7 @@
 #include "app_common.h"
 #include "jobs/learning_jobs.h"
 #include "learning_flags.h"
+#include "mpi_flags.h"
 
 DECLARE_string(model);
 DEFINE_bool(restart, false, "Pre-train anew, not from the checkpoint of an earlier run that "
@@ -20,8 +23,10 @@ DEFINE_bool(restart, false, "Pre-train anew, not from the checkpoint of an earli
 
 int main(int argc, char** argv) {
   aqs::InitApp("Pre-train the decoder of a prepared model.\n"
-               "  aqs_pretrain --model=MODEL [--latent_dim=16 --hidden=128,128 ...]",
+               "  aqs_pretrain --model=MODEL [--latent_dim=16 --hidden=128,128 ...]\n"
+               "  mpirun -np N aqs_pretrain ...   (the poses' simulation shared among N ranks)",
                &argc, &argv);
+  const std::unique_ptr<aqs::Communicator> ranks = aqs::StartRanks(&argc, &argv);
   aqs::PretrainOptions options;
   aqs::PoseSimulationOptions simulation;
   bool simulate = true;
@@ -29,12 +34,17 @@ int main(int argc, char** argv) {
   if (FLAGS_model.empty()) error = "--model is required";
   if (!error.empty() || !aqs::PretrainOptionsFromFlags(&options, &error) ||
       !aqs::PretrainSimulationFromFlags(&simulation, &simulate, &error)) {
-    aqs::PrintError(error);
+    aqs::PrintRankError(ranks.get(), error);
     return 1;
   }
   options.resume = !FLAGS_restart;
-  const bool ok = aqs::RunPretrainJob(FLAGS_model, options, simulate ? &simulation : nullptr,
-                                      std::cout, &error);
-  return aqs::FinishJob(ok ? aqs::JobStatus::kOk : aqs::JobStatus::kBadInput, error,
-                        aqs::PretrainFlagNames());
+  bool ok = aqs::RunPretrainJob(FLAGS_model, options, simulate ? &simulation : nullptr,
+                                std::cout, &error, false, ranks.get());
+  if (ranks == nullptr) {
+    return aqs::FinishJob(ok ? aqs::JobStatus::kOk : aqs::JobStatus::kBadInput, error,
+                          aqs::PretrainFlagNames());
+  }
+  ok = ranks->Agree(ok, &error);  // rank 0's status on every rank; its message once
+  if (!ok) aqs::PrintRankError(ranks.get(), aqs::FlagError(error, aqs::PretrainFlagNames()));
+  return aqs::ExitStatus(ok ? aqs::JobStatus::kOk : aqs::JobStatus::kBadInput);
 }

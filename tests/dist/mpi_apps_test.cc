@@ -212,19 +212,66 @@ TEST(MpiAppsTest, FitSequenceOnTwoRanksWritesWhatOneProcessWrites) {
       << run.output;
 }
 
-TEST(MpiAppsTest, PipelineRunsEveryStageOverTheRanks) {
-  testing::TempDir dir;
+// The synthetic bar's neutral and pose surfaces as dir/neutral.obj and dir/poses/*.obj.
+testing::SyntheticMuscles WriteSyntheticSurfaces(const testing::TempDir& dir) {
   testing::SyntheticMuscles data = testing::MakeSyntheticMuscles(3, 2, 0.3, 3);
   std::string error;
-  ASSERT_TRUE(WriteObj(dir.File("neutral.obj"), data.model.neutral, &error)) << error;
+  EXPECT_TRUE(WriteObj(dir.File("neutral.obj"), data.model.neutral, &error)) << error;
   fs::create_directories(dir.File("poses"));
   for (const TrainingPose& pose : data.model.poses) {
     SurfaceMesh surface = data.model.neutral;
     surface.vertices = pose.surface;
-    ASSERT_TRUE(WriteObj(dir.File("poses/" + pose.name + ".obj"), surface, &error)) << error;
+    EXPECT_TRUE(WriteObj(dir.File("poses/" + pose.name + ".obj"), surface, &error)) << error;
   }
+  return data;
+}
+
+TEST(MpiAppsTest, PrepareAndPretrainShareTheirPosesAmongTheRanks) {
+  testing::TempDir dir;
+  WriteSyntheticSurfaces(dir);
+  const std::string prepare =
+      AppPath("aqs_prepare") + " --neutral=" + dir.File("neutral.obj") + " --poses=" +
+      dir.File("poses") + " --spacing=0.2 --lattice=kuhn --fixed_box=-1,-1,-1,0.01,1,1";
+  CommandResult run = MpiRun(2, prepare + " --model=" + dir.File("model"));
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_EQ(Count(run.output, "3 poses shared among 2 ranks"), 1) << run.output;
+  EXPECT_EQ(Count(run.output, "wrote model"), 1) << run.output;
+  ActiveModel model;
+  std::string error;
+  ASSERT_TRUE(LoadModel(dir.File("model"), &model, &error)) << error;
+  EXPECT_FALSE(model.target_key.empty());  // every pose converged
+  for (const TrainingPose& pose : model.poses) {
+    EXPECT_EQ(pose.target.cols(), model.mesh.num_tets()) << pose.name;
+  }
+  // Pre-training on 2 ranks: rank 0's iterations, every pose's simulation shared; the
+  // same model as one process with one thread writes.
+  fs::copy(dir.File("model"), dir.File("alone"), fs::copy_options::recursive);
+  const std::string pretrain = " --latent_dim=2 --hidden=8 --grid_spacing=0.3 "
+                               "--pretrain_iterations=20";
+  run = MpiRun(2, AppPath("aqs_pretrain") + " --model=" + dir.File("model") + pretrain);
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_EQ(Count(run.output, "(shared among 2 ranks)"), 1) << run.output;
+  run = RunCommand("OPENBLAS_NUM_THREADS=1 " + AppPath("aqs_pretrain") + " --model=" +
+                   dir.File("alone") + pretrain + " --threads=1");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  for (const char* name : {"/learned/decoder.txt", "/learned/latents.bin",
+                           "/learned/states/0000.bin", "/learned/states/0001.bin",
+                           "/learned/states/0002.bin", "/pretrain/surface_errors.bin"}) {
+    EXPECT_EQ(ReadAll(dir.File("model") + name), ReadAll(dir.File("alone") + name)) << name;
+    EXPECT_FALSE(ReadAll(dir.File("model") + name).empty()) << name;
+  }
+  // Bad input on rank 0 stops both ranks with one message.
+  run = MpiRun(2, prepare + " --model=" + dir.File("model2") + " --spacing=-1");
+  EXPECT_EQ(run.exit_code, 1) << run.output;
+  EXPECT_EQ(Count(run.output, "aqs_prepare: error:"), 1) << run.output;
+}
+
+TEST(MpiAppsTest, PipelineRunsEveryStageOverTheRanks) {
+  testing::TempDir dir;
+  const testing::SyntheticMuscles data = WriteSyntheticSurfaces(dir);
   SurfaceMesh held = data.model.neutral;
   held.vertices = data.test_surfaces[0];
+  std::string error;
   ASSERT_TRUE(WriteObj(dir.File("held.obj"), held, &error)) << error;
   const CommandResult run = MpiRun(
       2, AppPath("aqs_pipeline") + " --neutral=" + dir.File("neutral.obj") + " --poses=" +
