@@ -66,7 +66,7 @@ bool MakeVolumetricTargetsOnRanks(const Communicator& comm,
         << " poses' targets were taken from " << options.store_directory
         << " (an earlier run of the same preparation)\n";
   }
-  if (root && size > 1) {
+  if (root && size > 1 && !remaining.empty()) {
     log << "  " << remaining.size() << " poses shared among " << size << " ranks (rank 0 logs "
         << "its own as they are made, then the others')\n";
   }
