@@ -81,13 +81,12 @@ struct DecoderMemory {
 //
 //   grid (default): 8 x 8 x 8 = 512 control nodes, 3,072 MLP outputs, 414,976
 //     parameters = 3.3 MB per parameter array (396,288 of them in the 3,072 x 129
-//     output layer; the L-BFGS history of pre-training and training, 2 x
-//     max_lbfgs_rank = 20 arrays, 66 MB);
+//     output layer; Ceres' L-BFGS history, 2 x max_lbfgs_rank = 40 arrays, 133 MB);
 //     field tables 24.7 MB; per decoded pose 12.3 MB for a and 12.3 MB for dL/da;
 //     workspace 80 KB per pose; ActuationJacobian 198 MB (1,543,500 x 16 doubles) plus
 //     12 MB of scratch.
 //   per_element (no grid): 1,543,500 MLP outputs, 199,130,188 parameters = 1.59 GB per
-//     parameter array (32 GB of L-BFGS history), which is why the grid exists: use
+//     parameter array (64 GB of L-BFGS history), which is why the grid exists: use
 //     per_element for small meshes and tests.
 //
 // The grid keeps about one node per 500 elements here (factor 4); the count scales as
