@@ -88,7 +88,7 @@ bool MakeVolumetricTargetsOnRanks(const Communicator& comm,
     if (owner == 0) continue;
     const int p = remaining[k];
     TrainingPose& pose = model->poses[p];
-    send.assign(block, 0.0);
+    send.assign(rank == owner ? block : 0, 0.0);  // only the owner sends
     if (rank == owner) {
       send[0] = pose.target.cols() == elements ? 1.0 : 0.0;
       send[1] = pose.embedding_mean_error;
@@ -154,7 +154,7 @@ std::vector<SimulatedPose> SimulateTrainingPosesOnRanks(const Communicator& comm
       if (comm.is_root()) results[p] = std::move(own[k]);
       continue;
     }
-    send.assign(block, 0.0);
+    send.assign(rank == owner ? block : 0, 0.0);  // only the owner sends
     std::string message;
     if (rank == owner) {
       const SimulatedPose& pose = own[k];
