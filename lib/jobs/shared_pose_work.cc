@@ -1,6 +1,7 @@
 #include "jobs/shared_pose_work.h"
 
 #include <sstream>
+#include <utility>
 
 #include <glog/logging.h>
 
@@ -133,12 +134,16 @@ std::vector<SimulatedPose> SimulateTrainingPosesOnRanks(const Communicator& comm
   const int rank = comm.rank(), size = comm.size();
   const int num_poses = model.num_poses();
   const std::vector<int> mine = OwnedIndices(num_poses, rank, size);
-  const std::vector<ActuationMatrix> all = DecodeTrainingLatents(model);
   std::vector<ActuationMatrix> actuations;
   std::vector<std::vector<RigidTransform>> bones;
-  for (int p : mine) {
-    actuations.push_back(all[p]);
-    bones.push_back(TrainingPoseBones(model, p));
+  {
+    // The whole batch, as one process decodes it (a batch of some latents rounds a little
+    // differently); the others' actuations are freed before the simulations.
+    std::vector<ActuationMatrix> all = DecodeTrainingLatents(model);
+    for (int p : mine) {
+      actuations.push_back(std::move(all[p]));
+      bones.push_back(TrainingPoseBones(model, p));
+    }
   }
   std::vector<SimulatedPose> own = SimulateActuations(model, actuations, bones, {}, options);
   if (size == 1) return own;
