@@ -7,7 +7,7 @@ Usage: /usr/bin/python3 scripts/make_fit_tests.py --ict ../shared/data/ict-face 
        [--seed 1] [--mixes 20] [--min_expressions 2] [--max_expressions 5]
        [--min_weight 0.3] [--max_weight 1.0] [--markers 20,60] [--marker_noise 0.01]
        [--scan_points 4000] [--scan_noise 0.02] [--scan_min_z 8] [--scan_outliers 0]
-       [--landmark_noise 0.1] [--scan_markers 0]
+       [--landmark_noise 0.1] [--scan_markers 0] [--own_scan_generator]
        [--frames 100] [--sequence_markers 60] [--sequence_expressions 6]
 
 Every mix is target = neutral + sum_i w_i (pose_i - neutral) over 2 to 5 of the 55
@@ -193,6 +193,11 @@ def main():
     parser.add_argument("--scan_markers", type=int, default=0,
                         help="landmarks: the K-marker set's vertices instead of 10 tracker "
                              "landmarks (K among --markers)")
+    parser.add_argument("--own_scan_generator", action="store_true",
+                        help="draw each mix's scan from a generator of its own (seed, 2, mix), "
+                             "so that sets with other --scan_points, --scan_noise or "
+                             "--scan_outliers share their mixes and markers (other mixes "
+                             "than without it)")
     parser.add_argument("--frames", type=int, default=100)
     parser.add_argument("--sequence_markers", type=int, default=60)
     parser.add_argument("--sequence_expressions", type=int, default=6)
@@ -250,8 +255,9 @@ def main():
             positions = surface[vertices] + rng.normal(0.0, args.marker_noise, (len(vertices), 3))
             write_atomically(os.path.join(args.out, "markers", "%s_m%d.txt" % (label, k)),
                              markers_text(vertices, positions, "%s: %s" % (label, recipe)))
+        scan_rng = np.random.default_rng([args.seed, 2, m]) if args.own_scan_generator else rng
         points = scan(surface, triangles, args.scan_points, args.scan_noise, args.scan_min_z,
-                      args.scan_outliers, rng)
+                      args.scan_outliers, scan_rng)
         write_atomically(os.path.join(args.out, "scans", label + ".ply"),
                          ply_text(points, "scan of %s: %s" % (label, recipe)))
         if args.scan_markers > 0:
