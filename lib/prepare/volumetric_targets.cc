@@ -57,6 +57,25 @@ double EquilibriumSolverMemoryBytes(double num_elements) {
          std::max(1.0, std::cbrt(num_elements / kMeasuredElements));
 }
 
+namespace {
+
+// The exact stiffness of the passive body (the solver's actuation, its energy terms
+// included) at the rest positions `rest` (3 x num_vertices), factorized by the solver's
+// stiffness factorization and kept in single precision: the same matrix for every pose.
+// Empty if it does not factorize.
+StoredStiffnessFactor RestStiffnessFactor(const Eigen::Matrix3Xd& rest,
+                                          QuasistaticSolver* solver) {
+  StoredStiffnessFactor stored;
+  StiffnessFactorization* factorization = solver->stiffness_factorization();
+  std::string error;
+  if (factorization->Factorize(rest, solver->actuation(), StiffnessKind::kExact, &error)) {
+    factorization->StoreFactor(&stored);
+  }
+  return stored;
+}
+
+}  // namespace
+
 void MakeVolumetricTargetsOf(const VolumetricTargetOptions& options,
                              const std::vector<int>& poses, const TargetStore* store,
                              ActiveModel* model, std::ostream& log,
@@ -70,14 +89,18 @@ void MakeVolumetricTargetsOf(const VolumetricTargetOptions& options,
   struct Worker {
     std::unique_ptr<QuasistaticSolver> solver;
     std::unique_ptr<EmbeddedAttachments> springs;
+    // The factor every pose's solve starts from (RestStiffnessFactor).
+    StoredStiffnessFactor start_factor;
   };
   std::vector<Worker> workers(threads);
   QuasistaticSolverOptions solver_options = options.solver;
   solver_options.num_threads = 1;  // parallel over poses instead
   // And BLAS single-threaded meanwhile: each pose's factorizations calling a threaded
   // OpenBLAS at once made the full face's 44 targets take 26.8 s on 2 threads against
-  // 15.5 s on one (docs/benchmarks.md).
-  const ScopedBlasThreads blas(threads > 1 ? 1 : BlasThreads());
+  // 15.5 s on one (docs/benchmarks.md). Also with one thread: CHOLMOD's factors then
+  // have the same bits for any number of threads and ranks (threaded BLAS rounds
+  // differently), and the poses' solves, starting from the rest factor, factorize little.
+  const ScopedBlasThreads blas(1);
   std::mutex log_mutex;
   ParallelFor(threads, 0, count, [&](int t, int k) {
     WallTimer timer;
@@ -92,6 +115,15 @@ void MakeVolumetricTargetsOf(const VolumetricTargetOptions& options,
       w.springs = std::make_unique<EmbeddedAttachments>(model->embedding, model->mesh.tets,
                                                         stiffness, model->mesh.vertices);
       w.solver->AddEnergyTerm(w.springs.get());
+      w.start_factor = RestStiffnessFactor(model->mesh.vertices, w.solver.get());
+    }
+    // Each pose starts from the same factor, not from the one the pose this worker solved
+    // before left (which its Newton steps would reuse): a pose's target then depends on
+    // nothing but the pose, whichever thread or rank solves it, in whatever order, and in
+    // a resumed run.
+    StiffnessFactorization* factorization = w.solver->stiffness_factorization();
+    if (w.start_factor.empty() || !factorization->RestoreFactor(w.start_factor)) {
+      factorization->RequestRefresh();
     }
     const BoundaryConditions bc = PoseBoundaryConditions(*model, p);
     const Eigen::Matrix3Xd rest_fixed =

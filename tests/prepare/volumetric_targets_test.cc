@@ -1,0 +1,81 @@
+// Volumetric targets by embedded simulation (prepare/volumetric_targets.h): a pose's
+// target depends on the pose alone, bit for bit: not on the number of threads, the order
+// the poses are solved in, or the other poses solved before it (every pose's solve
+// starts from the factor of the body at rest). The MPI ranks' share of the same work is
+// tested in tests/dist/mpi_pose_work_test.cc, the store of a stopped run in
+// target_store_test.cc.
+
+#include "prepare/volumetric_targets.h"
+
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "testing/synthetic_muscles.h"
+
+namespace aqs {
+namespace {
+
+constexpr int kPoses = 5;
+
+class VolumetricTargetsTest : public ::testing::Test {
+ protected:
+  void SetUp() override { base_ = testing::MakeSyntheticMuscles(kPoses, 0, 0.3, 11).model; }
+
+  // Targets of `poses` (in that order) made on a fresh copy of the model.
+  ActiveModel MakeOf(const std::vector<int>& poses, int num_threads) {
+    ActiveModel model = base_;
+    VolumetricTargetOptions options;
+    options.num_threads = num_threads;
+    std::vector<std::string> failures(kPoses);
+    std::ostringstream log;
+    MakeVolumetricTargetsOf(options, poses, nullptr, &model, log, &failures);
+    for (int p : poses) EXPECT_EQ(failures[p], "") << p;
+    return model;
+  }
+
+  static void ExpectSameTarget(const ActiveModel& a, const ActiveModel& b, int p,
+                               const std::string& what) {
+    ASSERT_EQ(a.poses[p].target.cols(), a.mesh.num_tets()) << what << ", pose " << p;
+    ASSERT_EQ(b.poses[p].target.cols(), b.mesh.num_tets()) << what << ", pose " << p;
+    EXPECT_TRUE(a.poses[p].target == b.poses[p].target)
+        << what << ", pose " << p << ": largest difference "
+        << (a.poses[p].target - b.poses[p].target).cwiseAbs().maxCoeff();
+    EXPECT_EQ(a.poses[p].embedding_mean_error, b.poses[p].embedding_mean_error)
+        << what << ", pose " << p;
+  }
+
+  ActiveModel base_;
+};
+
+TEST_F(VolumetricTargetsTest, APosesTargetDependsOnThePoseAlone) {
+  const ActiveModel in_order = MakeOf({0, 1, 2, 3, 4}, 1);
+  const ActiveModel reversed = MakeOf({4, 3, 2, 1, 0}, 1);
+  const ActiveModel two_threads = MakeOf({0, 1, 2, 3, 4}, 2);
+  const ActiveModel some = MakeOf({3, 1}, 1);
+  for (int p = 0; p < kPoses; ++p) {
+    ExpectSameTarget(in_order, reversed, p, "reversed order");
+    ExpectSameTarget(in_order, two_threads, p, "two threads");
+  }
+  ExpectSameTarget(in_order, some, 3, "poses 3 and 1 alone");
+  ExpectSameTarget(in_order, some, 1, "poses 3 and 1 alone");
+  EXPECT_EQ(some.poses[0].target.cols(), 0);
+}
+
+TEST_F(VolumetricTargetsTest, MakeVolumetricTargetsIsMakeVolumetricTargetsOfEveryPose) {
+  ActiveModel model = base_;
+  VolumetricTargetOptions options;
+  options.num_threads = 2;
+  std::ostringstream log;
+  std::string error;
+  ASSERT_TRUE(MakeVolumetricTargets(options, &model, log, &error)) << error;
+  const ActiveModel one_by_one = MakeOf({2, 0, 4, 1, 3}, 1);
+  for (int p = 0; p < kPoses; ++p) ExpectSameTarget(model, one_by_one, p, "one by one");
+  // The poses are solved from the rest factor: few need a factorization of their own.
+  EXPECT_NE(log.str().find("by CG on an earlier factor"), std::string::npos) << log.str();
+}
+
+}  // namespace
+}  // namespace aqs
