@@ -37,6 +37,9 @@ bool ContactOptions::Validate(std::string* error) const {
       .Nested("solver", solver_ok, solver_error)
       .ReachableTolerance("solver.relative_force_tolerance", solver.relative_force_tolerance)
       .IntInRange("num_threads", num_threads, 1, 1024)
+      .Require(std::all_of(surface_vertices.begin(), surface_vertices.end(),
+                           [](int v) { return v >= 0; }),
+               "surface_vertices: every vertex index must be >= 0")
       .Done(error);
 }
 

@@ -181,9 +181,11 @@ SurfaceAutoencoder::~SurfaceAutoencoder() = default;
 SurfaceAutoencoder::SurfaceAutoencoder(SurfaceAutoencoder&&) noexcept = default;
 SurfaceAutoencoder& SurfaceAutoencoder::operator=(SurfaceAutoencoder&&) noexcept = default;
 
-double SurfaceAutoencoderMemoryBytes(const SurfaceAutoencoderOptions& options,
-                                     int num_vertices, int num_surfaces) {
-  const double outputs = 3.0 * num_vertices;
+namespace {
+
+// The network's parameters (weights and biases of every layer, and the linear skip's)
+// for `outputs` outputs, as a double (it may exceed an int).
+double NetworkParameters(const SurfaceAutoencoderOptions& options, double outputs) {
   double parameters = 0.0, fan_in = options.latent_dim;
   for (int width : options.hidden_dims) {
     parameters += width * (fan_in + 1.0);
@@ -191,7 +193,16 @@ double SurfaceAutoencoderMemoryBytes(const SurfaceAutoencoderOptions& options,
   }
   parameters += outputs * (fan_in + 1.0);
   if (options.linear_skip) parameters += outputs * options.latent_dim;
-  parameters += static_cast<double>(options.latent_dim) * num_surfaces;
+  return parameters;
+}
+
+}  // namespace
+
+double SurfaceAutoencoderMemoryBytes(const SurfaceAutoencoderOptions& options,
+                                     int num_vertices, int num_surfaces) {
+  const double outputs = 3.0 * num_vertices;
+  const double parameters = NetworkParameters(options, outputs) +
+                            static_cast<double>(options.latent_dim) * num_surfaces;
   constexpr double kArrays = 4.0 * kLbfgsRank;  // iterate, gradient, samples, history
   return 8.0 * (kArrays * parameters + 4.0 * outputs * num_surfaces);
 }
@@ -261,6 +272,14 @@ bool SurfaceAutoencoder::Train(const Eigen::Matrix3Xd& neutral,
   }
 
   const int d = options.latent_dim;
+  const double network_parameters = NetworkParameters(options, 3.0 * n);
+  if (network_parameters + static_cast<double>(d) * p > std::numeric_limits<int>::max()) {
+    *error = "the auto-encoder would have " +
+             std::to_string(static_cast<long long>(network_parameters)) +
+             " network parameters, more than " + std::to_string(std::numeric_limits<int>::max()) +
+             " (narrower hidden_dims)";
+    return false;
+  }
   auto mlp = std::make_unique<Mlp>(
       MlpSpec{d, options.hidden_dims, static_cast<int>(3 * n), options.activation,
               options.anchored, options.linear_skip});

@@ -51,7 +51,8 @@ class SurfacePca {
 // training surfaces: for each candidate ridge, each training surface p is fitted by a
 // PCA of the others (k components, at most P - 2) from its marker vertices alone, and
 // the mean vertex distance over error_vertices (empty: all) is averaged over p. The
-// candidate with the smallest average wins (the first on ties).
+// candidate with the smallest average wins (the first on ties). Needs at least 3
+// surfaces (CHECK) and one candidate.
 struct RidgeChoice {
   double ridge = 0.0;
   double loo_error = 0.0;

@@ -1,5 +1,6 @@
 #include "jobs/evaluate_job.h"
 
+#include <algorithm>
 #include <filesystem>
 #include <limits>
 #include <sstream>
@@ -407,6 +408,9 @@ bool EvaluateJobOptions::Validate(std::string* error) const {
       .Nested("fit", fit_ok, fit_error)
       .Nested("autoencoder", autoencoder_ok, autoencoder_error)
       .Require(widths_ok, "autoencoder_hidden_dims: every width must be > 0")
+      .Require(std::all_of(error_vertices.begin(), error_vertices.end(),
+                           [](int v) { return v >= 0; }),
+               "error_vertices: every vertex index must be >= 0")
       .Nested("held_out_targets", targets_ok, targets_error)
       .IntInRange("num_threads", num_threads, 1, 1024)
       .Positive("max_memory_bytes", max_memory_bytes)

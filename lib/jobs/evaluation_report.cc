@@ -263,10 +263,10 @@ std::string EvaluationMarkdown(const EvaluationReportParts& parts, const Evaluat
 std::string EvaluationCsv(const std::vector<EvaluationRow>& rows) {
   std::string csv = "split,pose,method,mean,rms,max\n";
   for (const EvaluationRow& r : rows) {
-    char line[256];
-    std::snprintf(line, sizeof(line), "%s,%s,%s,%.17g,%.17g,%.17g\n", r.split.c_str(),
-                  r.pose.c_str(), r.method.c_str(), r.mean, r.rms, r.max);
-    csv += line;
+    // Pose names may be as long as file names (they are checked not to hold ',').
+    char numbers[80];
+    std::snprintf(numbers, sizeof(numbers), ",%.17g,%.17g,%.17g\n", r.mean, r.rms, r.max);
+    csv += r.split + "," + r.pose + "," + r.method + numbers;
   }
   return csv;
 }

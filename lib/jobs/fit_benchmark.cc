@@ -342,6 +342,12 @@ bool ChooseRidges(const FitBenchmarkOptions& options, const ActiveModel& model,
                   std::map<int, std::vector<int>>* marker_sets, std::map<int, double>* ridge,
                   std::ostream& log, std::string* error) {
   const int ns = model.num_surface_vertices();
+  if (!options.marker_counts.empty() && training.size() < 3) {
+    *error = "the markers' ridge PCA baseline chooses its ridge by leave-one-out over at least "
+             "3 training poses; the model has " + std::to_string(training.size()) +
+             " (leave markers out of --parts)";
+    return false;
+  }
   for (int k : options.marker_counts) {
     const std::string path = options.test_set + "/marker_sets/m" + std::to_string(k) + ".txt";
     if (!ReadVertexList(path, ns, &(*marker_sets)[k], error)) return false;

@@ -11,6 +11,7 @@
 #include "mesh/ply_io.h"
 #include "util/file_extension.h"
 #include "util/file_list.h"
+#include "util/name_rules.h"
 
 namespace aqs {
 namespace {
@@ -67,6 +68,11 @@ bool ReadSequenceFrames(const FitSequenceOptions& options, const Eigen::Matrix3X
     f.path = path;
     f.origin = origin;
     f.name = fs::path(path).stem().string();
+    const std::string problem = NameProblem(f.name);
+    if (!problem.empty()) {
+      *error = From(f, path + ": the frame name (the file's name) '" + f.name + "' " + problem);
+      return false;
+    }
     const auto [it, inserted] = names.emplace(f.name, path);
     if (!inserted) {
       *error = From(f, path + ": frame name '" + f.name + "' is already taken by " + it->second +

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <utility>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
@@ -61,10 +62,21 @@ double GaussianPrior::SquaredMahalanobis(const Eigen::VectorXd& x) const {
 }
 
 FitPrior LearnFitPrior(const ActiveModel& model, const FitPriorOptions& options) {
+  FitPrior prior;
+  std::string error;
+  CHECK(LearnFitPrior(model, options, &prior, &error)) << error;
+  return prior;
+}
+
+bool LearnFitPrior(const ActiveModel& model, const FitPriorOptions& options, FitPrior* out,
+                   std::string* error) {
   CHECK(model.decoder) << "a fit prior needs a trained model";
   const int num_poses = model.num_poses();
   const int d = model.latent_dim();
-  CHECK_GT(num_poses, 0);
+  if (num_poses == 0) {
+    *error = "the model has no training poses to learn a fit prior from";
+    return false;
+  }
   FitPrior prior;
   // The neutral among the training poses.
   const Eigen::Matrix3Xd& neutral = model.neutral.vertices;
@@ -85,7 +97,11 @@ FitPrior LearnFitPrior(const ActiveModel& model, const FitPriorOptions& options)
   Eigen::MatrixXd latent_cov = MomentAbout(model.latents, prior.latent.mean);
   const double mean_variance = std::max(latent_cov.trace() / d, 1e-12);
   latent_cov.diagonal().array() += options.latent_floor * mean_variance;
-  CHECK(prior.latent.SetCovariance(latent_cov)) << "latent covariance";
+  if (!latent_cov.allFinite() || !prior.latent.SetCovariance(latent_cov)) {
+    *error = "the training latents are too far apart to give a latent prior (their second "
+             "moment is not finite and positive definite)";
+    return false;
+  }
 
   const Eigen::Vector3d lo = model.mesh.vertices.rowwise().minCoeff();
   const Eigen::Vector3d hi = model.mesh.vertices.rowwise().maxCoeff();
@@ -106,10 +122,15 @@ FitPrior LearnFitPrior(const ActiveModel& model, const FitPriorOptions& options)
       cov(i, i) += rotation_floor * rotation_floor;
       cov(3 + i, 3 + i) += translation_floor * translation_floor;
     }
-    CHECK(g.SetCovariance(cov)) << "bone covariance";
+    if (!cov.allFinite() || !g.SetCovariance(cov)) {
+      *error = "the motions of bone '" + bone.name + "' are too far apart to give a bone "
+               "prior (their second moment is not finite and positive definite)";
+      return false;
+    }
     prior.bones.push_back(g);
   }
-  return prior;
+  *out = std::move(prior);
+  return true;
 }
 
 bool WriteFitPrior(const std::string& path, const FitPrior& prior,

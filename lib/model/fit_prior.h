@@ -56,7 +56,12 @@ struct FitPriorOptions {
 // so that where data says nothing fits fall back to the neutral face; without such a
 // pose, on the mean training latent and bones at rest. The covariances are the second
 // moments of the training latents / bone parameters about that centre, with the
-// floors of `options`.
+// floors of `options`. False, with *error saying why, where no prior can be learned:
+// no training poses, or training latents or bone motions so far apart (a damaged model)
+// that their covariance is not finite and positive definite.
+bool LearnFitPrior(const ActiveModel& model, const FitPriorOptions& options, FitPrior* prior,
+                   std::string* error);
+// The same for a model known to give one (CHECK: it does), e.g. one just trained.
 FitPrior LearnFitPrior(const ActiveModel& model, const FitPriorOptions& options = {});
 
 // The prior file (docs/model_format.md, "prior.txt"): text, '#' comments;

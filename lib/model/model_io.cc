@@ -128,10 +128,15 @@ std::vector<std::string> BoneNames(const ActiveModel& model) {
 // prior is learned from the latents being written, so it always belongs to them.
 bool WriteLearned(const std::string& dir, const ActiveModel& model, std::string* error) {
   if (model.decoder) {
+    FitPrior prior;
+    if (!LearnFitPrior(model, FitPriorOptions(), &prior, error)) {
+      *error = "the learned model's fit prior: " + *error;
+      return false;
+    }
     if (!SaveDecoder(dir + "/decoder.txt", model.decoder->spec(),
                      model.decoder->field().description(), model.decoder_params, error) ||
         !WriteMatrixFile(dir + "/latents.bin", model.latents, error) ||
-        !WriteFitPrior(dir + "/prior.txt", LearnFitPrior(model), BoneNames(model), error)) {
+        !WriteFitPrior(dir + "/prior.txt", prior, BoneNames(model), error)) {
       return false;
     }
   }
@@ -612,7 +617,7 @@ bool ReadFixedVerticesAndBones(const std::string& dir, ActiveModel* model, std::
       }
       RigidTransform transform;
       bool ok = t.size() == 14 && ParseInt(t[0], &b) && ParseInt(t[1], &p) &&
-                b == static_cast<int>(m.bones.size()) - 1 &&
+                b >= 0 && b == static_cast<int>(m.bones.size()) - 1 &&
                 p == static_cast<int>(m.bones[b].pose_transforms.size());
       for (int i = 0; ok && i < 9; ++i) {
         ok = ParseDouble(t[2 + i], &transform.rotation(i / 3, i % 3));
@@ -755,7 +760,11 @@ bool LoadModel(const std::string& directory, ActiveModel* model_out, std::string
       !ReadLearnedPart(dir, version, &model, error) || !ValidateModel(model, dir, error)) {
     return false;
   }
-  if (model.decoder && model.fit_prior.empty()) model.fit_prior = LearnFitPrior(model);
+  if (model.decoder && model.fit_prior.empty() &&
+      !LearnFitPrior(model, FitPriorOptions(), &model.fit_prior, error)) {
+    *error = dir + ": no learned/prior.txt, and " + *error;
+    return false;
+  }
   *model_out = std::move(model);
   return true;
 }

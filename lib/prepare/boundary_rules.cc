@@ -10,6 +10,7 @@
 #include "io/vertex_list_io.h"
 #include "mesh/mesh_io.h"
 #include "util/line_reader.h"
+#include "util/name_rules.h"
 #include "util/option_checks.h"
 #include "util/text_split.h"
 
@@ -149,8 +150,8 @@ bool BoundaryRuleOptions::Validate(std::string* error) const {
   checks.Require(!std::isnan(fixed_depth) && std::isfinite(fixed_depth),
                  "fixed_depth must be finite (> 0 to use) (is " + OptionValue(fixed_depth) + ")");
   for (const BoneRule& bone : bones) {
-    checks.Require(!bone.name.empty() && bone.name.find_first_of(" \t\n") == std::string::npos,
-                   "bones.name must be one word (is '" + bone.name + "')")
+    checks.Require(NameProblem(bone.name).empty(),
+                   "bones.name '" + bone.name + "' " + NameProblem(bone.name))
         .InRange("bones.moving_fraction", bone.moving_fraction, 0.0, 1.0)
         .Require(!bone.region_boxes.empty(), "bones.region_boxes must not be empty")
         .Require(bone.pose_mesh_pattern.empty() ||

@@ -10,6 +10,7 @@
 
 #include "mesh/mesh_io.h"
 #include "util/file_list.h"
+#include "util/name_rules.h"
 #include "util/parallel_for.h"
 
 namespace aqs {
@@ -67,8 +68,9 @@ bool ReadPoseSurfaces(const std::vector<std::string>& paths, int num_vertices, i
   std::set<std::string> seen;
   for (int i = 0; i < n; ++i) {
     read_names[i] = PoseNameFromPath(paths[i]);
-    if (read_names[i].find_first_of(" \t") != std::string::npos) {
-      *error = paths[i] + ": pose names (file names) must not contain white space";
+    const std::string problem = NameProblem(read_names[i]);
+    if (!problem.empty()) {
+      *error = paths[i] + ": the pose name (the file's name) '" + read_names[i] + "' " + problem;
       return false;
     }
     if (!seen.insert(read_names[i]).second) {

@@ -23,7 +23,7 @@ bool ResolvePosePaths(const std::string& spec, const std::string& exclude,
                       const std::string& base_dir = "");
 
 // The pose name of a path: the file name without its last extension ("a/jawOpen.obj"
-// -> "jawOpen"). Names must not contain white space.
+// -> "jawOpen"). Names must be one word without '#' or ',' (util/name_rules.h).
 std::string PoseNameFromPath(const std::string& path);
 
 // Reads pose surfaces (OBJ, only the 'v' records matter) that must have

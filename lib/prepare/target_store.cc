@@ -41,15 +41,22 @@ bool TargetStore::Load(int p, int num_elements, TrainingPose* pose, std::string*
   LineReader reader(text);
   double mean = -1.0, max = -1.0;
   std::string failed;
+  bool damaged = false;
   std::vector<std::string> tokens;
   while (reader.NextTokens(&tokens, '\0')) {
     if (tokens.size() == 2 && tokens[0] == "mean") ParseDouble(tokens[1], &mean);
     if (tokens.size() == 2 && tokens[0] == "max") ParseDouble(tokens[1], &max);
-    if (!tokens.empty() && tokens[0] == "failed") failed = reader.line().substr(7);
+    if (!tokens.empty() && tokens[0] == "failed") {
+      // "failed <message>" (Save writes a message): the text after the word.
+      const std::string& line = reader.line();
+      const size_t message = line.find("failed") + 7;
+      failed = message < line.size() ? line.substr(message) : "";
+      damaged = damaged || failed.empty();
+    }
   }
   Eigen::MatrixXd target;
   std::string ignored;
-  if (!reader.ok() || !(mean >= 0) || !(max >= 0) ||
+  if (!reader.ok() || damaged || !(mean >= 0) || !(max >= 0) ||
       !ReadMatrixFile(store_.ItemPath(p, "bin"), 6, num_elements, &target, &ignored) ||
       !target.allFinite()) {
     return false;

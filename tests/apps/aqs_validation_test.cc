@@ -427,6 +427,9 @@ TEST_F(AqsValidationModelTest, OutputsLeaveTheInputsAndTheModelAlone) {
   const std::string neutral_before = ReadAll(model + "/neutral.obj");
   fs::create_directories(dir.File("seq"));
   fs::copy_file(dir_->File("poses/bend_x.obj"), dir.File("seq/a.obj"));
+  // A frame whose name holds a comma would break frames.csv's columns (and its resume).
+  fs::create_directories(dir.File("comma"));
+  fs::copy_file(dir_->File("poses/bend_x.obj"), dir.File("comma/a,b.obj"));
   const std::string m = "--model=" + model;
   ExpectCases("aqs_fit", m,
               {
@@ -440,6 +443,8 @@ TEST_F(AqsValidationModelTest, OutputsLeaveTheInputsAndTheModelAlone) {
                   {"--sequence={dir}seq --output_dir={dir}seq", 1, "is the folder of the frame"},
                   {"--sequence={dir}seq --output_dir=" + model + "/fits", 1,
                    "is inside the input folder"},
+                  {"--sequence={dir}comma --output_dir={dir}out", 1,
+                   "a,b.obj: the frame name (the file's name) 'a,b' contains ','"},
               },
               dir.path());
   ExpectCases("aqs_simulate", m + " --pose=bend_x",

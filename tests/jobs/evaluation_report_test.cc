@@ -116,6 +116,11 @@ TEST(EvaluationReportTest, MarkdownSaysWhatWasComparedAndCsvKeepsEveryDigit) {
   const std::string csv = EvaluationCsv({{"train", "c", "physics", 0.1, 1.0 / 3, 2}});
   EXPECT_EQ(csv, "split,pose,method,mean,rms,max\ntrain,c,physics,0.10000000000000001,"
                  "0.33333333333333331,2\n");
+  // A pose named as long as a file name may be (rows were cut at 256 bytes).
+  const std::string name(250, 'p');
+  EXPECT_EQ(EvaluationCsv({{"test", name, "pca", -1.2345678901234567e-300, 0.5, 1}}),
+            "split,pose,method,mean,rms,max\ntest," + name +
+                ",pca,-1.2345678901234568e-300,0.5,1\n");
 }
 
 }  // namespace

@@ -14,6 +14,8 @@
 
 #include "mesh/mesh_io.h"
 #include "model/model_io.h"
+#include "prepare/volumetric_targets.h"
+#include "train/pretrain.h"
 #include "testing/file_contents.h"
 #include "testing/fit_fixtures.h"
 #include "testing/synthetic_muscles.h"
@@ -196,6 +198,45 @@ TEST(FitBenchmarkTest, KeepsTheRowsFittedBeforeAFailure) {
   options.sequence_frames = 0;
   EXPECT_EQ(RunFitBenchmark(options, log, &error), JobStatus::kBadInput);
   EXPECT_NE(error.find("sequence_frames"), std::string::npos) << error;
+}
+
+// The markers' ridge PCA chooses its ridge by leave-one-out over at least 3 training
+// poses: a model of 2 is refused before any fit (it aborted in a CHECK).
+TEST(FitBenchmarkTest, MarkersNeedThreeTrainingPoses) {
+  testing::TempDir dir;
+  ASSERT_NO_FATAL_FAILURE(WriteModelAndSet(dir));
+  ActiveModel model = testing::MakeSyntheticMuscles(2, 0, 0.3, 21).model;
+  std::ostringstream log;
+  std::string error;
+  ASSERT_TRUE(MakeVolumetricTargets(VolumetricTargetOptions(), &model, log, &error)) << error;
+  PretrainOptions pretrain;
+  pretrain.spec.latent_dim = 2;
+  pretrain.spec.hidden_dims = {4};
+  pretrain.field.node_spacing = 0.5;
+  pretrain.max_iterations = 3;
+  pretrain.log_every = 0;
+  PretrainReport report;
+  ASSERT_TRUE(Pretrain(pretrain, &model, &report, log, &error)) << error;
+  ASSERT_TRUE(SaveModel(dir.File("two"), model, &error)) << error;
+  std::filesystem::create_directories(dir.File("set/marker_sets"));
+  std::filesystem::create_directories(dir.File("set/markers"));
+  dir.Write("set/marker_sets/m3.txt", "0\n1\n2\n");
+  for (const std::string mix : {"mix_000", "mix_001"}) {
+    std::ostringstream markers;
+    for (int v = 0; v < 3; ++v) {
+      const Eigen::Vector3d x = model.neutral.vertices.col(v);
+      markers << v << " " << x.x() << " " << x.y() << " " << x.z() << "\n";
+    }
+    dir.Write("set/markers/" + mix + "_m3.txt", markers.str());
+  }
+  FitBenchmarkOptions options = PosesAndScansOf(dir);
+  options.model = dir.File("two");
+  options.markers = true;
+  options.marker_counts = {3};
+  log.str("");
+  EXPECT_EQ(RunFitBenchmark(options, log, &error), JobStatus::kBadInput);
+  EXPECT_NE(error.find("at least 3 training poses; the model has 2"), std::string::npos) << error;
+  EXPECT_EQ(log.str().find("physics_pose"), std::string::npos) << "no fit ran:\n" << log.str();
 }
 
 }  // namespace

@@ -82,6 +82,28 @@ TEST(FitPriorTest, CentredOnTheNeutralWithTheTrainingSpread) {
   EXPECT_GT(c(1, 1), 0.0);
 }
 
+// No prior from a model without poses, or from latents or bone motions so far apart
+// that their second moment overflows: false with the reason (it aborted in a CHECK).
+TEST(FitPriorTest, NoPriorFromNoPosesOrOverflowingSpreads) {
+  const ActiveModel model = ModelWithNeutralPose();
+  FitPrior prior;
+  std::string error;
+  ASSERT_TRUE(LearnFitPrior(model, FitPriorOptions(), &prior, &error)) << error;
+  ActiveModel far_bone = model;
+  far_bone.bones[0].pose_transforms[0].translation.x() = 1e200;
+  EXPECT_FALSE(LearnFitPrior(far_bone, FitPriorOptions(), &prior, &error));
+  EXPECT_EQ(error.rfind("the motions of bone 'tip' are too far apart", 0), 0u) << error;
+  ActiveModel far_latent = model;
+  far_latent.latents(0, 1) = 1e200;
+  EXPECT_FALSE(LearnFitPrior(far_latent, FitPriorOptions(), &prior, &error));
+  EXPECT_EQ(error.rfind("the training latents are too far apart", 0), 0u) << error;
+  ActiveModel no_poses = model;
+  no_poses.poses.clear();
+  no_poses.latents.resize(model.latent_dim(), 0);
+  EXPECT_FALSE(LearnFitPrior(no_poses, FitPriorOptions(), &prior, &error));
+  EXPECT_EQ(error, "the model has no training poses to learn a fit prior from");
+}
+
 TEST(FitPriorTest, FileRoundTripsIsLearnedWhenAbsentAndBadFilesNameTheLine) {
   const ActiveModel model = ModelWithNeutralPose();
   testing::TempDir dir;

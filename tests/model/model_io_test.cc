@@ -167,6 +167,23 @@ TEST(ModelIoTest, DamagedModelsFailNamingTheFile) {
       << error;
 }
 
+// A bones.txt whose first line is a motion (no bone yet) is refused naming its line (it
+// indexed bone -1).
+TEST(ModelIoTest, AMotionBeforeAnyBoneFailsNamingTheLine) {
+  const ActiveModel model = TrainedSyntheticModel();
+  testing::TempDir dir;
+  const std::string path = dir.File("m");
+  std::string error;
+  ActiveModel back;
+  ASSERT_TRUE(SaveModel(path, model, &error)) << error;
+  {
+    std::ofstream out(path + "/bones.txt", std::ios::trunc);
+    out << "-1 0 1 0 0 0 1 0 0 0 1 0 0 0\n";
+  }
+  EXPECT_FALSE(LoadModel(path, &back, &error));
+  EXPECT_NE(error.find("bones.txt:1: expected '<bone> <pose>"), std::string::npos) << error;
+}
+
 // A model whose fixed.txt is empty or a directory, or whose binary files hold a NaN, is
 // refused at load, naming the file (it used to load as a free body, or to fail later
 // without a file name).

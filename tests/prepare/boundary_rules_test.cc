@@ -64,6 +64,19 @@ TEST_F(BoneClearanceTest, FreesExactlyTheStaticVerticesWithinTheClearance) {
   EXPECT_EQ(StaticX(0.999).size(), 20u);
 }
 
+// Bone names are written as one field of bones.txt, where '#' starts a comment.
+TEST_F(BoneClearanceTest, RejectsBoneNamesTheModelFilesCannotHold) {
+  for (const std::string bad : {"jaw#1", "jaw 1", "jaw,1", ""}) {
+    options_.bones[0].name = bad;
+    std::string error;
+    EXPECT_FALSE(options_.Validate(&error)) << bad;
+    EXPECT_EQ(error.rfind("bones.name '" + bad + "' ", 0), 0u) << error;
+  }
+  options_.bones[0].name = "jaw_1.left-2";
+  std::string error;
+  EXPECT_TRUE(options_.Validate(&error)) << error;
+}
+
 TEST_F(BoneClearanceTest, RejectsANegativeOrNonFiniteClearance) {
   for (double bad : {-0.5, std::numeric_limits<double>::quiet_NaN(),
                      std::numeric_limits<double>::infinity()}) {
