@@ -27,8 +27,9 @@ DEFINE_bool(negative_curvature_steps, false, "Newton: where the exact stiffness 
             "solves, off elsewhere).");
 DEFINE_int32(threads, 2, "Threads (per-element work, parallel poses; BLAS follows OPENBLAS_NUM_THREADS).");
 DEFINE_double(max_memory_gb, 8.0, "Memory limit in GB: the work whose memory is estimated before "
-              "it is allocated (prepare's lattice and simulations, pre-training's decoder) is "
-              "refused with exit status 1 and the estimate above it.");
+              "it is allocated (prepare's lattice and simulations, pre-training's decoder, the "
+              "evaluation's auto-encoder baseline, the benchmarks' lattices) is refused with "
+              "exit status 1 and the estimate above it.");
 
 namespace aqs {
 namespace {

@@ -86,7 +86,8 @@ bool ReadStageOptions(const std::string& stage, bool validate, StageOptions* o,
 
 int main(int argc, char** argv) {
   aqs::InitApp("Run the ActiveQS stages from one flagfile.\n"
-               "  aqs_pipeline --flagfile=configs/face_demo.flags [--stages=prepare,pretrain,train]",
+               "  aqs_pipeline --flagfile=configs/face_demo.flags "
+               "[--stages=prepare,pretrain,train,evaluate]",
                &argc, &argv);
   const std::unique_ptr<aqs::Communicator> ranks = aqs::StartRanks(&argc, &argv);
   const bool root = ranks == nullptr || ranks->is_root();
