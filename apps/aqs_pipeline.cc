@@ -146,9 +146,9 @@ int main(int argc, char** argv) {
   if (root && writes && !FLAGS_model.empty()) {
     std::string model = FLAGS_model;
     while (model.size() > 1 && model.back() == '/') model.pop_back();
-    const std::filesystem::path parent =
-        std::filesystem::absolute(model).lexically_normal().parent_path();
     std::error_code code;
+    const std::filesystem::path parent =
+        std::filesystem::absolute(model, code).lexically_normal().parent_path();
     if (prepares) std::filesystem::create_directories(parent, code);
     locked = !std::filesystem::is_directory(parent, code) ||
              aqs::LockModelForWriting(model, &std::cout, &lock, &error);

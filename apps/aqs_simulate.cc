@@ -63,6 +63,7 @@ int main(int argc, char** argv) {
   options.outputs = aqs::SplitList(FLAGS_output);
   options.loss_target = FLAGS_loss_target;
   options.gradient = FLAGS_gradient;
+  options.max_memory_bytes = aqs::MaxMemoryBytes();
   options.solver.relative_force_tolerance = FLAGS_tolerance;
   options.solver.max_iterations = FLAGS_max_iterations;
   options.solver.num_threads = FLAGS_threads;

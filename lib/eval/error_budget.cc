@@ -12,6 +12,7 @@
 #include "physics/shape_target_model.h"
 #include "util/atomic_file.h"
 #include "util/blas.h"
+#include "util/input_file.h"
 #include "util/line_reader.h"
 #include "util/matrix_io.h"
 #include "util/parallel_for.h"
@@ -148,7 +149,7 @@ bool ReadPretrainSurfaceErrors(const std::string& model_directory, const ActiveM
                                PretrainSurfaceErrors* errors, std::string* error) {
   error->clear();
   const std::string text_path = TextPath(model_directory);
-  if (!std::filesystem::exists(text_path)) return false;
+  if (!MayExist(text_path)) return false;
   PretrainSurfaceErrors read;
   if (!ReadMatrixFile(BinaryPath(model_directory), model.num_surface_vertices(), model.num_poses(),
                       &read.distances, error)) {

@@ -380,7 +380,7 @@ bool CheckMixFiles(const FitBenchmarkOptions& options, const std::vector<std::st
     }
     if (options.scans) paths.push_back(options.test_set + "/scans/" + mix + ".ply");
     for (const std::string& path : paths) {
-      if (!fs::exists(path)) {
+      if (!MayExist(path)) {
         *error = path + ": missing (mix '" + mix + "' of " + options.test_set + "/mixes.csv)";
         return false;
       }
@@ -438,7 +438,7 @@ bool FitMix(const FitBenchmarkOptions& options, const ActiveModel& model, const 
   fits->Physics(mix, "physics_scan", 0, nullptr, &cloud, options.points, truth.vertices);
   // The same scan with its landmarks, where the test set has them.
   const std::string landmarks = options.test_set + "/scans/" + mix + "_landmarks.txt";
-  if (fs::exists(landmarks)) {
+  if (MayExist(landmarks)) {
     PointCloudFitOptions with_landmarks = options.points;
     if (!ReadMarkerTarget(landmarks, ns, &with_landmarks.landmarks, error)) return false;
     fits->Physics(mix, "physics_scan_landmarks", 0, nullptr, &cloud, with_landmarks,
@@ -571,7 +571,7 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
     }
     for (const SequenceFrame& frame : frames) {
       const std::string truth = options.test_set + "/sequence/truth/" + frame.name + ".obj";
-      if (!fs::exists(truth)) {
+      if (!MayExist(truth)) {
         *error = "the sequence frame " + frame.origin + " has no truth surface '" + truth + "'";
         return JobStatus::kBadInput;
       }

@@ -43,7 +43,8 @@ int RunProgram(const std::vector<std::string>& command, std::string* message) {
 bool RunReportScript(const std::string& python, const std::string& script,
                      const std::vector<std::string>& arguments, std::ostream& log) {
   const std::string written = "the tables and fields were written";
-  if (!std::filesystem::is_regular_file(script)) {
+  std::error_code code;
+  if (!std::filesystem::is_regular_file(script, code)) {
     log << "report: no pictures or HTML page: the report script " << script
         << " is missing (--report_script); " << written << "\n";
     return false;

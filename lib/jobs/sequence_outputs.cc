@@ -7,6 +7,7 @@
 #include <glog/logging.h>
 
 #include "fit/bone_parameters.h"
+#include "util/input_file.h"
 #include "util/line_reader.h"
 #include "util/number_format.h"
 #include "util/text_split.h"
@@ -37,7 +38,7 @@ std::string SequenceCsvHeader(const ActiveModel& model) {
 bool ReadFramesDone(const std::string& csv, const std::string& output_dir,
                     const ActiveModel& model, const std::vector<SequenceFrame>& frames,
                     std::vector<DoneFrame>* done, std::string* error) {
-  if (!fs::exists(csv)) return true;
+  if (!MayExist(csv)) return true;
   LineReader reader(csv);
   if (!reader.ok()) {
     *error = reader.error();

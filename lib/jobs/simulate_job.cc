@@ -14,6 +14,7 @@
 #include "jobs/deformed_output.h"
 #include "jobs/model_pose.h"
 #include "mesh/mesh_io.h"
+#include "prepare/volumetric_targets.h"
 #include "util/file_extension.h"
 #include "util/input_file.h"
 #include "util/option_checks.h"
@@ -320,6 +321,14 @@ SimulateJobResult RunMeshSimulateJob(const SimulateJobOptions& options, std::ost
   MeshSimulation in;
   if (!ReadMeshSimulation(options, &in, log, &error)) return Fail(JobStatus::kBadInput, error);
   const TetMesh& mesh = in.mesh;
+  std::ostringstream details;
+  details << mesh.num_tets() << " elements"
+          << (options.gradient.empty() ? "" : ", and the adjoint");
+  if (!CheckMemoryEstimate(
+          EquilibriumSolverMemoryBytes(mesh.num_tets()) * (options.gradient.empty() ? 1 : 2),
+          options.max_memory_bytes, "the equilibrium solve", details.str(), &error)) {
+    return Fail(JobStatus::kBadInput, error);
+  }
 
   // ---- Solve ----
   const ShapeTargetModel model(mesh, in.mu);
@@ -386,6 +395,7 @@ bool SimulateJobOptions::Validate(std::string* error) const {
   const bool solver_ok = solver.Validate(&solver_error);
   return OptionChecks()
       .Positive("mu", mu)
+      .Positive("max_memory_bytes", max_memory_bytes)
       .Nested("solver", solver_ok, solver_error)
       .ReachableTolerance("solver.relative_force_tolerance", solver.relative_force_tolerance)
       .Done(error);

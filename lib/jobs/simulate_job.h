@@ -8,6 +8,7 @@
 #include "diff/equilibrium_differentiator.h"
 #include "equilibrium/quasistatic_solver.h"
 #include "util/job_status.h"
+#include "util/memory_limit.h"
 
 namespace aqs {
 
@@ -38,6 +39,10 @@ struct SimulateJobOptions {
   std::string loss_target;
   std::string gradient;        // where to write dL/da (needs loss_target)
   QuasistaticSolverOptions solver;
+  // Mesh mode: a mesh whose solve (EquilibriumSolverMemoryBytes; twice that with
+  // `gradient`, whose adjoint factorizes the exact stiffness beside the solver's) would
+  // need more is refused before it is allocated.
+  double max_memory_bytes = kDefaultMaxMemoryBytes;
 
   // Checks every field; false with *error naming the first bad one (util/option_checks.h).
   bool Validate(std::string* error) const;

@@ -17,6 +17,7 @@
 #include "model/model_directory.h"
 #include "model/model_fingerprint.h"
 #include "util/atomic_file.h"
+#include "util/input_file.h"
 #include "util/line_reader.h"
 #include "util/make_directory.h"
 #include "util/matrix_io.h"
@@ -352,7 +353,7 @@ bool ReadLearned(const std::string& dir, const std::string& checkpoint_path, Act
     return false;
   }
   Eigen::MatrixXd matrix;
-  if (fs::exists(dir + "/decoder.txt")) {
+  if (MayExist(dir + "/decoder.txt")) {
     DecoderSpec spec;
     GridFieldDescription description;
     Eigen::VectorXd params;
@@ -370,18 +371,18 @@ bool ReadLearned(const std::string& dir, const std::string& checkpoint_path, Act
     }
     model->latents = matrix;
     // The fit prior, if the unit has one (else learned once the model is validated).
-    if (fs::exists(dir + "/prior.txt") &&
+    if (MayExist(dir + "/prior.txt") &&
         !ReadFitPrior(dir + "/prior.txt", spec.latent_dim, BoneNames(*model), &model->fit_prior,
                       error)) {
       return false;
     }
   }
-  if (fs::exists(dir + "/states")) {
+  if (MayExist(dir + "/states")) {
     const int nv = model->mesh.num_vertices();
     model->states.resize(model->num_poses());
     for (int p = 0; p < model->num_poses(); ++p) {
       const std::string path = PoseFile(dir + "/states", p);
-      if (!fs::exists(path)) continue;
+      if (!MayExist(path)) continue;
       if (!ReadFiniteMatrix(path, 3, nv, &matrix, error)) return false;
       model->states[p] = matrix;
       if (!CheckPointsNearModel(path, model->neutral.vertices, model->states[p], error)) {
@@ -422,7 +423,7 @@ bool SaveModel(const std::string& directory, const ActiveModel& model,
   for (const char* record : {"train/log.csv", "pretrain/surface_errors.bin",
                              "pretrain/surface_errors.txt", "pretrain/log.csv"}) {
     const std::string from = target + "/" + record;
-    if (!ok || !options.keep_records || !fs::exists(from)) continue;
+    if (!ok || !options.keep_records || !MayExist(from)) continue;
     const std::string to = staging + "/" + record;
     std::error_code code;
     ok = MakeDirectory(fs::path(to).parent_path().string(), error);
@@ -547,7 +548,7 @@ bool ReadPoses(const std::string& dir, ActiveModel* model, std::string* error) {
     }
     m.poses[p].surface = matrix;
     const std::string target = PoseFile(dir + "/targets", p);
-    if (fs::exists(target)) {
+    if (MayExist(target)) {
       if (!ReadFiniteMatrix(target, 6, ne, &matrix, error)) return false;
       m.poses[p].target = matrix;
     }

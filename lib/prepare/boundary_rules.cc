@@ -9,6 +9,7 @@
 #include "geometry/winding_number.h"
 #include "io/vertex_list_io.h"
 #include "mesh/mesh_io.h"
+#include "util/input_file.h"
 #include "util/line_reader.h"
 #include "util/name_rules.h"
 #include "util/option_checks.h"
@@ -35,7 +36,7 @@ bool FitBone(const BoneRule& rule, const std::vector<std::string>& pose_names, B
   int with_files = 0;
   for (size_t p = 0; p < pose_names.size(); ++p) {
     const std::string path = Replace(rule.pose_mesh_pattern, "{pose}", pose_names[p]);
-    if (rule.pose_mesh_pattern.empty() || !fs::exists(path)) continue;
+    if (rule.pose_mesh_pattern.empty() || !MayExist(path)) continue;
     SurfaceMesh surface;
     if (!ReadObj(path, &surface, error)) return false;
     if (surface.num_vertices() != n) {

@@ -70,8 +70,10 @@ class TimeBudget final : public ceres::IterationCallback {
 // row is the checkpoint's, so a resumed run's row 0 is not repeated).
 class CsvLog final : public ceres::IterationCallback {
  public:
-  CsvLog(std::string path, int iterations_before, double seconds_before)
-      : path_(std::move(path)), iterations_(iterations_before), seconds_(seconds_before) {}
+  // A row that cannot be appended is said once in `log`.
+  CsvLog(std::string path, int iterations_before, double seconds_before, std::ostream& log)
+      : path_(std::move(path)), iterations_(iterations_before), seconds_(seconds_before),
+        log_(log) {}
   ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
     if (s.iteration == 0 && iterations_ > 0) return ceres::SOLVER_CONTINUE;
     std::string row = std::to_string(iterations_ + s.iteration);
@@ -79,7 +81,11 @@ class CsvLog final : public ceres::IterationCallback {
       row += ",";
       AppendDouble(value, &row);
     }
-    std::ofstream(path_, std::ios::app) << row << "\n";
+    std::string error;
+    if (!AppendLogRow(path_, row + "\n", &error) && !warned_) {
+      log_ << "  warning: " << error << "; pre-training goes on\n";
+      warned_ = true;
+    }
     return ceres::SOLVER_CONTINUE;
   }
 
@@ -87,6 +93,8 @@ class CsvLog final : public ceres::IterationCallback {
   std::string path_;
   int iterations_;
   double seconds_;
+  std::ostream& log_;
+  bool warned_ = false;
   WallTimer timer_;
 };
 
@@ -330,7 +338,7 @@ bool Pretrain(const PretrainOptions& options, ActiveModel* model, PretrainReport
   SolverCheckpointWriter writer(options.checkpoint_directory, start,
                                 options.checkpoint_seconds, parameters.data(),
                                 static_cast<int>(parameters.size()));
-  CsvLog csv_log(log_path, start.iterations, start.seconds);
+  CsvLog csv_log(log_path, start.iterations, start.seconds, log);
   if (checkpoints) {
     // The row of an iteration goes before its checkpoint: a kill in between leaves a row
     // more than the checkpoint, which the next run drops.

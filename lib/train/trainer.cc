@@ -107,7 +107,12 @@ class TrainingCallback final : public ceres::IterationCallback {
                     s.line_search_function_evaluations, factorizations, cg_solves);
       // Appended before the checkpoint of this iteration: a kill in between leaves one
       // row more than the checkpoint, which the next run drops (PrepareIterationLog).
-      std::ofstream(LogPath(options_.model_directory), std::ios::app) << row;
+      std::string log_error;
+      if (!AppendLogRow(LogPath(options_.model_directory), row, &log_error) && !log_warned_) {
+        log_ << "  warning: " << log_error << "; training goes on (the checkpoints hold its "
+             << "state)\n";
+        log_warned_ = true;
+      }
       const bool checkpoint = options_.checkpoint_every > 0 &&
                               s.iteration > 0 && s.iteration % options_.checkpoint_every == 0;
       if (checkpoint && !Save(iteration, s.cost)) return ceres::SOLVER_ABORT;
@@ -154,6 +159,7 @@ class TrainingCallback final : public ceres::IterationCallback {
   std::ostream& log_;
   WallTimer timer_;
   bool budget_reached_ = false;
+  bool log_warned_ = false;  // a failed append of the CSV log is said once
   // The loss of the last accepted point (NaN: none yet in this run).
   double last_cost_ = std::numeric_limits<double>::quiet_NaN();
   EvaluationCounters counters_before_;  // the objective's totals at the previous row

@@ -6,6 +6,7 @@
 #include <filesystem>
 
 #include "util/file_extension.h"
+#include "util/input_file.h"
 #include "util/line_reader.h"
 #include "util/text_split.h"
 
@@ -38,7 +39,7 @@ bool ReadListFile(const std::string& spec, const FileListOptions& options,
     fs::path p(tokens[0]);
     if (!options.default_extension.empty() && !p.has_extension()) p += options.default_extension;
     const std::string resolved = p.is_absolute() ? p.string() : (base / p).string();
-    if (!fs::exists(resolved)) {
+    if (!MayExist(resolved)) {
       *error = reader.Where(options.what + " '" + resolved + "' does not exist");
       return false;
     }
@@ -61,7 +62,8 @@ bool ResolveFileList(const std::string& spec, const FileListOptions& options,
   if (fs::is_directory(spec, code)) {
     for (const auto& entry : fs::directory_iterator(spec, code)) {
       const std::string ext = LowercaseExtension(entry.path().string());
-      if (entry.is_regular_file() &&
+      std::error_code entry_code;
+      if (entry.is_regular_file(entry_code) &&
           std::find(options.folder_extensions.begin(), options.folder_extensions.end(), ext) !=
               options.folder_extensions.end()) {
         found.push_back(entry.path().string());
@@ -79,7 +81,7 @@ bool ResolveFileList(const std::string& spec, const FileListOptions& options,
     return ReadListFile(spec, options, files, error);
   } else {
     for (const std::string& item : SplitList(spec)) {
-      if (!fs::exists(item)) {
+      if (!MayExist(item)) {
         *error = options.what + " '" + item + "' does not exist";
         return false;
       }

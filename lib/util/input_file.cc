@@ -40,6 +40,11 @@ bool CheckInputFile(const std::string& path, std::string* error) {
   return true;
 }
 
+bool MayExist(const std::string& path) {
+  std::error_code code;
+  return std::filesystem::exists(path, code) || code;
+}
+
 bool CheckOutputFile(const std::string& path, std::string* error) {
   if (path.empty()) {
     *error = "an empty output file name";
@@ -80,9 +85,9 @@ namespace {
 // without a trailing '/'.
 std::string ResolvedPath(const std::string& path) {
   std::error_code code;
-  std::filesystem::path p = std::filesystem::weakly_canonical(std::filesystem::absolute(path),
-                                                              code);
-  if (code) p = std::filesystem::absolute(path).lexically_normal();
+  const std::filesystem::path absolute = std::filesystem::absolute(path, code);
+  std::filesystem::path p = std::filesystem::weakly_canonical(absolute, code);
+  if (code) p = absolute.lexically_normal();
   std::string text = p.string();
   while (text.size() > 1 && text.back() == '/') text.pop_back();
   return text;

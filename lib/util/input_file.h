@@ -18,6 +18,12 @@ constexpr long long kMaxLineBytes = 1LL << 20;
 // character device", "does not exist", ...).
 bool CheckInputFile(const std::string& path, std::string* error);
 
+// Whether `path` exists, or its status cannot be read (no permission to search a folder
+// on the way, a name too long, ...), so that the caller's reading of it then says why.
+// False only where it surely does not exist. Never throws (std::filesystem::exists(path)
+// throws std::filesystem::filesystem_error in the second case, which nothing catches).
+bool MayExist(const std::string& path);
+
 // Checks that a file can be written at `path` before a job's work: its folder exists
 // and is a writable directory, and `path` is not a directory. Returns false with
 // *error naming the path and why ("the folder F does not exist", ...). Outputs are

@@ -1,7 +1,9 @@
 #include "util/iteration_log.h"
 
 #include <algorithm>
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <vector>
 
@@ -41,6 +43,24 @@ bool PrepareIterationLog(const std::string& path, const std::string& header, int
     }
   }
   return WriteFileAtomically(path, kept, error);
+}
+
+bool AppendLogRow(const std::string& path, const std::string& row, std::string* error) {
+  std::FILE* file = std::fopen(path.c_str(), "a");
+  if (file == nullptr) {
+    *error = path + ": cannot append to the log (" + std::strerror(errno) + ")";
+    return false;
+  }
+  const bool written = std::fwrite(row.data(), 1, row.size(), file) == row.size() &&
+                       std::fflush(file) == 0;
+  const int write_errno = errno;
+  const bool closed = std::fclose(file) == 0;
+  if (!written || !closed) {
+    *error = path + ": cannot append to the log (" +
+             std::strerror(written ? errno : write_errno) + ")";
+    return false;
+  }
+  return true;
 }
 
 }  // namespace aqs

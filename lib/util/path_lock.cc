@@ -58,9 +58,9 @@ std::string Errno(int code) { return std::strerror(code); }
 }  // namespace
 
 std::string PathLock::LockFileOf(const std::string& path) {
-  fs::path p = fs::absolute(fs::path(path.empty() ? "." : path)).lexically_normal();
-  if (p.filename().empty() && p.has_parent_path() && p != p.root_path()) p = p.parent_path();
   std::error_code code;
+  fs::path p = fs::absolute(fs::path(path.empty() ? "." : path), code).lexically_normal();
+  if (p.filename().empty() && p.has_parent_path() && p != p.root_path()) p = p.parent_path();
   const fs::path resolved = fs::weakly_canonical(p, code);
   if (!code) p = resolved;
   return p.string() + ".aqs-lock";

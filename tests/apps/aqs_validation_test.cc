@@ -180,6 +180,10 @@ TEST(AqsValidationTest, SimulateRefusesBadFlagsAndInputs) {
                    "the force scale 2 mean(mu V^(2/3)) of the mesh is inf"},
                   {finger + " --tolerance=1e-17 --output={dir}x.mesh", 1,
                    "--tolerance must be >= 1e-13 (is 1e-17)"},
+                  // A mesh larger than the memory limit allows (it went straight to the
+                  // factorization: bad_alloc or the OOM killer).
+                  {finger + " --max_memory_gb=0.01 --output={dir}x.mesh", 1,
+                   "--max_memory_gb (10 MB) is below the estimated"},
                   {finger + " --actuation={dir}inverted.txt --output={dir}x.mesh", 1,
                    "inverted.txt:1: 7838 of 7838 actuations are not positive definite"},
                   {finger + " --actuation={dir}tiny.txt --output={dir}x.mesh", 1,

@@ -54,5 +54,23 @@ TEST(PoseFilesTest, NamesTheModelFilesCannotHoldAreRefused) {
   EXPECT_NE(error.find("3 vertices, but the neutral surface has 4"), std::string::npos) << error;
 }
 
+// A name longer than the file system allows is a message, not an uncaught
+// std::filesystem::filesystem_error (std::filesystem::exists(path) throws on it).
+TEST(PoseFilesTest, ANameTooLongIsAMessage) {
+  testing::TempDir dir;
+  const std::string good = dir.Write("a.obj", kTriangle);
+  const std::string long_name = dir.File(std::string(300, 'n') + ".obj");
+  std::vector<std::string> paths;
+  std::string error;
+  EXPECT_NO_THROW({
+    if (ResolvePosePaths(good + "," + long_name, "", &paths, &error)) {
+      std::vector<std::string> names;
+      std::vector<Eigen::Matrix3Xd> surfaces;
+      EXPECT_FALSE(ReadPoseSurfaces(paths, 3, 1, &names, &surfaces, &error));
+    }
+  });
+  EXPECT_NE(error.find("File name too long"), std::string::npos) << error;
+}
+
 }  // namespace
 }  // namespace aqs

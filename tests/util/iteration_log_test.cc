@@ -1,0 +1,67 @@
+// CSV logs of iterative work (util/iteration_log.h): what a resumed run keeps of them,
+// and appends that say when they fail.
+
+#include "util/iteration_log.h"
+
+#include <filesystem>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "testing/file_contents.h"
+#include "testing/temp_dir.h"
+
+namespace aqs {
+namespace {
+
+constexpr char kHeader[] = "iteration,loss,seconds\n";
+
+TEST(IterationLogTest, WholeRowsHaveTheHeadersFieldsAllNumbers) {
+  EXPECT_TRUE(IsWholeLogRow("3,0.5,1e-3", kHeader));
+  EXPECT_FALSE(IsWholeLogRow("3,0.5", kHeader));        // cut while appended
+  EXPECT_FALSE(IsWholeLogRow("3,0.5,1e-3,7", kHeader));  // another layout
+  EXPECT_FALSE(IsWholeLogRow("3,nan,1", kHeader));
+  EXPECT_FALSE(IsWholeLogRow("3,0.5,1.2.3", kHeader));
+}
+
+// A killed run logged rows past its checkpoint, a partial row, a row twice and rows out
+// of order: the resume keeps rows 0..checkpoint in order, once each.
+TEST(IterationLogTest, AResumeKeepsTheWholeRowsUpToItsCheckpointInOrder) {
+  testing::TempDir dir;
+  const std::string path = dir.Write(
+      "log.csv", std::string(kHeader) + "0,1,0\n1,0.9,1\n2,0.8,2\n1,0.85,3\n3,0.7,4\n4,0.6,5\n5,0.5");
+  int last = -2;
+  std::string error;
+  ASSERT_TRUE(PrepareIterationLog(path, kHeader, 3, &last, &error)) << error;
+  EXPECT_EQ(last, 3);
+  EXPECT_EQ(testing::ReadAll(path), std::string(kHeader) + "0,1,0\n1,0.9,1\n2,0.8,2\n3,0.7,4\n");
+  // A fresh run (iteration 0) keeps the header alone; a missing log becomes one.
+  ASSERT_TRUE(PrepareIterationLog(path, kHeader, 0, &last, &error)) << error;
+  EXPECT_EQ(last, -1);
+  EXPECT_EQ(testing::ReadAll(path), kHeader);
+  const std::string missing = dir.File("new.csv");
+  ASSERT_TRUE(PrepareIterationLog(missing, kHeader, 7, &last, &error)) << error;
+  EXPECT_EQ(last, -1);
+  EXPECT_EQ(testing::ReadAll(missing), kHeader);
+}
+
+TEST(IterationLogTest, AppendsAndSaysWhyNot) {
+  testing::TempDir dir;
+  const std::string path = dir.Write("log.csv", kHeader);
+  std::string error;
+  ASSERT_TRUE(AppendLogRow(path, "0,1,0\n", &error)) << error;
+  ASSERT_TRUE(AppendLogRow(path, "1,0.5,2\n", &error)) << error;
+  EXPECT_EQ(testing::ReadAll(path), std::string(kHeader) + "0,1,0\n1,0.5,2\n");
+  const std::string gone = dir.File("removed/log.csv");
+  EXPECT_FALSE(AppendLogRow(gone, "2,0.25,3\n", &error));
+  EXPECT_EQ(error, gone + ": cannot append to the log (No such file or directory)");
+  // A full disk (where the machine has the device that acts as one).
+  std::error_code code;
+  if (std::filesystem::exists("/dev/full", code)) {
+    EXPECT_FALSE(AppendLogRow("/dev/full", "2,0.25,3\n", &error));
+    EXPECT_EQ(error, "/dev/full: cannot append to the log (No space left on device)");
+  }
+}
+
+}  // namespace
+}  // namespace aqs
