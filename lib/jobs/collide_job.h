@@ -37,6 +37,17 @@ struct CollideJobResult {
   ContactReport report;
 };
 
+// Runs aqs_collide: loads the trained model, decodes the pose (options.latent or
+// options.pose: its latent and bone motions), solves its equilibrium without contact,
+// then resolves contact against the obstacles (moved by their bones' transforms of the
+// pose) and the surface itself (ContactSolver::Resolve), and writes the outputs that are
+// set (surfaces as OBJ in the neutral's vertex order, the volume by extension, the
+// intersection counts as PLY, the report as text; each atomically) and logs to `log`.
+// Status: kOk; kBadInput for invalid options, unreadable or mismatched inputs, or an
+// output that cannot be written (nothing written); kNotConverged if the equilibrium
+// without contact is not reached (its finite surface still goes to output_before, for
+// inspection), if the contact solve fails (nothing written), or if the equilibrium with
+// contact misses its tolerance (the outputs are written). `message` says why.
 CollideJobResult RunCollideJob(const CollideJobOptions& options, std::ostream& log);
 
 }  // namespace aqs

@@ -68,6 +68,16 @@ bool ReadMarkers(const std::string& path, int num_surface_vertices, std::vector<
 bool ReadMarkerTarget(const std::string& path, int num_surface_vertices, FitTarget* target,
                       std::string* error);
 
+// Runs aqs_fit on one target: loads the trained model, reads the target (its kind as
+// options.target_kind says), chooses a start (FitFromChosenStart: options.start, or
+// options.initial_latent and its bone motions), fits the latent and bone motions
+// (LatentFitter), compares with options.compare_to if given, writes the outputs that
+// are set (the surface as OBJ in the neutral's vertex order, the volume, the latent
+// file, the uncertainty PLY; each atomically) and logs to `log`. Status: kOk; kBadInput
+// for invalid options, unreadable or mismatched inputs or an output that cannot be
+// written; kNotConverged if no start could be simulated (nothing written) or the fit
+// failed or missed its tolerance (its finite outputs written, for inspection).
+// result.fit holds the fit, result.kind the target kind used.
 FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log);
 
 }  // namespace aqs
