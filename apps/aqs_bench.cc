@@ -261,7 +261,7 @@ int main(int argc, char** argv) {
     lattice.nx = lattice.ny = lattice.nz = n;
     lattice.spacing = 1.0 / n;
     const double elements = 6.0 * n * n * n;
-    if (!aqs::ValidateLatticeOptions(lattice, &error)) {
+    if (!lattice.Validate(&error)) {
       aqs::PrintError("--cubes: " + error);
       return 1;
     }

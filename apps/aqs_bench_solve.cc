@@ -196,7 +196,7 @@ int Main() {
     LatticeOptions lattice;
     lattice.nx = cubes[0], lattice.ny = cubes[1], lattice.nz = cubes[2];
     lattice.spacing = FLAGS_spacing;
-    if (!ValidateLatticeOptions(lattice, &error)) {
+    if (!lattice.Validate(&error)) {
       PrintError("--lattice, --spacing: " + error);
       return 1;
     }

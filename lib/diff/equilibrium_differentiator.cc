@@ -4,23 +4,44 @@
 
 #include <glog/logging.h>
 
+#include "util/option_checks.h"
 #include "util/parallel_for.h"
 #include "util/wall_timer.h"
 
 namespace aqs {
 
+bool EquilibriumDifferentiatorOptions::Validate(std::string* error) const {
+  std::string reuse_error;
+  const bool reuse_ok = reuse.Validate(&reuse_error);
+  return OptionChecks()
+      .IntInRange("num_threads", num_threads, 1, 1024)
+      .Nested("reuse", reuse_ok, reuse_error)
+      .Done(error);
+}
+
+namespace {
+
+// Options the code built (CHECK: valid).
+const EquilibriumDifferentiatorOptions& Checked(const EquilibriumDifferentiatorOptions& options) {
+  std::string error;
+  CHECK(options.Validate(&error)) << error;
+  return options;
+}
+
+}  // namespace
+
 EquilibriumDifferentiator::EquilibriumDifferentiator(
     const ShapeTargetModel& model, const std::vector<bool>& fixed_mask,
     const EquilibriumDifferentiatorOptions& options)
     : model_(model),
-      options_(options),
+      options_(Checked(options)),
       owned_factorization_(
           std::make_unique<StiffnessFactorization>(model, fixed_mask, options.num_threads)),
       factorization_(owned_factorization_.get()) {}
 
 EquilibriumDifferentiator::EquilibriumDifferentiator(
     StiffnessFactorization* factorization, const EquilibriumDifferentiatorOptions& options)
-    : model_(factorization->model()), options_(options), factorization_(factorization) {}
+    : model_(factorization->model()), options_(Checked(options)), factorization_(factorization) {}
 
 EquilibriumDifferentiator::~EquilibriumDifferentiator() = default;
 

@@ -22,6 +22,9 @@ struct EquilibriumDifferentiatorOptions {
   // state, e.g. the last Newton step of the solve that found x: then one factorization
   // serves the equilibrium and its gradient. 0 (default): Prepare factorizes K.
   FactorReuseOptions reuse = {0, 1e-10, 6, 1e-2, 1, 8};
+
+  // Checks every field; false with *error naming the first bad one (util/option_checks.h).
+  bool Validate(std::string* error) const;
 };
 
 // Timings of the last Prepare() and gradient/JVP call, in seconds.

@@ -5,9 +5,21 @@
 
 #include <glog/logging.h>
 
+#include "util/option_checks.h"
 #include "util/wall_timer.h"
 
 namespace aqs {
+
+bool FactorReuseOptions::Validate(std::string* error) const {
+  return OptionChecks()
+      .IntAtLeast("max_iterations", max_iterations, 0)
+      .InRange("relative_tolerance", relative_tolerance, 0.0, 1.0)
+      .IntAtLeast("probe_iterations", probe_iterations, 0)
+      .InRange("probe_tolerance", probe_tolerance, 0.0, 1.0)
+      .IntAtLeast("max_columns", max_columns, 0)
+      .IntAtLeast("refresh_iterations", refresh_iterations, 0)
+      .Done(error);
+}
 
 StiffnessFactorization::StiffnessFactorization(const ShapeTargetModel& model,
                                                const std::vector<bool>& fixed_mask,

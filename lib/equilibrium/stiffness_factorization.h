@@ -33,6 +33,9 @@ struct FactorReuseOptions {
   // A CG solve that needed more iterations than this shows the factor has aged: the next
   // solve at another state factorizes afresh (0: never).
   int refresh_iterations = 8;
+
+  // Checks every field; false with *error naming the first bad one (util/option_checks.h).
+  bool Validate(std::string* error) const;
 };
 
 // A factor kept for later by StiffnessFactorization::StoreFactor: its values in single

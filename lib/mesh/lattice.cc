@@ -73,7 +73,8 @@ void AddBccFaces(const LatticeOptions& o, int axis, int num_corners, std::vector
 
 }  // namespace
 
-bool ValidateLatticeOptions(const LatticeOptions& options, std::string* error) {
+bool LatticeOptions::Validate(std::string* error) const {
+  const LatticeOptions& options = *this;
   std::ostringstream out;
   if (options.nx < 1 || options.ny < 1 || options.nz < 1) {
     out << "the lattice's cube counts must be >= 1 (are " << options.nx << ", " << options.ny
@@ -92,10 +93,8 @@ bool ValidateLatticeOptions(const LatticeOptions& options, std::string* error) {
 }
 
 TetMesh MakeLatticeMesh(const LatticeOptions& options) {
-  CHECK_GE(options.nx, 1);
-  CHECK_GE(options.ny, 1);
-  CHECK_GE(options.nz, 1);
-  CHECK_GT(options.spacing, 0.0);
+  std::string invalid;
+  CHECK(options.Validate(&invalid)) << invalid;
   const long long cx = options.nx + 1LL, cy = options.ny + 1LL, cz = options.nz + 1LL;
   const long long num_cubes = static_cast<long long>(options.nx) * options.ny * options.nz;
   const long long num_corners_ll = cx * cy * cz;

@@ -24,19 +24,19 @@ struct LatticeOptions {
   double spacing = 1.0;        // cube edge length
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();  // minimum corner of the box
   LatticeType type = LatticeType::kKuhn;
+
+  // Whether MakeLatticeMesh can build these options: cube counts >= 1, a finite positive
+  // spacing, a finite origin, and element indices that fit an int (at most about 44
+  // million cubes). False with *error naming the field. (The memory such a mesh's
+  // simulation needs is the caller's to check.)
+  bool Validate(std::string* error) const;
 };
 
 // A box of nx x ny x nz cubes split into tetrahedra, every element with positive
-// signed volume. Corner vertex (i, j, k) has index i + (nx+1) (j + (ny+1) k); BCC
+// signed volume (CHECK: options.Validate). Corner vertex (i, j, k) has index i + (nx+1) (j + (ny+1) k); BCC
 // centres follow all corners, centre (i, j, k) at index
 // num_corners + i + nx (j + ny k).
 TetMesh MakeLatticeMesh(const LatticeOptions& options);
-
-// Whether MakeLatticeMesh can build `options`: cube counts >= 1, a finite positive
-// spacing, a finite origin, and element indices that fit an int (at most about 44
-// million cubes). False with *error naming the field. (The memory such a mesh's
-// simulation needs is the caller's to check.)
-bool ValidateLatticeOptions(const LatticeOptions& options, std::string* error);
 
 }  // namespace aqs
 

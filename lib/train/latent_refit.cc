@@ -9,6 +9,7 @@
 
 #include "fit/latent_fit.h"
 #include "geometry/embedding.h"
+#include "util/option_checks.h"
 #include "util/parallel_for.h"
 #include "util/wall_timer.h"
 
@@ -24,8 +25,21 @@ double PoseObjective(const Eigen::Matrix3Xd& surface, const Eigen::Matrix3Xd& ta
 
 }  // namespace
 
+bool LatentRefitOptions::Validate(std::string* error) const {
+  std::string solver_error;
+  const bool solver_ok = solver.Validate(&solver_error);
+  return OptionChecks()
+      .InRange("latent_regularization", latent_regularization, 0.0, kMaxRegularization)
+      .IntAtLeast("max_iterations", max_iterations, 0)
+      .Nested("solver", solver_ok, solver_error)
+      .IntInRange("num_threads", num_threads, 1, 1024)
+      .Done(error);
+}
+
 LatentRefitReport RefitTrainingLatents(const LatentRefitOptions& options, ActiveModel* model,
                                        const std::vector<int>* poses) {
+  std::string invalid;
+  CHECK(options.Validate(&invalid)) << "latent refit options: " << invalid;
   CHECK(model->decoder) << "latent refits need a decoder";
   const int num_poses = model->num_poses();
   CHECK_EQ(static_cast<int>(model->states.size()), num_poses) << "one state per pose";

@@ -16,6 +16,9 @@ struct LatentRefitOptions {
   int max_iterations = 5;
   QuasistaticSolverOptions solver;  // the equilibria (num_threads: set to 1)
   int num_threads = 2;              // poses refitted in parallel
+
+  // Checks every field; false with *error naming the first bad one (util/option_checks.h).
+  bool Validate(std::string* error) const;
 };
 
 struct LatentRefitReport {

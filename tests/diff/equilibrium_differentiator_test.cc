@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <memory>
 #include <random>
+#include <string>
 
 #include <gtest/gtest.h>
 
@@ -76,6 +77,21 @@ AdjointScene MakeAdjointScene(int nx, unsigned seed, bool random_mu) {
   std::normal_distribution<double> normal(0.0, 0.1);
   for (int i = 0; i < scene.y.size(); ++i) scene.y.data()[i] += normal(rng);
   return scene;
+}
+
+TEST(EquilibriumDifferentiatorTest, OptionsValidateNamesTheBadField) {
+  std::string error;
+  EquilibriumDifferentiatorOptions options;
+  EXPECT_TRUE(options.Validate(&error)) << error;
+  options.reuse.max_iterations = 20;
+  EXPECT_TRUE(options.Validate(&error)) << error;
+  options.reuse.relative_tolerance = -1.0;
+  EXPECT_FALSE(options.Validate(&error));
+  EXPECT_EQ(error.rfind("reuse.relative_tolerance", 0), 0u) << error;
+  options = EquilibriumDifferentiatorOptions();
+  options.num_threads = 0;
+  EXPECT_FALSE(options.Validate(&error));
+  EXPECT_EQ(error.rfind("num_threads", 0), 0u) << error;
 }
 
 TEST(EquilibriumDifferentiatorTest, FullGradientMatchesResolvedEquilibria) {

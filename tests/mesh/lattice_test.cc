@@ -5,6 +5,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include "mesh/boundary_surface.h"
@@ -129,6 +130,27 @@ TEST(LatticeDefaultsTest, DefaultIsOneUnitKuhnCube) {
   EXPECT_EQ(mesh.num_vertices(), 8);
   EXPECT_EQ(mesh.num_tets(), 6);
   EXPECT_DOUBLE_EQ(testing::TotalSignedVolume(mesh), 1.0);
+}
+
+TEST(LatticeDefaultsTest, ValidateNamesTheBadField) {
+  std::string error;
+  EXPECT_TRUE(LatticeOptions().Validate(&error)) << error;
+  LatticeOptions options;
+  options.ny = 0;
+  EXPECT_FALSE(options.Validate(&error));
+  EXPECT_EQ(error.rfind("the lattice's cube counts must be >= 1", 0), 0u) << error;
+  options = LatticeOptions();
+  options.spacing = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(options.Validate(&error));
+  EXPECT_EQ(error.rfind("the lattice's spacing must be finite and > 0", 0), 0u) << error;
+  options = LatticeOptions();
+  options.origin.x() = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(options.Validate(&error));
+  EXPECT_EQ(error, "the lattice's origin must be finite");
+  options = LatticeOptions();
+  options.nx = options.ny = options.nz = 1000;
+  EXPECT_FALSE(options.Validate(&error));
+  EXPECT_NE(error.find("cubes is too large"), std::string::npos) << error;
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #include "train/latent_refit.h"
 
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <string>
 
@@ -25,6 +26,19 @@ ActiveModel PretrainedBar() {
   spec.node_spacing = 0.35;
   spec.pretrain_iterations = 40;
   return testing::PretrainedSyntheticBar(spec);
+}
+
+TEST(LatentRefitTest, OptionsValidateNamesTheBadField) {
+  std::string error;
+  LatentRefitOptions options;
+  EXPECT_TRUE(options.Validate(&error)) << error;
+  options.latent_regularization = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(options.Validate(&error));
+  EXPECT_EQ(error.rfind("latent_regularization", 0), 0u) << error;
+  options = LatentRefitOptions();
+  options.solver.relative_force_tolerance = -1.0;
+  EXPECT_FALSE(options.Validate(&error));
+  EXPECT_EQ(error.rfind("solver.", 0), 0u) << error;
 }
 
 TEST(LatentRefitTest, LowersTheTrainingLossItReports) {
