@@ -39,6 +39,7 @@
 #include "prepare/volumetric_targets.h"
 #include "util/atomic_file.h"
 #include "util/input_file.h"
+#include "util/line_reader.h"
 #include "util/memory_limit.h"
 #include "util/blas.h"
 #include "util/process_memory.h"
@@ -252,8 +253,8 @@ int main(int argc, char** argv) {
     return 1;
   }
   for (const std::string& item : aqs::SplitList(FLAGS_cubes)) {
-    const int n = std::atoi(item.c_str());
-    if (n < 1) {
+    int n = 0;
+    if (!aqs::ParseInt(item, &n) || n < 1) {
       aqs::PrintError("--cubes takes positive integers, got '" + item + "'");
       return 1;
     }

@@ -34,6 +34,7 @@
 #include "model/model_io.h"
 #include "util/atomic_file.h"
 #include "util/input_file.h"
+#include "util/line_reader.h"
 #include "util/memory_limit.h"
 #include "util/wall_timer.h"
 
@@ -188,8 +189,13 @@ int Main() {
   std::vector<Row> rows;
   if (!FLAGS_lattice.empty()) {
     std::vector<int> cubes;
-    for (const std::string& s : SplitList(FLAGS_lattice)) cubes.push_back(std::atoi(s.c_str()));
-    if (cubes.size() != 3 || *std::min_element(cubes.begin(), cubes.end()) < 1) {
+    bool whole = true;
+    for (const std::string& s : SplitList(FLAGS_lattice)) {
+      int n = 0;
+      whole = whole && ParseInt(s, &n);
+      cubes.push_back(n);
+    }
+    if (!whole || cubes.size() != 3 || *std::min_element(cubes.begin(), cubes.end()) < 1) {
       PrintError("--lattice must be three positive cube counts, e.g. 40,4,4");
       return 1;
     }

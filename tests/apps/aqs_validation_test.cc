@@ -125,6 +125,8 @@ TEST(AqsValidationTest, BenchmarksRefuseBadSizesBeforeAnyMeasurement) {
                    "--cubes: a lattice of 2000 x 2000 x 2000 cubes is too large"},
                   {"--cubes=3,300", 1, "above --max_memory_gb"},
                   {"--cubes=3 --amplitude=nan", 1, "--amplitude must be finite"},
+                  // Read whole: "12x" was 12.
+                  {"--cubes=12x", 1, "--cubes takes positive integers, got '12x'"},
                   {"--cubes=3 --csv={dir}missing/b.csv", 1,
                    "--csv: {dir}missing/b.csv: cannot write here"},
               },
@@ -143,6 +145,7 @@ TEST(AqsValidationTest, BenchmarksRefuseBadSizesBeforeAnyMeasurement) {
   ExpectCases("aqs_bench_solve", "",
               {
                   {"--lattice=2000,2000,2000", 1, "is too large"},
+                  {"--lattice=40x,4,4", 1, "--lattice must be three positive cube counts"},
                   {"--lattice=4,4,4 --spacing=nan", 1, "the lattice's spacing must be finite"},
                   {"--lattice=4,4,4 --spacing=-1", 1, "the lattice's spacing must be finite"},
                   {"--lattice=4,4,4 --curl=5", 1, "--curl must be in [0, 1)"},
