@@ -14,12 +14,11 @@
 
 #include "mesh/mesh_io.h"
 #include "model/model_io.h"
-#include "prepare/volumetric_targets.h"
-#include "train/pretrain.h"
 #include "testing/file_contents.h"
 #include "testing/fit_fixtures.h"
 #include "testing/synthetic_muscles.h"
 #include "testing/temp_dir.h"
+#include "testing/training_fixtures.h"
 #include "util/text_split.h"
 
 namespace aqs {
@@ -205,18 +204,13 @@ TEST(FitBenchmarkTest, KeepsTheRowsFittedBeforeAFailure) {
 TEST(FitBenchmarkTest, MarkersNeedThreeTrainingPoses) {
   testing::TempDir dir;
   ASSERT_NO_FATAL_FAILURE(WriteModelAndSet(dir));
-  ActiveModel model = testing::MakeSyntheticMuscles(2, 0, 0.3, 21).model;
+  testing::SyntheticBarSpec spec;
+  spec.num_poses = 2;
+  spec.seed = 21;
+  spec.pretrain_iterations = 3;
+  const ActiveModel model = testing::PretrainedSyntheticBar(spec);
   std::ostringstream log;
   std::string error;
-  ASSERT_TRUE(MakeVolumetricTargets(VolumetricTargetOptions(), &model, log, &error)) << error;
-  PretrainOptions pretrain;
-  pretrain.spec.latent_dim = 2;
-  pretrain.spec.hidden_dims = {4};
-  pretrain.field.node_spacing = 0.5;
-  pretrain.max_iterations = 3;
-  pretrain.log_every = 0;
-  PretrainReport report;
-  ASSERT_TRUE(Pretrain(pretrain, &model, &report, log, &error)) << error;
   ASSERT_TRUE(SaveModel(dir.File("two"), model, &error)) << error;
   std::filesystem::create_directories(dir.File("set/marker_sets"));
   std::filesystem::create_directories(dir.File("set/markers"));
