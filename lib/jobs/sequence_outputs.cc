@@ -38,6 +38,7 @@ std::string SequenceCsvHeader(const ActiveModel& model) {
 bool ReadFramesDone(const std::string& csv, const std::string& output_dir,
                     const ActiveModel& model, const std::vector<SequenceFrame>& frames,
                     std::vector<DoneFrame>* done, std::string* error) {
+  done->clear();
   if (!MayExist(csv)) return true;
   LineReader reader(csv);
   if (!reader.ok()) {
