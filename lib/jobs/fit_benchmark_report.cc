@@ -59,6 +59,9 @@ std::string FitBenchmarkTables(const std::vector<FitBenchmarkRow>& rows,
       int better = 0, pca_worse = 0, phys_worse = 0;
       double worst_ratio = 0;
       for (const auto& [mix, row] : f) {
+        // Rows come per mix in order neutral, PCA, physics; a mix without them (a run
+        // stopped in between) is left out rather than looked up.
+        if (!neutral.count(mix) || !p.count(mix)) continue;
         n_err.push_back(neutral.at(mix).mean);
         p_err.push_back(p.at(mix).mean);
         f_err.push_back(row.mean);
@@ -69,7 +72,7 @@ std::string FitBenchmarkTables(const std::vector<FitBenchmarkRow>& rows,
         phys_worse += !(row.mean <= neutral.at(mix).mean);
         worst_ratio = std::max(worst_ratio, row.mean / neutral.at(mix).mean);
       }
-      const int n = static_cast<int>(f.size());
+      const int n = static_cast<int>(f_err.size());
       md << "| " << k << " | " << Fixed(Mean(n_err), 4) << " | " << Fixed(Mean(p_err), 4) << " | "
          << Fixed(Mean(f_err), 4) << " | " << better << " of " << n << " | " << pca_worse << " | "
          << phys_worse << " | " << Fixed(worst_ratio, 2) << " | " << Fixed(Median(secs), 2)
@@ -122,6 +125,7 @@ std::string FitBenchmarkTables(const std::vector<FitBenchmarkRow>& rows,
       std::vector<double> seen, normal, tangential, pose_normal, pose_tangential, unseen,
           pose_unseen;
       for (const auto& [mix, row] : set) {
+        if (!pose.count(mix)) continue;  // the pose's fit comes first; see above
         const double ratio = row.mean / pose.at(mix).mean;
         within += ratio <= 1.2;
         if (ratio > 1.2 && !std::isnan(row.pose_fit_objective_ratio)) {

@@ -3,6 +3,7 @@
 // their own objective.
 
 #include "jobs/fit_benchmark.h"
+#include "jobs/fit_benchmark_report.h"
 
 #include <cmath>
 #include <filesystem>
@@ -231,6 +232,35 @@ TEST(FitBenchmarkTest, MarkersNeedThreeTrainingPoses) {
   EXPECT_EQ(RunFitBenchmark(options, log, &error), JobStatus::kBadInput);
   EXPECT_NE(error.find("at least 3 training poses; the model has 2"), std::string::npos) << error;
   EXPECT_EQ(log.str().find("physics_pose"), std::string::npos) << "no fit ran:\n" << log.str();
+}
+
+// The tables count each marker set's mixes against their PCA and neutral rows, and a
+// mix without them (rows of a run stopped in between) is left out, not looked up (an
+// uncaught std::out_of_range after every fit).
+TEST(FitBenchmarkTest, TablesCountTheMixesThatHaveTheirReferences) {
+  auto row = [](const std::string& mix, const std::string& method, int markers, double mean) {
+    FitBenchmarkRow r;
+    r.mix = mix;
+    r.method = method;
+    r.markers = markers;
+    r.mean = mean;
+    return r;
+  };
+  const std::vector<FitBenchmarkRow> rows = {
+      row("mix_000", "neutral", 0, 0.2), row("mix_000", "pca", 20, 0.1),
+      row("mix_000", "physics", 20, 0.08), row("mix_001", "neutral", 0, 0.1),
+      row("mix_001", "pca", 20, 0.05), row("mix_001", "physics", 20, 0.12),
+      row("mix_002", "physics", 20, 0.3),  // its neutral and PCA rows missing
+      row("mix_003", "physics_scan", 0, 0.1)};  // a scan without its pose fit
+  FitBenchmarkParts parts;
+  parts.markers = parts.poses = parts.scans = true;
+  parts.marker_counts = {20};
+  std::string md;
+  ASSERT_NO_THROW(md = FitBenchmarkTables(rows, parts, 100));
+  // mix_000 better than PCA, mix_001 worse than PCA and than the neutral (0.12 / 0.1).
+  EXPECT_NE(md.find("| 20 | 0.1500 | 0.0750 | 0.1000 | 1 of 2 | 0 | 1 | 1.20 |"),
+            std::string::npos)
+      << md;
 }
 
 }  // namespace
