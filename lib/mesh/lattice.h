@@ -33,8 +33,8 @@ struct LatticeOptions {
 };
 
 // A box of nx x ny x nz cubes split into tetrahedra, every element with positive
-// signed volume (CHECK: options.Validate). Corner vertex (i, j, k) has index i + (nx+1) (j + (ny+1) k); BCC
-// centres follow all corners, centre (i, j, k) at index
+// signed volume (CHECK: options.Validate). Corner vertex (i, j, k) has index
+// i + (nx+1) (j + (ny+1) k); BCC centres follow all corners, centre (i, j, k) at index
 // num_corners + i + nx (j + ny k).
 TetMesh MakeLatticeMesh(const LatticeOptions& options);
 

@@ -28,8 +28,9 @@ TEST(IterationLogTest, WholeRowsHaveTheHeadersFieldsAllNumbers) {
 // of order: the resume keeps rows 0..checkpoint in order, once each.
 TEST(IterationLogTest, AResumeKeepsTheWholeRowsUpToItsCheckpointInOrder) {
   testing::TempDir dir;
-  const std::string path = dir.Write(
-      "log.csv", std::string(kHeader) + "0,1,0\n1,0.9,1\n2,0.8,2\n1,0.85,3\n3,0.7,4\n4,0.6,5\n5,0.5");
+  const std::string path =
+      dir.Write("log.csv", std::string(kHeader) +
+                               "0,1,0\n1,0.9,1\n2,0.8,2\n1,0.85,3\n3,0.7,4\n4,0.6,5\n5,0.5");
   int last = -2;
   std::string error;
   ASSERT_TRUE(PrepareIterationLog(path, kHeader, 3, &last, &error)) << error;
