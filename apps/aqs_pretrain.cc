@@ -37,6 +37,14 @@ int main(int argc, char** argv) {
     aqs::PrintRankError(ranks.get(), error);
     return 1;
   }
+  // The training flags a shared flagfile gives pre-training too are checked now, as
+  // aqs_pipeline checks every stage's: a bad one would otherwise show only after
+  // pre-training, when aqs_train reads it.
+  aqs::TrainOptions train;
+  if (!aqs::TrainOptionsFromFlags(&train, &error) || !train.Validate(&error)) {
+    aqs::PrintRankError(ranks.get(), aqs::FlagError(error, aqs::TrainFlagNames()));
+    return 1;
+  }
   options.resume = !FLAGS_restart;
   bool ok = aqs::RunPretrainJob(FLAGS_model, options, simulate ? &simulation : nullptr,
                                 std::cout, &error, false, ranks.get());

@@ -564,6 +564,9 @@ TEST_F(AqsValidationModelTest, LearningAppsRefuseBadFlags) {
                   {"--output_scale=-1", 1, "--output_scale must be finite and > 0 (is -1)"},
                   {"--latent_regularization=-1", 1, "--latent_regularization must be in [0, 1e+06] (is -1)"},
                   {"--train_tolerance=0", 1, "--train_tolerance must be finite and > 0"},
+                  // A training flag of a shared flagfile, before pre-training (it was
+                  // ignored until aqs_train read it).
+                  {"--energy_regularization=nan", 1, "--energy_regularization must be"},
                   {"--hidden=8,,8", 1, "--hidden has an empty width in '8,,8'"},
                   {"--pretrain_minutes=-1", 1,
                    "--pretrain_minutes must be finite and >= 0 (is -1)"},
