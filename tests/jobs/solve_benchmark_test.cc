@@ -1,0 +1,69 @@
+// The solver benchmark as a library call (jobs/solve_benchmark.h): its options, a
+// lattice case with both methods, and inputs checked before the first solve.
+
+#include "jobs/solve_benchmark.h"
+
+#include <sstream>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "testing/file_contents.h"
+#include "testing/temp_dir.h"
+
+namespace aqs {
+namespace {
+
+TEST(SolveBenchmarkTest, OptionsNameTheBadField) {
+  SolveBenchmarkOptions options;
+  std::string error;
+  EXPECT_TRUE(options.Validate(&error)) << error;
+  options.methods = {"newton", "cg"};
+  EXPECT_FALSE(options.Validate(&error));
+  EXPECT_EQ(error, "methods: 'cg' is not newton or lm");
+  options = SolveBenchmarkOptions();
+  options.lattice = {4, 4};
+  EXPECT_FALSE(options.Validate(&error));
+  EXPECT_EQ(error.rfind("lattice must be three positive cube counts", 0), 0u) << error;
+  options = SolveBenchmarkOptions();
+  options.curl = 1.0;
+  EXPECT_FALSE(options.Validate(&error));
+  EXPECT_EQ(error.rfind("curl must be in [0, 1)", 0), 0u) << error;
+  options = SolveBenchmarkOptions();
+  options.max_memory_bytes = 1e6;
+  EXPECT_FALSE(options.Validate(&error));
+  EXPECT_EQ(error.rfind("max_memory_bytes (1 MB) is below the estimated", 0), 0u) << error;
+}
+
+TEST(SolveBenchmarkTest, BothMethodsReachTheSameCurl) {
+  testing::TempDir dir;
+  SolveBenchmarkOptions options;
+  options.lattice = {10, 2, 2};
+  options.csv = dir.File("solves.csv");
+  std::ostringstream out;
+  std::string error;
+  ASSERT_EQ(RunSolveBenchmark(options, out, &error), JobStatus::kOk) << error;
+  EXPECT_NE(out.str().find("lattice_curl               240 newton  yes"), std::string::npos)
+      << out.str();
+  EXPECT_NE(out.str().find("lattice_curl               240 lm      yes"), std::string::npos)
+      << out.str();
+  const std::string csv = testing::ReadAll(options.csv);
+  EXPECT_EQ(csv.rfind("case,elements,method,converged,", 0), 0u) << csv;
+  EXPECT_NE(csv.find("\nlattice_curl,240,newton,1,"), std::string::npos) << csv;
+  EXPECT_NE(csv.find("\nlattice_curl,240,lm,1,"), std::string::npos) << csv;
+}
+
+TEST(SolveBenchmarkTest, AMissingModelIsRefusedBeforeAnySolve) {
+  testing::TempDir dir;
+  SolveBenchmarkOptions options;
+  options.model = dir.File("none");
+  options.poses = {"jawOpen"};
+  std::ostringstream out;
+  std::string error;
+  EXPECT_EQ(RunSolveBenchmark(options, out, &error), JobStatus::kBadInput);
+  EXPECT_NE(error.find("model.txt"), std::string::npos) << error;
+  EXPECT_EQ(out.str(), "") << "the lattice case ran first";
+}
+
+}  // namespace
+}  // namespace aqs
