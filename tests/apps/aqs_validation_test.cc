@@ -123,7 +123,7 @@ TEST(AqsValidationTest, BenchmarksRefuseBadSizesBeforeAnyMeasurement) {
               {
                   {"--cubes=3,2000", 1,
                    "--cubes: a lattice of 2000 x 2000 x 2000 cubes is too large"},
-                  {"--cubes=3,300", 1, "above --max_memory_gb"},
+                  {"--cubes=3,300", 1, "--max_memory_gb (8 GB) is below the estimated"},
                   {"--cubes=3 --amplitude=nan", 1, "--amplitude must be finite"},
                   // Read whole: "12x" was 12.
                   {"--cubes=12x", 1, "--cubes takes positive integers, got '12x'"},
