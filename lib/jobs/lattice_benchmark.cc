@@ -20,6 +20,7 @@
 #include "util/input_file.h"
 #include "util/option_checks.h"
 #include "util/process_memory.h"
+#include "util/string_format.h"
 #include "util/wall_timer.h"
 
 namespace aqs {
@@ -27,7 +28,8 @@ namespace aqs {
 bool LatticeBenchmarkOptions::Validate(std::string* error) const {
   OptionChecks checks;
   checks.Require(!cubes.empty(), "cubes must list a lattice size")
-      .Require(std::isfinite(amplitude), "amplitude must be finite (is " + OptionValue(amplitude) + ")")
+      .Require(std::isfinite(amplitude),
+               "amplitude must be finite (is " + OptionValue(amplitude) + ")")
       .Positive("tolerance", tolerance)
       .IntInRange("num_threads", num_threads, 1, 1024)
       .IntAtLeast("compare_orderings_max_elements", compare_orderings_max_elements, 0)
@@ -78,10 +80,9 @@ double SvdNanoseconds(const ShapeTargetModel& model, const Eigen::Matrix3Xd& x,
 }
 
 // Seconds of one LM iteration from rest with the given ordering of the normal equations.
-double OneIterationSeconds(const LatticeBenchmarkOptions& benchmark,
-                           const ShapeTargetModel& model, const BoundaryConditions& bc,
-                           const ActuationMatrix& a, NormalEquationsOrdering ordering,
-                           bool postordering) {
+double OneIterationSeconds(const LatticeBenchmarkOptions& benchmark, const ShapeTargetModel& model,
+                           const BoundaryConditions& bc, const ActuationMatrix& a,
+                           NormalEquationsOrdering ordering, bool postordering) {
   QuasistaticSolverOptions options;
   options.method = EquilibriumMethod::kLevenbergMarquardt;
   options.ordering = ordering;
@@ -211,21 +212,6 @@ bool MeasureLattice(const LatticeBenchmarkOptions& benchmark, int n, std::ostrea
   return true;
 }
 
-
-namespace {
-
-// printf into a string.
-template <typename... Args>
-std::string Format(const char* format, Args... args) {
-  const int length = std::snprintf(nullptr, 0, format, args...);
-  std::string text(std::max(0, length) + 1, '\0');
-  std::snprintf(text.data(), text.size(), format, args...);
-  text.resize(std::max(0, length));
-  return text;
-}
-
-}  // namespace
-
 JobStatus RunLatticeBenchmark(const LatticeBenchmarkOptions& options, std::ostream& out,
                               std::string* error) {
   if (!options.Validate(error)) return JobStatus::kBadInput;
@@ -233,38 +219,42 @@ JobStatus RunLatticeBenchmark(const LatticeBenchmarkOptions& options, std::ostre
     *error = "csv: " + *error;
     return JobStatus::kBadInput;
   }
-  out << Format("%8s %8s %9s %7s | %7s %12s %12s | %12s %12s %8s | %7s %7s %7s | %7s\n",
-                "elements", "dofs", "L_nnz", "unit_s", "lm_iter", "LM:solve(it)", "LM:warm(it)",
-                "solve(lb+f)", "warm(lb+f)", "gradient", "ceres", "c+post", "dynamic", "peak_GB");
+  out << StringPrintf("%8s %8s %9s %7s | %7s %12s %12s | %12s %12s %8s | %7s %7s %7s | %7s\n",
+                      "elements", "dofs", "L_nnz", "unit_s", "lm_iter", "LM:solve(it)",
+                      "LM:warm(it)", "solve(lb+f)", "warm(lb+f)", "gradient", "ceres", "c+post",
+                      "dynamic", "peak_GB");
   std::vector<LatticeBenchmarkRow> rows;
   for (const int n : options.cubes) {
     LatticeBenchmarkRow r;
     if (!MeasureLattice(options, n, out, &r, error)) return JobStatus::kNotConverged;
     rows.push_back(r);
     auto ratio = [&r](double seconds) {
-      return seconds > 0 ? Format("%.2f", seconds / r.unit) : std::string("-");
+      return seconds > 0 ? StringPrintf("%.2f", seconds / r.unit) : std::string("-");
     };
-    const std::string lm_solve = Format("%.2f(%d)", r.lm_solve / r.unit, r.lm_solve_iterations);
-    const std::string lm_warm = Format("%.2f(%d)", r.lm_warm / r.unit, r.lm_warm_iterations);
-    const std::string solve = Format("%.2f(%d+%d)", r.solve / r.unit, r.solve_lm, r.solve_newton);
-    const std::string warm = Format("%.2f(%d+%d)", r.warm / r.unit, r.warm_lm, r.warm_newton);
-    out << Format("%8d %8d %9.3g %7.3f | %7.2f %12s %12s | %12s %12s %8.2f | %7s %7s %7s | %7.2f\n",
-                  r.elements, r.dofs, r.factor_nonzeros, r.unit, r.lm_iteration / r.unit,
-                  lm_solve.c_str(), lm_warm.c_str(), solve.c_str(), warm.c_str(),
-                  r.gradient / r.unit, ratio(r.static_lm_iteration).c_str(),
-                  ratio(r.static_postordered_lm_iteration).c_str(),
-                  ratio(r.dynamic_lm_iteration).c_str(), r.peak_gb);
-    out << Format("         analysis %.3f s (%s, once per mesh); lm_iter = evaluation %.2f + linear "
-                  "solver %.2f + other %.2f; gradient = assembly %.2f + factorization %.2f + solve "
-                  "%.2f + accumulation %.2f\n"
-                  "         svd per element at the solution: %.0f ns, Eigen's JacobiSVD %.0f ns "
-                  "(%.2fx)\n",
-                  r.analysis, r.ordering.c_str(), r.lm_evaluation / r.unit,
-                  r.lm_linear_solver / r.unit,
-                  (r.lm_iteration - r.lm_evaluation - r.lm_linear_solver) / r.unit,
-                  r.gradient_assembly / r.unit, r.gradient_factorization / r.unit,
-                  r.gradient_solve / r.unit, r.gradient_accumulation / r.unit, r.svd_ns,
-                  r.svd_reference_ns, r.svd_reference_ns / r.svd_ns)
+    const std::string lm_solve =
+        StringPrintf("%.2f(%d)", r.lm_solve / r.unit, r.lm_solve_iterations);
+    const std::string lm_warm = StringPrintf("%.2f(%d)", r.lm_warm / r.unit, r.lm_warm_iterations);
+    const std::string solve =
+        StringPrintf("%.2f(%d+%d)", r.solve / r.unit, r.solve_lm, r.solve_newton);
+    const std::string warm = StringPrintf("%.2f(%d+%d)", r.warm / r.unit, r.warm_lm, r.warm_newton);
+    out << StringPrintf(
+        "%8d %8d %9.3g %7.3f | %7.2f %12s %12s | %12s %12s %8.2f | %7s %7s %7s | %7.2f\n",
+        r.elements, r.dofs, r.factor_nonzeros, r.unit, r.lm_iteration / r.unit, lm_solve.c_str(),
+        lm_warm.c_str(), solve.c_str(), warm.c_str(), r.gradient / r.unit,
+        ratio(r.static_lm_iteration).c_str(), ratio(r.static_postordered_lm_iteration).c_str(),
+        ratio(r.dynamic_lm_iteration).c_str(), r.peak_gb);
+    out << StringPrintf(
+               "         analysis %.3f s (%s, once per mesh); lm_iter = evaluation %.2f + linear "
+               "solver %.2f + other %.2f; gradient = assembly %.2f + factorization %.2f + solve "
+               "%.2f + accumulation %.2f\n"
+               "         svd per element at the solution: %.0f ns, Eigen's JacobiSVD %.0f ns "
+               "(%.2fx)\n",
+               r.analysis, r.ordering.c_str(), r.lm_evaluation / r.unit,
+               r.lm_linear_solver / r.unit,
+               (r.lm_iteration - r.lm_evaluation - r.lm_linear_solver) / r.unit,
+               r.gradient_assembly / r.unit, r.gradient_factorization / r.unit,
+               r.gradient_solve / r.unit, r.gradient_accumulation / r.unit, r.svd_ns,
+               r.svd_reference_ns, r.svd_reference_ns / r.svd_ns)
         << std::flush;
   }
   out << "Ratios are to 'unit', one CHOLMOD numeric factorization of the same rest stiffness "
@@ -280,15 +270,15 @@ JobStatus RunLatticeBenchmark(const LatticeBenchmarkOptions& options, std::ostre
       "ceres_default_lm_iteration_s,ceres_default_postordered_lm_iteration_s,"
       "dynamic_lm_iteration_s,peak_gb,svd_ns,svd_reference_ns\n";
   for (const LatticeBenchmarkRow& r : rows) {
-    csv += Format("%d,%d,%.6g,%s,%.6g,%.6g,%.6g,%.6g,%d,%.6g,%d,%.6g,%d,%d,%.6g,%d,%d,%.6g,%.6g,"
-                  "%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g\n",
-                  r.elements, r.dofs, r.factor_nonzeros, r.ordering.c_str(), r.analysis, r.unit,
-                  r.lm_iteration, r.lm_solve, r.lm_solve_iterations, r.lm_warm,
-                  r.lm_warm_iterations, r.solve, r.solve_lm, r.solve_newton, r.warm, r.warm_lm,
-                  r.warm_newton, r.gradient, r.gradient_assembly, r.gradient_factorization,
-                  r.gradient_solve, r.gradient_accumulation, r.static_lm_iteration,
-                  r.static_postordered_lm_iteration, r.dynamic_lm_iteration, r.peak_gb,
-                  r.svd_ns, r.svd_reference_ns);
+    csv += StringPrintf(
+        "%d,%d,%.6g,%s,%.6g,%.6g,%.6g,%.6g,%d,%.6g,%d,%.6g,%d,%d,%.6g,%d,%d,%.6g,%.6g,"
+        "%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g\n",
+        r.elements, r.dofs, r.factor_nonzeros, r.ordering.c_str(), r.analysis, r.unit,
+        r.lm_iteration, r.lm_solve, r.lm_solve_iterations, r.lm_warm, r.lm_warm_iterations, r.solve,
+        r.solve_lm, r.solve_newton, r.warm, r.warm_lm, r.warm_newton, r.gradient,
+        r.gradient_assembly, r.gradient_factorization, r.gradient_solve, r.gradient_accumulation,
+        r.static_lm_iteration, r.static_postordered_lm_iteration, r.dynamic_lm_iteration, r.peak_gb,
+        r.svd_ns, r.svd_reference_ns);
   }
   return WriteFileAtomically(options.csv, csv, error) ? JobStatus::kOk : JobStatus::kBadInput;
 }

@@ -13,6 +13,7 @@
 #include "util/atomic_file.h"
 #include "util/input_file.h"
 #include "util/option_checks.h"
+#include "util/string_format.h"
 #include "util/wall_timer.h"
 
 namespace aqs {
@@ -92,12 +93,13 @@ void RunCase(const SolveBenchmarkOptions& options, const Case& c, std::ostream& 
     if (reference.cols() == 0) reference = solver.positions();
     row.difference = (solver.positions() - reference).colwise().norm().maxCoeff() / size;
     const QuasistaticSolveReport& r = row.report;
-    char line[512];
-    std::snprintf(line, sizeof(line), "%-22s %7d %-7s %-4s %5d %6d %4d+%-4d %5d %9.2f %9.1f %10.2e   ",
-                  c.name.c_str(), row.elements, name.c_str(), r.converged ? "yes" : "NO",
-                  r.factorizations, r.lbfgs_iterations, r.projected_steps, r.exact_steps,
-                  r.lm_iterations, r.seconds, unit > 0 ? r.seconds / unit : 0.0, row.difference);
-    out << line << r.termination << "\n" << std::flush;
+    out << StringPrintf("%-22s %7d %-7s %-4s %5d %6d %4d+%-4d %5d %9.2f %9.1f %10.2e   ",
+                        c.name.c_str(), row.elements, name.c_str(), r.converged ? "yes" : "NO",
+                        r.factorizations, r.lbfgs_iterations, r.projected_steps, r.exact_steps,
+                        r.lm_iterations, r.seconds, unit > 0 ? r.seconds / unit : 0.0,
+                        row.difference)
+        << r.termination << "\n"
+        << std::flush;
     rows->push_back(row);
   }
 }
@@ -105,8 +107,7 @@ void RunCase(const SolveBenchmarkOptions& options, const Case& c, std::ostream& 
 Case BarCase(const SolveBenchmarkOptions& options, TetMesh* mesh,
              std::unique_ptr<ShapeTargetModel>* physics) {
   LatticeOptions lattice;
-  lattice.nx = options.lattice[0], lattice.ny = options.lattice[1],
-  lattice.nz = options.lattice[2];
+  lattice.nx = options.lattice[0], lattice.ny = options.lattice[1], lattice.nz = options.lattice[2];
   lattice.spacing = options.spacing;
   *mesh = MakeLatticeMesh(lattice);
   *physics = std::make_unique<ShapeTargetModel>(*mesh, 1.0);
@@ -146,8 +147,8 @@ bool ModelCases(const SolveBenchmarkOptions& options, const ActiveModel& model,
       c.name += "(springs)";
       c.actuation = IdentityActuations(model.mesh.num_tets());
       c.springs = std::make_shared<EmbeddedAttachments>(
-          model.embedding, model.mesh.tets, AttachmentStiffness(model, options.attachment_stiffness),
-          model.mesh.vertices);
+          model.embedding, model.mesh.tets,
+          AttachmentStiffness(model, options.attachment_stiffness), model.mesh.vertices);
       c.spring_targets = model.poses[p].surface;
     } else if (model.decoder) {
       DecoderWorkspace workspace;
@@ -217,8 +218,7 @@ bool SolveBenchmarkOptions::Validate(std::string* error) const {
   return elements == 0.0 ||
          CheckMemoryEstimate(EquilibriumSolverMemoryBytes(elements), max_memory_bytes,
                              "the lattice's solves",
-                             std::to_string(static_cast<long long>(elements)) + " elements",
-                             error);
+                             std::to_string(static_cast<long long>(elements)) + " elements", error);
 }
 
 JobStatus RunSolveBenchmark(const SolveBenchmarkOptions& options, std::ostream& out,
@@ -237,11 +237,9 @@ JobStatus RunSolveBenchmark(const SolveBenchmarkOptions& options, std::ostream& 
     model_physics = std::make_unique<ShapeTargetModel>(model.mesh, model.mu);
     if (!ModelCases(options, model, *model_physics, &cases, error)) return JobStatus::kBadInput;
   }
-  char header[200];
-  std::snprintf(header, sizeof(header), "%-22s %7s %-7s %-4s %5s %6s %9s %5s %9s %9s %10s\n",
-                "case", "elems", "method", "conv", "fact", "lbfgs", "newton", "lm", "seconds",
-                "s/fact", "diff/size");
-  out << header;
+  out << StringPrintf("%-22s %7s %-7s %-4s %5s %6s %9s %5s %9s %9s %10s\n", "case", "elems",
+                      "method", "conv", "fact", "lbfgs", "newton", "lm", "seconds", "s/fact",
+                      "diff/size");
   std::vector<Row> rows;
   if (!options.lattice.empty()) {
     TetMesh mesh;
@@ -256,13 +254,11 @@ JobStatus RunSolveBenchmark(const SolveBenchmarkOptions& options, std::ostream& 
         "difference_over_size\n";
     for (const Row& row : rows) {
       const QuasistaticSolveReport& r = row.report;
-      char numbers[400];
-      std::snprintf(numbers, sizeof(numbers), ",%d,%s,%d,%d,%d,%d,%d,%d,%.6f,%.6f,%.3f,%.3e\n",
-                    row.elements, row.method.c_str(), r.converged ? 1 : 0, r.factorizations,
-                    r.lbfgs_iterations, r.projected_steps, r.exact_steps, r.lm_iterations,
-                    r.seconds, row.unit, row.unit > 0 ? r.seconds / row.unit : 0.0,
-                    row.difference);
-      csv += row.name + numbers;
+      csv += row.name + StringPrintf(",%d,%s,%d,%d,%d,%d,%d,%d,%.6f,%.6f,%.3f,%.3e\n", row.elements,
+                                     row.method.c_str(), r.converged ? 1 : 0, r.factorizations,
+                                     r.lbfgs_iterations, r.projected_steps, r.exact_steps,
+                                     r.lm_iterations, r.seconds, row.unit,
+                                     row.unit > 0 ? r.seconds / row.unit : 0.0, row.difference);
     }
     if (!WriteFileAtomically(options.csv, csv, error)) return JobStatus::kBadInput;
   }

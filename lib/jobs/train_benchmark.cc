@@ -1,7 +1,6 @@
 #include "jobs/train_benchmark.h"
 
 #include <algorithm>
-#include <cstdarg>
 #include <cstdio>
 #include <sstream>
 
@@ -10,28 +9,10 @@
 #include "util/blas.h"
 #include "util/option_checks.h"
 #include "util/process_memory.h"
+#include "util/string_format.h"
 #include "util/wall_timer.h"
 
 namespace aqs {
-namespace {
-
-// printf into `out`.
-void Print(std::ostream& out, const char* format, ...) {
-  va_list arguments;
-  va_start(arguments, format);
-  va_list copy;
-  va_copy(copy, arguments);
-  const int length = std::vsnprintf(nullptr, 0, format, copy);
-  va_end(copy);
-  std::string text(std::max(0, length) + 1, '\0');
-  std::vsnprintf(text.data(), text.size(), format, arguments);
-  va_end(arguments);
-  text.resize(std::max(0, length));
-  out << text;
-}
-
-}  // namespace
-
 bool TrainBenchmarkOptions::Validate(std::string* error) const {
   bool modes_ok = !modes.empty();
   std::string bad_mode;
@@ -168,49 +149,50 @@ JobStatus RunTrainBenchmark(const TrainBenchmarkOptions& options, std::ostream& 
   if (options.max_poses > 0 && options.max_poses < model.num_poses()) {
     const int total = model.num_poses();
     KeepSpreadPoses(options.max_poses, &model);
-    Print(out, "poses kept (%d of %d):", options.max_poses, total);
-    for (const TrainingPose& pose : model.poses) Print(out, " %s", pose.name.c_str());
+    out << StringPrintf("poses kept (%d of %d):", options.max_poses, total);
+    for (const TrainingPose& pose : model.poses) out << StringPrintf(" %s", pose.name.c_str());
     out << "\n";
   }
   const FactorizationUnit measured = MeasureFactorizationUnit(model);
   const double unit = measured.seconds;
   const int threads = options.train.num_threads;
-  Print(out,
-        "model %s: %d elements, %d poses, %d decoder parameters; unit (one factorization) "
-        "%.4f s; %d threads\n",
-        options.model.c_str(), model.mesh.num_tets(), model.num_poses(),
-        model.decoder->num_parameters(), unit, threads);
-  Print(out, "unit with one BLAS thread (as each training thread factorizes): %.4f s\n",
-        measured.seconds_one_thread);
-  Print(out,
-        "stiffness: %d free DOFs, %.4g non-zeros (upper triangle); factor: %.4g non-zeros, "
-        "stored in %.3f GB (x %d poses = %.2f GB); resident with the model loaded %.2f GB\n",
-        measured.dofs, measured.stiffness_nonzeros, measured.factor_nonzeros,
-        measured.factor_bytes / 1e9, model.num_poses(),
-        measured.factor_bytes * model.num_poses() / 1e9, CurrentResidentBytes() / 1e9);
-  Print(out,
-        "single-precision copy of a factor (mode stored): %.3f GB (x %d poses = %.2f GB); "
-        "keeping one %.4f s, restoring it %.4f s (%.3f units together); CG iterations "
-        "on the same stiffness with it as the preconditioner, to 1e-10: %d\n",
-        measured.stored_bytes / 1e9, model.num_poses(),
-        measured.stored_bytes * model.num_poses() / 1e9, measured.store_seconds,
-        measured.restore_seconds,
-        unit > 0 ? (measured.store_seconds + measured.restore_seconds) / unit : 0.0,
-        measured.restored_cg_iterations);
+  out << StringPrintf(
+      "model %s: %d elements, %d poses, %d decoder parameters; unit (one factorization) "
+      "%.4f s; %d threads\n",
+      options.model.c_str(), model.mesh.num_tets(), model.num_poses(),
+      model.decoder->num_parameters(), unit, threads);
+  out << StringPrintf("unit with one BLAS thread (as each training thread factorizes): %.4f s\n",
+                      measured.seconds_one_thread);
+  out << StringPrintf(
+      "stiffness: %d free DOFs, %.4g non-zeros (upper triangle); factor: %.4g non-zeros, "
+      "stored in %.3f GB (x %d poses = %.2f GB); resident with the model loaded %.2f GB\n",
+      measured.dofs, measured.stiffness_nonzeros, measured.factor_nonzeros,
+      measured.factor_bytes / 1e9, model.num_poses(),
+      measured.factor_bytes * model.num_poses() / 1e9, CurrentResidentBytes() / 1e9);
+  out << StringPrintf(
+      "single-precision copy of a factor (mode stored): %.3f GB (x %d poses = %.2f GB); "
+      "keeping one %.4f s, restoring it %.4f s (%.3f units together); CG iterations "
+      "on the same stiffness with it as the preconditioner, to 1e-10: %d\n",
+      measured.stored_bytes / 1e9, model.num_poses(),
+      measured.stored_bytes * model.num_poses() / 1e9, measured.store_seconds,
+      measured.restore_seconds,
+      unit > 0 ? (measured.store_seconds + measured.restore_seconds) / unit : 0.0,
+      measured.restored_cg_iterations);
   out << std::flush;  // the model's figures before the (long) training runs
-  Print(out, "%-9s %6s %8s %9s %7s %9s %8s %8s %8s %8s %8s %8s %8s %8s %8s %8s %8s\n", "mode",
-        "iters", "s/iter", "pose/unit", "evals", "fact/pose", "adj_fact", "reused", "cg/pose",
-        "newton", "lbfgs", "line", "solve", "adjoint", "decoder", "loss", "peak_GB");
+  out << StringPrintf("%-9s %6s %8s %9s %7s %9s %8s %8s %8s %8s %8s %8s %8s %8s %8s %8s %8s\n",
+                      "mode", "iters", "s/iter", "pose/unit", "evals", "fact/pose", "adj_fact",
+                      "reused", "cg/pose", "newton", "lbfgs", "line", "solve", "adjoint", "decoder",
+                      "loss", "peak_GB");
   for (const std::string& mode : options.modes) {
     ActiveModel copy = model;
     TrainOptions train = options.train;
     train.max_iterations = options.iterations;
     // stored: a budget that holds every pose's single-precision copy but not a solver
     // per pose (whose factors are in double precision, with their SVD caches).
-    train.max_factor_cache_gb =
-        mode == "per_pose" ? 1e9
-        : mode == "stored" ? 1.0001 * measured.stored_bytes * model.num_poses() / 1e9
-                           : 0.0;
+    train.max_factor_cache_gb = mode == "per_pose" ? 1e9
+                                : mode == "stored"
+                                    ? 1.0001 * measured.stored_bytes * model.num_poses() / 1e9
+                                    : 0.0;
     train.max_restarts = 0;
     train.log_every = options.progress ? 1 : 0;
     TrainReport report;
@@ -221,17 +203,16 @@ JobStatus RunTrainBenchmark(const TrainBenchmarkOptions& options, std::ostream& 
     const int iterations = std::max(1, report.iterations - report.iterations_before);
     const double per_pose_iteration = 1.0 / (static_cast<double>(iterations) * model.num_poses());
     const double u = unit > 0 ? unit : 1.0;
-    Print(out,
-          "%-9s %6d %8.3f %9.2f %7.2f %9.2f %8.2f %8.2f %8.1f %8.2f %8.2f %8.2f %8.2f %8.2f "
-          "%8.2f %8.3e %8.2f\n",
-          mode.c_str(), iterations, c.seconds / iterations, c.seconds * per_pose_iteration / u,
-          c.evaluations / static_cast<double>(iterations), c.factorizations * per_pose_iteration,
-          c.adjoint_factorizations * per_pose_iteration, c.reused_solves * per_pose_iteration,
-          c.cg_iterations * per_pose_iteration, c.newton_steps * per_pose_iteration,
-          c.lbfgs_iterations * per_pose_iteration, c.line_starts * per_pose_iteration,
-          c.solve_seconds * per_pose_iteration / u, c.adjoint_seconds * per_pose_iteration / u,
-          c.decoder_seconds * per_pose_iteration / u, report.final_loss,
-          PeakResidentBytes() / 1e9);
+    out << StringPrintf(
+        "%-9s %6d %8.3f %9.2f %7.2f %9.2f %8.2f %8.2f %8.1f %8.2f %8.2f %8.2f %8.2f %8.2f "
+        "%8.2f %8.3e %8.2f\n",
+        mode.c_str(), iterations, c.seconds / iterations, c.seconds * per_pose_iteration / u,
+        c.evaluations / static_cast<double>(iterations), c.factorizations * per_pose_iteration,
+        c.adjoint_factorizations * per_pose_iteration, c.reused_solves * per_pose_iteration,
+        c.cg_iterations * per_pose_iteration, c.newton_steps * per_pose_iteration,
+        c.lbfgs_iterations * per_pose_iteration, c.line_starts * per_pose_iteration,
+        c.solve_seconds * per_pose_iteration / u, c.adjoint_seconds * per_pose_iteration / u,
+        c.decoder_seconds * per_pose_iteration / u, report.final_loss, PeakResidentBytes() / 1e9);
     out << std::flush;
   }
   out << "pose/unit: wall seconds per pose per iteration over the unit; evals: evaluations per "
