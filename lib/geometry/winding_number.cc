@@ -4,6 +4,7 @@
 
 #include <cmath>
 
+#include "util/option_checks.h"
 #include "util/parallel_for.h"
 
 namespace aqs {
@@ -77,13 +78,20 @@ Eigen::VectorXd ExactWindingNumbers(const Eigen::Matrix3Xd& vertices,
   return result;
 }
 
+bool FastWindingNumberOptions::Validate(std::string* error) const {
+  return OptionChecks()
+      .Positive("beta", beta)
+      .IntInRange("expansion_order", expansion_order, 0, 2)
+      .IntAtLeast("leaf_size", leaf_size, 1)
+      .Done(error);
+}
+
 FastWindingNumber::FastWindingNumber(const Eigen::Matrix3Xd& vertices,
                                      const Eigen::Matrix3Xi& triangles,
                                      const FastWindingNumberOptions& options)
     : options_(options), vertices_(vertices), triangles_(triangles) {
-  CHECK_GE(options.expansion_order, 0);
-  CHECK_LE(options.expansion_order, 2);
-  CHECK_GT(options.beta, 0.0);
+  std::string invalid;
+  CHECK(options.Validate(&invalid)) << invalid;
   tree_ = geometry_internal::BuildTriangleTree(vertices, triangles, options.leaf_size);
 
   // Per-triangle area-weighted normals (A n = cross / 2) and centroids.

@@ -1,6 +1,7 @@
 #ifndef AQS_GEOMETRY_WINDING_NUMBER_H_
 #define AQS_GEOMETRY_WINDING_NUMBER_H_
 
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -50,6 +51,9 @@ struct FastWindingNumberOptions {
   int expansion_order = 2;
   // Largest number of triangles in a leaf (summed exactly when near).
   int leaf_size = 8;
+
+  // Checks every field; false with *error naming the first bad one (util/option_checks.h).
+  bool Validate(std::string* error) const;
 };
 
 // Hierarchical winding numbers (Barill, Dickson, Schmidt, Levin and Jacobson, "Fast

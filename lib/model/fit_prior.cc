@@ -13,6 +13,7 @@
 #include "util/atomic_file.h"
 #include "util/line_reader.h"
 #include "util/number_format.h"
+#include "util/option_checks.h"
 
 namespace aqs {
 namespace {
@@ -68,8 +69,19 @@ FitPrior LearnFitPrior(const ActiveModel& model, const FitPriorOptions& options)
   return prior;
 }
 
+bool FitPriorOptions::Validate(std::string* error) const {
+  return OptionChecks()
+      .NonNegative("latent_floor", latent_floor)
+      .NonNegative("rotation_floor", rotation_floor)
+      .NonNegative("rotation_floor_fraction", rotation_floor_fraction)
+      .NonNegative("translation_floor_fraction", translation_floor_fraction)
+      .Done(error);
+}
+
 bool LearnFitPrior(const ActiveModel& model, const FitPriorOptions& options, FitPrior* out,
                    std::string* error) {
+  std::string invalid;
+  CHECK(options.Validate(&invalid)) << "fit prior options: " << invalid;
   CHECK(model.decoder) << "a fit prior needs a trained model";
   const int num_poses = model.num_poses();
   const int d = model.latent_dim();

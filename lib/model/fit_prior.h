@@ -48,6 +48,9 @@ struct FitPriorOptions {
   double rotation_floor = 0.01;
   double rotation_floor_fraction = 0.1;
   double translation_floor_fraction = 0.1;
+
+  // Checks every field; false with *error naming the first bad one (util/option_checks.h).
+  bool Validate(std::string* error) const;
 };
 
 // Learns the priors of a trained model (CHECK: a decoder) from its training latents

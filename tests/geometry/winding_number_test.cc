@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "geometry/triangle_bvh.h"
@@ -199,6 +200,23 @@ TEST(WindingNumberTest, BatchMatchesSingleAndEmptySurfaceIsZero) {
                 .cwiseAbs()
                 .maxCoeff(),
             0.0);
+}
+
+TEST(WindingNumberTest, OptionsNameTheBadField) {
+  std::string error;
+  FastWindingNumberOptions options;
+  EXPECT_TRUE(options.Validate(&error)) << error;
+  options.expansion_order = 3;
+  EXPECT_FALSE(options.Validate(&error));
+  EXPECT_EQ(error.rfind("expansion_order", 0), 0u) << error;
+  options = FastWindingNumberOptions();
+  options.beta = 0.0;
+  EXPECT_FALSE(options.Validate(&error));
+  EXPECT_EQ(error.rfind("beta", 0), 0u) << error;
+  options = FastWindingNumberOptions();
+  options.leaf_size = 0;
+  EXPECT_FALSE(options.Validate(&error));
+  EXPECT_EQ(error.rfind("leaf_size", 0), 0u) << error;
 }
 
 }  // namespace

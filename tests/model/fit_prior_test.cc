@@ -3,9 +3,11 @@
 
 #include "model/fit_prior.h"
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <string>
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
@@ -84,6 +86,19 @@ TEST(FitPriorTest, CentredOnTheNeutralWithTheTrainingSpread) {
 
 // No prior from a model without poses, or from latents or bone motions so far apart
 // that their second moment overflows: false with the reason (it aborted in a CHECK).
+TEST(FitPriorTest, OptionsNameTheBadField) {
+  std::string error;
+  FitPriorOptions options;
+  EXPECT_TRUE(options.Validate(&error)) << error;
+  options.rotation_floor = -0.01;
+  EXPECT_FALSE(options.Validate(&error));
+  EXPECT_EQ(error.rfind("rotation_floor", 0), 0u) << error;
+  options = FitPriorOptions();
+  options.latent_floor = std::nan("");
+  EXPECT_FALSE(options.Validate(&error));
+  EXPECT_EQ(error.rfind("latent_floor", 0), 0u) << error;
+}
+
 TEST(FitPriorTest, NoPriorFromNoPosesOrOverflowingSpreads) {
   const ActiveModel model = ModelWithNeutralPose();
   FitPrior prior;
