@@ -7,6 +7,7 @@ namespace aqs {
 
 std::string FormatDuration(double seconds) {
   if (!(seconds >= 0) || !std::isfinite(seconds)) return "?";
+  if (seconds >= 1e9) return "> 30 years";  // (lround would overflow far beyond)
   char text[32];
   if (seconds < 60) {
     std::snprintf(text, sizeof(text), "%.1f s", seconds);

@@ -11,7 +11,8 @@
 
 namespace aqs {
 
-// "1:23:45" / "4:05" / "12.3 s" for a duration in seconds (negative: "?").
+// "1:23:45" / "4:05" / "12.3 s" for a duration in seconds (negative or not finite: "?";
+// 1e9 s or more: "> 30 years").
 std::string FormatDuration(double seconds);
 
 // The estimated time left after `done` of `total` steps took `elapsed` seconds.

@@ -1,0 +1,23 @@
+// The process's memory as the benchmarks report it (util/process_memory.h).
+
+#include "util/process_memory.h"
+
+#include <vector>
+
+#include <gtest/gtest.h>
+
+namespace aqs {
+namespace {
+
+TEST(ProcessMemoryTest, PeakCoversCurrentAndGrowsWithWhatIsTouched) {
+  const double before = CurrentResidentBytes();
+  if (before == 0.0) GTEST_SKIP() << "no /proc/self/status on this system";
+  std::vector<char> block(64 << 20, 1);  // 64 MB, every page touched
+  const double during = CurrentResidentBytes();
+  EXPECT_GT(during, before + 32e6);
+  EXPECT_GE(PeakResidentBytes(), during);
+  EXPECT_EQ(block[12345], 1);
+}
+
+}  // namespace
+}  // namespace aqs
