@@ -100,7 +100,8 @@ GFLAGS_REFUSAL = re.compile(
     r"\w+ command line flag|failed validation of new value '.*' for flag '[^']+')",
     re.MULTILINE)
 
-REPORTED_NONFINITE = re.compile(r"is not finite \((nan|inf|-inf)\)")
+REPORTED_NONFINITE = re.compile(r"is not finite \((nan|inf|-inf)\)|got '[-+]?(nan|inf|infinity)'",
+                                re.IGNORECASE)
 NONFINITE = re.compile(r"(?<![A-Za-z_])[-+]?(nan|inf|infinity)(?![A-Za-z_])", re.IGNORECASE)
 
 
@@ -420,7 +421,8 @@ def classify(app, code, output, case_dir, outputs):
             m = NONFINITE.search(line)
             # (A reader's report of a damaged input it then did without, such as
             # aqs_pipeline's "the model at M ... cannot be read (F: entry ... is not finite
-            # (nan) ...)", is not a non-finite result.)
+            # (nan) ...)" or "(F:187: expected ... (a finite number), got 'inf')", is not a
+            # non-finite result.)
             if m and "--" not in line and not REPORTED_NONFINITE.search(line):
                 return "nonfinite 0", "log: " + line.strip()[:160]
         for name in outputs:
