@@ -1,7 +1,6 @@
 #include "jobs/solve_benchmark.h"
 
 #include <algorithm>
-#include <cstdio>
 #include <memory>
 
 #include "equilibrium/embedded_attachments.h"

@@ -1,7 +1,6 @@
 #include "jobs/train_benchmark.h"
 
 #include <algorithm>
-#include <cstdio>
 #include <sstream>
 
 #include "learn/decoder.h"
