@@ -19,6 +19,7 @@
 #include "dist/model_sharing.h"
 #include "dist/mpi_world.h"
 #include "jobs/learning_jobs.h"
+#include "jobs/mpi_benchmark.h"
 #include "model/model_directory.h"
 #include "model/model_io.h"
 #include "train/end_to_end_objective.h"
@@ -348,6 +349,45 @@ TEST(MpiTrainingTest, SpareRanksStayIdle) {
   EXPECT_EQ(report.iterations, one_report.iterations);
   EXPECT_LE(Relative(many.decoder_params, one.decoder_params), 1e-10);
   EXPECT_LE(Relative(report.final_loss, one_report.final_loss), 1e-10);
+}
+
+// The scaling benchmark (jobs/mpi_benchmark.h) on all ranks: the model is read on every
+// rank, a run on rank 0 alone and one on all, their speed-up and the reductions; only
+// rank 0 prints. A model one rank cannot read fails on every rank, naming the path.
+TEST(MpiTrainingTest, ScalingBenchmarkRunsAloneAndOnAllRanks) {
+  const Communicator& world = World();
+  testing::SharedTempDir dir;
+  std::string error;
+  if (world.is_root()) {
+    EXPECT_TRUE(SaveModel(dir.File("m"), testing::PretrainedBar(3), &error)) << error;
+  }
+  world.Barrier();
+  MpiBenchmarkOptions options;
+  options.model = dir.File("m");
+  options.iterations = 1;
+  options.reduction_calls = 2;
+  options.train = Options();
+  std::ostringstream out;
+  EXPECT_EQ(RunMpiBenchmark(options, &world, out, &error), JobStatus::kOk) << error;
+  const std::string text = out.str();
+  if (world.is_root()) {
+    EXPECT_NE(text.find("\n1             1 "), std::string::npos) << text;
+    EXPECT_NE(text.find("\n" + std::to_string(world.size()) + "             1 "),
+              std::string::npos)
+        << text;
+    EXPECT_NE(text.find("best runs: " + std::to_string(world.size()) + " ranks vs 1"),
+              std::string::npos)
+        << text;
+    EXPECT_NE(text.find("Broadcast (parameters)"), std::string::npos) << text;
+  } else {
+    EXPECT_TRUE(text.empty()) << text;
+  }
+  // Rank 1 looks in a folder that is not there.
+  options.model = world.is_root() ? dir.File("m") : dir.File("elsewhere");
+  std::ostringstream none;
+  EXPECT_EQ(RunMpiBenchmark(options, &world, none, &error), JobStatus::kBadInput);
+  EXPECT_NE(error.find("elsewhere"), std::string::npos) << error;
+  EXPECT_TRUE(none.str().empty()) << none.str();
 }
 
 }  // namespace

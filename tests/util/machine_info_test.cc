@@ -1,0 +1,43 @@
+#include "util/machine_info.h"
+
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include <gtest/gtest.h>
+
+namespace aqs {
+namespace {
+
+TEST(MachineInfoTest, DescribesHostCoresAndProcessor) {
+  const std::string text = MachineDescription();
+  const size_t colon = text.find(": ");
+  ASSERT_NE(colon, std::string::npos) << text;
+  EXPECT_GT(colon, 0u) << text;  // a host name
+  const size_t cores = text.find(" cores, ", colon);
+  ASSERT_NE(cores, std::string::npos) << text;
+  EXPECT_GE(std::stoi(text.substr(colon + 2, cores - colon - 2)), 1) << text;
+  EXPECT_GT(text.size(), cores + 8) << text;  // a processor name, or "unknown processor"
+}
+
+TEST(MachineInfoTest, LoadAverageHasThreeNumbers) {
+  const std::string text = LoadAverage();
+  if (text == "unknown") GTEST_SKIP() << "no /proc/loadavg";
+  double one = -1, five = -1, fifteen = -1;
+  ASSERT_EQ(std::sscanf(text.c_str(), "%lf %lf %lf", &one, &five, &fifteen), 3) << text;
+  EXPECT_GE(one, 0.0);
+  EXPECT_GE(five, 0.0);
+  EXPECT_GE(fifteen, 0.0);
+}
+
+TEST(MachineInfoTest, ProcessorTimeGrowsWithWork) {
+  const double before = ProcessCpuSeconds();
+  volatile double sum = 0.0;
+  for (int i = 0; i < 20000000; ++i) sum = sum + std::sqrt(static_cast<double>(i));
+  const double after = ProcessCpuSeconds();
+  EXPECT_GT(before, 0.0);
+  EXPECT_GT(after, before);
+}
+
+}  // namespace
+}  // namespace aqs
