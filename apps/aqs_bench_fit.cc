@@ -82,7 +82,10 @@ int main(int argc, char** argv) {
     }
   }
   aqs::FlagNames flags = aqs::FitFlagNames();
-  flags.insert(flags.end(), {{"marker_counts", "--marker_counts"},
+  flags.insert(flags.end(), {{"model", "--model"},
+                             {"test_set", "--test_set"},
+                             {"output_dir", "--output_dir"},
+                             {"marker_counts", "--marker_counts"},
                              {"sequence_frames", "--sequence_frames"}});
   if (!options.Validate(&error)) {
     aqs::PrintError(aqs::FlagError(error, flags));

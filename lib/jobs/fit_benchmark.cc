@@ -26,6 +26,7 @@
 #include "util/blas.h"
 #include "util/input_file.h"
 #include "util/line_reader.h"
+#include "util/machine_info.h"
 #include "util/option_checks.h"
 #include "util/wall_timer.h"
 
@@ -496,6 +497,9 @@ bool FitBenchmarkOptions::Validate(std::string* error) const {
   bool counts_ok = true;
   for (int k : marker_counts) counts_ok = counts_ok && k >= 1;
   return OptionChecks()
+      .Require(!model.empty(), "model is required")
+      .Require(!test_set.empty(), "test_set is required")
+      .Require(!output_dir.empty(), "output_dir is required")
       .Require(ridges_ok, "ridge_candidates must be finite and >= 0")
       .Require(counts_ok, "marker_counts must be >= 1")
       .Require(!markers || !marker_counts.empty(),
@@ -509,10 +513,6 @@ bool FitBenchmarkOptions::Validate(std::string* error) const {
 JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
                           std::string* error) {
   if (!options.Validate(error)) return JobStatus::kBadInput;
-  if (options.model.empty() || options.test_set.empty() || options.output_dir.empty()) {
-    *error = "--model, --test_set and --output_dir are required";
-    return JobStatus::kBadInput;
-  }
   if (!CheckOutputApart(options.output_dir, options.model, error) ||
       !CheckOutputApart(options.output_dir, options.test_set, error)) {
     return JobStatus::kBadInput;
@@ -637,6 +637,7 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
   md << "\nOne factorization of the stiffness at rest (the unit of solver work): "
      << Fixed(unit_before, 4) << " s before the fits, " << Fixed(unit_after, 4)
      << " s after them (the machine's load shows in the difference).\n";
+  md << "\n" << BenchmarkMachineLine() << " (at the end).\n";
   log << "\n" << md.str();
   std::string write_error;
   if (!WriteFileAtomically(csv_path, FitBenchmarkCsv(fits.rows()), &write_error) ||

@@ -198,7 +198,8 @@ std::string FitBenchmarkTables(const std::vector<FitBenchmarkRow>& rows,
       md << "| " << name << " | " << Fixed(Mean(err), 4) << " | " << Fixed(Mean(predicted), 4)
          << " | " << Fixed(Mean(correlation), 2) << " |\n";
     }
-  }  return md.str();
+  }
+  return md.str();
 }
 
 std::string FitBenchmarkCsv(const std::vector<FitBenchmarkRow>& rows) {

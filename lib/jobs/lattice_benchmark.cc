@@ -19,6 +19,7 @@
 #include "util/input_file.h"
 #include "util/option_checks.h"
 #include "util/process_memory.h"
+#include "util/machine_info.h"
 #include "util/string_format.h"
 #include "util/wall_timer.h"
 
@@ -218,6 +219,7 @@ JobStatus RunLatticeBenchmark(const LatticeBenchmarkOptions& options, std::ostre
     *error = "csv: " + *error;
     return JobStatus::kBadInput;
   }
+  out << BenchmarkMachineLine() << "\n";
   out << StringPrintf("%8s %8s %9s %7s | %7s %12s %12s | %12s %12s %8s | %7s %7s %7s | %7s\n",
                       "elements", "dofs", "L_nnz", "unit_s", "lm_iter", "LM:solve(it)",
                       "LM:warm(it)", "solve(lb+f)", "warm(lb+f)", "gradient", "ceres", "c+post",

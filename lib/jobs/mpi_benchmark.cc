@@ -91,8 +91,7 @@ JobStatus RunMpiBenchmark(const MpiBenchmarkOptions& options, const Communicator
   if (!ShareModel(world, options.model, ok, &model, error)) return JobStatus::kBadInput;
   const int n = world.size();
   if (root) {
-    out << "machine " << MachineDescription() << "; load average " << LoadAverage()
-        << " (before)\n";
+    out << BenchmarkMachineLine() << " (before)\n";
     out << StringPrintf("model %s: %d elements, %d poses, %d decoder parameters; %s, %d "
                         "thread(s) per rank\n",
                         options.model.c_str(), model.mesh.num_tets(), model.num_poses(),

@@ -12,6 +12,7 @@
 #include "util/atomic_file.h"
 #include "util/input_file.h"
 #include "util/option_checks.h"
+#include "util/machine_info.h"
 #include "util/string_format.h"
 #include "util/wall_timer.h"
 
@@ -236,6 +237,7 @@ JobStatus RunSolveBenchmark(const SolveBenchmarkOptions& options, std::ostream& 
     model_physics = std::make_unique<ShapeTargetModel>(model.mesh, model.mu);
     if (!ModelCases(options, model, *model_physics, &cases, error)) return JobStatus::kBadInput;
   }
+  out << BenchmarkMachineLine() << "\n";
   out << StringPrintf("%-22s %7s %-7s %-4s %5s %6s %9s %5s %9s %9s %10s\n", "case", "elems",
                       "method", "conv", "fact", "lbfgs", "newton", "lm", "seconds", "s/fact",
                       "diff/size");

@@ -8,6 +8,7 @@
 #include "util/blas.h"
 #include "util/option_checks.h"
 #include "util/process_memory.h"
+#include "util/machine_info.h"
 #include "util/string_format.h"
 #include "util/wall_timer.h"
 
@@ -145,6 +146,7 @@ JobStatus RunTrainBenchmark(const TrainBenchmarkOptions& options, std::ostream& 
     *error = options.model + ": the model is not pre-trained (no decoder)";
     return JobStatus::kBadInput;
   }
+  out << BenchmarkMachineLine() << "\n";
   if (options.max_poses > 0 && options.max_poses < model.num_poses()) {
     const int total = model.num_poses();
     KeepSpreadPoses(options.max_poses, &model);

@@ -33,6 +33,14 @@ std::string LoadAverage() {
   return one + " " + five + " " + fifteen;
 }
 
+std::string BenchmarkMachineLine() {
+  char date[64] = "unknown date";
+  const time_t now = time(nullptr);
+  tm utc;
+  if (gmtime_r(&now, &utc) != nullptr) strftime(date, sizeof(date), "%Y-%m-%d %H:%M UTC", &utc);
+  return "machine " + MachineDescription() + "; load average " + LoadAverage() + "; " + date;
+}
+
 double ProcessCpuSeconds() {
   timespec t;
   if (clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t) != 0) return 0.0;

@@ -14,6 +14,11 @@ std::string MachineDescription();
 // unreadable).
 std::string LoadAverage();
 
+// One line that opens a benchmark's output: "machine <MachineDescription()>; load average
+// <LoadAverage()>; <UTC date and time, YYYY-MM-DD HH:MM UTC>" (no newline): what
+// docs/ records beside the figures.
+std::string BenchmarkMachineLine();
+
 // Processor seconds this process has used so far, over all its threads.
 double ProcessCpuSeconds();
 

@@ -30,6 +30,22 @@ TEST(MachineInfoTest, LoadAverageHasThreeNumbers) {
   EXPECT_GE(fifteen, 0.0);
 }
 
+TEST(MachineInfoTest, BenchmarkLineHasMachineLoadAndUtcDate) {
+  const std::string line = BenchmarkMachineLine();
+  EXPECT_EQ(line.rfind("machine " + MachineDescription() + "; load average ", 0), 0u) << line;
+  ASSERT_GT(line.size(), 21u);
+  const std::string date = line.substr(line.size() - 20);  // "YYYY-MM-DD HH:MM UTC"
+  int year = 0, month = 0, day = 0, hour = -1, minute = -1;
+  ASSERT_EQ(std::sscanf(date.c_str(), "%4d-%2d-%2d %2d:%2d UTC", &year, &month, &day, &hour,
+                        &minute),
+            5)
+      << line;
+  EXPECT_GE(year, 2024);
+  EXPECT_TRUE(month >= 1 && month <= 12 && day >= 1 && day <= 31) << line;
+  EXPECT_TRUE(hour >= 0 && hour < 24 && minute >= 0 && minute < 60) << line;
+  EXPECT_EQ(line.find('\n'), std::string::npos) << line;
+}
+
 TEST(MachineInfoTest, ProcessorTimeGrowsWithWork) {
   const double before = ProcessCpuSeconds();
   volatile double sum = 0.0;
