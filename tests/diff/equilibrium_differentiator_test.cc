@@ -4,11 +4,14 @@
 #include <memory>
 #include <random>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
+#include "diff/actuation_force_products.h"
 #include "equilibrium/newton_solver.h"
 #include "equilibrium/quasistatic_solver.h"
+#include "testing/element_states.h"
 #include "testing/finite_difference.h"
 #include "testing/test_meshes.h"
 
@@ -198,6 +201,107 @@ TEST(EquilibriumDifferentiatorTest, FixedVertexProductsMatchResolvedEquilibria) 
     const Eigen::VectorXd numeric = testing::CentralDifferenceDirectional(
         equilibrium_along, Eigen::VectorXd::Zero(1), Eigen::VectorXd::Ones(1), 1e-4);
     EXPECT_LT(testing::RelativeError(dx.col(c), numeric), 1e-6) << "motion " << c;
+  }
+}
+
+// The free-DOF rows of a 3 x num_vertices field (or a flattened one), in the pattern's
+// order.
+Eigen::VectorXd GatherFree(const StiffnessPattern& pattern, const double* field) {
+  Eigen::VectorXd out(pattern.num_dofs());
+  for (int f = 0; f < pattern.num_free_vertices(); ++f) {
+    out.segment<3>(3 * f) = Eigen::Map<const Eigen::Vector3d>(field + 3 * pattern.vertex_of_free(f));
+  }
+  return out;
+}
+
+// Without re-solves, at states that are not equilibria (Prepare only needs K positive
+// definite): a rotated, deformed and actuated bar, its left face fixed. The exact K is
+// checked against differenced forces along random free motions, K_free,fixed (assembled
+// by hand for FixedVertexJacobianProduct) against the forces' change under motions of
+// the fixed vertices, the actuation products against ActuationForceProducts through K,
+// and the adjoint gradient against the products (<dL/da, v> = <dL/dx, dx*/da v>).
+TEST(EquilibriumDifferentiatorTest, ProductsSolveTheirSystemsAtRotatedDeformedStates) {
+  const TetMesh mesh = testing::BarMesh(4, 2, 2, 0.3);
+  const ShapeTargetModel model(mesh, 1.3);
+  const BoundaryConditions bc = testing::LeftFaceFixed(mesh);
+  std::vector<bool> fixed(mesh.num_vertices(), false);
+  for (int v : bc.vertices) fixed[v] = true;
+  std::mt19937 rng(77);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  const int n = mesh.num_vertices();
+  for (const double deformation : {0.02, 0.06}) {
+    Eigen::Matrix3Xd x = mesh.vertices;
+    for (Eigen::Index i = 0; i < x.size(); ++i) x.data()[i] += deformation * normal(rng);
+    x = testing::RandomRotation(&rng) * x;
+    const ActuationMatrix a = testing::RandomActuation(mesh.num_tets(), 0.15, &rng);
+    EquilibriumDifferentiator differentiator(model, fixed);
+    std::string error;
+    ASSERT_TRUE(differentiator.Prepare(x, a, &error)) << error;
+    const StiffnessPattern& pattern = differentiator.factorization().pattern();
+    auto free_gradient_at = [&](const Eigen::Matrix3Xd& y) {
+      Eigen::Matrix3Xd gradient;
+      model.EnergyAndGradient(y, a, &gradient, 1);
+      return GatherFree(pattern, gradient.data());
+    };
+    // K w against differenced forces along a motion w of the free vertices.
+    Eigen::Matrix3Xd w = Eigen::Matrix3Xd::Zero(3, n);
+    for (int v = 0; v < n; ++v) {
+      if (!fixed[v]) w.col(v) = Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
+    }
+    auto along = [&](const Eigen::Matrix3Xd& motion) {
+      return [&, motion](const Eigen::VectorXd& t) -> Eigen::VectorXd {
+        return free_gradient_at(x + t[0] * motion);
+      };
+    };
+    const Eigen::VectorXd one = Eigen::VectorXd::Ones(1), zero = Eigen::VectorXd::Zero(1);
+    EXPECT_LT(testing::RelativeError(
+                  differentiator.factorization().MultiplyAssembled(GatherFree(pattern, w.data())),
+                  testing::CentralDifferenceDirectional(along(w), zero, one, 1e-5)),
+              1e-9)
+        << "deformation " << deformation;
+    // K dx_free = -K_free,fixed m: the forces' change when the fixed vertices move by m.
+    Eigen::MatrixXd motion = Eigen::MatrixXd::Zero(3 * n, 2);
+    for (int v : bc.vertices) {
+      for (int c = 0; c < 2; ++c) {
+        motion.block<3, 1>(3 * v, c) = Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
+      }
+    }
+    const Eigen::MatrixXd dx = differentiator.FixedVertexJacobianProduct(motion);
+    for (int c = 0; c < 2; ++c) {
+      const Eigen::Matrix3Xd m = Eigen::Map<const Eigen::Matrix3Xd>(motion.col(c).data(), 3, n);
+      EXPECT_LT(testing::RelativeError(
+                    differentiator.factorization().MultiplyAssembled(
+                        GatherFree(pattern, dx.col(c).data())),
+                    -testing::CentralDifferenceDirectional(along(m), zero, one, 1e-5)),
+                1e-9)
+          << "deformation " << deformation << ", fixed-vertex motion " << c;
+      for (int v : bc.vertices) {
+        EXPECT_EQ(Eigen::Vector3d(dx.block(3 * v, c, 3, 1)),
+                  Eigen::Vector3d(motion.block(3 * v, c, 3, 1)));
+      }
+    }
+    // K dx*/da v = -B v, and the adjoint's gradient is the products' transpose.
+    Eigen::MatrixXd directions(6 * mesh.num_tets(), 2);
+    for (Eigen::Index i = 0; i < directions.size(); ++i) directions.data()[i] = normal(rng);
+    const Eigen::MatrixXd jvp = differentiator.ActuationJacobianProduct(directions);
+    const Eigen::MatrixXd force_change =
+        ActuationForceProducts(model, pattern, x, a, directions, 1);
+    Eigen::Matrix3Xd dl_dx(3, n);
+    for (Eigen::Index i = 0; i < dl_dx.size(); ++i) dl_dx.data()[i] = normal(rng);
+    const ActuationMatrix dl_da = differentiator.LossGradient(dl_dx);
+    for (int c = 0; c < 2; ++c) {
+      EXPECT_LT(testing::RelativeError(differentiator.factorization().MultiplyAssembled(
+                                           GatherFree(pattern, jvp.col(c).data())),
+                                       force_change.col(c)),
+                1e-12);
+      Eigen::Matrix3Xd free_dl = dl_dx;
+      for (int v : bc.vertices) free_dl.col(v).setZero();
+      const double through_products =
+          Eigen::Map<const Eigen::VectorXd>(free_dl.data(), free_dl.size()).dot(jvp.col(c));
+      const double adjoint =
+          Eigen::Map<const Eigen::VectorXd>(dl_da.data(), dl_da.size()).dot(directions.col(c));
+      EXPECT_NEAR(adjoint, through_products, 1e-10 * (1 + std::abs(through_products)));
+    }
   }
 }
 
