@@ -32,6 +32,8 @@ PretrainOptions SyntheticPretrainOptions(const SyntheticBarSpec& spec) {
   pretrain.spec.latent_dim = spec.latent_dim;
   pretrain.spec.hidden_dims = {spec.hidden};
   pretrain.spec.activation = spec.activation;
+  pretrain.spec.anchored = spec.anchored;
+  pretrain.spec.linear_skip = spec.linear_skip;
   pretrain.field.node_spacing = spec.node_spacing;
   pretrain.max_iterations = spec.pretrain_iterations;
   pretrain.decoder_regularization = spec.decoder_regularization;

@@ -24,6 +24,8 @@ struct SyntheticBarSpec {
   int latent_dim = 2;
   int hidden = 8;                 // one hidden layer of this many units
   Activation activation = Activation::kElu;
+  bool anchored = false;          // DecoderSpec::anchored
+  bool linear_skip = false;       // DecoderSpec::linear_skip
   double node_spacing = 0.5;      // control nodes this far apart
   int pretrain_iterations = 30;
   double decoder_regularization = 0.0;  // PretrainOptions' weight decay
