@@ -49,7 +49,7 @@ class DecoderTest : public ::testing::TestWithParam<bool> {
   bool per_element() const { return GetParam(); }
 
   ActuationDecoder MakeDecoder(Activation activation = Activation::kTanh,
-                               bool linear_skip = false) const {
+                               bool linear_skip = false, bool anchored = false) const {
     GridActuationFieldOptions options;
     options.node_spacing = 0.6;
     options.per_element = per_element();
@@ -58,6 +58,7 @@ class DecoderTest : public ::testing::TestWithParam<bool> {
     spec.hidden_dims = {6, 5};
     spec.activation = activation;
     spec.linear_skip = linear_skip;
+    spec.anchored = anchored;
     return ActuationDecoder(spec, GridActuationField(mesh_, options));
   }
 
@@ -280,48 +281,63 @@ TEST_P(DecoderTest, SaveLoadRoundTripIsBitForBit) {
   EXPECT_EQ(a1, a2);
 }
 
+// The linear skip, plain and anchored at the origin (the demo's decoder form): latent
+// Jacobian and parameter gradient (the skip weights and, anchored, the mlp(0) term
+// included) against central differences; anchored, z = 0 decodes to the identity for
+// any parameters; the file keeps both flags and the weights.
 TEST_P(DecoderTest, LinearSkipJacobianMatchesFiniteDifferencesAndRoundTrips) {
-  const ActuationDecoder decoder = MakeDecoder(Activation::kElu, /*linear_skip=*/true);
-  EXPECT_EQ(decoder.num_parameters(),
-            6 * 4 + 5 * 7 + 6 * decoder.num_nodes() * 6 + 6 * decoder.num_nodes() * 3);
-  std::mt19937 rng(37);
-  const Eigen::VectorXd params = RandomMatrix(decoder.num_parameters(), 1, 0.5, &rng);
-  const Eigen::VectorXd z = RandomMatrix(3, 1, 1.0, &rng);
-  auto decode = [&](const Eigen::VectorXd& latent) {
-    DecoderWorkspace w;
+  for (const bool anchored : {false, true}) {
+    SCOPED_TRACE(anchored ? "anchored" : "plain");
+    const ActuationDecoder decoder = MakeDecoder(Activation::kElu, /*linear_skip=*/true, anchored);
+    EXPECT_EQ(decoder.num_parameters(),
+              6 * 4 + 5 * 7 + 6 * decoder.num_nodes() * 6 + 6 * decoder.num_nodes() * 3);
+    std::mt19937 rng(anchored ? 38 : 37);
+    const Eigen::VectorXd params = RandomMatrix(decoder.num_parameters(), 1, 0.5, &rng);
+    const Eigen::VectorXd z = RandomMatrix(3, 1, 1.0, &rng);
+    auto decode = [&](const Eigen::VectorXd& latent) {
+      DecoderWorkspace w;
+      ActuationMatrix a;
+      decoder.Decode(params.data(), latent, &a, &w);
+      return Eigen::VectorXd(Flat(a));
+    };
+    const Eigen::MatrixXd jacobian = decoder.ActuationJacobian(params.data(), z);
+    EXPECT_LT(testing::RelativeError(jacobian, testing::CentralDifferenceJacobian(decode, z, 1e-4)),
+              1e-9);
+    const Eigen::VectorXd at_origin = decode(Eigen::VectorXd::Zero(3));
+    const Eigen::VectorXd identity = Flat(IdentityActuations(decoder.num_elements()));
+    if (anchored) {
+      EXPECT_LT((at_origin - identity).cwiseAbs().maxCoeff(), 1e-15);
+    } else {
+      EXPECT_GT((at_origin - identity).cwiseAbs().maxCoeff(), 1e-3);
+    }
+    // Parameter gradient of L = <probe, a(z)>, the skip weights included.
+    const ActuationMatrix probe = RandomMatrix(6, decoder.num_elements(), 1.0, &rng);
+    DecoderWorkspace workspace;
     ActuationMatrix a;
-    decoder.Decode(params.data(), latent, &a, &w);
-    return Eigen::VectorXd(Flat(a));
-  };
-  const Eigen::MatrixXd jacobian = decoder.ActuationJacobian(params.data(), z);
-  EXPECT_LT(testing::RelativeError(jacobian, testing::CentralDifferenceJacobian(decode, z, 1e-4)),
-            1e-9);
-  // Parameter gradient of L = <probe, a(z)>, the skip weights included.
-  const ActuationMatrix probe = RandomMatrix(6, decoder.num_elements(), 1.0, &rng);
-  DecoderWorkspace workspace;
-  ActuationMatrix a;
-  decoder.Decode(params.data(), z, &a, &workspace);
-  Eigen::VectorXd gradient = Eigen::VectorXd::Zero(decoder.num_parameters());
-  decoder.Backward(params.data(), workspace, probe, gradient.data(), nullptr);
-  auto loss = [&](const Eigen::VectorXd& p) {
-    DecoderWorkspace w;
-    ActuationMatrix decoded;
-    decoder.Decode(p.data(), z, &decoded, &w);
-    return Flat(decoded).dot(Flat(probe));
-  };
-  const Eigen::VectorXd numeric = testing::CentralDifferenceGradient(loss, params, 1e-4);
-  EXPECT_LT(testing::RelativeError(gradient, numeric), 1e-9);
-  const Eigen::Index skip = decoder.mlp().skip_offset();
-  EXPECT_GT(numeric.tail(decoder.num_parameters() - skip).norm(), 1e-2);
-  // The file keeps the flag and the skip weights.
-  testing::TempDir dir;
-  const std::string path = dir.File("decoder.txt");
-  DecoderSpec spec;
-  GridFieldDescription field;
-  Eigen::VectorXd loaded;
-  ASSERT_NO_FATAL_FAILURE(SaveAndLoad(decoder, params, path, &spec, &field, &loaded));
-  EXPECT_TRUE(spec.linear_skip);
-  EXPECT_EQ(std::memcmp(loaded.data(), params.data(), sizeof(double) * params.size()), 0);
+    decoder.Decode(params.data(), z, &a, &workspace);
+    Eigen::VectorXd gradient = Eigen::VectorXd::Zero(decoder.num_parameters());
+    decoder.Backward(params.data(), workspace, probe, gradient.data(), nullptr);
+    auto loss = [&](const Eigen::VectorXd& p) {
+      DecoderWorkspace w;
+      ActuationMatrix decoded;
+      decoder.Decode(p.data(), z, &decoded, &w);
+      return Flat(decoded).dot(Flat(probe));
+    };
+    const Eigen::VectorXd numeric = testing::CentralDifferenceGradient(loss, params, 1e-4);
+    EXPECT_LT(testing::RelativeError(gradient, numeric), 1e-9);
+    const Eigen::Index skip = decoder.mlp().skip_offset();
+    EXPECT_GT(numeric.tail(decoder.num_parameters() - skip).norm(), 1e-2);
+    // The file keeps the flags and the weights.
+    testing::TempDir dir;
+    const std::string path = dir.File("decoder.txt");
+    DecoderSpec spec;
+    GridFieldDescription field;
+    Eigen::VectorXd loaded;
+    ASSERT_NO_FATAL_FAILURE(SaveAndLoad(decoder, params, path, &spec, &field, &loaded));
+    EXPECT_TRUE(spec.linear_skip);
+    EXPECT_EQ(spec.anchored, anchored);
+    EXPECT_EQ(std::memcmp(loaded.data(), params.data(), sizeof(double) * params.size()), 0);
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(GridAndPerElement, DecoderTest, ::testing::Bool(),
