@@ -28,6 +28,11 @@ TEST(EdgeDistanceTest, GradientAndClosestPointsMatch) {
       x.segment<3>(9) = x.segment<3>(6) + 1.3 * (x.segment<3>(3) - x.segment<3>(0)) +
                         0.2 * Eigen::Vector3d(normal(rng), normal(rng), normal(rng)).normalized() *
                             (x.segment<3>(3) - x.segment<3>(0)).norm();
+    } else if (trial % 4 == 1) {
+      // Just above the fade's lower end (sine about 0.06).
+      x.segment<3>(9) = x.segment<3>(6) + 1.0 * (x.segment<3>(3) - x.segment<3>(0)) +
+                        0.06 * Eigen::Vector3d(normal(rng), normal(rng), normal(rng)).normalized() *
+                            (x.segment<3>(3) - x.segment<3>(0)).norm();
     }
     auto s_of = [](const Eigen::VectorXd& v) {
       double s = 0;
@@ -70,13 +75,17 @@ TEST(EdgeDistanceTest, HessianMatchesFiniteDifferences) {
                        &s, &g, nullptr, nullptr));
     return Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>(g.data(), 12));
   };
-  // Random edges, and nearly parallel ones (sine about 0.1).
+  // Random edges, and nearly parallel ones (sine about 0.1 and 0.05).
   for (int trial = 0; trial < 20; ++trial) {
     Eigen::VectorXd x(12);
     for (int i = 0; i < 12; ++i) x[i] = normal(rng);
     if (trial % 4 == 3) {
       x.segment<3>(9) = x.segment<3>(6) + 0.9 * (x.segment<3>(3) - x.segment<3>(0)) +
                         0.1 * Eigen::Vector3d(normal(rng), normal(rng), normal(rng)).normalized() *
+                            (x.segment<3>(3) - x.segment<3>(0)).norm();
+    } else if (trial % 4 == 1) {  // sine about 0.05, the fade's lower end
+      x.segment<3>(9) = x.segment<3>(6) + 1.0 * (x.segment<3>(3) - x.segment<3>(0)) +
+                        0.05 * Eigen::Vector3d(normal(rng), normal(rng), normal(rng)).normalized() *
                             (x.segment<3>(3) - x.segment<3>(0)).norm();
     }
     Eigen::Matrix<double, 12, 12> hessian;
