@@ -66,6 +66,31 @@ TEST(PolarTest, DerivativeMatchesFiniteDifferences) {
   }
 }
 
+// Closer to the clamp than the shared near-degenerate states (sigma_2 + sigma_3 = 1e-3 of
+// sigma_1 = 1.5 and more): sums of 1e-4 down to 3e-6 (the clamp is kPolarDegenerateRatio
+// sigma_1 = 1.5e-6). The rotation turns at a rate 2 / (sigma_2 + sigma_3), up to 7e5
+// here, and its derivative stays exact; differences must step well inside the gap.
+TEST(PolarTest, DerivativeHoldsCloseToTheClamp) {
+  std::mt19937 rng(9);
+  for (const double gap : {1e-4, 1e-5, 3e-6}) {
+    const Eigen::Vector3d sigma(1.5, 0.6, -(0.6 - gap));
+    const Eigen::Matrix3d g = testing::RandomRotation(&rng) * sigma.asDiagonal() *
+                              testing::RandomRotation(&rng).transpose();
+    const RotationVariantSvd svd = ComputeRotationVariantSvd(g);
+    ASSERT_NEAR(svd.sigma[1] + svd.sigma[2], gap, 1e-9) << gap;
+    ASSERT_GT(svd.sigma[1] + svd.sigma[2], kPolarDegenerateRatio * svd.sigma[0]);
+    const PolarTwists twists = ComputePolarTwists(svd);
+    EXPECT_NEAR(twists.gain.maxCoeff(), 2.0 / gap, 1e-4 * (2.0 / gap)) << gap;
+    Eigen::Matrix<double, 9, 9> analytic;
+    for (int j = 0; j < 9; ++j) {
+      analytic.col(j) = VecRowMajor(
+          PolarRotationDerivative(twists, UnvecRowMajor(Vector9d::Unit(j))));
+    }
+    const Eigen::MatrixXd numeric = CentralDifferenceJacobian(RotationOf, VecRowMajor(g), 1e-3 * gap);
+    EXPECT_LT(RelativeError(analytic, numeric), 1e-6) << "sigma_2 + sigma_3 = " << gap;
+  }
+}
+
 TEST(PolarTest, ExactlyDegenerateStateIsFinite) {
   // G = diag(1, 1, -1): sigma_1 + sigma_2 = 0, the rotation is not unique.
   const Eigen::Matrix3d g = Eigen::Vector3d(1, 1, -1).asDiagonal();
