@@ -1,5 +1,6 @@
 #include "diff/equilibrium_differentiator.h"
 
+#include <cmath>
 #include <cstdio>
 #include <memory>
 #include <random>
@@ -124,13 +125,17 @@ TEST(EquilibriumDifferentiatorTest, FullGradientMatchesResolvedEquilibria) {
               static_cast<int>(numeric.size()), error_value);
 }
 
-TEST(EquilibriumDifferentiatorTest, DirectionalGradientAndJacobianProductsOnLargerBar) {
-  const TetMesh mesh = testing::BarMesh(6, 3, 2, 0.3);
+// At the equilibrium of actuation a on `mesh` (left face fixed), reached from rest: the
+// adjoint's directional gradient of L = 1/2 |x - y|^2 and the Jacobian products for k
+// random directions against central differences of re-solved equilibria.
+// The equilibrium in *equilibrium if not null.
+void ExpectProductsMatchResolvedEquilibria(const TetMesh& mesh, const ActuationMatrix& a, int k,
+                                           unsigned seed, Eigen::Matrix3Xd* equilibrium = nullptr) {
   const ShapeTargetModel model(mesh, 1.0);
   QuasistaticSolver solver(model, testing::LeftFaceFixed(mesh), SolverOptions());
-  std::mt19937 rng(19);
-  const ActuationMatrix a = testing::SmoothActuation(mesh, 0.25);
+  std::mt19937 rng(seed);
   const Eigen::Matrix3Xd x = Equilibrium(&solver, a, mesh.vertices);
+  if (equilibrium != nullptr) *equilibrium = x;
   const Eigen::Matrix3Xd y = x + 0.05 * Eigen::Matrix3Xd::Random(3, x.cols());
 
   EquilibriumDifferentiator differentiator(model, solver.fixed_mask());
@@ -138,8 +143,6 @@ TEST(EquilibriumDifferentiatorTest, DirectionalGradientAndJacobianProductsOnLarg
   ASSERT_TRUE(differentiator.Prepare(x, a, &error)) << error;
   const ActuationMatrix gradient = differentiator.LossGradient(x - y);
 
-  // Three random directions: gradient . v and dx*/da v against re-solved equilibria.
-  const int k = 3;
   Eigen::MatrixXd directions(6 * mesh.num_tets(), k);
   for (int i = 0; i < directions.size(); ++i) {
     directions.data()[i] = std::uniform_real_distribution<double>(-1, 1)(rng);
@@ -167,6 +170,35 @@ TEST(EquilibriumDifferentiatorTest, DirectionalGradientAndJacobianProductsOnLarg
   }
   // Fixed vertices do not move.
   for (int v : solver.fixed_vertices()) EXPECT_EQ(jvp.block(3 * v, 0, 3, k).norm(), 0.0);
+}
+
+TEST(EquilibriumDifferentiatorTest, DirectionalGradientAndJacobianProductsOnLargerBar) {
+  const TetMesh mesh = testing::BarMesh(6, 3, 2, 0.3);
+  ExpectProductsMatchResolvedEquilibria(mesh, testing::SmoothActuation(mesh, 0.25), 3, 19);
+}
+
+// The same far from rest: a bar curled until its free end has turned by tens of
+// degrees (large rotations of every element), with random actuation on top.
+TEST(EquilibriumDifferentiatorTest, ProductsMatchResolvedEquilibriaOfACurledBar) {
+  const TetMesh mesh = testing::BarMesh(8, 2, 2, 0.4);
+  std::mt19937 rng(23);
+  const ActuationMatrix a = testing::CurlActuation(mesh, 0.4) +
+                            testing::RandomActuation(mesh.num_tets(), 0.03, &rng) -
+                            IdentityActuations(mesh.num_tets());
+  Eigen::Matrix3Xd x;
+  ExpectProductsMatchResolvedEquilibria(mesh, a, 2, 29, &x);
+  // A real curl: the line from the fixed face's centre to the free face's has turned.
+  const double length = mesh.vertices.row(0).maxCoeff();
+  Eigen::Vector3d tip = Eigen::Vector3d::Zero(), root = Eigen::Vector3d::Zero();
+  int tips = 0, roots = 0;
+  for (int v = 0; v < mesh.num_vertices(); ++v) {
+    if (mesh.vertices(0, v) > length - 1e-9) tip += x.col(v), ++tips;
+    if (mesh.vertices(0, v) < 1e-9) root += x.col(v), ++roots;
+  }
+  const Eigen::Vector3d axis = tip / tips - root / roots;
+  const double degrees = std::acos(axis.x() / axis.norm()) * 180.0 / M_PI;
+  EXPECT_GT(degrees, 30.0);
+  std::printf("curled bar: its axis turned by %.1f degrees\n", degrees);
 }
 
 TEST(EquilibriumDifferentiatorTest, FixedVertexProductsMatchResolvedEquilibria) {
