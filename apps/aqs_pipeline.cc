@@ -1,4 +1,5 @@
-// aqs_pipeline: the stages from one flagfile: prepare, pre-train, train, evaluate. Every stage's flags are accepted; --stages picks which run.
+// aqs_pipeline: the stages from one flagfile: prepare, pre-train, train, evaluate. Every
+// stage's flags are accepted; --stages picks which run (jobs/pipeline_stages.h).
 // Run again after a stop, it goes on: prepare and pre-training keep a model made from the
 // same inputs and flags (--restart: anew), training and the evaluation resume.
 // A stage that fails stops the pipeline with its message and its exit status: 1 bad
@@ -8,7 +9,6 @@
 // pose) with the other ranks; training shares the poses among all ranks, and the
 // evaluation's fits of held-out poses are shared too; rank 0 alone logs and writes.
 
-#include <algorithm>
 #include <filesystem>
 #include <iostream>
 #include <sstream>
@@ -17,10 +17,10 @@
 
 #include "app_common.h"
 #include "jobs/learning_jobs.h"
+#include "jobs/pipeline_stages.h"
 #include "evaluate_flags.h"
 #include "learning_flags.h"
 #include "mpi_flags.h"
-#include "model/model_directory.h"
 #include "prepare_flags.h"
 #include "util/input_file.h"
 #include "util/wall_timer.h"
@@ -95,26 +95,11 @@ int main(int argc, char** argv) {
   std::ostream& out = root ? std::cout : quiet;
   aqs::WallTimer total;
   std::string error;
-  const std::vector<std::string> stages = aqs::SplitList(FLAGS_stages);
+  aqs::PipelineStages plan;
   // Every stage is checked before the first runs: a typo after "prepare" must not be
   // found only once prepare has replaced a trained model.
   {
-    static const std::vector<std::string> kOrder = {"prepare", "pretrain", "train", "evaluate"};
-    int last = -1;
-    for (const std::string& stage : stages) {
-      const auto known = std::find(kOrder.begin(), kOrder.end(), stage);
-      if (known == kOrder.end()) {
-        error = "--stages: unknown stage '" + stage +
-                "' (known: prepare, pretrain, train, evaluate)";
-      } else if (known - kOrder.begin() <= last) {
-        error = "--stages: '" + stage + "' after a later stage or twice (the order is prepare, "
-                "pretrain, train, evaluate)";
-      }
-      if (!error.empty()) break;
-      last = static_cast<int>(known - kOrder.begin());
-    }
-    if (error.empty() && stages.empty()) error = "--stages: no stage given";
-    if (!error.empty()) {
+    if (!aqs::ParsePipelineStages(aqs::SplitList(FLAGS_stages), &plan, &error)) {
       aqs::PrintRankError(ranks.get(), error);
       return 1;
     }
@@ -122,10 +107,10 @@ int main(int argc, char** argv) {
     // pre-training to finish. On rank 0, which alone reads prepare's and pre-training's
     // inputs; the other ranks agree with it.
     bool ok = true;
-    for (size_t k = 0; root && ok && k < stages.size(); ++k) {
+    for (size_t k = 0; root && ok && k < plan.stages.size(); ++k) {
       StageOptions options;
-      if (!ReadStageOptions(stages[k], true, &options, &error)) {
-        error = stages[k] + ": " + aqs::FlagError(error, options.flags);
+      if (!ReadStageOptions(plan.stages[k], true, &options, &error)) {
+        error = plan.stages[k] + ": " + aqs::FlagError(error, options.flags);
         ok = false;
       }
     }
@@ -136,23 +121,8 @@ int main(int argc, char** argv) {
     }
   }
   // The stages that write the model run under one hold of its writers' lock.
-  bool writes = false, prepares = false;
-  for (const std::string& stage : stages) {
-    writes |= stage == "prepare" || stage == "pretrain" || stage == "train";
-    prepares |= stage == "prepare";
-  }
   aqs::PathLock lock;
-  bool locked = true;
-  if (root && writes && !FLAGS_model.empty()) {
-    std::string model = FLAGS_model;
-    while (model.size() > 1 && model.back() == '/') model.pop_back();
-    std::error_code code;
-    const std::filesystem::path parent =
-        std::filesystem::absolute(model, code).lexically_normal().parent_path();
-    if (prepares) std::filesystem::create_directories(parent, code);
-    locked = !std::filesystem::is_directory(parent, code) ||
-             aqs::LockModelForWriting(model, &std::cout, &lock, &error);
-  }
+  bool locked = !root || aqs::LockPipelineModel(plan, FLAGS_model, &std::cout, &lock, &error);
   if (ranks != nullptr) locked = ranks->Agree(locked, &error);
   if (!locked) {
     aqs::PrintRankError(ranks.get(), error);
@@ -164,7 +134,7 @@ int main(int argc, char** argv) {
                         : "; a model made from the same inputs and flags is kept, and stopped "
                           "work resumes (--restart: start anew)")
       << "\n";
-  for (const std::string& stage : stages) {
+  for (const std::string& stage : plan.stages) {
     out << "=== " << stage << "\n" << std::flush;
     aqs::WallTimer timer;
     bool ok = false;
