@@ -1,12 +1,16 @@
 // MatchPointCloud (fit/point_cloud_matching.h): closest points of a scan on a surface,
 // with robust weights and the matched triangles' normals; CloudDataTerm, the scan fit's
-// data term.
+// data term; RobustDistance and its slope.
 
 #include "fit/point_cloud_matching.h"
 
 #include <cmath>
+#include <string>
 
+#include <Eigen/Core>
 #include <gtest/gtest.h>
+
+#include "testing/finite_difference.h"
 
 namespace aqs {
 namespace {
@@ -96,6 +100,30 @@ TEST_F(PointCloudMatchingTest, CloudDataTermIsTheMeanRobustSquaredDistanceCapped
   EXPECT_NEAR(CloudDataTerm(points_, surface_, triangles_, options, 1, &within),
               (0.01 + 0.25 + 4.0) / 4, 1e-12);
   EXPECT_EQ(within, 4);
+}
+
+TEST(RobustDistanceTest, SlopeMatchesCentralDifferences) {
+  // Across the Cauchy knee (|d| = s), far beyond it, at 0 and on both sides; for s <= 0
+  // (plain least squares) R(d) = d and the slope is 1.
+  for (const double s : {0.03, 1.0, 0.0, -0.5}) {
+    const double unit = s > 0 ? s : 1.0;
+    for (const double t : {-5.0, -1.0, -0.3, 0.0, 0.5, 1.0, 5.0}) {
+      const double d = t * unit;
+      SCOPED_TRACE("s " + std::to_string(s) + ", d " + std::to_string(d));
+      double slope = 0;
+      const double r = RobustDistance(d, s, &slope);
+      EXPECT_EQ(RobustDistance(d, s, nullptr), r);
+      if (s <= 0) {
+        EXPECT_EQ(r, d);
+        EXPECT_EQ(slope, 1.0);
+      }
+      auto robust = [s](const Eigen::VectorXd& x) { return RobustDistance(x[0], s, nullptr); };
+      const double differenced = testing::CentralDifferenceGradient(
+          robust, Eigen::VectorXd::Constant(1, d), 1e-3 * unit)[0];
+      // Measured: at most 1.5e-12 (slopes are at most 1).
+      EXPECT_NEAR(slope, differenced, 1.5e-10);
+    }
+  }
 }
 
 }  // namespace

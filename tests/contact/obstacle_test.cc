@@ -1,0 +1,100 @@
+// Obstacle::SignedDistance (contact/obstacle.h): the signed distance to a closed surface and
+// its gradient, on a rotated box near its faces, edges and corners.
+
+#include "contact/obstacle.h"
+
+#include <random>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <gtest/gtest.h>
+
+#include "testing/contact_scenes.h"
+#include "testing/element_states.h"
+#include "testing/finite_difference.h"
+
+namespace aqs {
+namespace {
+
+// A probe in the box's own frame (the box [0, 2] x [0, 1] x [0, 1]) with its closed-form
+// signed distance and gradient there. Every probe lies at least 0.02 from the boundaries of
+// its closest feature's region (and, inside, from the bisector of two faces), so the
+// differencing steps stay where the distance is smooth.
+struct Probe {
+  std::string name;
+  Eigen::Vector3d local;
+  double distance;
+  Eigen::Vector3d gradient;  // local frame
+};
+
+std::vector<Probe> BoxProbes() {
+  return {
+      {"outside near the face z = 1", Eigen::Vector3d(0.7, 0.3, 1.05), 0.05,
+       Eigen::Vector3d(0, 0, 1)},
+      // Closest point (0.8, 1, 1) on the edge y = z = 1.
+      {"outside near the edge y = z = 1", Eigen::Vector3d(0.8, 1.03, 1.04), 0.05,
+       Eigen::Vector3d(0, 0.6, 0.8)},
+      // Closest point: the corner (2, 1, 1).
+      {"outside near the corner (2, 1, 1)", Eigen::Vector3d(2.02, 1.03, 1.06), 0.07,
+       Eigen::Vector3d(2, 3, 6) / 7},
+      {"inside near the face z = 1", Eigen::Vector3d(0.8, 0.4, 0.95), -0.05,
+       Eigen::Vector3d(0, 0, 1)},
+      // 0.03 from the face y = 1, 0.08 from the face z = 1: the closest point is on y = 1.
+      {"inside near the edge y = z = 1", Eigen::Vector3d(0.8, 0.97, 0.92), -0.03,
+       Eigen::Vector3d(0, 1, 0)},
+  };
+}
+
+TEST(ObstacleTest, SignedDistanceGradientOnARotatedBox) {
+  std::mt19937 rng(5);
+  for (int trial = 0; trial < 3; ++trial) {
+    const Eigen::Matrix3d rotation = testing::RandomRotation(&rng);
+    const Eigen::Vector3d shift(0.3 * trial, -0.2, 0.5);
+    Eigen::Matrix3Xd v;
+    Eigen::Matrix3Xi t;
+    testing::BoxSurface(Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(2, 1, 1), &v, &t);
+    v = (rotation * v).colwise() + shift;
+    const Obstacle box("box", v, t);
+    for (const Probe& probe : BoxProbes()) {
+      SCOPED_TRACE("trial " + std::to_string(trial) + ": " + probe.name);
+      const Eigen::Vector3d p = rotation * probe.local + shift;
+      Eigen::Vector3d gradient;
+      const double d = box.SignedDistance(p, &gradient);
+      EXPECT_NEAR(d, probe.distance, 1e-12);
+      EXPECT_EQ(d > 0, probe.distance > 0) << "positive outside, negative inside";
+      EXPECT_NEAR(gradient.norm(), 1.0, 1e-12);
+      EXPECT_LT((gradient - rotation * probe.gradient).norm(), 1e-12)
+          << "gradient " << gradient.transpose() << ", expected "
+          << (rotation * probe.gradient).transpose();
+      auto distance = [&box](const Eigen::VectorXd& q) {
+        Eigen::Vector3d unused;
+        return box.SignedDistance(q, &unused);
+      };
+      const Eigen::VectorXd differenced = testing::CentralDifferenceGradient(distance, p, 1e-6);
+      const double error = testing::RelativeError(gradient, differenced);
+      // Measured: at most 2.4e-10 (round-off: distances of ~1e-2 at coordinates of ~2).
+      EXPECT_LT(error, 3e-8) << "differenced " << differenced.transpose();
+    }
+  }
+}
+
+TEST(ObstacleTest, BeyondMaxDistanceIsTheCapWithAZeroGradient) {
+  std::mt19937 rng(8);
+  const Eigen::Matrix3d rotation = testing::RandomRotation(&rng);
+  Eigen::Matrix3Xd v;
+  Eigen::Matrix3Xi t;
+  testing::BoxSurface(Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(2, 1, 1), &v, &t);
+  const Obstacle box("box", rotation * v, t);
+  // 0.5 above the face z = 1.
+  const Eigen::Vector3d p = rotation * Eigen::Vector3d(1.2, 0.4, 1.5);
+  Eigen::Vector3d gradient;
+  EXPECT_EQ(box.SignedDistance(p, &gradient, 0.3), 0.3);
+  EXPECT_EQ(gradient, Eigen::Vector3d::Zero());
+  // Within the cap: the full answer.
+  EXPECT_NEAR(box.SignedDistance(p, &gradient, 0.6), 0.5, 1e-12);
+  EXPECT_LT((gradient - rotation.col(2)).norm(), 1e-12);
+}
+
+}  // namespace
+}  // namespace aqs
