@@ -28,39 +28,72 @@ namespace {
 
 ActiveModel TrainedModel(bool with_bone) { return testing::PretrainedBarForFits(with_bone); }
 
+// The correspondence cost's Jacobians (latent and bone blocks) against Ridders'
+// differences of re-solved equilibria: point-to-point, point-to-plane with normals as
+// scans use, and with unequal weights; at a training latent with a small bone motion,
+// and off the training latents with a large one (0.7 rad, translations of 0.1); and,
+// without bones fitted, the latent block alone.
 TEST(LatentFitTest, CostJacobianPassesGradientChecker) {
   const ActiveModel model = TrainedModel(true);
-  LatentFitOptions options;
-  options.solver.relative_force_tolerance = 1e-12;  // Newton reaches round-off
-  LatentFitter fitter(model, options);
   // Targets: a few vertices at some positions (their values do not matter for the check).
   std::vector<int> vertices = {3, 20, 41, 57, 77};
   Eigen::Matrix3Xd positions = model.neutral.vertices(Eigen::all, vertices);
   const FitTarget target = VertexTarget(vertices, positions);
-  // Point-to-point, and point-to-plane with normals as scans use.
   FitTarget plane_target = target;
   plane_target.normals = Eigen::Matrix3Xd::Random(3, 5).colwise().normalized();
   plane_target.tangential_weight = 0.2;
-  for (const FitTarget* checked : std::vector<const FitTarget*>{&target, &plane_target}) {
-  std::unique_ptr<ceres::CostFunction> cost(fitter.NewCostFunction(*checked));
-  ASSERT_EQ(cost->parameter_block_sizes().size(), 2u);
-  Eigen::VectorXd z = model.latents.col(2);
-  double bone[6] = {0.05, -0.03, 0.02, 0.01, 0.02, -0.01};
-  const double* parameters[2] = {z.data(), bone};
-  ceres::NumericDiffOptions numeric_options;
-  numeric_options.ridders_relative_initial_step_size = 1e-3;
-  const std::vector<const ceres::Manifold*>* no_manifolds = nullptr;
-  ceres::GradientChecker checker(cost.get(), no_manifolds, numeric_options);
-  ceres::GradientChecker::ProbeResults results;
-  checker.Probe(parameters, 1e-6, &results);
-  // Entry-wise relative errors flag exact zeros (rigid translations leave some residual
-  // components unchanged): compare each block relative to its largest entry instead.
-  ASSERT_EQ(results.jacobians.size(), 2u);
-  for (int block = 0; block < 2; ++block) {
-    EXPECT_LT(testing::RelativeError(results.jacobians[block], results.numeric_jacobians[block]),
+  FitTarget weighted_target = plane_target;
+  weighted_target.weights.resize(5);
+  weighted_target.weights << 0.2, 1.0, 3.0, 0.5, 1.7;
+  struct State {
+    std::string name;
+    Eigen::VectorXd z;
+    std::vector<double> bone;
+  };
+  std::mt19937 rng(71);
+  std::normal_distribution<double> normal(0.0, 0.3);
+  Eigen::VectorXd off_training = model.latents.col(model.num_poses() - 1);
+  for (Eigen::Index i = 0; i < off_training.size(); ++i) off_training[i] += normal(rng);
+  const std::vector<State> states = {
+      {"training latent, small bone motion", model.latents.col(2),
+       {0.05, -0.03, 0.02, 0.01, 0.02, -0.01}},
+      {"off the training latents, large bone motion", off_training,
+       {0.5, -0.4, 0.3, 0.1, 0.0, -0.05}}};
+  for (const bool fit_bones : {true, false}) {
+    LatentFitOptions options;
+    options.solver.relative_force_tolerance = 1e-12;  // Newton reaches round-off
+    options.fit_bones = fit_bones;
+    LatentFitter fitter(model, options);
+    const int blocks = fit_bones ? 2 : 1;
+    for (const State& state : states) {
+      if (!fit_bones && state.name != states[0].name) continue;
+      for (const FitTarget* checked :
+           std::vector<const FitTarget*>{&target, &plane_target, &weighted_target}) {
+        SCOPED_TRACE(state.name + (fit_bones ? "" : ", bones not fitted") + ", target " +
+                     std::to_string(checked == &target ? 0 : checked == &plane_target ? 1 : 2));
+        std::unique_ptr<ceres::CostFunction> cost(fitter.NewCostFunction(*checked));
+        ASSERT_EQ(static_cast<int>(cost->parameter_block_sizes().size()), blocks);
+        std::vector<double> bone = state.bone;
+        const double* parameters[2] = {state.z.data(), bone.data()};
+        ceres::NumericDiffOptions numeric_options;
+        numeric_options.ridders_relative_initial_step_size = 1e-3;
+        const std::vector<const ceres::Manifold*>* no_manifolds = nullptr;
+        ceres::GradientChecker checker(cost.get(), no_manifolds, numeric_options);
+        ceres::GradientChecker::ProbeResults results;
+        checker.Probe(parameters, 1e-6, &results);
+        // Entry-wise relative errors flag exact zeros (rigid translations leave some
+        // residual components unchanged): compare each block relative to its largest
+        // entry instead.
+        ASSERT_EQ(static_cast<int>(results.jacobians.size()), blocks);
+        for (int block = 0; block < blocks; ++block) {
+          EXPECT_LT(
+              testing::RelativeError(results.jacobians[block], results.numeric_jacobians[block]),
               1e-6)
-        << "block " << block << "\n" << results.error_log;
-  }
+              << "block " << block << "\n"
+              << results.error_log;
+        }
+      }
+    }
   }
 }
 
