@@ -337,6 +337,54 @@ TEST(EquilibriumDifferentiatorTest, ProductsSolveTheirSystemsAtRotatedDeformedSt
   }
 }
 
+// The deferred adjoint (options.reuse): with a factor of a nearby state in the shared
+// factorization, Prepare only assembles K and the gradient comes from CG preconditioned
+// by that factor, without a factorization, to the CG tolerance of the exact one. From the
+// rest state's factor CG gives up within its iterations and K is factorized: the same
+// gradient again.
+TEST(EquilibriumDifferentiatorTest, DeferredAdjointReusesANearbyFactor) {
+  const AdjointScene scene = MakeAdjointScene(5, 41, true);
+  const ShapeTargetModel& model = *scene.model;
+  EquilibriumDifferentiator exact(model, scene.solver->fixed_mask());
+  std::string error;
+  ASSERT_TRUE(exact.Prepare(scene.x, scene.a, &error)) << error;
+  const ActuationMatrix reference = exact.LossGradient(scene.x - scene.y);
+
+  EquilibriumDifferentiatorOptions options;
+  options.reuse.max_iterations = 20;
+  options.reuse.relative_tolerance = 1e-12;
+  for (const bool nearby : {true, false}) {
+    SCOPED_TRACE(nearby ? "a factor 1e-3 away" : "the factor of the rest state");
+    StiffnessFactorization shared(model, scene.solver->fixed_mask(), 1);
+    std::mt19937 rng(43);
+    std::normal_distribution<double> normal(0.0, 1e-3);
+    Eigen::Matrix3Xd x = scene.x;
+    ActuationMatrix a = scene.a;
+    if (nearby) {
+      for (Eigen::Index i = 0; i < x.size(); ++i) x.data()[i] += normal(rng);
+      for (Eigen::Index i = 0; i < a.size(); ++i) a.data()[i] += normal(rng);
+    } else {
+      x = scene.mesh.vertices;
+      a = IdentityActuations(model.num_elements());
+    }
+    ASSERT_TRUE(shared.Factorize(x, a, StiffnessKind::kExact, &error)) << error;
+    shared.ResetCounters();
+    EquilibriumDifferentiator deferred(&shared, options);
+    ASSERT_TRUE(deferred.Prepare(scene.x, scene.a, &error)) << error;
+    ActuationMatrix gradient;
+    ASSERT_TRUE(deferred.LossGradient(scene.x - scene.y, &gradient, &error)) << error;
+    EXPECT_LT(testing::RelativeError(gradient, reference), 1e-9);
+    if (nearby) {
+      EXPECT_EQ(shared.counters().factorizations, 0);
+      EXPECT_EQ(shared.counters().reused_solves, 1);
+      EXPECT_GT(shared.counters().cg_iterations, 0);
+    } else {
+      EXPECT_EQ(shared.counters().factorizations, 1);
+      EXPECT_EQ(shared.counters().failed_reuses, 1);
+    }
+  }
+}
+
 TEST(NewtonRefinementTest, ConvergesQuadraticallyFromSolverResult) {
   const TetMesh mesh = testing::BarMesh(5, 2, 2, 0.4);
   const ShapeTargetModel model(mesh, 1.0);
