@@ -587,6 +587,28 @@ TEST(LatentFitTest, UncertaintyShrinksWithMoreDataAndNearTheFixedEnd) {
     EXPECT_LT(fit.noise_sigma, 0.02) << "stride " << stride;
     EXPECT_TRUE(fit.surface_std.allFinite());
     mean_std.push_back(fit.surface_std.mean());
+    if (stride == 1) {
+      // G_v = d(vertex v)/dz of the equilibria themselves, by central differences of
+      // re-solved surfaces: sqrt(trace(G_v C G_v^T)) is the reported deviation (a step
+      // of 1e-3 with the 5-point stencil: smaller ones amplify the solves' 1e-10 force
+      // tolerance).
+      fitter.set_start_state(fit.state);
+      auto surface_at = [&](const Eigen::VectorXd& z) -> Eigen::VectorXd {
+        Eigen::Matrix3Xd x, y;
+        std::string solve_error;
+        EXPECT_TRUE(fitter.Simulate(z, &x, &y, &solve_error)) << solve_error;
+        return Eigen::Map<const Eigen::VectorXd>(y.data(), y.size());
+      };
+      const Eigen::MatrixXd g = testing::CentralDifferenceJacobian(surface_at, fit.latent, 1e-3);
+      double worst = 0.0;
+      for (int v = 0; v < ns; ++v) {
+        const Eigen::MatrixXd gv = g.middleRows(3 * static_cast<Eigen::Index>(v), 3);
+        const double expected =
+            std::sqrt(std::max(0.0, (gv * fit.parameter_covariance * gv.transpose()).trace()));
+        worst = std::max(worst, std::abs(fit.surface_std[v] - expected));
+      }
+      EXPECT_LT(worst, 1e-5 * fit.surface_std.maxCoeff());
+    }
     // Near the fixed end the surface is held (its embedding weighs fixed vertices): its
     // predicted deviation is far below the free end's.
     double near = 0, far = 0;
