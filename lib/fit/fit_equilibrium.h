@@ -3,6 +3,7 @@
 
 // Internal to lib/fit: included by the LatentFitter's own .cc files only.
 
+#include <mutex>
 #include <vector>
 
 #include <ceres/evaluation_callback.h>
@@ -119,9 +120,12 @@ class LatentFitter::FitEquilibrium final : public ceres::EvaluationCallback {
     return &point_;
   }
 
-  // dx*/dz at the last point prepared, which must be differentiated (cached).
+  // dx*/dz at the last point prepared, which must be differentiated (cached). Thread-safe
+  // between Prepares: Ceres evaluates the residual blocks of one point in parallel, and
+  // the data blocks of a fit (a scan and its landmarks) share this object.
   const Eigen::MatrixXd& LatentProduct() {
     CHECK(point_.differentiated);
+    std::lock_guard<std::mutex> hold(products_mutex_);
     if (point_.dx_dz.size() == 0) {
       point_.dx_dz = fitter_->differentiator_->ActuationJacobianProduct(point_.da_dz);
     }
@@ -130,10 +134,11 @@ class LatentFitter::FitEquilibrium final : public ceres::EvaluationCallback {
 
   // dx*/d(bone b's 6 parameters: rotation vector, translation) at the last point
   // prepared, which must be differentiated (cached): the motion of the bone's fixed
-  // vertices, carried through the equilibrium.
+  // vertices, carried through the equilibrium. Thread-safe as LatentProduct.
   const Eigen::MatrixXd& BoneProduct(size_t b) {
     CHECK(point_.differentiated);
     const ActiveModel& model = fitter_->model_;
+    std::lock_guard<std::mutex> hold(products_mutex_);
     point_.dx_dbone.resize(model.bones.size());
     if (point_.dx_dbone[b].size() == 0) {
       const Eigen::Index rows = 3 * static_cast<Eigen::Index>(point_.state.cols());
@@ -184,6 +189,7 @@ class LatentFitter::FitEquilibrium final : public ceres::EvaluationCallback {
   int parameter_count_ = 0;
   std::vector<double*> blocks_;
   Point point_;
+  std::mutex products_mutex_;  // the lazy fills of point_'s products
 };
 
 }  // namespace aqs

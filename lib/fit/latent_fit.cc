@@ -4,6 +4,7 @@
 
 #include "fit/latent_fit.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -334,7 +335,8 @@ bool LatentFitter::FitFrom(const FitTarget& target, const Eigen::VectorXd& initi
     EstimateUncertainty(&problem, blocks, data_blocks, data_weight, &equilibrium, result);
   }
   MeasureTargetErrors(target, surface, result);
-  result->iterations = static_cast<int>(summary.iterations.size()) - 1;
+  // Iteration 0 is the start; none when the start itself could not be evaluated.
+  result->iterations = std::max(0, static_cast<int>(summary.iterations.size()) - 1);
   result->solves = stats_.solves;
   result->solve_factorizations = stats_.solve_factorizations;
   result->solve_seconds = stats_.solve_seconds;
