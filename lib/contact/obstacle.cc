@@ -1,5 +1,6 @@
 #include "contact/obstacle.h"
 
+#include <limits>
 #include <set>
 
 #include <glog/logging.h>
@@ -20,12 +21,17 @@ Obstacle::Obstacle(std::string name, const Eigen::Matrix3Xd& vertices,
 
 double Obstacle::SignedDistance(const Eigen::Vector3d& p, Eigen::Vector3d* gradient,
                                 double max_distance) const {
-  const ClosestPointResult closest = bvh_.ClosestPoint(p, max_distance);
-  if (closest.triangle < 0) {
-    gradient->setZero();
-    return max_distance;
-  }
+  ClosestPointResult closest = bvh_.ClosestPoint(p, max_distance);
   const bool inside = winding_.WindingNumber(p) > 0.5;
+  if (closest.triangle < 0) {
+    if (!inside) {
+      gradient->setZero();
+      return max_distance;
+    }
+    // Deeper inside than max_distance: the whole depth (penetrations are never capped).
+    closest = bvh_.ClosestPoint(p, std::numeric_limits<double>::infinity());
+    CHECK_GE(closest.triangle, 0) << "an obstacle without triangles";
+  }
   Eigen::Vector3d direction = p - closest.point;
   const double distance = direction.norm();
   if (distance > 1e-12) {

@@ -26,9 +26,9 @@ class Obstacle {
   const Eigen::Matrix3Xi& triangles() const { return triangles_; }
 
   // The signed distance of p and its gradient (the unit vector from the closest surface
-  // point to p, flipped inside: it points out of the obstacle). Points farther than
-  // max_distance (when finite) return +max_distance with a zero gradient, without a
-  // full search.
+  // point to p, flipped inside: it points out of the obstacle). Points outside farther
+  // than max_distance (when finite) return +max_distance with a zero gradient, without a
+  // full search; points inside always get their whole (negative) distance.
   double SignedDistance(const Eigen::Vector3d& p, Eigen::Vector3d* gradient,
                         double max_distance = std::numeric_limits<double>::infinity()) const;
 

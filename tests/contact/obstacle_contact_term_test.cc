@@ -79,6 +79,32 @@ struct ObstaclePoint {
   bool face;
 };
 
+// A point near the first obstacle and deep inside the second: the second's search is
+// limited (to max(10 thickness, the best so far)), yet its penetration is found whole and
+// wins (it was reported as outside, and the point got no force).
+TEST(ObstacleContactTermTest, DeepPenetrationOfALaterObstacleIsFound) {
+  Eigen::Matrix3Xd v1, v2;
+  Eigen::Matrix3Xi t1, t2;
+  BoxSurface(Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(2, 2, 2), &v1, &t1);
+  BoxSurface(Eigen::Vector3d(1.6, -1, -1), Eigen::Vector3d(3.1, 3, 3), &v2, &t2);
+  const Obstacle first("first", v1, t1), second("second", v2, t2);
+  const std::vector<PointStencil> points = {Stencil(0, Eigen::Vector4d(1, 0, 0, 0))};
+  const double thickness = 0.02;  // searches of the second obstacle reach 0.3 at most
+  const ObstacleContactTerm term(points, Eigen::VectorXd::Ones(1), thickness, {&first, &second});
+  // 0.3 from the first box's face x = 2, 0.7 inside the second box (from its face x = 1.6;
+  // 0.8 from x = 3.1).
+  const Eigen::Vector3d p(2.3, 1.0, 1.0);
+  Eigen::Vector3d gradient;
+  EXPECT_NEAR(term.Distance(p, &gradient), -0.7, 1e-12);
+  EXPECT_LT((gradient - Eigen::Vector3d(-1, 0, 0)).norm(), 1e-12);
+  Eigen::Matrix3Xd x = Eigen::Matrix3Xd::Zero(3, 4);
+  x.col(0) = p - points[0].offset;  // the stencil's position is p
+  Eigen::Matrix3Xd force = Eigen::Matrix3Xd::Zero(3, 4);
+  EXPECT_NEAR(term.AddEnergyAndGradient(x, &force), 0.5 * (thickness + 0.7) * (thickness + 0.7),
+              1e-12);
+  EXPECT_GT(force.col(0).norm(), 0.5);
+}
+
 TEST(ObstacleContactTermTest, EdgeAndCornerContactsOnRotatedBoxes) {
   // Two rotated boxes at least 1 apart (so each point has one unambiguous nearest obstacle),
   // and points outside their edges and corners (closest feature: the edge or corner) and

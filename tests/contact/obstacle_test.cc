@@ -79,7 +79,7 @@ TEST(ObstacleTest, SignedDistanceGradientOnARotatedBox) {
   }
 }
 
-TEST(ObstacleTest, BeyondMaxDistanceIsTheCapWithAZeroGradient) {
+TEST(ObstacleTest, BeyondMaxDistanceOutsideIsTheCapWithAZeroGradient) {
   std::mt19937 rng(8);
   const Eigen::Matrix3d rotation = testing::RandomRotation(&rng);
   Eigen::Matrix3Xd v;
@@ -94,6 +94,12 @@ TEST(ObstacleTest, BeyondMaxDistanceIsTheCapWithAZeroGradient) {
   // Within the cap: the full answer.
   EXPECT_NEAR(box.SignedDistance(p, &gradient, 0.6), 0.5, 1e-12);
   EXPECT_LT((gradient - rotation.col(2)).norm(), 1e-12);
+  // Inside, deeper than the cap: never capped (a deep penetration is one), the whole
+  // depth and the outward direction. 0.45 below the face z = 1, 0.5 from the others.
+  const Eigen::Vector3d deep = rotation * Eigen::Vector3d(1.2, 0.5, 0.55);
+  EXPECT_NEAR(box.SignedDistance(deep, &gradient, 0.3), -0.45, 1e-12);
+  EXPECT_LT((gradient - rotation.col(2)).norm(), 1e-12);
+  EXPECT_NEAR(box.SignedDistance(deep, &gradient), -0.45, 1e-12);
 }
 
 }  // namespace
