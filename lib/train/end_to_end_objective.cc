@@ -252,6 +252,7 @@ LatentRefitReport EndToEndObjective::RefitHere(ActiveModel* model, double* param
   for (int p : owned_) model->states[p] = at[p];
   LatentRefitOptions refit;
   refit.latent_regularization = options_.latent_regularization;
+  refit.energy_regularization = options_.energy_regularization;
   refit.max_iterations = options_.latent_refit_iterations;
   refit.solver = options_.solver;
   refit.num_threads = options_.num_threads;

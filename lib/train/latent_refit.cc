@@ -9,6 +9,8 @@
 
 #include "fit/latent_fit.h"
 #include "geometry/embedding.h"
+#include "learn/decoder.h"
+#include "physics/shape_target_model.h"
 #include "util/option_checks.h"
 #include "util/parallel_for.h"
 #include "util/wall_timer.h"
@@ -16,11 +18,23 @@
 namespace aqs {
 namespace {
 
-// The pose's share of the training loss: (1/N) sum_i |surface_i - y_i|^2 + lambda |z|^2.
-double PoseObjective(const Eigen::Matrix3Xd& surface, const Eigen::Matrix3Xd& target,
-                     const Eigen::VectorXd& z, double lambda) {
-  return (surface - target).squaredNorm() / static_cast<double>(target.cols()) +
-         lambda * z.squaredNorm();
+// The pose's share of the training loss at latent z and its equilibrium x:
+// (1/N) sum_i |surface_i - y_i|^2 + lambda |z|^2 + energy_regularization E(x, a(z)) /
+// (sum_e mu_e V_e) (the last term only where energy_regularization > 0).
+double PoseObjective(const LatentRefitOptions& options, const ActiveModel& model,
+                     const ShapeTargetModel& physics, const Eigen::Matrix3Xd& x,
+                     const Eigen::Matrix3Xd& target, const Eigen::VectorXd& z,
+                     DecoderWorkspace* workspace) {
+  const Eigen::Matrix3Xd surface = EmbeddedPositions(model.embedding, model.mesh.tets, x);
+  double objective = (surface - target).squaredNorm() / static_cast<double>(target.cols()) +
+                     options.latent_regularization * z.squaredNorm();
+  if (options.energy_regularization > 0.0) {
+    ActuationMatrix a;
+    model.decoder->Decode(model.decoder_params.data(), z, &a, workspace);
+    objective += options.energy_regularization * physics.Energy(x, a, 1) /
+                 physics.stiffness_volume();
+  }
+  return objective;
 }
 
 }  // namespace
@@ -30,6 +44,7 @@ bool LatentRefitOptions::Validate(std::string* error) const {
   const bool solver_ok = solver.Validate(&solver_error);
   return OptionChecks()
       .InRange("latent_regularization", latent_regularization, 0.0, kMaxRegularization)
+      .InRange("energy_regularization", energy_regularization, 0.0, kMaxRegularization)
       .IntAtLeast("max_iterations", max_iterations, 0)
       .Nested("solver", solver_ok, solver_error)
       .IntInRange("num_threads", num_threads, 1, 1024)
@@ -68,6 +83,8 @@ LatentRefitReport RefitTrainingLatents(const LatentRefitOptions& options, Active
   std::vector<Eigen::VectorXd> latents(num_poses);
   std::vector<Eigen::Matrix3Xd> states(num_poses);
   const ActiveModel& fixed = *model;
+  const ShapeTargetModel physics(fixed.mesh, fixed.mu);
+  std::vector<DecoderWorkspace> workspaces(num_threads);
   ParallelFor(
       num_threads, 0, count,
       [&](int thread, int k) {
@@ -76,9 +93,8 @@ LatentRefitReport RefitTrainingLatents(const LatentRefitOptions& options, Active
         LatentFitter& fitter = *fitters[thread];
         const Eigen::Matrix3Xd& target = fixed.poses[p].surface;
         const Eigen::VectorXd z = fixed.latents.col(p);
-        before[p] = PoseObjective(
-            EmbeddedPositions(fixed.embedding, fixed.mesh.tets, fixed.states[p]), target, z,
-            options.latent_regularization);
+        before[p] = PoseObjective(options, fixed, physics, fixed.states[p], target, z,
+                                  &workspaces[thread]);
         after[p] = before[p];
         std::vector<RigidTransform> bones(fixed.bones.size());
         for (size_t b = 0; b < bones.size(); ++b) bones[b] = fixed.bones[b].pose_transforms[p];
@@ -92,8 +108,8 @@ LatentRefitReport RefitTrainingLatents(const LatentRefitOptions& options, Active
           failed[p] = 1;
           return;
         }
-        const double objective =
-            PoseObjective(result.surface, target, result.latent, options.latent_regularization);
+        const double objective = PoseObjective(options, fixed, physics, result.state, target,
+                                               result.latent, &workspaces[thread]);
         if (objective < before[p]) {
           after[p] = objective;
           improved[p] = 1;

@@ -12,6 +12,9 @@ namespace aqs {
 struct LatentRefitOptions {
   // Weight lambda of the latent regularizer, as in training (TrainOptions).
   double latent_regularization = 1e-3;
+  // Weight of the equilibrium-energy regularizer, as in training
+  // (TrainOptions::energy_regularization): part of the objective a refit must lower.
+  double energy_regularization = 0.0;
   // Levenberg-Marquardt iterations per pose.
   int max_iterations = 5;
   QuasistaticSolverOptions solver;  // the equilibria (num_threads: set to 1)
@@ -33,15 +36,17 @@ struct LatentRefitReport {
 
 // Gauss-Newton steps on the per-pose latents with the decoder fixed: for every
 // training pose p of `model` (pre-trained or trained: decoder, latents, bone motions
-// and one equilibrium per pose in model->states), minimizes the pose's share of the
+// and one equilibrium per pose in model->states), lowers the pose's share of the
 // training loss over its latent z_p (latent_dim) alone,
 //
 //   (1/N) sum_i |p_i(x*(a(z_p))) - y_pi|^2 + lambda |z_p|^2
+//     + energy_regularization E(x*, a(z_p)) / (sum_e mu_e V_e)
 //
-// (N surface vertices, the pose's bone motions fixed), by Levenberg-Marquardt
-// (LatentFitter, full-surface target, no priors), from z_p and its stored equilibrium.
-// A pose's latent and state (3 x num_vertices) are replaced only where the fit lowered
-// that objective; a failed fit keeps them. So the training loss never goes up. Poses
+// (N surface vertices, the pose's bone motions fixed). Levenberg-Marquardt (LatentFitter,
+// full-surface target, no priors) minimizes its first two terms from z_p and its stored
+// equilibrium; a pose's latent and state (3 x num_vertices) are replaced only where the
+// fit lowered the whole share, the energy term included; a failed fit keeps them. So
+// the training loss never goes up. Poses
 // run in parallel (options.num_threads, one fitter each). The model's fit prior is not
 // used and not changed.
 //
