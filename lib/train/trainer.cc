@@ -327,8 +327,8 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
     return false;
   }
   const Communicator* communicator = options.communicator;
-  // Poses run in parallel with one thread each: BLAS single-threaded meanwhile (until
-  // the final evaluation).
+  // Poses run in parallel with one thread each: BLAS single-threaded meanwhile (the
+  // final evaluation included).
   auto blas = std::make_unique<ScopedBlasThreads>(options.num_threads > 1 ? 1 : BlasThreads());
   if (communicator != nullptr && communicator->size() > 1 && !communicator->is_root()) {
     // Another rank: evaluations of its poses, as rank 0 commands.
@@ -388,8 +388,8 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
   } else {
     report->termination = "no iterations left";
   }
-  blas.reset();
-  // Final state: evaluate the returned parameters (also refreshes states and errors).
+  // Final state: evaluate the returned parameters (also refreshes states and errors), with
+  // the BLAS threads of training's evaluations (one per pose thread: no oversubscription).
   report->iteration_cost = objective->total_counters().Since(cost_before);
   objective->set_time_limit(0.0);
   objective->AllowRetryFromRest();
@@ -398,6 +398,7 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
     *error = "the final point cannot be simulated: " + objective->last_failure();
     return false;
   }
+  blas.reset();
   report->final_loss = cost;
   report->mean_surface_error = objective->mean_surface_error();
   report->max_surface_error = objective->max_surface_error();
