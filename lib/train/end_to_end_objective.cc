@@ -292,37 +292,44 @@ void EndToEndObjective::CollectStatesHere(const double* parameters,
                                           std::vector<Eigen::Matrix3Xd>* states) const {
   if (!StatesAt(parameters, states)) *states = states_;
   if (!distributed()) return;
-  // Every rank sends its own poses' states (3 x vertices each, in pose order); rank 0
-  // puts them in place. A pose without a state (never converged) is sent as the rest
-  // shape's size of NaN and comes back empty.
+  // In rounds: in round k every rank sends the state of its k-th pose (3 x vertices; none
+  // when it owns fewer), so that no count or offset of one gather exceeds ranks x 3 x
+  // vertices (a gather of all poses at once overflowed MPI's int counts from 3 x
+  // vertices x poses >= 2^31). A pose without a state (never converged) is sent as NaN
+  // and comes back empty; rank 0 puts them in place.
   const int nv = model_.mesh.num_vertices();
   const int block = 3 * nv;
-  std::vector<double> send;
-  send.reserve(owned_.size() * block);
-  for (int p : owned_) {
-    const Eigen::Matrix3Xd& x = (*states)[p];
-    if (x.cols() == nv) {
-      send.insert(send.end(), x.data(), x.data() + block);
-    } else {
-      send.insert(send.end(), block, std::numeric_limits<double>::quiet_NaN());
-    }
+  std::vector<std::vector<int>> owned_by(size_);
+  size_t rounds = 0;
+  for (int r = 0; r < size_; ++r) {
+    owned_by[r] = OwnedIndices(num_poses_, r, size_);
+    rounds = std::max(rounds, owned_by[r].size());
   }
+  std::vector<Eigen::Matrix3Xd> gathered(rank_ == 0 ? num_poses_ : 0);
+  std::vector<double> send(block);
+  std::vector<double> received(rank_ == 0 ? static_cast<size_t>(block) * size_ : 0);
   std::vector<int> counts(size_);
-  for (int r = 0; r < size_; ++r) {
-    counts[r] = block * static_cast<int>(OwnedIndices(num_poses_, r, size_).size());
-  }
-  std::vector<double> received(rank_ == 0 ? static_cast<size_t>(block) * num_poses_ : 0);
-  communicator_->GatherToRoot(send.data(), counts, received.data());
-  if (rank_ != 0) return;
-  states->assign(num_poses_, Eigen::Matrix3Xd());
-  size_t offset = 0;
-  for (int r = 0; r < size_; ++r) {
-    for (int p : OwnedIndices(num_poses_, r, size_)) {
+  for (size_t k = 0; k < rounds; ++k) {
+    for (int r = 0; r < size_; ++r) counts[r] = k < owned_by[r].size() ? block : 0;
+    if (k < owned_.size()) {
+      const Eigen::Matrix3Xd& x = (*states)[owned_[k]];
+      if (x.cols() == nv) {
+        std::copy(x.data(), x.data() + block, send.begin());
+      } else {
+        std::fill(send.begin(), send.end(), std::numeric_limits<double>::quiet_NaN());
+      }
+    }
+    communicator_->GatherToRoot(send.data(), counts, received.data());
+    if (rank_ != 0) continue;
+    size_t offset = 0;
+    for (int r = 0; r < size_; ++r) {
+      if (k >= owned_by[r].size()) continue;
       const Eigen::Map<const Eigen::Matrix3Xd> x(received.data() + offset, 3, nv);
       offset += block;
-      if (x.allFinite()) (*states)[p] = x;
+      if (x.allFinite()) gathered[owned_by[r][k]] = x;
     }
   }
+  if (rank_ == 0) *states = std::move(gathered);
 }
 
 }  // namespace aqs
