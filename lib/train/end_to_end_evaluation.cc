@@ -458,6 +458,8 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
   remembered_.push_back(
       {Eigen::Map<const Eigen::VectorXd>(parameters, NumParameters()), states_});
   if (distributed()) GatherPoseErrorsToRoot();
+  remembered_.back().mean_surface_error = mean_surface_error();
+  remembered_.back().max_surface_error = max_surface_error();
   double data = 0;
   for (double l : pose_loss_) data += l;
   const Eigen::Map<const Eigen::VectorXd> decoder_params(parameters, num_params_);

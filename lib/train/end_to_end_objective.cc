@@ -216,6 +216,13 @@ bool EndToEndObjective::KeepStatesOf(const double* parameters) {
   return true;
 }
 
+bool EndToEndObjective::KeptSurfaceErrors(double* mean, double* max) const {
+  if (kept_.parameters.size() == 0) return false;
+  *mean = kept_.mean_surface_error;
+  *max = kept_.max_surface_error;
+  return true;
+}
+
 void EndToEndObjective::KeepRemembered(int index) {
   if (index == kKeepBest) {
     kept_ = best_;

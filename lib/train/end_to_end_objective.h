@@ -128,6 +128,10 @@ class EndToEndObjective final : public ceres::FirstOrderFunction {
   // Returns false, keeping nothing, if no remembered evaluation was at `parameters`.
   // Rank 0 only: it commands the other ranks to keep theirs.
   bool KeepStatesOf(const double* parameters);
+  // The surface errors (as mean_surface_error(), max_surface_error(); rank 0) of the
+  // evaluation KeepStatesOf kept, which may not be the last one evaluated; false (and
+  // nothing set) if none is kept.
+  bool KeptSurfaceErrors(double* mean, double* max) const;
   // A round of latent refits at `parameters` (RefitTrainingLatents with the decoder
   // fixed, TrainOptions' latent_refit_iterations and regularization): every rank refits
   // the poses it owns, from their equilibria at `parameters` (the remembered evaluation
@@ -269,6 +273,9 @@ class EndToEndObjective final : public ceres::FirstOrderFunction {
   struct Remembered {
     Eigen::VectorXd parameters;  // NumParameters(), compared bit for bit
     std::vector<Eigen::Matrix3Xd> states;
+    // Its surface errors (mean_surface_error(), max_surface_error(); rank 0's).
+    double mean_surface_error = 0.0;
+    double max_surface_error = 0.0;
   };
   mutable std::vector<Remembered> remembered_;  // newest last
   Remembered kept_;  // KeepStatesOf's (empty parameters: none)

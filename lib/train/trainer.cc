@@ -60,7 +60,12 @@ class TrainingCallback final : public ceres::IterationCallback {
     // The accepted point's equilibria, kept for the restart, final evaluation and saves
     // after a line search that evaluates more trial points than the objective
     // remembers, or evaluates this point again from another start.
-    objective_.KeepStatesOf(parameters_.data());
+    // Its surface errors too (the last evaluation may have been a later trial point).
+    double mean_error = objective_.mean_surface_error();
+    double max_error = objective_.max_surface_error();
+    if (objective_.KeepStatesOf(parameters_.data())) {
+      objective_.KeptSurfaceErrors(&mean_error, &max_error);
+    }
     const double elapsed = timer_.Seconds();
     // What the evaluations since the previous row cost, per pose: stiffness factorizations
     // and solves by CG on an earlier factor (the objective's counters, summed over ranks).
@@ -93,16 +98,16 @@ class TrainingCallback final : public ceres::IterationCallback {
       std::snprintf(line, sizeof(line),
                     "  train iter %5d/%d  loss %.6e  surface mean %.4g max %.4g  |g| %.3e  "
                     "fact/pose %.2f  %s  ETA %s\n",
-                    iteration, options_.max_iterations, s.cost, objective_.mean_surface_error(),
-                    objective_.max_surface_error(), s.gradient_norm, factorizations,
+                    iteration, options_.max_iterations, s.cost, mean_error, max_error,
+                    s.gradient_norm, factorizations,
                     FormatDuration(elapsed).c_str(), FormatDuration(remaining).c_str());
       log_ << line << std::flush;
     }
     if (!options_.model_directory.empty()) {
       char row[400];
       std::snprintf(row, sizeof(row), "%d,%.17g,%.17g,%.17g,%.17g,%.17g,%.6f,%d,%.6g,%.6g\n",
-                    iteration, s.cost, objective_.mean_surface_error(),
-                    objective_.max_surface_error(), s.gradient_norm, s.step_norm, elapsed,
+                    iteration, s.cost, mean_error, max_error, s.gradient_norm, s.step_norm,
+                    elapsed,
                     s.line_search_function_evaluations, factorizations, cg_solves);
       // Appended before the checkpoint of this iteration: a kill in between leaves one
       // row more than the checkpoint, which the next run drops (PrepareIterationLog).

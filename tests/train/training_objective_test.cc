@@ -213,12 +213,20 @@ TEST(EndToEndObjectiveTest, KeepsTheLowestEvaluationSinceTheLastKeptPoint) {
   ASSERT_LT(order[0].first, 0.999 * order[1].first);
 
   double cost = 0;
+  double mean = -1, max = -1;
+  EXPECT_FALSE(objective.KeptSurfaceErrors(&mean, &max));  // nothing kept yet
+  EXPECT_EQ(mean, -1);
   ASSERT_TRUE(objective.Evaluate(x0.data(), &cost, nullptr)) << objective.last_failure();
   ASSERT_TRUE(objective.KeepStatesOf(x0.data()));
   std::vector<Eigen::Matrix3Xd> lowest_states;
+  double lowest_mean = 0, lowest_max = 0;
   for (const auto& [loss, i] : order) {
     ASSERT_TRUE(objective.Evaluate(trials[i].data(), &cost, nullptr)) << objective.last_failure();
-    if (lowest_states.empty()) lowest_states = objective.states();
+    if (lowest_states.empty()) {
+      lowest_states = objective.states();
+      lowest_mean = objective.mean_surface_error();
+      lowest_max = objective.max_surface_error();
+    }
   }
   const Eigen::VectorXd& lowest = trials[order[0].second];
   const Eigen::VectorXd& forgotten = trials[order[1].second];
@@ -230,6 +238,12 @@ TEST(EndToEndObjectiveTest, KeepsTheLowestEvaluationSinceTheLastKeptPoint) {
   for (size_t p = 0; p < states.size(); ++p) {
     EXPECT_TRUE(states[p].cwiseEqual(lowest_states[p]).all()) << "pose " << p;
   }
+  // The kept point's surface errors, not the last evaluation's (what the training log
+  // writes beside the accepted loss).
+  ASSERT_TRUE(objective.KeptSurfaceErrors(&mean, &max));
+  EXPECT_EQ(mean, lowest_mean);
+  EXPECT_EQ(max, lowest_max);
+  EXPECT_NE(mean, objective.mean_surface_error());
 }
 
 // The decoder regularizer adds lambda |params|^2 to the cost and 2 lambda params to the
