@@ -448,6 +448,24 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
     }
     return false;
   }
+  if (distributed()) GatherPoseErrorsToRoot();
+  double data = 0;
+  for (double l : pose_loss_) data += l;
+  const Eigen::Map<const Eigen::VectorXd> decoder_params(parameters, num_params_);
+  *cost = data + options_.latent_regularization * latents.squaredNorm() / num_poses_ +
+          options_.decoder_regularization * decoder_params.squaredNorm();
+  // Rank 0's loss on every rank, so that all take the same decisions below.
+  double loss = *cost;
+  if (distributed()) communicator_->Broadcast(&loss, 1, 0);
+  if (!std::isfinite(loss)) {
+    // A failed evaluation: the warm starts and remembered evaluations stay as they were.
+    last_failure_ = "the loss is not finite (" + std::to_string(loss) +
+                    "): a latent, a decoder parameter or a pose surface is not finite?";
+    total.seconds = evaluation_timer.Seconds();
+    last_counters_ = total;
+    total_counters_.Add(total);
+    return false;
+  }
   for (int k = 0; k < num_owned; ++k) {
     states_[owned_[k]] = std::move(solved[k]);
     if (solver_per_pose_ || k < num_stored_factors_) state_actuations_[owned_[k]] = a[k];
@@ -455,21 +473,10 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
   if (static_cast<int>(remembered_.size()) == kRememberedEvaluations) {
     remembered_.erase(remembered_.begin());
   }
-  remembered_.push_back(
-      {Eigen::Map<const Eigen::VectorXd>(parameters, NumParameters()), states_});
-  if (distributed()) GatherPoseErrorsToRoot();
-  remembered_.back().mean_surface_error = mean_surface_error();
-  remembered_.back().max_surface_error = max_surface_error();
-  double data = 0;
-  for (double l : pose_loss_) data += l;
-  const Eigen::Map<const Eigen::VectorXd> decoder_params(parameters, num_params_);
-  *cost = data + options_.latent_regularization * latents.squaredNorm() / num_poses_ +
-          options_.decoder_regularization * decoder_params.squaredNorm();
+  remembered_.push_back({Eigen::Map<const Eigen::VectorXd>(parameters, NumParameters()),
+                         states_, mean_surface_error(), max_surface_error()});
   // The lowest loss since the last kept point: what a line search accepts, though it
-  // may have evaluated more trial points since than are remembered (rank 0's loss on
-  // every rank, so that all keep the same evaluation).
-  double loss = *cost;
-  if (distributed()) communicator_->Broadcast(&loss, 1, 0);
+  // may have evaluated more trial points since than are remembered.
   if (loss < best_loss_) {
     best_loss_ = loss;
     best_ = remembered_.back();
@@ -499,11 +506,6 @@ bool EndToEndObjective::EvaluateHere(const double* parameters, double* cost,
               << "-th successful evaluation before it: " << total.line_starts << " of "
               << num_poses_ << " poses started on the line";
     }
-  }
-  if (!std::isfinite(*cost)) {
-    last_failure_ = "the loss is not finite (" + std::to_string(*cost) +
-                    "): a latent, a decoder parameter or a pose surface is not finite?";
-    return false;
   }
   return true;
 }

@@ -371,6 +371,18 @@ TEST(EndToEndObjectiveTest, FailedEvaluationKeepsEveryWarmStart) {
   for (size_t p = 0; p < before.size(); ++p) {
     EXPECT_EQ((objective.states()[p] - before[p]).cwiseAbs().maxCoeff(), 0.0) << "pose " << p;
   }
+  // Every pose solved, but a loss that is not finite (a latent of 1e160: the tanh decoder
+  // saturates, its square overflows): failed too, and nothing moves either.
+  Eigen::VectorXd huge = objective.ModelParameters();
+  huge[np + d] = 1e160;
+  EXPECT_FALSE(objective.Evaluate(huge.data(), &cost, nullptr));
+  EXPECT_NE(objective.last_failure().find("not finite"), std::string::npos)
+      << objective.last_failure();
+  for (size_t p = 0; p < before.size(); ++p) {
+    EXPECT_EQ((objective.states()[p] - before[p]).cwiseAbs().maxCoeff(), 0.0) << "pose " << p;
+  }
+  std::vector<Eigen::Matrix3Xd> remembered;
+  EXPECT_FALSE(objective.StatesAt(huge.data(), &remembered));
 }
 
 // Once a pose fails, the poses not yet begun are skipped (the evaluation fails anyway):
