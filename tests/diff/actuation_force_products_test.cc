@@ -13,6 +13,7 @@
 #include "sparse/stiffness_pattern.h"
 #include "testing/element_states.h"
 #include "testing/finite_difference.h"
+#include "testing/test_meshes.h"
 
 namespace aqs {
 namespace {
@@ -61,13 +62,7 @@ bool StartsWith(const std::string& name, const char* prefix) {
 // inverted, anisotropic and sheared actuations. x = R F X (R a random rotation) and
 // a = S of the state; three random directions per state.
 TEST(ActuationForceProductsTest, MatchesDifferencedForcesAtEveryElementState) {
-  TetMesh mesh;
-  mesh.vertices.resize(3, 4);
-  mesh.vertices << 0.1, 1.0, -0.05, 0.08,
-                   -0.1, 0.05, 0.9, 0.02,
-                   0.0, 0.1, -0.04, 1.1;
-  mesh.tets.resize(4, 1);
-  mesh.tets << 0, 1, 2, 3;
+  const TetMesh mesh = testing::OneTetMesh();
   const ShapeTargetModel model(mesh, 1.7);
   const StiffnessPattern pattern(mesh.tets, std::vector<bool>(4, false));
   std::mt19937 rng(41);
@@ -104,16 +99,7 @@ TEST(ActuationForceProductsTest, MatchesDifferencedForcesAtEveryElementState) {
 // changes of every element at its vertex; fixed vertices have no rows. The products
 // are linear in the directions, and bit-identical for 1 and 2 threads.
 TEST(ActuationForceProductsTest, AssemblesOntoFreeDofsAndIsLinearInDirections) {
-  TetMesh mesh;
-  mesh.vertices.resize(3, 6);
-  mesh.vertices << 0, 1, 0, 0, 1, 1.2,
-                   0, 0, 1, 0, 1, -0.3,
-                   0, 0, 0, 1, 1, 0.8;
-  mesh.tets.resize(4, 3);
-  mesh.tets << 0, 1, 1,
-               1, 2, 3,
-               2, 3, 0,
-               3, 4, 5;
+  const TetMesh mesh = testing::ThreeTetMesh();
   Eigen::VectorXd mu(3);
   mu << 1.0, 2.5, 0.7;
   const ShapeTargetModel model(mesh, mu);

@@ -6,24 +6,13 @@
 
 #include "testing/element_states.h"
 #include "testing/finite_difference.h"
+#include "testing/test_meshes.h"
 
 namespace aqs {
 namespace {
 
 // Two tets sharing a face, plus a third sharing an edge: small enough for dense FD.
-TetMesh SmallMesh() {
-  TetMesh mesh;
-  mesh.vertices.resize(3, 6);
-  mesh.vertices << 0, 1, 0, 0, 1, 1.2,
-                   0, 0, 1, 0, 1, -0.3,
-                   0, 0, 0, 1, 1, 0.8;
-  mesh.tets.resize(4, 3);
-  mesh.tets << 0, 1, 1,
-               1, 2, 3,
-               2, 3, 0,
-               3, 4, 5;
-  return mesh;
-}
+TetMesh SmallMesh() { return testing::ThreeTetMesh(); }
 
 ActuationMatrix RandomActuation(int n, std::mt19937* rng, double amplitude) {
   std::uniform_real_distribution<double> uniform(-amplitude, amplitude);

@@ -159,13 +159,7 @@ TEST_F(StiffnessAssemblyTest, ExactStiffnessMatchesFiniteDifferencesOfForces) {
 // element Hessian, as assembled, against differenced forces, and the forces against
 // the differenced energy.
 TEST(StiffnessAssemblyElementTest, ExactStiffnessMatchesDifferencedForcesAtEveryElementState) {
-  TetMesh mesh;
-  mesh.vertices.resize(3, 4);
-  mesh.vertices << 0.1, 1.0, -0.05, 0.08,
-                   -0.1, 0.05, 0.9, 0.02,
-                   0.0, 0.1, -0.04, 1.1;
-  mesh.tets.resize(4, 1);
-  mesh.tets << 0, 1, 2, 3;
+  const TetMesh mesh = testing::OneTetMesh();
   const ShapeTargetModel model(mesh, 0.9);
   const StiffnessPattern pattern(mesh.tets, std::vector<bool>(4, false));
   std::mt19937 rng(19);

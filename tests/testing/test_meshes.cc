@@ -6,6 +6,31 @@
 namespace aqs {
 namespace testing {
 
+TetMesh OneTetMesh() {
+  TetMesh mesh;
+  mesh.vertices.resize(3, 4);
+  mesh.vertices << 0.1, 1.0, -0.05, 0.08,
+                   -0.1, 0.05, 0.9, 0.02,
+                   0.0, 0.1, -0.04, 1.1;
+  mesh.tets.resize(4, 1);
+  mesh.tets << 0, 1, 2, 3;
+  return mesh;
+}
+
+TetMesh ThreeTetMesh() {
+  TetMesh mesh;
+  mesh.vertices.resize(3, 6);
+  mesh.vertices << 0, 1, 0, 0, 1, 1.2,
+                   0, 0, 1, 0, 1, -0.3,
+                   0, 0, 0, 1, 1, 0.8;
+  mesh.tets.resize(4, 3);
+  mesh.tets << 0, 1, 1,
+               1, 2, 3,
+               2, 3, 0,
+               3, 4, 5;
+  return mesh;
+}
+
 TetMesh BarMesh(int nx, int ny, int nz, double spacing) {
   LatticeOptions options;
   options.nx = nx;

@@ -15,6 +15,14 @@ namespace testing {
 // A Kuhn lattice bar of nx x ny x nz cubes of edge `spacing`, minimum corner at 0.
 TetMesh BarMesh(int nx, int ny, int nz, double spacing);
 
+// One skewed tetrahedron (vertices near the unit corners, positively oriented): the
+// single-element meshes of the derivative tests.
+TetMesh OneTetMesh();
+
+// Three tets on 6 vertices: two sharing a face, a third sharing an edge with them (small
+// enough for dense finite differences of every coordinate).
+TetMesh ThreeTetMesh();
+
 // The vertices with x <= tolerance (the bar's left face), fixed at rest.
 BoundaryConditions LeftFaceFixed(const TetMesh& mesh, double tolerance = 1e-9);
 
