@@ -241,7 +241,8 @@ TEST(EquilibriumDifferentiatorTest, FixedVertexProductsMatchResolvedEquilibria) 
 Eigen::VectorXd GatherFree(const StiffnessPattern& pattern, const double* field) {
   Eigen::VectorXd out(pattern.num_dofs());
   for (int f = 0; f < pattern.num_free_vertices(); ++f) {
-    out.segment<3>(3 * f) = Eigen::Map<const Eigen::Vector3d>(field + 3 * pattern.vertex_of_free(f));
+    out.segment<3>(3 * f) =
+        Eigen::Map<const Eigen::Vector3d>(field + 3 * pattern.vertex_of_free(f));
   }
   return out;
 }

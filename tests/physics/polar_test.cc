@@ -86,7 +86,8 @@ TEST(PolarTest, DerivativeHoldsCloseToTheClamp) {
       analytic.col(j) = VecRowMajor(
           PolarRotationDerivative(twists, UnvecRowMajor(Vector9d::Unit(j))));
     }
-    const Eigen::MatrixXd numeric = CentralDifferenceJacobian(RotationOf, VecRowMajor(g), 1e-3 * gap);
+    const Eigen::MatrixXd numeric =
+        CentralDifferenceJacobian(RotationOf, VecRowMajor(g), 1e-3 * gap);
     EXPECT_LT(RelativeError(analytic, numeric), 1e-6) << "sigma_2 + sigma_3 = " << gap;
   }
 }

@@ -36,7 +36,8 @@ TEST(PlaneDistanceTest, GradientMatchesFiniteDifferences) {
     ASSERT_TRUE(PlaneDistance(x.segment<3>(0), x.segment<3>(3), x.segment<3>(6), x.segment<3>(9), &s,
                               &g, &beta));
     const Eigen::VectorXd numeric = testing::CentralDifferenceGradient(s_of, x, 1e-6);
-    EXPECT_LT(testing::RelativeError(Eigen::Map<const Eigen::VectorXd>(g.data(), 12), numeric), 1e-8)
+    EXPECT_LT(testing::RelativeError(Eigen::Map<const Eigen::VectorXd>(g.data(), 12), numeric),
+              1e-8)
         << "trial " << trial;
     // The projection is reproduced by the barycentric coordinates.
     const Eigen::Vector3d a = x.segment<3>(3), b = x.segment<3>(6), c = x.segment<3>(9);
