@@ -488,13 +488,17 @@ def split_tables(rows, split):
                 s[2] = max(s[2], r["max"])
                 s[3] += 1
         body.append(cells)
+    # A mean over every pose only (as evaluation.md's): a method whose fit failed on a pose
+    # has n/a there, and n/a as its mean (the largest vertex error is still shown).
     neutral = [stats[("neutral", p)]["mean"] for p in poses if ("neutral", p) in stats]
     mean_row = ["<b>mean</b> (max of max)",
-                number(sum(neutral) / len(neutral)) if neutral else "n/a"]
+                number(sum(neutral) / len(neutral)) if len(neutral) == len(poses) else "n/a"]
     for method in METHODS:
         s = sums.get(method)
-        mean_row += (["<b>%s</b>" % number(s[0] / s[3]), number(s[1] / s[3]), number(s[2])]
-                     if s else ["n/a"] * 3)
+        if s and s[3] == len(poses):
+            mean_row += ["<b>%s</b>" % number(s[0] / s[3]), number(s[1] / s[3]), number(s[2])]
+        else:
+            mean_row += ["n/a", "n/a", number(s[2]) if s else "n/a"]
     body.append(mean_row)
     headings = ["pose", "neutral mean"]
     for method in METHODS:
@@ -530,9 +534,11 @@ def ordered_poses(rows, split):
     return poses
 
 
-def method_means(rows, split, method):
+def method_means(rows, split, method, num_poses):
+    """The method's mean over the split's poses; None unless it has all num_poses of them
+    (a failed fit has no row: a mean over fewer poses would not compare)."""
     values = [r["mean"] for r in rows if r["split"] == split and r["method"] == method]
-    return sum(values) / len(values) if values else None
+    return sum(values) / len(values) if values and len(values) == num_poses else None
 
 
 STYLE = """
@@ -556,8 +562,13 @@ def write_html(path, title, rows, figures, notes):
              "<h1>%s</h1>" % html.escape(title)]
     # The headline: held-out means of the physics model and the baselines.
     if test_poses:
-        means = {m: method_means(rows, "test", m) for m in ["neutral"] + METHODS}
+        means = {m: method_means(rows, "test", m, len(test_poses)) for m in ["neutral"] + METHODS}
         baselines = [m for m in BASELINES if means.get(m) is not None]
+        fitted = sum(1 for r in rows if r["split"] == "test" and r["method"] == "physics")
+        if fitted < len(test_poses):
+            parts.append("<p>The physics fit failed on %d of the %d held-out poses (n/a in the "
+                         "tables): no mean over all of them to compare.</p>"
+                         % (len(test_poses) - fitted, len(test_poses)))
         if means.get("physics") is not None and baselines:
             best_baseline = min(means[m] for m in baselines)
             verdict = ("lower than every baseline" if means["physics"] < best_baseline

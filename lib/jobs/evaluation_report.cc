@@ -93,27 +93,46 @@ std::string EvaluationTable(const std::vector<EvaluationRow>& rows, const std::s
                     " pose | neutral mean | physics mean | rms | max | autoencoder mean | "
                     "rms | max | PCA mean | rms | max | PCA (neutral) mean | rms | max |\n"
                     "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+  // A method without a row for a pose (its fit failed) shows n/a there, and its mean,
+  // which must be over every pose to compare with the others', is n/a too.
   std::map<std::string, EvaluationRow> average;
-  double neutral_average = 0;
+  std::map<std::string, int> count;
   for (const std::string& pose : poses) {
-    const auto neutral = table[pose].find(kNeutralMethod);
-    const double neutral_mean = neutral == table[pose].end() ? 0.0 : neutral->second.mean;
-    neutral_average += neutral_mean / poses.size();
-    out += "| " + pose + " | " + Number(neutral_mean);
+    out += "| " + pose;
+    for (const std::string& method : std::vector<std::string>{kNeutralMethod}) {
+      const auto it = table[pose].find(method);
+      out += " | " + (it == table[pose].end() ? std::string("n/a") : Number(it->second.mean));
+      if (it != table[pose].end()) {
+        average[method].mean += it->second.mean / poses.size();
+        ++count[method];
+      }
+    }
     for (const char* method : kEvaluationMethods) {
-      const EvaluationRow& r = table[pose][method];
+      const auto it = table[pose].find(method);
+      if (it == table[pose].end()) {
+        out += " | n/a | n/a | n/a";
+        continue;
+      }
+      const EvaluationRow& r = it->second;
       out += " | " + Number(r.mean) + " | " + Number(r.rms) + " | " + Number(r.max);
       EvaluationRow& a = average[method];
       a.mean += r.mean / poses.size();
       a.rms += r.rms / poses.size();
       a.max = std::max(a.max, r.max);
+      ++count[method];
     }
     out += " |\n";
   }
-  out += "| **mean** (max of max) | " + Number(neutral_average);
+  const int all = static_cast<int>(poses.size());
+  out += "| **mean** (max of max) | " +
+         (count[kNeutralMethod] == all ? Number(average[kNeutralMethod].mean) : "n/a");
   for (const char* method : kEvaluationMethods) {
     const EvaluationRow& a = average[method];
-    out += " | **" + Number(a.mean) + "** | " + Number(a.rms) + " | " + Number(a.max);
+    if (count[method] == all) {
+      out += " | **" + Number(a.mean) + "** | " + Number(a.rms) + " | " + Number(a.max);
+    } else {
+      out += " | n/a | n/a | " + (count[method] > 0 ? Number(a.max) : std::string("n/a"));
+    }
   }
   out += " |\n";
   return out;

@@ -60,6 +60,21 @@ TEST(EvaluationReportTest, TableHasARowPerPoseAndTheMeans) {
   EXPECT_EQ(EvaluationTable(TwoPoses(), "none"), "");
 }
 
+// A held-out fit that failed has no row: n/a in its place and for its method's mean,
+// never a perfect 0.0000 averaged into the mean.
+TEST(EvaluationReportTest, TableMarksAFailedFitNotAvailable) {
+  std::vector<EvaluationRow> rows;
+  for (const EvaluationRow& row : TwoPoses()) {
+    if (!(row.pose == "b" && row.method == std::string("physics"))) rows.push_back(row);
+  }
+  const std::string table = EvaluationTable(rows, "test");
+  EXPECT_NE(table.find("| b | 0.5000 | n/a | n/a | n/a | 0.0600 |"), std::string::npos) << table;
+  EXPECT_NE(table.find("| **mean** (max of max) | 0.5000 | n/a | n/a | 0.0300 | **0.0400** |"),
+            std::string::npos)
+      << table;
+  EXPECT_EQ(table.find("0.0000"), std::string::npos) << table;
+}
+
 TEST(EvaluationReportTest, BudgetTableMarksMissingStagesNotAvailable) {
   const std::string table =
       ErrorBudgetTable(TwoPoses(), "test", {{"floor", "floor"}, {"physics", "physics fit"}});

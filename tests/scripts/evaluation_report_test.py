@@ -199,6 +199,25 @@ def main():
         if result.returncode != 1 or "training_errors.bin" not in result.stdout:
             failures.append("a truncated matrix file must exit 1 naming it, got %d:\n%s"
                             % (result.returncode, result.stdout))
+        # A held-out physics fit that failed (no row, no surface): n/a, and no headline
+        # mean of the physics model over fewer poses than the baselines'.
+        evaluation4, model4 = make_evaluation(os.path.join(root, "fourth"))
+        csv = os.path.join(evaluation4, "evaluation.csv")
+        kept = [line for line in open(csv) if not line.startswith("test,smile,physics,")]
+        with open(csv, "w") as f:
+            f.writelines(kept)
+        for name in ("smile_physics.obj", "smile_physics.ply"):
+            for folder in ("fitted", "fields"):
+                path = os.path.join(evaluation4, folder, name)
+                if os.path.exists(path):
+                    os.remove(path)
+        result = run([sys.executable, script, "--evaluation", evaluation4, "--model", model4])
+        page = open(os.path.join(evaluation4, "index.html")).read() if result.returncode == 0 \
+            else ""
+        if result.returncode != 0 or "failed on 1 of the 1 held-out poses" not in page or \
+                "lower than every baseline" in page:
+            failures.append("a failed physics fit must be n/a with no headline mean, got %d:\n%s"
+                            % (result.returncode, result.stdout))
     finally:
         if os.environ.get("AQS_KEEP_TEST_FILES", "0") not in ("", "0"):
             print("kept " + root)
