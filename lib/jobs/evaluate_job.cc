@@ -71,6 +71,12 @@ bool ReadEvaluationInputs(const EvaluateJobOptions& options, bool distributed, b
   std::error_code code;
   const std::string& out = options.output_directory;
   if (root) {
+    // This job's per-pose outputs start empty: a method that writes nothing this run (a
+    // failed fit, no error budget) must not leave an earlier run's file for the report
+    // to draw. (The held-out fits' store, held_out_fits/, is kept: it resumes.)
+    for (const char* folder : {"/fields", "/fitted", "/budget"}) {
+      if (!code) std::filesystem::remove_all(out + folder, code);
+    }
     for (const char* folder : {"/fields", "/fitted"}) {
       if (!code) std::filesystem::create_directories(out + folder, code);
     }

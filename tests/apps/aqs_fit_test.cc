@@ -167,15 +167,26 @@ TEST_F(AqsFitTest, EvaluationStartsHeldOutFitsFromTheBestTrainingPose) {
 }
 
 // --baseline_hidden and --baseline_linear_skip give the auto-encoder its own layout, and
-// the report says so beside the decoder's; bad values exit 1 naming the flag.
+// the report says so beside the decoder's; bad values exit 1 naming the flag. (And an
+// earlier run's per-pose files do not survive a run.)
 TEST_F(AqsFitTest, EvaluationTakesTheAutoencodersOwnLayout) {
   const std::string pose = data_->model.poses.back().name;
   const std::string command =
       AppPath("aqs_evaluate") + " --model=" + dir_->File("model") + " --test_poses=" +
       dir_->File("poses/" + pose + ".obj") + " --output_dir=" + dir_->File("eval_layout") +
       " --baseline_iterations=20 --error_budget=false --write_fields=false --report=false";
+  // An earlier run's per-pose outputs in the folder: gone after this run, which writes
+  // none (no fields, no budget), so that no report draws them.
+  for (const char* stale : {"eval_layout/fitted/old_physics.obj", "eval_layout/fields/old.ply",
+                            "eval_layout/budget/training_errors.bin"}) {
+    std::filesystem::create_directories(std::filesystem::path(dir_->File(stale)).parent_path());
+    std::ofstream(dir_->File(stale)) << "stale\n";
+  }
   const testing::CommandResult run = RunCommand(command + " --baseline_hidden=4,3");
   ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_FALSE(std::filesystem::exists(dir_->File("eval_layout/fitted/old_physics.obj")));
+  EXPECT_FALSE(std::filesystem::exists(dir_->File("eval_layout/fields/old.ply")));
+  EXPECT_FALSE(std::filesystem::exists(dir_->File("eval_layout/budget")));
   std::ifstream md_file(dir_->File("eval_layout/evaluation.md"));
   std::stringstream md;
   md << md_file.rdbuf();
