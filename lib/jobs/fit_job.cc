@@ -78,6 +78,13 @@ bool WriteFitOutputs(const FitJobOptions& options, const ActiveModel& model,
       return false;
     }
     log << "wrote " << options.output_uncertainty << note << " (standard deviation per vertex)\n";
+  } else if (!options.output_uncertainty.empty()) {
+    // None this time (the log says why): no earlier run's file may pass for this fit's.
+    std::error_code code;
+    if (std::filesystem::remove(options.output_uncertainty, code)) {
+      log << "removed " << options.output_uncertainty << ": an earlier fit's uncertainty "
+          << "(this fit has none)\n";
+    }
   }
   return true;
 }

@@ -287,6 +287,16 @@ TEST_F(AqsFitTest, MarkersAndPointCloudTargets) {
   std::string error;
   ASSERT_TRUE(ReadPointCloud(dir_->File("m_std.ply"), &std_points, &error)) << error;
   EXPECT_EQ(std_points.cols(), data_->model.neutral.num_vertices());
+  // A scan of 3 points cannot say how uncertain a fit of 3 parameters is: the earlier
+  // fit's file must not stay to pass for this one's.
+  std::ofstream(dir_->File("three.ply"))
+      << "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+      << "property float z\nend_header\n1.0 0.5 0.5\n1.2 0.5 0.5\n1.4 0.4 0.5\n";
+  run = RunCommand(Fit("--target=" + dir_->File("three.ply") + " --output=" +
+                       dir_->File("three.obj") + " --output_uncertainty=" + dir_->File("m_std.ply")));
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("uncertainty: not available"), std::string::npos) << run.output;
+  EXPECT_FALSE(std::filesystem::exists(dir_->File("m_std.ply"))) << run.output;
   run = RunCommand(Fit("--target=" + dir_->File("markers.txt") + " --output=" +
                        dir_->File("m.obj") + " --output_uncertainty=" + dir_->File("m_std.obj")));
   EXPECT_EQ(run.exit_code, 1) << run.output;
