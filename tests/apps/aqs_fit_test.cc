@@ -293,7 +293,8 @@ TEST_F(AqsFitTest, MarkersAndPointCloudTargets) {
       << "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
       << "property float z\nend_header\n1.0 0.5 0.5\n1.2 0.5 0.5\n1.4 0.4 0.5\n";
   run = RunCommand(Fit("--target=" + dir_->File("three.ply") + " --output=" +
-                       dir_->File("three.obj") + " --output_uncertainty=" + dir_->File("m_std.ply")));
+                       dir_->File("three.obj") +
+                       " --output_uncertainty=" + dir_->File("m_std.ply")));
   ASSERT_EQ(run.exit_code, 0) << run.output;
   EXPECT_NE(run.output.find("uncertainty: not available"), std::string::npos) << run.output;
   EXPECT_FALSE(std::filesystem::exists(dir_->File("m_std.ply"))) << run.output;
