@@ -4,6 +4,8 @@
 #include <cstdint>
 #include <vector>
 
+#include <glog/logging.h>
+
 #include "model/model_fingerprint.h"
 
 namespace aqs {
@@ -12,6 +14,38 @@ namespace {
 void Split(uint64_t value, int* words) {
   words[0] = static_cast<int>(static_cast<uint32_t>(value >> 32));
   words[1] = static_cast<int>(static_cast<uint32_t>(value));
+}
+
+}  // namespace
+
+namespace {
+
+// Rank 0's Gaussian (mean of `size` numbers and its covariance) on every rank.
+void ShareGaussian(const Communicator& comm, int size, GaussianPrior* prior) {
+  Eigen::VectorXd mean = comm.is_root() ? prior->mean : Eigen::VectorXd(size);
+  Eigen::MatrixXd covariance = comm.is_root() ? prior->covariance : Eigen::MatrixXd(size, size);
+  CHECK_EQ(mean.size(), size);
+  CHECK_EQ(covariance.rows(), size);
+  comm.Broadcast(mean.data(), size, 0);
+  comm.Broadcast(covariance.data(), size * size, 0);
+  if (comm.is_root()) return;
+  prior->mean = mean;
+  CHECK(prior->SetCovariance(covariance)) << "rank 0's prior covariance is definite";
+}
+
+// Rank 0's fit prior on every rank (another machine's copy of prior.txt may be an older
+// one, learned from older latents).
+void ShareFitPrior(const Communicator& comm, ActiveModel* model) {
+  int has = model->fit_prior.empty() ? 0 : 1;
+  comm.Broadcast(&has, 1, 0);
+  if (!has) {
+    model->fit_prior = FitPrior();
+    return;
+  }
+  comm.BroadcastText(&model->fit_prior.center, 0);
+  ShareGaussian(comm, model->latent_dim(), &model->fit_prior.latent);
+  model->fit_prior.bones.resize(model->bones.size());
+  for (GaussianPrior& bone : model->fit_prior.bones) ShareGaussian(comm, 6, &bone);
 }
 
 }  // namespace
@@ -42,6 +76,7 @@ bool ShareModel(const Communicator& comm, const std::string& directory, bool loa
   // Rank 0's learned numbers.
   comm.Broadcast(model->decoder_params.data(), static_cast<int>(model->decoder_params.size()), 0);
   comm.Broadcast(model->latents.data(), static_cast<int>(model->latents.size()), 0);
+  ShareFitPrior(comm, model);
   int iterations = model->checkpoint.iterations;
   double loss = model->checkpoint.loss;
   comm.Broadcast(&iterations, 1, 0);

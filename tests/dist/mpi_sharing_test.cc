@@ -7,6 +7,7 @@
 #include "dist/communicator.h"
 #include "dist/model_sharing.h"
 #include "dist/mpi_world.h"
+#include "model/fit_prior.h"
 #include "model/model_fingerprint.h"
 
 namespace aqs {
@@ -106,29 +107,41 @@ TEST(MpiSharingTest, RankZerosLearnedStateReachesEveryRank) {
   ActiveModel model = testing::PretrainedBar(3);
   model.states.assign(3, Eigen::Matrix3Xd());
   model.states[2] = model.mesh.vertices;
+  std::string error;
+  // Every rank's own fit prior (another machine's copy may hold an older prior.txt).
+  EXPECT_TRUE(LearnFitPrior(model, FitPriorOptions(), &model.fit_prior, &error)) << error;
+  model.fit_prior.center = "rank " + std::to_string(world.rank());
   if (world.is_root()) {
     model.decoder_params.array() += 0.25;
     model.latents(1, 2) = 7.0;
     model.states[0] = model.mesh.vertices.array() + 0.5;
     model.checkpoint.iterations = 12;
     model.checkpoint.loss = 0.125;
+    model.fit_prior.latent.mean.array() += 0.5;
+    EXPECT_TRUE(model.fit_prior.latent.SetCovariance(2.0 * model.fit_prior.latent.covariance));
   }
   const ActiveModel root_copy = model;
-  std::string error;
   EXPECT_TRUE(ShareModel(world, "DIR", true, &model, &error)) << error;
   // Rank 0's numbers, compared on rank 0 after gathering a checksum from every rank.
-  const double mine[4] = {model.decoder_params.sum(), model.latents.sum(),
+  const double mine[7] = {model.decoder_params.sum(),
+                          model.latents.sum(),
                           model.states[0].cols() > 0 ? model.states[0].sum() : -1.0,
-                          model.checkpoint.loss * model.checkpoint.iterations};
-  std::vector<double> all(4 * world.size());
-  world.GatherToRoot(mine, std::vector<int>(world.size(), 4), all.data());
+                          model.checkpoint.loss * model.checkpoint.iterations,
+                          model.fit_prior.latent.mean.sum(),
+                          model.fit_prior.latent.whitening.sum(),
+                          model.fit_prior.center == "rank 0" ? 1.0 : 0.0};
+  std::vector<double> all(7 * world.size());
+  world.GatherToRoot(mine, std::vector<int>(world.size(), 7), all.data());
   if (!world.is_root()) return;
   EXPECT_EQ(model.states[1].cols(), 0);
   for (int r = 0; r < world.size(); ++r) {
-    EXPECT_EQ(all[4 * r + 0], root_copy.decoder_params.sum()) << "rank " << r;
-    EXPECT_EQ(all[4 * r + 1], root_copy.latents.sum()) << "rank " << r;
-    EXPECT_EQ(all[4 * r + 2], root_copy.states[0].sum()) << "rank " << r;
-    EXPECT_EQ(all[4 * r + 3], 1.5) << "rank " << r;
+    EXPECT_EQ(all[7 * r + 0], root_copy.decoder_params.sum()) << "rank " << r;
+    EXPECT_EQ(all[7 * r + 1], root_copy.latents.sum()) << "rank " << r;
+    EXPECT_EQ(all[7 * r + 2], root_copy.states[0].sum()) << "rank " << r;
+    EXPECT_EQ(all[7 * r + 3], 1.5) << "rank " << r;
+    EXPECT_EQ(all[7 * r + 4], root_copy.fit_prior.latent.mean.sum()) << "rank " << r;
+    EXPECT_EQ(all[7 * r + 5], root_copy.fit_prior.latent.whitening.sum()) << "rank " << r;
+    EXPECT_EQ(all[7 * r + 6], 1.0) << "rank " << r << ": rank 0's prior centre";
   }
 }
 
