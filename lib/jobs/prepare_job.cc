@@ -249,6 +249,8 @@ ExistingModel CheckExistingModel(const std::string& output, const std::string& t
   if (ModelFingerprint(existing) != ModelFingerprint(model)) {
     why = "its mesh, material, fixed vertices, bones, embedding or poses differ from these "
           "inputs' and flags'";
+  } else if (FacesFingerprint(existing.neutral) != FacesFingerprint(model.neutral)) {
+    why = "its neutral's faces differ from these inputs'";
   } else if (existing.target_key.empty()) {
     why = "it records no key of its targets (some did not converge, or an older version "
           "wrote it)";

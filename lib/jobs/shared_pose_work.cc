@@ -40,7 +40,7 @@ bool MakeVolumetricTargetsOnRanks(const Communicator& comm,
   const bool storing = root && !options.store_directory.empty();
   bool ok = options.Validate(error) &&
             (!storing ||
-             store.Open(options.store_directory, VolumetricTargetKey(options, *model), error));
+             store.Open(options.store_directory, TargetStoreKey(options, *model), error));
   if (!comm.Agree(ok, error)) return false;
   // The same options (those that shape the targets) and model on every rank.
   const std::string key = VolumetricTargetFingerprint(options, *model);

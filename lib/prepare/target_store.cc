@@ -1,5 +1,6 @@
 #include "prepare/target_store.h"
 
+#include <cstdint>
 #include <filesystem>
 #include <sstream>
 
@@ -21,6 +22,19 @@ std::string VolumetricTargetKey(const VolumetricTargetOptions& options, const Ac
       << "continuation_steps " << options.continuation_steps << "\n"
       << "solver " << options.solver.KeyText() << "\n";
   return key.str();
+}
+
+std::string FacesFingerprint(const SurfaceMesh& surface) {
+  uint64_t hash = kFnvOffsetBasis;
+  hash = Fnv1a(surface.triangles.data(), sizeof(int) * surface.triangles.size(), hash);
+  hash = Fnv1a(surface.face_offsets.data(), sizeof(int) * surface.face_offsets.size(), hash);
+  hash = Fnv1a(surface.face_vertices.data(), sizeof(int) * surface.face_vertices.size(), hash);
+  return FingerprintText(hash);
+}
+
+std::string TargetStoreKey(const VolumetricTargetOptions& options, const ActiveModel& model) {
+  return VolumetricTargetKey(options, model) + "neutral_faces " + FacesFingerprint(model.neutral) +
+         "\n";
 }
 
 std::string VolumetricTargetFingerprint(const VolumetricTargetOptions& options,

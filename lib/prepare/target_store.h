@@ -3,6 +3,7 @@
 
 #include <string>
 
+#include "mesh/surface_mesh.h"
 #include "model/active_model.h"
 #include "prepare/volumetric_targets.h"
 #include "util/keyed_store.h"
@@ -23,9 +24,20 @@ namespace aqs {
 // model is saved (RemoveDirectory).
 
 // What a pose's target depends on: the model as prepared so far (ModelFingerprint:
-// mesh, mu, fixed vertices, bones, neutral, embedding, poses) and the options that
-// shape the solves (spring stiffness, continuation, solver method and tolerances).
+// mesh, mu, fixed vertices, bones, the neutral's vertices, embedding, poses) and the
+// options that shape the solves (spring stiffness, continuation, solver method and
+// tolerances). (The neutral's faces, which weigh the attachment springs, are not in it:
+// models record its fingerprint; the store's key, TargetStoreKey, and aqs_prepare's
+// check of an existing model add them.)
 std::string VolumetricTargetKey(const VolumetricTargetOptions& options, const ActiveModel& model);
+
+// The key of a target store (TargetStore::Open): VolumetricTargetKey and a hash of the
+// neutral's faces (triangles and polygons), so that targets of other faces are not
+// taken from a store.
+std::string TargetStoreKey(const VolumetricTargetOptions& options, const ActiveModel& model);
+
+// A hash of a surface's faces (triangles, polygons), as 16 hexadecimal digits.
+std::string FacesFingerprint(const SurfaceMesh& surface);
 
 // VolumetricTargetKey as 16 hexadecimal digits (an FNV-1a hash of its text): what
 // ActiveModel::target_key records.

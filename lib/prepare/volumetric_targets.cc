@@ -185,7 +185,7 @@ bool MakeVolumetricTargets(const VolumetricTargetOptions& options, ActiveModel* 
   TargetStore store;
   const bool storing = !options.store_directory.empty();
   if (storing &&
-      !store.Open(options.store_directory, VolumetricTargetKey(options, *model), error)) {
+      !store.Open(options.store_directory, TargetStoreKey(options, *model), error)) {
     return false;
   }
   std::vector<int> remaining;

@@ -113,6 +113,19 @@ TEST_F(PrepareJobTest, TheSameModelIsKeptAndAnotherIsMadeAnew) {
   EXPECT_NE(log.str().find("is prepared anew: its targets were made with other options"),
             std::string::npos)
       << log.str();
+  // The neutral's faces in another order (the same vertices and surface): they weigh the
+  // attachment springs, so the model is not kept.
+  log.str("");
+  ASSERT_TRUE(RunPrepareJob(keep, log, &error)) << error;
+  EXPECT_NE(log.str().find("kept, with its learned state"), std::string::npos) << log.str();
+  SurfaceMesh reordered = neutral_;
+  reordered.triangles.col(0).swap(reordered.triangles.col(1));
+  ASSERT_TRUE(WriteObj(options_.neutral, reordered, &error)) << error;
+  log.str("");
+  ASSERT_TRUE(RunPrepareJob(keep, log, &error)) << error;
+  EXPECT_NE(log.str().find("is prepared anew: its neutral's faces differ from these inputs'"),
+            std::string::npos)
+      << log.str();
   // Targets that do not converge: the model is written (status kNotConverged) without a
   // key, and a rerun makes it again.
   keep.targets.solver.max_iterations = 1;

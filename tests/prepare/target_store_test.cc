@@ -82,6 +82,13 @@ TEST_F(TargetStoreTest, OtherOptionsOrAnotherModelEmptyTheStore) {
   model_.poses[2].surface.col(0).x() += 1e-3;
   Make(stiffer, &log);
   EXPECT_EQ(log.find("taken from"), std::string::npos) << log;
+  // Nor does the same model with the neutral's faces in another order (they weigh the
+  // attachment springs; the model's own fingerprint has the neutral's vertices only).
+  Make(stiffer, &log);
+  EXPECT_NE(log.find("taken from"), std::string::npos) << log;
+  model_.neutral.triangles.col(0).swap(model_.neutral.triangles.col(1));
+  Make(stiffer, &log);
+  EXPECT_EQ(log.find("taken from"), std::string::npos) << log;
 }
 
 TEST_F(TargetStoreTest, ADamagedRecordIsSolvedAgain) {
