@@ -12,6 +12,7 @@
 #include "jobs/fit_job.h"
 #include "jobs/sequence_outputs.h"
 #include "mesh/mesh_io.h"
+#include "model/model_fingerprint.h"
 #include "model/model_io.h"
 #include "util/atomic_file.h"
 #include "util/blas.h"
@@ -88,6 +89,32 @@ bool ReadFramesOnEveryRank(const FitSequenceOptions& options, const ActiveModel&
 
 // Rank 0 creates output_dir and reads the frames done there (*done; the other ranks'
 // stays empty). False on every rank if it fails.
+// What a sequence's frames depend on besides their targets (output_dir/key.txt): the
+// model (prepared part and learned state) and every option that shapes a fit. (Not
+// warm_start: a warm-started run may go on from an independent run's frames.)
+std::string SequenceKey(const FitSequenceOptions& options, const ActiveModel& model) {
+  const PointCloudFitOptions& p = options.points;
+  const FitStartOptions& s = options.start;
+  std::ostringstream key;
+  key << "model " << FingerprintText(ModelFingerprint(model)) << "\n"
+      << "learned " << FingerprintText(LearnedStateFingerprint(model)) << "\n"
+      << "target_kind " << options.target_kind << "\n"
+      << "landmarks " << (options.landmarks.empty() ? "none" : options.landmarks) << "\n"
+      << "start " << s.training_poses << " " << s.retry_from_given << " " << s.mean_latent
+      << "\n"
+      << "points " << p.max_rounds << " " << p.iterations_per_round << " "
+      << FormatDouble(p.max_distance) << " " << FormatDouble(p.robust_scale) << " "
+      << FormatDouble(p.relative_tolerance) << " " << FormatDouble(p.tangential_weight) << " "
+      << p.rematch_every_evaluation << " " << FormatDouble(p.landmark_weight) << " "
+      << FormatDouble(p.bone_prior) << "\n"
+      << options.fit.KeyText();
+  return key.str();
+}
+
+// Opens the output folder (rank 0 reads and writes; the ranks agree): the frames done
+// by an earlier run of the same key, which must be this run's (key.txt; a folder with
+// frames but no key.txt is an older version's run, taken as it is). Frames of another
+// model or other options are refused, never mixed with this run's.
 bool OpenOutputFolder(const FitSequenceOptions& options, const ActiveModel& model,
                       const std::vector<SequenceFrame>& frames, const SequenceRanks& ranks,
                       std::vector<DoneFrame>* done, std::string* error) {
@@ -99,8 +126,17 @@ bool OpenOutputFolder(const FitSequenceOptions& options, const ActiveModel& mode
       *error = options.output_dir + ": cannot create the folder (" + code.message() + ")";
       ok = false;
     }
+    const std::string key_path = options.output_dir + "/key.txt";
+    const std::string key = SequenceKey(options, model);
+    if (ok && MayExist(key_path) && MayExist(options.output_dir + "/frames.csv") &&
+        ReadWholeFile(key_path) != key) {
+      *error = options.output_dir + ": its frames were fitted with another model or other fit "
+               "options (key.txt); remove the folder, or write to another --output_dir";
+      ok = false;
+    }
     ok = ok && ReadFramesDone(options.output_dir + "/frames.csv", options.output_dir, model,
                               frames, done, error);
+    ok = ok && WriteFileAtomically(key_path, key, error);
   }
   return ranks.Agree(ok, error);
 }

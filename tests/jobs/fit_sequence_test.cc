@@ -178,6 +178,28 @@ TEST_F(FitSequenceTest, IndependentFramesResumeWithTheSameResults) {
       << damaged.message;
 }
 
+// Frames of another model or other fit options are refused, never mixed with this
+// run's (output_dir/key.txt); the same options resume.
+TEST_F(FitSequenceTest, FramesOfOtherOptionsAreRefused) {
+  Run({0}, "keyed", false);
+  FitSequenceOptions options = Options();
+  for (int t : {0, 1}) options.sequence += Target(t) + ",";
+  options.output_dir = dir_->File("keyed");
+  options.warm_start = false;
+  options.fit.latent_prior *= 2;
+  std::ostringstream log;
+  const FitSequenceResult other = RunFitSequence(options, *model_, log);
+  EXPECT_EQ(other.status, JobStatus::kBadInput);
+  EXPECT_NE(other.message.find("its frames were fitted with another model or other fit "
+                               "options (key.txt)"),
+            std::string::npos)
+      << other.message;
+  EXPECT_EQ(Rows(dir_->File("keyed/frames.csv")).size(), 1u) << "nothing written";
+  const FitSequenceResult same = Run({0, 1}, "keyed", false);
+  EXPECT_EQ(same.frames_resumed, 1);
+  EXPECT_EQ(same.frames_fitted, 1);
+}
+
 // Independent frames go on past a frame that cannot be fitted (here a scan shifted
 // beyond every start's reach): its row says converged -1 with "nan" figures, it has no
 // OBJ, the frames after it are fitted (as they are alone), and the run ends
