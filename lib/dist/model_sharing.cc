@@ -83,6 +83,14 @@ bool ShareModel(const Communicator& comm, const std::string& directory, bool loa
   comm.Broadcast(&loss, 1, 0);
   model->checkpoint.iterations = iterations;
   model->checkpoint.loss = loss;
+  // No stored equilibria on rank 0: none on any rank (as an empty list, not one empty
+  // state per pose, so that the learned state's fingerprint is the one rank 0 read).
+  int any_states = model->states.empty() ? 0 : 1;
+  comm.Broadcast(&any_states, 1, 0);
+  if (!any_states) {
+    model->states.clear();
+    return true;
+  }
   const int num_poses = model->num_poses();
   const int nv = model->mesh.num_vertices();
   std::vector<int> have(num_poses, 0);

@@ -43,8 +43,11 @@ bool ReadEvaluationInputs(const EvaluateJobOptions& options, bool distributed, b
     *error = "--model and --output_dir are required";
     return false;
   }
-  if (!CheckOutputApart(options.output_directory, options.model, error)) return false;
-  bool ok = LoadModel(options.model, model, error);
+  // Paths may resolve differently on another machine: the ranks agree.
+  bool ok = CheckOutputApart(options.output_directory, options.model, error);
+  if (distributed) ok = communicator->Agree(ok, error);
+  if (!ok) return false;
+  ok = LoadModel(options.model, model, error);
   if (ok && !model->decoder) {
     *error = options.model + ": the model is not trained (no decoder)";
     ok = false;

@@ -305,10 +305,14 @@ bool WriteRound(const FitSequenceOptions& options, const ActiveModel& model,
   bool ok = true;
   for (int f = begin; f < written && ok; ++f) {
     const double* b = blocks.data() + static_cast<size_t>(block_size) * (f - begin);
-    if (!BlockFailed(b)) {  // a frame that could not be fitted has no OBJ
+    const std::string obj = options.output_dir + "/" + frames[f].name + ".obj";
+    if (!BlockFailed(b)) {
       SurfaceMesh surface = model.neutral;
       surface.vertices = BlockSurface(model, b);
-      ok = WriteObj(options.output_dir + "/" + frames[f].name + ".obj", surface, error);
+      ok = WriteObj(obj, surface, error);
+    } else {  // a frame that could not be fitted has no OBJ, not an earlier run's either
+      std::error_code code;
+      fs::remove(obj, code);
     }
     track->col(f) = BlockLatent(model, b);
     *csv += FrameCsvRow(model, f, frames[f], b) + "\n";
@@ -355,7 +359,8 @@ FitSequenceResult RunFitSequence(const FitSequenceOptions& options, const Active
   // Bad input every rank sees alike (same options): no collective needed.
   if (!CheckSharing(options, &error)) return fail(JobStatus::kBadInput, error);
   if (options.output_dir.empty()) return fail(JobStatus::kBadInput, "--output_dir is required");
-  if (!CheckOutputApart(options.output_dir, options.model, &error)) {
+  // Paths may resolve differently on another machine: the ranks agree.
+  if (!ranks.Agree(CheckOutputApart(options.output_dir, options.model, &error), &error)) {
     return fail(JobStatus::kBadInput, error);
   }
   if (!model.decoder) return fail(JobStatus::kBadInput, options.model + ": the model is not trained");
@@ -363,17 +368,21 @@ FitSequenceResult RunFitSequence(const FitSequenceOptions& options, const Active
   if (!ReadFramesOnEveryRank(options, model, ranks, &frames, &error)) {
     return fail(JobStatus::kBadInput, error);
   }
+  bool apart = true;
   for (const SequenceFrame& f : frames) {
     // Frame OBJs go to output_dir/<name>.obj: not into the targets' own folder (over a
     // target, or as new targets of the sequence on a rerun).
     std::error_code code;
     const fs::path folder = fs::path(f.path).parent_path();
-    if (fs::equivalent(options.output_dir, folder.empty() ? fs::path(".") : folder, code)) {
-      return fail(JobStatus::kBadInput, options.output_dir + ": is the folder of the frame " +
-                                            f.path + "; write the outputs elsewhere");
+    if (apart &&
+        fs::equivalent(options.output_dir, folder.empty() ? fs::path(".") : folder, code)) {
+      error = options.output_dir + ": is the folder of the frame " + f.path +
+              "; write the outputs elsewhere";
+      apart = false;
     }
     result.frame_names.push_back(f.name);
   }
+  if (!ranks.Agree(apart, &error)) return fail(JobStatus::kBadInput, error);
   std::vector<DoneFrame> done;
   if (!OpenOutputFolder(options, model, frames, ranks, &done, &error)) {
     return fail(JobStatus::kBadInput, error);

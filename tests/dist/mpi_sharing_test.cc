@@ -102,6 +102,20 @@ TEST(MpiSharingTest, ALoadFailureOnOneRankStopsEveryRank) {
 
 // Every rank ends with rank 0's decoder parameters, latents, states and checkpoint,
 // whatever its own copy held.
+// A model without stored equilibria (pre-trained without simulating its poses) stays
+// without them on every rank, with rank 0's learned-state fingerprint: a store keyed on
+// it (the held-out fits) is found again by a run with another number of ranks.
+TEST(MpiSharingTest, NoStoredEquilibriaStayNone) {
+  const Communicator& world = World();
+  ActiveModel model = testing::PretrainedBar(3);
+  model.states.clear();
+  const uint64_t before = LearnedStateFingerprint(model);
+  std::string error;
+  EXPECT_TRUE(ShareModel(world, "DIR", true, &model, &error)) << error;
+  EXPECT_TRUE(model.states.empty());
+  EXPECT_EQ(LearnedStateFingerprint(model), before);
+}
+
 TEST(MpiSharingTest, RankZerosLearnedStateReachesEveryRank) {
   const Communicator& world = World();
   ActiveModel model = testing::PretrainedBar(3);
