@@ -26,6 +26,7 @@
 #include "util/matrix_io.h"
 #include "util/memory_limit.h"
 #include "util/option_checks.h"
+#include "util/path_lock.h"
 #include "util/vertex_ranges.h"
 #include "util/wall_timer.h"
 
@@ -37,7 +38,8 @@ namespace {
 // (rank 0). Collective when distributed.
 bool ReadEvaluationInputs(const EvaluateJobOptions& options, bool distributed, bool root,
                           ActiveModel* model, std::vector<std::string>* test_names,
-                          std::vector<Eigen::Matrix3Xd>* test_surfaces, std::string* error) {
+                          std::vector<Eigen::Matrix3Xd>* test_surfaces, PathLock* output_lock,
+                          std::string* error) {
   const Communicator* communicator = options.communicator;
   if (options.model.empty() || options.output_directory.empty()) {
     *error = "--model and --output_dir are required";
@@ -74,18 +76,29 @@ bool ReadEvaluationInputs(const EvaluateJobOptions& options, bool distributed, b
   std::error_code code;
   const std::string& out = options.output_directory;
   if (root) {
+    // One evaluation at a time writes into a folder (its writers' lock, held until the
+    // job ends): two would empty each other's stores and outputs.
+    std::filesystem::create_directories(out, code);
+    if (code) {
+      *error = out + ": cannot create the folder (" + code.message() + ")";
+      ok = false;
+    } else {
+      ok = output_lock->Acquire(out, error, "the evaluation folder " + out);
+    }
     // This job's per-pose outputs start empty: a method that writes nothing this run (a
     // failed fit, no error budget) must not leave an earlier run's file for the report
     // to draw. (The held-out fits' store, held_out_fits/, is kept: it resumes.)
     for (const char* folder : {"/fields", "/fitted", "/budget"}) {
-      if (!code) std::filesystem::remove_all(out + folder, code);
+      if (ok && !code) std::filesystem::remove_all(out + folder, code);
     }
     for (const char* folder : {"/fields", "/fitted"}) {
-      if (!code) std::filesystem::create_directories(out + folder, code);
+      if (ok && !code) std::filesystem::create_directories(out + folder, code);
     }
-    if (code) *error = out + ": cannot create the output folders (" + code.message() + ")";
+    if (ok && code) {
+      *error = out + ": cannot create the output folders (" + code.message() + ")";
+      ok = false;
+    }
   }
-  ok = !code;
   if (distributed) ok = communicator->Agree(ok, error);
   return ok;
 }
@@ -439,8 +452,9 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
   ActiveModel model;
   std::vector<std::string> test_names;
   std::vector<Eigen::Matrix3Xd> test_surfaces;
+  PathLock output_lock;  // rank 0's, until the job ends
   if (!ReadEvaluationInputs(options, distributed, root, &model, &test_names, &test_surfaces,
-                            error)) {
+                            &output_lock, error)) {
     return false;
   }
   {

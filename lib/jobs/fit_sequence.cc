@@ -20,6 +20,7 @@
 #include "util/matrix_io.h"
 #include "util/number_format.h"
 #include "util/option_checks.h"
+#include "util/path_lock.h"
 #include "util/wall_timer.h"
 
 namespace aqs {
@@ -111,13 +112,14 @@ std::string SequenceKey(const FitSequenceOptions& options, const ActiveModel& mo
   return key.str();
 }
 
-// Opens the output folder (rank 0 reads and writes; the ranks agree): the frames done
+// Opens the output folder (rank 0 takes its writers' lock, reads and writes; the ranks
+// agree): the frames done
 // by an earlier run of the same key, which must be this run's (key.txt; a folder with
 // frames but no key.txt is an older version's run, taken as it is). Frames of another
 // model or other options are refused, never mixed with this run's.
 bool OpenOutputFolder(const FitSequenceOptions& options, const ActiveModel& model,
                       const std::vector<SequenceFrame>& frames, const SequenceRanks& ranks,
-                      std::vector<DoneFrame>* done, std::string* error) {
+                      PathLock* lock, std::vector<DoneFrame>* done, std::string* error) {
   bool ok = true;
   if (ranks.root) {
     std::error_code code;
@@ -126,6 +128,10 @@ bool OpenOutputFolder(const FitSequenceOptions& options, const ActiveModel& mode
       *error = options.output_dir + ": cannot create the folder (" + code.message() + ")";
       ok = false;
     }
+    // One run at a time writes into a folder (its writers' lock, held until the job
+    // ends): two would replace each other's frames.csv between their OBJs.
+    ok = ok && lock->Acquire(options.output_dir, error, "the sequence folder " +
+                                                            options.output_dir);
     const std::string key_path = options.output_dir + "/key.txt";
     const std::string key = SequenceKey(options, model);
     if (ok && MayExist(key_path) && MayExist(options.output_dir + "/frames.csv") &&
@@ -384,7 +390,8 @@ FitSequenceResult RunFitSequence(const FitSequenceOptions& options, const Active
   }
   if (!ranks.Agree(apart, &error)) return fail(JobStatus::kBadInput, error);
   std::vector<DoneFrame> done;
-  if (!OpenOutputFolder(options, model, frames, ranks, &done, &error)) {
+  PathLock output_lock;  // rank 0's, until the job ends
+  if (!OpenOutputFolder(options, model, frames, ranks, &output_lock, &done, &error)) {
     return fail(JobStatus::kBadInput, error);
   }
   if (options.warm_start) {

@@ -1,6 +1,9 @@
 // aqs_fit, aqs_simulate --model, aqs_evaluate and aqs_collide on a small model trained from the
 // synthetic-muscle bar by aqs_pipeline.
 
+#include <unistd.h>
+
+#include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -15,6 +18,7 @@
 #include "testing/run_command.h"
 #include "testing/synthetic_muscles.h"
 #include "testing/temp_dir.h"
+#include "util/path_lock.h"
 
 namespace aqs {
 namespace {
@@ -412,6 +416,23 @@ TEST_F(AqsFitTest, MarkerSequenceWritesEveryFrameAndResumesAfterAKill) {
   EXPECT_EQ(run.exit_code, 1) << run.output;
   EXPECT_NE(run.output.find("frames.csv:2: frame 0 is 'frame_0', but this sequence's is 'a'"),
             std::string::npos) << run.output;
+  // While another process holds the folder's writers' lock, a second run is refused
+  // before it writes anything.
+  const std::string lock_file = PathLock::LockFileOf(out);
+  const int holder = testing::StartCommand({"/usr/bin/flock", lock_file, "sleep", "60"},
+                                           dir_->File("holder.txt"));
+  ASSERT_GT(holder, 0);
+  for (int i = 0; i < 100 && !fs::exists(lock_file); ++i) ::usleep(50000);
+  ::usleep(200000);  // flock(1) takes the lock right after creating the file
+  const auto csv_before = ReadLines(out + "/frames.csv");
+  run = RunCommand(command);
+  ::kill(holder, SIGKILL);
+  testing::WaitForCommand(holder);
+  EXPECT_EQ(run.exit_code, 1) << run.output;
+  EXPECT_NE(run.output.find("the sequence folder " + out + " is in use by another process"),
+            std::string::npos)
+      << run.output;
+  EXPECT_EQ(ReadLines(out + "/frames.csv"), csv_before);
 }
 
 TEST_F(AqsFitTest, ScanSequenceTakesOneLandmarksFilePerFrame) {
