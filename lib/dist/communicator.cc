@@ -2,17 +2,25 @@
 
 #include <algorithm>
 #include <cstring>
+#include <vector>
 
 namespace aqs {
 
 void Communicator::BroadcastText(std::string* text, int root) const {
-  int length = static_cast<int>(text->size());
+  // The length as a double (exact below 2^53: a text of any size a machine holds), then
+  // the characters as doubles of 8 each (the collectives move numbers), in pieces of at
+  // most kMaxPiece doubles (the collectives count in int).
+  double length = static_cast<double>(text->size());
   Broadcast(&length, 1, root);
-  // Sent as doubles of 8 characters each (the collectives move numbers).
-  std::vector<double> packed((length + 7) / 8, 0.0);
-  if (rank() == root) std::memcpy(packed.data(), text->data(), text->size());
-  Broadcast(packed.data(), static_cast<int>(packed.size()), root);
-  if (rank() != root) text->assign(reinterpret_cast<const char*>(packed.data()), length);
+  const size_t bytes = static_cast<size_t>(length);
+  std::vector<double> packed((bytes + 7) / 8, 0.0);
+  if (rank() == root) std::memcpy(packed.data(), text->data(), bytes);
+  constexpr size_t kMaxPiece = size_t{1} << 28;
+  for (size_t begin = 0; begin < packed.size(); begin += kMaxPiece) {
+    const size_t count = std::min(kMaxPiece, packed.size() - begin);
+    Broadcast(packed.data() + begin, static_cast<int>(count), root);
+  }
+  if (rank() != root) text->assign(reinterpret_cast<const char*>(packed.data()), bytes);
 }
 
 bool Communicator::Agree(bool ok, std::string* error) const {
