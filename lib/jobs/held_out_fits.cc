@@ -1,5 +1,7 @@
 #include "jobs/held_out_fits.h"
 
+#include <algorithm>
+
 #include "dist/communicator.h"
 #include "fit/chosen_start_fit.h"
 #include "jobs/held_out_fit_store.h"
@@ -103,43 +105,50 @@ void FitHeldOutPoses(const ActiveModel& model, const LatentFitOptions& options,
     }
   };
   if (size > 1 && count > 0) communicator->Broadcast(done.data(), count, 0);
-  std::vector<int> mine;  // this rank's poses still to fit
-  for (int t : OwnedIndices(count, rank, size)) {
-    if (!done[t]) mine.push_back(t);
-  }
-  for (int t : mine) {
-    FitOne(model, options, training_pose_starts, names[t], surfaces[t], &fits[t], &seconds[t]);
-    if (rank == 0) keep(t);
-  }
-  if (size == 1) return;
-  // Why each failed fit failed, from the rank that fitted it, for rank 0's log.
-  for (int t = 0; t < count; ++t) {
-    if (done[t]) continue;
-    int failed = rank == t % size && fits[t].failed ? 1 : 0;
-    communicator->Broadcast(&failed, 1, t % size);
-    if (!failed) continue;
-    std::string message = fits[t].message;
-    communicator->BroadcastText(&message, t % size);
-    fits[t].message = message;
-  }
-  // Rank 0 gathers the fits of the other ranks (rank 0's own are in place).
-  const int block = HeldOutFitBlockSize(model);
-  std::vector<double> send;
-  for (int t : mine) PackHeldOutFit(model, fits[t], seconds[t], &send);
-  std::vector<int> counts(size, 0);
-  std::vector<std::vector<int>> fitted(size);
+  // In rounds: in round k every rank fits the k-th of its poses still to fit; rank 0
+  // gathers the round's fits and keeps them at once (so that a stop loses at most a
+  // round's), and no gather exceeds ranks x one fit.
+  std::vector<std::vector<int>> todo(size);
+  size_t rounds = 0;
   for (int r = 0; r < size; ++r) {
     for (int t : OwnedIndices(count, r, size)) {
-      if (!done[t]) fitted[r].push_back(t);
+      if (!done[t]) todo[r].push_back(t);
     }
-    counts[r] = block * static_cast<int>(fitted[r].size());
+    rounds = std::max(rounds, todo[r].size());
   }
-  std::vector<double> received(rank == 0 ? static_cast<size_t>(block) * count : 0);
-  communicator->GatherToRoot(send.data(), counts, received.data());
-  if (rank != 0) return;
-  const double* x = received.data();
-  for (int r = 0; r < size; ++r) {
-    for (int t : fitted[r]) {
+  const int block = HeldOutFitBlockSize(model);
+  std::vector<int> counts(size, 0);
+  std::vector<double> send, received(rank == 0 ? static_cast<size_t>(block) * size : 0);
+  for (size_t k = 0; k < rounds; ++k) {
+    const bool fits_one = k < todo[rank].size();
+    if (fits_one) {
+      const int t = todo[rank][k];
+      FitOne(model, options, training_pose_starts, names[t], surfaces[t], &fits[t], &seconds[t]);
+      if (rank == 0) keep(t);
+    }
+    if (size == 1) continue;
+    // Why each failed fit of the round failed, from the rank that fitted it, for rank
+    // 0's log.
+    for (int r = 0; r < size; ++r) {
+      if (k >= todo[r].size()) continue;
+      const int t = todo[r][k];
+      int failed = rank == r && fits[t].failed ? 1 : 0;
+      communicator->Broadcast(&failed, 1, r);
+      if (!failed) continue;
+      std::string message = fits[t].message;
+      communicator->BroadcastText(&message, r);
+      fits[t].message = message;
+    }
+    send.clear();
+    if (fits_one) PackHeldOutFit(model, fits[todo[rank][k]], seconds[todo[rank][k]], &send);
+    send.resize(block);  // a valid buffer where this rank sends nothing
+    for (int r = 0; r < size; ++r) counts[r] = k < todo[r].size() ? block : 0;
+    communicator->GatherToRoot(send.data(), counts, received.data());
+    if (rank != 0) continue;
+    const double* x = received.data();
+    for (int r = 0; r < size; ++r) {
+      if (k >= todo[r].size()) continue;
+      const int t = todo[r][k];
       if (r != 0) {
         UnpackHeldOutFit(model, x, &fits[t], &seconds[t]);
         keep(t);
