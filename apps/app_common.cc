@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 
 #include <gflags/gflags.h>
 #include <glog/logging.h>
@@ -54,10 +55,32 @@ bool CheckFlagfiles(const std::string& list, int depth, std::string* error) {
     while (reader.NextLine()) {
       std::string line = reader.line();
       line.erase(0, line.find_first_not_of(" \t"));
-      if (line.size() < 2 || line[0] != '-') continue;  // blank, comment, or not a flag
+      while (!line.empty() && (line.back() == ' ' || line.back() == '\t' || line.back() == '\r')) {
+        line.pop_back();
+      }
+      if (line.empty() || line[0] == '#') continue;  // blank or a comment
+      // gflags reads a line that is not a flag as a filter of program names, and skips
+      // every flag after it that the filter does not match: refused.
+      if (line[0] != '-' || line.size() < 2) {
+        *error = reader.Where("'" + line + "' is not a flag (a flagfile holds --name=value "
+                              "lines and # comments)");
+        return false;
+      }
       const size_t start = line.find_first_not_of('-');
       const size_t end = line.find_first_of("= \t", start);
       const std::string name = line.substr(start, end == std::string::npos ? end : end - start);
+      // gflags drops "--name value" and a non-bool "--name" inside a flagfile, keeping the
+      // default; and a "# comment" after a value becomes part of it.
+      if (end != std::string::npos && line[end] != '=') {
+        *error = reader.Where("--" + name + ": write --" + name + "=value (in a flagfile a "
+                              "space does not separate a flag from its value)");
+        return false;
+      }
+      if (end != std::string::npos && line.find(" #", end) != std::string::npos) {
+        *error = reader.Where("--" + name + ": a '#' comment after a value would be part of "
+                              "it (put comments on lines of their own)");
+        return false;
+      }
       gflags::CommandLineFlagInfo info;
       bool known = gflags::GetCommandLineFlagInfo(name.c_str(), &info);
       if (!known && name.compare(0, 2, "no") == 0) {  // --noflag for a bool
@@ -70,6 +93,11 @@ bool CheckFlagfiles(const std::string& list, int depth, std::string* error) {
       }
       if (!known) {
         *error = reader.Where("unknown flag --" + name + " (no ActiveQS app has it)");
+        return false;
+      }
+      if (end == std::string::npos && !info.type.empty() && info.type != "bool" &&
+          name.compare(0, 2, "no") != 0) {
+        *error = reader.Where("--" + name + " needs a value (--" + name + "=value)");
         return false;
       }
       if (name == "flagfile" && end != std::string::npos &&
@@ -95,6 +123,20 @@ void InitApp(const std::string& usage, int* argc, char*** argv) {
   // mapped and zeroed again at every step (util/allocation_policy.h).
   ReuseLargeAllocations(kAppKeptAllocationBytes);
   gflags::SetUsageMessage(usage);
+  // Every flagfile of the command line, in order (gflags keeps only the last one it read
+  // in --flagfile, and a file that includes another would go unchecked).
+  std::string flagfiles;
+  for (int i = 1; i < *argc; ++i) {
+    const std::string argument = (*argv)[i];
+    for (const char* prefix : {"--flagfile=", "-flagfile="}) {
+      if (argument.rfind(prefix, 0) == 0) {
+        flagfiles += (flagfiles.empty() ? "" : ",") + argument.substr(std::strlen(prefix));
+      }
+    }
+    if ((argument == "--flagfile" || argument == "-flagfile") && i + 1 < *argc) {
+      flagfiles += (flagfiles.empty() ? "" : ",") + std::string((*argv)[i + 1]);
+    }
+  }
   gflags::ParseCommandLineNonHelpFlags(argc, argv, true);
   // gflags' own --helpshort lists only the flags of the file holding main(). An app also
   // takes the shared flags of apps/app_common.cc and of the apps/*_flags.cc units it
@@ -115,9 +157,8 @@ void InitApp(const std::string& usage, int* argc, char*** argv) {
                  gflags::ProgramInvocationShortName(), (*argv)[1]);
     std::exit(1);
   }
-  std::string flagfiles, flagfile_error;
-  if (gflags::GetCommandLineOption("flagfile", &flagfiles) && !flagfiles.empty() &&
-      !CheckFlagfiles(flagfiles, 0, &flagfile_error)) {
+  std::string flagfile_error;
+  if (!flagfiles.empty() && !CheckFlagfiles(flagfiles, 0, &flagfile_error)) {
     std::fprintf(stderr, "%s: error: %s\n", gflags::ProgramInvocationShortName(),
                  flagfile_error.c_str());
     std::exit(1);

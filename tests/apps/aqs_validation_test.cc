@@ -107,12 +107,35 @@ TEST(AqsValidationTest, FlagfilesRefuseNamesNoAppHas) {
   const std::string shared = Replaced(ReadAll(dir.File("shared.flags")), dir.path());
   dir.Write("shared.flags", shared);
   dir.Write("other.flags", "--neutral=n.obj\n--nomirror_poses\n");
+  // A typo in a file that includes another (gflags remembers only the last file it
+  // read), and line forms gflags drops in a flagfile, keeping the default: "--name
+  // value", a non-bool flag without a value, a line that is not a flag (gflags reads it
+  // as a filter and skips every later flag), a comment after a value (part of it).
+  dir.Write("outer.flags", "--latent_dimm=3\n--flagfile={dir}other.flags\n");
+  dir.Write("outer.flags", Replaced(ReadAll(dir.File("outer.flags")), dir.path()));
+  dir.Write("space.flags", "--train_minutes 120\n");
+  dir.Write("bare.flags", "--train_minutes\n");
+  dir.Write("filter.flags", "threads=1\n--train_minutes=1\n");
+  dir.Write("comment.flags", "--neutral=n.obj  # the rest face\n");
   ExpectCases("aqs_train", "--model={dir}missing",
               {
                   {"--flagfile={dir}typo.flags", 1,
                    "{dir}typo.flags:2: unknown flag --latent_dimm (no ActiveQS app has it)"},
                   {"--flagfile={dir}shared.flags", 1, "{dir}typo.flags:2: unknown flag"},
                   {"--flagfile={dir}other.flags", 1, "{dir}missing/model.txt"},
+                  {"--flagfile={dir}outer.flags", 1, "{dir}outer.flags:1: unknown flag"},
+                  {"--flagfile={dir}other.flags --flagfile={dir}typo.flags", 1,
+                   "{dir}typo.flags:2: unknown flag"},
+                  {"--flagfile={dir}typo.flags --flagfile={dir}other.flags", 1,
+                   "{dir}typo.flags:2: unknown flag"},
+                  {"--flagfile={dir}space.flags", 1,
+                   "{dir}space.flags:1: --train_minutes: write --train_minutes=value"},
+                  {"--flagfile={dir}bare.flags", 1,
+                   "{dir}bare.flags:1: --train_minutes needs a value (--train_minutes=value)"},
+                  {"--flagfile={dir}filter.flags", 1,
+                   "{dir}filter.flags:1: 'threads=1' is not a flag"},
+                  {"--flagfile={dir}comment.flags", 1,
+                   "{dir}comment.flags:1: --neutral: a '#' comment after a value"},
               },
               dir.path());
 }
