@@ -24,6 +24,9 @@ int main(int argc, char** argv) {
   std::string error;
   bool ok = aqs::EvaluateOptionsFromFlags(&options, &error);
   options.communicator = ranks.get();
+  // The flags read files (--test_poses: a list, a folder, a glob) that another machine
+  // may see otherwise: the ranks agree before the job's collectives.
+  if (ranks) ok = ranks->Agree(ok, &error);
   if (!ok) {
     aqs::PrintRankError(ranks.get(), error);
     return 1;

@@ -141,13 +141,20 @@ int main(int argc, char** argv) {
     aqs::JobStatus status = aqs::JobStatus::kBadInput;  // when not ok
     StageOptions options;
     const aqs::FlagNames& flags = options.flags;
+    // Every rank reads the stage's options (files another machine may see otherwise:
+    // evaluate's --test_poses) and the ranks agree before the stage's collectives.
+    bool read = !root && stage == "prepare"
+                    ? aqs::PrepareTargetOptionsFromFlags(&options.prepare, &error)
+                    : ReadStageOptions(stage, false, &options, &error);
+    if (ranks != nullptr) read = ranks->Agree(read, &error);
+    if (!read) {
+      aqs::PrintRankError(ranks.get(), stage + ": " + aqs::FlagError(error, flags));
+      return 1;
+    }
     if (!root && stage == "prepare") {
       // Rank 0 reads the inputs; this rank makes a share of the targets.
       options.prepare.communicator = ranks.get();
-      ok = aqs::PrepareTargetOptionsFromFlags(&options.prepare, &error) &&
-           aqs::RunPrepareJob(options.prepare, out, &error, &status);
-    } else if (!ReadStageOptions(stage, false, &options, &error)) {
-      ok = false;
+      ok = aqs::RunPrepareJob(options.prepare, out, &error, &status);
     } else if (stage == "prepare") {
       options.prepare.communicator = ranks.get();
       ok = aqs::RunPrepareJob(options.prepare, std::cout, &error, &status);

@@ -75,6 +75,11 @@ int main(int argc, char** argv) {
     aqs::PrintError(error);
     return 1;
   }
+  if (!FLAGS_model.empty() && !gflags::GetCommandLineFlagInfoOrDie("mu").is_default) {
+    // Not refused: a flagfile shared with aqs_prepare may set it.
+    std::cout << "note: --mu is not used with --model (the model's own stiffness, mu.bin, "
+                 "is)\n";
+  }
   aqs::FlagNames flags = aqs::CommonFlagNames();
   flags.insert(flags.end(), {{"mu", "--mu"},
                              {"solver.relative_force_tolerance", "--tolerance"},

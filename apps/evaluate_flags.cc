@@ -123,8 +123,11 @@ bool EvaluateOptionsFromFlags(EvaluateJobOptions* options, std::string* error) {
   options->training_pose_starts = FLAGS_held_out_starts;
   options->write_fields = FLAGS_write_fields;
   options->error_budget = FLAGS_error_budget;
+  // The held-out poses' volumetric targets are made as prepare makes the training poses'
+  // (the same spring stiffness, tolerance and equilibrium method).
   options->held_out_targets.relative_stiffness = FLAGS_attachment_stiffness;
   options->held_out_targets.solver.relative_force_tolerance = FLAGS_prepare_tolerance;
+  if (!SolverMethodFromFlag(&options->held_out_targets.solver, error)) return false;
   if (FLAGS_report) {
     options->report_script = FLAGS_report_script.empty() ? DefaultReportScript() : FLAGS_report_script;
     if (options->report_script.empty()) {

@@ -256,6 +256,14 @@ TEST_F(AqsFitTest, FitsAPoseAndSimulatesTheLatentBack) {
       AppPath("aqs_simulate") + " --model=" + dir_->File("model") + " --pose=train_2 --output=" +
       dir_->File("p.obj"));
   EXPECT_EQ(pose.exit_code, 0) << pose.output;
+  EXPECT_EQ(pose.output.find("--mu"), std::string::npos) << pose.output;
+  // --mu (a mesh-mode flag) is not used with a model: said, not silently ignored.
+  const testing::CommandResult mu = RunCommand(
+      AppPath("aqs_simulate") + " --model=" + dir_->File("model") + " --pose=train_2 --mu=5" +
+      " --output=" + dir_->File("p.obj"));
+  EXPECT_EQ(mu.exit_code, 0) << mu.output;
+  EXPECT_NE(mu.output.find("note: --mu is not used with --model"), std::string::npos)
+      << mu.output;
 }
 
 // The training benchmark runs with the energy term (as the demo trains) and refuses a
