@@ -10,10 +10,12 @@ The pose file holds only `v` records (faces come from the neutral). Points are u
 (by area) on the triangles whose three corners have z >= min_z (the front of the face,
 as a single depth camera would see it), plus Gaussian noise of SIGMA per coordinate.
 With --landmarks, also the scan's landmarks (aqs_fit --landmarks): the pose at the
-landmark vertices (default: the 10 of the ICT face that scripts/make_fit_tests.py's
-face_landmarks finds: eye corners, mouth corners, lip middles, nose tip, chin) plus
-Gaussian noise of landmark_noise per coordinate, from a generator of their own (the
-scan's points do not change).
+landmark vertices plus Gaussian noise of landmark_noise per coordinate, from a generator
+of their own (the scan's points do not change). The default vertices are those of the
+demo's vendored scans/mouthFunnel_landmarks.txt: eye corners, mouth corners, lip middles,
+nose tip, chin of the ICT face; they are the 10 that scripts/make_fit_tests.py's
+face_landmarks finds except the mouth corners (6155 and 5650 here, about 0.28 cm inside
+the lip seam's extreme vertices 6434 and 5929 that face_landmarks returns).
 A development-time tool; the project does not run it."""
 import argparse
 import random
