@@ -44,6 +44,7 @@ Fixed seed: the same arguments give the same files. Needs numpy (Debian's python
 A development-time tool; the project's tests do not run it."""
 import argparse
 import os
+import shutil
 import sys
 
 import numpy as np
@@ -226,6 +227,11 @@ def main():
     landmarks = face_landmarks(neutral, neutral + deltas["jawOpen"], triangles)
     landmark_rng = np.random.default_rng([args.seed, 1])
 
+    # The folders this script writes start empty: an earlier run's files (other mixes,
+    # more frames) would otherwise be read with this run's (aqs_bench_fit reads whole
+    # folders).
+    for sub in ["poses", "marker_sets", "markers", "scans", "sequence"]:
+        shutil.rmtree(os.path.join(args.out, sub), ignore_errors=True)
     for sub in ["poses", "marker_sets", "markers", "scans", "sequence/markers", "sequence/truth"]:
         os.makedirs(os.path.join(args.out, sub), exist_ok=True)
 
