@@ -587,8 +587,8 @@ def write_html(path, title, rows, figures, notes):
     parts.append("<p class='note'>All errors are distances between a method's surface and the "
                  "pose, per vertex, in model units, over the measured vertices. Methods: "
                  "<b>physics</b> (the learned model; held-out poses: latent and bones fitted "
-                 "through the simulator), <b>auto-encoder</b> (surface-only, same latent size "
-                 "and layers), <b>PCA</b> (same size, about the training poses' mean), "
+                 "through the simulator), <b>auto-encoder</b> (surface-only, same latent size; "
+                 "its layers: evaluation.md), <b>PCA</b> (same size, about the training poses' mean), "
                  "<b>PCA (neutral)</b> (same size, about the neutral: its zero is the rest face), "
                  "<b>neutral</b> (the rest face, for reference).</p>")
     for note in notes:
