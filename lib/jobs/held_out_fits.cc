@@ -108,21 +108,21 @@ void FitHeldOutPoses(const ActiveModel& model, const LatentFitOptions& options,
   // In rounds: in round k every rank fits the k-th of its poses still to fit; rank 0
   // gathers the round's fits and keeps them at once (so that a stop loses at most a
   // round's), and no gather exceeds ranks x one fit.
-  std::vector<std::vector<int>> todo(size);
+  std::vector<std::vector<int>> pending(size);
   size_t rounds = 0;
   for (int r = 0; r < size; ++r) {
     for (int t : OwnedIndices(count, r, size)) {
-      if (!done[t]) todo[r].push_back(t);
+      if (!done[t]) pending[r].push_back(t);
     }
-    rounds = std::max(rounds, todo[r].size());
+    rounds = std::max(rounds, pending[r].size());
   }
   const int block = HeldOutFitBlockSize(model);
   std::vector<int> counts(size, 0);
   std::vector<double> send, received(rank == 0 ? static_cast<size_t>(block) * size : 0);
   for (size_t k = 0; k < rounds; ++k) {
-    const bool fits_one = k < todo[rank].size();
+    const bool fits_one = k < pending[rank].size();
     if (fits_one) {
-      const int t = todo[rank][k];
+      const int t = pending[rank][k];
       FitOne(model, options, training_pose_starts, names[t], surfaces[t], &fits[t], &seconds[t]);
       if (rank == 0) keep(t);
     }
@@ -130,8 +130,8 @@ void FitHeldOutPoses(const ActiveModel& model, const LatentFitOptions& options,
     // Why each failed fit of the round failed, from the rank that fitted it, for rank
     // 0's log.
     for (int r = 0; r < size; ++r) {
-      if (k >= todo[r].size()) continue;
-      const int t = todo[r][k];
+      if (k >= pending[r].size()) continue;
+      const int t = pending[r][k];
       int failed = rank == r && fits[t].failed ? 1 : 0;
       communicator->Broadcast(&failed, 1, r);
       if (!failed) continue;
@@ -140,15 +140,15 @@ void FitHeldOutPoses(const ActiveModel& model, const LatentFitOptions& options,
       fits[t].message = message;
     }
     send.clear();
-    if (fits_one) PackHeldOutFit(model, fits[todo[rank][k]], seconds[todo[rank][k]], &send);
+    if (fits_one) PackHeldOutFit(model, fits[pending[rank][k]], seconds[pending[rank][k]], &send);
     send.resize(block);  // a valid buffer where this rank sends nothing
-    for (int r = 0; r < size; ++r) counts[r] = k < todo[r].size() ? block : 0;
+    for (int r = 0; r < size; ++r) counts[r] = k < pending[r].size() ? block : 0;
     communicator->GatherToRoot(send.data(), counts, received.data());
     if (rank != 0) continue;
     const double* x = received.data();
     for (int r = 0; r < size; ++r) {
-      if (k >= todo[r].size()) continue;
-      const int t = todo[r][k];
+      if (k >= pending[r].size()) continue;
+      const int t = pending[r][k];
       if (r != 0) {
         UnpackHeldOutFit(model, x, &fits[t], &seconds[t]);
         keep(t);
