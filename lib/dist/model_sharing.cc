@@ -16,10 +16,6 @@ void Split(uint64_t value, int* words) {
   words[1] = static_cast<int>(static_cast<uint32_t>(value));
 }
 
-}  // namespace
-
-namespace {
-
 // Rank 0's Gaussian (mean of `size` numbers and its covariance) on every rank.
 void ShareGaussian(const Communicator& comm, int size, GaussianPrior* prior) {
   Eigen::VectorXd mean = comm.is_root() ? prior->mean : Eigen::VectorXd(size);

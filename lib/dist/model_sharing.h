@@ -16,11 +16,11 @@ namespace aqs {
 //     bones, embedding, poses) and the same decoder architecture (latent size,
 //     layers, activation, anchoring, control grid, parameter count); else all fail
 //     with a message naming the rank;
-// then copies rank 0's learned numbers (decoder parameters, latents, per-pose
-// equilibria, checkpoint) to every rank, so that all ranks start from the state rank 0
-// read (another machine's copy of the directory may hold an older learned state: only
-// its prepared part and decoder architecture are used). Returns false with *error on
-// every rank if a check fails.
+// then copies rank 0's learned numbers (decoder parameters, latents, fit prior, per-pose
+// equilibria, none where rank 0 has none, checkpoint) to every rank, so that all ranks
+// start from the state rank 0 read (another machine's copy of the directory may hold an
+// older learned state: only its prepared part and decoder architecture are used).
+// Returns false with *error on every rank if a check fails.
 bool ShareModel(const Communicator& comm, const std::string& directory, bool loaded,
                 ActiveModel* model, std::string* error);
 
