@@ -18,6 +18,14 @@ std::string LatentFitOptions::KeyText() const {
          solver.KeyText() + "\n";
 }
 
+std::string PointCloudFitOptions::KeyText() const {
+  return "points " + std::to_string(max_rounds) + " " + std::to_string(iterations_per_round) +
+         " " + FormatDouble(max_distance) + " " + FormatDouble(robust_scale) + " " +
+         FormatDouble(relative_tolerance) + " " + FormatDouble(tangential_weight) + " " +
+         std::to_string(rematch_every_evaluation) + " " + FormatDouble(landmark_weight) + " " +
+         FormatDouble(bone_prior) + " " + FormatDouble(latent_prior) + "\n";
+}
+
 bool LatentFitOptions::Validate(std::string* error) const {
   std::string solver_error;
   const bool solver_ok = solver.Validate(&solver_error);

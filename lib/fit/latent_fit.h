@@ -194,6 +194,10 @@ struct PointCloudFitOptions {
 
   // Checks every field (fit/fit_options.cc); false with *error naming the first bad one.
   bool Validate(std::string* error) const;
+  // Every number above that shapes a scan fit's result, as one line of text (the
+  // landmarks, data rather than options, are not in it): the key of stored fits (a
+  // sequence's key.txt). A new field that changes results belongs here.
+  std::string KeyText() const;
 };
 
 // Where fits start (LatentFitter::ChooseStart).

@@ -94,7 +94,6 @@ bool ReadFramesOnEveryRank(const FitSequenceOptions& options, const ActiveModel&
 // model (prepared part and learned state) and every option that shapes a fit. (Not
 // warm_start: a warm-started run may go on from an independent run's frames.)
 std::string SequenceKey(const FitSequenceOptions& options, const ActiveModel& model) {
-  const PointCloudFitOptions& p = options.points;
   const FitStartOptions& s = options.start;
   std::ostringstream key;
   key << "model " << FingerprintText(ModelFingerprint(model)) << "\n"
@@ -103,12 +102,7 @@ std::string SequenceKey(const FitSequenceOptions& options, const ActiveModel& mo
       << "landmarks " << (options.landmarks.empty() ? "none" : options.landmarks) << "\n"
       << "start " << s.training_poses << " " << s.retry_from_given << " " << s.mean_latent
       << "\n"
-      << "points " << p.max_rounds << " " << p.iterations_per_round << " "
-      << FormatDouble(p.max_distance) << " " << FormatDouble(p.robust_scale) << " "
-      << FormatDouble(p.relative_tolerance) << " " << FormatDouble(p.tangential_weight) << " "
-      << p.rematch_every_evaluation << " " << FormatDouble(p.landmark_weight) << " "
-      << FormatDouble(p.bone_prior) << "\n"
-      << options.fit.KeyText();
+      << options.points.KeyText() << options.fit.KeyText();
   return key.str();
 }
 
