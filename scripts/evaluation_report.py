@@ -11,14 +11,20 @@ and DIR/fitted/<pose>_<method>.obj (method: physics, autoencoder, pca, floor), a
 (the pre-training curve, where recorded). Writes into the
 output folder (default: DIR):
 
-    images/<pose>.png        per held-out pose: front views of the pose, of each method's
-                             surface and of each method's error map, on one colour scale
-    images/budget.png        the error budget, per pose
-    images/train_<pose>.png  the budget's error maps of the training poses with the
-                             largest trained error (from DIR/budget/training_errors.bin)
+    images/held_out/<pose>.png  per held-out pose: front views of the pose, of each
+                                method's surface and of each method's error map, on one
+                                colour scale
+    images/budget.png           the error budget, per pose
+    images/training/<pose>.png  the budget's error maps of the training poses with the
+                                largest trained error (from DIR/budget/training_errors.bin)
     images/training_curve.png
     images/pretraining_curve.png
     index.html               the tables, the error budget and the pictures
+
+A picture's file name is its pose's name (a file stem, unique in its split; the page quotes
+it for the link), in a folder per split, so no two poses and no pose and chart share a
+file. Both folders' PNG files are removed first, so that a pose no longer evaluated leaves
+no picture behind.
 
 Error maps colour the distance of every vertex to the pose (model units) on the pose's
 surface, with one scale (viridis, 0 to the 98th percentile of the methods' errors) for
@@ -34,6 +40,7 @@ import html
 import math
 import os
 import sys
+import urllib.parse
 
 MISSING_PACKAGE_STATUS = 3
 METHODS = ["physics", "autoencoder", "pca", "pca_neutral"]
@@ -649,6 +656,12 @@ def write_html(path, title, rows, figures, notes):
 # ---------------------------------------------------------------- main
 
 
+def picture_link(split, pose):
+    """The page's relative link to a pose's picture: the name quoted (a ':' would read as a
+    scheme, a '#' as a fragment)."""
+    return "images/%s/%s.png" % (split, urllib.parse.quote(pose))
+
+
 def main(argv):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--evaluation", required=True, help="aqs_evaluate's --output_dir")
@@ -667,7 +680,12 @@ def main(argv):
     evaluation = args.evaluation
     output = args.output or evaluation
     images = os.path.join(output, "images")
-    os.makedirs(images, exist_ok=True)
+    picture_folders = {split: os.path.join(images, split) for split in ("held_out", "training")}
+    for folder in picture_folders.values():
+        os.makedirs(folder, exist_ok=True)
+        for name in os.listdir(folder):
+            if name.endswith(".png"):
+                os.remove(os.path.join(folder, name))
     rows = read_evaluation_csv(os.path.join(evaluation, "evaluation.csv"))
     stats = {(r["method"], r["pose"]): r for r in rows if r["split"] == "test"}
     figures, notes = [], []
@@ -697,11 +715,11 @@ def main(argv):
                                  (obj, len(surfaces[method]), len(target)))
         mask = parse_vertex_ranges(args.error_vertices, len(target))
         pose_neutral = neutral if neutral is not None and len(neutral) == len(target) else None
-        name = "".join(c if c.isalnum() or c in "-_+." else "_" for c in pose) + ".png"
-        vmax = pose_sheet(os.path.join(images, name), pose, surfaces, errors, pose_neutral,
-                          triangles, mask, stats)
+        path = os.path.join(picture_folders["held_out"], pose + ".png")
+        vmax = pose_sheet(path, pose, surfaces, errors, pose_neutral, triangles, mask, stats)
         shown = ", ".join(METHOD_NAMES[m] for m in METHODS + ["floor"] if m in surfaces)
-        figures.append({"kind": "pose", "src": "images/" + name, "alt": pose, "caption":
+        figures.append({"kind": "pose", "src": picture_link("held_out", pose), "alt": pose,
+                        "caption":
                         "<b>%s</b> (held out), front view. Top: the pose and the surfaces of %s. "
                         "Bottom: each one's distance to the pose per vertex, drawn on the pose, "
                         "on one scale from 0 to %s (the 98th percentile of the methods' errors; "
@@ -710,7 +728,7 @@ def main(argv):
                         % (html.escape(pose), shown, number(vmax),
                            "" if "floor" not in surfaces else
                            "; floor: the pose's own volumetric target simulated"), })
-        print("evaluation_report: wrote %s" % os.path.join(images, name))
+        print("evaluation_report: wrote %s" % path)
 
     # The training poses with the largest trained error: where their error comes from.
     errors_path = os.path.join(evaluation, "budget", "training_errors.bin")
@@ -734,17 +752,17 @@ def main(argv):
             errors = {"floor": matrix[:, 3 * p], "pretrain": matrix[:, 3 * p + 1],
                       "physics": matrix[:, 3 * p + 2]}
             mask = parse_vertex_ranges(args.error_vertices, len(target))
-            name = "train_" + "".join(c if c.isalnum() or c in "-_+." else "_" for c in pose)
-            name += ".png"
-            vmax, shown = training_sheet(os.path.join(images, name), pose, target, errors,
-                                         triangles, mask, train_stats)
-            figures.append({"kind": "train", "src": "images/" + name, "alt": pose, "caption":
+            path = os.path.join(picture_folders["training"], pose + ".png")
+            vmax, shown = training_sheet(path, pose, target, errors, triangles, mask,
+                                         train_stats)
+            figures.append({"kind": "train", "src": picture_link("training", pose), "alt": pose,
+                            "caption":
                             "<b>%s</b> (training pose, one of the %d with the largest trained "
                             "error): where its error comes from. Per vertex, on the pose, "
                             "on one scale from 0 to %s: %s." % (
                                 html.escape(pose), len(worst), number(vmax),
                                 ", ".join(shown))})
-            print("evaluation_report: wrote %s" % os.path.join(images, name))
+            print("evaluation_report: wrote %s" % path)
 
     budget_path = os.path.join(images, "budget.png")
     if budget_chart(budget_path, rows):

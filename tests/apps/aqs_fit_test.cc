@@ -129,7 +129,7 @@ TEST_F(AqsFitTest, EvaluationTablesAndFieldsAreWritten) {
   EXPECT_TRUE(written || pipeline_output_->find("lacks matplotlib or numpy") != std::string::npos)
       << *pipeline_output_;
   if (written) {
-    EXPECT_TRUE(std::filesystem::exists(dir_->File("evaluation/images/test0.png")));
+    EXPECT_TRUE(std::filesystem::exists(dir_->File("evaluation/images/held_out/test0.png")));
     EXPECT_TRUE(std::filesystem::exists(dir_->File("evaluation/images/training_curve.png")));
     EXPECT_TRUE(std::filesystem::exists(dir_->File("evaluation/images/pretraining_curve.png")));
     EXPECT_TRUE(std::filesystem::exists(dir_->File("evaluation/images/budget.png")));

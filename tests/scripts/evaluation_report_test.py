@@ -69,7 +69,7 @@ def write_matrix(path, columns):
             f.write(struct.pack("<%dd" % rows, *column))
 
 
-def make_evaluation(root):
+def make_evaluation(root, test_poses=("smile",)):
     evaluation = os.path.join(root, "evaluation")
     model = os.path.join(root, "model")
     for d in ("fitted", "fields"):
@@ -78,13 +78,15 @@ def make_evaluation(root):
     neutral, quads = grid(lambda x, y: (0.0, 0.0, 0.0))
     write_obj(os.path.join(model, "neutral.obj"), neutral, quads)
     target, _ = grid(lambda x, y: (0.0, 0.0, 0.3 * x))
-    write_obj(os.path.join(evaluation, "fitted", "smile_target.obj"), target, quads)
-    for k, method in enumerate(("physics", "autoencoder", "pca", "floor")):
-        surface, _ = grid(lambda x, y: (0.0, 0.0, 0.3 * x + 0.02 * (k + 1) * y))
-        errors = [abs(s[2] - t[2]) for s, t in zip(surface, target)]
-        write_obj(os.path.join(evaluation, "fitted", "smile_%s.obj" % method), surface, quads)
-        write_ply(os.path.join(evaluation, "fields", "smile_%s.ply" % method), surface, quads,
-                  errors)
+    for test in test_poses:
+        write_obj(os.path.join(evaluation, "fitted", test + "_target.obj"), target, quads)
+        for k, method in enumerate(("physics", "autoencoder", "pca", "floor")):
+            surface, _ = grid(lambda x, y: (0.0, 0.0, 0.3 * x + 0.02 * (k + 1) * y))
+            errors = [abs(s[2] - t[2]) for s, t in zip(surface, target)]
+            write_obj(os.path.join(evaluation, "fitted", "%s_%s.obj" % (test, method)), surface,
+                      quads)
+            write_ply(os.path.join(evaluation, "fields", "%s_%s.ply" % (test, method)), surface,
+                      quads, errors)
     # The training poses' budget: per pose floor, after pre-training (NaN for train_0: not
     # recorded), trained; and the pose surfaces in the model (3 x vertices each).
     os.makedirs(os.path.join(evaluation, "budget"))
@@ -103,9 +105,10 @@ def make_evaluation(root):
                                     "pretrain")):
             rows.append("train,%s,%s,%g,%g,%g" % (pose, method, 0.1 / (k + 1), 0.12 / (k + 1),
                                                   0.3 / (k + 1)))
-    for k, method in enumerate(("neutral", "physics", "autoencoder", "pca", "floor")):
-        rows.append("test,smile,%s,%g,%g,%g" % (method, 0.05 * (k + 1), 0.06 * (k + 1),
-                                                0.1 * (k + 1)))
+    for test in test_poses:
+        for k, method in enumerate(("neutral", "physics", "autoencoder", "pca", "floor")):
+            rows.append("test,%s,%s,%g,%g,%g" % (test, method, 0.05 * (k + 1), 0.06 * (k + 1),
+                                                 0.1 * (k + 1)))
     with open(os.path.join(evaluation, "evaluation.csv"), "w") as f:
         f.write("\n".join(rows) + "\n")
     with open(os.path.join(model, "train", "log.csv"), "w") as f:
@@ -160,9 +163,10 @@ def main():
         if result.returncode != 0:
             failures.append("the script failed (exit %d):\n%s" % (result.returncode,
                                                                   result.stdout))
-        for name in ("images/smile.png", "images/budget.png", "images/training_curve.png",
-                     "images/pretraining_curve.png", "images/train_train_0.png",
-                     "images/train_train_1.png", "index.html"):
+        for name in ("images/held_out/smile.png", "images/budget.png",
+                     "images/training_curve.png", "images/pretraining_curve.png",
+                     "images/training/train_0.png", "images/training/train_1.png",
+                     "index.html"):
             path = os.path.join(evaluation, name)
             if not os.path.isfile(path) or os.path.getsize(path) == 0:
                 failures.append("%s was not written" % name)
@@ -173,8 +177,9 @@ def main():
         index = os.path.join(evaluation, "index.html")
         if os.path.isfile(index):
             page = open(index).read()
-            for needle in ("images/smile.png", "images/budget.png", "images/training_curve.png",
-                           "images/pretraining_curve.png", "images/train_train_1.png",
+            for needle in ("images/held_out/smile.png", "images/budget.png",
+                           "images/training_curve.png", "images/pretraining_curve.png",
+                           "images/training/train_1.png",
                            "<table>", "(a) floor", "(b) after pre-training", "smile",
                            "train_1", "0.1000"):
                 if needle not in page:
@@ -218,6 +223,24 @@ def main():
                 "lower than every baseline" in page:
             failures.append("a failed physics fit must be n/a with no headline mean, got %d:\n%s"
                             % (result.returncode, result.stdout))
+        # Held-out poses whose names would collide as file names made safe ('a:b', 'a_b')
+        # or with a chart ('budget'): each keeps its own picture, and the chart stays.
+        poses = ("budget", "a:b", "a_b", "smile#1")
+        evaluation5, model5 = make_evaluation(os.path.join(root, "fifth"), poses)
+        stale = os.path.join(evaluation5, "images", "held_out", "gone.png")
+        os.makedirs(os.path.dirname(stale))
+        open(stale, "w").close()
+        result = run([sys.executable, script, "--evaluation", evaluation5, "--model", model5])
+        page = open(os.path.join(evaluation5, "index.html")).read() if result.returncode == 0 \
+            else ""
+        for pose, link in zip(poses, ("budget", "a%3Ab", "a_b", "smile%231")):
+            if not os.path.isfile(os.path.join(evaluation5, "images", "held_out", pose + ".png")):
+                failures.append("held-out pose '%s' has no picture of its own" % pose)
+            if "images/held_out/%s.png" % link not in page:
+                failures.append("index.html lacks the quoted link to '%s'" % pose)
+        if "images/budget.png" not in page or os.path.exists(stale):
+            failures.append("the budget chart must stay and a stale picture must go:\n%s"
+                            % result.stdout)
     finally:
         if os.environ.get("AQS_KEEP_TEST_FILES", "0") not in ("", "0"):
             print("kept " + root)
