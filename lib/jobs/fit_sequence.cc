@@ -110,10 +110,13 @@ std::string SequenceKey(const FitSequenceOptions& options, const ActiveModel& mo
 // agree): the frames done
 // by an earlier run of the same key, which must be this run's (key.txt; a folder with
 // frames but no key.txt is an older version's run, taken as it is). Frames of another
-// model or other options are refused, never mixed with this run's.
+// model or other options are refused, never mixed with this run's. Of the frames done,
+// those before the first whose target changed since it was fitted (targets.txt; none
+// recorded: an older version's run, all) are kept; *note then says which (else empty).
 bool OpenOutputFolder(const FitSequenceOptions& options, const ActiveModel& model,
                       const std::vector<SequenceFrame>& frames, const SequenceRanks& ranks,
-                      PathLock* lock, std::vector<DoneFrame>* done, std::string* error) {
+                      PathLock* lock, std::vector<DoneFrame>* done, std::string* note,
+                      std::string* error) {
   bool ok = true;
   if (ranks.root) {
     std::error_code code;
@@ -134,9 +137,27 @@ bool OpenOutputFolder(const FitSequenceOptions& options, const ActiveModel& mode
                "options (key.txt); remove the folder, or write to another --output_dir";
       ok = false;
     }
-    ok = ok && ReadFramesDone(options.output_dir + "/frames.csv", options.output_dir, model,
-                              frames, done, error);
+    const std::string csv_path = options.output_dir + "/frames.csv";
+    ok = ok && ReadFramesDone(csv_path, options.output_dir, model, frames, done, error);
+    const std::string targets_path = options.output_dir + "/targets.txt";
+    const std::string targets = SequenceTargetsText(frames);
+    if (ok && !done->empty() && MayExist(targets_path)) {
+      const int same = FramesOfSameTargets(ReadWholeFile(targets_path), targets,
+                                           static_cast<int>(done->size()));
+      if (same < static_cast<int>(done->size())) {
+        *note = "frame " + std::to_string(same) + " (" + frames[same].name + "): its target " +
+                "differs from the one it was fitted to (targets.txt); it and the frames after "
+                "it are fitted again";
+        done->resize(same);
+        // frames.csv loses their rows before targets.txt records the new targets, so that a
+        // run killed in between does not take them for fits of the new targets.
+        std::string csv = SequenceCsvHeader(model) + "\n";
+        for (const DoneFrame& d : *done) csv += d.line + "\n";
+        ok = WriteFileAtomically(csv_path, csv, error);
+      }
+    }
     ok = ok && WriteFileAtomically(key_path, key, error);
+    ok = ok && WriteFileAtomically(targets_path, targets, error);
   }
   return ranks.Agree(ok, error);
 }
@@ -385,7 +406,9 @@ FitSequenceResult RunFitSequence(const FitSequenceOptions& options, const Active
   if (!ranks.Agree(apart, &error)) return fail(JobStatus::kBadInput, error);
   std::vector<DoneFrame> done;
   PathLock output_lock;  // rank 0's, until the job ends
-  if (!OpenOutputFolder(options, model, frames, ranks, &output_lock, &done, &error)) {
+  std::string targets_note;
+  if (!OpenOutputFolder(options, model, frames, ranks, &output_lock, &done, &targets_note,
+                        &error)) {
     return fail(JobStatus::kBadInput, error);
   }
   if (options.warm_start) {
@@ -400,6 +423,7 @@ FitSequenceResult RunFitSequence(const FitSequenceOptions& options, const Active
   std::string first_failure_message;
   const int n = static_cast<int>(frames.size());
   LogSequenceStart(options, frames, ranks, log);
+  if (!targets_note.empty()) log << targets_note << "\n";
 
   std::string csv = SequenceCsvHeader(model) + "\n";
   Eigen::MatrixXd track(model.latent_dim(), n);

@@ -35,9 +35,10 @@ struct FitSequenceOptions {
   // Outputs (all atomic): <frame>.obj per frame (<frame>: the target's file name
   // without extension), frames.csv (one row per frame: errors, iterations, seconds,
   // where it started, stiffness factorizations (solves and Jacobians), latent, bone
-  // motion),
-  // latents.bin (latent_dim x frames, util/matrix_io.h). A frame is done when its row is
-  // in frames.csv (written last); a rerun resumes at the first frame not done.
+  // motion), latents.bin (latent_dim x frames, util/matrix_io.h), key.txt (the model and
+  // options) and targets.txt (per frame, its target's fingerprint). A frame is done when
+  // its row is in frames.csv (written last) and its target is the one recorded when it was
+  // fitted; a rerun resumes at the first frame not done.
   std::string output_dir;
   int max_frames = -1;  // < 0: all
   LatentFitOptions fit;

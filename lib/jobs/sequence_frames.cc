@@ -11,6 +11,7 @@
 #include "mesh/ply_io.h"
 #include "util/file_extension.h"
 #include "util/file_list.h"
+#include "util/fnv_hash.h"
 #include "util/name_rules.h"
 
 namespace aqs {
@@ -41,6 +42,16 @@ bool ResolveFrames(const std::string& spec, std::vector<ListedFile>* out, std::s
 std::string From(const SequenceFrame& f, const std::string& message) {
   return f.origin == f.path ? message : f.origin + ": " + message;
 }
+// Adds what a fit reads of `target` to *h.
+void AddTarget(const FitTarget& target, FnvHasher* h) {
+  h->AddMatrix(target.vertices);
+  h->AddMatrix(target.barycentric);
+  h->AddMatrix(target.positions);
+  h->AddMatrix(target.weights);
+  h->AddMatrix(target.normals);
+  h->Add(&target.tangential_weight, 1);
+}
+
 }  // namespace
 
 bool ReadSequenceFrames(const FitSequenceOptions& options, const Eigen::Matrix3Xd& neutral,
@@ -192,6 +203,15 @@ bool ReadSequenceFrames(const FitSequenceOptions& options, const Eigen::Matrix3X
     }
   }
   return true;
+}
+
+uint64_t FrameTargetFingerprint(const SequenceFrame& frame) {
+  FnvHasher h;
+  h.Add(frame.kind);
+  AddTarget(frame.target, &h);
+  h.AddMatrix(frame.cloud);
+  AddTarget(frame.landmarks, &h);
+  return h.hash();
 }
 
 }  // namespace aqs

@@ -1,6 +1,7 @@
 #ifndef AQS_JOBS_SEQUENCE_FRAMES_H_
 #define AQS_JOBS_SEQUENCE_FRAMES_H_
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -32,6 +33,11 @@ struct SequenceFrame {
 // than frames, an unreadable landmarks file.
 bool ReadSequenceFrames(const FitSequenceOptions& options, const Eigen::Matrix3Xd& neutral,
                         std::vector<SequenceFrame>* frames, std::string* error);
+
+// What frame's fit depends on of its target, as read: its kind, the target's points,
+// vertices, weights, normals and tangential weight, the cloud and the landmarks (so a
+// file rewritten with other numbers differs, one only reformatted does not).
+uint64_t FrameTargetFingerprint(const SequenceFrame& frame);
 
 }  // namespace aqs
 

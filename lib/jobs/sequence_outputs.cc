@@ -7,6 +7,7 @@
 #include <glog/logging.h>
 
 #include "fit/bone_parameters.h"
+#include "model/model_fingerprint.h"
 #include "util/input_file.h"
 #include "util/line_reader.h"
 #include "util/number_format.h"
@@ -33,6 +34,29 @@ std::string SequenceCsvHeader(const ActiveModel& model) {
     for (const char* p : {"rx", "ry", "rz", "tx", "ty", "tz"}) h += "," + b.name + "_" + p;
   }
   return h;
+}
+
+std::string SequenceTargetsText(const std::vector<SequenceFrame>& frames) {
+  std::string text;
+  for (const SequenceFrame& frame : frames) {
+    text += frame.name + " " + FingerprintText(FrameTargetFingerprint(frame)) + "\n";
+  }
+  return text;
+}
+
+int FramesOfSameTargets(const std::string& recorded, const std::string& current, int num_done) {
+  int same = 0;
+  size_t at = 0;
+  while (same < num_done) {
+    const size_t end = current.find('\n', at);
+    if (end == std::string::npos || end >= recorded.size() ||
+        recorded.compare(at, end + 1 - at, current, at, end + 1 - at) != 0) {
+      break;
+    }
+    at = end + 1;
+    ++same;
+  }
+  return same;
 }
 
 bool ReadFramesDone(const std::string& csv, const std::string& output_dir,

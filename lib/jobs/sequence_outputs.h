@@ -47,6 +47,16 @@ bool ReadFramesDone(const std::string& csv, const std::string& output_dir,
                     const ActiveModel& model, const std::vector<SequenceFrame>& frames,
                     std::vector<DoneFrame>* done, std::string* error);
 
+// output_dir/targets.txt, written by every run before it fits: per frame of the sequence
+// (as read), one line "<name> <fingerprint>" (FrameTargetFingerprint, hexadecimal).
+std::string SequenceTargetsText(const std::vector<SequenceFrame>& frames);
+
+// How many of the first `num_done` frames were fitted to the targets they have now:
+// the length of the run of leading lines `recorded` (an earlier run's targets.txt) shares
+// with `current` (this run's), at most num_done. A frame whose target file was rewritten
+// after it was fitted, and the frames after it, are fitted again.
+int FramesOfSameTargets(const std::string& recorded, const std::string& current, int num_done);
+
 // A fitted frame as one block of doubles: kFrameScalars numbers (used points, matched
 // fraction, mean, rms and max error, iterations, seconds, converged, start,
 // factorizations), the latent (d), the bones' motion parameters (6 per bone, as

@@ -7,36 +7,8 @@
 
 namespace aqs {
 
-namespace {
-
-class Hasher {
- public:
-  template <typename Scalar>
-  void Add(const Scalar* data, size_t count) {
-    AddCount(count);
-    hash_ = Fnv1a(data, sizeof(Scalar) * count, hash_);
-  }
-  template <typename Matrix>
-  void AddMatrix(const Matrix& m) {
-    AddCount(static_cast<size_t>(m.rows()));
-    Add(m.data(), static_cast<size_t>(m.size()));
-  }
-  void Add(const std::string& text) { Add(text.data(), text.size()); }
-  uint64_t hash() const { return hash_; }
-
- private:
-  // Sizes go in too, so that moving numbers between arrays changes the fingerprint.
-  void AddCount(size_t count) {
-    const uint64_t n = count;
-    hash_ = Fnv1a(&n, sizeof(n), hash_);
-  }
-  uint64_t hash_ = kFnvOffsetBasis;
-};
-
-}  // namespace
-
 uint64_t ModelFingerprint(const ActiveModel& model) {
-  Hasher h;
+  FnvHasher h;
   h.AddMatrix(model.mesh.vertices);
   h.AddMatrix(model.mesh.tets);
   h.AddMatrix(model.mu);
@@ -76,7 +48,7 @@ uint64_t DecoderArchitectureFingerprint(const ActiveModel& model) {
 }
 
 uint64_t LearnedStateFingerprint(const ActiveModel& model) {
-  Hasher h;
+  FnvHasher h;
   const uint64_t architecture = DecoderArchitectureFingerprint(model);
   h.Add(&architecture, 1);
   h.AddMatrix(model.decoder_params);

@@ -200,6 +200,46 @@ TEST_F(FitSequenceTest, FramesOfOtherOptionsAreRefused) {
   EXPECT_EQ(same.frames_fitted, 1);
 }
 
+// A frame whose target file was rewritten with other numbers after it was fitted is
+// fitted again, and so are the frames after it (targets.txt); the frames before it are
+// kept. Here frame b's file is given the surface of another pose.
+TEST_F(FitSequenceTest, AFrameWhoseTargetChangedIsFittedAgain) {
+  const std::string in = dir_->File("retarget_in");
+  std::filesystem::create_directories(in);
+  const std::vector<std::string> names = {"a", "b", "c"};
+  for (int t = 0; t < 3; ++t) {
+    std::filesystem::copy_file(Target(t), in + "/" + names[t] + ".obj");
+  }
+  FitSequenceOptions options = Options();
+  for (const std::string& name : names) options.sequence += in + "/" + name + ".obj,";
+  options.output_dir = dir_->File("retargeted");
+  options.warm_start = false;
+  std::ostringstream first_log;
+  ASSERT_EQ(RunFitSequence(options, *model_, first_log).status, JobStatus::kOk)
+      << first_log.str();
+  Run({0, 1, 2}, "retarget_reference", false);
+  std::filesystem::copy_file(Target(2), in + "/b.obj",
+                             std::filesystem::copy_options::overwrite_existing);
+  std::ostringstream log;
+  const FitSequenceResult result = RunFitSequence(options, *model_, log);
+  ASSERT_EQ(result.status, JobStatus::kOk) << result.message << "\n" << log.str();
+  EXPECT_EQ(result.frames_resumed, 1);
+  EXPECT_EQ(result.frames_fitted, 2);
+  EXPECT_NE(log.str().find("frame 1 (b): its target differs from the one it was fitted to"),
+            std::string::npos)
+      << log.str();
+  EXPECT_EQ(ReadAll(dir_->File("retargeted/b.obj")),
+            ReadAll(dir_->File("retarget_reference/t2.obj")))
+      << "b is fitted to its new target";
+  std::vector<std::string> b_row = Rows(dir_->File("retargeted/frames.csv")).at("b");
+  std::vector<std::string> t2_row = Rows(dir_->File("retarget_reference/frames.csv")).at("t2");
+  b_row[1] = t2_row[1] = "";
+  EXPECT_EQ(b_row, t2_row);
+  // Unchanged targets: all frames are done.
+  std::ostringstream again_log;
+  EXPECT_EQ(RunFitSequence(options, *model_, again_log).frames_resumed, 3) << again_log.str();
+}
+
 // Independent frames go on past a frame that cannot be fitted (here a scan shifted
 // beyond every start's reach): its row says converged -1 with "nan" figures, it has no
 // OBJ, the frames after it are fitted (as they are alone), and the run ends

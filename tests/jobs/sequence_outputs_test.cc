@@ -4,6 +4,7 @@
 
 #include "jobs/sequence_outputs.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <string>
@@ -106,6 +107,40 @@ TEST_F(SequenceOutputsTest, RowsRoundTripAndAFailedFrameIsDoneWithoutItsObj) {
   const std::vector<SequenceFrame> others = {Frame("g0"), Frame("g1")};
   EXPECT_FALSE(ReadFramesDone(dir.File("frames.csv"), dir.path(), model, others, &done, &error));
   EXPECT_NE(error.find("frames.csv:2"), std::string::npos) << error;
+}
+
+// targets.txt: a frame's line changes with any number of its target, not with its name
+// alone; the frames kept are the leading ones whose lines are unchanged, at most those
+// done.
+TEST_F(SequenceOutputsTest, FramesKeptAreThoseBeforeTheFirstChangedTarget) {
+  std::vector<SequenceFrame> frames = {Frame("a"), Frame("b"), Frame("c")};
+  for (int f = 0; f < 3; ++f) {
+    frames[f].target.positions.setConstant(0.5 * f);
+    frames[f].target.vertices = Eigen::Matrix3Xi::Constant(3, 12, f);
+  }
+  const std::string recorded = SequenceTargetsText(frames);
+  EXPECT_EQ(std::count(recorded.begin(), recorded.end(), '\n'), 3);
+  EXPECT_EQ(recorded.compare(0, 2, "a "), 0) << recorded;
+  EXPECT_EQ(FramesOfSameTargets(recorded, recorded, 3), 3);
+  EXPECT_EQ(FramesOfSameTargets(recorded, recorded, 2), 2) << "at most the frames done";
+  EXPECT_EQ(FramesOfSameTargets("", recorded, 3), 0);
+  EXPECT_EQ(FramesOfSameTargets(recorded.substr(0, recorded.size() - 1), recorded, 3), 2)
+      << "a truncated last line";
+  std::vector<SequenceFrame> changed = frames;
+  changed[1].target.positions(2, 7) += 1e-12;
+  EXPECT_EQ(FramesOfSameTargets(recorded, SequenceTargetsText(changed), 3), 1);
+  changed = frames;
+  changed[2].target.vertices(0, 3) = 5;
+  EXPECT_EQ(FramesOfSameTargets(recorded, SequenceTargetsText(changed), 3), 2);
+  changed = frames;
+  changed[0].landmarks.positions = Eigen::Matrix3Xd::Zero(3, 1);
+  EXPECT_EQ(FramesOfSameTargets(recorded, SequenceTargetsText(changed), 3), 0);
+  changed = frames;
+  changed[0].cloud = Eigen::Matrix3Xd::Ones(3, 2);
+  EXPECT_EQ(FramesOfSameTargets(recorded, SequenceTargetsText(changed), 3), 0);
+  changed = frames;
+  changed[1].kind = "pose";
+  EXPECT_EQ(FramesOfSameTargets(recorded, SequenceTargetsText(changed), 3), 1);
 }
 
 }  // namespace
