@@ -12,6 +12,9 @@
 
 #include <gtest/gtest.h>
 
+#include "diff/equilibrium_differentiator.h"
+#include "physics/actuation.h"
+#include "physics/boundary_conditions.h"
 #include "testing/finite_difference.h"
 #include "testing/training_fixtures.h"
 
@@ -554,6 +557,64 @@ TEST(EndToEndObjectiveTest, StepExpansionIsValidated) {
     EXPECT_FALSE(options.Validate(&error)) << bad;
     EXPECT_NE(error.find("max_step_expansion"), std::string::npos) << error;
   }
+}
+
+// A stiffness that is singular at every equilibrium, in a direction the loss does not
+// see (here a vertex that no element holds: a zero block in K): the adjoint system is
+// consistent, and the exact path solves it (CG on the solver's nearby factor), with no
+// escape and no shift; the gradient is that of the re-solved objective. (The shifted
+// adjoint, for an inconsistent system, has its error bound checked in
+// diff/equilibrium_differentiator_test.cc: ShiftedAdjointApproachesTheExactGradient.)
+TEST(EndToEndObjectiveTest, AVertexInNoElementLeavesTheGradientExact) {
+  ActiveModel model = PretrainedBar();
+  const int nv = model.mesh.num_vertices();
+  model.mesh.vertices.conservativeResize(3, nv + 1);
+  model.mesh.vertices.col(nv) = Eigen::Vector3d(-5.0, -5.0, -5.0);
+  model.states.clear();
+  {
+    const ShapeTargetModel physics(model.mesh, model.mu);
+    EquilibriumDifferentiator exact(physics,
+                                    FixedVertexMask(PoseBoundaryConditions(model, 0), nv + 1));
+    std::string error;
+    EXPECT_FALSE(exact.Prepare(model.mesh.vertices, IdentityActuations(model.mesh.num_tets()),
+                               &error))
+        << "K is singular: its exact factorization fails";
+  }
+  TrainOptions options;
+  options.latent_regularization = 1e-2;
+  options.decoder_regularization = 1e-3;
+  options.solver.relative_force_tolerance = 1e-12;
+  options.num_threads = 1;
+  EndToEndObjective objective(options, model);
+  const Eigen::VectorXd x0 = objective.ModelParameters();
+  double cost = 0;
+  Eigen::VectorXd gradient(objective.NumParameters());
+  ASSERT_TRUE(objective.Evaluate(x0.data(), &cost, gradient.data())) << objective.last_failure();
+  EXPECT_EQ(objective.last_counters().shifted_adjoints, 0);
+  EXPECT_EQ(objective.last_counters().unstable_escapes, 0);
+  const int np = model.decoder->num_parameters();
+  std::vector<int> indices;
+  for (int i = np; i < objective.NumParameters(); ++i) indices.push_back(i);
+  std::mt19937 rng(5);
+  std::uniform_int_distribution<int> pick(0, np - 1);
+  for (int i = 0; i < 8; ++i) indices.push_back(pick(rng));
+  double worst = 0;
+  for (int i : indices) {
+    auto f = [&](const Eigen::VectorXd& t) {
+      Eigen::VectorXd x = x0;
+      x[i] += t[0];
+      double c = 0;
+      EXPECT_TRUE(objective.Evaluate(x.data(), &c, nullptr)) << objective.last_failure();
+      return c;
+    };
+    const double numeric = testing::CentralDifferenceGradient(f, Eigen::VectorXd::Zero(1), 1e-4)[0];
+    const double error_i =
+        std::abs(numeric - gradient[i]) / std::max(1e-8, gradient.cwiseAbs().maxCoeff());
+    worst = std::max(worst, error_i);
+    EXPECT_LT(error_i, 1e-7) << "parameter " << i;
+  }
+  std::printf("vertex in no element: %zu components checked, worst error %.2e\n", indices.size(),
+              worst);
 }
 
 }  // namespace
