@@ -8,6 +8,7 @@
 
 #include <glog/logging.h>
 
+#include "equilibrium/rest_factor.h"
 #include "geometry/embedding.h"
 #include "physics/shape_target_model.h"
 #include "util/atomic_file.h"
@@ -95,12 +96,17 @@ std::vector<SimulatedPose> SimulateActuations(
   // called by every pose's factorization at once is slower than one thread).
   const ScopedBlasThreads blas(threads > 1 ? 1 : BlasThreads());
   std::vector<std::unique_ptr<QuasistaticSolver>> solvers(threads);
+  std::vector<StoredStiffnessFactor> rest_factors(threads);
   ParallelFor(threads, 0, count, [&](int t, int k) {
     if (!solvers[t]) {
       solvers[t] = std::make_unique<QuasistaticSolver>(
           physics, ModelBoundaryConditions(model, RestBoneTransforms(model)), solver_options);
+      rest_factors[t] = RestStiffnessFactor(model.mesh.vertices, solvers[t].get());
     }
     QuasistaticSolver& solver = *solvers[t];
+    // Every pose starts from the rest factor, not from the factor of the pose this thread
+    // solved before: the result depends on the pose alone, not on the thread count.
+    StartFromFactor(rest_factors[t], &solver);
     solver.SetFixedPositions(ModelBoundaryConditions(model, bone_transforms[k]).positions);
     solver.actuation() = actuations[k];
     solver.SetPositions(model.mesh.vertices);

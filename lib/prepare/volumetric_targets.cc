@@ -10,6 +10,7 @@
 #include <glog/logging.h>
 
 #include "equilibrium/embedded_attachments.h"
+#include "equilibrium/rest_factor.h"
 #include "geometry/embedding.h"
 #include "prepare/target_store.h"
 #include "util/blas.h"
@@ -57,25 +58,6 @@ double EquilibriumSolverMemoryBytes(double num_elements) {
          std::max(1.0, std::cbrt(num_elements / kMeasuredElements));
 }
 
-namespace {
-
-// The exact stiffness of the passive body (the solver's actuation, its energy terms
-// included) at the rest positions `rest` (3 x num_vertices), factorized by the solver's
-// stiffness factorization and kept in single precision: the same matrix for every pose.
-// Empty if it does not factorize.
-StoredStiffnessFactor RestStiffnessFactor(const Eigen::Matrix3Xd& rest,
-                                          QuasistaticSolver* solver) {
-  StoredStiffnessFactor stored;
-  StiffnessFactorization* factorization = solver->stiffness_factorization();
-  std::string error;
-  if (factorization->Factorize(rest, solver->actuation(), StiffnessKind::kExact, &error)) {
-    factorization->StoreFactor(&stored);
-  }
-  return stored;
-}
-
-}  // namespace
-
 void MakeVolumetricTargetsOf(const VolumetricTargetOptions& options,
                              const std::vector<int>& poses, const TargetStore* store,
                              ActiveModel* model, std::ostream& log,
@@ -121,10 +103,7 @@ void MakeVolumetricTargetsOf(const VolumetricTargetOptions& options,
     // before left (which its Newton steps would reuse): a pose's target then depends on
     // nothing but the pose, whichever thread or rank solves it, in whatever order, and in
     // a resumed run.
-    StiffnessFactorization* factorization = w.solver->stiffness_factorization();
-    if (w.start_factor.empty() || !factorization->RestoreFactor(w.start_factor)) {
-      factorization->RequestRefresh();
-    }
+    StartFromFactor(w.start_factor, w.solver.get());
     const BoundaryConditions bc = PoseBoundaryConditions(*model, p);
     const Eigen::Matrix3Xd rest_fixed =
         ModelBoundaryConditions(*model, RestBoneTransforms(*model)).positions;
