@@ -1,5 +1,9 @@
 #include "util/vertex_ranges.h"
 
+#include <algorithm>
+#include <cstdint>
+#include <utility>
+
 #include "util/line_reader.h"
 #include "util/text_split.h"
 
@@ -7,7 +11,9 @@ namespace aqs {
 
 bool ParseVertexRanges(const std::string& text, std::vector<int>* vertices, std::string* error) {
   std::vector<int> out;
-  for (const std::string& item : SplitList(text)) {
+  const std::vector<std::string> items = SplitList(text);
+  std::vector<size_t> item_ends;  // out's size after each item
+  for (const std::string& item : items) {
     const size_t colon = item.find(':'), dash = item.find('-');
     int a = 0, b = 0;
     if (colon != std::string::npos) {
@@ -41,6 +47,22 @@ bool ParseVertexRanges(const std::string& text, std::vector<int>* vertices, std:
       return false;
     }
     for (int v = a; v < b; ++v) out.push_back(v);
+    item_ends.push_back(out.size());
+  }
+  // A vertex listed twice would count twice in every mean over the list.
+  std::vector<std::pair<int, size_t>> sorted(out.size());  // (vertex, position in out)
+  for (size_t k = 0; k < out.size(); ++k) sorted[k] = {out[k], k};
+  std::sort(sorted.begin(), sorted.end());
+  for (size_t k = 1; k < sorted.size(); ++k) {
+    if (sorted[k].first != sorted[k - 1].first) continue;
+    auto item_of = [&](size_t position) {
+      return items[std::upper_bound(item_ends.begin(), item_ends.end(), position) -
+                   item_ends.begin()];
+    };
+    *error = "vertex ranges '" + text + "': vertex " + std::to_string(sorted[k].first) +
+             " is listed twice ('" + item_of(sorted[k - 1].second) + "' and '" +
+             item_of(sorted[k].second) + "')";
+    return false;
   }
   if (out.empty() && !text.empty()) {
     // "" is the empty set (callers read it as "not given"); "," is a mistake.

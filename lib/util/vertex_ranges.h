@@ -18,11 +18,13 @@ namespace aqs {
 // with a, b decimal integers >= 0 (ParseInt: no spaces, no trailing characters). Empty
 // items are skipped; "" is the empty set (callers read it as "not given", e.g. all
 // vertices), but a text that lists no vertex otherwise ("," or "5:5") is an error: it
-// would mean "all" by mistake. Output: *vertices, the indices in the order written, a
-// repeated index repeated (no sorting, no deduplication, no upper bound: callers check
-// against their vertex count). Returns false with *error naming the item ("vertex range
-// 'x': expected a:b with a < b", "... a-b ...", "... not an index", "... negative
-// index", "vertex ranges 'x': no vertex listed"), and *vertices unchanged.
+// would mean "all" by mistake. Output: *vertices, the indices in the order written (no
+// sorting, no upper bound: callers check against their vertex count). A vertex listed
+// twice (overlapping items) is an error: it would count twice in every mean over the
+// list. Returns false with *error naming the item ("vertex range 'x': expected a:b with
+// a < b", "... a-b ...", "... not an index", "... negative index", "vertex ranges 'x':
+// no vertex listed", "vertex ranges 'x': vertex v is listed twice ('i' and 'j')"), and
+// *vertices unchanged.
 // Indices and counts are refused from kMaxVertexIndex on ("... beyond N vertices"),
 // before anything is allocated.
 constexpr int kMaxVertexIndex = 50000000;

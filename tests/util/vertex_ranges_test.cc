@@ -24,7 +24,7 @@ TEST(VertexRangesTest, ParsesHalfOpenClosedAndSingleItemsInOrder) {
   EXPECT_EQ(Parse("2:5"), std::vector<int>({2, 3, 4}));
   EXPECT_EQ(Parse("2-5"), std::vector<int>({2, 3, 4, 5}));
   EXPECT_EQ(Parse("7"), std::vector<int>({7}));
-  EXPECT_EQ(Parse("9,0:2,,4-4,1"), std::vector<int>({9, 0, 1, 4, 1}));
+  EXPECT_EQ(Parse("9,0:2,,4-4,3"), std::vector<int>({9, 0, 1, 4, 3}));
   EXPECT_EQ(Parse(""), std::vector<int>());
 }
 
@@ -48,6 +48,12 @@ TEST(VertexRangesTest, BadItemsAreNamed) {
   EXPECT_NE(ParseError("2147483647").find(beyond), std::string::npos);
   EXPECT_NE(ParseError("0-50000000").find(beyond), std::string::npos);
   EXPECT_NE(ParseError("0:30000000,0:30000000").find(beyond), std::string::npos);
+  // Overlaps: a vertex listed twice would count twice in every mean.
+  EXPECT_EQ(ParseError("0:3,1:2"), "vertex ranges '0:3,1:2': vertex 1 is listed twice ('0:3' "
+                                   "and '1:2')");
+  EXPECT_EQ(ParseError("7,2-4,,9,4"), "vertex ranges '7,2-4,,9,4': vertex 4 is listed twice "
+                                      "('2-4' and '4')");
+  EXPECT_EQ(ParseError("5,5"), "vertex ranges '5,5': vertex 5 is listed twice ('5' and '5')");
   std::vector<int> vertices;
   std::string error;
   EXPECT_TRUE(ParseVertexRanges("49999999", &vertices, &error)) << error;
