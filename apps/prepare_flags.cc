@@ -28,7 +28,12 @@ DEFINE_double(mu, 1.0, "Stiffness of every element.");
 DEFINE_double(fixed_depth, -1.0, "Fix the vertices deeper than this under the surface.");
 DEFINE_string(fixed_box, "", "Fix the vertices in these boxes (';'-separated).");
 DEFINE_string(fixed_inside, "", "Fix the vertices inside these closed surfaces (comma-separated OBJ).");
-DEFINE_string(fixed_list, "", "Fix the vertices listed in this file (one index per line).");
+DEFINE_string(fixed_list, "",
+              "Fix the vertices listed in this file (one index per line): indices of "
+              "--tet_mesh's vertices as in its file (prepare renumbers them when it crops, "
+              "prunes and cuts; a cut copy of a listed vertex is fixed too, a listed vertex "
+              "removed is an error), else of the simulation mesh prepare makes "
+              "(model/mesh.mesh).");
 DEFINE_string(bone_name, "jaw", "Name of the bone (with --bone_mesh).");
 DEFINE_string(bone_mesh, "", "A rigid bone surface at rest (OBJ) whose per-pose motion drives "
               "the fixed vertices in --bone_region.");

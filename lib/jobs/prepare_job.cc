@@ -24,8 +24,10 @@
 namespace aqs {
 namespace {
 
-// Keeps the elements whose centroid is in one of `boxes`, then drops unused vertices.
-TetMesh CropToBoxes(const TetMesh& mesh, const std::vector<Eigen::AlignedBox3d>& boxes) {
+// Keeps the elements whose centroid is in one of `boxes`, then drops unused vertices
+// (*kept_vertices: per vertex kept, its index in `mesh`).
+TetMesh CropToBoxes(const TetMesh& mesh, const std::vector<Eigen::AlignedBox3d>& boxes,
+                    std::vector<int>* kept_vertices) {
   std::vector<int> kept;
   for (int e = 0; e < mesh.num_tets(); ++e) {
     Eigen::Vector3d c = Eigen::Vector3d::Zero();
@@ -37,7 +39,15 @@ TetMesh CropToBoxes(const TetMesh& mesh, const std::vector<Eigen::AlignedBox3d>&
       }
     }
   }
-  return ElementSubset(mesh, kept);
+  return ElementSubset(mesh, kept, kept_vertices);
+}
+
+// Composes a vertex renumbering: origin[v] becomes origin[kept[v]] (kept: per new vertex,
+// its index before).
+void ComposeOrigins(const std::vector<int>& kept, std::vector<int>* origin) {
+  std::vector<int> composed(kept.size());
+  for (size_t v = 0; v < kept.size(); ++v) composed[v] = (*origin)[kept[v]];
+  origin->swap(composed);
 }
 
 }  // namespace
@@ -117,9 +127,11 @@ bool ReadNeutralAndPoses(const PrepareJobOptions& options, ActiveModel* model,
 
 // The simulation mesh (read, or a lattice over the neutral within the memory limit),
 // cropped to the keep boxes, without weakly held elements, cut by the planes (*cut_mesh:
-// the cut's element copies) and validated, into model->mesh.
+// the cut's element copies) and validated, into model->mesh. *input_numbering: the
+// read or made mesh's vertex count, and per vertex of the result its index there.
 bool BuildSimulationMesh(const PrepareJobOptions& options, ActiveModel* model,
-                         CutMesh* cut_mesh, std::ostream& log, std::string* error) {
+                         CutMesh* cut_mesh, ListNumbering* input_numbering, std::ostream& log,
+                         std::string* error) {
   WallTimer timer;
   if (!options.tet_mesh.empty()) {
     if (!ReadTetMesh(options.tet_mesh, &model->mesh, error)) return false;
@@ -149,8 +161,14 @@ bool BuildSimulationMesh(const PrepareJobOptions& options, ActiveModel* model,
         << " lattice, spacing " << options.meshing.spacing;
     if (options.meshing.shell_thickness > 0) log << ", shell " << options.meshing.shell_thickness;
   }
+  input_numbering->num_vertices = model->mesh.num_vertices();
+  std::vector<int>* input_vertex = &input_numbering->origin;
+  input_vertex->resize(model->mesh.num_vertices());
+  for (int v = 0; v < model->mesh.num_vertices(); ++v) (*input_vertex)[v] = v;
+  std::vector<int> kept;
   if (!options.keep_boxes.empty()) {
-    model->mesh = CropToBoxes(model->mesh, options.keep_boxes);
+    model->mesh = CropToBoxes(model->mesh, options.keep_boxes, &kept);
+    ComposeOrigins(kept, input_vertex);
     if (model->mesh.num_tets() == 0) {
       *error = "no simulation element lies inside the --keep_box boxes";
       return false;
@@ -160,7 +178,9 @@ bool BuildSimulationMesh(const PrepareJobOptions& options, ActiveModel* model,
     // Vertices that one or two elements hold (outer corners of elements kept for a
     // surface vertex, the boxes' edges) make equilibria unstable.
     int pruned = 0;
-    model->mesh = PruneWeaklyHeldElements(model->mesh, options.min_elements_per_vertex, &pruned);
+    model->mesh =
+        PruneWeaklyHeldElements(model->mesh, options.min_elements_per_vertex, &pruned, &kept);
+    ComposeOrigins(kept, input_vertex);
     if (model->mesh.num_tets() == 0) {
       *error = "no simulation element is left after removing those at vertices held by fewer "
                "than " + std::to_string(options.min_elements_per_vertex) + " elements";
@@ -176,6 +196,7 @@ bool BuildSimulationMesh(const PrepareJobOptions& options, ActiveModel* model,
     log << "; " << options.cuts.size() << " cut(s) duplicated "
         << cut_mesh->mesh.num_tets() - model->mesh.num_tets() << " elements";
     model->mesh = cut_mesh->mesh;
+    ComposeOrigins(cut_mesh->original_vertex, input_vertex);  // a ghost: its original's
   }
   if (!ValidateTetMesh(model->mesh, "simulation mesh", error)) return false;
   log << ": " << model->mesh.num_vertices() << " vertices, " << model->mesh.num_tets()
@@ -336,7 +357,10 @@ BuildResult BuildModel(const PrepareJobOptions& options, PreparedModel* prepared
   }
 
   CutMesh cut_mesh;
-  if (!BuildSimulationMesh(options, &model, &cut_mesh, log, error)) return BuildResult::kFailed;
+  ListNumbering input_numbering;  // the vertices' numbering in --tet_mesh
+  if (!BuildSimulationMesh(options, &model, &cut_mesh, &input_numbering, log, error)) {
+    return BuildResult::kFailed;
+  }
   model.mu = Eigen::VectorXd::Constant(model.mesh.num_tets(), options.mu);
   if (!CheckTargetMemory(options, model, error)) return BuildResult::kFailed;
   EmbedNeutral(options, cut_mesh, &model, log);
@@ -346,8 +370,11 @@ BuildResult BuildModel(const PrepareJobOptions& options, PreparedModel* prepared
   for (const TrainingPose& pose : model.poses) pose_names.push_back(pose.name);
   BoundaryRuleOptions boundary = options.boundary;
   boundary.num_threads = options.num_threads;
-  if (!ApplyBoundaryRules(boundary, model.mesh, model.neutral, pose_names, &model, &rules_log,
-                          error)) {
+  // --fixed_list indexes the vertices of --tet_mesh, which cropping, pruning and cuts
+  // renumber; without --tet_mesh, those of the simulation mesh prepare makes.
+  if (!ApplyBoundaryRules(boundary, model.mesh, model.neutral, pose_names,
+                          options.tet_mesh.empty() ? nullptr : &input_numbering, &model,
+                          &rules_log, error)) {
     return BuildResult::kFailed;
   }
   log << rules_log;

@@ -4,7 +4,8 @@
 
 namespace aqs {
 
-TetMesh ElementSubset(const TetMesh& mesh, const std::vector<int>& elements) {
+TetMesh ElementSubset(const TetMesh& mesh, const std::vector<int>& elements,
+                      std::vector<int>* kept_vertices) {
   std::vector<int> new_index(mesh.num_vertices(), -1);
   for (int e : elements) {
     CHECK(e >= 0 && e < mesh.num_tets()) << "element " << e << " of " << mesh.num_tets();
@@ -16,8 +17,11 @@ TetMesh ElementSubset(const TetMesh& mesh, const std::vector<int>& elements) {
   }
   TetMesh subset;
   subset.vertices.resize(3, num_vertices);
+  if (kept_vertices != nullptr) kept_vertices->assign(num_vertices, -1);
   for (int v = 0; v < mesh.num_vertices(); ++v) {
-    if (new_index[v] >= 0) subset.vertices.col(new_index[v]) = mesh.vertices.col(v);
+    if (new_index[v] < 0) continue;
+    subset.vertices.col(new_index[v]) = mesh.vertices.col(v);
+    if (kept_vertices != nullptr) (*kept_vertices)[new_index[v]] = v;
   }
   subset.tets.resize(4, static_cast<Eigen::Index>(elements.size()));
   for (size_t i = 0; i < elements.size(); ++i) {
@@ -35,7 +39,7 @@ std::vector<int> VertexElementCounts(const TetMesh& mesh) {
 }
 
 TetMesh PruneWeaklyHeldElements(const TetMesh& mesh, int min_elements_per_vertex,
-                                int* num_removed) {
+                                int* num_removed, std::vector<int>* kept_vertices) {
   std::vector<int> count = VertexElementCounts(mesh);
   std::vector<char> removed(mesh.num_tets(), 0);
   int total_removed = 0;
@@ -66,7 +70,7 @@ TetMesh PruneWeaklyHeldElements(const TetMesh& mesh, int min_elements_per_vertex
     if (!removed[e]) kept.push_back(e);
   }
   if (num_removed != nullptr) *num_removed = total_removed;
-  return ElementSubset(mesh, kept);
+  return ElementSubset(mesh, kept, kept_vertices);
 }
 
 }  // namespace aqs

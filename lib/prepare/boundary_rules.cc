@@ -4,6 +4,8 @@
 #include <filesystem>
 #include <sstream>
 
+#include <glog/logging.h>
+
 #include "geometry/rigid_transform.h"
 #include "geometry/triangle_bvh.h"
 #include "geometry/winding_number.h"
@@ -167,7 +169,8 @@ bool BoundaryRuleOptions::Validate(std::string* error) const {
 
 bool ApplyBoundaryRules(const BoundaryRuleOptions& options, const TetMesh& mesh,
                         const SurfaceMesh& surface, const std::vector<std::string>& pose_names,
-                        ActiveModel* model, std::string* log_out, std::string* error) {
+                        const ListNumbering* list_numbering, ActiveModel* model,
+                        std::string* log_out, std::string* error) {
   std::ostringstream log;
   const int nv = mesh.num_vertices();
   std::vector<bool> fixed(nv, false);
@@ -208,10 +211,34 @@ bool ApplyBoundaryRules(const BoundaryRuleOptions& options, const TetMesh& mesh,
     log << "fixed inside " << path << ": " << count(inside) << " vertices\n";
   }
   if (!options.fixed_list.empty()) {
+    CHECK(list_numbering == nullptr || static_cast<int>(list_numbering->origin.size()) == nv);
+    const int list_size = list_numbering == nullptr ? nv : list_numbering->num_vertices;
     std::vector<int> list;
-    if (!ReadVertexList(options.fixed_list, nv, &list, error)) return false;
-    for (int v : list) fixed[v] = true;
-    log << "fixed by list " << options.fixed_list << ": " << list.size() << " vertices\n";
+    if (!ReadVertexList(options.fixed_list, list_size, &list, error)) return false;
+    std::vector<char> listed(list_size, 0);
+    for (int v : list) listed[v] = 1;
+    std::vector<char> found(list_size, 0);
+    int selected = 0;
+    for (int v = 0; v < nv; ++v) {
+      const int origin = list_numbering == nullptr ? v : list_numbering->origin[v];
+      if (!listed[origin]) continue;
+      fixed[v] = true;
+      found[origin] = 1;
+      ++selected;
+    }
+    for (int v : list) {
+      if (!found[v]) {
+        *error = options.fixed_list + ": vertex " + std::to_string(v) +
+                 " is not in the simulation mesh (removed as held by fewer than "
+                 "--min_vertex_elements elements, or outside every --keep_box)";
+        return false;
+      }
+    }
+    log << "fixed by list " << options.fixed_list << ": " << list.size() << " vertices";
+    if (selected != static_cast<int>(list.size())) {
+      log << " (" << selected << " with their cut copies)";
+    }
+    log << "\n";
   }
   if (count(fixed) == 0) {
     *error = "no simulation vertex is fixed: give --fixed_depth, --fixed_box, --fixed_inside or "

@@ -43,7 +43,8 @@ struct BoundaryRuleOptions {
   std::vector<Eigen::AlignedBox3d> fixed_boxes;
   // Vertices inside any of these closed surfaces (OBJ; winding number > 0.5).
   std::vector<std::string> fixed_inside_meshes;
-  // An explicit vertex list file (io/vertex_list_io.h, plain indices).
+  // An explicit vertex list file (io/vertex_list_io.h, plain indices), in the numbering
+  // ApplyBoundaryRules is given (prepare: that of --tet_mesh's file).
   std::string fixed_list;
   std::vector<BoneRule> bones;
   // Static fixed vertices (fixed by the rules above but driven by no bone) within this
@@ -59,14 +60,27 @@ struct BoundaryRuleOptions {
   bool Validate(std::string* error) const;
 };
 
+// The numbering a vertex list (BoundaryRuleOptions::fixed_list) is written in, when it
+// is not the simulation mesh's own: that of the mesh file before prepare cropped, pruned
+// and cut it.
+struct ListNumbering {
+  int num_vertices = 0;     // the file's vertex count
+  std::vector<int> origin;  // per simulation vertex, its index in the file
+};
+
 // Applies the rules to the simulation mesh (`surface`: the neutral surface, for depth)
 // and fills model->static_vertices and model->bones (with one transform per name in
-// pose_names). Appends a human-readable summary to *log. Returns false with *error if a
-// file cannot be read, a bone's pose surface has the wrong vertex count, or no vertex
-// ends up fixed (an unconstrained body has no unique equilibrium).
+// pose_names). list_numbering: the numbering of options.fixed_list (a listed vertex
+// fixes every vertex of `mesh` that comes from it, its cut copies too); null: fixed_list
+// indexes `mesh` itself. Appends a human-readable summary to *log.
+// Returns false with *error if a file cannot be read, a listed vertex is out of range or
+// has no vertex in `mesh` (removed; the message names it), a bone's pose surface has the
+// wrong vertex count, or no vertex ends up fixed (an unconstrained body has no unique
+// equilibrium).
 bool ApplyBoundaryRules(const BoundaryRuleOptions& options, const TetMesh& mesh,
                         const SurfaceMesh& surface, const std::vector<std::string>& pose_names,
-                        ActiveModel* model, std::string* log, std::string* error);
+                        const ListNumbering* list_numbering, ActiveModel* model,
+                        std::string* log, std::string* error);
 
 // Parses "xmin,ymin,zmin,xmax,ymax,zmax" (the box must not be empty). Returns false with
 // *error quoting the text.

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <sstream>
 
 #include <gtest/gtest.h>
@@ -201,6 +202,62 @@ TEST_F(PrepareJobTest, UserTetMeshAndBoxRule) {
   ASSERT_TRUE(LoadModel(options.output, &second, &error)) << error;
   EXPECT_EQ(second.mesh.tets, first.mesh.tets);
   for (int v : second.static_vertices) EXPECT_LE(second.mesh.vertices(2, v), -1.5);
+}
+
+// --fixed_list indexes the vertices of --tet_mesh's file, which prepare renumbers when it
+// prunes weakly held elements: the listed vertices are fixed where they are, and a
+// listed vertex that pruning removed is named.
+TEST_F(PrepareJobTest, FixedListIndexesTheUserMeshsOwnVertices) {
+  std::ostringstream log;
+  std::string error;
+  PrepareJobOptions unpruned = options_;
+  unpruned.min_elements_per_vertex = 0;
+  unpruned.output = dir_.File("loose");
+  ASSERT_TRUE(RunPrepareJob(unpruned, log, &error)) << error;
+  ActiveModel loose;
+  ASSERT_TRUE(LoadModel(unpruned.output, &loose, &error)) << error;
+  ASSERT_TRUE(WriteMeditMesh(dir_.File("loose.mesh"), loose.mesh, &error)) << error;
+  std::vector<int> kept;
+  PruneWeaklyHeldElements(loose.mesh, options_.min_elements_per_vertex, nullptr, &kept);
+  ASSERT_LT(kept.size(), static_cast<size_t>(loose.mesh.num_vertices())) << "pruning renumbers";
+  std::vector<bool> survives(loose.mesh.num_vertices(), false);
+  for (int v : kept) survives[v] = true;
+  std::string list, removed_list;
+  int listed = 0, removed = -1;
+  for (int v = 0; v < loose.mesh.num_vertices(); ++v) {
+    if (loose.mesh.vertices(2, v) > -1.2) continue;
+    if (survives[v]) {
+      list += std::to_string(v) + "\n";
+      ++listed;
+    } else if (removed < 0) {
+      removed = v;
+    }
+  }
+  ASSERT_GT(listed, 5);
+  ASSERT_GE(removed, 0);
+  std::ofstream(dir_.File("bottom.txt")) << list;
+  std::ofstream(dir_.File("with_removed.txt")) << list << removed << "\n";
+  PrepareJobOptions options = options_;
+  options.tet_mesh = dir_.File("loose.mesh");
+  options.boundary.fixed_depth = -1;
+  options.boundary.fixed_list = dir_.File("bottom.txt");
+  options.output = dir_.File("listed");
+  log.str("");
+  ASSERT_TRUE(RunPrepareJob(options, log, &error)) << error;
+  ActiveModel model;
+  ASSERT_TRUE(LoadModel(options.output, &model, &error)) << error;
+  EXPECT_LT(model.mesh.num_vertices(), loose.mesh.num_vertices());
+  ASSERT_EQ(static_cast<int>(model.static_vertices.size()), listed);
+  for (int v : model.static_vertices) {
+    EXPECT_LE(model.mesh.vertices(2, v), -1.2) << "vertex " << v << " was not listed";
+  }
+  options.boundary.fixed_list = dir_.File("with_removed.txt");
+  options.output = dir_.File("listed_removed");
+  EXPECT_FALSE(RunPrepareJob(options, log, &error));
+  EXPECT_NE(error.find("with_removed.txt: vertex " + std::to_string(removed) +
+                       " is not in the simulation mesh"),
+            std::string::npos)
+      << error;
 }
 
 // --mirror_poses: the stretch and the bulge are symmetric in x = 0 and get no image; the
