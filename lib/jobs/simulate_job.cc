@@ -13,6 +13,7 @@
 #include "io/vertex_list_io.h"
 #include "jobs/deformed_output.h"
 #include "jobs/model_pose.h"
+#include "mesh/element_subset.h"
 #include "mesh/mesh_io.h"
 #include "prepare/volumetric_targets.h"
 #include "util/file_extension.h"
@@ -241,6 +242,21 @@ bool ReadMeshSimulation(const SimulateJobOptions& options, MeshSimulation* in,
   } else {
     log << "no fixed vertices: the body is free (the equilibrium is defined up to a rigid "
            "motion; gradients need fixed vertices)\n";
+  }
+  // A free vertex that no element uses has no stiffness: every equilibrium's K would be
+  // singular there (10-node tets' mid-edge nodes, whose elements are read by their corners;
+  // points or curves a mesher keeps).
+  std::vector<bool> fixed(mesh.num_vertices(), false);
+  for (int v : in->bc.vertices) fixed[v] = true;
+  const std::vector<int> uses = VertexElementCounts(mesh);
+  for (int v = 0; v < mesh.num_vertices(); ++v) {
+    if (uses[v] == 0 && !fixed[v]) {
+      *error = options.mesh + ": vertex " + std::to_string(v) + " (0-based) is used by no "
+               "element, and a free vertex without an element has no stiffness (the mid-edge "
+               "nodes of 10-node tets are such vertices): write the mesh with 4-node tets and "
+               "only the nodes they use, or give it to aqs_prepare --tet_mesh, which drops them";
+      return false;
+    }
   }
   in->actuation = IdentityActuations(mesh.num_tets());
   if (!options.actuation.empty()) {

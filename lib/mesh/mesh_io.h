@@ -35,7 +35,8 @@ bool ReadMeditMesh(const std::string& path, TetMesh* mesh, std::string* error);
 // TetGen .node/.ele. `path` may name the .node file, the .ele file or their common
 // stem; both files must exist. Index base (0 or 1) is taken from the first .node
 // entry as TetGen does; attributes and boundary markers are parsed (finite numbers) and
-// not used. 10-node elements keep their 4 corner nodes. Points and tetrahedra must be
+// not used. 10-node elements keep their 4 corner nodes (the mid-edge points stay unused
+// vertices, as in ReadGmshMesh). Points and tetrahedra must be
 // numbered consecutively from the base, node indices must name points of the .node
 // file, and nothing but comments may follow the records the headers count; '#' starts
 // a comment. Point lines may omit trailing attributes/markers.
@@ -43,7 +44,9 @@ bool ReadTetgenMesh(const std::string& path, TetMesh* mesh, std::string* error);
 
 // Gmsh .msh ASCII, format 2.2 or 4.1 (read from $MeshFormat). Node tags may be any
 // positive integers (non-contiguous is fine); elements of type 4 (4-node tet) and 11
-// (10-node tet, corners kept) become tets; other element types are skipped. Binary
+// (10-node tet, corners kept: its mid-edge nodes stay vertices that no element uses,
+// which aqs_prepare drops and aqs_simulate refuses) become tets; other element types are
+// skipped. Binary
 // files are rejected with a message saying so.
 // Details: node tags become 0-based vertex indices in order of appearance (nodes
 // used by no tet are kept as vertices); an element type whose node count is unknown,
