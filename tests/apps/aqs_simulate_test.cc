@@ -158,54 +158,46 @@ TEST(AqsSimulateTest, GmshMeshWithDefaultActuationStaysAtRest) {
   EXPECT_LT((x.vertices - mesh.vertices).cwiseAbs().maxCoeff(), 1e-12);
 }
 
-// A 10-node tet is read by its corners; its mid-edge nodes stay vertices that
-// no element uses, which have no stiffness: refused, naming the first, where
-// the same tet with 4 nodes solves.
+// A 10-node tet is read by its corners; its mid-edge nodes stay vertices that no element
+// uses, which have no stiffness: refused, naming the first, where the same tet with 4
+// nodes solves.
 TEST(AqsSimulateTest, VerticesOfNoElementAreRefused) {
   testing::TempDir dir;
-  auto write = [&](const std::string &name, bool ten_nodes) {
+  auto write = [&](const std::string& name, bool ten_nodes) {
     std::ofstream msh(dir.File(name));
     msh << "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n"
         << (ten_nodes ? 10 : 4) << "\n"
         << "1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n";
     if (ten_nodes) {
-      msh << "5 0.5 0 0\n6 0.5 0.5 0\n7 0 0.5 0\n8 0 0 0.5\n9 0 0.5 0.5\n10 "
-             "0.5 0 0.5\n";
+      msh << "5 0.5 0 0\n6 0.5 0.5 0\n7 0 0.5 0\n8 0 0 0.5\n9 0 0.5 0.5\n10 0.5 0 0.5\n";
     }
     msh << "$EndNodes\n$Elements\n1\n"
-        << (ten_nodes ? "1 11 0 1 2 3 4 5 6 7 8 10 9\n" : "1 4 0 1 2 3 4\n")
-        << "$EndElements\n";
+        << (ten_nodes ? "1 11 0 1 2 3 4 5 6 7 8 10 9\n" : "1 4 0 1 2 3 4\n") << "$EndElements\n";
   };
   write("four.msh", false);
   write("ten.msh", true);
   std::string error;
-  ASSERT_TRUE(WriteVertexList(dir.File("fixed.txt"), {0, 1, 2}, "", &error))
-      << error;
-  const std::string flags =
-      " --fixed=" + dir.File("fixed.txt") + " --output=" + dir.File("x.mesh");
+  ASSERT_TRUE(WriteVertexList(dir.File("fixed.txt"), {0, 1, 2}, "", &error)) << error;
+  const std::string flags = " --fixed=" + dir.File("fixed.txt") + " --output=" + dir.File("x.mesh");
   const testing::CommandResult four =
       RunCommand(Simulate("--mesh=" + dir.File("four.msh") + flags));
   EXPECT_EQ(four.exit_code, 0) << four.output;
-  const testing::CommandResult ten =
-      RunCommand(Simulate("--mesh=" + dir.File("ten.msh") + flags));
+  const testing::CommandResult ten = RunCommand(Simulate("--mesh=" + dir.File("ten.msh") + flags));
   EXPECT_EQ(ten.exit_code, 1) << ten.output;
-  EXPECT_NE(
-      ten.output.find("ten.msh: vertex 4 (0-based) is used by no element"),
-      std::string::npos)
+  EXPECT_NE(ten.output.find("ten.msh: vertex 4 (0-based) is used by no element"), std::string::npos)
       << ten.output;
 }
 
 struct BadInputCase {
   std::string name;
-  std::string flags; // {dir} and {finger} are replaced
+  std::string flags;      // {dir} and {finger} are replaced
   int exit_code;
-  std::string message; // expected in the output
+  std::string message;    // expected in the output
 };
 
-void PrintTo(const BadInputCase &c, std::ostream *out) { *out << c.name; }
+void PrintTo(const BadInputCase& c, std::ostream* out) { *out << c.name; }
 
-class AqsSimulateBadInputTest : public ::testing::TestWithParam<BadInputCase> {
-};
+class AqsSimulateBadInputTest : public ::testing::TestWithParam<BadInputCase> {};
 
 TEST_P(AqsSimulateBadInputTest, FailsClearly) {
   testing::TempDir dir;

@@ -27,15 +27,14 @@ class BoneClearanceTest : public ::testing::Test {
     options_.num_threads = 1;
   }
 
-  // The static vertices' x coordinates after the rules, with the given
-  // clearance.
+  // The static vertices' x coordinates after the rules, with the given clearance.
   std::vector<double> StaticX(double clearance) {
     options_.bone_clearance = clearance;
     std::string error, log;
     EXPECT_TRUE(options_.Validate(&error)) << error;
     ActiveModel model;
-    EXPECT_TRUE(ApplyBoundaryRules(options_, mesh_, SurfaceMesh(), {"a"},
-                                   nullptr, &model, &log, &error))
+    EXPECT_TRUE(
+        ApplyBoundaryRules(options_, mesh_, SurfaceMesh(), {"a"}, nullptr, &model, &log, &error))
         << error;
     EXPECT_EQ(model.bones.size(), 1u);
     EXPECT_EQ(model.bones[0].vertices.size(), 8u);
