@@ -6,6 +6,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <string>
@@ -68,6 +69,10 @@ bool AtomicFileWriter::Commit(std::string* error) {
     return false;
   }
   committed_ = true;
+  // The rename itself is an entry of the folder: flushed too, or a crash of the machine
+  // could bring back the old file (or none).
+  const std::filesystem::path parent = std::filesystem::path(path_).parent_path();
+  SyncDirectory(parent.empty() ? "." : parent.string());
   FaultPoint("atomic_file:renamed");
   return true;
 }
@@ -82,6 +87,22 @@ bool WriteFileAtomically(const std::string& path, const std::string& content,
 std::string ReadWholeFile(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+void SyncDirectory(const std::string& dir) {
+  const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (fd < 0) return;
+  ::fsync(fd);
+  ::close(fd);
+}
+
+void SyncDirectoryTree(const std::string& dir) {
+  std::error_code code;
+  for (std::filesystem::recursive_directory_iterator it(dir, code), end; !code && it != end;
+       it.increment(code)) {
+    if (it->is_directory(code) && !it->is_symlink(code)) SyncDirectory(it->path().string());
+  }
+  SyncDirectory(dir);
 }
 
 }  // namespace aqs

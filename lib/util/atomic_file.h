@@ -43,6 +43,14 @@ bool WriteFileAtomically(const std::string& path, const std::string& content,
 // wrote, for records compared whole (store keys, pre-training's record).
 std::string ReadWholeFile(const std::string& path);
 
+// Flushes the folder `dir`'s entries to the disk (fsync of the folder), so that renames
+// and new entries in it survive a crash of the machine, not only of the process. Best
+// effort: a folder that cannot be opened is left as it is.
+void SyncDirectory(const std::string& dir);
+
+// SyncDirectory of `dir` and of every folder under it.
+void SyncDirectoryTree(const std::string& dir);
+
 }  // namespace aqs
 
 #endif  // AQS_UTIL_ATOMIC_FILE_H_

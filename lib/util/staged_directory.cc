@@ -10,6 +10,7 @@
 #include <cstring>
 #include <filesystem>
 
+#include "util/atomic_file.h"
 #include "util/fault_injection.h"
 
 namespace aqs {
@@ -39,14 +40,6 @@ int Exchange(const std::string& a, const std::string& b) {
 #else
   return ENOSYS;
 #endif
-}
-
-// Makes renames in `dir` durable (best effort).
-void SyncDirectory(const std::string& dir) {
-  const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (fd < 0) return;
-  ::fsync(fd);
-  ::close(fd);
 }
 
 enum class PathKind { kMissing, kEmptyDirectory, kOther };
@@ -139,7 +132,7 @@ bool InstallStagingDirectory(const std::string& staging, const std::string& targ
     *error = "cannot remove " + marker + " (" + Errno(errno) + ")";
     return false;
   }
-  SyncDirectory(staging);
+  SyncDirectoryTree(staging);  // its subfolders' entries too (poses/, learned/states/, ...)
   FaultPoint("staging:filled");
   if (Classify(target) != PathKind::kOther) {
     // Nothing to keep: rename(2) replaces a missing target or an empty directory.
