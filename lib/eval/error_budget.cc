@@ -209,6 +209,7 @@ std::string TrainingBudgetTable(const ActiveModel& model, const PretrainSurfaceE
   out += line;
   double sums[3] = {0, 0, 0}, maxima[3] = {0, 0, 0};
   const int np = model.num_poses();
+  bool pretrain_complete = true;  // every pose's stage (b) converged
   for (int p = 0; p < np; ++p) {
     const TrainingPose& pose = model.poses[p];
     std::snprintf(line, sizeof(line), "  %-24s %10.4g / %-8.4g", pose.name.c_str(),
@@ -223,6 +224,7 @@ std::string TrainingBudgetTable(const ActiveModel& model, const PretrainSurfaceE
       out += line;
       sums[1] += s.mean;
       maxima[1] = std::max(maxima[1], s.max);
+      pretrain_complete = pretrain_complete && pretrain->converged[p];
     } else {
       out += std::string(22, ' ');
     }
@@ -245,7 +247,13 @@ std::string TrainingBudgetTable(const ActiveModel& model, const PretrainSurfaceE
         if (k == 1) out += std::string(22, ' ');
         continue;
       }
-      std::snprintf(line, sizeof(line), " %10.4g / %-8.4g", sums[k] / np, maxima[k]);
+      if (k == 1 && !pretrain_complete) {
+        // An unconverged pose's distances are those of wherever its solve stopped: no mean
+        // over the poses (as evaluation.md's budget).
+        std::snprintf(line, sizeof(line), " %21s", "n/a");
+      } else {
+        std::snprintf(line, sizeof(line), " %10.4g / %-8.4g", sums[k] / np, maxima[k]);
+      }
       out += line;
     }
     out += "\n";

@@ -90,7 +90,8 @@ bool ReadPretrainSurfaceErrors(const std::string& model_directory, const ActiveM
 // The budget of the training poses as a plain-text table for logs: per pose the mean and
 // max distance over all surface vertices at each stage available (the embedding floor
 // from poses.txt, `pretrain` if given, and the distances of `trained_surfaces` if not
-// empty: 3 x num_surface_vertices per pose), then the means over poses.
+// empty: 3 x num_surface_vertices per pose), then the means over poses ("n/a" for
+// stage (b) if a pose's equilibrium after pre-training did not converge).
 std::string TrainingBudgetTable(const ActiveModel& model, const PretrainSurfaceErrors* pretrain,
                                 const std::vector<Eigen::Matrix3Xd>& trained_surfaces);
 

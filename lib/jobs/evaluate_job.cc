@@ -317,7 +317,8 @@ bool EvaluateHeldOutPoses(const EvaluateJobOptions& options, const ActiveModel& 
 // The held-out poses' floor: their own volumetric targets (prepare's embedded
 // simulation, bones where the physics fit put them), simulated: surfaces and errors
 // [4] of *held_out and "floor" rows. Sets parts->have_held_out_floor and counts
-// failures in parts->floor_failures; a failure to make the targets is logged.
+// failures in parts->floor_failures (a pose whose target or its simulation does not
+// converge loses its floor alone; each is logged).
 void HeldOutFloors(const EvaluateJobOptions& options, const ActiveModel& model,
                    const PoseSimulationOptions& simulation,
                    const std::vector<std::string>& test_names,
@@ -345,15 +346,29 @@ void HeldOutFloors(const EvaluateJobOptions& options, const ActiveModel& model,
   VolumetricTargetOptions target_options = options.held_out_targets;
   target_options.num_threads = options.num_threads;
   std::string target_error;
-  if (!MakeVolumetricTargets(target_options, &held, target_log, &target_error)) {
+  if (!target_options.Validate(&target_error)) {
     log << "  the held-out poses' volumetric targets failed (their floor is left out): "
         << target_error << "\n";
     return;
   }
+  // A pose whose target's embedded simulation does not converge loses its floor alone.
+  std::vector<int> all(test_names.size());
+  for (size_t t = 0; t < all.size(); ++t) all[t] = static_cast<int>(t);
+  std::vector<std::string> target_failures(test_names.size());
+  MakeVolumetricTargetsOf(target_options, all, nullptr, &held, target_log, &target_failures);
+  std::vector<int> simulated;  // the poses with a target
   std::vector<ActuationMatrix> targets;
   std::vector<std::vector<RigidTransform>> bones;
   std::vector<Eigen::Matrix3Xd> starts;
   for (size_t t = 0; t < test_names.size(); ++t) {
+    if (!target_failures[t].empty()) {
+      ++parts->floor_failures;
+      log << "  held-out pose '" << test_names[t]
+          << "': its volumetric target did not converge (floor left out): "
+          << target_failures[t] << "\n";
+      continue;
+    }
+    simulated.push_back(static_cast<int>(t));
     targets.push_back(held.poses[t].target);
     const LatentFitResult& fit = (*held_out)[t].fit;
     bones.push_back(fit.failed ? rest : fit.bones);
@@ -362,17 +377,18 @@ void HeldOutFloors(const EvaluateJobOptions& options, const ActiveModel& model,
   const std::vector<SimulatedPose> floors =
       SimulateActuations(model, targets, bones, starts, simulation);
   parts->have_held_out_floor = true;
-  for (size_t t = 0; t < test_names.size(); ++t) {
-    if (!floors[t].converged) {
+  for (size_t k = 0; k < simulated.size(); ++k) {
+    const int t = simulated[k];
+    if (!floors[k].converged) {
       ++parts->floor_failures;
       log << "  held-out pose '" << test_names[t]
           << "': its volumetric target's equilibrium did not converge (floor left out): "
-          << floors[t].message << "\n";
+          << floors[k].message << "\n";
       continue;
     }
     HeldOut& h = (*held_out)[t];
-    h.surfaces[4] = floors[t].surface;
-    h.errors[4] = VertexErrors(floors[t].surface, test_surfaces[t]);
+    h.surfaces[4] = floors[k].surface;
+    h.errors[4] = VertexErrors(floors[k].surface, test_surfaces[t]);
     rows->push_back(
         SummarizeErrors("test", test_names[t], "floor", h.errors[4], options.error_vertices));
   }

@@ -161,6 +161,13 @@ TEST(ErrorBudgetTest, PretrainRecordIsWhereTrainingStarts) {
   }
   EXPECT_NE(table.find("mean over poses"), std::string::npos) << table;
   EXPECT_NE(table.find("(c) trained"), std::string::npos) << table;
+  EXPECT_EQ(table.find("n/a"), std::string::npos) << table;
+  // A pose whose stage (b) did not converge: marked, and no mean over the poses.
+  record.converged[1] = 0;
+  const std::string unconverged = TrainingBudgetTable(model, &record, surfaces);
+  EXPECT_NE(unconverged.find("(not converged)"), std::string::npos) << unconverged;
+  const std::string mean_row = unconverged.substr(unconverged.find("mean over poses"));
+  EXPECT_NE(mean_row.find("n/a"), std::string::npos) << unconverged;
 }
 
 TEST(ErrorBudgetTest, RecordFilesRoundTripAndBadFilesAreNamed) {
