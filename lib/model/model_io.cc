@@ -1,10 +1,14 @@
 #include "model/model_io.h"
 
+#include <fcntl.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <sstream>
 
@@ -17,6 +21,7 @@
 #include "model/model_directory.h"
 #include "model/model_fingerprint.h"
 #include "util/atomic_file.h"
+#include "util/fault_injection.h"
 #include "util/input_file.h"
 #include "util/line_reader.h"
 #include "util/make_directory.h"
@@ -365,6 +370,7 @@ bool ReadLearned(const std::string& dir, const std::string& checkpoint_path, Act
     }
     model->decoder = std::make_shared<ActuationDecoder>(spec, std::move(field));
     model->decoder_params = params;
+    FaultPoint("model_io:decoder_read");  // a checkpoint may replace the unit here
     if (!ReadFiniteMatrix(dir + "/latents.bin", spec.latent_dim, model->num_poses(), &matrix,
                         error)) {
       return false;
@@ -731,10 +737,27 @@ bool ReadLearnedPart(const std::string& dir, int version, ActiveModel* model,
   } else {
     const std::string learned = dir + "/" + kLearned;
     for (int attempt = 0;; ++attempt) {
-      const auto before = DirectoryIdentity(learned);
-      if (before.second == 0) break;  // not pre-trained
+      // The unit's directory held open while it is read: its inode cannot be freed and
+      // given to a later checkpoint's directory meanwhile, so the same identity after
+      // the read means the same unit throughout (without it, a unit two checkpoints
+      // later, which on ext4 gets the inode back, passed for the one being read).
+      const int fd = ::open(learned.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+      struct stat held;
+      if (fd < 0 || ::fstat(fd, &held) != 0) {
+        const int code = errno;
+        if (fd >= 0) ::close(fd);
+        if (DirectoryIdentity(learned).second == 0) break;  // not pre-trained
+        if (attempt == 5) {
+          *error = learned + ": cannot open the folder (" + std::strerror(code) + ")";
+          return false;
+        }
+        continue;  // replaced between the two looks: again
+      }
+      const std::pair<dev_t, ino_t> before = {held.st_dev, held.st_ino};
       const bool read = ReadLearned(learned, learned + "/checkpoint.txt", &m, error);
-      if (DirectoryIdentity(learned) == before) {
+      const bool same = DirectoryIdentity(learned) == before;
+      ::close(fd);
+      if (same) {
         if (!read) return false;
         break;
       }

@@ -20,6 +20,7 @@
 #include "testing/synthetic_muscles.h"
 #include "testing/temp_dir.h"
 #include "train/pretrain.h"
+#include "util/fault_injection.h"
 #include "util/staged_directory.h"
 
 namespace aqs {
@@ -442,6 +443,48 @@ TEST(ModelIoTest, KillAtEveryStepOfACheckpointLeavesOneWholeLearnedState) {
       }
     }
     EXPECT_EQ(seen, std::set<std::string>({"a", "b"}));
+  }
+}
+
+// Two checkpoints while a reader is between the unit's decoder and its latents: on ext4
+// the second checkpoint's directory usually gets the first one's inode back, which the
+// reader's identity check took for the unit it began with. It must read one unit whole.
+struct SwapsDuringRead {
+  std::string path;
+  std::vector<const ActiveModel*> saves;
+  bool done = false;
+};
+SwapsDuringRead g_swaps;
+
+void SaveTwiceDuringRead(const char* point) {
+  if (g_swaps.done || std::string(point) != "model_io:decoder_read") return;
+  g_swaps.done = true;  // before saving: the saves' own fault points come here too
+  for (const ActiveModel* model : g_swaps.saves) {
+    std::string error;
+    EXPECT_TRUE(SaveLearnedState(g_swaps.path, *model, &error)) << error;
+  }
+}
+
+TEST(ModelIoTest, AReadSpanningTwoCheckpointsReadsOneUnitWhole) {
+  const ActiveModel a = TrainedSyntheticModel();
+  ActiveModel b = Changed(a), c = Changed(b);
+  b.mu = c.mu = a.mu;
+  c.checkpoint.iterations = 9;
+  testing::TempDir dir;
+  const std::string path = dir.File("m");
+  std::string error;
+  ASSERT_TRUE(SaveModel(path, a, &error)) << error;
+  for (int round = 0; round < 3; ++round) {
+    SCOPED_TRACE("round " + std::to_string(round));
+    ASSERT_TRUE(SaveLearnedState(path, a, &error)) << error;
+    g_swaps = {path, {&b, &c}, false};
+    const FaultHook previous = SetFaultHookForTesting(&SaveTwiceDuringRead);
+    ActiveModel back;
+    const bool loaded = LoadModel(path, &back, &error);
+    SetFaultHookForTesting(previous);
+    ASSERT_TRUE(g_swaps.done);
+    ASSERT_TRUE(loaded) << error;
+    EXPECT_EQ(WhichOf(back, c, b, false), "a") << "the unit installed after the read began";
   }
 }
 
