@@ -17,6 +17,7 @@
 #include "model/model_io.h"
 #include "train/end_to_end_objective.h"
 #include "train/latent_refit.h"
+#include "train/lbfgs_restarts.h"
 #include "train/progress.h"
 #include "util/atomic_file.h"
 #include "util/blas.h"
@@ -173,9 +174,9 @@ class TrainingCallback final : public ceres::IterationCallback {
 // shared among the ranks of a distributed run (EndToEndObjective::RefitLatents): the
 // refitted latents go back into `parameters`, and their equilibria become the
 // objective's warm starts.
-void RefitLatents(ActiveModel* model, EndToEndObjective* objective, Eigen::VectorXd* parameters,
+void RefitLatents(ActiveModel* model, EndToEndObjective* objective, double* parameters,
                   std::ostream& log) {
-  const LatentRefitReport report = objective->RefitLatents(model, parameters->data());
+  const LatentRefitReport report = objective->RefitLatents(model, parameters);
   char line[256];
   std::snprintf(line, sizeof(line),
                 "  latent refit: loss %.6e -> %.6e (%d of %d poses improved, %d failed; %s)\n",
@@ -259,63 +260,93 @@ ceres::GradientProblemSolver::Options TrainingSolverOptions(const TrainOptions& 
   return solver_options;
 }
 
+// What end-to-end training does between its L-BFGS solves (RunLbfgsWithRestarts): the
+// latent refits of options (before iteration 0 of a fresh run, then every
+// latent_refit_every iterations; each ends a solve, and the next starts with an empty
+// memory), the time budget (counted by budget_timer), the failed pose named in the
+// termination, and a restart from the accepted point's equilibria.
+class TrainingSolveHooks final : public LbfgsSolveHooks {
+ public:
+  TrainingSolveHooks(const TrainOptions& options, const WallTimer& budget_timer, int done,
+                     ActiveModel* model, EndToEndObjective* objective,
+                     TrainingCallback* callback, TrainReport* report, std::ostream& log)
+      : options_(options),
+        budget_timer_(budget_timer),
+        model_(model),
+        objective_(objective),
+        callback_(callback),
+        report_(report),
+        log_(log),
+        refits_(options.latent_refit_iterations > 0) {
+    const int every = options.latent_refit_every;
+    next_refit_ = done == 0 ? 0 : every > 0 ? (done / every + 1) * every : options.max_iterations;
+  }
+
+  int BeforeSolve(int done, int max_iterations, double* parameters) override {
+    if (refits_ && done >= next_refit_) {
+      RefitLatents(model_, objective_, parameters, log_);
+      callback_->ForgetLastCost();  // the refitted latents start at another loss
+      ++report_->latent_refits;
+      const int every = options_.latent_refit_every;
+      next_refit_ = every > 0 ? done + every : max_iterations;
+    }
+    callback_->SetIterationsBefore(done);
+    return refits_ ? std::min(max_iterations, next_refit_) : max_iterations;
+  }
+
+  bool AfterSolve(const ceres::GradientProblemSolver::Summary& summary, int done,
+                  std::string* termination) override {
+    if (summary.termination_type == ceres::FAILURE && !objective_->last_failure().empty()) {
+      // Name the pose and the cause of the failed evaluation (Ceres' message does not).
+      *termination += " (" + objective_->last_failure() + ")";
+    }
+    const bool out_of_time =
+        options_.max_seconds > 0 && budget_timer_.Seconds() > options_.max_seconds;
+    if (out_of_time && !callback_->budget_reached()) {
+      log_ << "  time budget of " << FormatDuration(options_.max_seconds)
+           << " reached during a line search (its last step is dropped)\n";
+    }
+    return !out_of_time && !callback_->budget_reached();
+  }
+
+  void BeforeRestart(const double* parameters) override {
+    objective_->UseStatesOf(parameters);  // restart from the accepted point's equilibria
+  }
+
+ private:
+  const TrainOptions& options_;
+  const WallTimer& budget_timer_;
+  ActiveModel* model_;
+  EndToEndObjective* objective_;
+  TrainingCallback* callback_;
+  TrainReport* report_;
+  std::ostream& log_;
+  const bool refits_;
+  int next_refit_;  // the iteration of the next latent refit
+};
+
 // Ceres' L-BFGS on `problem` from *parameters ([decoder; latents]; `done` iterations
-// done before this run), with the latent refits of options (before iteration 0 of a
-// fresh run, then every latent_refit_every) and restarts from the accepted point where
-// the line search stalls (the loss is only as smooth as the equilibria are converged,
-// so it can stall far from a minimum: L-BFGS restarts with an empty memory, a
-// steepest-descent step first, as long as each restart makes progress), until the
-// iterations, the time budget (counted by budget_timer) or the progress run out.
-// Returns the iterations done in all; sets report's termination, latent_refits and
-// restarts.
+// done before this run), with the latent refits of options and restarts from the
+// accepted point where the line search stalls (the loss is only as smooth as the
+// equilibria are converged, so it can stall far from a minimum: L-BFGS restarts with an
+// empty memory, a steepest-descent step first, as long as each restart makes progress;
+// train/lbfgs_restarts.h), until the iterations, the time budget (counted by
+// budget_timer) or the progress run out. Returns the iterations done in all; sets
+// report's termination, latent_refits and restarts.
 int RunTrainingSolves(const TrainOptions& options, const ceres::GradientProblem& problem,
                       const WallTimer& budget_timer, int done, ActiveModel* model,
                       EndToEndObjective* objective, TrainingCallback* callback,
                       Eigen::VectorXd* parameters, TrainReport* report, std::ostream& log) {
-  ceres::GradientProblemSolver::Options solver_options = TrainingSolverOptions(options, callback);
-  const bool refits = options.latent_refit_iterations > 0;
-  const int every = options.latent_refit_every;
-  int next_refit = done == 0 ? 0
-                   : every > 0 ? (done / every + 1) * every
-                               : options.max_iterations;
-  for (int restarts = 0;;) {
-    if (refits && done >= next_refit) {
-      RefitLatents(model, objective, parameters, log);
-      callback->ForgetLastCost();  // the refitted latents start at another loss
-      ++report->latent_refits;
-      next_refit = every > 0 ? done + every : options.max_iterations;
-    }
-    ceres::GradientProblemSolver::Summary summary;
-    callback->SetIterationsBefore(done);
-    solver_options.max_num_iterations =
-        (refits ? std::min(options.max_iterations, next_refit) : options.max_iterations) - done;
-    ceres::Solve(solver_options, problem, parameters->data(), &summary);
-    const int steps = std::max(0, static_cast<int>(summary.iterations.size()) - 1);
-    done += steps;
-    report->termination = summary.message;
-    if (summary.termination_type == ceres::FAILURE && !objective->last_failure().empty()) {
-      // Name the pose and the cause of the failed evaluation (Ceres' message does not).
-      report->termination += " (" + objective->last_failure() + ")";
-    }
-    const bool stalled = summary.termination_type == ceres::CONVERGENCE ||
-                         summary.termination_type == ceres::FAILURE;
-    const bool out_of_time =
-        options.max_seconds > 0 && budget_timer.Seconds() > options.max_seconds;
-    if (out_of_time && !callback->budget_reached()) {
-      log << "  time budget of " << FormatDuration(options.max_seconds)
-          << " reached during a line search (its last step is dropped)\n";
-    }
-    if (out_of_time || callback->budget_reached() || done >= options.max_iterations) break;
-    // Reached the next latent refit: it and an L-BFGS run with an empty memory follow.
-    if (refits && done >= next_refit && !stalled) continue;
-    if (!stalled || steps == 0 || restarts >= options.max_restarts) break;
-    objective->UseStatesOf(parameters->data());  // restart from the accepted point
-    ++restarts;
-    ++report->restarts;
-    log << "  L-BFGS stopped (" << summary.message << "); restarting from iteration " << done
-        << "\n";
-  }
-  return done;
+  TrainingSolveHooks hooks(options, budget_timer, done, model, objective, callback, report, log);
+  LbfgsRestartOptions restart_options;
+  restart_options.max_iterations = options.max_iterations;
+  restart_options.max_restarts = options.max_restarts;
+  const LbfgsRunReport run =
+      RunLbfgsWithRestarts(TrainingSolverOptions(options, callback), problem, restart_options,
+                           done, parameters->data(), log, &hooks);
+  report->termination = run.termination;
+  report->restarts += run.restarts;
+  return run.iterations;
 }
 
 }  // namespace
