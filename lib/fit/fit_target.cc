@@ -32,8 +32,11 @@ double TotalWeight(const FitTarget& target) {
 }
 
 double PriorPoints(const FitTarget& target, double cap) {
-  const double total = TotalWeight(target);
-  return cap > 0 ? std::min(total, cap) : total;
+  return PriorPoints(TotalWeight(target), cap);
+}
+
+double PriorPoints(double total_weight, double cap) {
+  return cap > 0 ? std::min(total_weight, cap) : total_weight;
 }
 
 Eigen::Matrix3Xd TargetPointsOn(const FitTarget& target, const Eigen::Matrix3Xd& surface) {

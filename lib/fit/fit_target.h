@@ -36,6 +36,8 @@ FitTarget FullSurfaceTarget(const Eigen::Matrix3Xd& surface);
 double TotalWeight(const FitTarget& target);
 // W of the fits' prior weights: the total weight, capped at `cap` (<= 0: no cap).
 double PriorPoints(const FitTarget& target, double cap);
+// The same for points of this total weight (K for K points without weights).
+double PriorPoints(double total_weight, double cap);
 // The target's points on a surface (3 x num_surface_vertices): 3 x K, column k the
 // barycentric combination of its vertices.
 Eigen::Matrix3Xd TargetPointsOn(const FitTarget& target, const Eigen::Matrix3Xd& surface);

@@ -78,6 +78,32 @@ bool FitPriorOptions::Validate(std::string* error) const {
       .Done(error);
 }
 
+bool IsNeutralSurface(const Eigen::Matrix3Xd& surface, const Eigen::Matrix3Xd& neutral) {
+  if (surface.cols() != neutral.cols() || neutral.cols() == 0) return false;
+  const double diagonal = (neutral.rowwise().maxCoeff() - neutral.rowwise().minCoeff()).norm();
+  return (surface - neutral).colwise().norm().maxCoeff() <= 1e-6 * diagonal;
+}
+
+bool LearnLatentPrior(const Eigen::MatrixXd& latents, int center, const FitPriorOptions& options,
+                      GaussianPrior* out, std::string* error) {
+  CHECK_GT(latents.cols(), 0);
+  CHECK_LT(center, latents.cols());
+  const Eigen::Index d = latents.rows();
+  GaussianPrior prior;
+  prior.mean = center >= 0 ? Eigen::VectorXd(latents.col(center))
+                           : Eigen::VectorXd(latents.rowwise().mean());
+  Eigen::MatrixXd covariance = MomentAbout(latents, prior.mean);
+  const double mean_variance = std::max(covariance.trace() / d, 1e-12);
+  covariance.diagonal().array() += options.latent_floor * mean_variance;
+  if (!covariance.allFinite() || !prior.SetCovariance(covariance)) {
+    *error = "the training latents are too far apart to give a latent prior (their second "
+             "moment is not finite and positive definite)";
+    return false;
+  }
+  *out = std::move(prior);
+  return true;
+}
+
 bool LearnFitPrior(const ActiveModel& model, const FitPriorOptions& options, FitPrior* out,
                    std::string* error) {
   std::string invalid;
@@ -91,29 +117,13 @@ bool LearnFitPrior(const ActiveModel& model, const FitPriorOptions& options, Fit
   }
   FitPrior prior;
   // The neutral among the training poses.
-  const Eigen::Matrix3Xd& neutral = model.neutral.vertices;
-  const double diagonal =
-      neutral.cols() > 0 ? (neutral.rowwise().maxCoeff() - neutral.rowwise().minCoeff()).norm() : 0.0;
   int center = -1;
   for (int p = 0; p < num_poses && center < 0; ++p) {
-    const Eigen::Matrix3Xd& s = model.poses[p].surface;
-    if (s.cols() == neutral.cols() && s.cols() > 0 &&
-        (s - neutral).colwise().norm().maxCoeff() <= 1e-6 * diagonal) {
-      center = p;
-    }
+    if (IsNeutralSurface(model.poses[p].surface, model.neutral.vertices)) center = p;
   }
   prior.center = center >= 0 ? model.poses[center].name : "";
-
-  prior.latent.mean = center >= 0 ? Eigen::VectorXd(model.latents.col(center))
-                                   : Eigen::VectorXd(model.latents.rowwise().mean());
-  Eigen::MatrixXd latent_cov = MomentAbout(model.latents, prior.latent.mean);
-  const double mean_variance = std::max(latent_cov.trace() / d, 1e-12);
-  latent_cov.diagonal().array() += options.latent_floor * mean_variance;
-  if (!latent_cov.allFinite() || !prior.latent.SetCovariance(latent_cov)) {
-    *error = "the training latents are too far apart to give a latent prior (their second "
-             "moment is not finite and positive definite)";
-    return false;
-  }
+  CHECK_EQ(model.latents.rows(), d);
+  if (!LearnLatentPrior(model.latents, center, options, &prior.latent, error)) return false;
 
   const Eigen::Vector3d lo = model.mesh.vertices.rowwise().minCoeff();
   const Eigen::Vector3d hi = model.mesh.vertices.rowwise().maxCoeff();

@@ -53,15 +53,29 @@ struct FitPriorOptions {
   bool Validate(std::string* error) const;
 };
 
+// Whether `surface` is the neutral (both 3 x N): its largest vertex distance from it is
+// at most 1e-6 x the neutral's bounding-box diagonal. The first training pose that is
+// the neutral centres a fit prior (LearnFitPrior).
+bool IsNeutralSurface(const Eigen::Matrix3Xd& surface, const Eigen::Matrix3Xd& neutral);
+
+// The latent prior of a fit (FitPrior::latent) learned from training latents (d x P,
+// P >= 1): centred on latents.col(center) for center >= 0 (the neutral's training pose),
+// else on their mean; its covariance is the second moment of the latents about that
+// centre, plus options.latent_floor x its mean variance on the diagonal. LearnFitPrior's
+// latent part, and the evaluation's auto-encoder's (eval/surface_autoencoder.h). False,
+// with *error saying why, where that covariance is not finite and positive definite.
+bool LearnLatentPrior(const Eigen::MatrixXd& latents, int center, const FitPriorOptions& options,
+                      GaussianPrior* prior, std::string* error);
+
 // Learns the priors of a trained model (CHECK: a decoder) from its training latents
 // and bone transforms. Both are centred on the training pose whose surface is the
-// neutral (largest vertex distance below 1e-6 x the neutral's bounding-box diagonal),
-// so that where data says nothing fits fall back to the neutral face; without such a
-// pose, on the mean training latent and bones at rest. The covariances are the second
-// moments of the training latents / bone parameters about that centre, with the
-// floors of `options`. False, with *error saying why, where no prior can be learned:
-// no training poses, or training latents or bone motions so far apart (a damaged model)
-// that their covariance is not finite and positive definite.
+// neutral (IsNeutralSurface), so that where data says nothing fits fall back to the
+// neutral face; without such a pose, on the mean training latent and bones at rest.
+// The covariances are the second moments of the training latents / bone parameters
+// about that centre, with the floors of `options` (the latent part: LearnLatentPrior).
+// False, with *error saying why, where no prior can be learned: no training poses, or
+// training latents or bone motions so far apart (a damaged model) that their
+// covariance is not finite and positive definite.
 bool LearnFitPrior(const ActiveModel& model, const FitPriorOptions& options, FitPrior* prior,
                    std::string* error);
 // The same for a model known to give one (CHECK: it does), e.g. one just trained.
