@@ -65,7 +65,8 @@ DEFINE_double(adjoint_tolerance, 1e-10, "End-to-end training: relative residual 
               "solves done by conjugate gradients on an earlier stiffness factor, in [1e-14, "
               "0.01]; the gradient is off by about that fraction.");
 DEFINE_int32(train_restarts, 50, "L-BFGS restarts allowed when the line search stalls before the "
-             "iteration or time budget is used.");
+             "iteration or time budget is used: end-to-end training's, pre-training's and the "
+             "evaluation's auto-encoder baseline's (one rule for all).");
 DEFINE_int32(latent_refit_iterations, 0, "End-to-end training: before the first iteration (not "
              "when resuming), refit every pose's latent alone, decoder fixed, by this many "
              "Levenberg-Marquardt iterations on its share of the loss (0: no refits; under mpirun "
@@ -126,6 +127,7 @@ bool PretrainOptionsFromFlags(PretrainOptions* options, std::string* error) {
   options->latent_regularization = FLAGS_latent_regularization;
   options->decoder_regularization = FLAGS_decoder_regularization;
   options->max_iterations = FLAGS_pretrain_iterations;
+  options->max_restarts = FLAGS_train_restarts;
   if (!(FLAGS_pretrain_minutes >= 0) || !std::isfinite(FLAGS_pretrain_minutes)) {
     *error = "--pretrain_minutes must be finite and >= 0 (is " +
              FormatDouble(FLAGS_pretrain_minutes) + ")";
@@ -175,6 +177,7 @@ FlagNames PretrainFlagNames() {
                 {"latent_regularization", "--latent_regularization"},
                 {"decoder_regularization", "--decoder_regularization"},
                 {"max_iterations", "--pretrain_iterations"},
+                {"max_restarts", "--train_restarts"},
                 {"simulation.solver.relative_force_tolerance", "--train_tolerance"}});
   return flags;
 }

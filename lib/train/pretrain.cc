@@ -12,6 +12,7 @@
 
 #include "model/model_fingerprint.h"
 #include "train/latent_init.h"
+#include "train/lbfgs_restarts.h"
 #include "train/solver_checkpoint.h"
 #include "train/pretrain_objective.h"
 #include "train/progress.h"
@@ -186,6 +187,7 @@ bool PretrainOptions::Validate(std::string* error) const {
       .InRange("latent_regularization", latent_regularization, 0.0, kMaxRegularization)
       .InRange("decoder_regularization", decoder_regularization, 0.0, kMaxRegularization)
       .IntAtLeast("max_iterations", max_iterations, 0)
+      .IntAtLeast("max_restarts", max_restarts, 0)
       .NonNegative("max_seconds", max_seconds)
       .NonNegative("checkpoint_seconds", checkpoint_seconds)
       .IntInRange("num_threads", num_threads, 1, 1024)
@@ -322,18 +324,22 @@ bool Pretrain(const PretrainOptions& options, ActiveModel* model, PretrainReport
   ceres::GradientProblemSolver::Options solver_options;
   solver_options.line_search_direction_type = ceres::LBFGS;
   solver_options.max_lbfgs_rank = kLbfgsRank;
-  const int remaining = std::max(0, options.max_iterations - start.iterations);
-  const bool spent = options.max_seconds > 0.0 && start.seconds >= options.max_seconds;
-  solver_options.max_num_iterations = spent ? 0 : remaining;
   solver_options.function_tolerance = 1e-12;
   solver_options.gradient_tolerance = 1e-12;
   solver_options.parameter_tolerance = 1e-14;
   solver_options.logging_type = ceres::SILENT;
+  // Restarts after a stall (train/lbfgs_restarts.h) continue the iteration numbers of
+  // the progress lines, the CSV log and the checkpoints.
+  LbfgsRestartOptions restart_options;
+  restart_options.max_iterations = options.max_iterations;
+  restart_options.max_restarts = options.max_restarts;
   ProgressLogger progress("pretrain", options.log_every, options.max_iterations, log,
                           start.iterations);
-  solver_options.callbacks.push_back(&progress);
+  restart_options.callbacks.push_back(&progress);
   TimeBudget budget(options.max_seconds, start.seconds);
-  solver_options.callbacks.push_back(&budget);
+  restart_options.callbacks.push_back(&budget);
+  // The checkpoints read the point reached from `parameters` (which RunLbfgsWithRestarts
+  // keeps at the last accepted point).
   SolverCheckpointWriter writer(options.checkpoint_directory, start,
                                 options.checkpoint_seconds, parameters.data(),
                                 static_cast<int>(parameters.size()));
@@ -341,19 +347,20 @@ bool Pretrain(const PretrainOptions& options, ActiveModel* model, PretrainReport
   if (checkpoints) {
     // The row of an iteration goes before its checkpoint: a kill in between leaves a row
     // more than the checkpoint, which the next run drops.
-    solver_options.callbacks.push_back(&csv_log);
-    solver_options.callbacks.push_back(&writer);
+    restart_options.callbacks.push_back(&csv_log);
+    restart_options.callbacks.push_back(&writer);
   }
-  // The checkpoints read the point reached from `parameters`.
-  solver_options.update_state_every_iteration = checkpoints;
-  ceres::GradientProblemSolver::Summary summary;
-  if (solver_options.max_num_iterations > 0) {
-    ceres::Solve(solver_options, problem, parameters.data(), &summary);
+  const bool spent = options.max_seconds > 0.0 && start.seconds >= options.max_seconds;
+  LbfgsRunReport run;
+  run.iterations = start.iterations;
+  if (!spent && start.iterations < options.max_iterations) {
+    run = RunLbfgsWithRestarts(solver_options, problem, restart_options, start.iterations,
+                               parameters.data(), log);
   } else {
-    summary.message = start.iterations > 0 ? "the checkpoint had used the whole budget"
-                                          : "no iterations in the budget";
+    run.termination = start.iterations > 0 ? "the checkpoint had used the whole budget"
+                                           : "no iterations in the budget";
   }
-  const int run_iterations = std::max(0, static_cast<int>(summary.iterations.size()) - 1);
+  const int run_iterations = run.iterations - start.iterations;
   if (!writer.error().empty()) {
     *error = "pre-training stopped: its checkpoint could not be written: " + writer.error();
     return false;
@@ -362,7 +369,7 @@ bool Pretrain(const PretrainOptions& options, ActiveModel* model, PretrainReport
   report->final_loss = objective->Loss(parameters.data(), nullptr, &mse);
   if (!std::isfinite(report->final_loss) || !parameters.allFinite()) {
     *error = "pre-training ended with a non-finite loss or parameters (" +
-             std::to_string(report->final_loss) + "; " + summary.message + ")";
+             std::to_string(report->final_loss) + "; " + run.termination + ")";
     return false;
   }
   report->rms_actuation_error = std::sqrt(mse);
@@ -372,11 +379,17 @@ bool Pretrain(const PretrainOptions& options, ActiveModel* model, PretrainReport
     return false;
   }
   report->checkpoints = writer.checkpoints();
-  report->termination = summary.message;
+  report->restarts = run.restarts;
+  report->termination = run.termination;
   report->seconds = timer.Seconds();
-  log << "pretrain: " << report->iterations << " iterations, loss " << report->initial_loss
-      << " -> " << report->final_loss << ", rms actuation error " << report->rms_actuation_error
-      << " (" << FormatDuration(report->seconds) << "; " << summary.message << ")\n";
+  log << "pretrain: " << report->iterations << " iterations";
+  if (report->restarts > 0) {
+    log << " (" << report->restarts << " L-BFGS restart" << (report->restarts > 1 ? "s" : "")
+        << ")";
+  }
+  log << ", loss " << report->initial_loss << " -> " << report->final_loss
+      << ", rms actuation error " << report->rms_actuation_error << " ("
+      << FormatDuration(report->seconds) << "; " << report->termination << ")\n";
   model->decoder = decoder;
   model->decoder_params = parameters.head(np);
   model->latents = Eigen::Map<const Eigen::MatrixXd>(parameters.data() + np, d, p);

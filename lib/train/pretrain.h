@@ -46,6 +46,10 @@ struct PretrainOptions {
   // Weight of the decoder regularizer |params|^2 (weight decay; TrainOptions'). 0: none.
   double decoder_regularization = 0.0;
   int max_iterations = 500;
+  // L-BFGS restarts from the accepted point, with an empty memory, allowed where a
+  // solve stalls before max_iterations: the rule and default of end-to-end training
+  // (TrainOptions::max_restarts, train/lbfgs_restarts.h).
+  int max_restarts = 50;
   // Stop (successfully, keeping the point reached) once this much wall time was spent
   // in the L-BFGS iterations (0: no limit): its tolerances are seldom reached, and a
   // long pre-training keeps nothing until it ends.
@@ -75,6 +79,7 @@ struct PretrainReport {
   int iterations = 0;         // in all runs (iterations_before included)
   int iterations_before = 0;  // done by earlier runs (from the checkpoint)
   int checkpoints = 0;        // written by this run
+  int restarts = 0;           // L-BFGS restarts after a stall, in this run
   double initial_loss = 0.0;
   double final_loss = 0.0;
   // sqrt of the volume-weighted mean squared actuation error |a - S|_F^2 over poses
@@ -109,7 +114,9 @@ bool PretrainMemoryBytes(const PretrainOptions& options, const ActiveModel& mode
 //                                 + decoder_regularization |params|^2,
 //
 // with w_e = V_e / sum V (|.|_F the Frobenius norm of the 3x3 matrices), by Ceres'
-// L-BFGS (GradientProblemSolver). Latents start as options.latent_start says (with
+// L-BFGS (GradientProblemSolver; restarted where it stalls before max_iterations, up to
+// max_restarts times, as end-to-end training's is: RunLbfgsWithRestarts, which also keeps
+// the result at the last accepted point). Latents start as options.latent_start says (with
 // kSurfaces they stay there), parameters at random (small outputs); or, with a
 // checkpoint to resume (options.checkpoint_directory, resume), at the checkpoint's point,
 // with the rest of the budget (L-BFGS' history starts anew there). Every pose needs a
