@@ -58,6 +58,7 @@ DECLARE_double(prepare_tolerance);
 DECLARE_string(pose_dir);
 DECLARE_int32(threads);
 DECLARE_double(latent_regularization);
+DECLARE_int32(train_restarts);
 
 namespace aqs {
 namespace {
@@ -95,6 +96,8 @@ bool EvaluateOptionsFromFlags(EvaluateJobOptions* options, std::string* error) {
   if (!LatentFitOptionsFromFlags(&options->fit, error)) return false;
   options->autoencoder.latent_regularization = FLAGS_latent_regularization;
   options->autoencoder.max_iterations = FLAGS_baseline_iterations;
+  // The physics training's restart rule and maximum (--train_restarts).
+  options->autoencoder.max_restarts = FLAGS_train_restarts;
   options->autoencoder.lbfgs_scaling = FLAGS_baseline_lbfgs_scaling;
   if (FLAGS_baseline_seed < 0) {
     *error = "--baseline_seed must be >= 0 (is " + std::to_string(FLAGS_baseline_seed) + ")";
@@ -157,6 +160,7 @@ FlagNames EvaluateFlagNames() {
                {{"error_vertices", "--error_vertices"},
                 {"autoencoder.latent_regularization", "--latent_regularization"},
                 {"autoencoder.max_iterations", "--baseline_iterations"},
+                {"autoencoder.max_restarts", "--train_restarts"},
                 {"autoencoder_hidden_dims", "--baseline_hidden"},
                 {"autoencoder_linear_skip", "--baseline_linear_skip"},
                 {"autoencoder.lbfgs_scaling", "--baseline_lbfgs_scaling"},

@@ -595,7 +595,9 @@ def write_html(path, title, rows, figures, notes):
                  "pose, per vertex, in model units, over the measured vertices. Methods: "
                  "<b>physics</b> (the learned model; held-out poses: latent and bones fitted "
                  "through the simulator), <b>auto-encoder</b> (surface-only, same latent size; "
-                 "its layers: evaluation.md), <b>PCA</b> (same size, about the training poses' mean), "
+                 "its layers: evaluation.md; held-out poses: latent fitted with the physics "
+                 "model's prior rule, a Gaussian learned from its own training latents), "
+                 "<b>PCA</b> (same size, about the training poses' mean), "
                  "<b>PCA (neutral)</b> (same size, about the neutral: its zero is the rest face), "
                  "<b>neutral</b> (the rest face, for reference).</p>")
     for note in notes:

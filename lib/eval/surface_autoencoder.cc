@@ -14,10 +14,15 @@
 #include <ceres/solver.h>
 #include <glog/logging.h>
 
+#include "fit/fit_target.h"
+#include "fit/gaussian_prior_cost.h"
+#include "fit/latent_fit.h"
 #include "fit/latent_prior.h"
 #include "train/latent_init.h"
+#include "train/lbfgs_restarts.h"
 #include "train/progress.h"
 #include "train/solver_checkpoint.h"
+#include "util/fault_injection.h"
 #include "util/fnv_hash.h"
 #include "util/number_format.h"
 #include "util/wall_timer.h"
@@ -158,6 +163,8 @@ double SurfaceAutoencoderObjective::Loss(const double* parameters, double* gradi
 
 bool SurfaceAutoencoderObjective::Evaluate(const double* parameters, double* cost,
                                            double* gradient) const {
+  // Tests make evaluations fail here, as a non-finite loss does (util/fault_injection.h).
+  if (FailurePoint("autoencoder:evaluate")) return false;
   *cost = Loss(parameters, gradient);
   return std::isfinite(*cost);
 }
@@ -171,6 +178,10 @@ bool SurfaceAutoencoderOptions::Validate(std::string* error) const {
       .Positive("output_scale", output_scale)
       .InRange("latent_regularization", latent_regularization, 0.0, kMaxRegularization)
       .IntAtLeast("max_iterations", max_iterations, 0)
+      .IntAtLeast("max_restarts", max_restarts, 0)
+      .Require(function_tolerance >= 0.0 && function_tolerance < 1.0,
+               "function_tolerance must be in [0, 1) (is " + OptionValue(function_tolerance) +
+                   ")")
       .IntAtLeast("log_every", log_every, 0)
       .NonNegative("checkpoint_seconds", checkpoint_seconds)
       .Done(error);
@@ -322,24 +333,30 @@ bool SurfaceAutoencoder::Train(const Eigen::Matrix3Xd& neutral,
   solver_options.line_search_direction_type = ceres::LBFGS;
   solver_options.max_lbfgs_rank = kLbfgsRank;
   solver_options.use_approximate_eigenvalue_bfgs_scaling = options.lbfgs_scaling;
-  solver_options.max_num_iterations = std::max(0, options.max_iterations - start.iterations);
-  solver_options.function_tolerance = 1e-12;
+  solver_options.function_tolerance = options.function_tolerance;
   solver_options.gradient_tolerance = 1e-12;
   solver_options.parameter_tolerance = 1e-14;
   solver_options.logging_type = ceres::SILENT;
+  // Restarts continue the iteration numbers of the progress lines and checkpoints.
+  LbfgsRestartOptions restart_options;
+  restart_options.max_iterations = options.max_iterations;
+  restart_options.max_restarts = options.max_restarts;
   ProgressLogger progress("surface autoencoder", options.log_every, options.max_iterations,
                           log, start.iterations);
-  solver_options.callbacks.push_back(&progress);
+  restart_options.callbacks.push_back(&progress);
+  // The checkpoints read the point reached from x (which RunLbfgsWithRestarts keeps at
+  // the last accepted point).
   SolverCheckpointWriter writer(options.checkpoint_directory, start, options.checkpoint_seconds,
                                 x.data(), static_cast<int>(x.size()));
-  if (checkpoints) solver_options.callbacks.push_back(&writer);
-  // The checkpoints read the point reached from x.
-  solver_options.update_state_every_iteration = checkpoints;
-  ceres::GradientProblemSolver::Summary summary;
-  if (solver_options.max_num_iterations > 0) {
-    ceres::Solve(solver_options, problem, x.data(), &summary);
+  if (checkpoints) restart_options.callbacks.push_back(&writer);
+  LbfgsRunReport run;
+  run.iterations = start.iterations;
+  if (start.iterations < options.max_iterations) {
+    run = RunLbfgsWithRestarts(solver_options, problem, restart_options, start.iterations,
+                               x.data(), log);
   } else {
-    summary.message = "the checkpoint had used the whole budget";
+    run.termination = start.iterations > 0 ? "the checkpoint had used the whole budget"
+                                           : "no iterations in the budget";
   }
   if (!writer.error().empty()) {
     *error = "surface autoencoder training stopped: its checkpoint could not be written: " +
@@ -349,31 +366,49 @@ bool SurfaceAutoencoder::Train(const Eigen::Matrix3Xd& neutral,
   double mse = 0;
   report.final_loss = objective->Loss(x.data(), nullptr, &mse, &report.max_error);
   report.rms_error = std::sqrt(mse);
-  const int run_iterations = std::max(0, static_cast<int>(summary.iterations.size()) - 1);
-  report.iterations = start.iterations + run_iterations;
+  report.iterations = run.iterations;
   report.iterations_before = start.iterations;
-  if (checkpoints && run_iterations > 0 && std::isfinite(report.final_loss) &&
+  report.restarts = run.restarts;
+  if (checkpoints && report.iterations > start.iterations && std::isfinite(report.final_loss) &&
       !writer.Write(report.iterations, report.final_loss)) {
     *error = "surface autoencoder training's last checkpoint could not be written: " +
              writer.error();
     return false;
   }
-  report.termination = summary.message;
-  report.seconds = timer.Seconds();
+  report.termination = run.termination;
   if (!std::isfinite(report.final_loss)) {
-    *error = "surface autoencoder training diverged (" + summary.message + ")";
+    *error = "surface autoencoder training diverged (" + run.termination + ")";
     return false;
   }
-  log << "surface autoencoder: " << report.iterations << " iterations, loss "
-      << report.initial_loss << " -> " << report.final_loss << ", rms error " << report.rms_error
-      << ", max " << report.max_error << " (" << FormatDuration(report.seconds) << "; "
-      << summary.message << ")\n";
+  // The prior of fits, learned from the trained latents as the physics model's is
+  // (LearnFitPrior's latent part), centred on the neutral's training surface if any.
+  const Eigen::Map<const Eigen::MatrixXd> latents(x.data() + np, d, p);
+  int center = -1;
+  for (int i = 0; i < p && center < 0; ++i) {
+    if (IsNeutralSurface(surfaces[i], neutral)) center = i;
+  }
+  GaussianPrior latent_prior;
+  std::string prior_error;
+  if (!LearnLatentPrior(latents, center, FitPriorOptions(), &latent_prior, &prior_error)) {
+    *error = "surface autoencoder: " + prior_error;
+    return false;
+  }
+  report.seconds = timer.Seconds();
+  log << "surface autoencoder: " << report.iterations << " iterations";
+  if (report.restarts > 0) {
+    log << " (" << report.restarts << " L-BFGS restart" << (report.restarts > 1 ? "s" : "")
+        << ")";
+  }
+  log << ", loss " << report.initial_loss << " -> " << report.final_loss << ", rms error "
+      << report.rms_error << ", max " << report.max_error << " ("
+      << FormatDuration(report.seconds) << "; " << report.termination << ")\n";
 
   options_ = options;
   neutral_ = neutral;
   mlp_ = std::move(mlp);
   parameters_ = x.head(np);
-  latents_ = Eigen::Map<const Eigen::MatrixXd>(x.data() + np, d, p);
+  latents_ = latents;
+  latent_prior_ = std::move(latent_prior);
   report_ = report;
   return true;
 }
@@ -398,10 +433,23 @@ std::unique_ptr<ceres::CostFunction> SurfaceAutoencoder::NewFitCostFunction(
                                           vertices, positions);
 }
 
+double SurfaceAutoencoder::FitPriorTerm(const Eigen::VectorXd& z, int num_points,
+                                        const LatentFitOptions& fit) const {
+  CHECK(trained()) << "fitting before Train()";
+  CHECK_GE(num_points, 1);
+  CHECK_EQ(z.size(), latent_dim());
+  double cost = fit.latent_regularization * z.squaredNorm();
+  if (fit.latent_prior > 0) {
+    cost += fit.latent_prior / PriorPoints(static_cast<double>(num_points), fit.prior_points_cap) *
+            latent_prior_.SquaredMahalanobis(z);
+  }
+  return cost;
+}
+
 bool SurfaceAutoencoder::FitLatent(const std::vector<int>& vertices,
                                    const Eigen::Matrix3Xd& positions,
-                                   const Eigen::VectorXd& initial, Eigen::VectorXd* z,
-                                   double* rms) const {
+                                   const Eigen::VectorXd& initial, const LatentFitOptions& fit,
+                                   Eigen::VectorXd* z, double* rms) const {
   CHECK_EQ(initial.size(), latent_dim());
   std::unique_ptr<ceres::CostFunction> fit_cost = NewFitCostFunction(vertices, positions);
   Eigen::VectorXd latent = initial;
@@ -409,10 +457,15 @@ bool SurfaceAutoencoder::FitLatent(const std::vector<int>& vertices,
   problem_options.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem problem(problem_options);
   problem.AddResidualBlock(fit_cost.get(), nullptr, latent.data());
-  LatentPrior prior(latent_dim(), options_.latent_regularization);
-  if (options_.latent_regularization > 0) {
-    problem.AddResidualBlock(&prior, nullptr, latent.data());
+  // The priors of the physics model's fits (LatentFitter::AddPriorBlocks' latent part).
+  LatentPrior regularization(latent_dim(), fit.latent_regularization);
+  if (fit.latent_regularization > 0) {
+    problem.AddResidualBlock(&regularization, nullptr, latent.data());
   }
+  const double points = PriorPoints(static_cast<double>(vertices.size()), fit.prior_points_cap);
+  GaussianPriorCost prior(latent_prior_.mean, latent_prior_.whitening,
+                          std::max(0.0, fit.latent_prior) / points);
+  if (fit.latent_prior > 0) problem.AddResidualBlock(&prior, nullptr, latent.data());
   ceres::Solver::Options solver_options;
   solver_options.linear_solver_type = ceres::DENSE_QR;
   solver_options.max_num_iterations = kFitMaxIterations;

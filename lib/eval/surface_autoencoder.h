@@ -11,9 +11,12 @@
 #include <Eigen/Core>
 
 #include "learn/mlp.h"
+#include "model/fit_prior.h"
 #include "train/solver_checkpoint.h"
 
 namespace aqs {
+
+struct LatentFitOptions;
 
 // The surface-only baseline of the evaluation: a decoder from a latent z straight to
 // the surface, trained on the same poses with the same network machinery (Mlp,
@@ -32,10 +35,21 @@ struct SurfaceAutoencoderOptions {
   // A linear part beside the network: surface(z) = neutral + output_scale (mlp(z) + W z)
   // (as the physics decoder's linear_skip option).
   bool linear_skip = false;
-  // Weight lambda of the latent regularizer lambda (1/P) sum_p |z_p|^2 in training, and
-  // of the prior residual sqrt(lambda) z in FitLatent.
+  // Weight lambda of the latent regularizer lambda (1/P) sum_p |z_p|^2 in training (the
+  // training regularizer of the physics model, TrainOptions::latent_regularization).
+  // FitLatent's prior is not this one but the physics fits' (LatentFitOptions).
   double latent_regularization = 1e-3;
+  // L-BFGS iterations in all (counting those of a resumed checkpoint's run).
   int max_iterations = 500;
+  // L-BFGS restarts from the accepted point, with an empty memory, allowed where a
+  // solve stalls before max_iterations (Ceres' CONVERGENCE or FAILURE: a line search
+  // that finds no step): the rule and default of end-to-end training
+  // (TrainOptions::max_restarts, train/lbfgs_restarts.h).
+  int max_restarts = 50;
+  // Ceres' function_tolerance of each L-BFGS solve, in [0, 1): a solve ends when an
+  // iteration lowers the loss by less than this fraction of it (then L-BFGS restarts,
+  // max_restarts).
+  double function_tolerance = 1e-12;
   // L-BFGS' initial inverse Hessian scaled by s^T y / y^T y of the last step (Ceres'
   // use_approximate_eigenvalue_bfgs_scaling), as end-to-end training does
   // (TrainOptions::lbfgs_scaling).
@@ -47,8 +61,8 @@ struct SurfaceAutoencoderOptions {
   // Checkpoints of training (train/solver_checkpoint.h) go into this folder (empty:
   // none), at most every checkpoint_seconds of iterations (0: every iteration) and at the
   // end; a checkpoint there of the same surfaces and options (all but max_iterations,
-  // log_every and the checkpoint fields) is resumed, its iterations counting towards
-  // max_iterations (L-BFGS' memory starts anew there).
+  // max_restarts, function_tolerance, log_every and the checkpoint fields) is resumed,
+  // its iterations counting towards max_iterations (L-BFGS' memory starts anew there).
   std::string checkpoint_directory;
   double checkpoint_seconds = 60.0;
 
@@ -58,7 +72,8 @@ struct SurfaceAutoencoderOptions {
 
 // What a checkpoint of SurfaceAutoencoder::Train belongs to (train/solver_checkpoint.h):
 // "surfaces", a hash of the neutral and the training surfaces, and "options", every
-// option that shapes the result (not max_iterations, log_every or the checkpoints').
+// option that shapes the result (not the budget and stopping rules max_iterations,
+// max_restarts and function_tolerance, nor log_every or the checkpoints').
 CheckpointKey AutoencoderCheckpointKey(const SurfaceAutoencoderOptions& options,
                                        const Eigen::Matrix3Xd& neutral,
                                        const std::vector<Eigen::Matrix3Xd>& surfaces);
@@ -66,6 +81,7 @@ CheckpointKey AutoencoderCheckpointKey(const SurfaceAutoencoderOptions& options,
 struct SurfaceAutoencoderReport {
   int iterations = 0;         // in all runs (iterations_before included)
   int iterations_before = 0;  // done by an earlier run (from its checkpoint)
+  int restarts = 0;           // L-BFGS restarts after a stall, in this run
   double initial_loss = 0.0;
   double final_loss = 0.0;
   // sqrt of the data term at the end: the RMS distance between the decoded and the
@@ -104,7 +120,8 @@ class SurfaceAutoencoderObjective final : public ceres::FirstOrderFunction {
   double Loss(const double* parameters, double* gradient, double* mean_squared_distance = nullptr,
               double* max_distance = nullptr) const;
 
-  // Loss() for Ceres; false (a failed step) if the cost is not finite.
+  // Loss() for Ceres; false (a failed step) if the cost is not finite, or where a test's
+  // failure hook says so at "autoencoder:evaluate" (util/fault_injection.h).
   bool Evaluate(const double* parameters, double* cost, double* gradient) const override;
 
  private:
@@ -154,12 +171,17 @@ class SurfaceAutoencoder {
   //     (1/(P N)) sum_p sum_i |surface_i(z_p) - y_pi|^2 + latent_regularization (1/P) sum_p |z_p|^2
   //
   // (the normalization of the physics model's end-to-end loss, so that the numbers
-  // compare) by Ceres' L-BFGS (GradientProblemSolver, rank 10). Latents start at the
+  // compare) by Ceres' L-BFGS (GradientProblemSolver, rank 10), restarted where it stalls
+  // before max_iterations as end-to-end training's is (RunLbfgsWithRestarts, up to
+  // max_restarts times; the report and the log count the restarts). Latents start at the
   // whitened principal-component scores of the training displacements
   // (WhitenedPcaScores), the weights at random (Mlp::InitializeParameters with output
-  // gain 0.1) and the output bias at the mean displacement / output_scale. Progress lines
-  // go to `log`. Returns false with *error (and leaves the object unchanged) for no
-  // surfaces, a vertex-count mismatch, non-finite coordinates or invalid options.
+  // gain 0.1) and the output bias at the mean displacement / output_scale. The result
+  // is the last point L-BFGS accepted, with or without checkpoints. Then learns the
+  // latent prior of fits from the trained latents as the physics model's is learned
+  // (latent_prior()). Progress lines go to `log`. Returns false with *error (and leaves
+  // the object unchanged) for no surfaces, a vertex-count mismatch, non-finite
+  // coordinates, invalid options, or trained latents that give no prior.
   bool Train(const Eigen::Matrix3Xd& neutral, const std::vector<Eigen::Matrix3Xd>& surfaces,
              const SurfaceAutoencoderOptions& options, std::ostream& log, std::string* error);
 
@@ -175,24 +197,45 @@ class SurfaceAutoencoder {
   const Eigen::MatrixXd& training_latents() const { return latents_; }
   // The mean of the training latents (d): a neutral starting point for FitLatent.
   Eigen::VectorXd MeanLatent() const { return latents_.rowwise().mean(); }
+  // The prior of FitLatent's latent, learned from the training latents by the physics
+  // model's rule (LearnLatentPrior with the default FitPriorOptions, as LearnFitPrior):
+  // centred on the latent of the first training surface that is the neutral
+  // (IsNeutralSurface), else on the mean latent; covariance their second moment about
+  // that centre with the latent floor.
+  const GaussianPrior& latent_prior() const { return latent_prior_; }
 
   // surface(z) (3 x N) for z (latent_dim). CHECKs that the model is trained.
   Eigen::Matrix3Xd Decode(const Eigen::VectorXd& z) const;
 
-  // Fits the latent to K points with the decoder fixed, starting from `initial` (d):
+  // Fits the latent to K points with the decoder fixed, starting from `initial` (d),
+  // with the priors of the physics model's fits (LatentFitter) weighed by the same
+  // options `fit` (its latent_prior, prior_points_cap and legacy latent_regularization;
+  // the rest of `fit` concerns the physics fit only):
   //
-  //   min_z  (1/K) sum_k |surface_{v_k}(z) - y_k|^2 + latent_regularization |z|^2,
+  //   min_z  (1/K) sum_k |surface_{v_k}(z) - y_k|^2 + FitPriorTerm(z, K, fit),
   //
   // with v_k = vertices[k] and y_k = positions.col(k) (positions: 3 x K), as a Ceres
   // least-squares problem (Levenberg-Marquardt, DENSE_QR, at most 100 iterations) with
-  // residuals sqrt(1/K) (surface_{v_k}(z) - y_k) (3K) and sqrt(latent_regularization) z
-  // (d) and analytic Jacobians (Mlp::InputJacobian of an MLP restricted to the 3K
-  // outputs of the listed vertices, so one evaluation costs about d forward passes of a
-  // 3K-output network). Sets *z (d) and *rms = sqrt((1/K) sum_k |surface_{v_k}(z) -
-  // y_k|^2). Returns false if Ceres finds no usable solution (non-finite values).
-  // CHECKs: trained, K >= 1, sizes, vertex indices in [0, N).
+  // residuals sqrt(1/K) (surface_{v_k}(z) - y_k) (3K), the prior's
+  // sqrt(fit.latent_prior / min(K, fit.prior_points_cap)) L^-1 (z - mean) (d;
+  // GaussianPriorCost of latent_prior(), where fit.latent_prior > 0) and
+  // sqrt(fit.latent_regularization) z (d, where > 0), and analytic Jacobians
+  // (Mlp::InputJacobian of an MLP restricted to the 3K outputs of the listed vertices,
+  // so one evaluation costs about d forward passes of a 3K-output network). Sets *z (d)
+  // and *rms = sqrt((1/K) sum_k |surface_{v_k}(z) - y_k|^2). Returns false if Ceres
+  // finds no usable solution (non-finite values). CHECKs: trained, K >= 1, sizes,
+  // vertex indices in [0, N).
   bool FitLatent(const std::vector<int>& vertices, const Eigen::Matrix3Xd& positions,
-                 const Eigen::VectorXd& initial, Eigen::VectorXd* z, double* rms) const;
+                 const Eigen::VectorXd& initial, const LatentFitOptions& fit, Eigen::VectorXd* z,
+                 double* rms) const;
+
+  // The priors' part of FitLatent's objective at latent z (d) for num_points target
+  // points (LatentFitter::PriorTerms' latent part):
+  //   fit.latent_regularization |z|^2
+  //   + (fit.latent_prior / min(num_points, fit.prior_points_cap)) |L^-1 (z - mean)|^2
+  // (L L^T and mean: latent_prior()'s covariance and mean; no cap where
+  // prior_points_cap <= 0). CHECKs: trained, num_points >= 1, z's size.
+  double FitPriorTerm(const Eigen::VectorXd& z, int num_points, const LatentFitOptions& fit) const;
 
   // The data residuals of FitLatent as a Ceres cost function over one parameter block,
   // z (d): residuals sqrt(1/K) (surface_{v_k}(z) - y_k), 3K of them, vertex after
@@ -208,6 +251,7 @@ class SurfaceAutoencoder {
   std::unique_ptr<Mlp> mlp_;
   Eigen::VectorXd parameters_;
   Eigen::MatrixXd latents_;
+  GaussianPrior latent_prior_;
   SurfaceAutoencoderReport report_;
 };
 

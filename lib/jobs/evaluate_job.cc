@@ -277,9 +277,10 @@ bool EvaluateHeldOutPoses(const EvaluateJobOptions& options, const ActiveModel& 
     Eigen::VectorXd ae_latent;
     double ae_rms = 0;
     const SurfaceAutoencoder& autoencoder = baselines.autoencoder;
-    const Eigen::VectorXd ae_start = AutoencoderStart(autoencoder, model, truth,
-                                                      options.training_pose_starts, &h.ae_start);
-    if (!autoencoder.FitLatent(all, truth, ae_start, &ae_latent, &ae_rms)) {
+    // The same priors as the physics fit (options.fit), learned from its own latents.
+    const Eigen::VectorXd ae_start = AutoencoderStart(
+        autoencoder, model, truth, options.fit, options.training_pose_starts, &h.ae_start);
+    if (!autoencoder.FitLatent(all, truth, ae_start, options.fit, &ae_latent, &ae_rms)) {
       *error = "held-out pose '" + test_names[t] + "': the auto-encoder's latent fit failed";
       return false;
     }
@@ -551,6 +552,7 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
   parts.autoencoder_linear_skip = ae_options.linear_skip;
   const SurfaceAutoencoderReport& ae = autoencoder.report();
   parts.autoencoder_iterations = ae.iterations;
+  parts.autoencoder_restarts = ae.restarts;
   parts.autoencoder_resumed_after = ae.iterations_before;
   parts.physics_fits_kept = held_out_fits.kept;
   parts.autoencoder_scaled_steps = ae_options.lbfgs_scaling;
@@ -560,6 +562,9 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
   parts.autoencoder_termination = ae.termination;
   parts.pca_components = pca.num_components();
   parts.pca_neutral_components = pca_neutral.num_components();
+  parts.latent_prior = options.fit.latent_prior;
+  parts.prior_points_cap = options.fit.prior_points_cap;
+  parts.fit_latent_regularization = options.fit.latent_regularization;
 
   // Training poses.
   std::vector<EvaluationRow> rows;

@@ -6,6 +6,8 @@
 #include <map>
 #include <sstream>
 
+#include "util/number_format.h"
+
 namespace aqs {
 
 const char* const kEvaluationMethods[kNumEvaluationMethods] = {"physics", "autoencoder", "pca",
@@ -234,15 +236,22 @@ std::string EvaluationMarkdown(const EvaluationReportParts& parts, const Evaluat
      << LayoutNote(parts.decoder_hidden_dims, parts.autoencoder_hidden_dims)
      << (parts.decoder_anchored ? " and the same anchoring" : "")
      << SkipNote(parts.decoder_linear_skip, parts.autoencoder_linear_skip)
-     << ", trained on the same poses, latent fitted), **PCA** (linear, "
+     << ", trained on the same poses, latent fitted with the physics fit's prior rule), "
+     << "**PCA** (linear, "
      << parts.pca_components << " components about the training poses' mean, projection), "
      << "**PCA (neutral)** (linear, " << parts.pca_neutral_components
      << " components of the displacements from the neutral, uncentered: its zero is the "
      << "neutral, like an anchored decoder's zero latent).\n\n";
   md << "The auto-encoder trained " << parts.autoencoder_iterations << " L-BFGS iterations"
      << (parts.autoencoder_scaled_steps ? " with scaled steps" : "") << " from seed "
-     << parts.autoencoder_seed << ", loss " << parts.autoencoder_initial_loss << " -> "
-     << parts.autoencoder_final_loss << " (" << parts.autoencoder_termination << ")";
+     << parts.autoencoder_seed;
+  if (parts.autoencoder_restarts > 0) {
+    md << ", restarted " << parts.autoencoder_restarts << " time"
+       << (parts.autoencoder_restarts > 1 ? "s" : "")
+       << " where L-BFGS stalled (the physics training's rule)";
+  }
+  md << ", loss " << parts.autoencoder_initial_loss << " -> " << parts.autoencoder_final_loss
+     << " (" << parts.autoencoder_termination << ")";
   if (parts.autoencoder_resumed_after > 0) {
     md << "; it resumed a stopped run's checkpoint after iteration "
        << parts.autoencoder_resumed_after
@@ -261,7 +270,25 @@ std::string EvaluationMarkdown(const EvaluationReportParts& parts, const Evaluat
       md << (t ? "; " : " ") << parts.test_names[t] << " from " << parts.physics_starts[t]
          << " / " << parts.autoencoder_starts[t];
     }
-    md << ".";
+    md << ". The physics model's and the auto-encoder's latents are fitted with the same "
+       << "prior rule: ";
+    if (parts.latent_prior > 0) {
+      md << "a Gaussian learned from each model's own training latents (centred on the "
+         << "neutral pose's latent, else their mean), weighted `--latent_prior` / min(points, "
+         << "`--prior_points_cap`) = " << FormatDouble(parts.latent_prior);
+      if (parts.prior_points_cap > 0) {
+        md << " / min(points, " << FormatDouble(parts.prior_points_cap) << ")";
+      } else {
+        md << " / points (no cap)";
+      }
+    } else {
+      md << "no latent prior (`--latent_prior=0`)";
+    }
+    if (parts.fit_latent_regularization > 0) {
+      md << ", and " << FormatDouble(parts.fit_latent_regularization)
+         << " |z|^2 (`--fit_regularization`)";
+    }
+    md << " (the physics model also fits its bones, with their prior).";
     if (parts.physics_fits_kept > 0) {
       md << " " << parts.physics_fits_kept << " of the " << parts.test_names.size()
          << " physics fits were a stopped run's, kept in its output folder (the same "

@@ -60,8 +60,10 @@ struct EvaluationReportParts {
   std::vector<int> decoder_hidden_dims, autoencoder_hidden_dims;
   bool decoder_anchored = false;
   bool decoder_linear_skip = false, autoencoder_linear_skip = false;
-  // The auto-encoder's training: iterations, loss before and after, why it stopped.
+  // The auto-encoder's training: iterations, L-BFGS restarts after a stall (in the last
+  // run), loss before and after, why it stopped.
   int autoencoder_iterations = 0;
+  int autoencoder_restarts = 0;
   // > 0: its training resumed an earlier, stopped run's checkpoint after this many
   // iterations (L-BFGS' memory restarts there, so the result differs a little from an
   // uninterrupted run's).
@@ -73,6 +75,10 @@ struct EvaluationReportParts {
   double autoencoder_initial_loss = 0.0, autoencoder_final_loss = 0.0;
   std::string autoencoder_termination;
   int pca_components = 0, pca_neutral_components = 0;
+  // The latent priors of the held-out fits, the same for the physics model and the
+  // auto-encoder (LatentFitOptions' latent_prior, prior_points_cap and legacy
+  // latent_regularization), each with its Gaussian learned from its own training latents.
+  double latent_prior = 0.0, prior_points_cap = 0.0, fit_latent_regularization = 0.0;
   // Held-out poses that are training poses (empty: none).
   std::string overlap_note;
   // Held-out poses, in order, and where each one's physics and auto-encoder latent fits

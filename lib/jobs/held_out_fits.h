@@ -18,14 +18,14 @@ namespace aqs {
 
 class Communicator;
 
-// The start of the auto-encoder's latent fit to `truth` (3 x N, every surface vertex):
-// its mean training latent or, with training_pose_starts, whichever of that
-// and its trained latents (in the order of model.poses) has the smallest FitLatent
-// objective (1/N) sum_v |surface_v(z) - y_v|^2 + lambda |z|^2. *name: "mean latent" or
-// the pose's name.
+// The start of the auto-encoder's latent fit to `truth` (3 x N, every surface vertex)
+// with the fit options `fit` (the physics fits'): its mean training latent or, with
+// training_pose_starts, whichever of that and its trained latents (in the order of
+// model.poses) has the smallest FitLatent objective (1/N) sum_v |surface_v(z) - y_v|^2 +
+// FitPriorTerm(z, N, fit). *name: "mean latent" or the pose's name.
 Eigen::VectorXd AutoencoderStart(const SurfaceAutoencoder& autoencoder, const ActiveModel& model,
-                                 const Eigen::Matrix3Xd& truth, bool training_pose_starts,
-                                 std::string* name);
+                                 const Eigen::Matrix3Xd& truth, const LatentFitOptions& fit,
+                                 bool training_pose_starts, std::string* name);
 
 // The physics fits of the held-out poses, per pose in the order given.
 struct HeldOutFits {

@@ -4,6 +4,7 @@ namespace aqs {
 namespace {
 
 FaultHook g_hook = nullptr;
+FailureHook g_failure_hook = nullptr;
 
 }  // namespace
 
@@ -15,6 +16,16 @@ FaultHook SetFaultHookForTesting(FaultHook hook) {
 
 void FaultPoint(const char* point) {
   if (g_hook != nullptr) g_hook(point);
+}
+
+FailureHook SetFailureHookForTesting(FailureHook hook) {
+  FailureHook previous = g_failure_hook;
+  g_failure_hook = hook;
+  return previous;
+}
+
+bool FailurePoint(const char* point) {
+  return g_failure_hook != nullptr && g_failure_hook(point);
 }
 
 }  // namespace aqs

@@ -3,11 +3,16 @@
 #include <cmath>
 #include <random>
 #include <sstream>
+#include <string>
+#include <vector>
 
+#include <Eigen/LU>
 #include <gtest/gtest.h>
 
+#include "fit/latent_fit.h"
 #include "testing/finite_difference.h"
 #include "testing/temp_dir.h"
+#include "util/fault_injection.h"
 
 namespace aqs {
 namespace {
@@ -193,9 +198,11 @@ TEST_F(TrainedAutoencoderTest, FitCostJacobianMatchesCentralDifferences) {
 }
 
 // A training surface is recovered from its vertices (all, or a third of them) starting
-// from another surface's latent and from the mean latent.
+// from another surface's latent and from the mean latent, without a prior.
 TEST_F(TrainedAutoencoderTest, FitLatentRecoversTrainingSurface) {
   const SurfaceAutoencoder& ae = *autoencoder_;
+  LatentFitOptions no_prior;
+  no_prior.latent_prior = 0.0;
   const int target = 13;
   const Eigen::Matrix3Xd& surface = (*surfaces_)[target];
   std::vector<int> all, third;
@@ -210,12 +217,94 @@ TEST_F(TrainedAutoencoderTest, FitLatentRecoversTrainingSurface) {
          {Eigen::VectorXd(ae.training_latents().col(2)), ae.MeanLatent()}) {
       Eigen::VectorXd z;
       double rms = -1;
-      ASSERT_TRUE(ae.FitLatent(*vertices, positions, start, &z, &rms));
+      ASSERT_TRUE(ae.FitLatent(*vertices, positions, start, no_prior, &z, &rms));
       ASSERT_EQ(z.size(), 2);
       EXPECT_LT(rms, 5e-3);
       EXPECT_LT(RmsDistance(ae.Decode(z), surface), 5e-3);
       EXPECT_LT((z - ae.training_latents().col(target)).norm(),
                 0.05 * ae.training_latents().col(target).norm() + 0.02);
+    }
+  }
+}
+
+// The prior of fits is learned from the trained latents as the physics model's is
+// (LearnFitPrior's latent part): no training surface is the neutral, so it is centred on
+// the mean latent, with the latents' second moment about it and the latent floor (0.01
+// of the mean variance) as its covariance.
+TEST_F(TrainedAutoencoderTest, FitPriorIsLearnedFromTheTrainingLatents) {
+  const SurfaceAutoencoder& ae = *autoencoder_;
+  const Eigen::MatrixXd& latents = ae.training_latents();
+  const Eigen::VectorXd mean = latents.rowwise().mean();
+  const Eigen::MatrixXd centred = latents.colwise() - mean;
+  Eigen::MatrixXd covariance = centred * centred.transpose() / 16.0;
+  covariance.diagonal().array() += FitPriorOptions().latent_floor * covariance.trace() / 2.0;
+  const GaussianPrior& prior = ae.latent_prior();
+  ASSERT_EQ(prior.size(), 2);
+  EXPECT_LT(testing::RelativeError(prior.mean, mean), 1e-14);
+  EXPECT_LT(testing::RelativeError(prior.covariance, covariance), 1e-14);
+  // The whitening W: W^T W is the inverse covariance.
+  EXPECT_LT(testing::RelativeError(prior.whitening.transpose() * prior.whitening,
+                                   covariance.inverse()),
+            1e-12);
+}
+
+// FitLatent minimizes the data term plus FitPriorTerm, the physics fits' latent prior
+// rule: at its solution the data's gradient J^T r balances the prior's,
+//   J^T r + (latent_prior / min(K, prior_points_cap)) C^-1 (z - mean)
+//         + latent_regularization z = 0,
+// and with latent_prior 0 (and no legacy term) the data's gradient vanishes: the
+// unregularized fit. FitPriorTerm is that prior's value.
+TEST_F(TrainedAutoencoderTest, FitLatentUsesThePhysicsFitsPriorRule) {
+  const SurfaceAutoencoder& ae = *autoencoder_;
+  const Eigen::Matrix3Xd target = BentGrid(1.7, 0.35);  // beyond the training surfaces
+  std::vector<int> all;
+  for (int v = 0; v < ae.num_vertices(); ++v) all.push_back(v);
+  const int k = static_cast<int>(all.size());
+  const GaussianPrior& prior = ae.latent_prior();
+  const Eigen::MatrixXd precision = prior.covariance.inverse();
+  const std::unique_ptr<ceres::CostFunction> data = ae.NewFitCostFunction(all, target);
+  // J^T r of the data residuals at z.
+  auto data_gradient = [&](const Eigen::VectorXd& z) {
+    Eigen::VectorXd r(data->num_residuals());
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> jacobian(
+        data->num_residuals(), 2);
+    const double* block = z.data();
+    double* jacobian_blocks[1] = {jacobian.data()};
+    EXPECT_TRUE(data->Evaluate(&block, r.data(), jacobian_blocks));
+    return Eigen::VectorXd(jacobian.transpose() * r);
+  };
+  struct Case {
+    double latent_prior, prior_points_cap, latent_regularization;
+  };
+  Eigen::VectorXd unregularized;
+  for (const Case& c : {Case{0.0, 200.0, 0.0}, Case{0.03, 200.0, 0.0}, Case{0.03, 10.0, 0.0},
+                        Case{0.03, 0.0, 1e-3}}) {
+    LatentFitOptions fit;
+    fit.latent_prior = c.latent_prior;
+    fit.prior_points_cap = c.prior_points_cap;
+    fit.latent_regularization = c.latent_regularization;
+    Eigen::VectorXd z;
+    double rms = -1;
+    ASSERT_TRUE(ae.FitLatent(all, target, ae.MeanLatent(), fit, &z, &rms));
+    const double points = c.prior_points_cap > 0 ? std::min<double>(k, c.prior_points_cap) : k;
+    const double weight = c.latent_prior / points;
+    const Eigen::VectorXd prior_gradient =
+        weight * precision * (z - prior.mean) + c.latent_regularization * z;
+    const Eigen::VectorXd gradient = data_gradient(z);
+    EXPECT_LT((gradient + prior_gradient).norm(), 1e-4 * prior_gradient.norm() + 1e-9)
+        << c.latent_prior << " " << c.prior_points_cap;
+    EXPECT_NEAR(ae.FitPriorTerm(z, k, fit),
+                weight * (z - prior.mean).dot(precision * (z - prior.mean)) +
+                    c.latent_regularization * z.squaredNorm(),
+                1e-12);
+    if (c.latent_prior == 0.0) {
+      EXPECT_LT(gradient.norm(), 1e-8) << "the unregularized fit: the data term alone";
+      EXPECT_EQ(ae.FitPriorTerm(z, k, fit), 0.0);
+      unregularized = z;
+    } else {
+      // The prior pulls the latent towards its centre, against the data.
+      EXPECT_GT(gradient.norm(), 1e-3);
+      EXPECT_LT(prior.SquaredMahalanobis(z), prior.SquaredMahalanobis(unregularized));
     }
   }
 }
@@ -311,6 +400,179 @@ TEST(SurfaceAutoencoderTest, TrainingResumesFromItsCheckpoint) {
   EXPECT_EQ(other.report().iterations, 15);
 }
 
+// A small auto-encoder of the bent grids (8 hidden units), quick to train.
+SurfaceAutoencoderOptions SmallOptions() {
+  SurfaceAutoencoderOptions options;
+  options.latent_dim = 2;
+  options.hidden_dims = {8};
+  options.output_scale = 0.5;
+  return options;
+}
+
+// How often `text` occurs in `log`.
+int Count(const std::string& log, const std::string& text) {
+  int count = 0;
+  for (size_t at = log.find(text); at != std::string::npos; at = log.find(text, at + 1)) ++count;
+  return count;
+}
+
+// A function tolerance that ends each L-BFGS solve after a few iterations (Ceres'
+// CONVERGENCE, as on a loss at its round-off): without restarts training stops there,
+// with them it restarts from the accepted point, as end-to-end training does, and spends
+// its whole budget. The progress lines number the iterations on across restarts, each
+// once; a run with checkpoints ends at the same point, and a resumed run goes on.
+TEST(SurfaceAutoencoderTest, TrainingRestartsWhereLbfgsStallsAndUsesItsBudget) {
+  const std::vector<Eigen::Matrix3Xd> surfaces = TrainingSurfaces();
+  const Eigen::Matrix3Xd neutral = BentGrid(0.6, 0.0);
+  SurfaceAutoencoderOptions options = SmallOptions();
+  options.function_tolerance = 0.02;
+  options.max_iterations = 40;
+  options.log_every = 1;
+  std::string error;
+  options.max_restarts = 0;
+  std::ostringstream stopped_log;
+  SurfaceAutoencoder stopped;
+  ASSERT_TRUE(stopped.Train(neutral, surfaces, options, stopped_log, &error)) << error;
+  const int stall = stopped.report().iterations;
+  EXPECT_LT(stall, 40) << stopped.report().termination;
+  EXPECT_NE(stopped.report().termination.find("Function tolerance"), std::string::npos)
+      << stopped.report().termination;
+  EXPECT_EQ(stopped.report().restarts, 0);
+
+  options.max_restarts = 50;
+  std::ostringstream log;
+  SurfaceAutoencoder restarted;
+  ASSERT_TRUE(restarted.Train(neutral, surfaces, options, log, &error)) << error;
+  const SurfaceAutoencoderReport& report = restarted.report();
+  EXPECT_EQ(report.iterations, 40) << log.str();
+  EXPECT_GE(report.restarts, 1);
+  EXPECT_LE(report.restarts, 50);
+  EXPECT_LT(report.final_loss, stopped.report().final_loss);
+  EXPECT_EQ(Count(log.str(), "  L-BFGS stopped (Function tolerance reached"), report.restarts)
+      << log.str();
+  // The first restart is where the run without restarts stopped.
+  EXPECT_NE(log.str().find("; restarting from iteration " + std::to_string(stall) + "\n"),
+            std::string::npos)
+      << log.str();
+  for (int i = 0; i <= 40; ++i) {
+    char line[64];
+    std::snprintf(line, sizeof(line), "surface autoencoder iter %5d/40 ", i);
+    EXPECT_EQ(Count(log.str(), line), 1) << line;
+  }
+  EXPECT_NE(log.str().find("40 iterations (" + std::to_string(report.restarts) + " L-BFGS rest"),
+            std::string::npos)
+      << log.str();
+
+  // With checkpoints (written at every iteration across the restarts): the same point.
+  testing::TempDir dir;
+  options.checkpoint_directory = dir.File("checkpoint");
+  options.checkpoint_seconds = 0.0;
+  options.log_every = 0;
+  std::ostringstream checkpoint_log;
+  SurfaceAutoencoder checkpointed;
+  ASSERT_TRUE(checkpointed.Train(neutral, surfaces, options, checkpoint_log, &error)) << error;
+  EXPECT_EQ(checkpointed.report().iterations, 40);
+  EXPECT_EQ(checkpointed.report().restarts, report.restarts);
+  EXPECT_EQ(checkpointed.parameters(), restarted.parameters());
+  EXPECT_EQ(checkpointed.training_latents(), restarted.training_latents());
+  SolverCheckpoint saved;
+  std::string why_not;
+  ASSERT_TRUE(ReadSolverCheckpoint(options.checkpoint_directory,
+                                   AutoencoderCheckpointKey(options, neutral, surfaces),
+                                   static_cast<int>(restarted.parameters().size() + 2 * 16),
+                                   &saved, &why_not))
+      << why_not;
+  EXPECT_EQ(saved.iterations, 40);
+  EXPECT_EQ(saved.loss, report.final_loss);
+
+  // Half the budget, then resumed with the whole of it: the iterations count on.
+  options.checkpoint_directory = dir.File("halves");
+  options.max_iterations = 20;
+  SurfaceAutoencoder half;
+  ASSERT_TRUE(half.Train(neutral, surfaces, options, checkpoint_log, &error)) << error;
+  EXPECT_EQ(half.report().iterations, 20);
+  options.max_iterations = 40;
+  SurfaceAutoencoder resumed;
+  ASSERT_TRUE(resumed.Train(neutral, surfaces, options, checkpoint_log, &error)) << error;
+  EXPECT_EQ(resumed.report().iterations_before, 20);
+  EXPECT_EQ(resumed.report().iterations, 40);
+  EXPECT_LT(resumed.report().final_loss, half.report().final_loss);
+}
+
+// util/fault_injection.h: every evaluation of the training objective from the 30th on
+// fails, as a non-finite loss does.
+int g_evaluations = 0;
+bool FailFromThe30thEvaluation(const char* point) {
+  return std::string(point) == "autoencoder:evaluate" && ++g_evaluations >= 30;
+}
+
+// A line search that finds no valid step (Ceres' FAILURE) is restarted from the accepted
+// point (here its restart cannot evaluate its start either, which ends training). Without
+// a checkpoint folder the result is the point L-BFGS accepted last, which Ceres does not
+// copy back after a FAILURE: the same weights and latents as a run that stops there, not
+// the random start.
+TEST(SurfaceAutoencoderTest, AFailedLineSearchKeepsTheAcceptedPoint) {
+  const std::vector<Eigen::Matrix3Xd> surfaces = TrainingSurfaces();
+  const Eigen::Matrix3Xd neutral = BentGrid(0.6, 0.0);
+  SurfaceAutoencoderOptions options = SmallOptions();
+  options.max_iterations = 200;
+  std::ostringstream log;
+  std::string error;
+  SurfaceAutoencoder failed;
+  g_evaluations = 0;
+  const FailureHook previous = SetFailureHookForTesting(&FailFromThe30thEvaluation);
+  const bool trained = failed.Train(neutral, surfaces, options, log, &error);
+  SetFailureHookForTesting(previous);
+  ASSERT_TRUE(trained) << error;
+  const SurfaceAutoencoderReport& report = failed.report();
+  const int accepted = report.iterations;
+  ASSERT_GT(accepted, 0);
+  EXPECT_LT(accepted, 30);
+  EXPECT_EQ(report.restarts, 1);
+  EXPECT_NE(log.str().find("  L-BFGS stopped (Numerical failure in line search"),
+            std::string::npos)
+      << log.str();
+  EXPECT_NE(log.str().find("; restarting from iteration " + std::to_string(accepted) + "\n"),
+            std::string::npos)
+      << log.str();
+  EXPECT_LT(report.final_loss, report.initial_loss);
+
+  // The same training stopped by its budget at that iteration.
+  options.max_iterations = accepted;
+  SurfaceAutoencoder stopped;
+  ASSERT_TRUE(stopped.Train(neutral, surfaces, options, log, &error)) << error;
+  EXPECT_EQ(failed.parameters(), stopped.parameters());
+  EXPECT_EQ(failed.training_latents(), stopped.training_latents());
+  EXPECT_EQ(report.final_loss, stopped.report().final_loss);
+  // Not the start.
+  options.max_iterations = 0;
+  SurfaceAutoencoder start;
+  ASSERT_TRUE(start.Train(neutral, surfaces, options, log, &error)) << error;
+  EXPECT_EQ(start.report().iterations, 0);
+  EXPECT_GT((failed.parameters() - start.parameters()).norm(), 1e-3);
+}
+
+// A training surface that is the neutral centres the prior of fits (as the physics
+// model's on its neutral training pose): its mean is that surface's latent.
+TEST(SurfaceAutoencoderTest, FitPriorIsCentredOnTheNeutralsLatent) {
+  std::vector<Eigen::Matrix3Xd> surfaces = TrainingSurfaces();
+  const Eigen::Matrix3Xd neutral = BentGrid(0.6, 0.0);
+  surfaces.insert(surfaces.begin() + 3, neutral);
+  SurfaceAutoencoderOptions options = SmallOptions();
+  options.max_iterations = 30;
+  SurfaceAutoencoder ae;
+  std::ostringstream log;
+  std::string error;
+  ASSERT_TRUE(ae.Train(neutral, surfaces, options, log, &error)) << error;
+  const Eigen::MatrixXd& latents = ae.training_latents();
+  const Eigen::VectorXd centre = latents.col(3);
+  EXPECT_EQ(ae.latent_prior().mean, centre);
+  const Eigen::MatrixXd about = latents.colwise() - centre;
+  Eigen::MatrixXd covariance = about * about.transpose() / 17.0;
+  covariance.diagonal().array() += FitPriorOptions().latent_floor * covariance.trace() / 2.0;
+  EXPECT_LT(testing::RelativeError(ae.latent_prior().covariance, covariance), 1e-14);
+}
+
 TEST(SurfaceAutoencoderTest, BadInputs) {
   SurfaceAutoencoder ae;
   std::ostringstream log;
@@ -330,6 +592,14 @@ TEST(SurfaceAutoencoderTest, BadInputs) {
   options.latent_dim = 0;
   EXPECT_FALSE(ae.Train(neutral, {bad}, options, log, &error));
   EXPECT_NE(error.find("latent_dim"), std::string::npos) << error;
+  options = SurfaceAutoencoderOptions();
+  options.max_restarts = -1;
+  EXPECT_FALSE(ae.Train(neutral, {BentGrid(0.3, 0.1)}, options, log, &error));
+  EXPECT_NE(error.find("max_restarts must be >= 0"), std::string::npos) << error;
+  options = SurfaceAutoencoderOptions();
+  options.function_tolerance = 1.0;
+  EXPECT_FALSE(ae.Train(neutral, {BentGrid(0.3, 0.1)}, options, log, &error));
+  EXPECT_NE(error.find("function_tolerance must be in [0, 1)"), std::string::npos) << error;
   EXPECT_FALSE(ae.trained());
 }
 

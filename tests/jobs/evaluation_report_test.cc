@@ -115,9 +115,39 @@ TEST(EvaluationReportTest, MarkdownSaysWhatWasComparedAndCsvKeepsEveryDigit) {
   EXPECT_NE(md.find("## Held-out poses\n\n" + tables.test), std::string::npos);
   EXPECT_EQ(md.find("resumed"), std::string::npos) << md;
   EXPECT_EQ(md.find("stopped run"), std::string::npos) << md;
+  // One prior rule for both learned models' fits, with the physics fit's weights.
+  EXPECT_NE(md.find("b from jawOpen / mean latent. The physics model's and the auto-encoder's "
+                    "latents are fitted with the same prior rule: no latent prior "
+                    "(`--latent_prior=0`) (the physics model also fits its bones, with their "
+                    "prior)."),
+            std::string::npos)
+      << md;
+  EXPECT_NE(md.find("latent fitted with the physics fit's prior rule"), std::string::npos) << md;
+  parts.latent_prior = 0.03;
+  parts.prior_points_cap = 200;
+  EXPECT_NE(EvaluationMarkdown(parts, tables)
+                .find("same prior rule: a Gaussian learned from each model's own training "
+                      "latents (centred on the neutral pose's latent, else their mean), weighted "
+                      "`--latent_prior` / min(points, `--prior_points_cap`) = 0.03 / min(points, "
+                      "200) (the physics"),
+            std::string::npos)
+      << EvaluationMarkdown(parts, tables);
+  parts.prior_points_cap = 0;
+  parts.fit_latent_regularization = 1e-3;
+  EXPECT_NE(EvaluationMarkdown(parts, tables)
+                .find("= 0.03 / points (no cap), and 0.001 |z|^2 (`--fit_regularization`) (the"),
+            std::string::npos)
+      << EvaluationMarkdown(parts, tables);
+  EXPECT_EQ(md.find("restarted"), std::string::npos) << md;
+  parts.autoencoder_restarts = 3;
+  EXPECT_NE(EvaluationMarkdown(parts, tables)
+                .find(", restarted 3 times where L-BFGS stalled (the physics training's rule), "
+                      "loss "),
+            std::string::npos)
+      << EvaluationMarkdown(parts, tables);
   parts.physics_fits_kept = 1;
   EXPECT_NE(EvaluationMarkdown(parts, tables)
-                .find("b from jawOpen / mean latent. 1 of the 2 physics fits were a stopped "
+                .find("with their prior). 1 of the 2 physics fits were a stopped "
                       "run's, kept in its output folder"),
             std::string::npos);
   parts.autoencoder_resumed_after = 432;

@@ -5,11 +5,15 @@
 #include "jobs/held_out_fits.h"
 
 #include <filesystem>
+#include <memory>
+#include <sstream>
 #include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
 
+#include "eval/surface_autoencoder.h"
+#include "model/fit_prior.h"
 #include "testing/fit_fixtures.h"
 #include "testing/synthetic_muscles.h"
 #include "testing/temp_dir.h"
@@ -163,6 +167,86 @@ TEST_F(HeldOutFitsTest, AStoreThatCannotBeMadeIsAWarningAndTheFitsStand) {
   EXPECT_NE(out.store_warning.find(blocker), std::string::npos) << out.store_warning;
   ASSERT_EQ(out.fits.size(), 2u);
   for (const LatentFitResult& fit : out.fits) EXPECT_FALSE(fit.failed) << fit.message;
+}
+
+// --latent_prior=0 switches off the latent prior of both learned models' held-out fits,
+// which otherwise follow one rule (a Gaussian learned from the model's own training
+// latents, weighted latent_prior / min(points, prior_points_cap)). The physics fit (bone
+// prior off too) then does not depend on the model's prior at all; the auto-encoder's
+// (trained on the same poses) is the data term's stationary point, and its start is
+// chosen by the data term alone. With a weight, both depend on their prior.
+TEST_F(HeldOutFitsTest, LatentPriorZeroSwitchesOffBothModelsPriors) {
+  LatentFitOptions off = options_;
+  off.latent_prior = 0.0;
+  off.bone_prior = 0.0;
+  // The physics model with another prior: shifted by one standard deviation per
+  // coordinate, a quarter of the covariance.
+  ActiveModel other_prior = model_;
+  other_prior.fit_prior = LearnFitPrior(model_);
+  GaussianPrior& latent = other_prior.fit_prior.latent;
+  latent.mean += latent.covariance.diagonal().cwiseSqrt();
+  ASSERT_TRUE(latent.SetCovariance(0.25 * latent.covariance));
+  for (const bool prior_on : {false, true}) {
+    const LatentFitOptions& options = prior_on ? options_ : off;
+    HeldOutFits own, other;
+    FitHeldOutPoses(model_, options, false, names_, surfaces_, "", nullptr, &own);
+    FitHeldOutPoses(other_prior, options, false, names_, surfaces_, "", nullptr, &other);
+    for (int t = 0; t < 2; ++t) {
+      ASSERT_FALSE(own.fits[t].failed) << own.fits[t].message;
+      if (prior_on) {
+        EXPECT_GT((own.fits[t].latent - other.fits[t].latent).norm(), 1e-6) << t;
+      } else {
+        ExpectSameFit(own.fits[t], other.fits[t], t);
+      }
+    }
+  }
+
+  // The auto-encoder baseline of the same poses and latent size.
+  std::vector<Eigen::Matrix3Xd> training;
+  for (const TrainingPose& pose : model_.poses) training.push_back(pose.surface);
+  SurfaceAutoencoderOptions ae_options;
+  ae_options.latent_dim = model_.latent_dim();
+  ae_options.hidden_dims = {8};
+  ae_options.max_iterations = 200;
+  SurfaceAutoencoder autoencoder;
+  std::ostringstream log;
+  std::string error;
+  ASSERT_TRUE(autoencoder.Train(model_.neutral.vertices, training, ae_options, log, &error))
+      << error;
+  const int ns = model_.num_surface_vertices();
+  std::vector<int> all(ns);
+  for (int i = 0; i < ns; ++i) all[i] = i;
+  for (int t = 0; t < 2; ++t) {
+    const std::unique_ptr<ceres::CostFunction> data =
+        autoencoder.NewFitCostFunction(all, surfaces_[t]);
+    double gradient_with_prior = 0.0;
+    for (const bool prior_on : {true, false}) {
+      const LatentFitOptions& options = prior_on ? options_ : off;
+      std::string start_name;
+      const Eigen::VectorXd start =
+          AutoencoderStart(autoencoder, model_, surfaces_[t], options, true, &start_name);
+      Eigen::VectorXd z;
+      double rms = 0.0;
+      ASSERT_TRUE(autoencoder.FitLatent(all, surfaces_[t], start, options, &z, &rms));
+      // The data term's gradient J^T r at the fit.
+      Eigen::VectorXd r(data->num_residuals());
+      Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> jacobian(
+          data->num_residuals(), z.size());
+      const double* block = z.data();
+      double* jacobian_blocks[1] = {jacobian.data()};
+      ASSERT_TRUE(data->Evaluate(&block, r.data(), jacobian_blocks));
+      const double gradient = (jacobian.transpose() * r).norm();
+      if (prior_on) {
+        gradient_with_prior = gradient;
+        EXPECT_GT(gradient, 1e-6) << t << ": the prior pulls against the data";
+        EXPECT_GT(autoencoder.FitPriorTerm(z, ns, options), 0.0);
+      } else {
+        EXPECT_LT(gradient, 1e-3 * gradient_with_prior) << t << ": the data term alone";
+        EXPECT_EQ(autoencoder.FitPriorTerm(z, ns, options), 0.0);
+        EXPECT_EQ(autoencoder.FitPriorTerm(start, ns, options), 0.0);
+      }
+    }
+  }
 }
 
 }  // namespace
