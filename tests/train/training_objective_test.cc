@@ -90,6 +90,40 @@ std::vector<ObjectiveCheck> ObjectiveChecks() {
   return checks;
 }
 
+// The objective's gradient at x0 (`gradient`) against central differences of the
+// re-solved objective in every latent and `decoder_samples` random decoder parameters
+// (seed `seed`): each error, relative to max |g|, below `tolerance`. Returns the worst
+// and sets *checked to the number of components compared.
+double WorstGradientError(const EndToEndObjective& objective, const ActiveModel& model,
+                          const Eigen::VectorXd& x0, const Eigen::VectorXd& gradient,
+                          int decoder_samples, unsigned seed, double tolerance,
+                          size_t* checked) {
+  const int np = model.decoder->num_parameters();
+  std::vector<int> indices;
+  for (int i = np; i < objective.NumParameters(); ++i) indices.push_back(i);
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<int> pick(0, np - 1);
+  for (int i = 0; i < decoder_samples; ++i) indices.push_back(pick(rng));
+  double worst = 0;
+  for (int i : indices) {
+    auto f = [&](const Eigen::VectorXd& t) {
+      Eigen::VectorXd x = x0;
+      x[i] += t[0];
+      double c = 0;
+      EXPECT_TRUE(objective.Evaluate(x.data(), &c, nullptr)) << objective.last_failure();
+      return c;
+    };
+    const double numeric = testing::CentralDifferenceGradient(f, Eigen::VectorXd::Zero(1), 1e-4)[0];
+    const double error_i =
+        std::abs(numeric - gradient[i]) / std::max(1e-8, gradient.cwiseAbs().maxCoeff());
+    worst = std::max(worst, error_i);
+    EXPECT_LT(error_i, tolerance) << "parameter " << i << ": analytic " << gradient[i]
+                                  << " numeric " << numeric;
+  }
+  *checked = indices.size();
+  return worst;
+}
+
 TEST(EndToEndObjectiveTest, GradientMatchesCentralDifferencesOfResolvedObjective) {
   double unregularized_cost = 0;
   for (const ObjectiveCheck& check : ObjectiveChecks()) {
@@ -117,32 +151,12 @@ TEST(EndToEndObjectiveTest, GradientMatchesCentralDifferencesOfResolvedObjective
     }
 
     // Every latent and a random sample of decoder parameters.
-    const int np = model.decoder->num_parameters();
-    std::vector<int> indices;
-    for (int i = np; i < objective.NumParameters(); ++i) indices.push_back(i);
-    std::mt19937 rng(4);
-    std::uniform_int_distribution<int> pick(0, np - 1);
-    for (int i = 0; i < 12; ++i) indices.push_back(pick(rng));
-    double worst = 0;
-    for (int i : indices) {
-      auto f = [&](const Eigen::VectorXd& t) {
-        Eigen::VectorXd x = x0;
-        x[i] += t[0];
-        double c = 0;
-        EXPECT_TRUE(objective.Evaluate(x.data(), &c, nullptr)) << objective.last_failure();
-        return c;
-      };
-      const double numeric =
-          testing::CentralDifferenceGradient(f, Eigen::VectorXd::Zero(1), 1e-4)[0];
-      const double error_i =
-          std::abs(numeric - gradient[i]) / std::max(1e-8, gradient.cwiseAbs().maxCoeff());
-      worst = std::max(worst, error_i);
-      EXPECT_LT(error_i, 1e-7) << "parameter " << i << ": analytic " << gradient[i] << " numeric "
-                               << numeric;
-    }
+    size_t checked = 0;
+    const double worst =
+        WorstGradientError(objective, model, x0, gradient, 12, 4, 1e-7, &checked);
     std::printf("training objective (%s): %zu components checked, worst error %.2e (relative "
                 "to max |g|)\n",
-                check.name.c_str(), indices.size(), worst);
+                check.name.c_str(), checked, worst);
   }
 }
 
@@ -592,29 +606,9 @@ TEST(EndToEndObjectiveTest, AVertexInNoElementLeavesTheGradientExact) {
   ASSERT_TRUE(objective.Evaluate(x0.data(), &cost, gradient.data())) << objective.last_failure();
   EXPECT_EQ(objective.last_counters().shifted_adjoints, 0);
   EXPECT_EQ(objective.last_counters().unstable_escapes, 0);
-  const int np = model.decoder->num_parameters();
-  std::vector<int> indices;
-  for (int i = np; i < objective.NumParameters(); ++i) indices.push_back(i);
-  std::mt19937 rng(5);
-  std::uniform_int_distribution<int> pick(0, np - 1);
-  for (int i = 0; i < 8; ++i) indices.push_back(pick(rng));
-  double worst = 0;
-  for (int i : indices) {
-    auto f = [&](const Eigen::VectorXd& t) {
-      Eigen::VectorXd x = x0;
-      x[i] += t[0];
-      double c = 0;
-      EXPECT_TRUE(objective.Evaluate(x.data(), &c, nullptr)) << objective.last_failure();
-      return c;
-    };
-    const double numeric = testing::CentralDifferenceGradient(f, Eigen::VectorXd::Zero(1), 1e-4)[0];
-    const double error_i =
-        std::abs(numeric - gradient[i]) / std::max(1e-8, gradient.cwiseAbs().maxCoeff());
-    worst = std::max(worst, error_i);
-    EXPECT_LT(error_i, 1e-7) << "parameter " << i;
-  }
-  std::printf("vertex in no element: %zu components checked, worst error %.2e\n", indices.size(),
-              worst);
+  size_t checked = 0;
+  const double worst = WorstGradientError(objective, model, x0, gradient, 8, 5, 1e-7, &checked);
+  std::printf("vertex in no element: %zu components checked, worst error %.2e\n", checked, worst);
 }
 
 }  // namespace
