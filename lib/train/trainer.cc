@@ -44,20 +44,16 @@ class TrainingCallback final : public ceres::IterationCallback {
         objective_(*objective),
         parameters_(parameters),
         first_(iterations_before),
-        before_(iterations_before),
         log_(log),
         counters_before_(objective->total_counters()) {}
 
-  // Iterations done before the current ceres::Solve call (L-BFGS restarts continue the
-  // numbering).
-  void SetIterationsBefore(int iterations) { before_ = iterations; }
   bool budget_reached() const { return budget_reached_; }
-  // The parameters changed outside Ceres (a latent refit): the next Solve's first loss
-  // is not compared with the last accepted one.
-  void ForgetLastCost() { last_cost_ = std::numeric_limits<double>::quiet_NaN(); }
 
+  // Called through RunLbfgsWithRestarts' numbered callbacks: s.iteration counts from the
+  // start of this run (0: its start point) across restarts and refits, each iteration
+  // once, also one that ended a solve by a convergence test.
   ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
-    const int iteration = before_ + s.iteration;
+    const int iteration = first_ + s.iteration;
     // The accepted point's equilibria, kept for the restart, final evaluation and saves
     // after a line search that evaluates more trial points than the objective
     // remembers, or evaluates this point again from another start.
@@ -75,19 +71,8 @@ class TrainingCallback final : public ceres::IterationCallback {
     const double per_pose = 1.0 / std::max(1, model_->num_poses());
     const double factorizations = cost.factorizations * per_pose;
     const double cg_solves = cost.reused_solves * per_pose;
-    if (s.iteration == 0 && before_ > 0) {  // already logged; a restart must start there
-      if (std::isfinite(last_cost_) && std::abs(s.cost - last_cost_) > 1e-9 * last_cost_) {
-        char line[200];
-        std::snprintf(line, sizeof(line),
-                      "  note: the restart's first evaluation gives loss %.9e, not the accepted "
-                      "%.9e (another equilibrium of some pose)\n",
-                      s.cost, last_cost_);
-        log_ << line << std::flush;
-      }
-      last_cost_ = s.cost;
-      return ceres::SOLVER_CONTINUE;
-    }
-    last_cost_ = s.cost;
+    // A resumed run's start point: logged (and saved) by the run before.
+    if (s.iteration == 0 && first_ > 0) return ceres::SOLVER_CONTINUE;
     if (options_.log_every > 0 && (s.iteration % options_.log_every == 0)) {
       char line[360];
       const int planned = options_.max_iterations - first_;
@@ -159,14 +144,11 @@ class TrainingCallback final : public ceres::IterationCallback {
   ActiveModel* model_;
   EndToEndObjective& objective_;
   const Eigen::VectorXd& parameters_;
-  int first_;   // iterations done before this run
-  int before_;  // iterations done before the current Solve call
+  int first_;  // iterations done before this run
   std::ostream& log_;
   WallTimer timer_;
   bool budget_reached_ = false;
   bool log_warned_ = false;  // a failed append of the CSV log is said once
-  // The loss of the last accepted point (NaN: none yet in this run).
-  double last_cost_ = std::numeric_limits<double>::quiet_NaN();
   EvaluationCounters counters_before_;  // the objective's totals at the previous row
 };
 
@@ -242,10 +224,10 @@ void LogTrainingStart(const TrainOptions& options, const ActiveModel& model,
   }
 }
 
-// Ceres' L-BFGS for end-to-end training, reporting to `callback` at every iteration
-// (which saves the state); max_num_iterations is set per run.
-ceres::GradientProblemSolver::Options TrainingSolverOptions(const TrainOptions& options,
-                                                            ceres::IterationCallback* callback) {
+// Ceres' L-BFGS for end-to-end training (its callback, which logs and saves the state,
+// goes through RunLbfgsWithRestarts' numbered callbacks); max_num_iterations is set per
+// solve.
+ceres::GradientProblemSolver::Options TrainingSolverOptions(const TrainOptions& options) {
   ceres::GradientProblemSolver::Options solver_options;
   solver_options.line_search_direction_type = ceres::LBFGS;
   solver_options.max_lbfgs_rank = 10;
@@ -256,7 +238,6 @@ ceres::GradientProblemSolver::Options TrainingSolverOptions(const TrainOptions& 
   solver_options.parameter_tolerance = 1e-12;
   solver_options.logging_type = ceres::SILENT;
   solver_options.update_state_every_iteration = true;  // the callback saves `parameters`
-  solver_options.callbacks.push_back(callback);
   return solver_options;
 }
 
@@ -285,12 +266,10 @@ class TrainingSolveHooks final : public LbfgsSolveHooks {
   int BeforeSolve(int done, int max_iterations, double* parameters) override {
     if (refits_ && done >= next_refit_) {
       RefitLatents(model_, objective_, parameters, log_);
-      callback_->ForgetLastCost();  // the refitted latents start at another loss
       ++report_->latent_refits;
       const int every = options_.latent_refit_every;
       next_refit_ = every > 0 ? done + every : max_iterations;
     }
-    callback_->SetIterationsBefore(done);
     return refits_ ? std::min(max_iterations, next_refit_) : max_iterations;
   }
 
@@ -341,9 +320,10 @@ int RunTrainingSolves(const TrainOptions& options, const ceres::GradientProblem&
   LbfgsRestartOptions restart_options;
   restart_options.max_iterations = options.max_iterations;
   restart_options.max_restarts = options.max_restarts;
+  restart_options.callbacks.push_back(callback);  // numbered across restarts and refits
   const LbfgsRunReport run =
-      RunLbfgsWithRestarts(TrainingSolverOptions(options, callback), problem, restart_options,
-                           done, parameters->data(), log, &hooks);
+      RunLbfgsWithRestarts(TrainingSolverOptions(options), problem, restart_options, done,
+                           parameters->data(), log, &hooks);
   report->termination = run.termination;
   report->restarts += run.restarts;
   return run.iterations;
