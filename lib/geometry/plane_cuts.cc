@@ -76,7 +76,10 @@ CutMesh ApplyPlaneCuts(const TetMesh& mesh, const std::vector<PlaneCut>& cuts) {
     for (int e = 0; e < num_elements; ++e) {
       if (element_twin[e] >= 0) element_twin[element_twin[e]] = e;
     }
-    // Earlier cuts' labels: a copy inherits its original's.
+    // Earlier cuts' labels: a copy inherits its original's side, and its twin is the
+    // same-side copy (for this cut) of its original's twin. The twin has the same
+    // geometry, so this cut splits it too, and the four copies of an element cut twice
+    // pair up: + with + and - with - for this cut, across the earlier one.
     for (size_t prev = 0; prev < c; ++prev) {
       std::vector<int>& s = out.element_side[prev];
       std::vector<int>& t = out.element_twin[prev];
@@ -86,7 +89,7 @@ CutMesh ApplyPlaneCuts(const TetMesh& mesh, const std::vector<PlaneCut>& cuts) {
         const int copy = element_twin[e];
         if (element_side[e] == 1 && copy >= 0) {
           s[copy] = s[e];
-          t[copy] = -1;  // (a doubly cut element keeps its twin relation on one copy)
+          t[copy] = t[e] >= 0 ? element_twin[t[e]] : -1;
         }
       }
     }

@@ -40,8 +40,10 @@ struct CutMesh {
 // sides becomes two elements at the same place, the + copy made of its + vertices and
 // "ghost" copies of its - vertices, the - copy the other way round; ghosts are shared by
 // all copies on the same side, so each side stays a conforming mesh, and the two sides
-// are joined only outside the region. Cuts apply one after another. Elements keep their
-// orientation; original element e is element e of the result (its + copy if cut).
+// are joined only outside the region. Cuts apply one after another: an element two cuts
+// split has four copies, each with its twin across either cut (the copy on the same side
+// of the other cut). Elements keep their orientation; original element e is element e of
+// the result (its + copy if cut).
 CutMesh ApplyPlaneCuts(const TetMesh& mesh, const std::vector<PlaneCut>& cuts);
 
 // Moves each embedded point that lies in a cut's region to the copy of its element on

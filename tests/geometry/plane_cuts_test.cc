@@ -71,6 +71,70 @@ TEST(PlaneCutsTest, DuplicatesCrossedElementsIntoAValidMesh) {
             ExtractBoundarySurface(bar).triangles.cols());
 }
 
+// Two cuts whose regions share elements: the middle cut and a vertical one at x = 3.1
+// (off the lattice planes), over the whole bar.
+std::vector<PlaneCut> CrossingCuts() {
+  PlaneCut vertical;
+  vertical.normal = Eigen::Vector3d::UnitX();
+  vertical.offset = 3.1;
+  vertical.region = Eigen::AlignedBox3d(Eigen::Vector3d(-1, -1, -1), Eigen::Vector3d(5, 2, 2));
+  return {MiddleCut(), vertical};
+}
+
+TEST(PlaneCutsTest, ElementsCutTwiceKeepTheirTwinsAcrossBothCuts) {
+  const CutMesh cut = ApplyPlaneCuts(Bar(), CrossingCuts());
+  int cut_twice = 0;
+  for (int e = 0; e < cut.mesh.num_tets(); ++e) {
+    cut_twice += cut.element_side[0][e] != 0 && cut.element_side[1][e] != 0;
+    for (int c = 0; c < 2; ++c) {
+      const int side = cut.element_side[c][e];
+      if (side == 0) continue;
+      const int twin = cut.element_twin[c][e];
+      ASSERT_GE(twin, 0) << "element " << e << " cut " << c;
+      EXPECT_EQ(cut.element_twin[c][twin], e);
+      EXPECT_EQ(cut.element_side[c][twin], -side);
+      EXPECT_EQ(cut.element_side[1 - c][twin], cut.element_side[1 - c][e]);
+      for (int k = 0; k < 4; ++k) {
+        EXPECT_EQ(cut.mesh.vertices.col(cut.mesh.tets(k, e)),
+                  cut.mesh.vertices.col(cut.mesh.tets(k, twin)));
+      }
+    }
+  }
+  EXPECT_GT(cut_twice, 0);  // the four copies of each element both cuts split
+}
+
+TEST(PlaneCutsTest, PointsReachTheirQuadrantFromAnyCopyOfTheirElement) {
+  const std::vector<PlaneCut> cuts = CrossingCuts();
+  const CutMesh cut = ApplyPlaneCuts(Bar(), cuts);
+  // Points in the four quadrants about the cuts' crossing line (y = 0.55, x = 3.1).
+  Eigen::Matrix3Xd points(3, 4);
+  points << 3.05, 3.15, 3.05, 3.15,  //
+      0.6, 0.6, 0.5, 0.5,            //
+      0.4, 0.4, 0.4, 0.4;
+  const Embedding located = EmbedPoints(cut.mesh, points, 1);
+  for (int i = 0; i < points.cols(); ++i) {
+    // Every copy of the point's element: the elements at the same place.
+    std::vector<int> copies;
+    for (int e = 0; e < cut.mesh.num_tets(); ++e) {
+      bool same = true;
+      for (int k = 0; k < 4; ++k) {
+        same = same && cut.mesh.vertices.col(cut.mesh.tets(k, e)) ==
+                           cut.mesh.vertices.col(cut.mesh.tets(k, located.element[i]));
+      }
+      if (same) copies.push_back(e);
+    }
+    ASSERT_EQ(copies.size(), 4u) << "point " << i;
+    const int side_y = points(1, i) >= 0.55 ? 1 : -1, side_x = points(0, i) >= 3.1 ? 1 : -1;
+    for (const int start : copies) {
+      Embedding embedding = located;
+      embedding.element[i] = start;
+      AssignEmbeddingSides(cut, cuts, points, Eigen::Matrix3Xd(), 0.0, &embedding);
+      EXPECT_EQ(cut.element_side[0][embedding.element[i]], side_y) << i << " from " << start;
+      EXPECT_EQ(cut.element_side[1][embedding.element[i]], side_x) << i << " from " << start;
+    }
+  }
+}
+
 TEST(PlaneCutsTest, TheTwoSidesSeparateUnderOpposingPulls) {
   const TetMesh bar = Bar();
   const std::vector<PlaneCut> cuts = {MiddleCut()};
