@@ -1,9 +1,12 @@
 #include "app_common.h"
 
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
+#include <system_error>
 
 #include <gflags/gflags.h>
 #include <glog/logging.h>
@@ -213,17 +216,45 @@ FlagNames CommonFlagNames(const std::string& prefix) {
           {prefix + "max_memory_bytes", "--max_memory_gb"}};
 }
 
+namespace {
+
+// Whether `text`, which starts with an options field `field`, names that field rather
+// than a file: the field is followed by the end, ' ', ',' or '=', by ": " (not a line
+// number, "mu:3:"), or by '.' and a sub-field name that a space, ',', '=' or the end
+// follows ("lattice.nx must", not the file "mu.txt:3:"); and no file or folder of that
+// name is where the app runs (a path "mu: the value ...").
+bool StartsWithField(const std::string& text, const std::string& field) {
+  if (text.compare(0, field.size(), field) != 0) return false;
+  const size_t n = field.size();
+  auto ends_word = [&](size_t pos) {
+    return pos == text.size() || std::strchr(" ,=", text[pos]) != nullptr;
+  };
+  bool field_like = false;
+  if (ends_word(n)) {
+    field_like = true;
+  } else if (text[n] == ':') {
+    field_like = n + 1 == text.size() || text[n + 1] == ' ';
+  } else if (text[n] == '.') {
+    size_t pos = n + 1;
+    while (pos < text.size() && (std::islower(static_cast<unsigned char>(text[pos])) ||
+                                 text[pos] == '_')) {
+      ++pos;
+    }
+    field_like = pos > n + 1 && ends_word(pos);
+  }
+  std::error_code ignored;
+  return field_like && !std::filesystem::exists(field, ignored);
+}
+
+}  // namespace
+
 std::string FlagError(const std::string& message, const FlagNames& flags) {
   std::string text = message;
-  auto is_end = [](const std::string& s, size_t pos, const std::string& ends) {
-    return pos == s.size() || ends.find(s[pos]) != std::string::npos;
-  };
-  // At the start: the longest field followed by an end character.
+  // At the start: the longest field that names a field, not a file.
   size_t best = 0;
   const std::string* flag = nullptr;
   for (const auto& [field, name] : flags) {
-    if (field.size() > best && text.compare(0, field.size(), field) == 0 &&
-        is_end(text, field.size(), " .:,=")) {
+    if (field.size() > best && StartsWithField(text, field)) {
       best = field.size();
       flag = &name;
     }

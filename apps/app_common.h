@@ -45,8 +45,10 @@ using FlagNames = std::vector<std::pair<std::string, std::string>>;
 FlagNames CommonFlagNames(const std::string& prefix = "");
 
 // `message` with option field names turned into the app's flags: a field at the start
-// of the message (followed by a space, '.', ':', ',' or '=') or in parentheses "(field)".
-// The longest matching field wins; other text is unchanged.
+// of the message (followed by a space, ',', '=', ": ", or '.' and a sub-field name) or in
+// parentheses "(field)". The longest matching field wins; other text is unchanged. A
+// message that starts with a file's name is left alone: "mu.txt:3: ...", "mu:3: ...",
+// or "mu: ..." where a file or folder `mu` exists.
 std::string FlagError(const std::string& message, const FlagNames& flags);
 
 // Ends a job: prints its message (FlagError) unless status is kOk, and returns

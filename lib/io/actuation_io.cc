@@ -146,12 +146,13 @@ bool WriteActuation(const std::string& path, const ActuationMatrix& values,
 bool ReadScalarsPerLine(const std::string& path, int count, bool require_positive,
                         Eigen::VectorXd* values, std::string* error) {
   std::vector<double> raw;
-  if (!ReadFixedWidthRows(path, count, 1, "value", &raw, error)) return false;
+  std::vector<int> lines;
+  if (!ReadFixedWidthRows(path, count, 1, "value", &raw, error, &lines)) return false;
   if (require_positive) {
     for (int i = 0; i < count; ++i) {
       if (!(raw[i] > 0.0)) {
         std::ostringstream out;
-        out << path << ": the value for element " << i << " is " << raw[i]
+        out << path << ":" << lines[i] << ": the value for element " << i << " is " << raw[i]
             << "; it must be positive";
         *error = out.str();
         return false;

@@ -188,6 +188,29 @@ TEST(AqsSimulateTest, VerticesOfNoElementAreRefused) {
       << ten.output;
 }
 
+// A file named like an option field (`mu` is the options' name for --mu), given by a
+// relative path, is named as it is, with its line: the flag names replace option fields
+// only, never the start of a path ("mu.txt:3:" had become "--mu.txt:3:").
+TEST(AqsSimulateTest, FilesNamedLikeAnOptionKeepTheirNameAndLine) {
+  testing::TempDir dir;
+  dir.Write("mu.txt", "# stiffness per element\n\nabc\n");
+  std::string values = "# stiffness per element\n\n";
+  for (int e = 0; e < 7838; ++e) values += e == 2 ? "0\n" : "1\n";
+  dir.Write("mu", values);
+  const std::string flags = " --mesh=" + DataPath("examples/finger/finger.msh") +
+                            " --fixed=" + DataPath("examples/finger/fixed.txt") +
+                            " --output=x.mesh";
+  const testing::CommandResult text =
+      RunCommand("cd " + dir.path() + " && " + Simulate("--mu_per_element=mu.txt" + flags));
+  EXPECT_EQ(text.exit_code, 1) << text.output;
+  EXPECT_NE(text.output.find("error: mu.txt:3: "), std::string::npos) << text.output;
+  const testing::CommandResult zero =
+      RunCommand("cd " + dir.path() + " && " + Simulate("--mu_per_element=mu" + flags));
+  EXPECT_EQ(zero.exit_code, 1) << zero.output;
+  EXPECT_NE(zero.output.find("error: mu:5: the value for element 2 is 0"), std::string::npos)
+      << zero.output;
+}
+
 struct BadInputCase {
   std::string name;
   std::string flags;      // {dir} and {finger} are replaced
