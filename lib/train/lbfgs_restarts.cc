@@ -50,6 +50,21 @@ class RunNumberedCallbacks final : public ceres::IterationCallback {
   int last_ = -1;  // the last iteration passed on
 };
 
+// Calls LbfgsSolveHooks::AtSolveStart at iteration 0 of every solve.
+class SolveStart final : public ceres::IterationCallback {
+ public:
+  SolveStart(LbfgsSolveHooks* hooks, const double* parameters)
+      : hooks_(hooks), parameters_(parameters) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& summary) override {
+    if (summary.iteration == 0) hooks_->AtSolveStart(parameters_);
+    return ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  LbfgsSolveHooks* hooks_;
+  const double* parameters_;
+};
+
 }  // namespace
 
 bool LbfgsStalled(const ceres::GradientProblemSolver::Summary& summary) {
@@ -69,6 +84,8 @@ LbfgsRunReport RunLbfgsWithRestarts(ceres::GradientProblemSolver::Options solver
   // The last accepted point must be in *parameters after every solve: a restart starts
   // there, and after a FAILURE Ceres does not copy its solution back.
   solver_options.update_state_every_iteration = true;
+  SolveStart solve_start(hooks, parameters);
+  solver_options.callbacks.push_back(&solve_start);
   RunNumberedCallbacks numbered(options.callbacks);
   if (!options.callbacks.empty()) solver_options.callbacks.push_back(&numbered);
   const int first = done;

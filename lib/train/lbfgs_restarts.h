@@ -44,6 +44,11 @@ class LbfgsSolveHooks {
   }
   // Before a restart from `parameters`, the last accepted point. Default: nothing.
   virtual void BeforeRestart(const double* parameters) {}
+  // At the start point of each solve (Ceres' iteration 0, after its evaluation), in
+  // `parameters`: the run's start, a restart's accepted point, or the point BeforeSolve
+  // left (end-to-end training: the refitted latents, whose equilibria it keeps here).
+  // Called before the numbered callbacks. Default: nothing.
+  virtual void AtSolveStart(const double* parameters) {}
 };
 
 struct LbfgsRestartOptions {

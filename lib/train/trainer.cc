@@ -290,6 +290,14 @@ class TrainingSolveHooks final : public LbfgsSolveHooks {
     objective_->UseStatesOf(parameters);  // restart from the accepted point's equilibria
   }
 
+  // Every solve's start point is the accepted one until the line search accepts
+  // another: after a latent refit it is a new point (the refitted latents), whose
+  // equilibria a failed first line search or the time budget would otherwise leave to
+  // those of a trial point for the final evaluation and the saves.
+  void AtSolveStart(const double* parameters) override {
+    objective_->KeepStatesOf(parameters);
+  }
+
  private:
   const TrainOptions& options_;
   const WallTimer& budget_timer_;

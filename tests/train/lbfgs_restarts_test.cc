@@ -278,5 +278,52 @@ TEST(LbfgsRestartsTest, HooksAndCallbacksEndSolvesAndRuns) {
   }
 }
 
+// AtSolveStart sees the start point of every solve, once: the point BeforeSolve left
+// (here moved, as a latent refit moves the latents; BeforeSolve runs before restarts
+// too), and it comes before the numbered callbacks see that iteration.
+TEST(LbfgsRestartsTest, EverySolveStartIsSeenWhereItStarts) {
+  const int n = 10;
+  ceres::GradientProblem problem(new Rosenbrock(n));
+  Eigen::VectorXd x = RosenbrockStart(n);
+  class Starts final : public LbfgsSolveHooks {
+   public:
+    Starts(const Eigen::VectorXd& x, const Recorder& recorder) : x_(x), recorder_(recorder) {}
+    int BeforeSolve(int done, int max_iterations, double* parameters) override {
+      if (done % 2 == 0) parameters[0] += 1e-3;  // a new point, as after a refit
+      left.push_back(x_);
+      return std::min(max_iterations, done + 9);
+    }
+    void AtSolveStart(const double* parameters) override {
+      seen.push_back(Eigen::Map<const Eigen::VectorXd>(parameters, x_.size()));
+      numbered_before.push_back(recorder_.iterations.size());
+    }
+    std::vector<Eigen::VectorXd> left, seen;
+    std::vector<size_t> numbered_before;
+
+   private:
+    const Eigen::VectorXd& x_;
+    const Recorder& recorder_;
+  };
+  Recorder numbered(x.data(), n);
+  Starts hooks(x, numbered);
+  LbfgsRestartOptions options;
+  options.max_iterations = 40;
+  options.callbacks.push_back(&numbered);
+  std::ostringstream log;
+  // A function tolerance at which solves also stall between the hooks' segments.
+  const LbfgsRunReport report =
+      RunLbfgsWithRestarts(LbfgsOptions(0.05), problem, options, 0, x.data(), log, &hooks);
+  EXPECT_GE(report.restarts, 1) << log.str();
+  EXPECT_EQ(report.iterations, 40);
+  EXPECT_GE(hooks.seen.size(), 5u);
+  EXPECT_EQ(hooks.seen, hooks.left);
+  // The run's start is seen before the numbered callbacks see iteration 0; a later
+  // solve's start after its predecessor's last iteration.
+  EXPECT_EQ(hooks.numbered_before[0], 0u);
+  for (size_t k = 1; k < hooks.numbered_before.size(); ++k) {
+    EXPECT_GT(hooks.numbered_before[k], hooks.numbered_before[k - 1]);
+  }
+}
+
 }  // namespace
 }  // namespace aqs
