@@ -337,7 +337,6 @@ bool Pretrain(const PretrainOptions& options, ActiveModel* model, PretrainReport
                           start.iterations);
   restart_options.callbacks.push_back(&progress);
   TimeBudget budget(options.max_seconds, start.seconds);
-  restart_options.callbacks.push_back(&budget);
   // The checkpoints read the point reached from `parameters` (which RunLbfgsWithRestarts
   // keeps at the last accepted point).
   SolverCheckpointWriter writer(options.checkpoint_directory, start,
@@ -350,6 +349,9 @@ bool Pretrain(const PretrainOptions& options, ActiveModel* model, PretrainReport
     restart_options.callbacks.push_back(&csv_log);
     restart_options.callbacks.push_back(&writer);
   }
+  // The budget last: the iteration at which it stops the run has its log row, as the
+  // final checkpoint written after the run has that iteration.
+  restart_options.callbacks.push_back(&budget);
   const bool spent = options.max_seconds > 0.0 && start.seconds >= options.max_seconds;
   LbfgsRunReport run;
   run.iterations = start.iterations;

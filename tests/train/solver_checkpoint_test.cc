@@ -209,6 +209,22 @@ TEST_F(PretrainResumeTest, ResumesAtTheCheckpointAndCountsItsIterations) {
               fresh.initial_loss, fresh.final_loss, resumed.initial_loss, resumed.final_loss);
 }
 
+// A run its time budget stops has the log row and the checkpoint of the iteration it
+// stopped at (the budget was checked before the row was written, so the row was lost and
+// the next run said rows were missing from a log nobody had touched).
+TEST_F(PretrainResumeTest, ARunTheBudgetStopsLogsItsLastIteration) {
+  const PretrainReport timed = Run(6);
+  ASSERT_EQ(timed.iterations, 6);
+  // About three and a half iterations' time: the budget ends the run a few in.
+  options_.max_seconds = 3.5 * timed.seconds / 6;
+  const PretrainReport stopped = Run(1000, /*resume=*/false);
+  std::printf("budget %.3g s: stopped after %d iterations\n", options_.max_seconds,
+              stopped.iterations);
+  ASSERT_LT(stopped.iterations, 1000);
+  EXPECT_EQ(Saved().iterations, stopped.iterations);
+  EXPECT_TRUE(LogRowsAreZeroTo(stopped.iterations));
+}
+
 // Other options (here the seed of the decoder's weights) do not resume the checkpoint.
 TEST_F(PretrainResumeTest, OtherOptionsStartAnew) {
   Run(4);
