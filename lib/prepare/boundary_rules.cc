@@ -229,8 +229,9 @@ bool ApplyBoundaryRules(const BoundaryRuleOptions& options, const TetMesh& mesh,
     for (int v : list) {
       if (!found[v]) {
         *error = options.fixed_list + ": vertex " + std::to_string(v) +
-                 " is not in the simulation mesh (removed as held by fewer than "
-                 "--min_vertex_elements elements, or outside every --keep_box)";
+                 " is not in the simulation mesh (used by no element of --tet_mesh, "
+                 "removed as held by fewer than --min_vertex_elements elements, or outside "
+                 "every --keep_box)";
         return false;
       }
     }

@@ -1,8 +1,8 @@
 #include "util/vertex_ranges.h"
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
-#include <utility>
 
 #include "util/line_reader.h"
 #include "util/text_split.h"
@@ -12,7 +12,8 @@ namespace aqs {
 bool ParseVertexRanges(const std::string& text, std::vector<int>* vertices, std::string* error) {
   std::vector<int> out;
   const std::vector<std::string> items = SplitList(text);
-  std::vector<size_t> item_ends;  // out's size after each item
+  // Each item's vertices [a, b) and its index among the items.
+  std::vector<std::array<int, 3>> intervals;
   for (const std::string& item : items) {
     const size_t colon = item.find(':'), dash = item.find('-');
     int a = 0, b = 0;
@@ -47,21 +48,21 @@ bool ParseVertexRanges(const std::string& text, std::vector<int>* vertices, std:
       return false;
     }
     for (int v = a; v < b; ++v) out.push_back(v);
-    item_ends.push_back(out.size());
+    intervals.push_back({a, b, static_cast<int>(intervals.size())});
   }
-  // A vertex listed twice would count twice in every mean over the list.
-  std::vector<std::pair<int, size_t>> sorted(out.size());  // (vertex, position in out)
-  for (size_t k = 0; k < out.size(); ++k) sorted[k] = {out[k], k};
-  std::sort(sorted.begin(), sorted.end());
-  for (size_t k = 1; k < sorted.size(); ++k) {
-    if (sorted[k].first != sorted[k - 1].first) continue;
-    auto item_of = [&](size_t position) {
-      return items[std::upper_bound(item_ends.begin(), item_ends.end(), position) -
-                   item_ends.begin()];
-    };
-    *error = "vertex ranges '" + text + "': vertex " + std::to_string(sorted[k].first) +
-             " is listed twice ('" + item_of(sorted[k - 1].second) + "' and '" +
-             item_of(sorted[k].second) + "')";
+  // A vertex listed twice would count twice in every mean over the list. The items'
+  // intervals by their first vertex: the first that starts before the end of one before
+  // it shares its first vertex with that one, the smallest vertex listed twice.
+  std::sort(intervals.begin(), intervals.end());
+  for (size_t k = 1, reach = 0; k < intervals.size(); ++k) {
+    if (intervals[k][0] >= intervals[reach][1]) {
+      if (intervals[k][1] > intervals[reach][1]) reach = k;
+      continue;
+    }
+    const int first = std::min(intervals[reach][2], intervals[k][2]);
+    const int second = std::max(intervals[reach][2], intervals[k][2]);
+    *error = "vertex ranges '" + text + "': vertex " + std::to_string(intervals[k][0]) +
+             " is listed twice ('" + items[first] + "' and '" + items[second] + "')";
     return false;
   }
   if (out.empty() && !text.empty()) {

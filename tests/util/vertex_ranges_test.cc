@@ -48,14 +48,22 @@ TEST(VertexRangesTest, BadItemsAreNamed) {
   EXPECT_NE(ParseError("2147483647").find(beyond), std::string::npos);
   EXPECT_NE(ParseError("0-50000000").find(beyond), std::string::npos);
   EXPECT_NE(ParseError("0:30000000,0:30000000").find(beyond), std::string::npos);
+  std::vector<int> vertices;
+  std::string error;
   // Overlaps: a vertex listed twice would count twice in every mean.
   EXPECT_EQ(ParseError("0:3,1:2"), "vertex ranges '0:3,1:2': vertex 1 is listed twice ('0:3' "
                                    "and '1:2')");
   EXPECT_EQ(ParseError("7,2-4,,9,4"), "vertex ranges '7,2-4,,9,4': vertex 4 is listed twice "
                                       "('2-4' and '4')");
   EXPECT_EQ(ParseError("5,5"), "vertex ranges '5,5': vertex 5 is listed twice ('5' and '5')");
-  std::vector<int> vertices;
-  std::string error;
+  // The smallest vertex listed twice, its items in the order given.
+  EXPECT_EQ(ParseError("3:5,0:4"), "vertex ranges '3:5,0:4': vertex 3 is listed twice ('3:5' "
+                                   "and '0:4')");
+  EXPECT_EQ(ParseError("12:13,0:10,11:12,9:20"),
+            "vertex ranges '12:13,0:10,11:12,9:20': vertex 9 is listed twice ('0:10' and "
+            "'9:20')");
+  EXPECT_TRUE(ParseVertexRanges("20:30,0:10,10:20,30", &vertices, &error)) << error;
+  EXPECT_EQ(vertices.size(), 31u);
   EXPECT_TRUE(ParseVertexRanges("49999999", &vertices, &error)) << error;
 }
 
