@@ -149,12 +149,16 @@ bool OpenOutputFolder(const FitSequenceOptions& options, const ActiveModel& mode
                 "differs from the one it was fitted to (targets.txt); it and the frames after "
                 "it are fitted again";
         done->resize(same);
-        // frames.csv loses their rows before targets.txt records the new targets, so that a
-        // run killed in between does not take them for fits of the new targets.
-        std::string csv = SequenceCsvHeader(model) + "\n";
-        for (const DoneFrame& d : *done) csv += d.line + "\n";
-        ok = WriteFileAtomically(csv_path, csv, error);
       }
+    }
+    // frames.csv keeps the rows of the frames done alone (not those after a frame whose
+    // OBJ is missing, nor those whose target changed) before targets.txt records the
+    // targets of all frames, so that a run killed in between does not take them for
+    // fits of these targets.
+    if (ok && MayExist(csv_path)) {
+      std::string csv = SequenceCsvHeader(model) + "\n";
+      for (const DoneFrame& d : *done) csv += d.line + "\n";
+      if (ReadWholeFile(csv_path) != csv) ok = WriteFileAtomically(csv_path, csv, error);
     }
     ok = ok && WriteFileAtomically(key_path, key, error);
     ok = ok && WriteFileAtomically(targets_path, targets, error);

@@ -18,6 +18,7 @@
 #include "testing/file_contents.h"
 #include "testing/temp_dir.h"
 #include "train/pretrain.h"
+#include "util/fault_injection.h"
 #include "util/text_split.h"
 #include "testing/synthetic_muscles.h"
 #include "util/matrix_io.h"
@@ -238,6 +239,54 @@ TEST_F(FitSequenceTest, AFrameWhoseTargetChangedIsFittedAgain) {
   // Unchanged targets: all frames are done.
   std::ostringstream again_log;
   EXPECT_EQ(RunFitSequence(options, *model_, again_log).frames_resumed, 3) << again_log.str();
+}
+
+// What WatchTargetsInstall saw: the frames with a row in frames.csv when targets.txt
+// first changed from g_targets_before (in g_sequence_folder).
+std::string g_sequence_folder, g_targets_before;
+bool g_targets_changed = false;
+std::vector<std::string> g_rows_at_targets;
+
+void WatchTargetsInstall(const char* point) {
+  if (std::string(point) != "atomic_file:renamed" || g_targets_changed) return;
+  if (ReadAll(g_sequence_folder + "/targets.txt") == g_targets_before) return;
+  g_targets_changed = true;
+  for (const auto& [name, row] : Rows(g_sequence_folder + "/frames.csv")) {
+    g_rows_at_targets.push_back(name);
+  }
+}
+
+// frames.csv is cut back to the frames done before targets.txt records new targets, also
+// past a frame whose OBJ is missing (frames.csv's rows after it are not read as done, and
+// a later frame's may be of an old target: a run killed after targets.txt is written
+// would otherwise keep them as fits of the new one).
+TEST_F(FitSequenceTest, RowsPastAMissingFrameGoBeforeNewTargetsAreRecorded) {
+  const std::string in = dir_->File("cutback_in");
+  std::filesystem::create_directories(in);
+  const std::vector<std::string> names = {"a", "b", "c"};
+  for (int t = 0; t < 3; ++t) std::filesystem::copy_file(Target(t), in + "/" + names[t] + ".obj");
+  FitSequenceOptions options = Options();
+  for (const std::string& name : names) options.sequence += in + "/" + name + ".obj,";
+  options.output_dir = dir_->File("cutback");
+  options.warm_start = false;
+  std::ostringstream first_log;
+  ASSERT_EQ(RunFitSequence(options, *model_, first_log).status, JobStatus::kOk)
+      << first_log.str();
+  ASSERT_EQ(Rows(options.output_dir + "/frames.csv").size(), 3u);
+  std::filesystem::remove(options.output_dir + "/b.obj");
+  std::filesystem::copy_file(Target(0), in + "/c.obj",
+                             std::filesystem::copy_options::overwrite_existing);
+  g_sequence_folder = options.output_dir;
+  g_targets_before = ReadAll(options.output_dir + "/targets.txt");
+  const FaultHook previous = SetFaultHookForTesting(&WatchTargetsInstall);
+  std::ostringstream log;
+  const FitSequenceResult result = RunFitSequence(options, *model_, log);
+  SetFaultHookForTesting(previous);
+  ASSERT_EQ(result.status, JobStatus::kOk) << result.message << "\n" << log.str();
+  EXPECT_EQ(result.frames_resumed, 1);
+  EXPECT_EQ(result.frames_fitted, 2);
+  ASSERT_TRUE(g_targets_changed);
+  EXPECT_EQ(g_rows_at_targets, std::vector<std::string>{"a"});
 }
 
 // Independent frames go on past a frame that cannot be fitted (here a scan shifted
