@@ -132,6 +132,13 @@ std::unique_ptr<Communicator> StartMpi(int* argc, char*** argv, std::string* err
     *error = "MPI_Init_thread failed";
     return nullptr;
   }
+  // The ranks run worker threads (--threads) and call MPI from the main thread alone.
+  if (provided < MPI_THREAD_FUNNELED) {
+    *error = "this MPI library grants no thread support (MPI_THREAD_FUNNELED asked, level " +
+             std::to_string(provided) + " given); the ranks run worker threads";
+    MPI_Finalize();
+    return nullptr;
+  }
   return std::make_unique<MpiWorld>();
 }
 

@@ -14,7 +14,8 @@ namespace aqs {
 // a comment; the lines, in any order:
 //   latent z_1 ... z_d
 //   bone <name> r00 r01 r02 r10 r11 r12 r20 r21 r22 t0 t1 t2     (optional, per bone)
-// Numbers have 17 significant digits. A bone without a line stays at rest.
+// Numbers are written as the shortest text that reads back exactly. A bone without a
+// line stays at rest.
 
 // Writes a latent and the named bones' transforms. Atomic.
 bool WriteLatentFile(const std::string& path, const Eigen::VectorXd& latent,

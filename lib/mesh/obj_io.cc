@@ -45,7 +45,8 @@ bool ReadObj(const std::string& path, SurfaceMesh* surface, std::string* error) 
   while (reader.NextTokens(&tokens, '#')) {
     const std::string& record = tokens[0];
     if (record == "v") {
-      if (tokens.size() < 4 || tokens.size() > 7) {
+      // x y z, x y z w or x y z r g b: 3, 4 or 6 numbers.
+      if (tokens.size() != 4 && tokens.size() != 5 && tokens.size() != 7) {
         *error = reader.Where(
             "expected 'v x y z [w]' (3 numbers, optionally followed by w or an r g b "
             "colour), got " +

@@ -14,6 +14,9 @@ namespace {
 constexpr char kMagic[8] = {'A', 'Q', 'S', 'M', 'A', 'T', '1', '\n'};
 
 static_assert(sizeof(double) == 8, "IEEE-754 doubles expected");
+// The files are little-endian (matrix_io.h), written and read as the host stores them.
+static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__,
+              "matrix files are little-endian: a big-endian host would need byte swaps");
 
 }  // namespace
 

@@ -94,6 +94,10 @@ TEST(ObjReadTest, Malformed) {
       << error;
   error = ReadError("v 0 0\n");
   EXPECT_TRUE(Contains(error, "bad.obj:1: expected 'v x y z [w]'")) << error;
+  // 5 numbers are neither x y z w nor x y z r g b.
+  error = ReadError("v 0 0 0\nv 1 0 0 0.5 0.5\n");
+  EXPECT_TRUE(Contains(error, "bad.obj:2: expected 'v x y z [w]'")) << error;
+  EXPECT_TRUE(Contains(error, "got 5 numbers")) << error;
 }
 
 TEST(ObjWriteTest, PolygonsRoundTrip) {
