@@ -23,6 +23,24 @@ void Communicator::BroadcastText(std::string* text, int root) const {
   if (rank() != root) text->assign(reinterpret_cast<const char*>(packed.data()), bytes);
 }
 
+int Communicator::FirstItemUnlikeRoot(const std::vector<std::string>& items) const {
+  std::string text;
+  for (const std::string& item : items) text += item + "\n";
+  std::string root_text = text;
+  BroadcastText(&root_text, 0);
+  if (root_text == text) return -1;
+  size_t at = 0, root_at = 0;
+  for (int i = 0;; ++i) {
+    const size_t end = text.find('\n', at), root_end = root_text.find('\n', root_at);
+    if (end == std::string::npos || root_end == std::string::npos ||
+        text.compare(at, end - at, root_text, root_at, root_end - root_at) != 0) {
+      return i;
+    }
+    at = end + 1;
+    root_at = root_end + 1;
+  }
+}
+
 bool Communicator::Agree(bool ok, std::string* error) const {
   int first_failing = ok ? size() : rank();
   MinToAll(&first_failing, 1);

@@ -48,6 +48,11 @@ class Communicator {
 
   // `text` of rank `root` on every rank.
   void BroadcastText(std::string* text, int root) const;
+  // The index of the first of `items` that differs from rank 0's (an item missing on
+  // one side differs), or -1 where all are the same; -1 on rank 0. Items must not hold
+  // '\n'. For inputs that every rank reads from its own machine (targets, by their
+  // fingerprints), which must be rank 0's.
+  int FirstItemUnlikeRoot(const std::vector<std::string>& items) const;
   // Whether every rank is ok: false on every rank if one is not, with *error set on
   // every rank to the message of the lowest failing rank (prefixed "rank R: " when
   // size() > 1 and R > 0).

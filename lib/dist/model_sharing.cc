@@ -51,16 +51,24 @@ bool ShareModel(const Communicator& comm, const std::string& directory, bool loa
   if (!comm.Agree(loaded, error)) return false;
   if (comm.size() == 1) return true;
   // Identity: rank 0's fingerprint and decoder architecture against each rank's.
-  int own[4], root[4];
+  // And the neutral's faces, which ModelFingerprint leaves out but point-cloud fits read.
+  int own[6], root[6];
   Split(ModelFingerprint(*model), own);
   Split(DecoderArchitectureFingerprint(*model), own + 2);
-  std::copy(own, own + 4, root);
-  comm.Broadcast(root, 4, 0);
+  uint64_t faces = 0;
+  CHECK(ParseFingerprint(FacesFingerprint(model->neutral), &faces));
+  Split(faces, own + 4);
+  std::copy(own, own + 6, root);
+  comm.Broadcast(root, 6, 0);
   std::string mismatch;
   if (own[0] != root[0] || own[1] != root[1]) {
     mismatch = "the model at " + directory + " is another model than rank 0's (another mesh, "
                "fixed vertices, bones, embedding or pose set): every rank must read the same "
                "model (copy the whole directory to every machine)";
+  } else if (own[4] != root[4] || own[5] != root[5]) {
+    mismatch = "the model at " + directory + " has a neutral.obj with other faces than rank "
+               "0's (triangulated again?): every rank must read the same model (copy the "
+               "whole directory to every machine)";
   } else if (own[2] != root[2] || own[3] != root[3]) {
     mismatch = "the model at " + directory + " has another decoder than rank 0's (its copy of "
                "learned/ is from another pre-training): copy the whole directory to every "

@@ -14,8 +14,9 @@ namespace aqs {
 //   - every rank loaded it (else all fail with the lowest failing rank's message);
 //   - every rank has rank 0's model: the same ModelFingerprint (mesh, fixed vertices,
 //     bones, embedding, poses) and the same decoder architecture (latent size,
-//     layers, activation, anchoring, control grid, parameter count); else all fail
-//     with a message naming the rank;
+//     layers, activation, anchoring, control grid, parameter count), and the same
+//     faces of the neutral surface (FacesFingerprint); else all fail with a message
+//     naming the rank;
 // then copies rank 0's learned numbers (decoder parameters, latents, fit prior, per-pose
 // equilibria, none where rank 0 has none, checkpoint) to every rank, so that all ranks
 // start from the state rank 0 read (another machine's copy of the directory may hold an

@@ -16,11 +16,13 @@
 #include "jobs/report_script.h"
 #include "mesh/mesh_io.h"
 #include "mesh/ply_io.h"
+#include "model/model_fingerprint.h"
 #include "model/model_io.h"
 #include "prepare/pose_files.h"
 #include "train/progress.h"
 #include "util/atomic_file.h"
 #include "util/blas.h"
+#include "util/fnv_hash.h"
 #include "util/input_file.h"
 #include "util/make_directory.h"
 #include "util/matrix_io.h"
@@ -73,6 +75,25 @@ bool ReadEvaluationInputs(const EvaluateJobOptions& options, bool distributed, b
   }
   if (distributed) ok = communicator->Agree(ok, error);
   if (!ok) return false;
+  if (distributed) {
+    // Each rank read the poses on its own machine: they must be rank 0's, which scores
+    // and stores every fit as a fit of its own.
+    std::vector<std::string> fingerprints;
+    for (const Eigen::Matrix3Xd& surface : *test_surfaces) {
+      FnvHasher hasher;
+      hasher.AddMatrix(surface);
+      fingerprints.push_back(FingerprintText(hasher.hash()));
+    }
+    const int unlike = communicator->FirstItemUnlikeRoot(fingerprints);
+    if (unlike >= 0) {
+      *error = (unlike < static_cast<int>(options.test_paths.size())
+                    ? options.test_paths[unlike]
+                    : std::string("the held-out poses")) +
+               ": another surface here than rank 0 read (every machine must hold the same "
+               "held-out poses)";
+    }
+    if (!communicator->Agree(unlike < 0, error)) return false;
+  }
   std::error_code code;
   const std::string& out = options.output_directory;
   if (root) {

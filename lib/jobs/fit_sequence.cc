@@ -10,6 +10,7 @@
 #include "dist/model_sharing.h"
 #include "fit/chosen_start_fit.h"
 #include "jobs/fit_job.h"
+#include "jobs/sequence_frames.h"
 #include "jobs/sequence_outputs.h"
 #include "mesh/mesh_io.h"
 #include "model/model_fingerprint.h"
@@ -76,13 +77,20 @@ bool ReadFramesOnEveryRank(const FitSequenceOptions& options, const ActiveModel&
                            std::string* error) {
   bool ok = ReadSequenceFrames(options, model.neutral.vertices, frames, error);
   if (!ranks.distributed) return ok;
-  std::string names;
-  for (const SequenceFrame& f : *frames) names += f.name + "\n";
-  std::string root_names = names;
-  ranks.comm->BroadcastText(&root_names, 0);
-  if (ok && names != root_names) {
-    *error = options.sequence + ": " + std::to_string(frames->size()) +
-             " frames here, which differ from rank 0's (another sequence at that path?)";
+  // The frames' names and targets (FrameTargetFingerprint): rank 0 records every frame's
+  // fit as one of its own targets (frames.csv, targets.txt).
+  std::vector<std::string> items;
+  for (const SequenceFrame& f : *frames) {
+    items.push_back(f.name + " " + FingerprintText(FrameTargetFingerprint(f)));
+  }
+  const int unlike = ranks.comm->FirstItemUnlikeRoot(items);
+  if (ok && unlike >= 0) {
+    *error = options.sequence + ": " +
+             (unlike < static_cast<int>(frames->size())
+                  ? "frame " + std::to_string(unlike) + " (" + (*frames)[unlike].name +
+                        ") differs from rank 0's (another target file at that path?)"
+                  : std::to_string(frames->size()) + " frames here, fewer than rank 0's") +
+             ": every machine must hold the same sequence";
     ok = false;
   }
   return ranks.comm->Agree(ok, error);

@@ -65,6 +65,14 @@ uint64_t LearnedStateFingerprint(const ActiveModel& model) {
   return h.hash();
 }
 
+std::string FacesFingerprint(const SurfaceMesh& surface) {
+  uint64_t hash = kFnvOffsetBasis;
+  hash = Fnv1a(surface.triangles.data(), sizeof(int) * surface.triangles.size(), hash);
+  hash = Fnv1a(surface.face_offsets.data(), sizeof(int) * surface.face_offsets.size(), hash);
+  hash = Fnv1a(surface.face_vertices.data(), sizeof(int) * surface.face_vertices.size(), hash);
+  return FingerprintText(hash);
+}
+
 std::string FingerprintText(uint64_t fingerprint) {
   char text[17];
   std::snprintf(text, sizeof(text), "%016llx", static_cast<unsigned long long>(fingerprint));

@@ -28,6 +28,12 @@ uint64_t DecoderArchitectureFingerprint(const ActiveModel& model);
 // Not the training checkpoint's counters.
 uint64_t LearnedStateFingerprint(const ActiveModel& model);
 
+// A hash of a surface's faces (triangles, polygons), as 16 hexadecimal digits: the
+// neutral's faces, which ModelFingerprint leaves out (a model whose neutral.obj was
+// triangulated again keeps its learned state; fits of point clouds and the attachment
+// springs' weights read them).
+std::string FacesFingerprint(const SurfaceMesh& surface);
+
 // The fingerprint as 16 lowercase hexadecimal digits, and back (false if `text` is
 // not 1 to 16 hexadecimal digits).
 std::string FingerprintText(uint64_t fingerprint);

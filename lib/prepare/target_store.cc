@@ -24,14 +24,6 @@ std::string VolumetricTargetKey(const VolumetricTargetOptions& options, const Ac
   return key.str();
 }
 
-std::string FacesFingerprint(const SurfaceMesh& surface) {
-  uint64_t hash = kFnvOffsetBasis;
-  hash = Fnv1a(surface.triangles.data(), sizeof(int) * surface.triangles.size(), hash);
-  hash = Fnv1a(surface.face_offsets.data(), sizeof(int) * surface.face_offsets.size(), hash);
-  hash = Fnv1a(surface.face_vertices.data(), sizeof(int) * surface.face_vertices.size(), hash);
-  return FingerprintText(hash);
-}
-
 std::string TargetStoreKey(const VolumetricTargetOptions& options, const ActiveModel& model) {
   return VolumetricTargetKey(options, model) + "neutral_faces " + FacesFingerprint(model.neutral) +
          "\n";

@@ -36,9 +36,6 @@ std::string VolumetricTargetKey(const VolumetricTargetOptions& options, const Ac
 // taken from a store.
 std::string TargetStoreKey(const VolumetricTargetOptions& options, const ActiveModel& model);
 
-// A hash of a surface's faces (triangles, polygons), as 16 hexadecimal digits.
-std::string FacesFingerprint(const SurfaceMesh& surface);
-
 // VolumetricTargetKey as 16 hexadecimal digits (an FNV-1a hash of its text): what
 // ActiveModel::target_key records.
 std::string VolumetricTargetFingerprint(const VolumetricTargetOptions& options,

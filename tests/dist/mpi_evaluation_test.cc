@@ -93,6 +93,33 @@ TEST(MpiEvaluationTest, HeldOutFitsGiveTheOutputsOfOneProcess) {
               5, world.size(), compared);
 }
 
+// A held-out pose that another machine holds in another version (here rank 1 reads
+// another file under the same name, as a stale copy would be): every rank stops, naming
+// the pose, before any fit.
+TEST(MpiEvaluationTest, AHeldOutPoseUnlikeRankZerosStopsEveryRank) {
+  const Communicator& world = World();
+  testing::SharedTempDir dir;
+  EvaluateJobOptions options = BarEvaluation(world, dir, 3, 31);
+  if (world.is_root()) {
+    fs::create_directories(dir.File("r1"));
+    fs::copy_file(options.test_paths[2], dir.File("r1/held_out_1.obj"));
+  }
+  world.Barrier();
+  if (world.rank() > 0) options.test_paths[1] = dir.File("r1/held_out_1.obj");
+  options.output_directory = dir.File("many");
+  options.communicator = &world;
+  std::ostringstream log;
+  std::vector<EvaluationRow> rows;
+  std::string error;
+  if (world.size() == 1) return;
+  EXPECT_FALSE(RunEvaluateJob(options, log, &rows, &error));
+  EXPECT_NE(error.find("rank 1: " + dir.File("r1/held_out_1.obj") +
+                       ": another surface here than rank 0 read"),
+            std::string::npos)
+      << error;
+  EXPECT_FALSE(fs::exists(dir.File("many/evaluation.csv")));
+}
+
 // A distributed evaluation stopped after its fits keeps them (rank 0 writes the other
 // ranks' as they arrive); the rerun takes those left and fits the others, and writes
 // the outputs of one process.

@@ -217,6 +217,24 @@ TEST_F(MpiSequenceTest, BadInputStopsEveryRank) {
   EXPECT_EQ(result.status, JobStatus::kBadInput);
   EXPECT_NE(result.message.find("frames.csv:1: written for another model"), std::string::npos)
       << result.message;
+  // A frame whose target another machine holds in another version (here rank 1's
+  // frame 1 is another file of the same name).
+  if (World().is_root()) {
+    fs::create_directories(dir_->File("r1"));
+    fs::copy_file(dir_->File("t2.obj"), dir_->File("r1/t1.obj"));
+  }
+  World().Barrier();
+  options.output_dir = dir_->File("unlike");
+  if (World().rank() > 0) {
+    const std::string own = dir_->File("t1.obj");
+    options.sequence.replace(options.sequence.find(own), own.size(), dir_->File("r1/t1.obj"));
+  }
+  result = RunFitSequenceJob(options, log);
+  if (World().size() > 1) {
+    EXPECT_EQ(result.status, JobStatus::kBadInput);
+    EXPECT_NE(result.message.find("frame 1 (t1) differs from rank 0's"), std::string::npos)
+        << result.message;
+  }
 }
 
 }  // namespace

@@ -72,6 +72,37 @@ TEST(MpiSharingTest, AnotherModelOnOneRankIsRefusedNamingTheRank) {
                    "rank must read the same model (copy the whole directory to every machine)");
 }
 
+// A neutral.obj triangulated otherwise on one rank (ModelFingerprint leaves the faces
+// out; point-cloud fits read them).
+TEST(MpiSharingTest, OtherNeutralFacesOnOneRankAreRefused) {
+  const Communicator& world = World();
+  const int last = world.size() - 1;
+  ActiveModel model = testing::PretrainedBar(2);
+  if (world.rank() == last && last > 0) {
+    model.neutral.triangles.col(0).reverseInPlace();
+  }
+  std::string error;
+  const bool ok = ShareModel(world, "DIR", true, &model, &error);
+  if (last == 0) return;
+  EXPECT_FALSE(ok);
+  EXPECT_NE(error.find("rank " + std::to_string(last) + ": the model at DIR has a neutral.obj "
+                       "with other faces than rank 0's"),
+            std::string::npos)
+      << error;
+}
+
+// The first item unlike rank 0's, on each rank.
+TEST(MpiCommunicatorTest, FirstItemUnlikeRootNamesTheFirstDifference) {
+  const Communicator& world = World();
+  const int r = world.rank();
+  EXPECT_EQ(world.FirstItemUnlikeRoot({"a 1", "b 2", "c 3"}), -1);
+  EXPECT_EQ(world.FirstItemUnlikeRoot({"a 1", r == 0 ? "b 2" : "b 9", "c 3"}), r == 0 ? -1 : 1);
+  std::vector<std::string> items = {"a", "b"};
+  if (r > 0) items.pop_back();  // fewer items than rank 0
+  EXPECT_EQ(world.FirstItemUnlikeRoot(items), r == 0 ? -1 : 1);
+  EXPECT_EQ(world.FirstItemUnlikeRoot({}), -1);
+}
+
 TEST(MpiSharingTest, AnotherDecoderOnOneRankIsRefused) {
   const Communicator& world = World();
   const int last = world.size() - 1;
