@@ -13,7 +13,7 @@ namespace aqs {
 bool WriteLatentFile(const std::string& path, const Eigen::VectorXd& latent,
                      const std::vector<std::string>& bone_names,
                      const std::vector<RigidTransform>& bones, const std::string& comment,
-                     std::string* error) {
+                     const LatentFileModel& origin, std::string* error) {
   std::string text = "# ActiveQS latent file";
   if (!comment.empty()) text += ": " + comment;
   text += "\nlatent";
@@ -36,12 +36,14 @@ bool WriteLatentFile(const std::string& path, const Eigen::VectorXd& latent,
     }
     text += '\n';
   }
+  if (!origin.model.empty()) text += "model " + origin.model + " " + origin.learned + "\n";
   return WriteFileAtomically(path, text, error);
 }
 
 bool ReadLatentFile(const std::string& path, int latent_dim,
                     const std::vector<std::string>& bone_names, Eigen::VectorXd* latent,
-                    std::vector<RigidTransform>* bones, std::string* error) {
+                    std::vector<RigidTransform>* bones, LatentFileModel* origin,
+                    std::string* error) {
   LineReader reader(path);
   if (!reader.ok()) {
     *error = reader.error();
@@ -50,7 +52,8 @@ bool ReadLatentFile(const std::string& path, int latent_dim,
   Eigen::VectorXd z;
   std::vector<RigidTransform> transforms(bone_names.size());
   std::vector<std::string> t;
-  bool have_latent = false;
+  bool have_latent = false, have_model = false;
+  LatentFileModel model;
   std::vector<bool> have_bone(bone_names.size(), false);
   while (reader.NextTokens(&t)) {
     if (t[0] == "latent") {
@@ -111,8 +114,25 @@ bool ReadLatentFile(const std::string& path, int latent_dim,
         return false;
       }
       transforms[b] = transform;
+    } else if (t[0] == "model") {
+      auto is_fingerprint = [](const std::string& text) {
+        return text.size() == 16 &&
+               text.find_first_not_of("0123456789abcdef") == std::string::npos;
+      };
+      if (have_model) {
+        *error = reader.Where("a second 'model' line");
+        return false;
+      }
+      if (t.size() != 3 || !is_fingerprint(t[1]) || !is_fingerprint(t[2])) {
+        *error = reader.Where("expected 'model' and two fingerprints of 16 hexadecimal digits "
+                              "(the model's and its learned state's)");
+        return false;
+      }
+      model.model = t[1];
+      model.learned = t[2];
+      have_model = true;
     } else {
-      *error = reader.Where("expected a 'latent' or 'bone' line, got '" + t[0] + "'");
+      *error = reader.Where("expected a 'latent', 'bone' or 'model' line, got '" + t[0] + "'");
       return false;
     }
   }
@@ -126,6 +146,7 @@ bool ReadLatentFile(const std::string& path, int latent_dim,
   }
   *latent = z;
   *bones = transforms;
+  if (origin != nullptr) *origin = model;
   return true;
 }
 

@@ -225,6 +225,7 @@ CollideJobResult RunCollideJob(const CollideJobOptions& options, std::ostream& l
       !ReadObstacles(options.obstacles, model, &obstacles, log, &error)) {
     return Fail(JobStatus::kBadInput, error);
   }
+  if (!pose.warning.empty()) log << "warning: " << pose.warning << "\n";
   Eigen::Matrix3Xd start, surface_before;
   if (!SimulateWithoutContact(options, model, pose, &start, &surface_before, log, &error)) {
     return Fail(JobStatus::kNotConverged, error);

@@ -51,7 +51,8 @@ bool WriteFitOutputs(const FitJobOptions& options, const ActiveModel& model,
   log << "wrote " << options.output << note << "\n";
   if (!options.latent_output.empty()) {
     if (!WriteLatentFile(options.latent_output, fit.latent, BoneNames(model), fit.bones,
-                         "fitted to " + options.target + note, error)) {
+                         "fitted to " + options.target + note, LatentFileModelOf(model),
+                         error)) {
       return false;
     }
     log << "wrote " << options.latent_output << note << "\n";
@@ -468,12 +469,16 @@ FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log) {
   Eigen::VectorXd initial = options.start.mean_latent ? fitter.MeanLatent() : fitter.PriorLatent();
   if (!options.initial_latent.empty()) {
     std::vector<RigidTransform> bones;
+    LatentFileModel origin;
+    std::string warning;
     if (!ReadLatentFile(options.initial_latent, model.latent_dim(), BoneNames(model), &initial,
-                        &bones, &error) ||
+                        &bones, &origin, &error) ||
+        !CheckLatentFileModel(model, options.initial_latent, origin, &warning, &error) ||
         !CheckLatentActuations(model, initial, options.initial_latent, &error) ||
         !CheckBoneMotions(model, bones, options.initial_latent, &error)) {
       return Fail(error);
     }
+    if (!warning.empty()) log << "warning: " << warning << "\n";
     fitter.set_bone_transforms(bones);
   }
   FitJobResult result;

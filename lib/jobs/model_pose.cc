@@ -4,6 +4,7 @@
 
 #include "io/actuation_io.h"
 #include "io/latent_io.h"
+#include "model/model_fingerprint.h"
 
 namespace aqs {
 
@@ -13,8 +14,10 @@ bool ResolveModelPose(const ActiveModel& model, const std::string& latent_file,
   if (!latent_file.empty()) {
     std::vector<std::string> names;
     for (const Bone& bone : model.bones) names.push_back(bone.name);
+    LatentFileModel origin;
     return ReadLatentFile(latent_file, model.latent_dim(), names, &pose->latent, &pose->bones,
-                          error) &&
+                          &origin, error) &&
+           CheckLatentFileModel(model, latent_file, origin, &pose->warning, error) &&
            CheckLatentActuations(model, pose->latent, latent_file, error) &&
            CheckBoneMotions(model, pose->bones, latent_file, error);
   }
@@ -28,6 +31,28 @@ bool ResolveModelPose(const ActiveModel& model, const std::string& latent_file,
   pose->training_pose = p;
   pose->latent = model.latents.col(p);
   for (const Bone& bone : model.bones) pose->bones.push_back(bone.pose_transforms[p]);
+  return true;
+}
+
+LatentFileModel LatentFileModelOf(const ActiveModel& model) {
+  return {FingerprintText(ModelFingerprint(model)), FingerprintText(LearnedStateFingerprint(model))};
+}
+
+bool CheckLatentFileModel(const ActiveModel& model, const std::string& path,
+                          const LatentFileModel& origin, std::string* warning,
+                          std::string* error) {
+  if (origin.model.empty()) return true;
+  const LatentFileModel own = LatentFileModelOf(model);
+  if (origin.model != own.model) {
+    *error = path + ": a latent of another model (its model line names model " + origin.model +
+             "; this model is " + own.model + "): fit it again with this model";
+    return false;
+  }
+  if (origin.learned != own.learned) {
+    *warning = path + ": fitted with another learned state of this model (" + origin.learned +
+               "; now " + own.learned + ": trained further or anew since); it may pose the " +
+               "model otherwise than it was fitted to";
+  }
   return true;
 }
 

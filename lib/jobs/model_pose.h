@@ -7,6 +7,7 @@
 #include <Eigen/Core>
 
 #include "geometry/rigid_transform.h"
+#include "io/latent_io.h"
 #include "model/active_model.h"
 
 namespace aqs {
@@ -18,12 +19,27 @@ struct ModelPose {
   Eigen::VectorXd latent;
   std::vector<RigidTransform> bones;
   int training_pose = -1;  // the pose's index when given by name, else -1
+  // Set where the latent file was fitted with another learned state of this model
+  // (training went on, or started anew, since): what the job should say before it uses it.
+  std::string warning;
 };
+
+// The model line a latent file of `model` records (io/latent_io.h).
+LatentFileModel LatentFileModelOf(const ActiveModel& model);
+
+// Checks a latent file's model line (`origin`, read from `path`) against `model`: none
+// (an older file) or this model's are fine; another model's is refused (false, *error
+// naming the file); another learned state of this model sets *warning (a latent of an
+// earlier training: it may pose the model otherwise than it was fitted to).
+bool CheckLatentFileModel(const ActiveModel& model, const std::string& path,
+                          const LatentFileModel& origin, std::string* warning,
+                          std::string* error);
 
 // Exactly one of latent_file and pose_name must be non-empty (the caller checks).
 // Returns false with *error naming the file and line, or the unknown pose and the
-// model's poses, or a latent whose actuations are absurd (CheckLatentActuations), or
-// bones moved absurdly far (CheckBoneMotions).
+// model's poses, or a latent file of another model (CheckLatentFileModel), or a latent
+// whose actuations are absurd (CheckLatentActuations), or bones moved absurdly far
+// (CheckBoneMotions).
 bool ResolveModelPose(const ActiveModel& model, const std::string& latent_file,
                       const std::string& pose_name, ModelPose* pose, std::string* error);
 

@@ -122,6 +122,7 @@ SimulateJobResult RunModelSimulateJob(const SimulateJobOptions& options, std::os
   if (!ResolveModelPose(model, options.latent, options.pose, &pose, &error)) {
     return Fail(JobStatus::kBadInput, error);
   }
+  if (!pose.warning.empty()) log << "warning: " << pose.warning << "\n";
   LatentFitOptions fit_options;
   fit_options.solver = options.solver;
   fit_options.num_threads = options.solver.num_threads;

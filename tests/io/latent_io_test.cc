@@ -23,20 +23,26 @@ TEST(LatentIoTest, WrittenFilesReadBackBitForBit) {
   jaw.translation = Eigen::Vector3d(0.1, -0.2, 1.0 / 3.0);
   std::string error;
   ASSERT_TRUE(WriteLatentFile(dir.File("z.txt"), z, {"skull", "jaw"}, {RigidTransform(), jaw},
-                              "a test", &error))
+                              "a test", {"0123456789abcdef", "fedcba9876543210"}, &error))
       << error;
   Eigen::VectorXd read;
   std::vector<RigidTransform> bones;
-  ASSERT_TRUE(ReadLatentFile(dir.File("z.txt"), 5, {"skull", "jaw"}, &read, &bones, &error))
+  LatentFileModel origin;
+  ASSERT_TRUE(
+      ReadLatentFile(dir.File("z.txt"), 5, {"skull", "jaw"}, &read, &bones, &origin, &error))
       << error;
   EXPECT_EQ(read, z);
+  EXPECT_EQ(origin.model, "0123456789abcdef");
+  EXPECT_EQ(origin.learned, "fedcba9876543210");
   ASSERT_EQ(bones.size(), 2u);
   EXPECT_EQ(bones[1].rotation, jaw.rotation);
   EXPECT_EQ(bones[1].translation, jaw.translation);
   // A bone without a line stays at rest.
+  // A file without a model line (written before there was one) has none.
   ASSERT_TRUE(ReadLatentFile(dir.Write("only.txt", "latent 1 2\n"), 2, {"jaw"}, &read, &bones,
-                             &error))
+                             &origin, &error))
       << error;
+  EXPECT_TRUE(origin.model.empty() && origin.learned.empty());
   EXPECT_EQ(bones[0].rotation, Eigen::Matrix3d::Identity());
   EXPECT_EQ(bones[0].translation, Eigen::Vector3d::Zero());
 }
@@ -54,13 +60,18 @@ TEST(LatentIoTest, BadFilesNameTheLine) {
       {"latent 1 2\nbone jaw -1 0 0 0 1 0 0 0 1 0 0 0\n", "is not a proper rotation"},
       {"latent 1 2\nbone jaw 1 0 0\n", "z.txt:2: expected 'bone <name>' and 12 numbers"},
       {bone, "z.txt: no 'latent' line"},
-      {"lat 1 2\n", "z.txt:1: expected a 'latent' or 'bone' line"},
+      {"lat 1 2\n", "z.txt:1: expected a 'latent', 'bone' or 'model' line"},
+      {"latent 1 2\nmodel 0123456789abcdef\n", "z.txt:2: expected 'model' and two fingerprints"},
+      {"latent 1 2\nmodel 0123456789abcdef 0123456789ABCDEF\n", "z.txt:2: expected 'model'"},
+      {"model 0123456789abcdef 0123456789abcdef\nmodel 0123456789abcdef 0123456789abcdef\n",
+       "z.txt:2: a second 'model' line"},
   };
   for (const auto& [text, message] : cases) {
     Eigen::VectorXd z;
     std::vector<RigidTransform> bones;
     std::string error;
-    EXPECT_FALSE(ReadLatentFile(dir.Write("z.txt", text), 2, {"jaw"}, &z, &bones, &error))
+    EXPECT_FALSE(
+        ReadLatentFile(dir.Write("z.txt", text), 2, {"jaw"}, &z, &bones, nullptr, &error))
         << text;
     EXPECT_NE(error.find(message), std::string::npos) << text << "\n" << error;
   }

@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "testing/fit_fixtures.h"
+#include "testing/temp_dir.h"
 
 namespace aqs {
 namespace {
@@ -57,6 +58,38 @@ TEST_F(ModelPoseTest, TrainingLatentsPassAndFarBonesAreRefused) {
   EXPECT_EQ(error.rfind("z.txt: bone 'base' moves the model's centre by ", 0), 0u) << error;
   bones[0].translation = Eigen::Vector3d(std::nan(""), 0, 0);
   EXPECT_FALSE(CheckBoneMotions(model, bones, "z.txt", &error));
+}
+
+// A latent file records the model it was fitted with: this model's passes, another
+// model's is refused, a latent of another training of this model passes with a warning,
+// and an older file without the record passes.
+TEST_F(ModelPoseTest, LatentFilesOfAnotherModelAreRefusedAndOfAnotherTrainingWarned) {
+  const ActiveModel& model = *model_;
+  testing::TempDir dir;
+  const std::string path = dir.File("z.txt");
+  std::vector<RigidTransform> bones(1);
+  auto resolve = [&](const LatentFileModel& origin, ModelPose* pose, std::string* error) {
+    EXPECT_TRUE(WriteLatentFile(path, model.latents.col(0), {model.bones[0].name}, bones, "",
+                                origin, error))
+        << *error;
+    return ResolveModelPose(model, path, "", pose, error);
+  };
+  ModelPose pose;
+  std::string error;
+  EXPECT_TRUE(resolve(LatentFileModelOf(model), &pose, &error)) << error;
+  EXPECT_EQ(pose.warning, "");
+  EXPECT_TRUE(resolve(LatentFileModel(), &pose, &error)) << error;
+  EXPECT_EQ(pose.warning, "");
+  ActiveModel retrained = model;
+  retrained.decoder_params *= 1.01;
+  EXPECT_TRUE(resolve(LatentFileModelOf(retrained), &pose, &error)) << error;
+  EXPECT_NE(pose.warning.find("z.txt: fitted with another learned state of this model"),
+            std::string::npos)
+      << pose.warning;
+  ActiveModel other = model;
+  other.mesh.vertices(0, 0) += 1e-3;
+  EXPECT_FALSE(resolve(LatentFileModelOf(other), &pose, &error));
+  EXPECT_NE(error.find("z.txt: a latent of another model"), std::string::npos) << error;
 }
 
 }  // namespace
