@@ -128,10 +128,11 @@ Case BarCase(const SolveBenchmarkOptions& options, TetMesh* mesh,
   return c;
 }
 
-// The model's cases (poses, then latents) into *cases; false with *error naming the
-// bad pose or latent file.
+// The model's cases (poses, then latents) into *cases, a latent file's warning in `out`;
+// false with *error naming the bad pose or latent file.
 bool ModelCases(const SolveBenchmarkOptions& options, const ActiveModel& model,
-                const ShapeTargetModel& physics, std::vector<Case>* cases, std::string* error) {
+                const ShapeTargetModel& physics, std::vector<Case>* cases, std::ostream& out,
+                std::string* error) {
   for (const std::string& name : options.poses) {
     const int p = model.PoseIndex(name);
     if (p < 0) {
@@ -174,6 +175,7 @@ bool ModelCases(const SolveBenchmarkOptions& options, const ActiveModel& model,
     c.rest = model.mesh.vertices;
     ModelPose pose;
     if (!ResolveModelPose(model, file, "", &pose, error)) return false;
+    if (!pose.warning.empty()) out << "warning: " << pose.warning << "\n";
     c.bc = ModelBoundaryConditions(model, pose.bones);
     DecoderWorkspace workspace;
     model.decoder->Decode(model.decoder_params.data(), pose.latent, &c.actuation, &workspace);
@@ -235,7 +237,9 @@ JobStatus RunSolveBenchmark(const SolveBenchmarkOptions& options, std::ostream& 
   if (!options.model.empty()) {
     if (!LoadModel(options.model, &model, error)) return JobStatus::kBadInput;
     model_physics = std::make_unique<ShapeTargetModel>(model.mesh, model.mu);
-    if (!ModelCases(options, model, *model_physics, &cases, error)) return JobStatus::kBadInput;
+    if (!ModelCases(options, model, *model_physics, &cases, out, error)) {
+      return JobStatus::kBadInput;
+    }
   }
   out << BenchmarkMachineLine() << "\n";
   out << StringPrintf("%-22s %7s %-7s %-4s %5s %6s %9s %5s %9s %9s %10s\n", "case", "elems",
