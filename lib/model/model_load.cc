@@ -1,48 +1,36 @@
 #include "model/model_io.h"
 
+// Reading models (LoadModel): every file checked as it is read, the learned unit read as
+// one (held open against a checkpoint replacing it meanwhile). Writing: model_save.cc.
+
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <Eigen/LU>
 #include <algorithm>
-#include <cmath>
 #include <cerrno>
-#include <cstdio>
+#include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <filesystem>
-#include <sstream>
-
-#include <Eigen/LU>
-#include <glog/logging.h>
 
 #include "geometry/points_near_model.h"
 #include "io/actuation_io.h"
 #include "mesh/mesh_io.h"
 #include "model/model_directory.h"
+#include "model/model_files.h"
 #include "model/model_fingerprint.h"
-#include "util/atomic_file.h"
 #include "util/fault_injection.h"
 #include "util/input_file.h"
 #include "util/line_reader.h"
-#include "util/make_directory.h"
 #include "util/matrix_io.h"
 #include "util/number_format.h"
-#include "util/path_lock.h"
-#include "util/staged_directory.h"
 
 namespace aqs {
 namespace {
 
 namespace fs = std::filesystem;
-
-constexpr int kFormatVersion = 2;
-constexpr char kLearned[] = "learned";
-
-std::string PoseFile(const std::string& folder, int p) {
-  char name[32];
-  std::snprintf(name, sizeof(name), "%04d.bin", p);
-  return folder + "/" + name;
-}
 
 // ReadMatrixFile, and every entry must be finite: a NaN or an infinity in a model file
 // is damage, reported naming the file and the entry.
@@ -55,32 +43,13 @@ bool ReadFiniteMatrix(const std::string& path, Eigen::Index rows, Eigen::Index c
       if (!std::isfinite(read(r, c))) {
         *error = path + ": entry (" + std::to_string(r) + ", " + std::to_string(c) + ") of the " +
                  std::to_string(read.rows()) + " x " + std::to_string(read.cols()) +
-                 " matrix is not finite (" + FormatDouble(read(r, c)) +
-                 "): the file is damaged";
+                 " matrix is not finite (" + FormatDouble(read(r, c)) + "): the file is damaged";
         return false;
       }
     }
   }
   *matrix = std::move(read);
   return true;
-}
-
-bool WriteText(const std::string& path, const std::string& text, std::string* error) {
-  return WriteFileAtomically(path, text, error);
-}
-
-std::string CheckpointText(const TrainingCheckpoint& checkpoint, uint64_t fingerprint) {
-  std::string text =
-      "# ActiveQS learned state: end-to-end training iterations done, loss after the last,\n"
-      "# fingerprint of the model it belongs to (model/model_fingerprint.h)\n"
-      "iterations " + std::to_string(checkpoint.iterations) + "\n";
-  if (std::isfinite(checkpoint.loss)) {
-    text += "loss ";
-    AppendDouble(checkpoint.loss, &text);
-    text += "\n";
-  }
-  text += "model " + FingerprintText(fingerprint) + "\n";
-  return text;
 }
 
 // Reads a checkpoint file ("iterations N", optional "loss L" and "model F"; *fingerprint
@@ -107,8 +76,9 @@ bool ReadCheckpoint(const std::string& path, TrainingCheckpoint* checkpoint,
     } else if (t.size() == 2 && t[0] == "model" && ParseFingerprint(t[1], &value)) {
       *fingerprint = FingerprintText(value);
     } else if (!(t.size() == 2 && t[0] == "loss" && ParseDouble(t[1], &checkpoint->loss))) {
-      *error = reader.Where("expected 'iterations N' (N >= 0), 'loss L' or 'model F' (F: 16 "
-                            "hexadecimal digits)");
+      *error = reader.Where(
+          "expected 'iterations N' (N >= 0), 'loss L' or 'model F' (F: 16 "
+          "hexadecimal digits)");
       return false;
     }
   }
@@ -117,133 +87,12 @@ bool ReadCheckpoint(const std::string& path, TrainingCheckpoint* checkpoint,
     return false;
   }
   if (!have_iterations) {
-    *error = path + ": no 'iterations N' line (the file is empty or damaged; delete it to "
-                    "count training iterations from 0 again)";
+    *error = path +
+             ": no 'iterations N' line (the file is empty or damaged; delete it to "
+             "count training iterations from 0 again)";
     return false;
   }
   return true;
-}
-
-std::vector<std::string> BoneNames(const ActiveModel& model) {
-  std::vector<std::string> names;
-  for (const Bone& bone : model.bones) names.push_back(bone.name);
-  return names;
-}
-
-// The learned unit's files into `dir` (learned/ or its staging directory). The fit
-// prior is learned from the latents being written, so it always belongs to them.
-bool WriteLearned(const std::string& dir, const ActiveModel& model, std::string* error) {
-  if (model.decoder) {
-    FitPrior prior;
-    if (!LearnFitPrior(model, FitPriorOptions(), &prior, error)) {
-      *error = "the learned model's fit prior: " + *error;
-      return false;
-    }
-    if (!SaveDecoder(dir + "/decoder.txt", model.decoder->spec(),
-                     model.decoder->field().description(), model.decoder_params, error) ||
-        !WriteMatrixFile(dir + "/latents.bin", model.latents, error) ||
-        !WriteFitPrior(dir + "/prior.txt", prior, BoneNames(model), error)) {
-      return false;
-    }
-  }
-  if (!model.states.empty()) {
-    if (!MakeDirectory(dir + "/states", error)) return false;
-    for (int p = 0; p < model.num_poses(); ++p) {
-      if (model.states[p].cols() == 0) continue;
-      if (!WriteMatrixFile(PoseFile(dir + "/states", p), model.states[p], error)) return false;
-    }
-  }
-  // Written last, though the unit is only seen whole: its identity file
-  // (util/staged_directory.h).
-  return WriteText(dir + "/checkpoint.txt",
-                   CheckpointText(model.checkpoint, ModelFingerprint(model)), error);
-}
-
-bool HasLearnedState(const ActiveModel& model) { return model.decoder || !model.states.empty(); }
-
-bool WriteAll(const std::string& dir, const ActiveModel& model, std::string* error) {
-  std::ostringstream manifest;
-  manifest << "# ActiveQS model (docs/model_format.md)\n"
-           << "format " << kFormatVersion << "\n"
-           << "vertices " << model.mesh.num_vertices() << "\n"
-           << "elements " << model.mesh.num_tets() << "\n"
-           << "surface_vertices " << model.num_surface_vertices() << "\n"
-           << "poses " << model.num_poses() << "\n"
-           << "bones " << model.bones.size() << "\n"
-           << "trained " << (model.decoder ? 1 : 0) << "\n";
-  if (!model.target_key.empty()) manifest << "targets " << model.target_key << "\n";
-  if (!WriteText(dir + "/model.txt", manifest.str(), error) ||
-      !WriteMeditMesh(dir + "/mesh.mesh", model.mesh, error) ||
-      !WriteMatrixFile(dir + "/mu.bin", model.mu.transpose(), error) ||
-      !WriteObj(dir + "/neutral.obj", model.neutral, error)) {
-    return false;
-  }
-  std::string fixed = "# vertex bone (-1: static at rest)\n";
-  for (int v : model.static_vertices) fixed += std::to_string(v) + " -1\n";
-  for (size_t b = 0; b < model.bones.size(); ++b) {
-    for (int v : model.bones[b].vertices) fixed += std::to_string(v) + " " + std::to_string(b) + "\n";
-  }
-  std::string bones = "# bone <b> <name>; then <b> <pose> rotation (row-major 9) translation (3)\n";
-  for (size_t b = 0; b < model.bones.size(); ++b) {
-    bones += "bone " + std::to_string(b) + " " + model.bones[b].name + "\n";
-    for (int p = 0; p < model.num_poses(); ++p) {
-      const RigidTransform& t = model.bones[b].pose_transforms[p];
-      bones += std::to_string(b) + " " + std::to_string(p);
-      for (int r = 0; r < 3; ++r) {
-        for (int c = 0; c < 3; ++c) {
-          bones += ' ';
-          AppendDouble(t.rotation(r, c), &bones);
-        }
-      }
-      for (int c = 0; c < 3; ++c) {
-        bones += ' ';
-        AppendDouble(t.translation[c], &bones);
-      }
-      bones += '\n';
-    }
-  }
-  std::string embedding =
-      "# element w0 w1 w2 w3 ox oy oz outside_distance, one line per surface vertex\n";
-  for (int i = 0; i < model.embedding.num_points(); ++i) {
-    embedding += std::to_string(model.embedding.element[i]);
-    for (int k = 0; k < 4; ++k) {
-      embedding += ' ';
-      AppendDouble(model.embedding.weights(k, i), &embedding);
-    }
-    for (int k = 0; k < 3; ++k) {
-      embedding += ' ';
-      AppendDouble(model.embedding.offsets(k, i), &embedding);
-    }
-    embedding += ' ';
-    AppendDouble(model.embedding.outside_distance[i], &embedding);
-    embedding += '\n';
-  }
-  std::string poses = "# index name embedding_mean_error embedding_max_error\n";
-  for (int p = 0; p < model.num_poses(); ++p) {
-    poses += std::to_string(p) + " " + model.poses[p].name + " ";
-    AppendDouble(model.poses[p].embedding_mean_error, &poses);
-    poses += ' ';
-    AppendDouble(model.poses[p].embedding_max_error, &poses);
-    poses += '\n';
-  }
-  if (!WriteText(dir + "/fixed.txt", fixed, error) || !WriteText(dir + "/bones.txt", bones, error) ||
-      !WriteText(dir + "/embedding.txt", embedding, error) ||
-      !WriteText(dir + "/poses.txt", poses, error) || !MakeDirectory(dir + "/poses", error)) {
-    return false;
-  }
-  bool any_target = false;
-  for (const TrainingPose& pose : model.poses) any_target |= pose.target.cols() > 0;
-  if (any_target && !MakeDirectory(dir + "/targets", error)) return false;
-  for (int p = 0; p < model.num_poses(); ++p) {
-    if (!WriteMatrixFile(PoseFile(dir + "/poses", p), model.poses[p].surface, error)) return false;
-    if (model.poses[p].target.cols() > 0 &&
-        !WriteMatrixFile(PoseFile(dir + "/targets", p), model.poses[p].target, error)) {
-      return false;
-    }
-  }
-  if (!HasLearnedState(model)) return true;
-  return MakeDirectory(dir + "/" + kLearned, error) &&
-         WriteLearned(dir + "/" + kLearned, model, error);
 }
 
 // Reads "key value" lines of model.txt: the format version and (may be null) the
@@ -269,29 +118,12 @@ bool ReadManifest(const std::string& path, int* version, std::string* error,
     *error = reader.error();
     return false;
   }
-  if (*version != 1 && *version != kFormatVersion) {
-    *error = path + ": expected 'format 1' or 'format " + std::to_string(kFormatVersion) +
+  if (*version != 1 && *version != internal::kModelFormatVersion) {
+    *error = path + ": expected 'format 1' or 'format " +
+             std::to_string(internal::kModelFormatVersion) +
              "' (a model of another ActiveQS version?)";
     return false;
   }
-  return true;
-}
-
-// Holds the model's lock for a save, unless the caller does already.
-bool LockForSave(const std::string& directory, PathLock* lock, std::string* error) {
-  return LockModelForWriting(directory, nullptr, lock, error);
-}
-
-// Puts a filled staging directory at `target`; a failure to remove the replaced
-// content is only logged (the next writer removes it).
-bool Install(const std::string& staging, const std::string& target, std::string* error) {
-  std::string warning;
-  if (!InstallStagingDirectory(staging, target, &warning, error)) {
-    std::string ignored;
-    RemoveTemporaryTree(staging, &ignored);
-    return false;
-  }
-  if (!warning.empty()) LOG(WARNING) << target << ": " << warning;
   return true;
 }
 
@@ -323,8 +155,7 @@ bool CheckLearnedActuations(const std::string& source, const std::string& prior_
   // Every fit starts from the prior's centre by default: it must decode as sanely.
   if (!model.fit_prior.empty() && model.fit_prior.latent.size() == model.latent_dim()) {
     ActuationMatrix a;
-    model.decoder->Decode(model.decoder_params.data(), model.fit_prior.latent.mean, &a,
-                          &workspace);
+    model.decoder->Decode(model.decoder_params.data(), model.fit_prior.latent.mean, &a, &workspace);
     const double largest = a.cwiseAbs().maxCoeff();
     if (!(largest <= kMaxActuationStretch)) {
       *error = prior_source + ": the latent mean decodes to actuations with entries up to " +
@@ -364,22 +195,22 @@ bool ReadLearned(const std::string& dir, const std::string& checkpoint_path, Act
     Eigen::VectorXd params;
     if (!LoadDecoder(dir + "/decoder.txt", &spec, &description, &params, error)) return false;
     GridActuationField field;
-    if (!GridActuationField::FromDescription(model->mesh, description, dir + "/decoder.txt",
-                                             &field, error)) {
+    if (!GridActuationField::FromDescription(model->mesh, description, dir + "/decoder.txt", &field,
+                                             error)) {
       return false;
     }
     model->decoder = std::make_shared<ActuationDecoder>(spec, std::move(field));
     model->decoder_params = params;
     FaultPoint("model_io:decoder_read");  // a checkpoint may replace the unit here
     if (!ReadFiniteMatrix(dir + "/latents.bin", spec.latent_dim, model->num_poses(), &matrix,
-                        error)) {
+                          error)) {
       return false;
     }
     model->latents = matrix;
     // The fit prior, if the unit has one (else learned once the model is validated).
     if (MayExist(dir + "/prior.txt") &&
-        !ReadFitPrior(dir + "/prior.txt", spec.latent_dim, BoneNames(*model), &model->fit_prior,
-                      error)) {
+        !ReadFitPrior(dir + "/prior.txt", spec.latent_dim, internal::BoneNames(*model),
+                      &model->fit_prior, error)) {
       return false;
     }
   }
@@ -387,7 +218,7 @@ bool ReadLearned(const std::string& dir, const std::string& checkpoint_path, Act
     const int nv = model->mesh.num_vertices();
     model->states.resize(model->num_poses());
     for (int p = 0; p < model->num_poses(); ++p) {
-      const std::string path = PoseFile(dir + "/states", p);
+      const std::string path = internal::PoseFile(dir + "/states", p);
       if (!MayExist(path)) continue;
       if (!ReadFiniteMatrix(path, 3, nv, &matrix, error)) return false;
       model->states[p] = matrix;
@@ -405,77 +236,6 @@ std::pair<dev_t, ino_t> DirectoryIdentity(const std::string& path) {
   if (::stat(path.c_str(), &st) != 0) return {0, 0};
   return {st.st_dev, st.st_ino};
 }
-
-}  // namespace
-
-bool SaveModel(const std::string& directory, const ActiveModel& model, std::string* error) {
-  return SaveModel(directory, model, SaveModelOptions(), error);
-}
-
-bool SaveModel(const std::string& directory, const ActiveModel& model,
-               const SaveModelOptions& options, std::string* error) {
-  if (!ValidateModel(model, directory, error)) return false;
-  const std::string target = ResolveModelPath(directory);
-  const fs::path parent = fs::path(target).parent_path();
-  if (!parent.empty() && !MakeDirectory(parent.string(), error)) return false;
-  PathLock lock;
-  if (!LockForSave(target, &lock, error) ||
-      !CheckModelDestination(target, options.overwrite, error)) {
-    return false;
-  }
-  const std::string staging = StagingPathOf(target);
-  if (!CreateStagingDirectory(staging, error)) return false;
-  bool ok = WriteAll(staging, model, error);
-  for (const char* record : {"train/log.csv", "pretrain/surface_errors.bin",
-                             "pretrain/surface_errors.txt", "pretrain/log.csv"}) {
-    const std::string from = target + "/" + record;
-    if (!ok || !options.keep_records || !MayExist(from)) continue;
-    const std::string to = staging + "/" + record;
-    std::error_code code;
-    ok = MakeDirectory(fs::path(to).parent_path().string(), error);
-    if (ok) fs::copy_file(from, to, code);
-    if (ok && code) {
-      *error = from + ": cannot copy into the new model (" + code.message() + ")";
-      ok = false;
-    }
-  }
-  if (!ok) {
-    std::string ignored;
-    RemoveTemporaryTree(staging, &ignored);
-    return false;
-  }
-  return Install(staging, target, error);
-}
-
-bool SaveLearnedState(const std::string& directory, const ActiveModel& model, std::string* error) {
-  if (!ValidateModel(model, directory, error)) return false;
-  const std::string target = ResolveModelPath(directory);
-  PathLock lock;
-  if (!LockForSave(target, &lock, error)) return false;
-  const int version = ModelFormatVersion(target);
-  if (version == 1) {
-    SaveModelOptions upgrade;
-    upgrade.keep_records = true;
-    return SaveModel(target, model, upgrade, error);
-  }
-  if (version != kFormatVersion) {
-    *error = target + "/model.txt: expected 'format " + std::to_string(kFormatVersion) +
-             "' (save the whole model first)";
-    return false;
-  }
-  if (!CheckLearnedStateDestination(target, error)) return false;
-  const std::string learned = target + "/" + kLearned;
-  const std::string staging = StagingPathOf(learned);
-  if (!CreateStagingDirectory(staging, error)) return false;
-  if (!WriteLearned(staging, model, error)) {
-    std::string ignored;
-    RemoveTemporaryTree(staging, &ignored);
-    return false;
-  }
-  return Install(staging, learned, error);
-}
-
-namespace {
 
 // mu.bin (1 x num_elements, finite) into model->mu, with the checks every solve relies
 // on: a stiffness contrast a double-precision solve resolves, and a finite, positive
@@ -502,8 +262,8 @@ bool ReadStiffness(const std::string& dir, ActiveModel* model, std::string* erro
   scale *= 2.0 / std::max(1, ne);
   const double contrast = m.mu.maxCoeff() / m.mu.minCoeff();
   if (!(contrast <= kMaxStiffnessContrast)) {
-    *error = dir + "/mu.bin: the stiffness ranges from " + FormatDouble(m.mu.minCoeff()) +
-             " to " + FormatDouble(m.mu.maxCoeff()) + ", a contrast above " +
+    *error = dir + "/mu.bin: the stiffness ranges from " + FormatDouble(m.mu.minCoeff()) + " to " +
+             FormatDouble(m.mu.maxCoeff()) + ", a contrast above " +
              FormatDouble(kMaxStiffnessContrast) + " that no solve resolves in double precision";
     return false;
   }
@@ -547,13 +307,13 @@ bool ReadPoses(const std::string& dir, ActiveModel* model, std::string* error) {
   const int ne = m.mesh.num_tets();
   Eigen::MatrixXd matrix;
   for (int p = 0; p < m.num_poses(); ++p) {
-    if (!ReadFiniteMatrix(PoseFile(dir + "/poses", p), 3, ns, &matrix, error) ||
-        !CheckPointsNearModel(PoseFile(dir + "/poses", p), m.neutral.vertices, matrix,
+    if (!ReadFiniteMatrix(internal::PoseFile(dir + "/poses", p), 3, ns, &matrix, error) ||
+        !CheckPointsNearModel(internal::PoseFile(dir + "/poses", p), m.neutral.vertices, matrix,
                               error)) {
       return false;
     }
     m.poses[p].surface = matrix;
-    const std::string target = PoseFile(dir + "/targets", p);
+    const std::string target = internal::PoseFile(dir + "/targets", p);
     if (MayExist(target)) {
       if (!ReadFiniteMatrix(target, 6, ne, &matrix, error)) return false;
       m.poses[p].target = matrix;
@@ -597,9 +357,10 @@ bool ReadFixedVerticesAndBones(const std::string& dir, ActiveModel* model, std::
       return false;
     }
     if (fixed.empty()) {
-      *error = dir + "/fixed.txt: lists no fixed vertices; a model needs some (a free body "
-                     "has no unique equilibrium; aqs_prepare makes them from its --fixed_* "
-                     "rules)";
+      *error = dir +
+               "/fixed.txt: lists no fixed vertices; a model needs some (a free body "
+               "has no unique equilibrium; aqs_prepare makes them from its --fixed_* "
+               "rules)";
       return false;
     }
   }
@@ -623,23 +384,25 @@ bool ReadFixedVerticesAndBones(const std::string& dir, ActiveModel* model, std::
         continue;
       }
       RigidTransform transform;
-      bool ok = t.size() == 14 && ParseInt(t[0], &b) && ParseInt(t[1], &p) &&
-                b >= 0 && b == static_cast<int>(m.bones.size()) - 1 &&
+      bool ok = t.size() == 14 && ParseInt(t[0], &b) && ParseInt(t[1], &p) && b >= 0 &&
+                b == static_cast<int>(m.bones.size()) - 1 &&
                 p == static_cast<int>(m.bones[b].pose_transforms.size());
       for (int i = 0; ok && i < 9; ++i) {
         ok = ParseDouble(t[2 + i], &transform.rotation(i / 3, i % 3));
       }
       for (int i = 0; ok && i < 3; ++i) ok = ParseDouble(t[11 + i], &transform.translation[i]);
       if (!ok) {
-        *error = reader.Where("expected '<bone> <pose> r00 .. r22 t0 t1 t2' for the next pose of "
-                              "the current bone");
+        *error = reader.Where(
+            "expected '<bone> <pose> r00 .. r22 t0 t1 t2' for the next pose of "
+            "the current bone");
         return false;
       }
       const Eigen::Matrix3d& r = transform.rotation;
       if (!((r.transpose() * r - Eigen::Matrix3d::Identity()).norm() <= 1e-6) ||
           !(std::abs(r.determinant() - 1.0) <= 1e-6) || !transform.translation.allFinite()) {
         *error = reader.Where("the motion of bone '" + m.bones[b].name + "' in pose " +
-                              std::to_string(p) + " is not a proper rotation and a finite "
+                              std::to_string(p) +
+                              " is not a proper rotation and a finite "
                               "translation");
         return false;
       }
@@ -729,13 +492,12 @@ bool ReadEmbedding(const std::string& dir, ActiveModel* model, std::string* erro
 // The learned part (decoder, latents, states, prior) of a model of format `version`,
 // read as one unit: read again if a writer replaced learned/ meanwhile (its directory
 // is then another one). A model not yet pre-trained has none.
-bool ReadLearnedPart(const std::string& dir, int version, ActiveModel* model,
-                     std::string* error) {
+bool ReadLearnedPart(const std::string& dir, int version, ActiveModel* model, std::string* error) {
   ActiveModel& m = *model;
   if (version == 1) {
     if (!ReadLearned(dir, dir + "/train/checkpoint.txt", &m, error)) return false;
   } else {
-    const std::string learned = dir + "/" + kLearned;
+    const std::string learned = dir + "/" + internal::kLearnedFolder;
     for (int attempt = 0;; ++attempt) {
       // The unit's directory held open while it is read: its inode cannot be freed and
       // given to a later checkpoint's directory meanwhile, so the same identity after
@@ -777,8 +539,7 @@ bool LoadModel(const std::string& directory, ActiveModel* model_out, std::string
   int version = 0;
   ActiveModel model;
   if (!ReadManifest(dir + "/model.txt", &version, error, &model.target_key)) return false;
-  if (!ReadTetMesh(dir + "/mesh.mesh", &model.mesh, error) ||
-      !ReadStiffness(dir, &model, error) ||
+  if (!ReadTetMesh(dir + "/mesh.mesh", &model.mesh, error) || !ReadStiffness(dir, &model, error) ||
       !ReadObj(dir + "/neutral.obj", &model.neutral, error) || !ReadPoses(dir, &model, error) ||
       !ReadFixedVerticesAndBones(dir, &model, error) || !ReadEmbedding(dir, &model, error) ||
       !ReadLearnedPart(dir, version, &model, error) || !ValidateModel(model, dir, error)) {
