@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <vector>
 
@@ -123,6 +124,37 @@ class LatentFitter::FitCost final : public ceres::CostFunction {
       residuals[i] = scale * RobustDistance(d, s, &slope);
       cloud_rows->col(i) = clamped ? Eigen::Vector3d::Zero() : Eigen::Vector3d(scale * slope * u);
     }
+  }
+
+  // Of this cost's residuals at a point (`residuals`, num_residuals() of them), those
+  // the fit uses: their count, and (1/2) sum r^2 into *cost. Cloud mode leaves out the
+  // points beyond max_distance (their residual is the clamp's constant, their Jacobian
+  // row zero); targets leave out points of weight 0 (a matching round's unmatched).
+  int UsedResiduals(const double* residuals, double* cost) const {
+    *cost = 0.0;
+    int used = 0;
+    auto use = [&](double r) {
+      *cost += 0.5 * r * r;
+      ++used;
+    };
+    if (cloud_ != nullptr) {
+      const double cap = cloud_options_.max_distance;
+      // The clamped residual, computed as MatchCloud computes it (bit for bit).
+      const double scale = 1.0 / std::sqrt(static_cast<double>(cloud_->cols()));
+      double slope = 0.0;
+      const double clamp =
+          cap > 0 ? std::abs(scale * RobustDistance(cap, cloud_options_.robust_scale, &slope))
+                  : std::numeric_limits<double>::infinity();
+      for (Eigen::Index i = 0; i < cloud_->cols(); ++i) {
+        if (std::abs(residuals[i]) < clamp) use(residuals[i]);
+      }
+      return used;
+    }
+    for (size_t i = 0; i < stencils_.size(); ++i) {
+      if (stencils_[i].scale == 0.0) continue;
+      for (int c = 0; c < 3; ++c) use(residuals[3 * i + c]);
+    }
+    return used;
   }
 
   // A read of the point FitEquilibrium prepared (it prepares it here only when there is

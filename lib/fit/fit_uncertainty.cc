@@ -9,15 +9,16 @@
 #include <ceres/problem.h>
 #include <glog/logging.h>
 
+#include "fit/fit_cost.h"
 #include "fit/fit_equilibrium.h"
 #include "fit/latent_fit.h"
 
 namespace aqs {
 
 void LatentFitter::EstimateUncertainty(ceres::Problem* problem, const std::vector<double*>& blocks,
-                                       const std::vector<ceres::ResidualBlockId>& data_blocks,
-                                       double data_weight, FitEquilibrium* equilibrium,
-                                       LatentFitResult* result) {
+                                       ceres::ResidualBlockId data_block,
+                                       const FitCost* data_cost, double data_weight,
+                                       FitEquilibrium* equilibrium, LatentFitResult* result) {
   std::vector<int> sizes;
   for (double* block : blocks) sizes.push_back(problem->ParameterBlockSize(block));
   std::vector<std::pair<const double*, const double*>> pairs;
@@ -51,26 +52,25 @@ void LatentFitter::EstimateUncertainty(ceres::Problem* problem, const std::vecto
       inverse.block(offsets[j], offsets[i], sizes[j], sizes[i]) = block.transpose();
     }
   }
-  // The noise: the data blocks' cost is (1/2) sum r^2 over N residuals; with P
-  // parameters its per-residual variance is 2 cost / (N - P). The parameters' posterior
-  // covariance under that noise is this variance times (J^T J)^-1.
-  double data_cost = 0.0;
-  int residuals = 0;
-  for (ceres::ResidualBlockId id : data_blocks) {
-    double cost = 0.0;
-    if (!problem->EvaluateResidualBlock(id, true, &cost, nullptr, nullptr)) {
-      result->uncertainty_message = "the data residuals could not be evaluated at the result";
-      return;
-    }
-    data_cost += cost;
-    residuals += problem->GetCostFunctionForResidualBlock(id)->num_residuals();
+  // The noise: the data's used residuals have cost (1/2) sum r^2 over N of them; with P
+  // parameters their per-residual variance is 2 cost / (N - P). The parameters'
+  // posterior covariance under that noise is this variance times (J^T J)^-1. (A scan
+  // point beyond max_distance has a constant residual and no Jacobian row: the fit
+  // ignores it, and so does the noise.)
+  std::vector<double> values(data_cost->num_residuals());
+  double cost = 0.0;
+  if (!problem->EvaluateResidualBlock(data_block, true, &cost, values.data(), nullptr)) {
+    result->uncertainty_message = "the data residuals could not be evaluated at the result";
+    return;
   }
+  double used_cost = 0.0;
+  const int residuals = data_cost->UsedResiduals(values.data(), &used_cost);
   if (residuals <= total) {
     result->uncertainty_message = "fewer data residuals (" + std::to_string(residuals) +
                                   ") than parameters (" + std::to_string(total) + ")";
     return;
   }
-  const double variance = 2.0 * data_cost / (residuals - total);
+  const double variance = 2.0 * used_cost / (residuals - total);
   result->parameter_covariance = variance * inverse;
   // The residuals are scaled by sqrt(w_k / W) (FitCost); sigma in model units is the
   // unscaled residuals' standard deviation.

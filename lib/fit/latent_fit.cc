@@ -282,16 +282,16 @@ bool LatentFitter::FitFrom(const FitTarget& target, const Eigen::VectorXd& initi
     data_cost = new FitCost(this, &equilibrium, target);
     total_weight = PriorPoints(target, options_.prior_points_cap);
   }
-  // The data's residual blocks (the priors' come after): what the noise is estimated from.
-  std::vector<ceres::ResidualBlockId> data_blocks = {
-      problem.AddResidualBlock(data_cost, nullptr, blocks)};
+  // The data's residual block (the landmarks' and the priors' come after): what the
+  // noise is estimated from.
+  const ceres::ResidualBlockId data_block = problem.AddResidualBlock(data_cost, nullptr, blocks);
   if (cloud_options_ != nullptr && cloud_options_->landmarks.num_points() > 0 &&
       cloud_options_->landmark_weight > 0) {
     // The scan's landmarks: their mean squared distance, times the weight.
-    data_blocks.push_back(problem.AddResidualBlock(
+    problem.AddResidualBlock(
         new FitCost(this, &equilibrium, cloud_options_->landmarks),
         new ceres::ScaledLoss(nullptr, cloud_options_->landmark_weight, ceres::TAKE_OWNERSHIP),
-        blocks));
+        blocks);
   }
   // The parameters, all blocks concatenated (FitEquilibrium's key).
   auto key = [&]() {
@@ -332,7 +332,8 @@ bool LatentFitter::FitFrom(const FitTarget& target, const Eigen::VectorXd& initi
   result->noise_sigma = 0.0;
   result->uncertainty_message.clear();
   if (options_.uncertainty && summary.termination_type != ceres::FAILURE) {
-    EstimateUncertainty(&problem, blocks, data_blocks, data_weight, &equilibrium, result);
+    EstimateUncertainty(&problem, blocks, data_block, data_cost, data_weight, &equilibrium,
+                        result);
   }
   MeasureTargetErrors(target, surface, result);
   // Iteration 0 is the start; none when the start itself could not be evaluated.

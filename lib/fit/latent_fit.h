@@ -353,10 +353,12 @@ class LatentFitter {
     return cloud_options.latent_prior >= 0 ? cloud_options.latent_prior : options_.latent_prior;
   }
   // LatentFitResult's uncertainty fields at the solved `problem`'s point (blocks: z,
-  // then the fitted bones; data_blocks: the data's residual blocks, the first of them
-  // scaled by 1/sqrt(data_weight) per unit weight).
+  // then the fitted bones). The noise comes from the data's residual block `data_block`
+  // (cost `data_cost`, scaled by 1/sqrt(data_weight) per unit weight) alone, over the
+  // residuals the fit uses (not a scan's points beyond max_distance, nor a matching
+  // round's unmatched points); landmarks and priors shape the covariance only.
   void EstimateUncertainty(ceres::Problem* problem, const std::vector<double*>& blocks,
-                           const std::vector<ceres::ResidualBlockId>& data_blocks,
+                           ceres::ResidualBlockId data_block, const FitCost* data_cost,
                            double data_weight, FitEquilibrium* equilibrium,
                            LatentFitResult* result);
   // Adds the priors' residual blocks on *z and, where given (the bones are fitted), on

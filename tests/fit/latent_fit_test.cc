@@ -559,6 +559,52 @@ TEST(LatentFitTest, ScanWithLandmarksAndUncertaintyIsTheSameOnTwoThreads) {
   }
 }
 
+// Scan points beyond max_distance are ignored by the fit, and by its noise estimate: a
+// scan with far-away copies of its points (another object in the scan), fitted from the
+// plain scan's result, stays there with the same noise and predicted deviations, in both
+// scan modes (the far points had raised the one-solve mode's noise and, as zero
+// residuals, lowered the rounds'). No priors: their weight depends on the point count.
+TEST(LatentFitTest, ScanPointsBeyondMaxDistanceLeaveTheUncertaintyAlone) {
+  const ActiveModel model = TrainedModel(false);
+  LatentFitOptions options;
+  options.latent_prior = 0.0;
+  options.uncertainty = true;
+  options.solver.relative_force_tolerance = 1e-10;
+  Eigen::Matrix3Xd state, scan;
+  std::string error;
+  {
+    LatentFitter fitter(model, options);
+    ASSERT_TRUE(fitter.Simulate(model.latents.col(3), &state, &scan, &error)) << error;
+  }
+  std::mt19937 rng(6);
+  std::normal_distribution<double> noise(0.0, 0.01);
+  for (Eigen::Index i = 0; i < scan.size(); ++i) scan.data()[i] += noise(rng);
+  Eigen::Matrix3Xd with_far(3, 2 * scan.cols());
+  with_far << scan, scan.colwise() + Eigen::Vector3d(0, 0, 3.0);
+  for (const bool one_solve : {true, false}) {
+    SCOPED_TRACE(one_solve ? "one solve" : "matching rounds");
+    PointCloudFitOptions cloud_options;
+    cloud_options.max_distance = 0.5;
+    cloud_options.latent_prior = 0.0;
+    cloud_options.rematch_every_evaluation = one_solve;
+    LatentFitter fitter(model, options);
+    LatentFitResult plain, far;
+    ASSERT_TRUE(fitter.FitPointCloud(scan, cloud_options, model.latents.col(3), &plain, &error))
+        << error;
+    ASSERT_GT(plain.surface_std.size(), 0) << plain.uncertainty_message;
+    fitter.set_start_state(plain.state);
+    ASSERT_TRUE(fitter.FitPointCloud(with_far, cloud_options, plain.latent, &far, &error)) << error;
+    ASSERT_GT(far.surface_std.size(), 0) << far.uncertainty_message;
+    EXPECT_GT(plain.noise_sigma, 0.0);
+    EXPECT_NEAR(far.noise_sigma, plain.noise_sigma, 0.01 * plain.noise_sigma);
+    // (The rounds, matching again between capped solves, move in the bar's flat
+    // directions: their fit is not the same point.)
+    if (!one_solve) continue;
+    EXPECT_LT(testing::RelativeError(far.latent, plain.latent), 1e-4);
+    EXPECT_NEAR(far.surface_std.mean(), plain.surface_std.mean(), 0.01 * plain.surface_std.mean());
+  }
+}
+
 TEST(LatentFitTest, ScanLatentPriorWeighsScanFitsOnly) {
   // PointCloudFitOptions::latent_prior: < 0 takes the other fits' weight; otherwise it
   // replaces it in scan fits and in the start's objective, and pulls the latent to the
