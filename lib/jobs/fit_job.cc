@@ -162,6 +162,19 @@ bool ReadMarkerTarget(const std::string& path, int num_surface_vertices, FitTarg
   return true;
 }
 
+bool ReadLandmarks(const std::string& path, const Eigen::Matrix3Xd& neutral, FitTarget* target,
+                   std::string* error) {
+  std::vector<int> vertices;
+  Eigen::Matrix3Xd positions;
+  if (!ReadMarkers(path, static_cast<int>(neutral.cols()), &vertices, &positions, error) ||
+      !CheckPointsNearModel(path, neutral, positions, error) ||
+      !CheckTargetOffsetFromModel(path, neutral, vertices, positions, error)) {
+    return false;
+  }
+  *target = VertexTarget(vertices, positions);
+  return true;
+}
+
 bool ReadMarkers(const std::string& path, int num_surface_vertices, std::vector<int>* vertices,
                  Eigen::Matrix3Xd* positions, std::string* error) {
   LineReader reader(path);
@@ -303,9 +316,7 @@ bool ReadJobTarget(const FitJobOptions& options, const ActiveModel& model, JobTa
       return fail(options.landmarks + ": --landmarks go with a point cloud (a scan), but " +
                   options.target + " is fitted as " + kind);
     }
-    if (!ReadMarkerTarget(options.landmarks, ns, &job->cloud_options.landmarks, error) ||
-        !CheckPointsNearModel(options.landmarks, neutral,
-                              job->cloud_options.landmarks.positions, error)) {
+    if (!ReadLandmarks(options.landmarks, neutral, &job->cloud_options.landmarks, error)) {
       return false;
     }
   }

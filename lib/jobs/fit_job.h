@@ -68,6 +68,12 @@ bool ReadMarkers(const std::string& path, int num_surface_vertices, std::vector<
 bool ReadMarkerTarget(const std::string& path, int num_surface_vertices, FitTarget* target,
                       std::string* error);
 
+// A scan's landmarks file (ReadMarkerTarget), checked as every fit target is: finite and
+// within reach of the model (CheckPointsNearModel), and not in another unit or frame
+// (CheckTargetOffsetFromModel against the neutral surface's vertices `neutral`).
+bool ReadLandmarks(const std::string& path, const Eigen::Matrix3Xd& neutral, FitTarget* target,
+                   std::string* error);
+
 // Runs aqs_fit on one target: loads the trained model, reads the target (its kind as
 // options.target_kind says), chooses a start (FitFromChosenStart: options.start, or
 // options.initial_latent and its bone motions), fits the latent and bone motions

@@ -197,7 +197,7 @@ bool ReadSequenceFrames(const FitSequenceOptions& options, const Eigen::Matrix3X
   }
   for (size_t k = 0; k < frames->size(); ++k) {
     const auto& [path, origin] = landmark_files[k];
-    if (!ReadMarkerTarget(path, ns, &(*frames)[k].landmarks, error)) {
+    if (!ReadLandmarks(path, neutral, &(*frames)[k].landmarks, error)) {
       if (origin != path) *error = origin + ": " + *error;
       return false;
     }

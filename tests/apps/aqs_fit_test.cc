@@ -495,6 +495,7 @@ TEST_F(AqsFitTest, BadSequencesFailNamingTheFileAndLine) {
   WriteMarkers(d + "/good.txt", data_->model.poses[0].surface);
   std::ofstream(d + "/repeated.txt") << "3 0 0 0\n# comment\n3 1 1 1\n";
   std::ofstream(d + "/outside.txt") << "5 0 0 0\n99999 0 0 0\n";
+  std::ofstream(d + "/remote.txt") << "5 0 0 0\n6 1e200 0 0\n";
   std::ofstream(d + "/empty.ply") << "ply\nformat ascii 1.0\nelement vertex 0\n"
                                      "property float x\nproperty float y\nproperty float z\n"
                                      "end_header\n";
@@ -531,6 +532,10 @@ TEST_F(AqsFitTest, BadSequencesFailNamingTheFileAndLine) {
        "2 landmark files for the 1 frames of"},
       {"--sequence=" + d + "/scan.ply --landmarks=" + d + "/outside.txt,",
        "outside.txt:2: surface vertex 99999 is outside"},
+      // A landmark no solve reaches: refused as bad input naming the file (it ended the
+      // run with exit 2, "fewer than 3 of the scan's points lie within --max_distance").
+      {"--sequence=" + d + "/scan.ply --landmarks=" + d + "/remote.txt,",
+       "remote.txt: point 1 (1e+200 0 0) is"},
   };
   for (const auto& [flags, message] : cases) {
     const std::string command = Fit(flags + (message.find("output_dir") == std::string::npos ? out : ""));
@@ -542,6 +547,7 @@ TEST_F(AqsFitTest, BadSequencesFailNamingTheFileAndLine) {
 
 TEST_F(AqsFitTest, MalformedTargetsFailClearly) {
   WriteMarkers(dir_->File("markers.txt"), data_->test_surfaces[1]);
+  WriteMarkers(dir_->File("markers_x10.txt"), 10.0 * data_->test_surfaces[1]);
   std::ofstream(dir_->File("bad_markers.txt")) << "3 0.1 0.2\n";
   std::ofstream(dir_->File("far_markers.txt")) << "99999 0 0 0\n";
   std::ofstream(dir_->File("bad.ply")) << "ply\nformat ascii 1.0\nelement vertex 5\n"
@@ -569,6 +575,9 @@ TEST_F(AqsFitTest, MalformedTargetsFailClearly) {
        dir_->File("far_markers.txt"), "far_markers.txt:1: surface vertex 99999"},
       {"--target=" + dir_->File("test0.obj") + " --target_kind=points --landmarks=" +
        dir_->File("markers.txt") + " --landmark_weight=-1", "--landmark_weight must be"},
+      // Landmarks in another unit (ten times the model's), as any target would be.
+      {"--target=" + dir_->File("test0.obj") + " --target_kind=points --landmarks=" +
+       dir_->File("markers_x10.txt"), "markers_x10.txt: its points lie a median"},
   };
   for (const auto& [flags, message] : cases) {
     const testing::CommandResult run = RunCommand(Fit(flags + " --output=" + dir_->File("o.obj")));
