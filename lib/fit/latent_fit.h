@@ -299,8 +299,10 @@ class LatentFitter {
 
   // Chooses the start of a fit to `target` (or, with a non-null `points`, to that point
   // cloud): among latent *z with the current bone transforms and start state, and (with
-  // options.training_poses) each training pose's latent, bones and stored equilibrium,
-  // the one with the smallest objective. Sets the bones and start state, *z and
+  // options.training_poses) each training pose's latent, bones and stored equilibrium
+  // (without LatentFitOptions::fit_bones, only the poses whose bone motions are the
+  // current ones: bones not fitted stay where they were set), the one with the smallest
+  // objective. Sets the bones and start state, *z and
   // *name ("given" or the pose's name). Returns false with *error if the given start
   // cannot be simulated and no training pose is available.
   bool ChooseStart(const FitTarget* target, const Eigen::Matrix3Xd* points,

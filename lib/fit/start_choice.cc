@@ -91,18 +91,23 @@ bool LatentFitter::ChooseStart(const FitTarget* target, const Eigen::Matrix3Xd* 
   std::vector<RigidTransform> best_bones = bones_;
   Eigen::Matrix3Xd best_state;
   std::string best_name;
+  const std::vector<RigidTransform> given_bones = bones_;
+  auto at_given_bones = [&](int p) {
+    for (size_t b = 0; b < given_bones.size(); ++b) {
+      if (given_bones[b].rotation != model_.bones[b].pose_transforms[p].rotation ||
+          given_bones[b].translation != model_.bones[b].pose_transforms[p].translation) {
+        return false;
+      }
+    }
+    return true;
+  };
   // The given start is a training pose's (e.g. the prior's centre, the neutral): that
   // candidate covers it, with its stored equilibrium instead of a solve.
   bool given_is_training_pose = false;
   for (int p = 0; options.training_poses && p < model_.num_poses(); ++p) {
-    bool same = p < static_cast<int>(model_.states.size()) &&
-                model_.states[p].cols() == model_.mesh.num_vertices() &&
-                *z == Eigen::VectorXd(model_.latents.col(p));
-    for (size_t b = 0; same && b < bones_.size(); ++b) {
-      same = bones_[b].rotation == model_.bones[b].pose_transforms[p].rotation &&
-             bones_[b].translation == model_.bones[b].pose_transforms[p].translation;
-    }
-    given_is_training_pose |= same;
+    given_is_training_pose |= p < static_cast<int>(model_.states.size()) &&
+                              model_.states[p].cols() == model_.mesh.num_vertices() &&
+                              *z == Eigen::VectorXd(model_.latents.col(p)) && at_given_bones(p);
   }
   if (!given_is_training_pose) {
     Eigen::Matrix3Xd state, surface;
@@ -115,12 +120,14 @@ bool LatentFitter::ChooseStart(const FitTarget* target, const Eigen::Matrix3Xd* 
       *error = simulate_error;
     }
   }
-  const std::vector<RigidTransform> given_bones = bones_;
   for (int p = 0; options.training_poses && p < model_.num_poses(); ++p) {
     if (p >= static_cast<int>(model_.states.size()) ||
         model_.states[p].cols() != model_.mesh.num_vertices()) {
       continue;
     }
+    // Bones that are not fitted stay where they were set: only the training poses at
+    // those motions can start the fit (another pose's would hold the bones there).
+    if (!options_.fit_bones && !at_given_bones(p)) continue;
     for (size_t b = 0; b < bones_.size(); ++b) bones_[b] = model_.bones[b].pose_transforms[p];
     const Eigen::Matrix3Xd surface =
         EmbeddedPositions(model_.embedding, model_.mesh.tets, model_.states[p]);

@@ -849,5 +849,36 @@ TEST(LatentFitTest, StartIsTheTrainingPoseClosestToTheTarget) {
   EXPECT_EQ(name, "given");
 }
 
+// Without fit_bones the bones stay where they were set: a training pose at other bone
+// motions does not start the fit (it held the bones at its motion before), one at the
+// same motions may.
+TEST(LatentFitTest, BonesNotFittedKeepTheirMotionWhenTheStartIsChosen) {
+  ActiveModel model = TrainedModel(true);
+  const int moved_pose = 4;
+  model.bones[0].pose_transforms[moved_pose].translation = Eigen::Vector3d(0.0, 0.05, 0.0);
+  ASSERT_TRUE(testing::StoreTrainingEquilibria(&model));
+  const FitTarget target = FullSurfaceTarget(
+      EmbeddedPositions(model.embedding, model.mesh.tets, model.states[moved_pose]));
+  for (const bool fit_bones : {true, false}) {
+    SCOPED_TRACE(fit_bones ? "bones fitted" : "bones not fitted");
+    LatentFitOptions options;
+    options.fit_bones = fit_bones;
+    LatentFitter fitter(model, options);
+    Eigen::VectorXd z = fitter.PriorLatent();
+    std::string name, error;
+    ASSERT_TRUE(fitter.ChooseStart(&target, nullptr, PointCloudFitOptions(), FitStartOptions(),
+                                   &z, &name, &error))
+        << error;
+    const Eigen::Vector3d translation = fitter.bone_transforms()[0].translation;
+    if (fit_bones) {
+      EXPECT_EQ(name, model.poses[moved_pose].name);
+      EXPECT_EQ(translation, model.bones[0].pose_transforms[moved_pose].translation);
+    } else {
+      EXPECT_NE(name, model.poses[moved_pose].name);
+      EXPECT_EQ(translation, Eigen::Vector3d::Zero());
+    }
+  }
+}
+
 }  // namespace
 }  // namespace aqs
