@@ -254,8 +254,11 @@ bool BenchmarkFits::Fit(const std::string& mix, const std::string& method, int m
                         const PointCloudFitOptions& cloud_options,
                         const Eigen::Matrix3Xd& truth, const LatentFitResult* from,
                         LatentFitResult* kept) {
+  // Every fit starts alike, as aqs_fit's would: at rest, without the factor of the fit
+  // before (its first solve would reuse it by CG, so a row depended on the rows before).
   fitter_.set_bone_transforms(rest_);
   fitter_.set_start_state(model_.mesh.vertices);
+  fitter_.ForgetFactor();
   WallTimer timer;
   Eigen::VectorXd z = options_.start.mean_latent ? fitter_.MeanLatent() : fitter_.PriorLatent();
   std::string fit_error;
@@ -515,8 +518,12 @@ bool FitBenchmarkOptions::Validate(std::string* error) const {
 JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
                           std::string* error) {
   if (!options.Validate(error)) return JobStatus::kBadInput;
+  // The sequence part empties output_dir/sequence first.
+  const std::string sequence_dir = options.output_dir + "/sequence";
   if (!CheckOutputApart(options.output_dir, options.model, error) ||
-      !CheckOutputApart(options.output_dir, options.test_set, error)) {
+      !CheckOutputApart(options.output_dir, options.test_set, error) ||
+      (options.sequence && (!CheckInputOutside(options.model, sequence_dir, error) ||
+                            !CheckInputOutside(options.test_set, sequence_dir, error)))) {
     return JobStatus::kBadInput;
   }
   std::error_code code;
@@ -560,7 +567,7 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
   // point into the sequence job.)
   FitSequenceOptions sequence;
   sequence.sequence = options.test_set + "/sequence/markers";
-  sequence.output_dir = options.output_dir + "/sequence";
+  sequence.output_dir = sequence_dir;
   sequence.model = options.model;
   sequence.fit = options.fit;
   sequence.points = options.points;

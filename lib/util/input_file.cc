@@ -114,4 +114,17 @@ bool CheckOutputApart(const std::string& output, const std::string& input, std::
   return true;
 }
 
+bool CheckInputOutside(const std::string& input, const std::string& replaced,
+                       std::string* error) {
+  if (input.empty() || replaced.empty()) return true;
+  const std::string in = ResolvedPath(input);
+  const std::string folder = ResolvedPath(replaced);
+  if (in == folder || in.compare(0, folder.size() + 1, folder + "/") == 0) {
+    *error = input + ": lies in " + replaced + ", which this job empties and writes anew; " +
+             "move the input or write elsewhere";
+    return false;
+  }
+  return true;
+}
+
 }  // namespace aqs

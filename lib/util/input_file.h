@@ -38,6 +38,12 @@ bool CheckOutputFile(const std::string& path, std::string* error);
 // *error naming both.
 bool CheckOutputApart(const std::string& output, const std::string& input, std::string* error);
 
+// Checks that the input `input` (a file or a folder) is neither the folder `replaced`,
+// which a job empties and writes anew, nor inside it (symbolic links and "." and ".."
+// resolved). Empty paths pass. Returns false with *error naming both.
+bool CheckInputOutside(const std::string& input, const std::string& replaced,
+                       std::string* error);
+
 }  // namespace aqs
 
 #endif  // AQS_UTIL_INPUT_FILE_H_

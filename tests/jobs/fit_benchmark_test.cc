@@ -171,6 +171,26 @@ TEST(FitBenchmarkTest, ChecksTheSequenceBeforeAnyFit) {
   EXPECT_EQ(log.str().find("physics_pose"), std::string::npos) << log.str();
 }
 
+// An input in output_dir/sequence, which the sequence part empties, is refused before
+// anything runs (the model or the test set there was deleted after the fits).
+TEST(FitBenchmarkTest, RefusesInputsInTheFolderItEmpties) {
+  testing::TempDir dir;
+  ASSERT_NO_FATAL_FAILURE(WriteModelAndSet(dir));
+  std::filesystem::create_directories(dir.File("out"));
+  std::filesystem::rename(dir.File("model"), dir.File("out/sequence"));
+  FitBenchmarkOptions options = PosesAndScansOf(dir);
+  options.model = dir.File("out/sequence");
+  options.sequence = true;
+  std::ostringstream log;
+  std::string error;
+  EXPECT_EQ(RunFitBenchmark(options, log, &error), JobStatus::kBadInput);
+  EXPECT_NE(error.find("out/sequence: lies in " + dir.File("out") + "/sequence, which this job "
+                       "empties"),
+            std::string::npos)
+      << error;
+  EXPECT_TRUE(std::filesystem::exists(dir.File("out/sequence/model.txt")));
+}
+
 TEST(FitBenchmarkTest, KeepsTheRowsFittedBeforeAFailure) {
   testing::TempDir dir;
   ASSERT_NO_FATAL_FAILURE(WriteModelAndSet(dir));
