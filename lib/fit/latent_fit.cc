@@ -452,7 +452,8 @@ bool LatentFitter::FitPointCloud(const Eigen::Matrix3Xd& points,
   result->mean_error = used > 0 ? sum / used : 0.0;
   result->rms_error = used > 0 ? std::sqrt(sum_squares / used) : 0.0;
   result->max_error = worst;
-  if (used < 3 && landmarks.num_points() == 0) {
+  // Landmarks hold the fit only where they weigh in it.
+  if (used < 3 && !(landmarks.num_points() > 0 && cloud_options.landmark_weight > 0)) {
     // Points beyond max_distance weigh a constant: with (almost) none near, nothing held
     // the fit (it ends where it started, "converged", with no error to report).
     std::ostringstream out;

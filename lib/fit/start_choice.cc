@@ -70,8 +70,11 @@ double LatentFitter::StartObjective(const FitTarget* target, const Eigen::Matrix
                                               cloud_options, options_.num_threads, &used, &mean);
     cost = ObjectiveWithPriors(matched, surface, z, latent_prior, 0.0);
   }
-  if (used < 3) return std::numeric_limits<double>::infinity();
-  if (cloud_options.landmarks.num_points() > 0 && cloud_options.landmark_weight > 0) {
+  // Fewer than 3 matched points hold nothing, unless landmarks that weigh in the fit do.
+  const bool landmarks_hold =
+      cloud_options.landmarks.num_points() > 0 && cloud_options.landmark_weight > 0;
+  if (used < 3 && !landmarks_hold) return std::numeric_limits<double>::infinity();
+  if (landmarks_hold) {
     cost += cloud_options.landmark_weight * TargetDataTerm(cloud_options.landmarks, surface);
   }
   return cost;

@@ -849,6 +849,36 @@ TEST(LatentFitTest, StartIsTheTrainingPoseClosestToTheTarget) {
   EXPECT_EQ(name, "given");
 }
 
+// A scan beyond --max_distance everywhere holds nothing: such a fit fails, unless
+// landmarks that weigh in it hold it (weight 0 ones do not: the fit ended "converged"
+// where it started), and the start choice scores such landmarks' starts (it called every
+// start unusable).
+TEST(LatentFitTest, LandmarksHoldAScanOutOfReachOnlyWhereTheyWeigh) {
+  const ActiveModel model = TrainedModel(false);
+  LatentFitter fitter(model, LatentFitOptions());
+  Eigen::Matrix3Xd state, surface;
+  std::string error;
+  ASSERT_TRUE(fitter.Simulate(model.latents.col(2), &state, &surface, &error)) << error;
+  const Eigen::Matrix3Xd far = surface.colwise() + Eigen::Vector3d(0, 0, 5.0);
+  std::vector<int> vertices;
+  for (int v = 0; v < model.num_surface_vertices(); v += 5) vertices.push_back(v);
+  PointCloudFitOptions cloud;
+  cloud.max_distance = 0.5;
+  cloud.landmarks = VertexTarget(vertices, surface(Eigen::all, vertices));
+  cloud.landmark_weight = 0.0;
+  LatentFitResult fit;
+  fitter.set_start_state(model.mesh.vertices);
+  EXPECT_FALSE(fitter.FitPointCloud(far, cloud, fitter.PriorLatent(), &fit, &error));
+  EXPECT_NE(error.find("fewer than 3 of the scan's"), std::string::npos) << error;
+  EXPECT_FALSE(std::isfinite(fitter.StartObjective(nullptr, &far, cloud, surface,
+                                                   fitter.PriorLatent())));
+  cloud.landmark_weight = 1.0;
+  EXPECT_TRUE(std::isfinite(fitter.StartObjective(nullptr, &far, cloud, surface,
+                                                  fitter.PriorLatent())));
+  fitter.set_start_state(model.mesh.vertices);
+  EXPECT_TRUE(fitter.FitPointCloud(far, cloud, fitter.PriorLatent(), &fit, &error)) << error;
+}
+
 // Without fit_bones the bones stay where they were set: a training pose at other bone
 // motions does not start the fit (it held the bones at its motion before), one at the
 // same motions may.
