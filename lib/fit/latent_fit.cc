@@ -389,6 +389,9 @@ bool LatentFitter::FitPointCloud(const Eigen::Matrix3Xd& points,
   LatentFitOptions saved = options_;
   options_.max_iterations = cloud_options.iterations_per_round;
   bool ok = true;
+  // The rounds' own convergence (the mean distance settled), not that of the last
+  // round's solve, which iterations_per_round caps.
+  bool rounds_converged = false;
   for (int round = 0; round < cloud_options.max_rounds; ++round) {
     int used = 0;
     double mean = 0.0;
@@ -403,6 +406,7 @@ bool LatentFitter::FitPointCloud(const Eigen::Matrix3Xd& points,
     round_distances.push_back(mean);
     if (previous_mean >= 0 &&
         std::abs(previous_mean - mean) <= cloud_options.relative_tolerance * previous_mean) {
+      rounds_converged = true;
       break;
     }
     previous_mean = mean;
@@ -423,6 +427,11 @@ bool LatentFitter::FitPointCloud(const Eigen::Matrix3Xd& points,
   cloud_options_ = nullptr;
   if (!ok) return false;
   result->iterations = total_iterations;
+  result->converged = rounds_converged;
+  result->message = rounds_converged
+                        ? "the matching rounds converged (the mean distance settled)"
+                        : "the matching rounds ended before the mean distance settled (" +
+                              result->message + ")";
   result->round_distances = round_distances;
   result->solves = totals.solves;
   result->solve_factorizations = totals.solve_factorizations;

@@ -879,6 +879,31 @@ TEST(LatentFitTest, LandmarksHoldAScanOutOfReachOnlyWhereTheyWeigh) {
   EXPECT_TRUE(fitter.FitPointCloud(far, cloud, fitter.PriorLatent(), &fit, &error)) << error;
 }
 
+// Matching rounds converge when their mean distance settles, whatever the capped solve
+// of the last round says (with one iteration per round it always hit its cap, and the
+// fit was reported not converged); rounds that run out are not converged.
+TEST(LatentFitTest, MatchingRoundsConvergeByTheirOwnTest) {
+  const ActiveModel model = TrainedModel(false);
+  LatentFitter fitter(model, LatentFitOptions());
+  Eigen::Matrix3Xd state, scan;
+  std::string error;
+  ASSERT_TRUE(fitter.Simulate(model.latents.col(2), &state, &scan, &error)) << error;
+  PointCloudFitOptions cloud;
+  cloud.max_distance = 0.5;
+  cloud.rematch_every_evaluation = false;
+  cloud.iterations_per_round = 1;
+  cloud.max_rounds = 50;
+  cloud.relative_tolerance = 0.05;
+  LatentFitResult fit;
+  ASSERT_TRUE(fitter.FitPointCloud(scan, cloud, fitter.PriorLatent(), &fit, &error)) << error;
+  EXPECT_LT(fit.round_distances.size(), 50u);
+  EXPECT_TRUE(fit.converged) << fit.message;
+  cloud.max_rounds = 1;
+  fitter.set_start_state(model.mesh.vertices);
+  ASSERT_TRUE(fitter.FitPointCloud(scan, cloud, fitter.PriorLatent(), &fit, &error)) << error;
+  EXPECT_FALSE(fit.converged) << fit.message;
+}
+
 // Without fit_bones the bones stay where they were set: a training pose at other bone
 // motions does not start the fit (it held the bones at its motion before), one at the
 // same motions may.
