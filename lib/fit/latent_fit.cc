@@ -359,7 +359,9 @@ bool LatentFitter::FitPointCloud(const Eigen::Matrix3Xd& points,
   }
   Eigen::VectorXd z = initial;
   Eigen::Matrix3Xd state, surface;
-  if (!Simulate(z, &state, &surface, error)) {
+  // The matching rounds match the start's surface first; the one solve's FitFrom solves
+  // the start itself (and counts it).
+  if (!cloud_options.rematch_every_evaluation && !Simulate(z, &state, &surface, error)) {
     result->latent = z;
     result->bones = bones_;
     result->state = state;
