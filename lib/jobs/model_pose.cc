@@ -35,7 +35,8 @@ bool ResolveModelPose(const ActiveModel& model, const std::string& latent_file,
 }
 
 LatentFileModel LatentFileModelOf(const ActiveModel& model) {
-  return {FingerprintText(ModelFingerprint(model)), FingerprintText(LearnedStateFingerprint(model))};
+  return {FingerprintText(ModelFingerprint(model)),
+          FingerprintText(LearnedStateFingerprint(model))};
 }
 
 bool CheckLatentFileModel(const ActiveModel& model, const std::string& path,
