@@ -64,6 +64,7 @@ bool FitFromChosenStart(LatentFitter* fitter, const FitTarget* target,
                                                                         given_bones));
   std::string first_error;
   const bool first_ok = FitOnce(fitter, target, points, cloud_options, z, result, &first_error);
+  AddFitCounters(fitter->start_choice_work(), result);
   result->start = start;
   result->retry_reason.clear();
   result->retry_kept = false;

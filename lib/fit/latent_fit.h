@@ -305,6 +305,10 @@ class LatentFitter {
   // objective. Sets the bones and start state, *z and
   // *name ("given" or the pose's name). Returns false with *error if the given start
   // cannot be simulated and no training pose is available.
+  // The work of the last ChooseStart (LatentFitResult's solves ... jacobian_seconds: the
+  // given start's solve; a training pose's costs none), which a fit's counters leave
+  // out (FitFromChosenStart adds it to its result).
+  const LatentFitResult& start_choice_work() const { return start_choice_work_; }
   bool ChooseStart(const FitTarget* target, const Eigen::Matrix3Xd* points,
                    const PointCloudFitOptions& cloud_options, const FitStartOptions& options,
                    Eigen::VectorXd* z, std::string* name, std::string* error);
@@ -381,8 +385,10 @@ class LatentFitter {
   std::vector<RigidTransform> bones_;
   QuasistaticSolveReport last_simulate_report_;
   FitPrior prior_;
-  // Counters of the current fit (LatentFitResult's solves ... jacobian_seconds).
+  // Counters of the current fit (LatentFitResult's solves ... jacobian_seconds), and
+  // those of the last start choice.
   LatentFitResult stats_;
+  LatentFitResult start_choice_work_;
   // Set by FitPointCloud while it fits (both modes; nullptr: not a scan fit): its
   // options (landmarks, bone prior), and each bone's 6 parameters at its start, where
   // its bone prior is centred.

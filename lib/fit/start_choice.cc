@@ -89,6 +89,7 @@ bool LatentFitter::ChooseStart(const FitTarget* target, const Eigen::Matrix3Xd* 
   auto score = [&](const Eigen::Matrix3Xd& surface, const Eigen::VectorXd& latent) {
     return StartObjective(target, points, cloud_options, surface, latent);
   };
+  stats_ = LatentFitResult();  // the choice's own work (start_choice_work)
   double best = std::numeric_limits<double>::infinity();
   Eigen::VectorXd best_z = *z;
   std::vector<RigidTransform> best_bones = bones_;
@@ -144,6 +145,7 @@ bool LatentFitter::ChooseStart(const FitTarget* target, const Eigen::Matrix3Xd* 
     }
   }
   bones_ = given_bones;
+  start_choice_work_ = stats_;
   if (points != nullptr && !std::isfinite(best)) {
     // Every start that could be simulated matched fewer than 3 of the scan's points.
     best_name.clear();

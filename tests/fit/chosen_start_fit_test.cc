@@ -162,5 +162,27 @@ TEST_F(ChosenStartFitTest, RetriesWhenNotConvergedAndNotOtherwise) {
   }
 }
 
+// The given start's solve in the start choice counts in the fit's work (it was left
+// out: the fit's counters start at its own first solve).
+TEST_F(ChosenStartFitTest, TheStartChoicesSolveCountsInTheWork) {
+  const FitTarget target = Target(0.5 * model_.latents.col(2), RigidTransform());
+  FitStartOptions given_only;
+  given_only.training_poses = false;
+  given_only.retry_from_given = false;
+  LatentFitter direct_fitter(model_, options_);
+  LatentFitResult direct, chosen;
+  std::string error;
+  const Eigen::VectorXd start = direct_fitter.PriorLatent();
+  ASSERT_TRUE(direct_fitter.Fit(target, start, &direct, &error)) << error;
+  LatentFitter fitter(model_, options_);
+  ASSERT_TRUE(FitFromChosenStart(&fitter, &target, nullptr, PointCloudFitOptions(), given_only,
+                                 start, &chosen, &error))
+      << error;
+  EXPECT_EQ(chosen.start, "given");
+  EXPECT_EQ(fitter.start_choice_work().solves, 1);
+  EXPECT_GE(chosen.solves, direct.solves + 1);
+  EXPECT_GE(chosen.solve_factorizations, fitter.start_choice_work().solve_factorizations);
+}
+
 }  // namespace
 }  // namespace aqs
