@@ -12,17 +12,16 @@
 #include "eval/held_out_overlap.h"
 #include "eval/surface_pca.h"
 #include "geometry/points_near_model.h"
+#include "jobs/held_out_fit_store.h"
 #include "jobs/held_out_fits.h"
 #include "jobs/report_script.h"
 #include "mesh/mesh_io.h"
 #include "mesh/ply_io.h"
-#include "model/model_fingerprint.h"
 #include "model/model_io.h"
 #include "prepare/pose_files.h"
 #include "train/progress.h"
 #include "util/atomic_file.h"
 #include "util/blas.h"
-#include "util/fnv_hash.h"
 #include "util/input_file.h"
 #include "util/make_directory.h"
 #include "util/matrix_io.h"
@@ -80,9 +79,7 @@ bool ReadEvaluationInputs(const EvaluateJobOptions& options, bool distributed, b
     // and stores every fit as a fit of its own.
     std::vector<std::string> fingerprints;
     for (const Eigen::Matrix3Xd& surface : *test_surfaces) {
-      FnvHasher hasher;
-      hasher.AddMatrix(surface);
-      fingerprints.push_back(FingerprintText(hasher.hash()));
+      fingerprints.push_back(SurfaceFingerprint(surface));
     }
     const int unlike = communicator->FirstItemUnlikeRoot(fingerprints);
     if (unlike >= 0) {

@@ -444,7 +444,7 @@ bool FitMix(const FitBenchmarkOptions& options, const ActiveModel& model, const 
   const std::string landmarks = options.test_set + "/scans/" + mix + "_landmarks.txt";
   if (MayExist(landmarks)) {
     PointCloudFitOptions with_landmarks = options.points;
-    if (!ReadLandmarks(landmarks, model.neutral.vertices, &with_landmarks.landmarks, error)) {
+    if (!ReadMarkerTarget(landmarks, model.neutral.vertices, &with_landmarks.landmarks, error)) {
       return false;
     }
     fits->Physics(mix, "physics_scan_landmarks", 0, nullptr, &cloud, with_landmarks,

@@ -153,17 +153,8 @@ bool FitJobOptions::Validate(std::string* error) const {
   return ValidateFitTargetOptions(target_kind, fit, points, error);
 }
 
-bool ReadMarkerTarget(const std::string& path, int num_surface_vertices, FitTarget* target,
-                      std::string* error) {
-  std::vector<int> vertices;
-  Eigen::Matrix3Xd positions;
-  if (!ReadMarkers(path, num_surface_vertices, &vertices, &positions, error)) return false;
-  *target = VertexTarget(vertices, positions);
-  return true;
-}
-
-bool ReadLandmarks(const std::string& path, const Eigen::Matrix3Xd& neutral, FitTarget* target,
-                   std::string* error) {
+bool ReadMarkerTarget(const std::string& path, const Eigen::Matrix3Xd& neutral,
+                      FitTarget* target, std::string* error) {
   std::vector<int> vertices;
   Eigen::Matrix3Xd positions;
   if (!ReadMarkers(path, static_cast<int>(neutral.cols()), &vertices, &positions, error) ||
@@ -292,14 +283,7 @@ bool ReadJobTarget(const FitJobOptions& options, const ActiveModel& model, JobTa
     }
     job->target = FullSurfaceTarget(target_surface.vertices);
   } else if (kind == "markers") {
-    std::vector<int> vertices;
-    Eigen::Matrix3Xd positions;
-    if (!ReadMarkers(options.target, ns, &vertices, &positions, error) ||
-        !CheckPointsNearModel(options.target, neutral, positions, error) ||
-        !CheckTargetOffsetFromModel(options.target, neutral, vertices, positions, error)) {
-      return false;
-    }
-    job->target = VertexTarget(vertices, positions);
+    if (!ReadMarkerTarget(options.target, neutral, &job->target, error)) return false;
   } else if (kind == "points") {
     if (!ReadPointCloud(options.target, &job->cloud, error)) return false;
     if (job->cloud.cols() < 3) return fail(options.target + ": fewer than 3 points");
@@ -316,7 +300,7 @@ bool ReadJobTarget(const FitJobOptions& options, const ActiveModel& model, JobTa
       return fail(options.landmarks + ": --landmarks go with a point cloud (a scan), but " +
                   options.target + " is fitted as " + kind);
     }
-    if (!ReadLandmarks(options.landmarks, neutral, &job->cloud_options.landmarks, error)) {
+    if (!ReadMarkerTarget(options.landmarks, neutral, &job->cloud_options.landmarks, error)) {
       return false;
     }
   }

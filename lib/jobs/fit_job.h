@@ -63,16 +63,13 @@ struct FitJobResult {
 bool ReadMarkers(const std::string& path, int num_surface_vertices, std::vector<int>* vertices,
                  Eigen::Matrix3Xd* positions, std::string* error);
 
-// The same file as a fit target on those vertices (VertexTarget): markers, or a scan's
-// landmarks. Errors as ReadMarkers'.
-bool ReadMarkerTarget(const std::string& path, int num_surface_vertices, FitTarget* target,
-                      std::string* error);
-
-// A scan's landmarks file (ReadMarkerTarget), checked as every fit target is: finite and
+// A markers file as a fit target on its vertices (VertexTarget): markers, or a scan's
+// landmarks. Errors as ReadMarkers', and the checks every fit target gets: finite and
 // within reach of the model (CheckPointsNearModel), and not in another unit or frame
-// (CheckTargetOffsetFromModel against the neutral surface's vertices `neutral`).
-bool ReadLandmarks(const std::string& path, const Eigen::Matrix3Xd& neutral, FitTarget* target,
-                   std::string* error);
+// (CheckTargetOffsetFromModel against the neutral surface's vertices `neutral`, whose
+// count bounds the marker vertices).
+bool ReadMarkerTarget(const std::string& path, const Eigen::Matrix3Xd& neutral,
+                      FitTarget* target, std::string* error);
 
 // Runs aqs_fit on one target: loads the trained model, reads the target (its kind as
 // options.target_kind says), chooses a start (FitFromChosenStart: options.start, or

@@ -29,14 +29,14 @@ std::string StartName(const ActiveModel& model, int index) {
   return index >= 0 && index < model.num_poses() ? model.poses[index].name : kMeanLatentStart;
 }
 
+}  // namespace
+
 std::string SurfaceFingerprint(const Eigen::Matrix3Xd& surface) {
   const uint64_t columns = static_cast<uint64_t>(surface.cols());
   uint64_t hash = Fnv1a(&columns, sizeof(columns), kFnvOffsetBasis);
   hash = Fnv1a(surface.data(), sizeof(double) * surface.size(), hash);
   return FingerprintText(hash);
 }
-
-}  // namespace
 
 int HeldOutFitBlockSize(const ActiveModel& model) {
   return model.latent_dim() + 12 * static_cast<int>(model.bones.size()) +

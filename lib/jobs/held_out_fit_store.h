@@ -22,6 +22,10 @@ constexpr char kMeanLatentStart[] = "mean latent";
 // LatentFitResult::start of a held-out fit that failed.
 inline constexpr const char* kFailedFitStart = "failed";
 
+// A fingerprint of a surface's points (3 x n, and n), as 16 hexadecimal digits: what
+// the held-out fits' store and the ranks of a distributed evaluation compare poses by.
+std::string SurfaceFingerprint(const Eigen::Matrix3Xd& surface);
+
 // A held-out fit as one block of doubles for `model` (d = latent size, nb bones, nv
 // simulation vertices, ns surface vertices): the latent (d), each bone's rotation
 // (3 x 3, column-major) and translation (3), the equilibrium (3 x nv, column-major),

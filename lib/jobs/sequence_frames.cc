@@ -151,15 +151,10 @@ bool ReadSequenceFrames(const FitSequenceOptions& options, const Eigen::Matrix3X
       }
       f.target = FullSurfaceTarget(surface.vertices);
     } else if (f.kind == "markers") {
-      std::vector<int> vertices;
-      Eigen::Matrix3Xd positions;
-      if (!ReadMarkers(path, ns, &vertices, &positions, error) ||
-          !CheckPointsNearModel(path, neutral, positions, error) ||
-          !CheckTargetOffsetFromModel(path, neutral, vertices, positions, error)) {
+      if (!ReadMarkerTarget(path, neutral, &f.target, error)) {
         *error = From(f, *error);
         return false;
       }
-      f.target = VertexTarget(vertices, positions);
     } else {
       if (!ReadPointCloud(path, &f.cloud, error)) {
         *error = From(f, *error);
@@ -197,7 +192,7 @@ bool ReadSequenceFrames(const FitSequenceOptions& options, const Eigen::Matrix3X
   }
   for (size_t k = 0; k < frames->size(); ++k) {
     const auto& [path, origin] = landmark_files[k];
-    if (!ReadLandmarks(path, neutral, &(*frames)[k].landmarks, error)) {
+    if (!ReadMarkerTarget(path, neutral, &(*frames)[k].landmarks, error)) {
       if (origin != path) *error = origin + ": " + *error;
       return false;
     }
