@@ -11,7 +11,7 @@
 #   3. aqs_collide: re-solves jawOpen and the two fits with contact (teeth as obstacles,
 #      the skin against itself), and reports penetrations and intersecting triangles
 #      before and after.
-# About 12 minutes on 2 cores after the build. Results in out/face_demo/: see the README.
+# 8 to 18 minutes on 2 cores after the build (about 11 on an idle machine). Results in out/face_demo/: see the README.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ./scripts/install_deps.sh

@@ -11,7 +11,8 @@ mkdir -p "$work"
 cmake --install "$build_dir" --prefix "$work/prefix" > "$work/install.log"
 # The curated header set: entry points installed, internal helpers not.
 include="$work/prefix/include/activeqs"
-for header in equilibrium/quasistatic_solver.h diff/equilibrium_differentiator.h model/model_io.h; do
+for header in equilibrium/quasistatic_solver.h diff/equilibrium_differentiator.h model/model_io.h \
+    jobs/fit_sequence.h; do
   [ -f "$include/$header" ] || { echo "missing public header $header"; exit 1; }
 done
 for header in geometry/disjoint_sets.h mesh/text_io_util.h util/atomic_file.h; do
