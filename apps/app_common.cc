@@ -220,9 +220,9 @@ namespace {
 
 // Whether `text`, which starts with an options field `field`, names that field rather
 // than a file: the field is followed by the end, ' ', ',' or '=', by ": " (not a line
-// number, "mu:3:"), or by '.' and a sub-field name that a space, ',', '=' or the end
-// follows ("lattice.nx must", not the file "mu.txt:3:"); and no file or folder of that
-// name is where the app runs (a path "mu: the value ...").
+// number, "mu:3:") where no file or folder of that name is where the app runs (a path's
+// "mu: cannot read ..."), or by '.' and a sub-field name that a space, ',', '=' or the
+// end follows ("lattice.nx must", not the file "mu.txt:3:").
 bool StartsWithField(const std::string& text, const std::string& field) {
   if (text.compare(0, field.size(), field) != 0) return false;
   const size_t n = field.size();
@@ -233,7 +233,10 @@ bool StartsWithField(const std::string& text, const std::string& field) {
   if (ends_word(n)) {
     field_like = true;
   } else if (text[n] == ':') {
-    field_like = n + 1 == text.size() || text[n + 1] == ' ';
+    // Only this form can be a path's message ("mu: cannot read ..." of a file named mu).
+    std::error_code ignored;
+    field_like = (n + 1 == text.size() || text[n + 1] == ' ') &&
+                 !std::filesystem::exists(field, ignored);
   } else if (text[n] == '.') {
     size_t pos = n + 1;
     while (pos < text.size() && (std::islower(static_cast<unsigned char>(text[pos])) ||
@@ -242,8 +245,7 @@ bool StartsWithField(const std::string& text, const std::string& field) {
     }
     field_like = pos > n + 1 && ends_word(pos);
   }
-  std::error_code ignored;
-  return field_like && !std::filesystem::exists(field, ignored);
+  return field_like;
 }
 
 }  // namespace

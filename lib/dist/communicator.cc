@@ -23,11 +23,15 @@ void Communicator::BroadcastText(std::string* text, int root) const {
   if (rank() != root) text->assign(reinterpret_cast<const char*>(packed.data()), bytes);
 }
 
-int Communicator::FirstItemUnlikeRoot(const std::vector<std::string>& items) const {
+int Communicator::FirstItemUnlikeRoot(const std::vector<std::string>& items,
+                                      int* root_count) const {
   std::string text;
   for (const std::string& item : items) text += item + "\n";
   std::string root_text = text;
   BroadcastText(&root_text, 0);
+  if (root_count != nullptr) {
+    *root_count = static_cast<int>(std::count(root_text.begin(), root_text.end(), '\n'));
+  }
   if (root_text == text) return -1;
   size_t at = 0, root_at = 0;
   for (int i = 0;; ++i) {

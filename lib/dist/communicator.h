@@ -51,8 +51,9 @@ class Communicator {
   // The index of the first of `items` that differs from rank 0's (an item missing on
   // one side differs), or -1 where all are the same; -1 on rank 0. Items must not hold
   // '\n'. For inputs that every rank reads from its own machine (targets, by their
-  // fingerprints), which must be rank 0's.
-  int FirstItemUnlikeRoot(const std::vector<std::string>& items) const;
+  // fingerprints), which must be rank 0's. *root_count (if not null): rank 0's number of
+  // items, so that a caller can tell a longer list (the index is then rank 0's count).
+  int FirstItemUnlikeRoot(const std::vector<std::string>& items, int* root_count = nullptr) const;
   // Whether every rank is ok: false on every rank if one is not, with *error set on
   // every rank to the message of the lowest failing rank (prefixed "rank R: " when
   // size() > 1 and R > 0).

@@ -361,12 +361,17 @@ bool LatentFitter::FitPointCloud(const Eigen::Matrix3Xd& points,
   Eigen::Matrix3Xd state, surface;
   // The matching rounds match the start's surface first; the one solve's FitFrom solves
   // the start itself (and counts it).
-  if (!cloud_options.rematch_every_evaluation && !Simulate(z, &state, &surface, error)) {
-    result->latent = z;
-    result->bones = bones_;
-    result->state = state;
-    result->surface = surface;
-    return false;
+  LatentFitResult start_work;  // that solve of the start, which the rounds' work includes
+  if (!cloud_options.rematch_every_evaluation) {
+    stats_ = LatentFitResult();
+    if (!Simulate(z, &state, &surface, error)) {
+      result->latent = z;
+      result->bones = bones_;
+      result->state = state;
+      result->surface = surface;
+      return false;
+    }
+    start_work = stats_;
   }
   const Eigen::Matrix3Xi& triangles = model_.neutral.triangles;
   const FitTarget& landmarks = cloud_options.landmarks;
@@ -386,7 +391,7 @@ bool LatentFitter::FitPointCloud(const Eigen::Matrix3Xd& points,
   } else {
   double previous_mean = -1.0;
   int total_iterations = 0;
-  LatentFitResult totals;
+  LatentFitResult totals = start_work;
   std::vector<double> round_distances;
   LatentFitOptions saved = options_;
   options_.max_iterations = cloud_options.iterations_per_round;
@@ -424,6 +429,19 @@ bool LatentFitter::FitPointCloud(const Eigen::Matrix3Xd& points,
     totals.jacobian_seconds += result->jacobian_seconds;
     z = result->latent;
     surface = result->surface;
+  }
+  // Rounds that ran out: whether the last round's solve settled the mean distance (a
+  // match of its surface, as the next round's would be).
+  if (ok && !rounds_converged && previous_mean >= 0) {
+    int used = 0;
+    double mean = 0.0;
+    MatchPointCloud(points, surface, triangles, cloud_options, options_.num_threads, &used,
+                    &mean);
+    if (used >= 3) {
+      round_distances.push_back(mean);
+      rounds_converged =
+          std::abs(previous_mean - mean) <= cloud_options.relative_tolerance * previous_mean;
+    }
   }
   options_ = saved;
   cloud_options_ = nullptr;

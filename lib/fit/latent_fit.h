@@ -98,7 +98,8 @@ struct LatentFitResult {
   // Point clouds: the fraction of scan points within max_distance of the fitted surface
   // (mean_error etc. are their matched distances).
   double matched_fraction = 1.0;
-  // Point clouds: the mean matched distance at the start of each matching round.
+  // Point clouds: the mean matched distance at the start of each matching round, and
+  // after the last round's solve where the rounds ran out.
   std::vector<double> round_distances;
   // Point clouds with landmarks (PointCloudFitOptions::landmarks): their mean distance
   // to the fitted surface points (0 without landmarks).
@@ -148,7 +149,8 @@ struct PointCloudFitOptions {
   // Cauchy robust weights w = 1 / (1 + (d / robust_scale)^2) (iteratively reweighted
   // least squares); <= 0: plain least squares.
   double robust_scale = 0.2;
-  // Stop when the mean matched distance changes by less than this fraction.
+  // Stop when the mean matched distance changes by less than this fraction; rounds that
+  // run out converge when the last round's solve changed it by less (one more matching).
   double relative_tolerance = 1e-3;
   // Point-to-plane residuals (FitTarget::normals, the matched triangle's normal) with
   // this weight on the tangential part; >= 1: point-to-point. (Matching rounds only.)

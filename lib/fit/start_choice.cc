@@ -70,9 +70,12 @@ double LatentFitter::StartObjective(const FitTarget* target, const Eigen::Matrix
                                               cloud_options, options_.num_threads, &used, &mean);
     cost = ObjectiveWithPriors(matched, surface, z, latent_prior, 0.0);
   }
-  // Fewer than 3 matched points hold nothing, unless landmarks that weigh in the fit do.
-  const bool landmarks_hold =
-      cloud_options.landmarks.num_points() > 0 && cloud_options.landmark_weight > 0;
+  // Fewer than 3 matched points hold nothing, unless landmarks that weigh in the fit do;
+  // matching rounds refuse such a match whatever the landmarks (FitPointCloud), and its
+  // data term is 0/0 there.
+  const bool landmarks_hold = cloud_options.rematch_every_evaluation &&
+                              cloud_options.landmarks.num_points() > 0 &&
+                              cloud_options.landmark_weight > 0;
   if (used < 3 && !landmarks_hold) return std::numeric_limits<double>::infinity();
   if (landmarks_hold) {
     cost += cloud_options.landmark_weight * TargetDataTerm(cloud_options.landmarks, surface);
@@ -117,7 +120,11 @@ bool LatentFitter::ChooseStart(const FitTarget* target, const Eigen::Matrix3Xd* 
     Eigen::Matrix3Xd state, surface;
     std::string simulate_error;
     if (Simulate(*z, &state, &surface, &simulate_error)) {
+      // A score that is not a number must not block every candidate's `s < best`.
       best = score(surface, *z);
+      if (!(best < std::numeric_limits<double>::infinity())) {
+        best = std::numeric_limits<double>::infinity();
+      }
       best_state = state;
       best_name = "given";
     } else {

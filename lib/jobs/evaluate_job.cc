@@ -81,13 +81,18 @@ bool ReadEvaluationInputs(const EvaluateJobOptions& options, bool distributed, b
     for (const Eigen::Matrix3Xd& surface : *test_surfaces) {
       fingerprints.push_back(SurfaceFingerprint(surface));
     }
-    const int unlike = communicator->FirstItemUnlikeRoot(fingerprints);
+    int root_count = 0;
+    const int unlike = communicator->FirstItemUnlikeRoot(fingerprints, &root_count);
+    const int count = static_cast<int>(fingerprints.size());
     if (unlike >= 0) {
-      *error = (unlike < static_cast<int>(options.test_paths.size())
-                    ? options.test_paths[unlike]
-                    : std::string("the held-out poses")) +
-               ": another surface here than rank 0 read (every machine must hold the same "
-               "held-out poses)";
+      if (unlike < count && unlike < root_count &&
+          unlike < static_cast<int>(options.test_paths.size())) {
+        *error = options.test_paths[unlike] + ": another surface here than rank 0 read";
+      } else {
+        *error = "the held-out poses: " + std::to_string(count) + " here, " +
+                 std::to_string(root_count) + " on rank 0";
+      }
+      *error += " (every machine must hold the same held-out poses)";
     }
     if (!communicator->Agree(unlike < 0, error)) return false;
   }

@@ -83,14 +83,22 @@ bool ReadFramesOnEveryRank(const FitSequenceOptions& options, const ActiveModel&
   for (const SequenceFrame& f : *frames) {
     items.push_back(f.name + " " + FingerprintText(FrameTargetFingerprint(f)));
   }
-  const int unlike = ranks.comm->FirstItemUnlikeRoot(items);
+  int root_count = 0;
+  const int unlike = ranks.comm->FirstItemUnlikeRoot(items, &root_count);
+  const int count = static_cast<int>(frames->size());
   if (ok && unlike >= 0) {
-    *error = options.sequence + ": " +
-             (unlike < static_cast<int>(frames->size())
-                  ? "frame " + std::to_string(unlike) + " (" + (*frames)[unlike].name +
-                        ") differs from rank 0's (another target file at that path?)"
-                  : std::to_string(frames->size()) + " frames here, fewer than rank 0's") +
-             ": every machine must hold the same sequence";
+    std::string what;
+    if (unlike >= count) {
+      what = std::to_string(count) + " frames here, fewer than rank 0's " +
+             std::to_string(root_count);
+    } else if (unlike >= root_count) {
+      what = std::to_string(count) + " frames here, more than rank 0's " +
+             std::to_string(root_count) + " (from " + (*frames)[unlike].name + " on)";
+    } else {
+      what = "frame " + std::to_string(unlike) + " (" + (*frames)[unlike].name +
+             ") differs from rank 0's (another target file at that path?)";
+    }
+    *error = options.sequence + ": " + what + ": every machine must hold the same sequence";
     ok = false;
   }
   return ranks.comm->Agree(ok, error);

@@ -209,6 +209,12 @@ TEST(AqsSimulateTest, FilesNamedLikeAnOptionKeepTheirNameAndLine) {
   EXPECT_EQ(zero.exit_code, 1) << zero.output;
   EXPECT_NE(zero.output.find("error: mu:5: the value for element 2 is 0"), std::string::npos)
       << zero.output;
+  // The option's own message names the flag, whatever files are where the app runs.
+  const testing::CommandResult flag =
+      RunCommand("cd " + dir.path() + " && " + Simulate("--mu=-1" + flags));
+  EXPECT_EQ(flag.exit_code, 1) << flag.output;
+  EXPECT_NE(flag.output.find("error: --mu must be finite and > 0 (is -1)"), std::string::npos)
+      << flag.output;
 }
 
 struct BadInputCase {

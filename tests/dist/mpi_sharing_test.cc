@@ -99,8 +99,16 @@ TEST(MpiCommunicatorTest, FirstItemUnlikeRootNamesTheFirstDifference) {
   EXPECT_EQ(world.FirstItemUnlikeRoot({"a 1", r == 0 ? "b 2" : "b 9", "c 3"}), r == 0 ? -1 : 1);
   std::vector<std::string> items = {"a", "b"};
   if (r > 0) items.pop_back();  // fewer items than rank 0
-  EXPECT_EQ(world.FirstItemUnlikeRoot(items), r == 0 ? -1 : 1);
-  EXPECT_EQ(world.FirstItemUnlikeRoot({}), -1);
+  int root_count = -1;
+  EXPECT_EQ(world.FirstItemUnlikeRoot(items, &root_count), r == 0 ? -1 : 1);
+  EXPECT_EQ(root_count, 2);
+  // More items than rank 0: the first difference is rank 0's count.
+  items = {"a", "b"};
+  if (r > 0) items.push_back("c");
+  EXPECT_EQ(world.FirstItemUnlikeRoot(items, &root_count), r == 0 ? -1 : 2);
+  EXPECT_EQ(root_count, 2);
+  EXPECT_EQ(world.FirstItemUnlikeRoot({}, &root_count), -1);
+  EXPECT_EQ(root_count, 0);
 }
 
 TEST(MpiSharingTest, AnotherDecoderOnOneRankIsRefused) {

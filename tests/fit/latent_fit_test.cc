@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <memory>
 #include <random>
@@ -881,27 +882,94 @@ TEST(LatentFitTest, LandmarksHoldAScanOutOfReachOnlyWhereTheyWeigh) {
 
 // Matching rounds converge when their mean distance settles, whatever the capped solve
 // of the last round says (with one iteration per round it always hit its cap, and the
-// fit was reported not converged); rounds that run out are not converged.
+// fit was reported not converged). Rounds that run out converge where the last round's
+// solve settled the distance (one more matching says so), and not where it did not.
 TEST(LatentFitTest, MatchingRoundsConvergeByTheirOwnTest) {
   const ActiveModel model = TrainedModel(false);
-  LatentFitter fitter(model, LatentFitOptions());
   Eigen::Matrix3Xd state, scan;
   std::string error;
-  ASSERT_TRUE(fitter.Simulate(model.latents.col(2), &state, &scan, &error)) << error;
+  {
+    LatentFitter fitter(model, LatentFitOptions());
+    ASSERT_TRUE(fitter.Simulate(model.latents.col(2), &state, &scan, &error)) << error;
+  }
   PointCloudFitOptions cloud;
   cloud.max_distance = 0.5;
   cloud.rematch_every_evaluation = false;
   cloud.iterations_per_round = 1;
-  cloud.max_rounds = 50;
   cloud.relative_tolerance = 0.05;
+  // Each fit by a fitter of its own, so that their paths are the same.
+  auto fit_rounds = [&](int rounds, LatentFitResult* fit) {
+    LatentFitter fitter(model, LatentFitOptions());
+    cloud.max_rounds = rounds;
+    return fitter.FitPointCloud(scan, cloud, fitter.PriorLatent(), fit, &error);
+  };
   LatentFitResult fit;
-  ASSERT_TRUE(fitter.FitPointCloud(scan, cloud, fitter.PriorLatent(), &fit, &error)) << error;
-  EXPECT_LT(fit.round_distances.size(), 50u);
+  ASSERT_TRUE(fit_rounds(50, &fit)) << error;
+  const int matchings = static_cast<int>(fit.round_distances.size());
+  ASSERT_LT(matchings, 50);
+  ASSERT_GE(matchings, 3) << "the test needs rounds that settle after two solves or more";
   EXPECT_TRUE(fit.converged) << fit.message;
-  cloud.max_rounds = 1;
-  fitter.set_start_state(model.mesh.vertices);
-  ASSERT_TRUE(fitter.FitPointCloud(scan, cloud, fitter.PriorLatent(), &fit, &error)) << error;
+  const Eigen::Matrix3Xd settled = fit.surface;
+  // As many rounds as there were solves: they run out where the distance has settled.
+  ASSERT_TRUE(fit_rounds(matchings - 1, &fit)) << error;
+  EXPECT_TRUE(fit.converged) << fit.message;
+  EXPECT_EQ(static_cast<int>(fit.round_distances.size()), matchings);
+  EXPECT_LT((fit.surface - settled).norm(), 1e-9 * (1.0 + settled.norm()));
+  // One round from the prior's centre does not settle it.
+  ASSERT_TRUE(fit_rounds(1, &fit)) << error;
   EXPECT_FALSE(fit.converged) << fit.message;
+}
+
+// Matching rounds refuse a match of fewer than 3 scan points whatever the landmarks, so
+// there a start that reaches no scan point scores +inf, also with landmarks (its matched
+// data term was 0/0, and the NaN score of a given start kept every training pose from
+// being chosen: "no start reaches the scan").
+TEST(LatentFitTest, MatchingRoundsGivenStartThatReachesNothingLosesToATrainingPose) {
+  ActiveModel model = TrainedModel(false);
+  ASSERT_TRUE(testing::StoreTrainingEquilibria(&model));
+  LatentFitter fitter(model, LatentFitOptions());
+  const int pose = 2;
+  const Eigen::Matrix3Xd pose_surface =
+      EmbeddedPositions(model.embedding, model.mesh.tets, model.states[pose]);
+  // The given start, off every training latent.
+  const Eigen::VectorXd given =
+      fitter.PriorLatent() - 1.5 * (model.latents.col(pose) - fitter.PriorLatent());
+  for (int p = 0; p < model.num_poses(); ++p) {
+    ASSERT_GT((given - model.latents.col(p)).norm(), 1e-6);
+  }
+  Eigen::Matrix3Xd state, given_surface;
+  std::string error;
+  ASSERT_TRUE(fitter.Simulate(given, &state, &given_surface, &error)) << error;
+  // The scan: the pose's surface vertices far from the given start's surface.
+  const TriangleBvh bvh(given_surface, model.neutral.triangles);
+  const std::vector<ClosestPointResult> closest = bvh.ClosestPoints(pose_surface, 1);
+  std::vector<double> distances;
+  for (const ClosestPointResult& c : closest) distances.push_back(c.distance);
+  std::vector<double> sorted = distances;
+  std::sort(sorted.begin(), sorted.end());
+  const double max_distance = 0.5 * sorted[sorted.size() * 8 / 10];
+  ASSERT_GT(max_distance, 0.0);
+  std::vector<int> far;
+  for (size_t v = 0; v < distances.size(); ++v) {
+    if (distances[v] > 2.0 * max_distance) far.push_back(static_cast<int>(v));
+  }
+  ASSERT_GE(far.size(), 6u);
+  const Eigen::Matrix3Xd scan = pose_surface(Eigen::all, far);
+  PointCloudFitOptions cloud;
+  cloud.max_distance = max_distance;
+  cloud.rematch_every_evaluation = false;
+  const std::vector<int> landmark_vertices(far.begin(), far.begin() + 3);
+  cloud.landmarks = VertexTarget(landmark_vertices, pose_surface(Eigen::all, landmark_vertices));
+  cloud.landmark_weight = 0.03;
+  EXPECT_EQ(fitter.StartObjective(nullptr, &scan, cloud, given_surface, given),
+            std::numeric_limits<double>::infinity());
+  Eigen::VectorXd start = given;
+  std::string name;
+  fitter.set_start_state(model.mesh.vertices);
+  ASSERT_TRUE(fitter.ChooseStart(nullptr, &scan, cloud, FitStartOptions(), &start, &name,
+                                 &error)) << error;
+  EXPECT_NE(name, "given");
+  EXPECT_FALSE(name.empty());
 }
 
 // Without fit_bones the bones stay where they were set: a training pose at other bone
