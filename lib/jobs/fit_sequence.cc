@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <iomanip>
 #include <memory>
+#include <set>
 #include <sstream>
 
 #include "dist/model_sharing.h"
@@ -128,7 +129,8 @@ std::string SequenceKey(const FitSequenceOptions& options, const ActiveModel& mo
 // frames but no key.txt is an older version's run, taken as it is). Frames of another
 // model or other options are refused, never mixed with this run's. Of the frames done,
 // those before the first whose target changed since it was fitted (targets.txt; none
-// recorded: an older version's run, all) are kept; *note then says which (else empty).
+// recorded: an older version's run, all) are kept; *note then says which, and which
+// temporary files of a killed run were removed, a line each (else empty).
 bool OpenOutputFolder(const FitSequenceOptions& options, const ActiveModel& model,
                       const std::vector<SequenceFrame>& frames, const SequenceRanks& ranks,
                       PathLock* lock, std::vector<DoneFrame>* done, std::string* note,
@@ -145,6 +147,15 @@ bool OpenOutputFolder(const FitSequenceOptions& options, const ActiveModel& mode
     // ends): two would replace each other's frames.csv between their OBJs.
     ok = ok && lock->Acquire(options.output_dir, error, "the sequence folder " +
                                                             options.output_dir);
+    // What a run killed while writing left (util/atomic_file.h).
+    std::set<std::string> outputs = {"frames.csv", "latents.bin", "targets.txt", "key.txt"};
+    for (const SequenceFrame& f : frames) outputs.insert(f.name + ".obj");
+    std::vector<std::string> removed;
+    ok = ok && RemoveStaleTemporaryFiles(
+                   options.output_dir,
+                   [&](const std::string& name) { return outputs.count(name) > 0; }, &removed,
+                   error);
+    for (const std::string& line : removed) *note += "cleanup: " + line + "\n";
     const std::string key_path = options.output_dir + "/key.txt";
     const std::string key = SequenceKey(options, model);
     if (ok && MayExist(key_path) && MayExist(options.output_dir + "/frames.csv") &&
@@ -161,9 +172,9 @@ bool OpenOutputFolder(const FitSequenceOptions& options, const ActiveModel& mode
       const int same = FramesOfSameTargets(ReadWholeFile(targets_path), targets,
                                            static_cast<int>(done->size()));
       if (same < static_cast<int>(done->size())) {
-        *note = "frame " + std::to_string(same) + " (" + frames[same].name + "): its target " +
+        *note += "frame " + std::to_string(same) + " (" + frames[same].name + "): its target " +
                 "differs from the one it was fitted to (targets.txt); it and the frames after "
-                "it are fitted again";
+                "it are fitted again\n";
         done->resize(same);
       }
     }
@@ -443,7 +454,7 @@ FitSequenceResult RunFitSequence(const FitSequenceOptions& options, const Active
   std::string first_failure_message;
   const int n = static_cast<int>(frames.size());
   LogSequenceStart(options, frames, ranks, log);
-  if (!targets_note.empty()) log << targets_note << "\n";
+  log << targets_note;
 
   std::string csv = SequenceCsvHeader(model) + "\n";
   Eigen::MatrixXd track(model.latent_dim(), n);

@@ -10,8 +10,10 @@
 #include <fstream>
 #include <iterator>
 #include <string>
+#include <vector>
 
 #include "util/fault_injection.h"
+#include "util/staged_directory.h"
 
 namespace aqs {
 namespace {
@@ -87,6 +89,34 @@ bool WriteFileAtomically(const std::string& path, const std::string& content,
 std::string ReadWholeFile(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+bool RemoveStaleTemporaryFiles(const std::string& dir,
+                               const std::function<bool(const std::string& name)>& is_output,
+                               std::vector<std::string>* removed, std::string* error) {
+  std::error_code code;
+  for (const std::filesystem::directory_entry& entry :
+       std::filesystem::directory_iterator(dir, code)) {
+    if (!entry.is_regular_file(code) || entry.is_symlink(code)) continue;
+    const std::string name = entry.path().filename().string();
+    const size_t at = name.rfind(".tmp");
+    if (at == std::string::npos || at == 0 || at + 4 == name.size()) continue;
+    long pid = 0;
+    bool digits = true;
+    for (size_t i = at + 4; i < name.size() && digits; ++i) {
+      digits = name[i] >= '0' && name[i] <= '9' && pid <= 1000000000L;
+      pid = 10 * pid + (name[i] - '0');
+    }
+    if (!digits || !is_output(name.substr(0, at))) continue;
+    if (pid != static_cast<long>(::getpid()) && !ProcessIsGone(pid)) continue;
+    if (::unlink(entry.path().c_str()) != 0 && errno != ENOENT) {
+      *error = "cannot remove " + entry.path().string() + " (" + std::strerror(errno) + ")";
+      return false;
+    }
+    removed->push_back("removed " + entry.path().string() + ", left by process " +
+                       std::to_string(pid));
+  }
+  return true;
 }
 
 void SyncDirectory(const std::string& dir) {

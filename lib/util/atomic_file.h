@@ -2,7 +2,9 @@
 #define AQS_UTIL_ATOMIC_FILE_H_
 
 #include <fstream>
+#include <functional>
 #include <string>
+#include <vector>
 
 namespace aqs {
 
@@ -42,6 +44,17 @@ bool WriteFileAtomically(const std::string& path, const std::string& content,
 // The text of the file at `path` ("" if it cannot be read): what WriteFileAtomically
 // wrote, for records compared whole (store keys, pre-training's record).
 std::string ReadWholeFile(const std::string& path);
+
+// Removes from the folder `dir` (not its subfolders) the temporary files
+// "<name>.tmp<pid>" that killed writers left, for the names `is_output` accepts: those of
+// processes that are gone, or of this process's pid (which, under the folder's lock, can
+// only be a dead predecessor's). Call it only while holding the folder's writers' lock.
+// Appends one line per file removed to *removed ("removed PATH, left by process PID").
+// Returns false with *error if one cannot be removed; a folder that cannot be listed is
+// left as it is.
+bool RemoveStaleTemporaryFiles(const std::string& dir,
+                               const std::function<bool(const std::string& name)>& is_output,
+                               std::vector<std::string>* removed, std::string* error);
 
 // Flushes the folder `dir`'s entries to the disk (fsync of the folder), so that renames
 // and new entries in it survive a crash of the machine, not only of the process. Best

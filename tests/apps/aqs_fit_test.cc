@@ -406,11 +406,17 @@ TEST_F(AqsFitTest, MarkerSequenceWritesEveryFrameAndResumesAfterAKill) {
   EXPECT_NE(run.output.find("fitted 1 frames"), std::string::npos) << run.output;
   EXPECT_EQ(ReadLines(out + "/frames.csv").size(), 5u);
   // A kill while frame 2's OBJ was being written: its row is there (from before) but the
-  // OBJ is not; frames 2 and 3 are fitted again.
-  fs::remove(out + "/frame_2.obj");
+  // OBJ is not, and its temporary file is left (of a process that is gone); frames 2 and
+  // 3 are fitted again, and the temporary file removed.
+  fs::rename(out + "/frame_2.obj", out + "/frame_2.obj.tmp999999999");
   run = RunCommand(command);
   ASSERT_EQ(run.exit_code, 0) << run.output;
   EXPECT_NE(run.output.find("resuming at frame 2"), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find("cleanup: removed " + out + "/frame_2.obj.tmp999999999, left by "
+                            "process 999999999"),
+            std::string::npos)
+      << run.output;
+  EXPECT_FALSE(fs::exists(out + "/frame_2.obj.tmp999999999"));
   EXPECT_NE(run.output.find("fitted 2 frames"), std::string::npos) << run.output;
   // Nothing left to do.
   run = RunCommand(command);

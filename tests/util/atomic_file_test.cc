@@ -1,8 +1,13 @@
 #include "util/atomic_file.h"
 
+#include <unistd.h>
+
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -38,6 +43,37 @@ TEST(AtomicFileTest, UnwritableDirectoryIsAnError) {
   std::string error;
   EXPECT_FALSE(WriteFileAtomically("/nonexistent/dir/x.txt", "a", &error));
   EXPECT_NE(error.find("/nonexistent/dir/x.txt"), std::string::npos);
+}
+
+// A killed writer's temporary files are removed where their process is gone (999999999
+// is above any pid) and their name is one of the folder's outputs; a live process's
+// (pid 1), other files' and names that only look alike are kept.
+TEST(AtomicFileTest, StaleTemporaryFilesOfOutputsAreRemoved) {
+  testing::TempDir dir;
+  const std::string dead = dir.Write("frames.csv.tmp999999999", "half");
+  const std::string mine = dir.Write("f1.obj.tmp" + std::to_string(::getpid()), "half");
+  const std::string live = dir.Write("f2.obj.tmp1", "someone's");
+  const std::string other = dir.Write("notes.txt.tmp999999999", "the user's");
+  const std::string not_pid = dir.Write("frames.csv.tmpx1", "not a temporary file");
+  const std::string output = dir.Write("frames.csv", "done");
+  std::filesystem::create_directories(dir.File("sub"));
+  const std::string nested = dir.Write("sub/frames.csv.tmp999999999", "not this folder's");
+  std::vector<std::string> removed;
+  std::string error;
+  auto is_output = [](const std::string& name) {
+    return name == "frames.csv" || name == "f1.obj" || name == "f2.obj";
+  };
+  ASSERT_TRUE(RemoveStaleTemporaryFiles(dir.path(), is_output, &removed, &error)) << error;
+  EXPECT_FALSE(std::filesystem::exists(dead));
+  EXPECT_FALSE(std::filesystem::exists(mine));
+  for (const std::string& kept : {live, other, not_pid, output, nested}) {
+    EXPECT_TRUE(std::filesystem::exists(kept)) << kept;
+  }
+  ASSERT_EQ(removed.size(), 2u);
+  std::sort(removed.begin(), removed.end());
+  EXPECT_EQ(removed[1], "removed " + dead + ", left by process 999999999");
+  // A folder that cannot be listed is left as it is.
+  EXPECT_TRUE(RemoveStaleTemporaryFiles(dir.File("none"), is_output, &removed, &error));
 }
 
 }  // namespace
