@@ -1,9 +1,13 @@
 #include "jobs/report_script.h"
 
-#include <spawn.h>
+#include <signal.h>
+#include <sys/prctl.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cerrno>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <iostream>
@@ -11,6 +15,32 @@
 extern char** environ;
 
 namespace aqs {
+namespace {
+
+// The file `name` runs as: itself if it has a slash, else the first executable regular
+// file of that name in PATH's folders (an empty entry is the working folder); "" if none.
+std::string FindProgram(const std::string& name) {
+  auto runnable = [](const std::string& path) {
+    struct stat info;
+    return ::stat(path.c_str(), &info) == 0 && S_ISREG(info.st_mode) &&
+           ::access(path.c_str(), X_OK) == 0;
+  };
+  if (name.find('/') != std::string::npos) return name;
+  const char* path_variable = std::getenv("PATH");
+  const std::string path = path_variable != nullptr ? path_variable : "/usr/local/bin:/usr/bin:/bin";
+  size_t begin = 0;
+  while (begin <= path.size()) {
+    size_t end = path.find(':', begin);
+    if (end == std::string::npos) end = path.size();
+    const std::string folder = path.substr(begin, end - begin);
+    const std::string candidate = (folder.empty() ? std::string(".") : folder) + "/" + name;
+    if (runnable(candidate)) return candidate;
+    begin = end + 1;
+  }
+  return "";
+}
+
+}  // namespace
 
 int RunProgram(const std::vector<std::string>& command, std::string* message) {
   if (command.empty()) {
@@ -20,13 +50,27 @@ int RunProgram(const std::vector<std::string>& command, std::string* message) {
   std::vector<char*> argv;
   for (const std::string& arg : command) argv.push_back(const_cast<char*>(arg.c_str()));
   argv.push_back(nullptr);
+  const std::string program = FindProgram(command[0]);
+  if (program.empty()) {
+    *message = "cannot run '" + command[0] + "': " + std::strerror(ENOENT);
+    return -1;
+  }
   std::cout.flush();
   std::cerr.flush();
-  pid_t pid = 0;
-  const int spawned = posix_spawnp(&pid, argv[0], nullptr, nullptr, argv.data(), environ);
-  if (spawned != 0) {
-    *message = "cannot run '" + command[0] + "': " + std::strerror(spawned);
+  const pid_t parent = ::getpid();
+  const pid_t pid = ::fork();
+  if (pid < 0) {
+    *message = "cannot run '" + command[0] + "': " + std::strerror(errno);
     return -1;
+  }
+  if (pid == 0) {
+    // The child (async-signal-safe calls only) dies with the process that started it: a
+    // killed evaluation must not leave its report script writing into the folder that
+    // the next run takes over.
+    ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+    if (::getppid() != parent) ::_exit(127);
+    ::execve(program.c_str(), argv.data(), environ);
+    ::_exit(127);
   }
   int status = 0;
   while (waitpid(pid, &status, 0) < 0) {

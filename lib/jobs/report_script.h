@@ -11,10 +11,13 @@ namespace aqs {
 // (matplotlib, numpy) cannot be imported.
 constexpr int kReportMissingPackageStatus = 3;
 
-// Runs `python script arguments...` (found through PATH when python has no slash),
-// with the standard streams shared, and waits for it. `log` is flushed first so that
-// the script's lines follow. Returns the exit status, or -1 if the program could not
-// be started or was killed by a signal (*message says why).
+// Runs `command` (its program found through PATH when it has no slash), with the
+// standard streams shared, and waits for it; the program is killed (SIGKILL) if this
+// process dies first. std::cout and std::cerr are flushed first so that its lines
+// follow. Returns the exit status (127: it could not be executed), or -1 if the program
+// was not found, could not be started or was killed by a signal (*message says why).
+// Call it from the thread that lives as long as the process (Linux ties the child's
+// death signal to the thread that started it).
 int RunProgram(const std::vector<std::string>& command, std::string* message);
 
 // Runs the report script (evaluation_report.py), whose own lines say what it wrote, and
