@@ -9,6 +9,7 @@
 #include "dist/model_broadcast.h"
 #include "dist/model_sharing.h"
 #include "geometry/embedding.h"
+#include "jobs/pretrain_record.h"
 #include "jobs/shared_pose_work.h"
 #include "model/model_directory.h"
 #include "model/model_io.h"
@@ -70,19 +71,6 @@ bool CheckExpectedDecoder(const std::string& model_directory, const ActiveModel&
   return false;
 }
 
-// What a finished pre-training was (its record, pretrain/key.txt): the checkpoint key
-// (model, targets, every option that shapes the decoder), the budget and whether the
-// poses were simulated after it.
-std::string PretrainRecord(const PretrainOptions& options, const ActiveModel& model,
-                           bool simulated) {
-  std::string text;
-  for (const auto& [name, value] : PretrainCheckpointKey(options, model)) {
-    text += "key " + name + " " + value + "\n";
-  }
-  return text + "budget " + std::to_string(options.max_iterations) + " " +
-         FormatDouble(options.max_seconds) + "\nsimulated " + std::to_string(simulated) + "\n";
-}
-
 // How far PretrainHere got.
 enum class PretrainResult { kFailed, kKept, kPretrained };
 
@@ -111,12 +99,27 @@ PretrainResult PretrainHere(const std::string& model_directory, const PretrainOp
   *record = PretrainRecord(*run, *model, simulation != nullptr);
   if (keep_pretrained && model->decoder) {
     const std::string kept = ReadWholeFile(record_path);
-    if (kept == *record) {
+    int stalled_restarts = -1;
+    const PretrainRecordMatch match =
+        MatchPretrainRecord(kept, *record, run->max_restarts, &stalled_restarts);
+    const int trained = model->checkpoint.iterations;
+    if (match == PretrainRecordMatch::kSame ||
+        (match == PretrainRecordMatch::kCouldGoFurther && trained > 0)) {
       log << "pretrain: the model's decoder was pre-trained with these flags (" << record_path
-          << "): kept, with " << model->checkpoint.iterations << " training iterations since\n";
+          << "): kept, with " << trained << " training iterations since\n";
+      if (match == PretrainRecordMatch::kCouldGoFurther) {
+        log << "pretrain: note: it stalled before its budget with " << stalled_restarts
+            << " L-BFGS restarts allowed; --train_restarts=" << run->max_restarts
+            << " could take it further, but not without discarding the training since "
+               "(--restart pre-trains anew)\n";
+      }
       return PretrainResult::kKept;
     }
-    if (model->checkpoint.iterations > 0) {
+    if (match == PretrainRecordMatch::kCouldGoFurther) {
+      log << "pretrain: the model's decoder stalled before its budget with " << stalled_restarts
+          << " L-BFGS restarts allowed (" << record_path << "): pre-trained anew with "
+          << "--train_restarts=" << run->max_restarts << ", which may take it further\n";
+    } else if (trained > 0) {
       *error = "the model's decoder was pre-trained " +
                std::string(kept.empty() ? "without a record of how (" : "with other flags (") +
                record_path + ") and trained " + std::to_string(model->checkpoint.iterations) +
@@ -127,6 +130,7 @@ PretrainResult PretrainHere(const std::string& model_directory, const PretrainOp
   }
   PretrainReport report;
   if (!Pretrain(*run, model, &report, log, error)) return PretrainResult::kFailed;
+  if (report.stalled_without_restarts) *record += PretrainStallLine(run->max_restarts);
   return PretrainResult::kPretrained;
 }
 

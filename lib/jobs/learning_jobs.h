@@ -30,11 +30,13 @@ namespace aqs {
 // Invalid options (Validate) and a memory estimate above options.max_memory_bytes
 // (PretrainMemoryBytes) fail before the model is touched; messages start with the
 // options' field names ("spec.latent_dim ...", "simulation.solver.num_threads ...").
-// At the end it writes the record pretrain/key.txt (kPretrainRecordName): the
-// checkpoint key (PretrainCheckpointKey), the budget and whether the poses were
-// simulated. With keep_pretrained, a model whose decoder has the record of this
-// pre-training (the same model, targets, options, budget and simulation) is kept as it
-// is, with any training since, and nothing is written (aqs_pipeline, so that a rerun
+// At the end it writes the record pretrain/key.txt (kPretrainRecordName,
+// jobs/pretrain_record.h): the checkpoint key (PretrainCheckpointKey), the budget,
+// whether the poses were simulated, and whether it stalled with every restart used.
+// With keep_pretrained, a model whose decoder has the record of this pre-training (the
+// same model, targets, options, budget and simulation; a stall with fewer restarts than
+// options.max_restarts only if trained since, with a note) is kept as it is, with any
+// training since, and nothing is written (aqs_pipeline, so that a rerun
 // after a stop goes on where it stopped); a decoder pre-trained otherwise (or without a
 // record) and trained since is not replaced: the job fails saying so.
 // With `communicator` spanning several ranks (aqs_pipeline under MPI), every rank calls

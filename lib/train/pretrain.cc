@@ -382,6 +382,11 @@ bool Pretrain(const PretrainOptions& options, ActiveModel* model, PretrainReport
   }
   report->checkpoints = writer.checkpoints();
   report->restarts = run.restarts;
+  report->stalled_without_restarts = run_iterations > 0 &&
+                                     report->iterations < options.max_iterations &&
+                                     (run.termination_type == ceres::CONVERGENCE ||
+                                      run.termination_type == ceres::FAILURE) &&
+                                     run.restarts >= options.max_restarts;
   report->termination = run.termination;
   report->seconds = timer.Seconds();
   log << "pretrain: " << report->iterations << " iterations";

@@ -80,6 +80,9 @@ struct PretrainReport {
   int iterations_before = 0;  // done by earlier runs (from the checkpoint)
   int checkpoints = 0;        // written by this run
   int restarts = 0;           // L-BFGS restarts after a stall, in this run
+  // The run ended where L-BFGS stalled before the budget with every restart allowed
+  // (max_restarts) used: with more allowed, pre-training could go further.
+  bool stalled_without_restarts = false;
   double initial_loss = 0.0;
   double final_loss = 0.0;
   // sqrt of the volume-weighted mean squared actuation error |a - S|_F^2 over poses

@@ -3,12 +3,15 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <sstream>
 #include <string>
 
 #include <gtest/gtest.h>
 
 #include <Eigen/SVD>
 
+#include "prepare/volumetric_targets.h"
+#include "testing/synthetic_muscles.h"
 #include "testing/training_fixtures.h"
 
 namespace aqs {
@@ -45,6 +48,43 @@ TEST(PretrainTest, ReportedLossIncludesTheDecoderRegularizer) {
       1e-3 * model.decoder_params.squaredNorm();
   EXPECT_NEAR(report.final_loss, expected, 1e-10 * expected);
   EXPECT_GT(1e-3 * model.decoder_params.squaredNorm(), 1e-3 * report.final_loss);
+}
+
+// A pre-training that stops where L-BFGS stalls before its budget, with every restart
+// allowed used, says so (its record then says that more restarts could take it further);
+// one that ends by its budget does not.
+TEST(PretrainTest, ReportsAStallWithEveryRestartUsed) {
+  testing::SyntheticBarSpec spec;
+  spec.num_poses = 2;
+  spec.hidden = 2;
+  spec.latent_dim = 1;
+  testing::SyntheticMuscles data = testing::MakeSyntheticMuscles(spec.num_poses, 0, 0.3, spec.seed);
+  std::ostringstream log;
+  std::string error;
+  VolumetricTargetOptions targets;
+  ASSERT_TRUE(MakeVolumetricTargets(targets, &data.model, log, &error)) << error;
+  auto pretrain = [&](int iterations, int restarts, PretrainReport* report) {
+    ActiveModel model = data.model;
+    PretrainOptions options = testing::SyntheticPretrainOptions(spec);
+    options.max_iterations = iterations;
+    options.max_restarts = restarts;
+    return Pretrain(options, &model, report, log, &error);
+  };
+  PretrainReport stalled;
+  ASSERT_TRUE(pretrain(100000, 0, &stalled)) << error;
+  ASSERT_LT(stalled.iterations, 100000) << "the test needs a pre-training that stalls";
+  EXPECT_TRUE(stalled.stalled_without_restarts) << stalled.termination;
+  PretrainReport restarted;
+  ASSERT_TRUE(pretrain(100000, 3, &restarted)) << error;
+  EXPECT_EQ(restarted.restarts, 3);
+  EXPECT_TRUE(restarted.stalled_without_restarts) << restarted.termination;
+  EXPECT_GT(restarted.iterations, stalled.iterations);
+  PretrainReport budget;
+  ASSERT_TRUE(pretrain(stalled.iterations / 2, 0, &budget)) << error;
+  EXPECT_FALSE(budget.stalled_without_restarts) << budget.termination;
+  std::printf("stalled after %d iterations (%s); with restarts %d iterations, %d restarts\n",
+              stalled.iterations, stalled.termination.c_str(), restarted.iterations,
+              restarted.restarts);
 }
 
 TEST(PretrainTest, DecoderRegularizationIsValidated) {
