@@ -95,6 +95,14 @@ bool ValidateTetMesh(const TetMesh& mesh, const std::string& source, std::string
     const double volume = SignedTetVolume(x[0], x[1], x[2], x[3]);
     const double longest = std::sqrt(LongestEdgeSquared(x));
     const double bound = options.flat_tolerance * longest * longest * longest;
+    if (!std::isfinite(volume) || !std::isfinite(bound)) {
+      double largest = 0.0;
+      for (int i = 0; i < 4; ++i) largest = std::max(largest, x[i].cwiseAbs().maxCoeff());
+      *error = ElementPrefix(mesh, source, t) + "is too large to measure: its edge lengths or " +
+               "volume overflow (a coordinate of " + Short(largest) + "; is the mesh damaged, " +
+               "or in another unit?)";
+      return false;
+    }
     if (!(6.0 * std::abs(volume) > bound)) {
       *error = ElementPrefix(mesh, source, t) +
                "is flat (degenerate): 6 |volume| = " + Short(6.0 * std::abs(volume)) +

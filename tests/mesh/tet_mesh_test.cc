@@ -83,6 +83,19 @@ TEST(ValidateTetMeshTest, RejectsNonFiniteCoordinate) {
   EXPECT_TRUE(Contains(error, "vertex 2 has a non-finite coordinate")) << error;
 }
 
+// A finite coordinate so large that an element's edge lengths overflow is named as that,
+// not as a flat element "<= 1e-10 * (longest edge inf)^3".
+TEST(ValidateTetMeshTest, RejectsAnElementTooLargeToMeasure) {
+  TetMesh mesh = UnitTet();
+  mesh.vertices(0, 1) = 1e308;
+  std::string error;
+  EXPECT_FALSE(ValidateTetMesh(mesh, "big.mesh", &error));
+  EXPECT_TRUE(Contains(error, "big.mesh: element 0 (vertices 0 1 2 3) is too large to measure: "
+                              "its edge lengths or volume overflow (a coordinate of 1e+308"))
+      << error;
+  EXPECT_FALSE(Contains(error, "inf")) << error;
+}
+
 TEST(ValidateTetMeshTest, RejectsFlatElement) {
   LatticeOptions options;
   options.nx = options.ny = options.nz = 2;
