@@ -1,10 +1,13 @@
 #include "jobs/evaluate_job.h"
 
 #include <algorithm>
+#include <cctype>
 #include <filesystem>
+#include <functional>
 #include <limits>
 #include <sstream>
 #include <utility>
+#include <vector>
 
 #include "dist/communicator.h"
 #include "dist/model_sharing.h"
@@ -34,13 +37,41 @@
 namespace aqs {
 namespace {
 
+// Removes the temporary files (util/atomic_file.h) that a killed evaluation left in its
+// folder `out`: of its tables, of the auto-encoder's checkpoint and of the held-out
+// fits' store; logs each. Call it holding the folder's lock.
+bool RemoveStaleEvaluationFiles(const std::string& out, std::ostream& log, std::string* error) {
+  auto is_store_item = [](const std::string& name) {
+    // keyed_store.h: key.txt and NNNN.bin / NNNN.txt.
+    if (name == "key.txt") return true;
+    return name.size() == 8 && std::isdigit(static_cast<unsigned char>(name[0])) &&
+           std::isdigit(static_cast<unsigned char>(name[1])) &&
+           std::isdigit(static_cast<unsigned char>(name[2])) &&
+           std::isdigit(static_cast<unsigned char>(name[3])) &&
+           (name.compare(4, 4, ".bin") == 0 || name.compare(4, 4, ".txt") == 0);
+  };
+  const std::vector<std::pair<std::string, std::function<bool(const std::string&)>>> folders = {
+      {out, [](const std::string& n) { return n == "evaluation.md" || n == "evaluation.csv"; }},
+      {out + "/" + kAutoencoderCheckpointFolder,
+       [](const std::string& n) {
+         return n == "checkpoint.txt" || n == "parameters_a.bin" || n == "parameters_b.bin";
+       }},
+      {out + "/" + kHeldOutFitFolder, is_store_item}};
+  std::vector<std::string> removed;
+  for (const auto& [folder, is_output] : folders) {
+    if (!RemoveStaleTemporaryFiles(folder, is_output, &removed, error)) return false;
+  }
+  for (const std::string& line : removed) log << "cleanup: " << line << "\n";
+  return true;
+}
+
 // The trained model and the held-out poses, read and checked on every rank alike (each
 // refuses bad input alike, before and at the collectives), and the output folders
 // (rank 0). Collective when distributed.
 bool ReadEvaluationInputs(const EvaluateJobOptions& options, bool distributed, bool root,
                           ActiveModel* model, std::vector<std::string>* test_names,
                           std::vector<Eigen::Matrix3Xd>* test_surfaces, PathLock* output_lock,
-                          std::string* error) {
+                          std::ostream& log, std::string* error) {
   const Communicator* communicator = options.communicator;
   if (options.model.empty() || options.output_directory.empty()) {
     *error = "--model and --output_dir are required";
@@ -121,6 +152,7 @@ bool ReadEvaluationInputs(const EvaluateJobOptions& options, bool distributed, b
       *error = out + ": cannot create the output folders (" + code.message() + ")";
       ok = false;
     }
+    if (ok) ok = RemoveStaleEvaluationFiles(out, log, error);
   }
   if (distributed) ok = communicator->Agree(ok, error);
   return ok;
@@ -494,7 +526,7 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
   std::vector<Eigen::Matrix3Xd> test_surfaces;
   PathLock output_lock;  // rank 0's, until the job ends
   if (!ReadEvaluationInputs(options, distributed, root, &model, &test_names, &test_surfaces,
-                            &output_lock, error)) {
+                            &output_lock, log, error)) {
     return false;
   }
   {

@@ -464,6 +464,10 @@ JobStatus BenchmarkSequence(const FitBenchmarkOptions& options, const FitSequenc
                             const ActiveModel& model, const std::vector<int>& measured,
                             std::string* md, std::ostream& log, std::string* error) {
   std::error_code code;
+  if (fs::exists(sequence.output_dir, code)) {
+    log << "sequence: emptied " << sequence.output_dir << ": the benchmark fits and times every "
+        << "frame (an earlier run's frames are not resumed)\n";
+  }
   fs::remove_all(sequence.output_dir, code);
   const FitSequenceResult result = RunFitSequence(sequence, model, log);
   if (result.status != JobStatus::kOk) {

@@ -393,7 +393,22 @@ BuildResult BuildModel(const PrepareJobOptions& options, PreparedModel* prepared
     const ExistingModel existing =
         CheckExistingModel(output, prepared->target_key, model, log, error);
     if (existing == ExistingModel::kRefuse) return BuildResult::kFailed;
-    if (existing == ExistingModel::kKeep) return BuildResult::kKept;
+    if (existing == ExistingModel::kKeep) {
+      // A run stopped after it installed the model but before it removed its targets'
+      // store left the store (under the model's lock here, so no run is using it).
+      const std::string store = TargetStorePath(output);
+      std::error_code code;
+      if (std::filesystem::exists(store, code)) {
+        std::string store_error;
+        if (RemoveDirectory(store, &store_error)) {
+          log << "cleanup: removed " << store << ", the targets' store of a run stopped after "
+              << "it wrote the model\n";
+        } else {
+          log << "warning: " << store_error << " (the targets kept while preparing)\n";
+        }
+      }
+      return BuildResult::kKept;
+    }
   }
   return BuildResult::kMakeTargets;
 }

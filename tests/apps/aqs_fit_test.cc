@@ -181,13 +181,28 @@ TEST_F(AqsFitTest, EvaluationTakesTheAutoencodersOwnLayout) {
       " --baseline_iterations=20 --error_budget=false --write_fields=false --report=false";
   // An earlier run's per-pose outputs in the folder: gone after this run, which writes
   // none (no fields, no budget), so that no report draws them.
-  for (const char* stale : {"eval_layout/fitted/old_physics.obj", "eval_layout/fields/old.ply",
-                            "eval_layout/budget/training_errors.bin"}) {
+  // A killed run's temporary files (of a process that is gone) go too; others stay.
+  const std::vector<std::string> killed = {
+      "eval_layout/evaluation.md.tmp999999999",
+      "eval_layout/autoencoder_checkpoint/parameters_a.bin.tmp999999999",
+      "eval_layout/held_out_fits/0000.bin.tmp999999999"};
+  for (const std::string& stale :
+       {std::string("eval_layout/fitted/old_physics.obj"), std::string("eval_layout/fields/old.ply"),
+        std::string("eval_layout/budget/training_errors.bin"),
+        std::string("eval_layout/notes.txt.tmp999999999"), killed[0], killed[1], killed[2]}) {
     std::filesystem::create_directories(std::filesystem::path(dir_->File(stale)).parent_path());
     std::ofstream(dir_->File(stale)) << "stale\n";
   }
   const testing::CommandResult run = RunCommand(command + " --baseline_hidden=4,3");
   ASSERT_EQ(run.exit_code, 0) << run.output;
+  for (const std::string& stale : killed) {
+    EXPECT_FALSE(std::filesystem::exists(dir_->File(stale))) << stale;
+    EXPECT_NE(run.output.find("cleanup: removed " + dir_->File(stale) + ", left by process "
+                              "999999999"),
+              std::string::npos)
+        << run.output;
+  }
+  EXPECT_TRUE(std::filesystem::exists(dir_->File("eval_layout/notes.txt.tmp999999999")));
   EXPECT_FALSE(std::filesystem::exists(dir_->File("eval_layout/fitted/old_physics.obj")));
   EXPECT_FALSE(std::filesystem::exists(dir_->File("eval_layout/fields/old.ply")));
   EXPECT_FALSE(std::filesystem::exists(dir_->File("eval_layout/budget")));

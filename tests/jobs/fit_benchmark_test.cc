@@ -171,6 +171,33 @@ TEST(FitBenchmarkTest, ChecksTheSequenceBeforeAnyFit) {
   EXPECT_EQ(log.str().find("physics_pose"), std::string::npos) << log.str();
 }
 
+// The sequence part fits every frame again, into an emptied output_dir/sequence (it
+// times them): an earlier run's frames are not resumed, and the log says so.
+TEST(FitBenchmarkTest, TheSequencePartSaysItEmptiesItsFolder) {
+  testing::TempDir dir;
+  ASSERT_NO_FATAL_FAILURE(WriteModelAndSet(dir));
+  for (const char* folder : {"set/sequence/markers", "set/sequence/truth"}) {
+    std::filesystem::create_directories(dir.File(folder));
+    for (const std::string frame : {"f000", "f001"}) {
+      std::filesystem::copy_file(dir.File("set/poses/mix_000.obj"),
+                                 dir.File(std::string(folder) + "/" + frame + ".obj"));
+    }
+  }
+  FitBenchmarkOptions options = PosesAndScansOf(dir);
+  options.poses = options.scans = false;
+  options.sequence = true;
+  std::ostringstream log;
+  std::string error;
+  ASSERT_EQ(RunFitBenchmark(options, log, &error), JobStatus::kOk) << error << "\n" << log.str();
+  const std::string emptied = "sequence: emptied " + dir.File("out") + "/sequence";
+  EXPECT_EQ(log.str().find(emptied), std::string::npos) << log.str();
+  EXPECT_TRUE(std::filesystem::exists(dir.File("out/sequence/f001.obj")));
+  log.str("");
+  ASSERT_EQ(RunFitBenchmark(options, log, &error), JobStatus::kOk) << error << "\n" << log.str();
+  EXPECT_NE(log.str().find(emptied), std::string::npos) << log.str();
+  EXPECT_NE(log.str().find("fitted 2 frames"), std::string::npos) << log.str();
+}
+
 // An input in output_dir/sequence, which the sequence part empties, is refused before
 // anything runs (the model or the test set there was deleted after the fits).
 TEST(FitBenchmarkTest, RefusesInputsInTheFolderItEmpties) {
