@@ -168,6 +168,16 @@ bool LatentFitter::Fit(const FitTarget& target, const Eigen::VectorXd& initial,
 
 namespace {
 
+// A fit's point, as it ends: latent, bone motions, equilibrium and surface.
+void SetResultPoint(const Eigen::VectorXd& z, const std::vector<RigidTransform>& bones,
+                    const Eigen::Matrix3Xd& state, const Eigen::Matrix3Xd& surface,
+                    LatentFitResult* result) {
+  result->latent = z;
+  result->bones = bones;
+  result->state = state;
+  result->surface = surface;
+}
+
 // Ceres' Levenberg-Marquardt for a fit: dense QR (a latent and a few bones' parameters),
 // the options' iterations and tolerances.
 ceres::Solver::Options FitSolverOptions(const LatentFitOptions& options) {
@@ -246,10 +256,7 @@ bool LatentFitter::FitFrom(const FitTarget& target, const Eigen::VectorXd& initi
   stats_ = LatentFitResult();
   if (!Simulate(z, &state, &surface, error)) {
     *error = "at the initial latent: " + *error;
-    result->latent = z;
-    result->bones = bones_;
-    result->state = state;
-    result->surface = surface;
+    SetResultPoint(z, bones_, state, surface, result);
     return false;
   }
   const bool fit_bones = options_.fit_bones && !model_.bones.empty();
@@ -322,10 +329,7 @@ bool LatentFitter::FitFrom(const FitTarget& target, const Eigen::VectorXd& initi
   } else {
     simulated = Simulate(z, &state, &surface, error);
   }
-  result->latent = z;
-  result->bones = bones_;
-  result->state = state;
-  result->surface = surface;
+  SetResultPoint(z, bones_, state, surface, result);
   if (!simulated) return false;
   result->parameter_covariance.resize(0, 0);
   result->surface_std.resize(0);
@@ -365,10 +369,7 @@ bool LatentFitter::FitPointCloud(const Eigen::Matrix3Xd& points,
   if (!cloud_options.rematch_every_evaluation) {
     stats_ = LatentFitResult();
     if (!Simulate(z, &state, &surface, error)) {
-      result->latent = z;
-      result->bones = bones_;
-      result->state = state;
-      result->surface = surface;
+      SetResultPoint(z, bones_, state, surface, result);
       return false;
     }
     start_work = stats_;
