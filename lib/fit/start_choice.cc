@@ -72,12 +72,13 @@ double LatentFitter::StartObjective(const FitTarget* target, const Eigen::Matrix
   }
   // Fewer than 3 matched points hold nothing, unless landmarks that weigh in the fit do;
   // matching rounds refuse such a match whatever the landmarks (FitPointCloud), and its
-  // data term is 0/0 there.
-  const bool landmarks_hold = cloud_options.rematch_every_evaluation &&
-                              cloud_options.landmarks.num_points() > 0 &&
-                              cloud_options.landmark_weight > 0;
-  if (used < 3 && !landmarks_hold) return std::numeric_limits<double>::infinity();
-  if (landmarks_hold) {
+  // data term is 0/0 there. Otherwise the landmarks weigh in both modes, as in the fit.
+  const bool landmarks_weigh =
+      cloud_options.landmarks.num_points() > 0 && cloud_options.landmark_weight > 0;
+  if (used < 3 && !(landmarks_weigh && cloud_options.rematch_every_evaluation)) {
+    return std::numeric_limits<double>::infinity();
+  }
+  if (landmarks_weigh) {
     cost += cloud_options.landmark_weight * TargetDataTerm(cloud_options.landmarks, surface);
   }
   return cost;

@@ -42,13 +42,17 @@ namespace {
 // fits' store; logs each. Call it holding the folder's lock.
 bool RemoveStaleEvaluationFiles(const std::string& out, std::ostream& log, std::string* error) {
   auto is_store_item = [](const std::string& name) {
-    // keyed_store.h: key.txt and NNNN.bin / NNNN.txt.
+    // keyed_store.h: key.txt and NNNN.bin / NNNN.txt (4 digits or more).
     if (name == "key.txt") return true;
-    return name.size() == 8 && std::isdigit(static_cast<unsigned char>(name[0])) &&
-           std::isdigit(static_cast<unsigned char>(name[1])) &&
-           std::isdigit(static_cast<unsigned char>(name[2])) &&
-           std::isdigit(static_cast<unsigned char>(name[3])) &&
-           (name.compare(4, 4, ".bin") == 0 || name.compare(4, 4, ".txt") == 0);
+    const size_t dot = name.size() >= 8 ? name.size() - 4 : std::string::npos;
+    if (dot == std::string::npos || (name.compare(dot, 4, ".bin") != 0 &&
+                                     name.compare(dot, 4, ".txt") != 0)) {
+      return false;
+    }
+    for (size_t i = 0; i < dot; ++i) {
+      if (!std::isdigit(static_cast<unsigned char>(name[i]))) return false;
+    }
+    return true;
   };
   const std::vector<std::pair<std::string, std::function<bool(const std::string&)>>> folders = {
       {out, [](const std::string& n) { return n == "evaluation.md" || n == "evaluation.csv"; }},
@@ -152,7 +156,7 @@ bool ReadEvaluationInputs(const EvaluateJobOptions& options, bool distributed, b
       *error = out + ": cannot create the output folders (" + code.message() + ")";
       ok = false;
     }
-    if (ok) ok = RemoveStaleEvaluationFiles(out, log, error);
+    if (ok && output_lock->first()) ok = RemoveStaleEvaluationFiles(out, log, error);
   }
   if (distributed) ok = communicator->Agree(ok, error);
   return ok;

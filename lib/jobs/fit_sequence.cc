@@ -151,10 +151,12 @@ bool OpenOutputFolder(const FitSequenceOptions& options, const ActiveModel& mode
     std::set<std::string> outputs = {"frames.csv", "latents.bin", "targets.txt", "key.txt"};
     for (const SequenceFrame& f : frames) outputs.insert(f.name + ".obj");
     std::vector<std::string> removed;
-    ok = ok && RemoveStaleTemporaryFiles(
-                   options.output_dir,
-                   [&](const std::string& name) { return outputs.count(name) > 0; }, &removed,
-                   error);
+    // (Only by the lock's first holder: another PathLock of this process could be writing.)
+    ok = ok && (!lock->first() ||
+                RemoveStaleTemporaryFiles(
+                    options.output_dir,
+                    [&](const std::string& name) { return outputs.count(name) > 0; }, &removed,
+                    error));
     for (const std::string& line : removed) *note += "cleanup: " + line + "\n";
     const std::string key_path = options.output_dir + "/key.txt";
     const std::string key = SequenceKey(options, model);

@@ -17,6 +17,8 @@
 #include "model/model_io.h"
 #include "prepare/pose_files.h"
 #include "prepare/target_store.h"
+#include "util/atomic_file.h"
+#include "util/fault_injection.h"
 #include "util/make_directory.h"
 #include "util/option_checks.h"
 #include "util/wall_timer.h"
@@ -394,11 +396,13 @@ BuildResult BuildModel(const PrepareJobOptions& options, PreparedModel* prepared
         CheckExistingModel(output, prepared->target_key, model, log, error);
     if (existing == ExistingModel::kRefuse) return BuildResult::kFailed;
     if (existing == ExistingModel::kKeep) {
-      // A run stopped after it installed the model but before it removed its targets'
-      // store left the store (under the model's lock here, so no run is using it).
+      // A run stopped after it installed this model but before it removed its targets'
+      // store left the store (under the model's lock here, so no run is using it). A
+      // store of other options (a stopped run's that may resume) stays.
       const std::string store = TargetStorePath(output);
       std::error_code code;
-      if (std::filesystem::exists(store, code)) {
+      if (std::filesystem::exists(store, code) &&
+          ReadWholeFile(store + "/key.txt") == TargetStoreKey(prepared->targets, model)) {
         std::string store_error;
         if (RemoveDirectory(store, &store_error)) {
           log << "cleanup: removed " << store << ", the targets' store of a run stopped after "
@@ -446,6 +450,7 @@ bool FinishModel(const PrepareJobOptions& options, const Communicator* comm,
   save.overwrite = options.overwrite;
   if (!SaveModel(output, model, save, error)) return false;
   log << "wrote model " << options.output << " (" << prepared->total.Seconds() << " s in all)\n";
+  FaultPoint("prepare:model_written");  // a kill here leaves the targets' store
   std::string store_error;
   if (!RemoveDirectory(targets.store_directory, &store_error)) {
     log << "warning: " << store_error << " (the targets kept while preparing)\n";

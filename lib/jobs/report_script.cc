@@ -58,18 +58,25 @@ int RunProgram(const std::vector<std::string>& command, std::string* message) {
   std::cout.flush();
   std::cerr.flush();
   const pid_t parent = ::getpid();
-  const pid_t pid = ::fork();
+  const char* path = program.c_str();
+  char* const* arguments = argv.data();
+  // vfork, as posix_spawn does: no copy of a large process's memory (which fork may be
+  // refused under strict overcommit), and no fork warnings from MPI libraries. The child
+  // only makes system calls, and leaves the reason of a failed exec in exec_errno,
+  // which it shares with this process until it execs or exits.
+  volatile int exec_errno = 0;
+  const pid_t pid = ::vfork();
   if (pid < 0) {
     *message = "cannot run '" + command[0] + "': " + std::strerror(errno);
     return -1;
   }
   if (pid == 0) {
-    // The child (async-signal-safe calls only) dies with the process that started it: a
-    // killed evaluation must not leave its report script writing into the folder that
-    // the next run takes over.
+    // The child dies with the process that started it: a killed evaluation must not
+    // leave its report script writing into the folder that the next run takes over.
     ::prctl(PR_SET_PDEATHSIG, SIGKILL);
     if (::getppid() != parent) ::_exit(127);
-    ::execve(program.c_str(), argv.data(), environ);
+    ::execve(path, arguments, environ);
+    exec_errno = errno;
     ::_exit(127);
   }
   int status = 0;
@@ -78,6 +85,10 @@ int RunProgram(const std::vector<std::string>& command, std::string* message) {
       *message = "waiting for '" + command[0] + "' failed: " + std::strerror(errno);
       return -1;
     }
+  }
+  if (exec_errno != 0) {
+    *message = "cannot run '" + command[0] + "' (" + program + "): " + std::strerror(exec_errno);
+    return -1;
   }
   if (WIFEXITED(status)) return WEXITSTATUS(status);
   *message = "'" + command[0] + "' was killed by signal " + std::to_string(WTERMSIG(status));

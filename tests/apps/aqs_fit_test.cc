@@ -185,11 +185,13 @@ TEST_F(AqsFitTest, EvaluationTakesTheAutoencodersOwnLayout) {
   const std::vector<std::string> killed = {
       "eval_layout/evaluation.md.tmp999999999",
       "eval_layout/autoencoder_checkpoint/parameters_a.bin.tmp999999999",
-      "eval_layout/held_out_fits/0000.bin.tmp999999999"};
+      "eval_layout/held_out_fits/0000.bin.tmp999999999",
+      "eval_layout/held_out_fits/10000.txt.tmp999999999"};
   for (const std::string& stale :
        {std::string("eval_layout/fitted/old_physics.obj"), std::string("eval_layout/fields/old.ply"),
         std::string("eval_layout/budget/training_errors.bin"),
-        std::string("eval_layout/notes.txt.tmp999999999"), killed[0], killed[1], killed[2]}) {
+        std::string("eval_layout/notes.txt.tmp999999999"), killed[0], killed[1], killed[2],
+        killed[3]}) {
     std::filesystem::create_directories(std::filesystem::path(dir_->File(stale)).parent_path());
     std::ofstream(dir_->File(stale)) << "stale\n";
   }

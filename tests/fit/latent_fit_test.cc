@@ -970,6 +970,19 @@ TEST(LatentFitTest, MatchingRoundsGivenStartThatReachesNothingLosesToATrainingPo
                                  &error)) << error;
   EXPECT_NE(name, "given");
   EXPECT_FALSE(name.empty());
+  // Where the scan is reached, landmarks weigh in the score in rounds mode too (as in
+  // the rounds' fits): landmarks off the pose's surface raise the pose's score.
+  PointCloudFitOptions moved = cloud;
+  moved.landmarks = VertexTarget(
+      landmark_vertices,
+      pose_surface(Eigen::all, landmark_vertices).colwise() + Eigen::Vector3d(0, 0, 0.1));
+  moved.landmark_weight = 0.0;
+  const Eigen::VectorXd z_pose = model.latents.col(pose);
+  const double without = fitter.StartObjective(nullptr, &scan, moved, pose_surface, z_pose);
+  moved.landmark_weight = 100.0;
+  const double with = fitter.StartObjective(nullptr, &scan, moved, pose_surface, z_pose);
+  ASSERT_TRUE(std::isfinite(without));
+  EXPECT_NEAR(with - without, 100.0 * 0.01, 1e-6);
 }
 
 // Without fit_bones the bones stay where they were set: a training pose at other bone

@@ -4,14 +4,17 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <string>
 
 #include <gtest/gtest.h>
 
 #include "mesh/element_subset.h"
 #include "mesh/mesh_io.h"
 #include "model/model_io.h"
+#include "prepare/target_store.h"
 #include "testing/temp_dir.h"
 #include "testing/test_surfaces.h"
+#include "util/fault_injection.h"
 
 namespace aqs {
 namespace {
@@ -73,6 +76,47 @@ TEST_F(PrepareJobTest, SurfaceWithHolesBecomesAModel) {
     EXPECT_LT(pose.embedding_max_error, 0.05) << pose.name;
   }
   EXPECT_NE(log.str().find("fixed by depth > 1.2"), std::string::npos) << log.str();
+}
+
+std::string g_store, g_snapshot;
+
+// At the point where a prepare has written the model and not yet removed its targets'
+// store: a copy of the store, as a kill there would leave it.
+void SnapshotTheStore(const char* point) {
+  if (std::string(point) == "prepare:model_written") {
+    std::filesystem::copy(g_store, g_snapshot, std::filesystem::copy_options::recursive);
+  }
+}
+
+// A prepare stopped after it wrote the model but before it removed its targets' store
+// left the store: a rerun that keeps the model removes it; a store of other options (a
+// stopped run's, which may resume) stays.
+TEST_F(PrepareJobTest, AKeptModelsLeftoverTargetStoreIsRemoved) {
+  g_store = TargetStorePath(options_.output);
+  g_snapshot = dir_.File("snapshot");
+  std::ostringstream log;
+  std::string error;
+  const FaultHook previous = SetFaultHookForTesting(&SnapshotTheStore);
+  ASSERT_TRUE(RunPrepareJob(options_, log, &error)) << error;
+  SetFaultHookForTesting(previous);
+  ASSERT_TRUE(std::filesystem::exists(g_snapshot + "/key.txt"));
+  ASSERT_FALSE(std::filesystem::exists(g_store));
+  std::filesystem::rename(g_snapshot, g_store);
+  PrepareJobOptions keep = options_;
+  keep.keep_same_model = true;
+  log.str("");
+  ASSERT_TRUE(RunPrepareJob(keep, log, &error)) << error;
+  EXPECT_NE(log.str().find("cleanup: removed " + g_store + ", the targets' store of a run "
+                           "stopped after it wrote the model"),
+            std::string::npos)
+      << log.str();
+  EXPECT_FALSE(std::filesystem::exists(g_store));
+  std::filesystem::create_directories(g_store);
+  std::ofstream(g_store + "/key.txt") << "the targets of other options\n";
+  log.str("");
+  ASSERT_TRUE(RunPrepareJob(keep, log, &error)) << error;
+  EXPECT_TRUE(std::filesystem::exists(g_store + "/key.txt"));
+  EXPECT_EQ(log.str().find("cleanup:"), std::string::npos) << log.str();
 }
 
 // keep_same_model (aqs_pipeline's rerun): a model of the same inputs and options is

@@ -40,6 +40,14 @@ TEST(RunProgramTest, ReturnsTheExitStatusAndNamesAMissingProgram) {
       << message;
   EXPECT_EQ(RunProgram({"sh", "-c", "kill -9 $$"}, &message), -1);
   EXPECT_NE(message.find("killed by signal 9"), std::string::npos) << message;
+  // A file that is there but cannot be executed: the exec's reason.
+  testing::TempDir dir;
+  const std::string bad = dir.File("not_a_program");
+  std::ofstream(bad) << "\x7f" << "garbage\n";
+  std::filesystem::permissions(bad, std::filesystem::perms::owner_all);
+  EXPECT_EQ(RunProgram({bad}, &message), -1);
+  EXPECT_NE(message.find("cannot run '" + bad + "' (" + bad + "): "), std::string::npos)
+      << message;
 }
 
 TEST(RunProgramTest, TheProgramDiesWithTheProcessThatStartedIt) {
