@@ -225,6 +225,8 @@ TEST_F(MpiSequenceTest, BadInputStopsEveryRank) {
   }
   World().Barrier();
   options.output_dir = dir_->File("unlike");
+  std::string all_frames = options.sequence;  // rank 0's (every rank's until here)
+  while (!all_frames.empty() && all_frames.back() == ',') all_frames.pop_back();
   if (World().rank() > 0) {
     const std::string own = dir_->File("t1.obj");
     options.sequence.replace(options.sequence.find(own), own.size(), dir_->File("r1/t1.obj"));
@@ -233,6 +235,20 @@ TEST_F(MpiSequenceTest, BadInputStopsEveryRank) {
   if (World().size() > 1) {
     EXPECT_EQ(result.status, JobStatus::kBadInput);
     EXPECT_NE(result.message.find("frame 1 (t1) differs from rank 0's"), std::string::npos)
+        << result.message;
+  }
+  // More frames on another machine than on rank 0's (its list has one more).
+  const size_t count = std::count(all_frames.begin(), all_frames.end(), ',') + 1;
+  const std::string last = fs::path(all_frames.substr(all_frames.rfind(',') + 1)).stem();
+  options.sequence =
+      World().rank() > 0 ? all_frames : all_frames.substr(0, all_frames.rfind(','));
+  options.output_dir = dir_->File("more");
+  result = RunFitSequenceJob(options, log);
+  if (World().size() > 1) {
+    EXPECT_EQ(result.status, JobStatus::kBadInput);
+    EXPECT_NE(result.message.find(std::to_string(count) + " frames here, more than rank 0's " +
+                                  std::to_string(count - 1) + " (from " + last + " on)"),
+              std::string::npos)
         << result.message;
   }
 }
