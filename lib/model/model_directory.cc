@@ -10,6 +10,7 @@
 
 #include <glog/logging.h>
 
+#include "util/atomic_file.h"
 #include "util/line_reader.h"
 #include "util/staged_directory.h"
 
@@ -26,19 +27,6 @@ std::string WithoutTrailingSlashes(std::string path) {
 bool Exists(const std::string& path) {
   std::error_code code;
   return fs::exists(fs::symlink_status(path, code));
-}
-
-// "<stem><suffix><digits>" -> pid (a process that is gone or this one's), else -1.
-long StalePid(const std::string& name, const std::string& stem, const std::string& suffix) {
-  const std::string prefix = stem + suffix;
-  if (name.size() <= prefix.size() || name.compare(0, prefix.size(), prefix) != 0) return -1;
-  long pid = 0;
-  for (size_t i = prefix.size(); i < name.size(); ++i) {
-    if (name[i] < '0' || name[i] > '9' || pid > 1000000000L) return -1;
-    pid = 10 * pid + (name[i] - '0');
-  }
-  if (pid != static_cast<long>(::getpid()) && !ProcessIsGone(pid)) return -1;
-  return pid;
 }
 
 // Whether `name` is a file the model format puts in `folder` ("" is the model's top).
@@ -107,9 +95,9 @@ bool CleanLegacySiblings(const std::string& target, std::vector<std::string>* ac
   std::error_code code;
   for (const fs::directory_entry& entry : fs::directory_iterator(parent, code)) {
     const std::string name = entry.path().filename().string();
-    if (const long pid = StalePid(name, base, ".old"); pid >= 0) {
+    if (const long pid = StaleWriterPid(name, base, ".old"); pid >= 0) {
       olds.emplace_back(entry.path().string(), pid);
-    } else if (const long pid = StalePid(name, base, ".tmp"); pid >= 0) {
+    } else if (const long pid = StaleWriterPid(name, base, ".tmp"); pid >= 0) {
       tmps.emplace_back(entry.path().string(), pid);
     }
   }
@@ -144,20 +132,11 @@ bool CleanTemporaryFiles(const std::string& dir, std::vector<std::string>* actio
   for (const char* folder : {"", "train", "pretrain", "poses", "targets", "states", "learned",
                              "learned/states"}) {
     const std::string where = *folder ? dir + "/" + folder : dir;
-    std::error_code code;
-    for (const fs::directory_entry& entry : fs::directory_iterator(where, code)) {
-      if (!entry.is_regular_file(code) || entry.is_symlink(code)) continue;
-      const std::string name = entry.path().filename().string();
-      const size_t at = name.rfind(".tmp");
-      if (at == std::string::npos || at == 0) continue;
-      const long pid = StalePid(name, name.substr(0, at), ".tmp");
-      if (pid < 0 || !IsModelFileName(folder, name.substr(0, at))) continue;
-      if (::unlink(entry.path().c_str()) != 0 && errno != ENOENT) {
-        *error = "cannot remove " + entry.path().string() + " (" + std::strerror(errno) + ")";
-        return false;
-      }
-      actions->push_back("removed " + entry.path().string() + ", left by process " +
-                         std::to_string(pid));
+    const std::string model_folder = folder;
+    if (!RemoveStaleTemporaryFiles(
+            where, [&](const std::string& name) { return IsModelFileName(model_folder, name); },
+            actions, error)) {
+      return false;
     }
   }
   return true;

@@ -100,15 +100,9 @@ bool RemoveStaleTemporaryFiles(const std::string& dir,
     if (!entry.is_regular_file(code) || entry.is_symlink(code)) continue;
     const std::string name = entry.path().filename().string();
     const size_t at = name.rfind(".tmp");
-    if (at == std::string::npos || at == 0 || at + 4 == name.size()) continue;
-    long pid = 0;
-    bool digits = true;
-    for (size_t i = at + 4; i < name.size() && digits; ++i) {
-      digits = name[i] >= '0' && name[i] <= '9' && pid <= 1000000000L;
-      pid = 10 * pid + (name[i] - '0');
-    }
-    if (!digits || !is_output(name.substr(0, at))) continue;
-    if (pid != static_cast<long>(::getpid()) && !ProcessIsGone(pid)) continue;
+    if (at == std::string::npos || at == 0 || !is_output(name.substr(0, at))) continue;
+    const long pid = StaleWriterPid(name, name.substr(0, at), ".tmp");
+    if (pid < 0) continue;
     if (::unlink(entry.path().c_str()) != 0 && errno != ENOENT) {
       *error = "cannot remove " + entry.path().string() + " (" + std::strerror(errno) + ")";
       return false;

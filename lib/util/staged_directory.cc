@@ -98,6 +98,18 @@ std::string StagingPathOf(const std::string& target) {
   return WithoutTrailingSlashes(target) + ".aqs-tmp" + std::to_string(static_cast<long>(::getpid()));
 }
 
+long StaleWriterPid(const std::string& name, const std::string& stem, const std::string& suffix) {
+  const std::string prefix = stem + suffix;
+  if (name.size() <= prefix.size() || name.compare(0, prefix.size(), prefix) != 0) return -1;
+  long pid = 0;
+  for (size_t i = prefix.size(); i < name.size(); ++i) {
+    if (name[i] < '0' || name[i] > '9' || pid > 1000000000L) return -1;
+    pid = 10 * pid + (name[i] - '0');
+  }
+  if (pid != static_cast<long>(::getpid()) && !ProcessIsGone(pid)) return -1;
+  return pid;
+}
+
 bool ProcessIsGone(long pid) {
   if (pid <= 0) return false;
   return ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH;

@@ -51,6 +51,11 @@ bool RemoveTemporaryTree(const std::string& path, std::string* error);
 // True if no process `pid` exists (kill(pid, 0) fails with ESRCH).
 bool ProcessIsGone(long pid);
 
+// The pid of a killed writer's leftover `name` = "<stem><suffix><pid digits>" (e.g.
+// "frames.csv.tmp4242"), where that process is gone or is this one (which, under the
+// folder's lock, can only be a dead predecessor's); -1 for any other name.
+long StaleWriterPid(const std::string& name, const std::string& stem, const std::string& suffix);
+
 // Cleans up what killed writers left beside `target` (the names above, of processes
 // that are gone or of this process's pid, which at lock time can only be a dead
 // predecessor's): when `target` is missing and a moved-aside "T.aqs-old<pid>" holds
