@@ -31,10 +31,10 @@ PretrainRecordMatch MatchPretrainRecord(const std::string& kept, const std::stri
   std::string base = kept;
   const size_t line_start = base.rfind('\n', base.size() >= 2 ? base.size() - 2 : 0);
   const size_t last = line_start == std::string::npos ? 0 : line_start + 1;
-  if (base.compare(last, sizeof(kStallWord) - 1, kStallWord) == 0 && base.back() == '\n') {
+  const size_t word = sizeof(kStallWord) - 1;
+  if (base.compare(last, word, kStallWord) == 0 && base.back() == '\n') {
     long long restarts = -1;
-    const std::string number =
-        base.substr(last + sizeof(kStallWord) - 1, base.size() - 1 - last - (sizeof(kStallWord) - 1));
+    const std::string number = base.substr(last + word, base.size() - 1 - last - word);
     if (!ParseInt64(number, &restarts) || restarts < 0 || restarts > 1000000000LL) {
       return PretrainRecordMatch::kOther;
     }

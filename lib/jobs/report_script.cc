@@ -27,7 +27,8 @@ std::string FindProgram(const std::string& name) {
   };
   if (name.find('/') != std::string::npos) return name;
   const char* path_variable = std::getenv("PATH");
-  const std::string path = path_variable != nullptr ? path_variable : "/usr/local/bin:/usr/bin:/bin";
+  const std::string path =
+      path_variable != nullptr ? path_variable : "/usr/local/bin:/usr/bin:/bin";
   size_t begin = 0;
   while (begin <= path.size()) {
     size_t end = path.find(':', begin);

@@ -139,7 +139,8 @@ bool ReadPlyHeader(PlyLineReader* reader, PlyHeader* header, std::string* error)
         return false;
       }
       if (tokens.size() != 3) {
-        *error = reader->Where("expected 'format <ascii|binary_little_endian|binary_big_endian> 1.0'");
+        *error = reader->Where(
+            "expected 'format <ascii|binary_little_endian|binary_big_endian> 1.0'");
         return false;
       }
       if (tokens[1] == "ascii") {

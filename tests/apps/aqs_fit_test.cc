@@ -188,7 +188,8 @@ TEST_F(AqsFitTest, EvaluationTakesTheAutoencodersOwnLayout) {
       "eval_layout/held_out_fits/0000.bin.tmp999999999",
       "eval_layout/held_out_fits/10000.txt.tmp999999999"};
   for (const std::string& stale :
-       {std::string("eval_layout/fitted/old_physics.obj"), std::string("eval_layout/fields/old.ply"),
+       {std::string("eval_layout/fitted/old_physics.obj"),
+        std::string("eval_layout/fields/old.ply"),
         std::string("eval_layout/budget/training_errors.bin"),
         std::string("eval_layout/notes.txt.tmp999999999"), killed[0], killed[1], killed[2],
         killed[3]}) {
