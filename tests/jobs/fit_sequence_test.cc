@@ -97,6 +97,24 @@ class FitSequenceTest : public ::testing::Test {
     return options;
   }
 
+  // Frames a, b, c (copies of targets 0, 1, 2 in folder `in`), fitted independently into
+  // folder `out` once; the options of that run.
+  static FitSequenceOptions FitThreeFrameCopies(const std::string& in, const std::string& out) {
+    std::filesystem::create_directories(dir_->File(in));
+    FitSequenceOptions options = Options();
+    int t = 0;
+    for (const char* name : {"a", "b", "c"}) {
+      const std::string frame = dir_->File(in) + "/" + name + ".obj";
+      std::filesystem::copy_file(Target(t++), frame);
+      options.sequence += frame + ",";
+    }
+    options.output_dir = dir_->File(out);
+    options.warm_start = false;
+    std::ostringstream log;
+    EXPECT_EQ(RunFitSequence(options, *model_, log).status, JobStatus::kOk) << log.str();
+    return options;
+  }
+
   // Fits targets `order` (indices) into output folder `out`.
   static FitSequenceResult Run(const std::vector<int>& order, const std::string& out,
                                bool warm_start) {
@@ -206,18 +224,8 @@ TEST_F(FitSequenceTest, FramesOfOtherOptionsAreRefused) {
 // kept. Here frame b's file is given the surface of another pose.
 TEST_F(FitSequenceTest, AFrameWhoseTargetChangedIsFittedAgain) {
   const std::string in = dir_->File("retarget_in");
-  std::filesystem::create_directories(in);
-  const std::vector<std::string> names = {"a", "b", "c"};
-  for (int t = 0; t < 3; ++t) {
-    std::filesystem::copy_file(Target(t), in + "/" + names[t] + ".obj");
-  }
-  FitSequenceOptions options = Options();
-  for (const std::string& name : names) options.sequence += in + "/" + name + ".obj,";
-  options.output_dir = dir_->File("retargeted");
-  options.warm_start = false;
-  std::ostringstream first_log;
-  ASSERT_EQ(RunFitSequence(options, *model_, first_log).status, JobStatus::kOk)
-      << first_log.str();
+  const FitSequenceOptions options = FitThreeFrameCopies("retarget_in", "retargeted");
+  ASSERT_FALSE(::testing::Test::HasFailure());
   Run({0, 1, 2}, "retarget_reference", false);
   std::filesystem::copy_file(Target(2), in + "/b.obj",
                              std::filesystem::copy_options::overwrite_existing);
@@ -262,16 +270,8 @@ void WatchTargetsInstall(const char* point) {
 // would otherwise keep them as fits of the new one).
 TEST_F(FitSequenceTest, RowsPastAMissingFrameGoBeforeNewTargetsAreRecorded) {
   const std::string in = dir_->File("cutback_in");
-  std::filesystem::create_directories(in);
-  const std::vector<std::string> names = {"a", "b", "c"};
-  for (int t = 0; t < 3; ++t) std::filesystem::copy_file(Target(t), in + "/" + names[t] + ".obj");
-  FitSequenceOptions options = Options();
-  for (const std::string& name : names) options.sequence += in + "/" + name + ".obj,";
-  options.output_dir = dir_->File("cutback");
-  options.warm_start = false;
-  std::ostringstream first_log;
-  ASSERT_EQ(RunFitSequence(options, *model_, first_log).status, JobStatus::kOk)
-      << first_log.str();
+  const FitSequenceOptions options = FitThreeFrameCopies("cutback_in", "cutback");
+  ASSERT_FALSE(::testing::Test::HasFailure());
   ASSERT_EQ(Rows(options.output_dir + "/frames.csv").size(), 3u);
   std::filesystem::remove(options.output_dir + "/b.obj");
   std::filesystem::copy_file(Target(0), in + "/c.obj",
