@@ -920,6 +920,55 @@ TEST(LatentFitTest, MatchingRoundsConvergeByTheirOwnTest) {
   EXPECT_FALSE(fit.converged) << fit.message;
 }
 
+// The matching rounds' work counts the solve of their start, whose surface the first
+// round matches: one round is that solve plus a fit to that matching, which a fitter of
+// its own repeats step by step (the rounds counted only the fit's solves before).
+TEST(LatentFitTest, MatchingRoundsCountTheSolveOfTheirStart) {
+  const ActiveModel model = TrainedModel(false);
+  Eigen::Matrix3Xd state, scan;
+  std::string error;
+  {
+    LatentFitter fitter(model, LatentFitOptions());
+    ASSERT_TRUE(fitter.Simulate(model.latents.col(2), &state, &scan, &error)) << error;
+  }
+  PointCloudFitOptions cloud;
+  cloud.max_distance = 0.5;
+  cloud.rematch_every_evaluation = false;
+  cloud.iterations_per_round = 3;
+  cloud.max_rounds = 1;
+  // No priors, which scan fits weigh by rules of their own.
+  cloud.latent_prior = -1.0;
+  cloud.bone_prior = -1.0;
+  LatentFitOptions options;
+  options.latent_prior = 0.0;
+  options.bone_prior = 0.0;
+  options.max_iterations = cloud.iterations_per_round;
+  LatentFitResult rounds;
+  {
+    LatentFitter fitter(model, options);
+    ASSERT_TRUE(fitter.FitPointCloud(scan, cloud, fitter.PriorLatent(), &rounds, &error))
+        << error;
+  }
+  LatentFitter fitter(model, options);
+  const Eigen::VectorXd start = fitter.PriorLatent();
+  Eigen::Matrix3Xd start_surface;
+  ASSERT_TRUE(fitter.Simulate(start, &state, &start_surface, &error)) << error;
+  const int start_solves = 1;
+  ASSERT_TRUE(fitter.last_simulate_report().converged);
+  int used = 0;
+  double mean = 0.0;
+  const FitTarget target = MatchPointCloud(scan, start_surface, model.neutral.triangles, cloud,
+                                           1, &used, &mean);
+  ASSERT_GE(used, 3);
+  LatentFitResult direct;
+  ASSERT_TRUE(fitter.Fit(target, start, &direct, &error)) << error;
+  ASSERT_GT(direct.solves, 0);
+  EXPECT_EQ(rounds.iterations, direct.iterations);
+  EXPECT_LT((rounds.surface - direct.surface).norm(), 1e-9 * (1.0 + direct.surface.norm()));
+  EXPECT_EQ(rounds.solves, direct.solves + start_solves);
+  EXPECT_GE(rounds.solve_factorizations, direct.solve_factorizations + 1);
+}
+
 // Matching rounds refuse a match of fewer than 3 scan points whatever the landmarks, so
 // there a start that reaches no scan point scores +inf, also with landmarks (its matched
 // data term was 0/0, and the NaN score of a given start kept every training pose from
