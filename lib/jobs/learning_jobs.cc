@@ -218,7 +218,8 @@ bool RunPretrainJob(const std::string& model_directory, const PretrainOptions& o
   }
   const std::string record_path = run.checkpoint_directory + "/" + kPretrainRecordName;
   // The CSV log of pre-training goes into the new model (which replaces the folder).
-  const std::string pretrain_log = ReadWholeFile(run.checkpoint_directory + "/" + kPretrainLogName);
+  const std::string pretrain_log =
+      ReadWholeFile(run.checkpoint_directory + "/" + kPretrainRunLogName);
   if (!SaveModel(model_directory, model, error)) return false;
   if (!pretrain_log.empty() &&
       (!MakeDirectory(run.checkpoint_directory, error) ||

@@ -37,10 +37,12 @@ bool IsModelFileName(const std::string& folder, const std::string& name) {
   static const std::set<std::string> kTrain = {"checkpoint.txt", "log.csv"};
   static const std::set<std::string> kLearned = {"decoder.txt", "latents.bin", "prior.txt",
                                                  "checkpoint.txt"};
-  // eval/error_budget.h: what pre-training reached; train/solver_checkpoint.h.
+  // eval/error_budget.h: what pre-training reached; train/solver_checkpoint.h; the logs
+  // (train/pretrain.h: log.csv the model's, run_log.csv that of a run in progress).
   static const std::set<std::string> kPretrain = {"surface_errors.bin", "surface_errors.txt",
                                                   "checkpoint.txt", "parameters_a.bin",
-                                                  "parameters_b.bin", "log.csv", "key.txt"};
+                                                  "parameters_b.bin", "log.csv", "run_log.csv",
+                                                  "key.txt"};
   if (folder.empty()) return kTop.count(name) > 0;
   if (folder == "train") return kTrain.count(name) > 0;
   if (folder == "pretrain") return kPretrain.count(name) > 0;

@@ -28,7 +28,7 @@ namespace aqs {
 //     checkpoint.txt    "iterations N" and "loss L": the model's TrainingCheckpoint
 //   pretrain/surface_errors.bin, .txt   what pre-training reached (eval/error_budget.h)
 //   pretrain/log.csv  pre-training's log (train/pretrain.h); while it runs also its
-//                     checkpoint (train/solver_checkpoint.h)
+//                     checkpoint (train/solver_checkpoint.h) and its log run_log.csv
 //   train/log.csv     end-to-end training log (train/trainer.h)
 //
 // Binary files use util/matrix_io.h. NNNN is the zero-padded pose index. Format 1 had

@@ -16,6 +16,7 @@
 #include "train/solver_checkpoint.h"
 #include "train/pretrain_objective.h"
 #include "train/progress.h"
+#include "util/atomic_file.h"
 #include "util/fnv_hash.h"
 #include "util/iteration_log.h"
 #include "util/make_directory.h"
@@ -100,8 +101,11 @@ class CsvLog final : public ceres::IterationCallback {
 
 // With options.checkpoint_directory: *start gets this pre-training's key and, with
 // options.resume, the checkpoint there that belongs to it (its point into *parameters);
-// the CSV log at log_path is cut back to that checkpoint. Says in `log` what it resumed,
-// or why not. False with *error if the log cannot be written.
+// the CSV log at log_path is cut back to that checkpoint. A run that starts anew removes
+// the checkpoint there first (else, stopped before its own first checkpoint, it would
+// leave the old one for the next run to resume, beside a log of this run). Says in `log`
+// what it resumed, or why not. False with *error if the log or the folder cannot be
+// written.
 bool OpenCheckpoints(const PretrainOptions& options, const ActiveModel& model,
                      const std::string& log_path, Eigen::VectorXd* parameters,
                      SolverCheckpoint* start, std::ostream& log, std::string* error) {
@@ -109,6 +113,7 @@ bool OpenCheckpoints(const PretrainOptions& options, const ActiveModel& model,
   start->key = PretrainCheckpointKey(options, model);
   std::string why_not;
   SolverCheckpoint found;
+  bool resumed = false;
   if (!options.resume) {
     log << "pretrain: starting anew (an earlier run's checkpoint in " << directory
         << " is not resumed)\n";
@@ -116,6 +121,7 @@ bool OpenCheckpoints(const PretrainOptions& options, const ActiveModel& model,
                                   &found, &why_not)) {
     *start = std::move(found);
     *parameters = start->parameters;
+    resumed = true;
     log << "pretrain: resuming after iteration " << start->iterations << " ("
         << FormatDuration(start->seconds) << " spent, loss " << start->loss
         << ") from the checkpoint in " << directory << "\n";
@@ -123,9 +129,18 @@ bool OpenCheckpoints(const PretrainOptions& options, const ActiveModel& model,
     log << "pretrain: not resuming the checkpoint in " << directory << ": " << why_not
         << "; starting anew\n";
   }
+  if (!MakeDirectory(directory, error)) return false;
+  if (!resumed && !RemoveSolverCheckpoint(directory, error)) return false;
+  // A run of an older version kept its log in kPretrainLogName.
+  const std::string old_log = directory + "/" + kPretrainLogName;
+  std::error_code code;
+  if (resumed && !std::filesystem::exists(log_path, code) &&
+      std::filesystem::exists(old_log, code) &&
+      !WriteFileAtomically(log_path, ReadWholeFile(old_log), error)) {
+    return false;
+  }
   int last_row = -1;
-  if (!MakeDirectory(directory, error) ||
-      !PrepareIterationLog(log_path, kPretrainLogHeader, start->iterations, &last_row, error)) {
+  if (!PrepareIterationLog(log_path, kPretrainLogHeader, start->iterations, &last_row, error)) {
     return false;
   }
   if (start->iterations > 0 && last_row < start->iterations) {
@@ -301,7 +316,7 @@ bool Pretrain(const PretrainOptions& options, ActiveModel* model, PretrainReport
   SolverCheckpoint start;
   const bool checkpoints = !options.checkpoint_directory.empty();
   const std::string log_path =
-      checkpoints ? options.checkpoint_directory + "/" + kPretrainLogName : std::string();
+      checkpoints ? options.checkpoint_directory + "/" + kPretrainRunLogName : std::string();
   if (checkpoints && !OpenCheckpoints(options, *model, log_path, &parameters, &start, log,
                                       error)) {
     return false;

@@ -31,9 +31,12 @@ const char* PretrainLatentStartName(PretrainLatentStart start);
 // Inverse of PretrainLatentStartName. Returns false for an unknown name.
 bool PretrainLatentStartFromName(const std::string& name, PretrainLatentStart* start);
 
-// Pre-training's CSV log in the checkpoint directory (with checkpoints only): one row
-// per iteration, kPretrainLogHeader's fields, row 0 the start (a resumed run continues
-// the rows up to its checkpoint).
+// Pre-training's CSV log in the checkpoint directory (with checkpoints only), while it
+// runs: one row per iteration, kPretrainLogHeader's fields, row 0 the start (a resumed
+// run continues the rows up to its checkpoint). RunPretrainJob copies it into the model
+// it saves as kPretrainLogName: a model's pretrain/log.csv is always that of its own
+// decoder, also while another pre-training runs in its folder or after one was stopped.
+inline constexpr char kPretrainRunLogName[] = "run_log.csv";
 inline constexpr char kPretrainLogName[] = "log.csv";
 inline constexpr char kPretrainLogHeader[] = "iteration,loss,gradient_norm,seconds\n";
 
@@ -56,7 +59,7 @@ struct PretrainOptions {
   double max_seconds = 0.0;
   unsigned seed = 1;
   // Checkpoints (train/solver_checkpoint.h, PretrainCheckpointKey) and the CSV log
-  // (kPretrainLogName) go into this folder (empty: none; in a model directory,
+  // (kPretrainRunLogName) go into this folder (empty: none; in a model directory,
   // pretrain/), checkpoints at most every checkpoint_seconds of iterations (0: every
   // iteration) and at the end. With resume, a checkpoint there that belongs to this
   // model, its targets and these options is the start: its iterations and time count

@@ -126,6 +126,14 @@ bool ReadSolverCheckpoint(const std::string& directory, const CheckpointKey& key
   return true;
 }
 
+bool RemoveSolverCheckpoint(const std::string& directory, std::string* error) {
+  const std::string path = directory + "/checkpoint.txt";
+  std::error_code code;
+  if (std::filesystem::remove(path, code) || !code) return true;
+  *error = path + ": cannot remove the checkpoint of an earlier run (" + code.message() + ")";
+  return false;
+}
+
 bool WriteSolverCheckpoint(const std::string& directory, const SolverCheckpoint& checkpoint,
                            std::string* error) {
   if (!MakeDirectory(directory, error)) return false;

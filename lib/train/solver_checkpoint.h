@@ -46,6 +46,11 @@ bool ReadSolverCheckpoint(const std::string& directory, const CheckpointKey& key
                           int num_parameters, SolverCheckpoint* checkpoint,
                           std::string* why_not);
 
+// Removes the checkpoint in `directory` (its checkpoint.txt; the slots, which nothing then
+// names, stay for the next write). True if there is none. False with *error if it
+// cannot be removed.
+bool RemoveSolverCheckpoint(const std::string& directory, std::string* error);
+
 // Writes `checkpoint` into `directory` (created if missing) as described above.
 // Returns false with *error on failure (the checkpoint there before is kept).
 bool WriteSolverCheckpoint(const std::string& directory, const SolverCheckpoint& checkpoint,

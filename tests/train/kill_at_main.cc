@@ -1,11 +1,12 @@
 // aqs_kill_at: runs aqs_train's library call (or, with "pretrain", aqs_pretrain's, with
 // the synthetic bar's options of testing/training_fixtures.h, one thread and a
-// checkpoint every iteration) in a fresh process that kills itself with SIGKILL (as
+// checkpoint every iteration; "pretrain_restart": the same as aqs_pretrain --restart
+// runs it, not resuming) in a fresh process that kills itself with SIGKILL (as
 // kill -9 would) the N-th time it reaches a util/fault_injection.h point. For tests of
 // training under kill -9: a fresh process, because the solver's OpenMP thread pool does
 // not survive fork() without exec.
 //
-//   aqs_kill_at POINT OCCURRENCE MODEL ITERATIONS [pretrain]
+//   aqs_kill_at POINT OCCURRENCE MODEL ITERATIONS [pretrain|pretrain_restart]
 //
 // Exit status: killed by SIGKILL at the point; 0 if training finished first; 1 if it
 // failed; 2 on bad arguments.
@@ -32,9 +33,11 @@ void KillAtPoint(const char* point) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  const bool pretrain = argc == 6 && std::string(argv[5]) == "pretrain";
+  const bool restart = argc == 6 && std::string(argv[5]) == "pretrain_restart";
+  const bool pretrain = restart || (argc == 6 && std::string(argv[5]) == "pretrain");
   if (argc != 5 && !pretrain) {
-    std::cerr << "usage: aqs_kill_at POINT OCCURRENCE MODEL ITERATIONS [pretrain]\n";
+    std::cerr << "usage: aqs_kill_at POINT OCCURRENCE MODEL ITERATIONS "
+                 "[pretrain|pretrain_restart]\n";
     return 2;
   }
   g_point = argv[1];
@@ -46,6 +49,7 @@ int main(int argc, char** argv) {
     spec.num_threads = 1;
     aqs::PretrainOptions options = aqs::testing::SyntheticPretrainOptions(spec);
     options.checkpoint_seconds = 0.0;
+    options.resume = !restart;
     std::string error;
     if (!aqs::RunPretrainJob(argv[3], options, nullptr, std::cout, &error)) {
       std::cerr << "aqs_kill_at: " << error << "\n";

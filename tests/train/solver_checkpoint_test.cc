@@ -16,6 +16,7 @@
 #include "jobs/learning_jobs.h"
 #include "model/model_io.h"
 #include "testing/fault_kill.h"
+#include "testing/file_contents.h"
 #include "testing/temp_dir.h"
 #include "testing/training_fixtures.h"
 
@@ -147,7 +148,7 @@ class PretrainResumeTest : public ::testing::Test {
 
   // Whether pretrain/log.csv has the rows of iterations 0..last, once each, in order.
   ::testing::AssertionResult LogRowsAreZeroTo(int last) {
-    const auto rows = testing::TrainingLogRows(options_.checkpoint_directory + "/log.csv");
+    const auto rows = testing::TrainingLogRows(options_.checkpoint_directory + "/" + kPretrainRunLogName);
     std::string got;
     bool ok = static_cast<int>(rows.size()) == last + 1;
     for (size_t i = 0; i < rows.size(); ++i) {
@@ -197,7 +198,7 @@ TEST_F(PretrainResumeTest, ResumesAtTheCheckpointAndCountsItsIterations) {
   EXPECT_LT(resumed.final_loss, saved.loss);
   EXPECT_EQ(Saved().iterations, 10);
   EXPECT_TRUE(LogRowsAreZeroTo(10));
-  const auto rows = testing::TrainingLogRows(options_.checkpoint_directory + "/log.csv");
+  const auto rows = testing::TrainingLogRows(options_.checkpoint_directory + "/" + kPretrainRunLogName);
   EXPECT_EQ(rows[6].second, saved.loss);
   EXPECT_EQ(rows[10].second, resumed.final_loss);
 
@@ -274,6 +275,45 @@ TEST(PretrainKillTest, AKilledRunResumesItsLastWholeCheckpoint) {
   EXPECT_EQ(rows[1].second, saved.loss);
   ActiveModel done;
   ASSERT_TRUE(LoadModel(path, &done, &error)) << error;
+}
+
+// A pre-training stopped in a model's folder leaves the model's pretrain/log.csv, its
+// decoder's, as it was (the running log is kept apart: it replaced the model's at the
+// start). A run that starts anew (--restart) removes the earlier run's checkpoint at
+// once: killed before its own first checkpoint, it left the old one for the next run to
+// resume, beside a log of its own.
+TEST(PretrainKillTest, AStoppedRunKeepsTheModelsLogAndARestartDropsTheOldCheckpoint) {
+  testing::TempDir dir;
+  const std::string path = dir.File("m");
+  ASSERT_NO_FATAL_FAILURE(testing::WritePretrainedSyntheticModel(path, 3, 11, 8, 2));
+  ASSERT_EQ(testing::RunProgram({AQS_KILL_AT, "none", "0", path, "4", "pretrain"}), "exit 0");
+  const std::string model_log = testing::ReadAll(path + "/pretrain/log.csv");
+  ASSERT_EQ(testing::TrainingLogRows(path + "/pretrain/log.csv").size(), 5u);
+  testing::SyntheticBarSpec spec;
+  spec.num_threads = 1;
+  const PretrainOptions options = testing::SyntheticPretrainOptions(spec);
+  auto saved_checkpoint = [&](SolverCheckpoint* saved) {
+    ActiveModel model;
+    std::string error, why_not;
+    EXPECT_TRUE(LoadModel(path, &model, &error)) << error;
+    return ReadSolverCheckpoint(
+        path + "/pretrain", PretrainCheckpointKey(options, model),
+        static_cast<int>(model.decoder_params.size() + model.latents.size()), saved, &why_not);
+  };
+  // Killed while it writes its third checkpoint: those of iterations 1 and 2 are whole.
+  ASSERT_EQ(testing::RunProgram({AQS_KILL_AT, "solver_checkpoint:parameters_written", "2", path,
+                                 "8", "pretrain"}),
+            "killed");
+  SolverCheckpoint saved;
+  ASSERT_TRUE(saved_checkpoint(&saved));
+  EXPECT_EQ(saved.iterations, 2);
+  EXPECT_EQ(testing::ReadAll(path + "/pretrain/log.csv"), model_log);
+  // A restart killed while it writes its first checkpoint.
+  ASSERT_EQ(testing::RunProgram({AQS_KILL_AT, "solver_checkpoint:parameters_written", "0", path,
+                                 "8", "pretrain_restart"}),
+            "killed");
+  EXPECT_FALSE(saved_checkpoint(&saved)) << "iteration " << saved.iterations;
+  EXPECT_EQ(testing::ReadAll(path + "/pretrain/log.csv"), model_log);
 }
 
 }  // namespace
