@@ -384,7 +384,7 @@ def training_curve(path, log, floor):
                    label="(a) embedding floor")
         ax.set_ylim(bottom=0)
         ax.legend(loc="upper right", fontsize=8)
-    ax.set_xlabel("L-BFGS iteration (0: after pre-training)")
+    ax.set_xlabel("L-BFGS iteration (0: after pre-training and the first latent refit)")
     ax.set_ylabel("mean surface error (model units)", color="tab:blue")
     ax.grid(True, alpha=0.3)
     right = ax.twinx()
@@ -788,8 +788,9 @@ def main(argv):
                 figures.append({"kind": "curve", "src": "images/training_curve.png",
                                 "alt": "training curve", "caption":
                                 "End-to-end training (%s): mean surface error over the "
-                                "training poses and all surface vertices, %s after pre-training "
-                                "(iteration 0) &rarr; %s after %d iterations, and the loss "
+                                "training poses and all surface vertices, %s at iteration 0 "
+                                "(after pre-training and the first latent refit, where "
+                                "training has one) &rarr; %s after %d iterations, and the loss "
                                 "(right axis)%s." % (
                                     html.escape(log_path), number(first), number(last),
                                     int(log["iteration"][-1]),

@@ -81,11 +81,12 @@ bool ShareModel(const Communicator& comm, const std::string& directory, bool loa
   comm.Broadcast(model->decoder_params.data(), static_cast<int>(model->decoder_params.size()), 0);
   comm.Broadcast(model->latents.data(), static_cast<int>(model->latents.size()), 0);
   ShareFitPrior(comm, model);
-  int iterations = model->checkpoint.iterations;
+  int iterations[2] = {model->checkpoint.iterations, model->checkpoint.latent_refit_at};
   double loss = model->checkpoint.loss;
-  comm.Broadcast(&iterations, 1, 0);
+  comm.Broadcast(iterations, 2, 0);
   comm.Broadcast(&loss, 1, 0);
-  model->checkpoint.iterations = iterations;
+  model->checkpoint.iterations = iterations[0];
+  model->checkpoint.latent_refit_at = iterations[1];
   model->checkpoint.loss = loss;
   // No stored equilibria on rank 0: none on any rank (as an empty list, not one empty
   // state per pose, so that the learned state's fingerprint is the one rank 0 read).

@@ -44,6 +44,10 @@ struct TrainingPose {
 struct TrainingCheckpoint {
   int iterations = 0;
   double loss = std::numeric_limits<double>::quiet_NaN();
+  // The iteration whose periodic latent refit (TrainOptions::latent_refit_every) the
+  // saved latents include; -1: none recorded. A refit runs after its iteration's
+  // checkpoint, so a resumed run refits at `iterations` unless this says it is done.
+  int latent_refit_at = -1;
 };
 
 // An active model: the simulation mesh with its material and boundary conditions, the

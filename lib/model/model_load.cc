@@ -75,10 +75,12 @@ bool ReadCheckpoint(const std::string& path, TrainingCheckpoint* checkpoint,
       have_iterations = true;
     } else if (t.size() == 2 && t[0] == "model" && ParseFingerprint(t[1], &value)) {
       *fingerprint = FingerprintText(value);
+    } else if (t.size() == 2 && t[0] == "latent_refit_at" &&
+               ParseInt(t[1], &checkpoint->latent_refit_at) && checkpoint->latent_refit_at >= 0) {
     } else if (!(t.size() == 2 && t[0] == "loss" && ParseDouble(t[1], &checkpoint->loss))) {
       *error = reader.Where(
-          "expected 'iterations N' (N >= 0), 'loss L' or 'model F' (F: 16 "
-          "hexadecimal digits)");
+          "expected 'iterations N' (N >= 0), 'loss L', 'latent_refit_at N' (N >= 0) or "
+          "'model F' (F: 16 hexadecimal digits)");
       return false;
     }
   }

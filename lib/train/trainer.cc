@@ -258,13 +258,20 @@ class TrainingSolveHooks final : public LbfgsSolveHooks {
         log_(log),
         refits_(options.latent_refit_iterations > 0) {
     const int every = options.latent_refit_every;
-    next_refit_ = done == 0 ? 0 : every > 0 ? (done / every + 1) * every : options.max_iterations;
+    // A refit runs after its iteration's checkpoint: a run resumed there refits first,
+    // unless the checkpoint was saved after the refit (a run that ended in it).
+    const bool refit_due_now =
+        every > 0 && done % every == 0 && model->checkpoint.latent_refit_at != done;
+    next_refit_ = done == 0 || refit_due_now ? done
+                  : every > 0               ? (done / every + 1) * every
+                                            : options.max_iterations;
   }
 
   int BeforeSolve(int done, int max_iterations, double* parameters) override {
     if (refits_ && done >= next_refit_) {
       RefitLatents(model_, objective_, parameters, log_);
       ++report_->latent_refits;
+      model_->checkpoint.latent_refit_at = done;  // saved with the next checkpoint
       const int every = options_.latent_refit_every;
       next_refit_ = every > 0 ? done + every : max_iterations;
     }
