@@ -91,15 +91,18 @@ void ContactSolver::MeasurePenetration(const Eigen::Matrix3Xd& surface,
                                        double* max_depth, int* points) const {
   *max_depth = 0.0;
   *points = 0;
-  for (const Obstacle* obstacle : obstacles) {
-    for (Eigen::Index i = 0; i < surface.cols(); ++i) {
-      if (!in_contact_[i]) continue;
+  for (Eigen::Index i = 0; i < surface.cols(); ++i) {
+    if (!in_contact_[i]) continue;
+    // The deepest of the obstacles the point is in (counted once if it is in several).
+    double deepest = 0.0;
+    for (const Obstacle* obstacle : obstacles) {
       Eigen::Vector3d g;
-      const double d = obstacle->SignedDistance(surface.col(i), &g, options_.search_radius);
-      if (d < 0) {
-        ++*points;
-        *max_depth = std::max(*max_depth, -d);
-      }
+      deepest = std::min(
+          deepest, obstacle->SignedDistance(surface.col(i), &g, options_.search_radius));
+    }
+    if (deepest < 0) {
+      ++*points;
+      *max_depth = std::max(*max_depth, -deepest);
     }
   }
 }

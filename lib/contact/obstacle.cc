@@ -17,12 +17,19 @@ Obstacle::Obstacle(std::string name, const Eigen::Matrix3Xd& vertices,
       vertices_(vertices),
       triangles_(triangles),
       bvh_(vertices, triangles),
-      winding_(vertices, triangles) {}
+      winding_(vertices, triangles) {
+  double volume = 0.0;  // six times the enclosed signed volume
+  for (Eigen::Index t = 0; t < triangles.cols(); ++t) {
+    volume += vertices.col(triangles(0, t))
+                  .dot(vertices.col(triangles(1, t)).cross(vertices.col(triangles(2, t))));
+  }
+  orientation_ = volume < 0 ? -1.0 : 1.0;
+}
 
 double Obstacle::SignedDistance(const Eigen::Vector3d& p, Eigen::Vector3d* gradient,
                                 double max_distance) const {
   ClosestPointResult closest = bvh_.ClosestPoint(p, max_distance);
-  const bool inside = winding_.WindingNumber(p) > 0.5;
+  const bool inside = orientation_ * winding_.WindingNumber(p) > 0.5;
   if (closest.triangle < 0) {
     if (!inside) {
       gradient->setZero();
@@ -36,9 +43,10 @@ double Obstacle::SignedDistance(const Eigen::Vector3d& p, Eigen::Vector3d* gradi
   const double distance = direction.norm();
   if (distance > 1e-12) {
     direction /= distance;
-  } else {  // on the surface: the triangle's normal
+  } else {  // on the surface: the triangle's outward normal, as p - closest would be
     const Eigen::Vector3d a = vertices_.col(triangles_(0, closest.triangle));
-    direction = (vertices_.col(triangles_(1, closest.triangle)) - a)
+    direction = (inside ? -orientation_ : orientation_) *
+                (vertices_.col(triangles_(1, closest.triangle)) - a)
                     .cross(vertices_.col(triangles_(2, closest.triangle)) - a)
                     .normalized();
   }

@@ -17,8 +17,9 @@ namespace aqs {
 // signed distance: positive outside, negative inside (inside by winding number).
 class Obstacle {
  public:
-  // vertices: 3 x N at the placement; triangles: 3 x M, outward (or consistently)
-  // oriented, closed (the inside test is a winding number; small holes are tolerated).
+  // vertices: 3 x N at the placement; triangles: 3 x M, consistently oriented, outward
+  // or inward (the sign of the enclosed volume says which), closed (the inside test is a
+  // winding number; small holes are tolerated).
   Obstacle(std::string name, const Eigen::Matrix3Xd& vertices, const Eigen::Matrix3Xi& triangles);
 
   const std::string& name() const { return name_; }
@@ -38,6 +39,9 @@ class Obstacle {
   Eigen::Matrix3Xi triangles_;
   TriangleBvh bvh_;
   FastWindingNumber winding_;
+  // +1 if the triangles face outward (positive enclosed volume), -1 if inward: the
+  // winding number inside is then -1, and the triangles' normals point in.
+  double orientation_ = 1.0;
 };
 
 // A rigid obstacle that moves with one of a model's bones, or stays: its surface at rest.

@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "contact/contact_solver.h"
+#include "contact/obstacle.h"
 #include "geometry/embedding.h"
 #include "mesh/lattice.h"
 #include "testing/contact_scenes.h"
@@ -88,6 +89,30 @@ TEST(ContactMeasurementTest, CountsNewSelfIntersectionsByTheirRestState) {
   const SelfIntersectionCounts counts = joined_solver.CountSelfIntersections(joined_f_through_a);
   EXPECT_EQ(counts.separated, 1);
   EXPECT_EQ(counts.facing, 0);
+}
+
+// A point inside two overlapping obstacles (upper and lower teeth that overlap) is one
+// penetrating point, as deep as the deeper of the two (it was counted once per obstacle).
+TEST(ContactMeasurementTest, APointInsideTwoObstaclesCountsOnce) {
+  LatticeOptions lattice;
+  lattice.nx = lattice.ny = lattice.nz = 2;
+  lattice.spacing = 0.5;
+  ActiveModel model = BlockModel(MakeLatticeMesh(lattice), {0});
+  const ContactSolver solver(model, ContactOptions());
+  Eigen::Matrix3Xd v;
+  Eigen::Matrix3Xi t;
+  testing::BoxSurface(Eigen::Vector3d(0.2, 0.2, 0.2), Eigen::Vector3d(0.8, 0.8, 0.6), &v, &t);
+  const Obstacle lower("lower", v, t);
+  testing::BoxSurface(Eigen::Vector3d(0.2, 0.2, 0.5), Eigen::Vector3d(0.8, 0.8, 0.9), &v, &t);
+  const Obstacle upper("upper", v, t);
+  Eigen::Matrix3Xd surface = model.neutral.vertices.colwise() + Eigen::Vector3d(5, 0, 0);
+  surface.col(0) = Eigen::Vector3d(0.5, 0.5, 0.55);  // 0.05 into lower, 0.05 into upper
+  surface.col(1) = Eigen::Vector3d(0.5, 0.7, 0.3);   // 0.1 into lower
+  double depth = 0.0;
+  int points = 0;
+  solver.MeasurePenetration(surface, {&lower, &upper}, &depth, &points);
+  EXPECT_EQ(points, 2);
+  EXPECT_NEAR(depth, 0.1, 1e-12);
 }
 
 TEST(ContactReportTest, TextNamesEveryMeasurementBeforeAndAfter) {

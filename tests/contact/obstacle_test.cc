@@ -46,16 +46,28 @@ std::vector<Probe> BoxProbes() {
   };
 }
 
+// Trials 3 to 5 have every triangle turned inward (a file of the opposite winding, which
+// is as closed and consistent): inside is still inside (its winding number is -1 there),
+// and the gradient still points out.
 TEST(ObstacleTest, SignedDistanceGradientOnARotatedBox) {
   std::mt19937 rng(5);
-  for (int trial = 0; trial < 3; ++trial) {
+  for (int trial = 0; trial < 6; ++trial) {
     const Eigen::Matrix3d rotation = testing::RandomRotation(&rng);
     const Eigen::Vector3d shift(0.3 * trial, -0.2, 0.5);
     Eigen::Matrix3Xd v;
     Eigen::Matrix3Xi t;
     testing::BoxSurface(Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(2, 1, 1), &v, &t);
+    if (trial >= 3) t.row(1).swap(t.row(2));
     v = (rotation * v).colwise() + shift;
     const Obstacle box("box", v, t);
+    {
+      // On the face z = 1: distance 0, the outward normal.
+      Eigen::Vector3d gradient;
+      const double d = box.SignedDistance(rotation * Eigen::Vector3d(0.7, 0.3, 1.0) + shift,
+                                          &gradient);
+      EXPECT_NEAR(d, 0.0, 1e-12);
+      EXPECT_LT((gradient - rotation.col(2)).norm(), 1e-9) << gradient.transpose();
+    }
     for (const Probe& probe : BoxProbes()) {
       SCOPED_TRACE("trial " + std::to_string(trial) + ": " + probe.name);
       const Eigen::Vector3d p = rotation * probe.local + shift;
