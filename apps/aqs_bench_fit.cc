@@ -39,6 +39,7 @@ int main(int argc, char** argv) {
   options.output_dir = FLAGS_output_dir;
   options.max_mixes = FLAGS_max_mixes;
   options.sequence_frames = FLAGS_sequence_frames;
+  options.temporal_prior = aqs::TemporalPriorFlag();
   std::string error;
   if (!aqs::FitOptionsFromFlags(&options.fit, &options.points, &options.start, &error) ||
       (!FLAGS_error_vertices.empty() &&

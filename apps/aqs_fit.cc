@@ -96,12 +96,18 @@ int main(int argc, char** argv) {
     options.points = points;
     options.start = start;
     options.warm_start = FLAGS_sequence_warm_start;
+    options.temporal_prior = aqs::TemporalPriorFlag();
     options.communicator = ranks.get();
     const aqs::FitSequenceResult result = aqs::RunFitSequenceJob(options, std::cout);
     if (result.status != aqs::JobStatus::kOk) {
       aqs::PrintRankError(ranks.get(), aqs::FlagError(result.message, aqs::FitFlagNames()));
     }
     return aqs::ExitStatus(result.status);
+  }
+  if (aqs::TemporalPriorFlag() != 0.0) {
+    aqs::PrintRankError(ranks.get(), "--temporal_prior pulls a sequence's frame toward the one "
+                                     "before it: it applies to a --sequence, not to one --target");
+    return 1;
   }
   if (distributed) {
     aqs::PrintRankError(ranks.get(), "one --target is fitted by one process, not by " +

@@ -34,6 +34,10 @@ DEFINE_bool(choose_start, true, "Start from the best of the given start (prior c
 DEFINE_bool(retry_from_given, true, "With --choose_start: a fit from a training pose that "
             "fails, does not converge or moves a bone beyond the training poses' is fitted "
             "again from the given start, and the fit of the smaller objective kept.");
+DEFINE_double(temporal_prior, 0.0, "Sequences with warm starts: also pull each frame toward the "
+              "previous frame's latent and bone motions, with this weight (as --latent_prior's: "
+              "squared length per point per standard deviation of the training spread). Damps "
+              "the jitter of noisy markers (docs/fitting.md). 0: off.");
 DEFINE_string(start_latent, "prior", "The given start: 'prior' (the latent prior's centre) or "
               "'mean' (the mean training latent).");
 
@@ -64,6 +68,8 @@ bool FitOptionsFromFlags(LatentFitOptions* fit, PointCloudFitOptions* points,
   return true;
 }
 
+double TemporalPriorFlag() { return FLAGS_temporal_prior; }
+
 FlagNames FitFlagNames() {
   FlagNames flags = LatentFitFlagNames("fit.");
   flags.insert(flags.end(), {{"target_kind", "--target_kind"},
@@ -76,6 +82,7 @@ FlagNames FitFlagNames() {
                              {"points.landmark_weight", "--landmark_weight"},
                              {"points.bone_prior", "--scan_bone_prior"},
                              {"points.latent_prior", "--scan_latent_prior"},
+                             {"temporal_prior", "--temporal_prior"},
                              {"compare_vertices", "--compare_vertices"},
                              {"error_vertices", "--error_vertices"}});
   return flags;

@@ -15,6 +15,9 @@ namespace aqs {
 bool FitOptionsFromFlags(LatentFitOptions* fit, PointCloudFitOptions* points,
                          FitStartOptions* start, std::string* error);
 
+// --temporal_prior (FitSequenceOptions::temporal_prior; aqs_bench_fit's sequence).
+double TemporalPriorFlag();
+
 // The fit jobs' option fields ("fit.", "points.", FitJobOptions' and
 // FitSequenceOptions') and the flags that set them (for FlagError).
 FlagNames FitFlagNames();

@@ -92,6 +92,18 @@ void LatentFitter::StartFromTrainingPose(int p) {
   }
 }
 
+void LatentFitter::SetTemporalPrior(double weight, const Eigen::VectorXd& latent,
+                                    const std::vector<RigidTransform>& bones) {
+  CHECK_EQ(latent.size(), model_.latent_dim());
+  CHECK_EQ(bones.size(), model_.bones.size());
+  temporal_weight_ = weight;
+  temporal_latent_ = latent;
+  temporal_bones_.assign(bones.size(), Eigen::Matrix<double, 6, 1>::Zero());
+  for (size_t b = 0; b < bones.size(); ++b) {
+    BoneTransformToParameters(bones[b], temporal_bones_[b].data());
+  }
+}
+
 bool LatentFitter::Simulate(const Eigen::VectorXd& z, Eigen::Matrix3Xd* state,
                             Eigen::Matrix3Xd* surface, std::string* error) {
   ActuationMatrix a;
@@ -232,6 +244,16 @@ void LatentFitter::AddPriorBlocks(ceres::Problem* problem, double prior_points,
     problem->AddResidualBlock(new GaussianPriorCost(prior_.latent.mean, prior_.latent.whitening,
                                                     latent_prior / prior_points),
                               nullptr, z->data());
+  }
+  if (temporal_weight_ > 0) {
+    problem->AddResidualBlock(new GaussianPriorCost(temporal_latent_, prior_.latent.whitening,
+                                                    temporal_weight_ / prior_points),
+                              nullptr, z->data());
+    for (size_t b = 0; bone_parameters != nullptr && b < model_.bones.size(); ++b) {
+      problem->AddResidualBlock(new GaussianPriorCost(temporal_bones_[b], prior_.bones[b].whitening,
+                                                      temporal_weight_ / prior_points),
+                                nullptr, (*bone_parameters)[b].data());
+    }
   }
   const double bone_prior = scan && cloud_options_->bone_prior >= 0 ? cloud_options_->bone_prior
                                                                     : options_.bone_prior;

@@ -253,6 +253,17 @@ class LatentFitter {
   void set_start_state(const Eigen::Matrix3Xd& state);
   // The same from training pose p's stored equilibrium, if the model has one.
   void StartFromTrainingPose(int p);
+  // A temporal prior for the frames of a tracked sequence: every later fit (Fit and
+  // FitPointCloud) adds
+  //   (weight / W') |L_z^-1 (z - latent)|^2 + (weight / W') sum_b |L_b^-1 (b - bones_b)|^2
+  // (the bone part only where bones are fitted), the model's latent and bone priors'
+  // whitenings L^-1 centred on the given latent (latent_dim) and bone motions (one per
+  // bone: the previous frame's result), W' as for the priors. It pulls a frame toward its
+  // predecessor by as many standard deviations of the training spread as the other priors
+  // pull toward the neutral, and damps the jitter that marker noise gives a track.
+  // weight <= 0 switches it off (the default).
+  void SetTemporalPrior(double weight, const Eigen::VectorXd& latent,
+                        const std::vector<RigidTransform>& bones);
   // The next equilibrium solve factorizes afresh instead of reusing, by CG, the factor
   // of the last one (StiffnessFactorization::RequestRefresh): for a fitter that moves on
   // to an unrelated target, so that its result does not depend on what it fitted before.
@@ -353,7 +364,8 @@ class LatentFitter {
                              const Eigen::VectorXd& z, double latent_prior,
                              double bone_prior) const;
   // The priors' part of the objective at latent z and the current bone transforms
-  // (latent_regularization |z|^2 and the Gaussian priors over prior_points points).
+  // (latent_regularization |z|^2, the Gaussian priors and the temporal prior over
+  // prior_points points).
   double PriorTerms(const Eigen::VectorXd& z, double latent_prior, double bone_prior,
                     double prior_points) const;
   // The latent prior's weight in a scan fit with these options.
@@ -372,7 +384,8 @@ class LatentFitter {
   // Adds the priors' residual blocks on *z and, where given (the bones are fitted), on
   // *bone_parameters (6 per bone): latent_regularization |z|^2, and the Gaussian priors
   // of the latent and of each bone, weighed per point over `prior_points` points (a
-  // scan's by its own weights, its bone prior centred on the bones it started from).
+  // scan's by its own weights, its bone prior centred on the bones it started from), and
+  // the temporal prior if one is set.
   void AddPriorBlocks(ceres::Problem* problem, double prior_points,
                       std::vector<Eigen::Matrix<double, 6, 1>>* bone_parameters,
                       Eigen::VectorXd* z) const;
@@ -400,6 +413,10 @@ class LatentFitter {
   const Eigen::Matrix3Xd* direct_cloud_ = nullptr;
   // Where equilibrium solves start (see set_start_state).
   Eigen::Matrix3Xd accepted_state_;
+  // SetTemporalPrior's weight (<= 0: none), latent and bone parameters (6 per bone).
+  double temporal_weight_ = 0.0;
+  Eigen::VectorXd temporal_latent_;
+  std::vector<Eigen::Matrix<double, 6, 1>> temporal_bones_;
 };
 
 }  // namespace aqs

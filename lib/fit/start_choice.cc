@@ -42,6 +42,16 @@ double LatentFitter::PriorTerms(const Eigen::VectorXd& z, double latent_prior, d
       cost += bone_prior / prior_points * prior_.bones[b].SquaredMahalanobis(parameters);
     }
   }
+  if (temporal_weight_ > 0) {
+    cost += temporal_weight_ / prior_points *
+            (prior_.latent.whitening * (z - temporal_latent_)).squaredNorm();
+    for (size_t b = 0; options_.fit_bones && b < bones_.size(); ++b) {
+      Eigen::Matrix<double, 6, 1> parameters;
+      BoneTransformToParameters(bones_[b], parameters.data());
+      cost += temporal_weight_ / prior_points *
+              (prior_.bones[b].whitening * (parameters - temporal_bones_[b])).squaredNorm();
+    }
+  }
   return cost;
 }
 

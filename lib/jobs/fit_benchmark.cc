@@ -7,6 +7,7 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <utility>
 
 #include <Eigen/Geometry>
 #include <glog/logging.h>
@@ -27,6 +28,7 @@
 #include "util/input_file.h"
 #include "util/line_reader.h"
 #include "util/machine_info.h"
+#include "util/number_format.h"
 #include "util/option_checks.h"
 #include "util/wall_timer.h"
 
@@ -474,7 +476,8 @@ JobStatus BenchmarkSequence(const FitBenchmarkOptions& options, const FitSequenc
     *error = "the marker sequence: " + result.message;
     return result.status;
   }
-  std::vector<double> err;
+  std::vector<double> err, velocity_err;
+  SurfaceMesh previous_truth, previous_fitted;
   for (const std::string& name : result.frame_names) {
     SurfaceMesh truth, fitted;
     const std::string truth_path = options.test_set + "/sequence/truth/" + name + ".obj";
@@ -485,12 +488,26 @@ JobStatus BenchmarkSequence(const FitBenchmarkOptions& options, const FitSequenc
     double mean = 0, max = 0;
     Errors(fitted.vertices, truth.vertices, measured, &mean, &max);
     err.push_back(mean);
+    if (previous_truth.vertices.cols() > 0) {
+      // The motion since the frame before, against the truth's: what jitter adds.
+      Errors(fitted.vertices - previous_fitted.vertices, truth.vertices - previous_truth.vertices,
+             measured, &mean, &max);
+      velocity_err.push_back(mean);
+    }
+    previous_truth = std::move(truth);
+    previous_fitted = std::move(fitted);
   }
   std::ostringstream out;
   out << "\nMarker sequence (" << result.frame_names.size() << " frames): "
       << Fixed(result.frames_per_second, 2) << " frames/s (" << Fixed(result.seconds, 1)
       << " s), mean error " << Fixed(Mean(err), 4) << ", max of frames "
-      << Fixed(Max(err), 4) << ".\n";
+      << Fixed(Max(err), 4) << "; frame-to-frame motion error (the mean distance of each "
+      << "vertex's motion since the frame before from the truth's) "
+      << Fixed(velocity_err.empty() ? 0.0 : Mean(velocity_err), 4);
+  if (sequence.temporal_prior > 0) {
+    out << "; temporal prior " << FormatDouble(sequence.temporal_prior);
+  }
+  out << ".\n";
   *md = out.str();
   return JobStatus::kOk;
 }
@@ -514,6 +531,7 @@ bool FitBenchmarkOptions::Validate(std::string* error) const {
       .Require(!markers || !marker_counts.empty(),
                "marker_counts must list a count for the markers part")
       .Require(sequence_frames != 0, "sequence_frames must be >= 1, or < 0 for all frames")
+      .NonNegative("temporal_prior", temporal_prior)
       .Nested("fit", fit_ok, fit_error)
       .Nested("points", points_ok, points_error)
       .Done(error);
@@ -577,6 +595,7 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
   sequence.points = options.points;
   sequence.start = options.start;
   sequence.max_frames = options.sequence_frames;
+  sequence.temporal_prior = options.temporal_prior;
   if (options.sequence) {
     std::vector<SequenceFrame> frames;
     if (!ReadSequenceFrames(sequence, model.neutral.vertices, &frames, error)) {

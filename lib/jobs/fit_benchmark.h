@@ -25,6 +25,8 @@ struct FitBenchmarkOptions {
   bool markers = true, poses = true, scans = true, sequence = false;
   int max_mixes = -1;       // < 0: all
   int sequence_frames = -1;  // < 0: all frames of sequence/markers
+  // The sequence's temporal prior (FitSequenceOptions::temporal_prior; 0: off).
+  double temporal_prior = 0.0;
   // Candidate ridge weights (squared lengths) of the PCA baseline, chosen by
   // leave-one-out over the model's training poses per marker set.
   std::vector<double> ridge_candidates = {0,    1e-6, 3e-6, 1e-5, 3e-5, 1e-4, 3e-4, 1e-3,

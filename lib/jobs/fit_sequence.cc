@@ -120,6 +120,10 @@ std::string SequenceKey(const FitSequenceOptions& options, const ActiveModel& mo
       << "start " << s.training_poses << " " << s.retry_from_given << " " << s.mean_latent
       << "\n"
       << options.points.KeyText() << options.fit.KeyText();
+  // Only when on, so that the keys of runs without it stay as they were.
+  if (options.temporal_prior > 0) {
+    key << "temporal_prior " << FormatDouble(options.temporal_prior) << "\n";
+  }
   return key.str();
 }
 
@@ -241,6 +245,7 @@ class SequenceFrameFitter {
     if (!warm_) return true;
     z_ = last.latent;
     warm_->set_bone_transforms(last.bones);
+    warm_->SetTemporalPrior(options_.temporal_prior, last.latent, last.bones);
     Eigen::Matrix3Xd state, surface;
     return !more || warm_->Simulate(z_, &state, &surface, error);
   }
@@ -280,7 +285,10 @@ class SequenceFrameFitter {
     if (!fitted) {
       return Failed(frame, fit, start, frame_timer.Seconds(), fit_error, block, status, message);
     }
-    if (warm_) z_ = fit.latent;
+    if (warm_) {
+      z_ = fit.latent;
+      warm_->SetTemporalPrior(options_.temporal_prior, fit.latent, fit.bones);
+    }
     PackFrameBlock(model_, fit, start, frame_timer.Seconds(), block);
     return true;
   }
@@ -411,7 +419,9 @@ FitSequenceResult RunFitSequence(const FitSequenceOptions& options, const Active
   std::ostream& log = ranks.root ? job_log : quiet;
   std::string error;
   // Bad input every rank sees alike (same options): no collective needed.
-  if (!CheckSharing(options, &error)) return fail(JobStatus::kBadInput, error);
+  if (!options.Validate(&error) || !CheckSharing(options, &error)) {
+    return fail(JobStatus::kBadInput, error);
+  }
   if (options.output_dir.empty()) return fail(JobStatus::kBadInput, "--output_dir is required");
   // Paths may resolve differently on another machine: the ranks agree.
   if (!ranks.Agree(CheckOutputApart(options.output_dir, options.model, &error), &error)) {
@@ -544,6 +554,10 @@ bool FitSequenceOptions::Validate(std::string* error) const {
   if (!ValidateFitTargetOptions(target_kind, fit, points, error)) return false;
   return OptionChecks()
       .Require(max_frames != 0, "max_frames must be >= 1, or < 0 for all frames")
+      .NonNegative("temporal_prior", temporal_prior)
+      .Require(temporal_prior <= 0 || warm_start,
+               "temporal_prior pulls a frame toward the previous one: it needs warm-started "
+               "frames (--sequence_warm_start)")
       .Done(error);
 }
 

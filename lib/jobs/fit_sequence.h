@@ -51,6 +51,12 @@ struct FitSequenceOptions {
   // depends on nothing but its target (not on the order, the previous frame or the rank
   // that fits it); frames.csv's `start` column names that start for every frame.
   bool warm_start = true;
+  // With warm starts, frames after the first are also pulled toward the previous frame's
+  // latent and bone motions (LatentFitter::SetTemporalPrior's weight: squared length per
+  // target point per standard deviation of the training spread, as the priors' weights;
+  // on a resumed run, toward the last frame done). Damps the jitter of noisy markers.
+  // 0: off. Needs warm_start (independent frames have no previous frame).
+  double temporal_prior = 0.0;
   // The ranks that share the frames (null, or one rank: one process). Needs
   // warm_start = false with more than one rank (else kBadInput on every rank). Frames
   // are fitted in rounds of size() frames, frame first + k on rank k; rank 0 gathers

@@ -14,6 +14,8 @@
 #include <Eigen/Eigenvalues>
 #include <gtest/gtest.h>
 
+#include "fit/bone_parameters.h"
+#include "fit/fit_target.h"
 #include "fit/point_cloud_matching.h"
 #include "geometry/embedding.h"
 #include "geometry/triangle_bvh.h"
@@ -918,6 +920,52 @@ TEST(LatentFitTest, MatchingRoundsConvergeByTheirOwnTest) {
   // One round from the prior's centre does not settle it.
   ASSERT_TRUE(fit_rounds(1, &fit)) << error;
   EXPECT_FALSE(fit.converged) << fit.message;
+}
+
+// The temporal prior adds (weight / W') |L_z^-1 (z - previous)|^2 and, for each fitted
+// bone, the same with the bone prior's whitening, to the objective the fits minimize (and
+// the start choice compares), and a fit with it ends nearer the previous latent.
+TEST(LatentFitTest, TemporalPriorAddsItsTermAndPullsTheFitTowardThePreviousFrame) {
+  const ActiveModel model = TrainedModel(true);
+  LatentFitOptions options;
+  options.num_threads = 1;
+  LatentFitter fitter(model, options);
+  Eigen::Matrix3Xd state, surface;
+  std::string error;
+  ASSERT_TRUE(fitter.Simulate(model.latents.col(3), &state, &surface, &error)) << error;
+  std::vector<int> markers;
+  for (int v = 0; v < surface.cols(); v += 7) markers.push_back(v);
+  const FitTarget target = VertexTarget(markers, surface(Eigen::all, markers));
+  const Eigen::VectorXd previous = model.latents.col(1);
+  std::vector<RigidTransform> previous_bones = fitter.bone_transforms();
+  ASSERT_FALSE(previous_bones.empty());
+  previous_bones[0].translation = Eigen::Vector3d(0.0, 0.02, 0.0);
+  const Eigen::VectorXd z = model.latents.col(2);
+  const double without = fitter.Objective(target, surface, z);
+  const double weight = 0.5;
+  fitter.SetTemporalPrior(weight, previous, previous_bones);
+  const double with = fitter.Objective(target, surface, z);
+  Eigen::Matrix<double, 6, 1> bone_now, bone_before;
+  BoneTransformToParameters(fitter.bone_transforms()[0], bone_now.data());
+  BoneTransformToParameters(previous_bones[0], bone_before.data());
+  const double points = PriorPoints(target, options.prior_points_cap);
+  const double expected =
+      weight / points *
+      ((fitter.prior().latent.whitening * (z - previous)).squaredNorm() +
+       (fitter.prior().bones[0].whitening * (bone_now - bone_before)).squaredNorm());
+  EXPECT_NEAR(with - without, expected, 1e-12 * (1.0 + expected));
+  ASSERT_GT(expected, 0.0);
+  // Fits from the same start, without and with it.
+  LatentFitResult free, held;
+  {
+    LatentFitter plain(model, options);
+    ASSERT_TRUE(plain.Fit(target, previous, &free, &error)) << error;
+  }
+  fitter.SetTemporalPrior(0.0, previous, previous_bones);
+  EXPECT_NEAR(fitter.Objective(target, surface, z), without, 1e-15 * (1.0 + without));
+  fitter.SetTemporalPrior(weight, previous, previous_bones);
+  ASSERT_TRUE(fitter.Fit(target, previous, &held, &error)) << error;
+  EXPECT_LT((held.latent - previous).norm(), (free.latent - previous).norm());
 }
 
 // The matching rounds' work counts the solve of their start, whose surface the first

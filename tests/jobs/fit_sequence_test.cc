@@ -199,6 +199,59 @@ TEST_F(FitSequenceTest, IndependentFramesResumeWithTheSameResults) {
 
 // Frames of another model or other fit options are refused, never mixed with this
 // run's (output_dir/key.txt); the same options resume.
+// The temporal prior pulls every frame after the first toward the one before it (here
+// strongly), is part of the folder's key, resumes from the last frame done as an
+// unstopped run goes on, and needs warm starts.
+TEST_F(FitSequenceTest, ATemporalPriorPullsEachFrameTowardTheOneBefore) {
+  auto track = [&](const std::string& out, double temporal_prior, int max_frames) {
+    FitSequenceOptions options = Options();
+    for (int t : {0, 1, 2}) options.sequence += Target(t) + ",";
+    options.output_dir = dir_->File(out);
+    options.temporal_prior = temporal_prior;
+    options.max_frames = max_frames;
+    std::ostringstream log;
+    const FitSequenceResult result = RunFitSequence(options, *model_, log);
+    EXPECT_EQ(result.status, JobStatus::kOk) << result.message << "\n" << log.str();
+    Eigen::MatrixXd latents;
+    std::string error;
+    EXPECT_TRUE(ReadMatrixFile(options.output_dir + "/latents.bin", 2, -1, &latents, &error))
+        << error;
+    return latents;
+  };
+  const Eigen::MatrixXd free = track("untimed", 0.0, -1);
+  const Eigen::MatrixXd held = track("timed", 10.0, -1);
+  EXPECT_LT((free.col(0) - held.col(0)).norm(), 1e-9) << "the first frame has no frame before";
+  for (int f = 1; f < 3; ++f) {
+    SCOPED_TRACE(f);
+    const double free_step = (free.col(f) - free.col(f - 1)).norm();
+    const double held_step = (held.col(f) - held.col(f - 1)).norm();
+    std::printf("frame %d: latent step %.4g, with the temporal prior %.4g\n", f, free_step,
+                held_step);
+    EXPECT_LT(held_step, 0.8 * free_step);
+  }
+  // Stopped after two frames, then resumed: the third frame is pulled toward the second
+  // as in the run that was not stopped.
+  track("timed_resumed", 10.0, 2);
+  const Eigen::MatrixXd resumed = track("timed_resumed", 10.0, -1);
+  EXPECT_LT((resumed - held).norm(), 1e-6 * (1.0 + held.norm()));
+  // Frames fitted without it are not taken for frames with it.
+  FitSequenceOptions options = Options();
+  for (int t : {0, 1, 2}) options.sequence += Target(t) + ",";
+  options.output_dir = dir_->File("untimed");
+  options.temporal_prior = 10.0;
+  std::ostringstream log;
+  FitSequenceResult other = RunFitSequence(options, *model_, log);
+  EXPECT_EQ(other.status, JobStatus::kBadInput);
+  EXPECT_NE(other.message.find("key.txt"), std::string::npos) << other.message;
+  options.output_dir = dir_->File("timed_independent");
+  options.warm_start = false;
+  other = RunFitSequence(options, *model_, log);
+  EXPECT_EQ(other.status, JobStatus::kBadInput);
+  EXPECT_NE(other.message.find("temporal_prior pulls a frame toward the previous one"),
+            std::string::npos)
+      << other.message;
+}
+
 TEST_F(FitSequenceTest, FramesOfOtherOptionsAreRefused) {
   Run({0}, "keyed", false);
   FitSequenceOptions options = Options();
