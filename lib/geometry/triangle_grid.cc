@@ -1,5 +1,6 @@
 #include "geometry/triangle_grid.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace aqs {
@@ -7,7 +8,25 @@ namespace aqs {
 TriangleGrid::TriangleGrid(const Eigen::Matrix3Xd& vertices, const Eigen::Matrix3Xi& triangles,
                            double cell)
     : cell_(cell), num_triangles_(static_cast<int>(triangles.cols())) {
-  lo_ = vertices.rowwise().minCoeff().array() - cell;
+  // Cells no smaller than the triangles' mean bounding-box side, nor than 2^-20 of the
+  // vertices' extent: a cell far below the triangles' size lists each triangle in
+  // (size / cell)^3 cells (a contact radius of 0.003 on the demo face took 2.8 GB), and
+  // cell coordinates beyond int's range are undefined.
+  double mean_side = 0.0;
+  for (Eigen::Index t = 0; t < triangles.cols(); ++t) {
+    Eigen::Vector3d a = vertices.col(triangles(0, t)), b = a;
+    for (int k = 1; k < 3; ++k) {
+      a = a.cwiseMin(vertices.col(triangles(k, t)));
+      b = b.cwiseMax(vertices.col(triangles(k, t)));
+    }
+    mean_side += (b - a).maxCoeff();
+  }
+  if (triangles.cols() > 0) mean_side /= static_cast<double>(triangles.cols());
+  const double extent =
+      vertices.cols() > 0 ? (vertices.rowwise().maxCoeff() - vertices.rowwise().minCoeff()).maxCoeff()
+                          : 0.0;
+  cell_ = std::max({cell, mean_side, std::ldexp(extent, -20)});
+  lo_ = vertices.rowwise().minCoeff().array() - cell_;
   for (Eigen::Index t = 0; t < triangles.cols(); ++t) {
     Eigen::Vector3d a = vertices.col(triangles(0, t)), b = a;
     for (int k = 1; k < 3; ++k) {
@@ -44,7 +63,8 @@ void TriangleGrid::Near(const Eigen::Vector3d& p, int stamp, std::vector<int>* m
 }
 
 Eigen::Vector3i TriangleGrid::Cell(const Eigen::Vector3d& p) const {
-  return ((p - lo_) / cell_).array().floor().cast<int>();
+  // Clamped: a query far outside the grid stays in int's range (and finds nothing).
+  return ((p - lo_) / cell_).array().floor().max(-1e9).min(1e9).cast<int>();
 }
 
 int64_t TriangleGrid::Key(int i, int j, int k) {

@@ -9,7 +9,9 @@
 
 namespace aqs {
 
-// A uniform grid of cubic cells of edge `cell` over the bounding boxes of triangles
+// A uniform grid of cubic cells of edge at least `cell` (larger where the triangles'
+// mean bounding-box side is, or where 2^20 cells would not span the vertices' extent)
+// over the bounding boxes of triangles
 // (columns of `triangles`, 3 x T, index columns of `vertices`, 3 x V), hashed by cell
 // coordinates, for radius queries: every triangle is listed in each cell its bounding
 // box overlaps. Degenerate triangles (a, b, b) serve as segments. The grid keeps no
@@ -26,6 +28,9 @@ class TriangleGrid {
   // query's index).
   void Near(const Eigen::Vector3d& p, int stamp, std::vector<int>* marks,
             std::vector<int>* out) const;
+
+  // The cells' edge (>= the `cell` asked for).
+  double cell() const { return cell_; }
 
  private:
   Eigen::Vector3i Cell(const Eigen::Vector3d& p) const;

@@ -20,6 +20,26 @@ double BoxDistance(const Eigen::Matrix3Xd& vertices, const Eigen::Matrix3Xi& tri
   return (lo - p).cwiseMax(p - hi).cwiseMax(0.0).maxCoeff();
 }
 
+// A cell far below the triangles' size would list each triangle in (size / cell)^3 cells
+// (a contact radius of 0.003 on the demo face: 2.8 GB): the grid's cells are no smaller
+// than the triangles' mean bounding-box side, and still find what the asked-for cell
+// would.
+TEST(TriangleGridTest, CellsAreNoSmallerThanTheTriangles) {
+  Eigen::Matrix3Xd vertices(3, 6);
+  vertices << 0, 1, 0, 2, 2.5, 2, 0, 0, 1, 0, 0, 0.5, 0, 0, 0, 1, 1, 1;
+  Eigen::Matrix3Xi triangles(3, 2);
+  triangles << 0, 3, 1, 4, 2, 5;
+  const TriangleGrid grid(vertices, triangles, 1e-3);
+  EXPECT_GE(grid.cell(), 0.75);  // the mean of the sides 1 and 0.5
+  std::vector<int> marks, near;
+  grid.Near(Eigen::Vector3d(0.3, 0.3, 0.0005), 0, &marks, &near);
+  EXPECT_NE(std::find(near.begin(), near.end(), 0), near.end());
+  // A query far outside the grid finds nothing (its cell stays in int's range).
+  grid.Near(Eigen::Vector3d(1e300, -1e300, 0), 1, &marks, &near);
+  EXPECT_TRUE(near.empty());
+  EXPECT_EQ(TriangleGrid(vertices, triangles, 2.0).cell(), 2.0);
+}
+
 TEST(TriangleGridTest, NearFindsEveryTriangleWithinACellOnce) {
   // A soup of small triangles (some degenerate, as segments) in a 4 x 4 x 4 box.
   std::mt19937 rng(17);
