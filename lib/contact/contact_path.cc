@@ -222,8 +222,11 @@ bool ContactSolver::Resolve(const ActuationMatrix& a, const std::vector<RigidTra
         CountObstacleIntersections(rest_surface_, Pointers(rest_placed));
     current.self_intersections = 0;
     const double full_step = 1.0 / options_.path_steps;
+    // The shortest step halving may try: an absolute floor (a floor per accepted step let
+    // the steps shrink geometrically toward a crossing contact cannot prevent, without
+    // end: 145 attempts for 8 steps on the demo, and t + step == t in a replica).
+    const double min_step = std::ldexp(full_step, -options_.max_step_halvings);
     double t = 0.0, step = full_step;
-    int halvings = 0;
     while (t < 1.0) {
       const double t_next = t + step > 1.0 - 1e-9 ? 1.0 : t + step;
       std::vector<RigidTransform> bones_t(bones.size());
@@ -251,9 +254,8 @@ bool ContactSolver::Resolve(const ActuationMatrix& a, const std::vector<RigidTra
       }
       if ((next.self_intersections > current.self_intersections ||
            next.obstacle_intersections > current.obstacle_intersections) &&
-          halvings < options_.max_step_halvings) {
+          0.5 * (t_next - t) >= min_step * (1.0 - 1e-9)) {
         step = 0.5 * (t_next - t);  // half the step taken (the last one may be short)
-        ++halvings;
         ++report->path_halvings;
         report->round_summaries.push_back(
             "step to t " + t_text.str() + " adds intersecting pairs (self, facing, " +
@@ -266,7 +268,6 @@ bool ContactSolver::Resolve(const ActuationMatrix& a, const std::vector<RigidTra
       current = std::move(next);
       t = t_next;
       ++report->path_steps;
-      halvings = 0;
       step = std::min(full_step, 2.0 * step);
     }
   }

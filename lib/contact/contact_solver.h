@@ -81,7 +81,8 @@ struct ContactOptions {
   // each step starting from the last one, so that contacts are caught as surfaces
   // approach each other, not after they passed through (a model's lips can cross by
   // more than their thickness). A step that adds intersecting triangle pairs is halved,
-  // up to max_step_halvings times. 0: no path; the rounds start from the contact-free
+  // down to 1 / (path_steps 2^max_step_halvings) (a step that short is taken whatever
+  // it adds). 0: no path; the rounds start from the contact-free
   // equilibrium (enough for shallow penetrations, e.g. teeth); also when the rest
   // surface has points inside the obstacles at their rest placement (no clean start).
   // (Steps and rounds count the new self-intersecting pairs whose triangles were apart
@@ -109,8 +110,10 @@ struct ContactOptions {
 };
 
 // The most path steps and rounds per step a contact solve takes (ContactOptions::Validate):
-// each round is an equilibrium solve, so these bound the work of one aqs_collide run to
-// kMaxPathSteps x 2^max_step_halvings x kMaxContactRounds solves.
+// each round is an equilibrium solve, and every step taken is at least
+// 1 / (path_steps 2^max_step_halvings) long and tried at most max_step_halvings + 1
+// times, so these bound the work of one aqs_collide run to
+// kMaxPathSteps x 2^max_step_halvings x (max_step_halvings + 1) x kMaxContactRounds solves.
 constexpr int kMaxPathSteps = 256;
 constexpr int kMaxContactRounds = 64;
 

@@ -84,6 +84,66 @@ TEST(ContactSolverTest, BlockPushedIntoASlabStopsAtItsSurface) {
   EXPECT_GT(report.obstacle_contacts, 0);
 }
 
+// An obstacle that moves with a bone through a face whose vertices are all fixed: a
+// crossing no contact can prevent. Halving stops at the shortest step (1 / (path_steps
+// 2^max_step_halvings)) however often the crossing comes back, so the path takes a
+// bounded number of tries (halving per accepted step let the steps shrink toward the
+// crossing geometrically: 145 tries for 8 steps on the demo face).
+TEST(ContactSolverTest, APathThroughAnUnavoidableCrossingTakesBoundedSteps) {
+  LatticeOptions lattice;
+  lattice.nx = 3;
+  lattice.ny = 3;
+  lattice.nz = 3;
+  lattice.spacing = 1.0 / 3.0;
+  lattice.type = LatticeType::kKuhn;
+  const TetMesh block = MakeLatticeMesh(lattice);  // [0, 1]^3
+  std::vector<int> top, bottom;
+  for (int v = 0; v < block.num_vertices(); ++v) {
+    if (block.vertices(1, v) > 1 - 1e-9) top.push_back(v);
+    if (block.vertices(1, v) < 1e-9) bottom.push_back(v);
+  }
+  ActiveModel model = BlockModel(block, bottom);
+  Bone lid;
+  lid.name = "lid";
+  lid.vertices = top;
+  model.bones = {lid};
+  // The lid pulled up by 0.4, and with it a plate below the fixed bottom, which it
+  // carries up through the bottom face at t = 0.0437 / 0.4.
+  RigidTransform pull;
+  pull.translation = Eigen::Vector3d(0, 0.4, 0);
+  Eigen::Matrix3Xd free;
+  ASSERT_TRUE(ContactFreeEquilibrium(model, pull, &free));
+  Eigen::Matrix3Xd v;
+  Eigen::Matrix3Xi t;
+  BoxSurface(Eigen::Vector3d(0.2, -0.6, 0.2), Eigen::Vector3d(0.8, -0.0437, 0.8), &v, &t);
+  MovingObstacle plate;
+  plate.name = "plate";
+  plate.vertices = v;
+  plate.triangles = t;
+  plate.bone = 0;
+  ContactOptions options;
+  options.thickness = 0.02;
+  options.self_contact = false;
+  options.path_steps = 4;
+  options.max_step_halvings = 3;
+  options.max_rounds = 1;
+  ContactSolver solver(model, options);
+  Eigen::Matrix3Xd state;
+  ContactReport report;
+  std::string error;
+  ASSERT_TRUE(solver.Resolve(IdentityActuations(block.num_tets()), {pull}, {plate}, free,
+                             &state, &report, &error))
+      << error;
+  std::printf("path: %d steps, %d halvings\n", report.path_steps, report.path_halvings);
+  EXPECT_GT(report.after.obstacle_intersections, 0) << "the crossing is unavoidable";
+  EXPECT_GT(report.path_halvings, 0);
+  // Every step taken is at least 1/32 long, and each is tried at most 4 times.
+  EXPECT_LE(report.path_steps, 32);
+  EXPECT_LE(report.path_steps + report.path_halvings, 4 * 32);
+  // In fact a crossing costs a few tries more than the plain path's 4 steps.
+  EXPECT_LE(report.path_steps + report.path_halvings, 4 + 4 * 3 + 8);
+}
+
 TEST(ContactSolverTest, TwoSpheresPressedTogetherFlattenWithoutIntersecting) {
   // The right ball pushed 0.3 towards the left one (0.1 gap: 0.2 of overlap without
   // contact).
