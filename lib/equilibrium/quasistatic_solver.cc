@@ -195,7 +195,9 @@ double QuasistaticSolver::MaxFreeForce(double* energy) const {
   if (energy != nullptr) *energy = e;
   double max_force = 0.0;
   for (int v = 0; v < model_.num_vertices(); ++v) {
-    if (!fixed_mask_[v]) max_force = std::max(max_force, gradient.col(v).norm());
+    if (fixed_mask_[v]) continue;
+    const double force = gradient.col(v).norm();
+    if (std::isnan(force) || force > max_force) max_force = force;  // a NaN force: NaN, kept
   }
   return max_force;
 }

@@ -1,6 +1,7 @@
 #include "sparse/stiffness_pattern.h"
 
 #include <algorithm>
+#include <cmath>
 
 #include <glog/logging.h>
 
@@ -132,7 +133,8 @@ void AddVertexHessian(const std::vector<int>& vertices, const Eigen::MatrixXd& h
 double MaxFreeVertexNorm(const StiffnessPattern& pattern, const Eigen::Matrix3Xd& per_vertex) {
   double largest = 0.0;
   for (int f = 0; f < pattern.num_free_vertices(); ++f) {
-    largest = std::max(largest, per_vertex.col(pattern.vertex_of_free(f)).norm());
+    const double norm = per_vertex.col(pattern.vertex_of_free(f)).norm();
+    if (std::isnan(norm) || norm > largest) largest = norm;  // a NaN column: NaN, kept
   }
   return largest;
 }
