@@ -74,6 +74,7 @@ bool EndToEndObjective::StartOnLine(const Eigen::Matrix3Xd& from, const Eigen::M
 }
 
 bool EndToEndObjective::Evaluate(const double* parameters, double* cost, double* gradient) const {
+  last_failure_.clear();
   if (deadline_ > 0.0 && timer_.Seconds() > deadline_) {
     last_failure_ = "the time limit has passed";
     return false;

@@ -145,6 +145,8 @@ class EndToEndObjective final : public ceres::FirstOrderFunction {
   // evaluation there, else the last ones), gathered from the ranks that own them: what
   // a checkpoint saves. One process: StatesAt, else states().
   void CollectStates(const double* parameters, std::vector<Eigen::Matrix3Xd>* states) const;
+  // Why the last evaluation failed; empty if it succeeded (a failure of an earlier one
+  // does not name the cause of a later stop).
   const std::string& last_failure() const { return last_failure_; }
 
   // What the last evaluation cost (summed over its poses, of all ranks), and all

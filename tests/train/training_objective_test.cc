@@ -161,6 +161,21 @@ TEST(EndToEndObjectiveTest, GradientMatchesCentralDifferencesOfResolvedObjective
   }
 }
 
+// last_failure() is the last evaluation's: a later evaluation that succeeds clears it, so
+// that a solve's stop is not blamed on a failure many evaluations before.
+TEST(EndToEndObjectiveTest, LastFailureIsTheLastEvaluations) {
+  ActiveModel model = PretrainedBar();
+  EndToEndObjective objective(TrainOptions(), model);
+  const Eigen::VectorXd x = objective.ModelParameters();
+  double cost = 0;
+  objective.set_time_limit(1e-9);
+  while (objective.Evaluate(x.data(), &cost, nullptr)) {}
+  EXPECT_EQ(objective.last_failure(), "the time limit has passed");
+  objective.set_time_limit(0.0);
+  ASSERT_TRUE(objective.Evaluate(x.data(), &cost, nullptr)) << objective.last_failure();
+  EXPECT_EQ(objective.last_failure(), "");
+}
+
 // A kept evaluation's equilibria outlive the few the objective remembers: after more
 // evaluations than that (a line search's trial points after the one it accepted),
 // StatesAt and UseStatesOf still find them, bit for bit, where an evaluation that was
