@@ -349,7 +349,8 @@ bool Pretrain(const PretrainOptions& options, ActiveModel* model, PretrainReport
   restart_options.max_iterations = options.max_iterations;
   restart_options.max_restarts = options.max_restarts;
   ProgressLogger progress("pretrain", options.log_every, options.max_iterations, log,
-                          start.iterations);
+                          start.iterations,
+                          options.max_seconds > 0 ? options.max_seconds - start.seconds : 0.0);
   restart_options.callbacks.push_back(&progress);
   TimeBudget budget(options.max_seconds, start.seconds);
   // The checkpoints read the point reached from `parameters` (which RunLbfgsWithRestarts

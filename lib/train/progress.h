@@ -21,21 +21,25 @@ double EstimateRemaining(int done, int total, double elapsed);
 // A Ceres iteration callback that prints, every `every` iterations (0: never),
 //   "  <label> iter    k/total  loss ...  |g| ...  <elapsed>  ETA <remaining>"
 // to `log`, timed from construction. k counts from `done_before` (iterations of an
-// earlier run this one resumes; the ETA is for the rest). It never stops the solver.
+// earlier run this one resumes; the ETA is for the rest). With a time budget,
+// `seconds_left` > 0 (what is left of it at construction), the ETA is at most what is
+// left of that. It never stops the solver.
 class ProgressLogger final : public ceres::IterationCallback {
  public:
   ProgressLogger(std::string label, int every, int total, std::ostream& log,
-                 int done_before = 0)
+                 int done_before = 0, double seconds_left = 0.0)
       : label_(std::move(label)),
         every_(every),
         total_(total),
         done_before_(done_before),
+        seconds_left_(seconds_left),
         log_(log) {}
   ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override;
 
  private:
   std::string label_;
   int every_, total_, done_before_;
+  double seconds_left_;
   std::ostream& log_;
   WallTimer timer_;
 };

@@ -32,6 +32,21 @@ TEST(ProgressTest, TheTimeLeftGrowsWithTheStepsLeft) {
   EXPECT_LT(EstimateRemaining(0, 40, 5.0), 0.0);  // nothing done: unknown
 }
 
+// With a time budget the ETA is at most what is left of it (pre-training's said 2:39:08
+// and stopped at 6 s).
+TEST(ProgressTest, TheTimeBudgetCapsTheEta) {
+  std::ostringstream log;
+  ProgressLogger progress("pretrain", 1, 2000000000, log, 0, 2.0);
+  ceres::IterationSummary summary;
+  summary.iteration = 1;
+  progress(summary);
+  EXPECT_NE(log.str().find("ETA 2.0 s"), std::string::npos) << log.str();
+  std::ostringstream unbounded;
+  ProgressLogger open("pretrain", 1, 2000000000, unbounded);
+  open(summary);
+  EXPECT_EQ(unbounded.str().find("ETA 2.0 s"), std::string::npos) << unbounded.str();
+}
+
 TEST(ProgressTest, LinesEveryKIterationsCountingAResumedRun) {
   std::ostringstream log;
   ProgressLogger progress("train", 2, 10, log, 4);
