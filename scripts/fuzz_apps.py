@@ -100,7 +100,8 @@ GFLAGS_REFUSAL = re.compile(
     r"\w+ command line flag|failed validation of new value '.*' for flag '[^']+')",
     re.MULTILINE)
 
-REPORTED_NONFINITE = re.compile(r"is not finite \((nan|inf|-inf)\)|got '[-+]?(nan|inf|infinity)'",
+# A reader's report of a damaged input names the value it refused, in quotes.
+REPORTED_NONFINITE = re.compile(r"is not finite \((nan|inf|-inf)\)|'[-+]?(nan|inf|infinity)'",
                                 re.IGNORECASE)
 NONFINITE = re.compile(r"(?<![A-Za-z_])[-+]?(nan|inf|infinity)(?![A-Za-z_])", re.IGNORECASE)
 

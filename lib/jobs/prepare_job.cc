@@ -247,9 +247,10 @@ void EmbedNeutral(const PrepareJobOptions& options, const CutMesh& cut_mesh, Act
 
 // What PrepareJobOptions::keep_same_model does with the model at `output`.
 enum class ExistingModel {
-  kReplace,  // none there, an unreadable one, or another model without a learned state
+  kReplace,  // none there, or another model (or an unreadable one) without a learned state
   kKeep,     // `model` as built (ModelFingerprint) with targets of `target_key`
-  kRefuse,   // another model with a learned state, which preparing anew would discard
+  kRefuse,   // another model (or an unreadable one) with a learned state, which preparing
+             // anew would discard
 };
 
 // Compares the model at `output` with `model` as built and the targets' key; the log
@@ -261,6 +262,15 @@ ExistingModel CheckExistingModel(const std::string& output, const std::string& t
   ActiveModel existing;
   std::string load_error;
   if (!LoadModel(output, &existing, &load_error)) {
+    // A damaged file of a pre-trained model: its learned state may be mended or kept.
+    for (const char* decoder : {"/learned/decoder.txt", "/decoder.txt"}) {
+      if (!std::filesystem::exists(output + decoder, code)) continue;
+      *error = "the model at " + output + " cannot be read (" + load_error +
+               "), and preparing it anew would discard its learned state (" + output + decoder +
+               ", ...): mend or move the file, --restart replaces the model, or prepare into "
+               "another --model";
+      return ExistingModel::kRefuse;
+    }
     log << "prepare: the model at " << output << " is prepared anew: it cannot be read ("
         << load_error << ")\n";
     return ExistingModel::kReplace;

@@ -187,6 +187,27 @@ TEST_F(PrepareJobTest, TheSameModelIsKeptAndAnotherIsMadeAnew) {
   EXPECT_NE(log.str().find("is prepared anew: it records no key of its targets"),
             std::string::npos)
       << log.str();
+  // A model that cannot be read: prepared anew, unless it holds a learned state (a
+  // damaged file of a trained model), which it refuses to discard.
+  keep = options_;
+  keep.keep_same_model = true;
+  ASSERT_TRUE(RunPrepareJob(keep, log, &error)) << error;
+  std::ofstream(options_.output + "/mu.bin") << "damaged";
+  log.str("");
+  ASSERT_TRUE(RunPrepareJob(keep, log, &error)) << error;
+  EXPECT_NE(log.str().find("is prepared anew: it cannot be read"), std::string::npos) << log.str();
+  std::filesystem::create_directories(options_.output + "/learned");
+  const std::string decoder = options_.output + "/learned/decoder.txt";
+  std::ofstream(decoder) << "a decoder with a damaged line\n";
+  EXPECT_FALSE(RunPrepareJob(keep, log, &error, &status));
+  EXPECT_EQ(status, JobStatus::kBadInput);
+  EXPECT_NE(error.find("cannot be read ("), std::string::npos) << error;
+  EXPECT_NE(error.find("would discard its learned state (" + decoder), std::string::npos)
+      << error;
+  EXPECT_TRUE(std::filesystem::exists(decoder));
+  keep.keep_same_model = false;  // --restart
+  ASSERT_TRUE(RunPrepareJob(keep, log, &error)) << error;
+  EXPECT_FALSE(std::filesystem::exists(decoder));
 }
 
 // Elements at vertices that fewer than min_elements_per_vertex elements hold (here
