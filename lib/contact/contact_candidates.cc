@@ -200,7 +200,7 @@ std::vector<SelfContactPair> ContactSolver::DetectEdgeContacts(
     found.resize(keep);
   }, 64);
   // Each unordered pair once, its lower-numbered edge first (the pair's distance and
-  // side do not depend on the order; the augmented-Lagrangian offset is that edge's).
+  // side do not depend on the order; the augmented-Lagrangian offset is the pair's).
   std::set<std::pair<int, int>> taken;
   std::vector<SelfContactPair> pairs;
   for (int e = 0; e < num_edges; ++e) {
@@ -217,6 +217,7 @@ std::vector<SelfContactPair> ContactSolver::DetectEdgeContacts(
       pair.stiffness = 0.25 * (stiffness_[edges_(0, first)] + stiffness_[edges_(1, first)] +
                                stiffness_[edges_(0, second)] + stiffness_[edges_(1, second)]);
       pair.edge = first;
+      pair.second_edge = second;
       pairs.push_back(pair);
     }
   }

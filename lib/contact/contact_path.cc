@@ -87,7 +87,8 @@ bool ContactSolver::SolveRounds(const ActuationMatrix& a, const std::vector<Rigi
     int edge_pairs = 0;
     if (options_.self_contact && options_.edge_contact) {
       for (SelfContactPair& pair : DetectEdgeContacts(surface, reference)) {
-        pair.offset = state->edge_offsets[pair.edge];
+        const auto found = state->edge_offsets.find({pair.edge, pair.second_edge});
+        pair.offset = found != state->edge_offsets.end() ? found->second : 0.0;
         pairs.push_back(pair);
         ++edge_pairs;
       }
@@ -151,8 +152,8 @@ bool ContactSolver::SolveRounds(const ActuationMatrix& a, const std::vector<Rigi
           SelfContactDistance(pair, points, &s, nullptr, &outside) && outside <= kResidualMargin &&
           s > -options_.max_depth && SelfContactFadeVariable(pair, points, &fade, nullptr) &&
           fade > FadeBandOf(pair).zero) {
-        double& offset =
-            edge ? state->edge_offsets[pair.edge] : state->vertex_offsets[pair.surface_vertex];
+        double& offset = edge ? state->edge_offsets[{pair.edge, pair.second_edge}]
+                              : state->vertex_offsets[pair.surface_vertex];
         offset = std::clamp(offset + options_.thickness - s, 0.0, kMaxOffset * options_.thickness);
       }
     }
@@ -195,7 +196,7 @@ bool ContactSolver::Resolve(const ActuationMatrix& a, const std::vector<RigidTra
   PathState current;
   current.touched.assign(rest_surface_.cols(), 0);
   current.vertex_offsets.assign(rest_surface_.cols(), 0.0);
-  current.edge_offsets.assign(edges_.cols(), 0.0);
+  current.edge_offsets.clear();
   // The path needs a start without penetrations: obstacles placed around the pose may
   // already hold the rest surface.
   const std::vector<RigidTransform> rest_bones(bones.size());

@@ -1,8 +1,10 @@
 #ifndef AQS_CONTACT_CONTACT_SOLVER_H_
 #define AQS_CONTACT_CONTACT_SOLVER_H_
 
+#include <map>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -198,7 +200,10 @@ class ContactSolver {
   struct PathState {
     Eigen::Matrix3Xd x;
     std::vector<char> touched;
-    std::vector<double> vertex_offsets, edge_offsets;
+    std::vector<double> vertex_offsets;
+    // Edge-edge pairs' offsets, by the pair's edges (lower first): one per pair, as the
+    // update asks (one per first edge let a partner apart clamp a pressed pair's to 0).
+    std::map<std::pair<int, int>, double> edge_offsets;
     int self_intersections = 0;
     int obstacle_intersections = 0;
   };

@@ -28,9 +28,10 @@ struct SelfContactPair {
   // pair ends at the thickness despite a finite stiffness).
   double offset = 0.0;
   // Bookkeeping for ContactSolver (not used by the term): the point's surface vertex
-  // (point-triangle) or the first edge's index (edge-edge).
+  // (point-triangle) or the two edges' indices, the lower first (edge-edge).
   int surface_vertex = -1;
   int edge = -1;
+  int second_edge = -1;
 };
 
 // The signed distance s of a pair at the positions of its four stencils (points[0] =

@@ -5,6 +5,8 @@
 
 #include "contact/contact_solver.h"
 
+#include <set>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -59,6 +61,17 @@ TEST(ContactCandidatesTest, PairsJoinTheTwoBallsWithinReach) {
 
   const std::vector<SelfContactPair> edges = contact.DetectEdgeContacts(pushed, rest);
   EXPECT_FALSE(edges.empty());
+  // Each pair names both its edges, the lower first, once: the key of its own
+  // augmented-Lagrangian offset (one per first edge let a partner apart clamp a pressed
+  // pair's offset to 0). Here some edge has two partners.
+  std::set<std::pair<int, int>> keys;
+  std::set<int> firsts;
+  for (const SelfContactPair& pair : edges) {
+    EXPECT_LT(pair.edge, pair.second_edge);
+    EXPECT_TRUE(keys.insert({pair.edge, pair.second_edge}).second);
+    firsts.insert(pair.edge);
+  }
+  EXPECT_LT(firsts.size(), keys.size());
   for (const SelfContactPair& pair : edges) {
     ASSERT_EQ(pair.kind, SelfContactPair::Kind::kEdgeEdge);
     const int first = contact.edges()(0, pair.edge);
