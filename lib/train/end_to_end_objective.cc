@@ -55,7 +55,9 @@ EndToEndObjective::EndToEndObjective(const TrainOptions& options, const ActiveMo
                1e9;
   // (The budget is per process; the choice also depends on the pose count in all, so
   // that a rank owning one pose of many keeps its factor as one process would.)
-  solver_per_pose_ = num_poses_ > 1 && factor_gb_ * num_owned <= options.max_factor_cache_gb;
+  // (One pose too: its solver then keeps its own factor, where a shared one refactorized
+  // at every evaluation, 6x the factorizations of two poses' per-pose layout.)
+  solver_per_pose_ = factor_gb_ * num_owned <= options.max_factor_cache_gb;
   // Otherwise the budget keeps single-precision copies of the first poses' factors.
   stored_factor_gb_ = first->stiffness_factorization()->cholesky().stored_factor_bytes() / 1e9;
   if (!solver_per_pose_ && num_poses_ > 1 && stored_factor_gb_ > 0.0) {

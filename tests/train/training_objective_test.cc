@@ -313,6 +313,27 @@ TEST(EndToEndObjectiveTest, DecoderRegularizationIsWeightDecay) {
   }
 }
 
+// A model of one pose keeps its solver and factor too (it refactorized at every
+// evaluation): evaluations at nearby points reuse the factor.
+TEST(EndToEndObjectiveTest, OnePoseKeepsItsOwnFactor) {
+  testing::SyntheticBarSpec spec;
+  spec.activation = Activation::kTanh;
+  spec.node_spacing = 0.35;
+  spec.num_poses = 1;
+  ActiveModel model = testing::PretrainedSyntheticBar(spec);
+  ASSERT_EQ(model.num_poses(), 1);
+  TrainOptions options;
+  options.solver.relative_force_tolerance = 1e-11;
+  TrainOptions shared = options;
+  shared.max_factor_cache_gb = 0.0;
+  EndToEndObjective own(options, model), one_of_many(shared, model);
+  EXPECT_TRUE(own.solver_per_pose());
+  for (const Eigen::VectorXd& x : RandomWalk(own.ModelParameters(), 4, 1e-3, 3)) {
+    ExpectAgreeAt(own, one_of_many, x, 1e-9, 1e-6, "one pose");
+  }
+  EXPECT_LT(own.total_counters().factorizations, one_of_many.total_counters().factorizations);
+}
+
 // One solver and factor per pose (factors reused by CG, states predicted to first
 // order) and one solver per thread give the same objective and gradient.
 TEST(EndToEndObjectiveTest, SolverLayoutsAgree) {
