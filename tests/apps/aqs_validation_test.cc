@@ -408,6 +408,9 @@ TEST_F(AqsValidationModelTest, FitRefusesBadFlagsTargetsAndOutputs) {
                   {target + " --max_distance=-1", 1, "--max_distance must be >= 0"},
                   {target + " --max_distance=nan", 1, "--max_distance must be >= 0"},
                   {target + " --rounds=0", 1, "--rounds must be in [1, 10000] (is 0)"},
+                  {target + " --temporal_prior=0.1", 1,
+                   "--temporal_prior pulls a sequence's frame toward the one before it: it "
+                   "applies to a --sequence, not to one --target"},
                   {target + " --rounds=-1", 1, "--rounds must be in [1, 10000] (is -1)"},
                   {target + " --fit_coarse_points=-1", 1, "--fit_coarse_points must be in [0, 100000000] (is -1)"},
                   {target + " --fit_tolerance=0", 1, "--fit_tolerance must be finite and > 0 (is 0)"},
@@ -499,6 +502,10 @@ TEST_F(AqsValidationModelTest, OutputsLeaveTheInputsAndTheModelAlone) {
               dir.path());
   ExpectCases("aqs_fit", m + " --sequence={dir}seq --output_dir={dir}out",
               {{"--initial_latent={dir}z.txt", 1, "--initial_latent applies to one --target"},
+               {"--temporal_prior=-1", 1, "--temporal_prior must be finite and >= 0 (is -1)"},
+               {"--temporal_prior=0.1 --sequence_warm_start=false", 1,
+                "--temporal_prior pulls a frame toward the previous one: it needs warm-started "
+                "frames (--sequence_warm_start)"},
                {"--output_uncertainty={dir}u.ply", 1, "--output_uncertainty applies to one"},
                {"--compare_to={dir}t.obj", 1, "--compare_to applies to one --target"}},
               dir.path());
