@@ -26,7 +26,8 @@ struct LatentRefitOptions {
 
 struct LatentRefitReport {
   // The training loss (TrainEndToEnd's L) before and after, from the poses' stored
-  // equilibria and the refitted ones.
+  // equilibria and the refitted ones, without the decoder's weight decay
+  // (TrainOptions::decoder_regularization), which a refit does not change.
   double loss_before = 0.0;
   double loss_after = 0.0;
   int improved = 0;  // poses whose latent changed (their loss went down)
