@@ -48,6 +48,10 @@ struct TrainingCheckpoint {
   // saved latents include; -1: none recorded. A refit runs after its iteration's
   // checkpoint, so a resumed run refits at `iterations` unless this says it is done.
   int latent_refit_at = -1;
+  // The loss's weights the saved iterations were trained with (TrainOptions'
+  // regularizers, as text: "latent L energy E decoder D"); empty: not recorded. A run
+  // resumed with others says so (the loss column of train/log.csv changes meaning).
+  std::string loss_weights;
 };
 
 // An active model: the simulation mesh with its material and boundary conditions, the

@@ -77,10 +77,13 @@ bool ReadCheckpoint(const std::string& path, TrainingCheckpoint* checkpoint,
       *fingerprint = FingerprintText(value);
     } else if (t.size() == 2 && t[0] == "latent_refit_at" &&
                ParseInt(t[1], &checkpoint->latent_refit_at) && checkpoint->latent_refit_at >= 0) {
+    } else if (t.size() >= 2 && t[0] == "loss_weights") {
+      checkpoint->loss_weights = t[1];
+      for (size_t i = 2; i < t.size(); ++i) checkpoint->loss_weights += " " + t[i];
     } else if (!(t.size() == 2 && t[0] == "loss" && ParseDouble(t[1], &checkpoint->loss))) {
       *error = reader.Where(
-          "expected 'iterations N' (N >= 0), 'loss L', 'latent_refit_at N' (N >= 0) or "
-          "'model F' (F: 16 hexadecimal digits)");
+          "expected 'iterations N' (N >= 0), 'loss L', 'latent_refit_at N' (N >= 0), "
+          "'loss_weights ...' or 'model F' (F: 16 hexadecimal digits)");
       return false;
     }
   }

@@ -43,6 +43,9 @@ std::string CheckpointText(const TrainingCheckpoint& checkpoint, uint64_t finger
     AppendDouble(checkpoint.loss, &text);
     text += "\n";
   }
+  if (!checkpoint.loss_weights.empty()) {
+    text += "loss_weights " + checkpoint.loss_weights + "\n";
+  }
   if (checkpoint.latent_refit_at >= 0) {
     text += "latent_refit_at " + std::to_string(checkpoint.latent_refit_at) + "\n";
   }

@@ -20,6 +20,7 @@
 #include "util/atomic_file.h"
 #include "util/blas.h"
 #include "util/iteration_log.h"
+#include "util/number_format.h"
 #include "util/parallel_for.h"
 #include "util/wall_timer.h"
 
@@ -391,6 +392,18 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
           << " are missing; training resumes after the checkpoint\n";
     }
   }
+  // The loss's weights, saved with the checkpoints: a run resumed with others says so.
+  const std::string weights = "latent " + FormatDouble(options.latent_regularization) +
+                              " energy " + FormatDouble(options.energy_regularization) +
+                              " decoder " + FormatDouble(options.decoder_regularization);
+  if (report->iterations_before > 0 && !model->checkpoint.loss_weights.empty() &&
+      model->checkpoint.loss_weights != weights) {
+    log << "train: note: the " << report->iterations_before << " iterations done were trained "
+        << "with other loss weights (" << model->checkpoint.loss_weights << "; now " << weights
+        << "): the loss column of train/log.csv changes meaning after iteration "
+        << report->iterations_before << "\n";
+  }
+  model->checkpoint.loss_weights = weights;
   Eigen::VectorXd parameters = objective->ModelParameters();
   double cost = 0;
   if (!objective->Evaluate(parameters.data(), &cost, nullptr)) {

@@ -181,6 +181,33 @@ TEST_F(CheckpointResumeTest, AResumedRunDoesTheLatentRefitDueAtItsCheckpoint) {
   EXPECT_EQ(run(path_, 6).latent_refits, 0);
 }
 
+// The checkpoint records the loss's weights; a run resumed with others says so (its loss
+// column changes meaning), one with the same says nothing.
+TEST_F(CheckpointResumeTest, AResumeWithOtherLossWeightsIsNoted) {
+  ASSERT_TRUE(Train(2));
+  ActiveModel model;
+  std::string error;
+  ASSERT_TRUE(LoadModel(path_, &model, &error)) << error;
+  EXPECT_EQ(model.checkpoint.loss_weights, "latent 0.001 energy 0 decoder 0");
+  auto resume = [&](int iterations) {
+    TrainOptions options = options_;
+    options.max_iterations = iterations;
+    std::ostringstream log;
+    EXPECT_TRUE(RunTrainJob(path_, options, false, log, &error)) << error;
+    return log.str();
+  };
+  EXPECT_EQ(resume(3).find("other loss weights"), std::string::npos);
+  options_.energy_regularization = 0.1;
+  const std::string noted = resume(4);
+  EXPECT_NE(noted.find("train: note: the 3 iterations done were trained with other loss weights "
+                       "(latent 0.001 energy 0 decoder 0; now latent 0.001 energy 0.1 decoder "
+                       "0): the loss column of train/log.csv changes meaning after iteration 3"),
+            std::string::npos)
+      << noted;
+  ASSERT_TRUE(LoadModel(path_, &model, &error)) << error;
+  EXPECT_EQ(model.checkpoint.loss_weights, "latent 0.001 energy 0.1 decoder 0");
+}
+
 // The log's last two columns are the cost of each row's evaluations per pose; over a run
 // they add up to the factorizations and CG solves the objective counted (the final
 // evaluation after the last row excepted).
