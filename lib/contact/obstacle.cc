@@ -18,10 +18,20 @@ Obstacle::Obstacle(std::string name, const Eigen::Matrix3Xd& vertices,
       triangles_(triangles),
       bvh_(vertices, triangles),
       winding_(vertices, triangles) {
-  double volume = 0.0;  // six times the enclosed signed volume
+  // Six times the enclosed signed volume, about the triangles' mean corner: for a closed
+  // surface the point does not matter, for one with a hole (which the inside test
+  // tolerates) a point that moves with the surface keeps the sign the same at every
+  // placement (about the origin, an open box turned inside out 2 units away from it).
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
   for (Eigen::Index t = 0; t < triangles.cols(); ++t) {
-    volume += vertices.col(triangles(0, t))
-                  .dot(vertices.col(triangles(1, t)).cross(vertices.col(triangles(2, t))));
+    for (int k = 0; k < 3; ++k) centre += vertices.col(triangles(k, t));
+  }
+  if (triangles.cols() > 0) centre /= 3.0 * static_cast<double>(triangles.cols());
+  double volume = 0.0;
+  for (Eigen::Index t = 0; t < triangles.cols(); ++t) {
+    const Eigen::Vector3d a = vertices.col(triangles(0, t)) - centre;
+    volume += a.dot((vertices.col(triangles(1, t)) - centre)
+                        .cross(vertices.col(triangles(2, t)) - centre));
   }
   orientation_ = volume < 0 ? -1.0 : 1.0;
 }

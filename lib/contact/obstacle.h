@@ -18,8 +18,8 @@ namespace aqs {
 class Obstacle {
  public:
   // vertices: 3 x N at the placement; triangles: 3 x M, consistently oriented, outward
-  // or inward (the sign of the enclosed volume says which), closed (the inside test is a
-  // winding number; small holes are tolerated).
+  // or inward (the sign of the enclosed volume, about the triangles' mean corner, says
+  // which), closed (the inside test is a winding number; small holes are tolerated).
   Obstacle(std::string name, const Eigen::Matrix3Xd& vertices, const Eigen::Matrix3Xi& triangles);
 
   const std::string& name() const { return name_; }

@@ -91,6 +91,36 @@ TEST(ObstacleTest, SignedDistanceGradientOnARotatedBox) {
   }
 }
 
+// A box without its top (a small hole is tolerated), either way oriented, far from the
+// origin too: a point inside it is inside (its orientation came from the volume about
+// the origin, which a hole makes depend on where the box is: 2 units up, it turned
+// inside out).
+TEST(ObstacleTest, AnOpenBoxFarFromTheOriginKeepsItsInside) {
+  Eigen::Matrix3Xd v;
+  Eigen::Matrix3Xi t;
+  testing::BoxSurface(Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(1, 1, 1), &v, &t);
+  std::vector<int> kept;
+  for (Eigen::Index c = 0; c < t.cols(); ++c) {
+    if (v(2, t(0, c)) < 1 || v(2, t(1, c)) < 1 || v(2, t(2, c)) < 1) kept.push_back(int(c));
+  }
+  ASSERT_LT(kept.size(), static_cast<size_t>(t.cols()));
+  const Eigen::Matrix3Xi open = t(Eigen::all, kept);
+  for (const bool inward : {false, true}) {
+    Eigen::Matrix3Xi faces = open;
+    if (inward) faces.row(1).swap(faces.row(2));
+    for (const double shift : {0.0, 3.0, 10.0, 100.0}) {
+      SCOPED_TRACE(std::string(inward ? "inward" : "outward") + ", shifted " +
+                   std::to_string(shift));
+      const Eigen::Vector3d offset(0.2 * shift, -0.5 * shift, shift);
+      const Obstacle box("open box", v.colwise() + offset, faces);
+      Eigen::Vector3d gradient;
+      EXPECT_NEAR(box.SignedDistance(Eigen::Vector3d(0.5, 0.5, 0.3) + offset, &gradient), -0.3,
+                  1e-9);
+      EXPECT_LT((gradient - Eigen::Vector3d(0, 0, -1)).norm(), 1e-9) << gradient.transpose();
+    }
+  }
+}
+
 TEST(ObstacleTest, BeyondMaxDistanceOutsideIsTheCapWithAZeroGradient) {
   std::mt19937 rng(8);
   const Eigen::Matrix3d rotation = testing::RandomRotation(&rng);
