@@ -251,7 +251,8 @@ bool RunTrainJob(const std::string& model_directory, const TrainOptions& options
     ok = LockAndLoad(model_directory, log, &lock, &model, error) &&
          CheckReplaceable(model_directory, false, error) &&
          CheckExpectedDecoder(model_directory, model, expected, error);
-    if (ok && restart && model.checkpoint.iterations > 0) {
+    if (ok && restart &&
+        (model.checkpoint.iterations > 0 || model.checkpoint.latent_refit_at >= 0)) {
       // Saved before training starts, so that a run killed before its first checkpoint
       // does not resume the old count next to a new log.
       model.checkpoint = TrainingCheckpoint();

@@ -260,12 +260,14 @@ class TrainingSolveHooks final : public LbfgsSolveHooks {
         refits_(options.latent_refit_iterations > 0) {
     const int every = options.latent_refit_every;
     // A refit runs after its iteration's checkpoint: a run resumed there refits first,
-    // unless the checkpoint was saved after the refit (a run that ended in it).
-    const bool refit_due_now =
-        every > 0 && done % every == 0 && model->checkpoint.latent_refit_at != done;
-    next_refit_ = done == 0 || refit_due_now ? done
-                  : every > 0               ? (done / every + 1) * every
-                                            : options.max_iterations;
+    // unless the checkpoint was saved after the refit (a run that ended in it, the first
+    // refit's too).
+    const TrainingCheckpoint& saved = model->checkpoint;
+    const bool refitted_here = saved.iterations == done && saved.latent_refit_at == done;
+    const bool due = done == 0 || (every > 0 && done % every == 0);
+    next_refit_ = due && !refitted_here ? done
+                  : every > 0           ? (done / every + 1) * every
+                                        : options.max_iterations;
   }
 
   int BeforeSolve(int done, int max_iterations, double* parameters) override {

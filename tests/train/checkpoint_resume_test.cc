@@ -179,6 +179,20 @@ TEST_F(CheckpointResumeTest, AResumedRunDoesTheLatentRefitDueAtItsCheckpoint) {
   model.checkpoint.latent_refit_at = 4;
   ASSERT_TRUE(SaveLearnedState(path_, model, &error)) << error;
   EXPECT_EQ(run(path_, 6).latent_refits, 0);
+  // A run whose time budget ends in its first refit saves it (iteration 0, refitted), and
+  // the next run does not refit again (it did, every run, before any iteration).
+  const std::string fresh = dir_.File("fresh");
+  fs::copy(whole_path, fresh, fs::copy_options::recursive);
+  ASSERT_TRUE(LoadModel(fresh, &model, &error)) << error;
+  model.checkpoint = TrainingCheckpoint();
+  ASSERT_TRUE(SaveLearnedState(fresh, model, &error)) << error;
+  options_.max_seconds = 1e-6;
+  EXPECT_EQ(run(fresh, 4).latent_refits, 1);
+  ASSERT_TRUE(LoadModel(fresh, &model, &error)) << error;
+  EXPECT_EQ(model.checkpoint.iterations, 0);
+  EXPECT_EQ(model.checkpoint.latent_refit_at, 0);
+  options_.max_seconds = 0.0;
+  EXPECT_EQ(run(fresh, 1).latent_refits, 0);
 }
 
 // The checkpoint records the loss's weights; a run resumed with others says so (its loss
