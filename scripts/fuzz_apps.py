@@ -100,9 +100,11 @@ GFLAGS_REFUSAL = re.compile(
     r"\w+ command line flag|failed validation of new value '.*' for flag '[^']+')",
     re.MULTILINE)
 
-# A reader's report of a damaged input names the value it refused, in quotes.
-REPORTED_NONFINITE = re.compile(r"is not finite \((nan|inf|-inf)\)|'[-+]?(nan|inf|infinity)'",
-                                re.IGNORECASE)
+# A reader's report of a damaged input names the value it refused, in quotes ("... got
+# 'inf'", "grid coordinate 'nan' of node 33 is not an integer").
+REPORTED_NONFINITE = re.compile(
+    r"is not finite \((nan|inf|-inf)\)|(got|coordinate|value) '[-+]?(nan|inf|infinity)'",
+    re.IGNORECASE)
 NONFINITE = re.compile(r"(?<![A-Za-z_])[-+]?(nan|inf|infinity)(?![A-Za-z_])", re.IGNORECASE)
 
 

@@ -503,7 +503,7 @@ JobStatus BenchmarkSequence(const FitBenchmarkOptions& options, const FitSequenc
       << " s), mean error " << Fixed(Mean(err), 4) << ", max of frames "
       << Fixed(Max(err), 4) << "; frame-to-frame motion error (the mean distance of each "
       << "vertex's motion since the frame before from the truth's) "
-      << Fixed(velocity_err.empty() ? 0.0 : Mean(velocity_err), 4);
+      << (velocity_err.empty() ? std::string("n/a (one frame)") : Fixed(Mean(velocity_err), 4));
   if (sequence.temporal_prior > 0) {
     out << "; temporal prior " << FormatDouble(sequence.temporal_prior);
   }
@@ -532,6 +532,8 @@ bool FitBenchmarkOptions::Validate(std::string* error) const {
                "marker_counts must list a count for the markers part")
       .Require(sequence_frames != 0, "sequence_frames must be >= 1, or < 0 for all frames")
       .NonNegative("temporal_prior", temporal_prior)
+      .Require(temporal_prior <= 0 || sequence,
+               "temporal_prior applies to the sequence part (--parts=...,sequence)")
       .Nested("fit", fit_ok, fit_error)
       .Nested("points", points_ok, points_error)
       .Done(error);

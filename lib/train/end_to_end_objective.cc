@@ -53,8 +53,7 @@ EndToEndObjective::EndToEndObjective(const TrainOptions& options, const ActiveMo
   factor_gb_ = (first->stiffness_factorization()->cholesky().factor_bytes() +
                 PolarCache::BytesFor(physics_.num_vertices(), physics_.num_elements())) /
                1e9;
-  // (The budget is per process; the choice also depends on the pose count in all, so
-  // that a rank owning one pose of many keeps its factor as one process would.)
+  // (The budget is per process: a rank keeps the factors of the poses it owns.)
   // (One pose too: its solver then keeps its own factor, where a shared one refactorized
   // at every evaluation, 6x the factorizations of two poses' per-pose layout.)
   solver_per_pose_ = factor_gb_ * num_owned <= options.max_factor_cache_gb;

@@ -350,7 +350,9 @@ bool Pretrain(const PretrainOptions& options, ActiveModel* model, PretrainReport
   restart_options.max_restarts = options.max_restarts;
   ProgressLogger progress("pretrain", options.log_every, options.max_iterations, log,
                           start.iterations,
-                          options.max_seconds > 0 ? options.max_seconds - start.seconds : 0.0);
+                          options.max_seconds > 0
+                              ? std::max(0.0, options.max_seconds - start.seconds)
+                              : -1.0);
   restart_options.callbacks.push_back(&progress);
   TimeBudget budget(options.max_seconds, start.seconds);
   // The checkpoints read the point reached from `parameters` (which RunLbfgsWithRestarts

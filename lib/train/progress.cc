@@ -31,7 +31,9 @@ ceres::CallbackReturnType ProgressLogger::operator()(const ceres::IterationSumma
   if (every_ > 0 && (s.iteration % every_ == 0)) {
     const double elapsed = timer_.Seconds();
     double remaining = EstimateRemaining(s.iteration, total_ - done_before_, elapsed);
-    if (seconds_left_ > 0) remaining = std::min(remaining, std::max(0.0, seconds_left_ - elapsed));
+    if (seconds_left_ >= 0) {
+      remaining = std::min(remaining, std::max(0.0, seconds_left_ - elapsed));
+    }
     char line[320];
     std::snprintf(line, sizeof(line), "  %s iter %5d/%d  loss %.6e  |g| %.3e  %s  ETA %s\n",
                   label_.c_str(), done_before_ + s.iteration, total_, s.cost, s.gradient_norm,

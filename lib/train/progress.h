@@ -22,12 +22,12 @@ double EstimateRemaining(int done, int total, double elapsed);
 //   "  <label> iter    k/total  loss ...  |g| ...  <elapsed>  ETA <remaining>"
 // to `log`, timed from construction. k counts from `done_before` (iterations of an
 // earlier run this one resumes; the ETA is for the rest). With a time budget,
-// `seconds_left` > 0 (what is left of it at construction), the ETA is at most what is
-// left of that. It never stops the solver.
+// `seconds_left` >= 0 (what is left of it at construction; < 0: no budget), the ETA is
+// at most what is left of that. It never stops the solver.
 class ProgressLogger final : public ceres::IterationCallback {
  public:
   ProgressLogger(std::string label, int every, int total, std::ostream& log,
-                 int done_before = 0, double seconds_left = 0.0)
+                 int done_before = 0, double seconds_left = -1.0)
       : label_(std::move(label)),
         every_(every),
         total_(total),

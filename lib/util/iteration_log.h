@@ -6,7 +6,7 @@
 namespace aqs {
 
 // CSV logs of iterative work that resumes from checkpoints (training's train/log.csv,
-// pre-training's pretrain/log.csv): a header line, then one row per iteration whose
+// pre-training's pretrain/run_log.csv): a header line, then one row per iteration whose
 // first field is the iteration number and whose every field is a finite number.
 
 // Whether `line` is a whole row for `header` (its number of fields, each a finite

@@ -163,6 +163,8 @@ TEST(AqsValidationTest, BenchmarksRefuseBadSizesBeforeAnyMeasurement) {
                   {"--test_set={dir}set --parts=,", 1, "--parts: no part given"},
                   {"--test_set={dir}set --marker_counts=, --parts=markers", 1,
                    "--marker_counts must list a count for the markers part"},
+                  {"--test_set={dir}set --parts=markers --temporal_prior=0.1", 1,
+                   "--temporal_prior applies to the sequence part (--parts=...,sequence)"},
               },
               dir.path());
   ExpectCases("aqs_bench_solve", "",

@@ -61,9 +61,10 @@ TEST(ContactCandidatesTest, PairsJoinTheTwoBallsWithinReach) {
 
   const std::vector<SelfContactPair> edges = contact.DetectEdgeContacts(pushed, rest);
   EXPECT_FALSE(edges.empty());
-  // Each pair names both its edges, the lower first, once: the key of its own
-  // augmented-Lagrangian offset (one per first edge let a partner apart clamp a pressed
-  // pair's offset to 0). Here some edge has two partners.
+  // Each pair names both its edges, the lower first, once: what the contact path keys
+  // its augmented-Lagrangian offset by (one per first edge let a partner apart clamp a
+  // pressed pair's offset to 0; that update itself is not run here). Here some edge has
+  // two partners.
   std::set<std::pair<int, int>> keys;
   std::set<int> firsts;
   for (const SelfContactPair& pair : edges) {

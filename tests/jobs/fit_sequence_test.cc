@@ -197,8 +197,6 @@ TEST_F(FitSequenceTest, IndependentFramesResumeWithTheSameResults) {
       << damaged.message;
 }
 
-// Frames of another model or other fit options are refused, never mixed with this
-// run's (output_dir/key.txt); the same options resume.
 // The temporal prior pulls every frame after the first toward the one before it (here
 // strongly), is part of the folder's key, resumes from the last frame done as an
 // unstopped run goes on, and needs warm starts.
@@ -252,6 +250,8 @@ TEST_F(FitSequenceTest, ATemporalPriorPullsEachFrameTowardTheOneBefore) {
       << other.message;
 }
 
+// Frames of another model or other fit options are refused, never mixed with this
+// run's (output_dir/key.txt); the same options resume.
 TEST_F(FitSequenceTest, FramesOfOtherOptionsAreRefused) {
   Run({0}, "keyed", false);
   FitSequenceOptions options = Options();

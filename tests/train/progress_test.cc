@@ -41,6 +41,11 @@ TEST(ProgressTest, TheTimeBudgetCapsTheEta) {
   summary.iteration = 1;
   progress(summary);
   EXPECT_NE(log.str().find("ETA 2.0 s"), std::string::npos) << log.str();
+  // A budget used up by earlier runs: nothing left.
+  std::ostringstream spent;
+  ProgressLogger used_up("pretrain", 1, 2000000000, spent, 0, 0.0);
+  used_up(summary);
+  EXPECT_NE(spent.str().find("ETA 0.0 s"), std::string::npos) << spent.str();
   std::ostringstream unbounded;
   ProgressLogger open("pretrain", 1, 2000000000, unbounded);
   open(summary);
