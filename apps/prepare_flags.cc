@@ -27,7 +27,8 @@ DEFINE_double(cut_margin, 0.0, "Within this distance of a cut, surface vertices 
 DEFINE_double(mu, 1.0, "Stiffness of every element.");
 DEFINE_double(fixed_depth, -1.0, "Fix the vertices deeper than this under the surface.");
 DEFINE_string(fixed_box, "", "Fix the vertices in these boxes (';'-separated).");
-DEFINE_string(fixed_inside, "", "Fix the vertices inside these closed surfaces (comma-separated OBJ).");
+DEFINE_string(fixed_inside, "", "Fix the vertices inside these closed surfaces (comma-separated "
+              "OBJ; triangles facing out or in). One that holds no vertex is refused.");
 DEFINE_string(fixed_list, "",
               "Fix the vertices listed in this file (one index per line): indices of "
               "--tet_mesh's vertices as in its file (prepare renumbers them when it crops, "

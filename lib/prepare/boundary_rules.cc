@@ -33,6 +33,10 @@ bool FitBone(const BoneRule& rule, const std::vector<std::string>& pose_names, B
   SurfaceMesh rest;
   if (!ReadObj(rule.neutral_mesh, &rest, error)) return false;
   const int n = rest.num_vertices();
+  if (n == 0) {
+    *error = rule.neutral_mesh + ": the bone '" + rule.name + "' at rest has no vertices";
+    return false;
+  }
   std::vector<Eigen::Matrix3Xd> posed(pose_names.size());
   Eigen::VectorXd largest = Eigen::VectorXd::Zero(n);
   int with_files = 0;
@@ -96,7 +100,9 @@ bool InsideMesh(const std::string& path, const Eigen::Matrix3Xd& points, int thr
   const FastWindingNumber winding(surface.vertices, surface.triangles);
   const Eigen::VectorXd w = winding.WindingNumbers(points, threads);
   inside->assign(points.cols(), false);
-  for (Eigen::Index i = 0; i < points.cols(); ++i) (*inside)[i] = w[i] > 0.5;
+  // |w|: a surface whose triangles all face inward (as exporters may write it) has
+  // winding number -1 inside.
+  for (Eigen::Index i = 0; i < points.cols(); ++i) (*inside)[i] = std::abs(w[i]) > 0.5;
   return true;
 }
 
@@ -207,6 +213,11 @@ bool ApplyBoundaryRules(const BoundaryRuleOptions& options, const TetMesh& mesh,
   for (const std::string& path : options.fixed_inside_meshes) {
     std::vector<bool> inside;
     if (!InsideMesh(path, mesh.vertices, options.num_threads, &inside, error)) return false;
+    if (count(inside) == 0) {
+      *error = path + ": no simulation vertex lies inside it (--fixed_inside): is it in the "
+                      "model's frame and units, and closed?";
+      return false;
+    }
     for (int v = 0; v < nv; ++v) fixed[v] = fixed[v] || inside[v];
     log << "fixed inside " << path << ": " << count(inside) << " vertices\n";
   }

@@ -88,5 +88,60 @@ TEST_F(BoneClearanceTest, RejectsANegativeOrNonFiniteClearance) {
   }
 }
 
+// An empty bone surface is refused by name (the fit of its motion read past an empty
+// vector and crashed).
+TEST_F(BoneClearanceTest, AnEmptyBoneSurfaceIsRefused) {
+  options_.bones[0].neutral_mesh = dir_.Write("empty.obj", "# nothing\n");
+  std::string error, log;
+  ActiveModel model;
+  EXPECT_FALSE(
+      ApplyBoundaryRules(options_, mesh_, SurfaceMesh(), {"a"}, nullptr, &model, &log, &error));
+  EXPECT_NE(error.find("empty.obj: the bone 'jaw' at rest has no vertices"), std::string::npos)
+      << error;
+}
+
+// --fixed_inside takes a closed surface either way oriented (an inward one fixed no
+// vertex, silently), and one that holds no vertex is refused by name.
+TEST(FixedInsideTest, EitherOrientationAndNoneInsideIsRefused) {
+  testing::TempDir dir;
+  const TetMesh mesh = testing::BarMesh(6, 1, 1, 1.0);
+  // A box around the x = 0 and x = 1 layers, written outward and inward.
+  const std::string corners = "v -0.5 -0.5 -0.5\nv 1.5 -0.5 -0.5\nv 1.5 1.5 -0.5\nv -0.5 1.5 -0.5\n"
+                              "v -0.5 -0.5 1.5\nv 1.5 -0.5 1.5\nv 1.5 1.5 1.5\nv -0.5 1.5 1.5\n";
+  const std::string outward = "f 1 4 3\nf 1 3 2\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\n"
+                              "f 2 3 7\nf 2 7 6\nf 3 4 8\nf 3 8 7\nf 4 1 5\nf 4 5 8\n";
+  const std::string inward = "f 1 3 4\nf 1 2 3\nf 5 7 6\nf 5 8 7\nf 1 6 2\nf 1 5 6\n"
+                             "f 2 7 3\nf 2 6 7\nf 3 8 4\nf 3 7 8\nf 4 5 1\nf 4 8 5\n";
+  for (const std::string& faces : {outward, inward}) {
+    BoundaryRuleOptions options;
+    options.num_threads = 1;
+    options.fixed_inside_meshes = {dir.Write("box.obj", corners + faces)};
+    std::string error, log;
+    ActiveModel model;
+    ASSERT_TRUE(
+        ApplyBoundaryRules(options, mesh, SurfaceMesh(), {"a"}, nullptr, &model, &log, &error))
+        << error;
+    EXPECT_EQ(model.static_vertices.size(), 8u) << (faces == inward ? "inward" : "outward");
+  }
+  // The same box 100 units away: nothing inside.
+  std::string far;
+  for (const char* line : {"v 99.5 99.5 99.5\nv 101.5 99.5 99.5\nv 101.5 101.5 99.5\n",
+                           "v 99.5 101.5 99.5\nv 99.5 99.5 101.5\nv 101.5 99.5 101.5\n",
+                           "v 101.5 101.5 101.5\nv 99.5 101.5 101.5\n"}) {
+    far += line;
+  }
+  BoundaryRuleOptions options;
+  options.num_threads = 1;
+  options.fixed_boxes.emplace_back(Eigen::Vector3d(-1, -1, -1), Eigen::Vector3d(0.5, 2, 2));
+  options.fixed_inside_meshes = {dir.Write("far.obj", far + outward)};
+  std::string error, log;
+  ActiveModel model;
+  EXPECT_FALSE(
+      ApplyBoundaryRules(options, mesh, SurfaceMesh(), {"a"}, nullptr, &model, &log, &error));
+  EXPECT_NE(error.find("far.obj: no simulation vertex lies inside it (--fixed_inside)"),
+            std::string::npos)
+      << error;
+}
+
 }  // namespace
 }  // namespace aqs
