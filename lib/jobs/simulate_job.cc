@@ -9,12 +9,13 @@
 
 #include "fit/latent_fit.h"
 #include "io/actuation_io.h"
-#include "model/model_io.h"
 #include "io/vertex_list_io.h"
 #include "jobs/deformed_output.h"
 #include "jobs/model_pose.h"
 #include "mesh/element_subset.h"
 #include "mesh/mesh_io.h"
+#include "mesh/tet_components.h"
+#include "model/model_io.h"
 #include "prepare/volumetric_targets.h"
 #include "util/file_extension.h"
 #include "util/input_file.h"
@@ -249,6 +250,10 @@ bool ReadMeshSimulation(const SimulateJobOptions& options, MeshSimulation* in,
   // points or curves a mesher keeps).
   std::vector<bool> fixed(mesh.num_vertices(), false);
   for (int v : in->bc.vertices) fixed[v] = true;
+  if (!options.fixed.empty() && !EveryPieceIsHeld(mesh, fixed, error)) {
+    *error = options.mesh + " with " + options.fixed + ": " + *error;
+    return false;
+  }
   const std::vector<int> uses = VertexElementCounts(mesh);
   for (int v = 0; v < mesh.num_vertices(); ++v) {
     if (uses[v] == 0 && !fixed[v]) {
