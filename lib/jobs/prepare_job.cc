@@ -12,6 +12,7 @@
 #include "jobs/shared_pose_work.h"
 #include "mesh/element_subset.h"
 #include "mesh/mesh_io.h"
+#include "mesh/tet_components.h"
 #include "model/model_directory.h"
 #include "model/model_fingerprint.h"
 #include "model/model_io.h"
@@ -245,6 +246,36 @@ void EmbedNeutral(const PrepareJobOptions& options, const CutMesh& cut_mesh, Act
       << " outside the mesh (farthest " << farthest << ") (" << timer.Seconds() << " s)\n";
 }
 
+// Every piece of the simulation mesh held (a lattice around two surfaces, a user's mesh
+// of several bodies, a part joined by an edge only): a free piece the surface is embedded
+// in moves it arbitrarily, and is refused. One the surface is not embedded in (a lone
+// element copy that cuts leave: two in the full face at 232,635 elements) does not move
+// the surface and is left, with a warning (its stiffness is singular; solves shift it).
+bool CheckMeshPieces(const ActiveModel& model, std::ostream& log, std::string* error) {
+  std::vector<bool> held(model.mesh.num_vertices(), false);
+  for (int v : model.static_vertices) held[v] = true;
+  for (const Bone& bone : model.bones) {
+    for (int v : bone.vertices) held[v] = true;
+  }
+  std::vector<int> piece;
+  const std::vector<MeshPiece> pieces = DescribeMeshPieces(model.mesh, held, &piece);
+  std::vector<int> embedded(pieces.size(), 0);
+  for (int e : model.embedding.element) ++embedded[piece[e]];
+  for (size_t p = 0; p < pieces.size(); ++p) {
+    if (pieces[p].held) continue;
+    const std::string what = UnheldPieceText(pieces[p], static_cast<int>(pieces.size()));
+    if (embedded[p] > 0) {
+      *error = what + ", and " + std::to_string(embedded[p]) + " surface vertices are " +
+               "embedded in it (fix at least 3 of its vertices not on one line with the " +
+               "boundary rules, or leave it out of the mesh)";
+      return false;
+    }
+    log << "warning: " << what << "; no surface vertex is embedded in it, so it is left "
+        << "free (its stiffness is singular there: solves shift it)\n";
+  }
+  return true;
+}
+
 // What PrepareJobOptions::keep_same_model does with the model at `output`.
 enum class ExistingModel {
   kReplace,  // none there, or another model (or an unreadable one) without a learned state
@@ -390,6 +421,7 @@ BuildResult BuildModel(const PrepareJobOptions& options, PreparedModel* prepared
     return BuildResult::kFailed;
   }
   log << rules_log;
+  if (!CheckMeshPieces(model, log, error)) return BuildResult::kFailed;
   if (!mirror_sources.empty()) {
     MirrorBoneTransforms(options.mirror, mirror_sources, given_poses, &model);
     for (const Bone& bone : model.bones) {

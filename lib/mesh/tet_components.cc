@@ -39,46 +39,55 @@ int TetMeshPieces(const TetMesh& mesh, std::vector<int>* piece_of_element) {
   return pieces;
 }
 
-bool EveryPieceIsHeld(const TetMesh& mesh, const std::vector<bool>& fixed, std::string* error) {
+std::vector<MeshPiece> DescribeMeshPieces(const TetMesh& mesh, const std::vector<bool>& fixed,
+                                          std::vector<int>* piece_of_element) {
   CHECK_EQ(static_cast<int>(fixed.size()), mesh.num_vertices());
-  std::vector<int> piece;
+  std::vector<int>& piece = *piece_of_element;
   const int pieces = TetMeshPieces(mesh, &piece);
-  // Per piece: its size, first element, and fixed vertices a, b (apart) and whether one
-  // more lies off the line through them. (A vertex shared by two pieces, at an edge or a
-  // point, holds both.)
-  std::vector<int> size(pieces, 0), first(pieces, -1), a(pieces, -1), b(pieces, -1);
-  std::vector<char> plane(pieces, 0);
+  std::vector<MeshPiece> described(pieces);
+  // Per piece: fixed vertices a, b (apart), and whether one more lies off their line.
+  std::vector<int> a(pieces, -1), b(pieces, -1);
   for (int t = 0; t < mesh.num_tets(); ++t) {
+    MeshPiece& d = described[piece[t]];
     const int p = piece[t];
-    ++size[p];
-    if (first[p] < 0) first[p] = t;
-    for (int k = 0; k < 4 && !plane[p]; ++k) {
+    ++d.elements;
+    if (d.first_element < 0) d.first_element = t;
+    for (int k = 0; k < 4 && !d.held; ++k) {
       const int v = mesh.tets(k, t);
       if (!fixed[v]) continue;
-      const Eigen::Vector3d x = mesh.vertices.col(v);
       if (a[p] < 0) {
         a[p] = v;
         continue;
       }
-      const Eigen::Vector3d from_a = x - mesh.vertices.col(a[p]);
+      const Eigen::Vector3d from_a = mesh.vertices.col(v) - mesh.vertices.col(a[p]);
       if (b[p] < 0) {
         if (from_a.squaredNorm() > 0) b[p] = v;
         continue;
       }
       const Eigen::Vector3d axis = mesh.vertices.col(b[p]) - mesh.vertices.col(a[p]);
       // Off the line: the sine of the angle at a above 1e-6.
-      plane[p] = from_a.cross(axis).norm() > 1e-6 * from_a.norm() * axis.norm();
+      d.held = from_a.cross(axis).norm() > 1e-6 * from_a.norm() * axis.norm();
     }
   }
-  for (int p = 0; p < pieces; ++p) {
-    if (plane[p]) continue;
-    *error = "the simulation mesh has " + std::to_string(pieces) + " piece" +
-             (pieces == 1 ? "" : "s") + " (elements joined by shared triangles), and the " +
-             "piece of element " + std::to_string(first[p]) + " (0-based; " +
-             std::to_string(size[p]) + " elements) has " +
-             (a[p] < 0 ? "no fixed vertex" : "fewer than 3 fixed vertices off one line") +
-             ": it could move rigidly, and its equilibrium is not unique (fix at least 3 of "
-             "its vertices not on one line, or leave it out of the mesh)";
+  return described;
+}
+
+std::string UnheldPieceText(const MeshPiece& piece, int num_pieces) {
+  return "the simulation mesh has " + std::to_string(num_pieces) + " piece" +
+         (num_pieces == 1 ? "" : "s") + " (elements joined by shared triangles), and the " +
+         "piece of element " + std::to_string(piece.first_element) + " (0-based; " +
+         std::to_string(piece.elements) + " element" + (piece.elements == 1 ? "" : "s") +
+         ") has fewer than 3 fixed vertices off one line: it could move rigidly, and its "
+         "equilibrium is not unique";
+}
+
+bool EveryPieceIsHeld(const TetMesh& mesh, const std::vector<bool>& fixed, std::string* error) {
+  std::vector<int> piece;
+  const std::vector<MeshPiece> pieces = DescribeMeshPieces(mesh, fixed, &piece);
+  for (const MeshPiece& p : pieces) {
+    if (p.held) continue;
+    *error = UnheldPieceText(p, static_cast<int>(pieces.size())) +
+             " (fix at least 3 of its vertices not on one line, or leave it out of the mesh)";
     return false;
   }
   return true;

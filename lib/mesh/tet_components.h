@@ -14,11 +14,27 @@ namespace aqs {
 // of their first elements. Returns the number of pieces.
 int TetMeshPieces(const TetMesh& mesh, std::vector<int>* piece_of_element);
 
-// Whether every piece of `mesh` (TetMeshPieces) is held: at least 3 of its vertices are
-// fixed (`fixed`: one flag per vertex; static or moved by a bone), not all on one line.
+// A piece of a tet mesh: its first element, its element count, and whether it is held:
+// at least 3 of its vertices fixed (static or moved by a bone), not all on one line.
 // Otherwise it could move rigidly, and no equilibrium of it is unique (its stiffness is
-// singular). False with *error naming the first such piece by an element (0-based), its
-// size and its fixed vertices.
+// singular).
+struct MeshPiece {
+  int first_element = -1;
+  int elements = 0;
+  bool held = false;
+};
+
+// The pieces of `mesh` (TetMeshPieces: *piece_of_element) with `fixed` (one flag per
+// vertex; a vertex shared by two pieces, at an edge or a point, holds both).
+std::vector<MeshPiece> DescribeMeshPieces(const TetMesh& mesh, const std::vector<bool>& fixed,
+                                          std::vector<int>* piece_of_element);
+
+// What is wrong with a piece that is not held, of `num_pieces`: a sentence naming it by
+// its first element (0-based) and size.
+std::string UnheldPieceText(const MeshPiece& piece, int num_pieces);
+
+// Whether every piece is held; false with *error (UnheldPieceText of the first that is
+// not, and what to do).
 bool EveryPieceIsHeld(const TetMesh& mesh, const std::vector<bool>& fixed, std::string* error);
 
 }  // namespace aqs

@@ -11,7 +11,6 @@
 #include "geometry/winding_number.h"
 #include "io/vertex_list_io.h"
 #include "mesh/mesh_io.h"
-#include "mesh/tet_components.h"
 #include "util/input_file.h"
 #include "util/line_reader.h"
 #include "util/name_rules.h"
@@ -298,14 +297,6 @@ bool ApplyBoundaryRules(const BoundaryRuleOptions& options, const TetMesh& mesh,
   log << "fixed vertices: " << model->static_vertices.size() << " static";
   for (const Bone& bone : model->bones) log << ", " << bone.vertices.size() << " on " << bone.name;
   log << " (of " << nv << ")\n";
-  // Every piece of the mesh held (a lattice around two surfaces, a cropped or cut mesh, a
-  // user's mesh of several bodies): a free one makes every stiffness singular.
-  std::vector<bool> held(nv, false);
-  for (int v : model->static_vertices) held[v] = true;
-  for (const Bone& bone : model->bones) {
-    for (int v : bone.vertices) held[v] = true;
-  }
-  if (!EveryPieceIsHeld(mesh, held, error)) return false;
   *log_out += log.str();
   return true;
 }

@@ -210,6 +210,36 @@ TEST_F(PrepareJobTest, TheSameModelIsKeptAndAnotherIsMadeAnew) {
   EXPECT_FALSE(std::filesystem::exists(decoder));
 }
 
+// Two bodies, fixed vertices in one only: the other piece of the simulation mesh, which
+// its surface is embedded in, could move rigidly, and is refused (prepare wrote such
+// models, whose every solve was singular).
+TEST_F(PrepareJobTest, APieceOfTheMeshWithoutFixedVerticesIsRefused) {
+  SurfaceMesh two = neutral_;
+  const int n = neutral_.num_vertices();
+  two.vertices.resize(3, 2 * n);
+  two.vertices << neutral_.vertices, neutral_.vertices.colwise() + Eigen::Vector3d(10, 0, 0);
+  two.triangles.resize(3, 2 * neutral_.num_triangles());
+  two.triangles << neutral_.triangles, neutral_.triangles.array() + n;
+  std::string error;
+  ASSERT_TRUE(WriteObj(dir_.File("two.obj"), two, &error)) << error;
+  SurfaceMesh stretched = two;
+  stretched.vertices.row(2) *= 1.05;
+  ASSERT_TRUE(WriteObj(dir_.File("two_stretched.obj"), stretched, &error)) << error;
+  PrepareJobOptions options = options_;
+  options.neutral = dir_.File("two.obj");
+  options.pose_paths = {dir_.File("two_stretched.obj")};
+  options.boundary.fixed_depth = 0.0;
+  options.boundary.fixed_boxes.emplace_back(Eigen::Vector3d(-1, -1, -1), Eigen::Vector3d(1, 1, 1));
+  std::ostringstream log;
+  EXPECT_FALSE(RunPrepareJob(options, log, &error));
+  EXPECT_NE(error.find("has fewer than 3 fixed vertices off one line: it could move rigidly"),
+            std::string::npos)
+      << error;
+  EXPECT_NE(error.find("surface vertices are embedded in it"), std::string::npos) << error;
+  options.boundary.fixed_boxes.emplace_back(Eigen::Vector3d(9, -1, -1), Eigen::Vector3d(11, 1, 1));
+  EXPECT_TRUE(RunPrepareJob(options, log, &error)) << error;
+}
+
 // Elements at vertices that fewer than min_elements_per_vertex elements hold (here
 // the outer corners of elements kept for a surface vertex) are removed; the surface
 // vertices they held are embedded just outside the mesh.

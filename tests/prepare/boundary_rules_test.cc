@@ -143,28 +143,5 @@ TEST(FixedInsideTest, EitherOrientationAndNoneInsideIsRefused) {
       << error;
 }
 
-// A mesh of two bodies with fixed vertices in one only is refused: the other could move
-// rigidly (prepare wrote such models, whose every solve was singular).
-TEST(BoundaryRulesTest, AMeshPieceWithoutFixedVerticesIsRefused) {
-  const TetMesh bar = testing::BarMesh(2, 1, 1, 1.0);
-  TetMesh two;
-  two.vertices.resize(3, 2 * bar.num_vertices());
-  two.vertices << bar.vertices, bar.vertices.colwise() + Eigen::Vector3d(4, 0, 0);
-  two.tets.resize(4, 2 * bar.num_tets());
-  two.tets << bar.tets, bar.tets.array() + bar.num_vertices();
-  BoundaryRuleOptions options;
-  options.num_threads = 1;
-  options.fixed_boxes.emplace_back(Eigen::Vector3d(-1, -1, -1), Eigen::Vector3d(0.5, 2, 2));
-  std::string error, log;
-  ActiveModel model;
-  EXPECT_FALSE(
-      ApplyBoundaryRules(options, two, SurfaceMesh(), {"a"}, nullptr, &model, &log, &error));
-  EXPECT_NE(error.find("has no fixed vertex: it could move rigidly"), std::string::npos) << error;
-  options.fixed_boxes.emplace_back(Eigen::Vector3d(5.5, -1, -1), Eigen::Vector3d(7, 2, 2));
-  EXPECT_TRUE(
-      ApplyBoundaryRules(options, two, SurfaceMesh(), {"a"}, nullptr, &model, &log, &error))
-      << error;
-}
-
 }  // namespace
 }  // namespace aqs
