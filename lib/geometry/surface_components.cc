@@ -78,11 +78,16 @@ std::vector<BoundaryLoop> FindBoundaryLoops(const Eigen::Matrix3Xi& triangles) {
   std::vector<std::array<int, 3>> keyed;
   keyed.reserve(static_cast<size_t>(num_triangles) * 3);
   for (int t = 0; t < num_triangles; ++t) {
+    // A degenerate triangle (a repeated vertex) adds no edge: its (a, b) and (b, a) would
+    // make a real boundary edge a-b look shared.
+    const bool degenerate = triangles(0, t) == triangles(1, t) ||
+                            triangles(1, t) == triangles(2, t) ||
+                            triangles(0, t) == triangles(2, t);
     for (int k = 0; k < 3; ++k) {
       const int a = triangles(k, t), b = triangles((k + 1) % 3, t);
       CHECK(a >= 0) << "triangle " << t << " has negative vertex index " << a;
       num_vertices = std::max(num_vertices, a + 1);
-      if (a == b) continue;
+      if (degenerate) continue;
       keyed.push_back({std::min(a, b), std::max(a, b), 3 * t + k});
     }
   }

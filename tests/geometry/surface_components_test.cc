@@ -80,6 +80,16 @@ TEST(BoundaryLoopsTest, SimpleShapes) {
   ASSERT_EQ(loops.size(), 1u);
   EXPECT_TRUE(loops[0].closed);
   EXPECT_EQ(loops[0].vertices, (std::vector<int>{4, 7, 2}));
+  // With a degenerate triangle on one of its edges: the same loop (its edges 4-4 and
+  // 4-7 made 4-7 look shared).
+  Eigen::Matrix3Xi with_degenerate(3, 2);
+  with_degenerate << 4, 4,  //
+      7, 4,                 //
+      2, 7;
+  loops = FindBoundaryLoops(with_degenerate);
+  ASSERT_EQ(loops.size(), 1u);
+  EXPECT_TRUE(loops[0].closed);
+  EXPECT_EQ(loops[0].vertices, (std::vector<int>{4, 7, 2}));
   // A square of two triangles: 4 edges.
   Eigen::Matrix3Xi square(3, 2);
   square << 0, 0,  //
