@@ -1,6 +1,8 @@
 #include "prepare/volumetric_targets.h"
 
+#include <algorithm>
 #include <iomanip>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <sstream>
@@ -133,9 +135,14 @@ void MakeVolumetricTargetsOf(const VolumetricTargetOptions& options,
     }
     const Eigen::Matrix3Xd x = w.solver->positions();
     pose.target.resize(6, physics.num_elements());
+    int inverted = 0;  // elements whose target is a reflection of their shape at x
+    double lowest_det = std::numeric_limits<double>::infinity();
     for (int e = 0; e < physics.num_elements(); ++e) {
-      pose.target.col(e) =
-          ActuationFromSymmetric(SymmetricPolarFactor(physics.DeformationGradient(x, e)));
+      const Eigen::Matrix3d f = physics.DeformationGradient(x, e);
+      pose.target.col(e) = ActuationFromSymmetric(SymmetricPolarFactor(f));
+      const double det = f.determinant();
+      if (det <= 0) ++inverted;
+      lowest_det = std::min(lowest_det, det);
     }
     const Eigen::VectorXd distance = (w.springs->Points(x) - pose.surface).colwise().norm();
     pose.embedding_mean_error = distance.mean();
@@ -150,7 +157,12 @@ void MakeVolumetricTargetsOf(const VolumetricTargetOptions& options,
         << (pose.surface - model->neutral.vertices).colwise().norm().maxCoeff() << "), "
         << report.Path()
         << (steps > 1 ? " in " + std::to_string(steps) + " steps" : std::string()) << ", "
-        << timer.Seconds() << " s" << (report.converged ? "" : ", NOT CONVERGED") << "\n"
+        << timer.Seconds() << " s" << (report.converged ? "" : ", NOT CONVERGED");
+    if (inverted > 0) {
+      log << "; " << inverted << " element(s) inverted (lowest det F " << lowest_det
+          << "): their targets are mirror images (--bone_clearance may help)";
+    }
+    log << "\n"
         << std::flush;
   }, 1);
 }
