@@ -134,6 +134,18 @@ bool ValidateTetMesh(const TetMesh& mesh, const std::string& source, std::string
   int worst_tet = std::numeric_limits<int>::max();
   int worst_a = -1;
   size_t worst_run = 0;
+  // Two elements on the same side of the triangle they share (a duplicate, a fold): their
+  // outward orders of it agree, where neighbours' are opposite. The first such run.
+  int folded_a = -1;
+  size_t folded_run = 0;
+  auto outward_parity = [&mesh](const mesh_internal::TetFace& f, int a) {
+    int order[3];
+    for (int k = 0; k < 3; ++k) order[k] = mesh.tets(mesh_internal::kOutwardFace[f.local][k], f.tet);
+    // Rotate so that the smallest vertex, a, comes first: the order is then (a, b, c) or
+    // (a, c, b).
+    while (order[0] != a) std::rotate(order, order + 1, order + 3);
+    return order[1] == f.b;
+  };
   for (int a = 0; a < num_vertices; ++a) {
     const int end = table.offsets[a + 1];
     for (int begin = table.offsets[a]; begin < end;) {
@@ -147,6 +159,11 @@ bool ValidateTetMesh(const TetMesh& mesh, const std::string& source, std::string
         worst_a = a;
         worst_run = static_cast<size_t>(begin);
       }
+      if (stop - begin == 2 && folded_a < 0 &&
+          outward_parity(table.faces[begin], a) == outward_parity(table.faces[begin + 1], a)) {
+        folded_a = a;
+        folded_run = static_cast<size_t>(begin);
+      }
       begin = stop;
     }
   }
@@ -158,6 +175,16 @@ bool ValidateTetMesh(const TetMesh& mesh, const std::string& source, std::string
         << table.faces[worst_run + 1].tet
         << ": a triangle can belong to at most two elements (duplicated or overlapping "
            "elements)";
+    *error = out.str();
+    return false;
+  }
+  if (folded_a >= 0) {
+    const mesh_internal::TetFace& first = table.faces[folded_run];
+    const mesh_internal::TetFace& second = table.faces[folded_run + 1];
+    std::ostringstream out;
+    out << ElementPrefix(mesh, source, second.tet) << "lies on the same side of the triangle ("
+        << folded_a << ' ' << first.b << ' ' << first.c << ") as element " << first.tet
+        << ", which shares it: the two overlap (a duplicated or folded element)";
     *error = out.str();
     return false;
   }

@@ -181,5 +181,37 @@ TEST(ValidateTetMeshTest, RejectsTriangleSharedByThreeElements) {
   EXPECT_TRUE(Contains(error, "element 2 ")) << error;
 }
 
+// Two elements that share a triangle on the same side of it overlap, though no third
+// element shares it: an element listed twice, and one folded over a neighbour's face.
+TEST(ValidateTetMeshTest, RejectsTwoElementsOnOneSideOfTheirTriangle) {
+  TetMesh twice = UnitTet();
+  twice.tets.conservativeResize(4, 2);
+  twice.tets.col(1) = twice.tets.col(0);
+  std::string error;
+  EXPECT_FALSE(ValidateTetMesh(twice, "twice", &error));
+  EXPECT_TRUE(Contains(error, "twice: element 1 (vertices 0 1 2 3) lies on the same side of the "
+                              "triangle"))
+      << error;
+  EXPECT_TRUE(Contains(error, "as element 0, which shares it: the two overlap")) << error;
+  // The unit tet and a second one on its face (0 1 2) whose apex lies inside the first
+  // (both positive): folded.
+  TetMesh folded;
+  folded.vertices.resize(3, 5);
+  folded.vertices << 0, 1, 0, 0, 0.2,  //
+      0, 0, 1, 0, 0.2,                 //
+      0, 0, 0, 1, 0.2;
+  folded.tets.resize(4, 2);
+  folded.tets.col(0) << 0, 1, 2, 3;
+  folded.tets.col(1) << 0, 1, 2, 4;
+  for (int t = 0; t < 2; ++t) ASSERT_GT(SignedTetVolume(folded, folded.vertices, t), 0);
+  EXPECT_FALSE(ValidateTetMesh(folded, "folded", &error));
+  EXPECT_TRUE(Contains(error, "the two overlap")) << error;
+  // The same apex below the face: neighbours, accepted.
+  folded.vertices.col(4) << 0.2, 0.2, -0.2;
+  folded.tets.col(1) << 0, 2, 1, 4;
+  ASSERT_GT(SignedTetVolume(folded, folded.vertices, 1), 0);
+  EXPECT_TRUE(ValidateTetMesh(folded, "neighbours", &error)) << error;
+}
+
 }  // namespace
 }  // namespace aqs
