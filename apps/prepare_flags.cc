@@ -9,7 +9,9 @@ DEFINE_string(neutral, "", "Neutral surface (OBJ).");
 DEFINE_string(poses, "", "Pose surfaces with the neutral's vertex order: a folder (all *.obj), "
               "a glob ('dir/*.obj'), a .txt list (one path per line) or a comma-separated list.");
 DEFINE_string(pose_exclude, "", "Glob on file names to leave out of --poses (e.g. *.teeth.obj).");
-DEFINE_string(tet_mesh, "", "A tet mesh to simulate instead of a lattice (.mesh, .node/.ele, .msh).");
+DEFINE_string(tet_mesh, "", "A tet mesh to simulate instead of a lattice (.mesh, .node/.ele, "
+              ".msh), in the neutral's unit and frame (a box 4x larger or smaller, or one "
+              "that misses the neutral's centre, is refused).");
 DEFINE_double(spacing, 0.0, "Lattice cube edge for the simulation mesh (model units); required "
               "without --tet_mesh.");
 DEFINE_string(lattice, "bcc", "Lattice type: bcc or kuhn.");

@@ -297,6 +297,17 @@ TEST_F(PrepareJobTest, UserTetMeshAndBoxRule) {
   ASSERT_TRUE(LoadModel(options.output, &second, &error)) << error;
   EXPECT_EQ(second.mesh.tets, first.mesh.tets);
   for (int v : second.static_vertices) EXPECT_LE(second.mesh.vertices(2, v), -1.5);
+  // The same mesh in another unit (x 10), or moved away: refused before any work.
+  for (const double scale : {10.0, 1.0}) {
+    TetMesh other = first.mesh;
+    other.vertices *= scale;
+    if (scale == 1.0) other.vertices.row(0).array() += 50.0;
+    ASSERT_TRUE(WriteMeditMesh(dir_.File("other.mesh"), other, &error)) << error;
+    options.tet_mesh = dir_.File("other.mesh");
+    EXPECT_FALSE(RunPrepareJob(options, log, &error)) << scale;
+    EXPECT_NE(error.find("other.mesh: the simulation mesh's box"), std::string::npos) << error;
+    EXPECT_NE(error.find("is it in another unit or frame?"), std::string::npos) << error;
+  }
 }
 
 // --fixed_list indexes the vertices of --tet_mesh's file, which prepare renumbers when it
