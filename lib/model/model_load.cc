@@ -52,9 +52,17 @@ bool ReadFiniteMatrix(const std::string& path, Eigen::Index rows, Eigen::Index c
   return true;
 }
 
-// Reads a checkpoint file ("iterations N", optional "loss L" and "model F"; *fingerprint
-// is F, or "" without that line). A missing file is no checkpoint (0 iterations); an
-// empty or malformed one is an error naming it.
+// Whether `text` is a finite number >= 0.
+bool FiniteNonNegative(const std::string& text) {
+  double value = 0.0;
+  return ParseDouble(text, &value) && std::isfinite(value) && value >= 0.0;
+}
+
+// Reads a checkpoint file ("iterations N", optional "loss L", "latent_refit_at N",
+// "loss_weights latent L energy E decoder D" and "model F"; *fingerprint is F, or ""
+// without that line). A missing file is no checkpoint (0 iterations); an empty or
+// malformed one is an error naming it.
+
 bool ReadCheckpoint(const std::string& path, TrainingCheckpoint* checkpoint,
                     std::string* fingerprint, std::string* error) {
   *checkpoint = TrainingCheckpoint();
@@ -77,13 +85,16 @@ bool ReadCheckpoint(const std::string& path, TrainingCheckpoint* checkpoint,
       *fingerprint = FingerprintText(value);
     } else if (t.size() == 2 && t[0] == "latent_refit_at" &&
                ParseInt(t[1], &checkpoint->latent_refit_at) && checkpoint->latent_refit_at >= 0) {
-    } else if (t.size() >= 2 && t[0] == "loss_weights") {
+    } else if (t.size() == 7 && t[0] == "loss_weights" && t[1] == "latent" &&
+               t[3] == "energy" && t[5] == "decoder" && FiniteNonNegative(t[2]) &&
+               FiniteNonNegative(t[4]) && FiniteNonNegative(t[6])) {
       checkpoint->loss_weights = t[1];
       for (size_t i = 2; i < t.size(); ++i) checkpoint->loss_weights += " " + t[i];
     } else if (!(t.size() == 2 && t[0] == "loss" && ParseDouble(t[1], &checkpoint->loss))) {
       *error = reader.Where(
           "expected 'iterations N' (N >= 0), 'loss L', 'latent_refit_at N' (N >= 0), "
-          "'loss_weights ...' or 'model F' (F: 16 hexadecimal digits)");
+          "'loss_weights latent L energy E decoder D' (finite, >= 0) or 'model F' (F: 16 "
+          "hexadecimal digits)");
       return false;
     }
   }

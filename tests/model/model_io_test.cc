@@ -496,7 +496,10 @@ TEST(ModelIoTest, DamagedCheckpointFailsNamingTheFile) {
   ASSERT_TRUE(SaveModel(path, model, &error)) << error;
   ActiveModel back;
   for (const char* content : {"", "# nothing\n", "iterations\n", "iterations -3\n",
-                              "iterations 4\nloss x\n"}) {
+                              "iterations 4\nloss x\n", "iterations 4\nlatent_refit_at -1\n",
+                              "iterations 4\nloss_weights latent 0.001 energy nan decoder 0\n",
+                              "iterations 4\nloss_weights latent 0.001 energy 0\n",
+                              "iterations 4\nloss_weights latent -1 energy 0 decoder 0\n"}) {
     std::ofstream(path + "/learned/checkpoint.txt") << content;
     EXPECT_FALSE(LoadModel(path, &back, &error)) << content;
     EXPECT_NE(error.find(path + "/learned/checkpoint.txt"), std::string::npos) << error;
@@ -505,6 +508,12 @@ TEST(ModelIoTest, DamagedCheckpointFailsNamingTheFile) {
   ASSERT_TRUE(LoadModel(path, &back, &error)) << error;
   EXPECT_EQ(back.checkpoint.iterations, 4);
   EXPECT_EQ(back.checkpoint.loss, 0.5);
+  std::ofstream(path + "/learned/checkpoint.txt")
+      << "iterations 4\nloss 0.5\nlatent_refit_at 2\nloss_weights latent 0.001 energy 0.1 "
+         "decoder 0\n";
+  ASSERT_TRUE(LoadModel(path, &back, &error)) << error;
+  EXPECT_EQ(back.checkpoint.latent_refit_at, 2);
+  EXPECT_EQ(back.checkpoint.loss_weights, "latent 0.001 energy 0.1 decoder 0");
 }
 
 // The learned state's fingerprint and the targets' key survive saving and loading; the
