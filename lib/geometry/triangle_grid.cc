@@ -23,8 +23,9 @@ TriangleGrid::TriangleGrid(const Eigen::Matrix3Xd& vertices, const Eigen::Matrix
   }
   if (triangles.cols() > 0) mean_side /= static_cast<double>(triangles.cols());
   const double extent =
-      vertices.cols() > 0 ? (vertices.rowwise().maxCoeff() - vertices.rowwise().minCoeff()).maxCoeff()
-                          : 0.0;
+      vertices.cols() > 0
+          ? (vertices.rowwise().maxCoeff() - vertices.rowwise().minCoeff()).maxCoeff()
+          : 0.0;
   cell_ = std::max({cell, mean_side, std::ldexp(extent, -20)});
   lo_ = vertices.rowwise().minCoeff().array() - cell_;
   for (Eigen::Index t = 0; t < triangles.cols(); ++t) {

@@ -140,7 +140,9 @@ bool ValidateTetMesh(const TetMesh& mesh, const std::string& source, std::string
   size_t folded_run = 0;
   auto outward_parity = [&mesh](const mesh_internal::TetFace& f, int a) {
     int order[3];
-    for (int k = 0; k < 3; ++k) order[k] = mesh.tets(mesh_internal::kOutwardFace[f.local][k], f.tet);
+    for (int k = 0; k < 3; ++k) {
+      order[k] = mesh.tets(mesh_internal::kOutwardFace[f.local][k], f.tet);
+    }
     // Rotate so that the smallest vertex, a, comes first: the order is then (a, b, c) or
     // (a, c, b).
     while (order[0] != a) std::rotate(order, order + 1, order + 3);

@@ -40,9 +40,9 @@ struct TetMeshValidationOptions {
 // the four indices of an element distinct; no element flat; all elements with the
 // same sign of signed volume (the sign of the majority; an element with the other
 // sign is inverted); no triangle shared by more than two elements, nor by two on the
-// same side of it (duplicated or overlapping elements). Finite coordinates. On failure returns false and *error
-// names `source` (a file name or description), the first offending element (0-based
-// index and its vertices) and what is wrong with it.
+// same side of it (duplicated or overlapping elements). Finite coordinates. On failure
+// returns false and *error names `source` (a file name or description), the first
+// offending element (0-based index and its vertices) and what is wrong with it.
 bool ValidateTetMesh(const TetMesh& mesh, const std::string& source, std::string* error,
                      const TetMeshValidationOptions& options = TetMeshValidationOptions());
 

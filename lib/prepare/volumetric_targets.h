@@ -49,7 +49,8 @@ struct VolumetricTargetOptions {
 // to the rotation the equilibrium chooses; for an element x_p inverts, det F <= 0, up to
 // a reflection: its target is its mirror image, which the pose line counts). Fills
 // pose.target and the mean and max distance between the embedded surface and the pose;
-// writes one line per pose to `log` (with the count of inverted elements, if any). Returns false with *error if a pose's equilibrium cannot be reached, unless
+// writes one line per pose to `log` (with the count of inverted elements, if any).
+// Returns false with *error if a pose's equilibrium cannot be reached, unless
 // `unconverged` is given: then such a pose's target is made from the state its solve
 // ended in (if that is finite; else the pose gets no target), the pose's message is
 // appended to *unconverged, and the function returns true. Returns false for invalid

@@ -148,7 +148,8 @@ class PretrainResumeTest : public ::testing::Test {
 
   // Whether pretrain/log.csv has the rows of iterations 0..last, once each, in order.
   ::testing::AssertionResult LogRowsAreZeroTo(int last) {
-    const auto rows = testing::TrainingLogRows(options_.checkpoint_directory + "/" + kPretrainRunLogName);
+    const auto rows =
+        testing::TrainingLogRows(options_.checkpoint_directory + "/" + kPretrainRunLogName);
     std::string got;
     bool ok = static_cast<int>(rows.size()) == last + 1;
     for (size_t i = 0; i < rows.size(); ++i) {
@@ -198,7 +199,8 @@ TEST_F(PretrainResumeTest, ResumesAtTheCheckpointAndCountsItsIterations) {
   EXPECT_LT(resumed.final_loss, saved.loss);
   EXPECT_EQ(Saved().iterations, 10);
   EXPECT_TRUE(LogRowsAreZeroTo(10));
-  const auto rows = testing::TrainingLogRows(options_.checkpoint_directory + "/" + kPretrainRunLogName);
+  const auto rows =
+      testing::TrainingLogRows(options_.checkpoint_directory + "/" + kPretrainRunLogName);
   EXPECT_EQ(rows[6].second, saved.loss);
   EXPECT_EQ(rows[10].second, resumed.final_loss);
 
