@@ -30,14 +30,19 @@ using testing::ContactFreeEquilibrium;
 using testing::PushBalls;
 using testing::PushedBalls;
 
-TEST(ContactSolverTest, BlockPushedIntoASlabStopsAtItsSurface) {
+// [0, 1]^3 as a Kuhn lattice of 3 x 3 x 3 cubes.
+TetMesh UnitBlock() {
   LatticeOptions lattice;
   lattice.nx = 3;
   lattice.ny = 3;
   lattice.nz = 3;
   lattice.spacing = 1.0 / 3.0;
   lattice.type = LatticeType::kKuhn;
-  const TetMesh block = MakeLatticeMesh(lattice);  // [0, 1]^3
+  return MakeLatticeMesh(lattice);
+}
+
+TEST(ContactSolverTest, BlockPushedIntoASlabStopsAtItsSurface) {
+  const TetMesh block = UnitBlock();
   std::vector<int> top;
   for (int v = 0; v < block.num_vertices(); ++v) {
     if (block.vertices(1, v) > 1 - 1e-9) top.push_back(v);
@@ -90,13 +95,7 @@ TEST(ContactSolverTest, BlockPushedIntoASlabStopsAtItsSurface) {
 // bounded number of tries (halving per accepted step let the steps shrink toward the
 // crossing geometrically: 145 tries for 8 steps on the demo face).
 TEST(ContactSolverTest, APathThroughAnUnavoidableCrossingTakesBoundedSteps) {
-  LatticeOptions lattice;
-  lattice.nx = 3;
-  lattice.ny = 3;
-  lattice.nz = 3;
-  lattice.spacing = 1.0 / 3.0;
-  lattice.type = LatticeType::kKuhn;
-  const TetMesh block = MakeLatticeMesh(lattice);  // [0, 1]^3
+  const TetMesh block = UnitBlock();
   std::vector<int> top, bottom;
   for (int v = 0; v < block.num_vertices(); ++v) {
     if (block.vertices(1, v) > 1 - 1e-9) top.push_back(v);

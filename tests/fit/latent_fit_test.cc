@@ -882,21 +882,32 @@ TEST(LatentFitTest, LandmarksHoldAScanOutOfReachOnlyWhereTheyWeigh) {
   EXPECT_TRUE(fitter.FitPointCloud(far, cloud, fitter.PriorLatent(), &fit, &error)) << error;
 }
 
+// The surface of training latent p simulated at rest bones: a scan with every point.
+void ScanOfTrainingPose(const ActiveModel& model, int p, Eigen::Matrix3Xd* scan) {
+  LatentFitter fitter(model, LatentFitOptions());
+  Eigen::Matrix3Xd state;
+  std::string error;
+  ASSERT_TRUE(fitter.Simulate(model.latents.col(p), &state, scan, &error)) << error;
+}
+
+// Scan fits by matching rounds, points within 0.5 of the surface.
+PointCloudFitOptions MatchingRounds() {
+  PointCloudFitOptions cloud;
+  cloud.max_distance = 0.5;
+  cloud.rematch_every_evaluation = false;
+  return cloud;
+}
+
 // Matching rounds converge when their mean distance settles, whatever the capped solve
 // of the last round says (with one iteration per round it always hit its cap, and the
 // fit was reported not converged). Rounds that run out converge where the last round's
 // solve settled the distance (one more matching says so), and not where it did not.
 TEST(LatentFitTest, MatchingRoundsConvergeByTheirOwnTest) {
   const ActiveModel model = TrainedModel(false);
-  Eigen::Matrix3Xd state, scan;
+  Eigen::Matrix3Xd scan;
   std::string error;
-  {
-    LatentFitter fitter(model, LatentFitOptions());
-    ASSERT_TRUE(fitter.Simulate(model.latents.col(2), &state, &scan, &error)) << error;
-  }
-  PointCloudFitOptions cloud;
-  cloud.max_distance = 0.5;
-  cloud.rematch_every_evaluation = false;
+  ASSERT_NO_FATAL_FAILURE(ScanOfTrainingPose(model, 2, &scan));
+  PointCloudFitOptions cloud = MatchingRounds();
   cloud.iterations_per_round = 1;
   cloud.relative_tolerance = 0.05;
   // Each fit by a fitter of its own, so that their paths are the same.
@@ -975,13 +986,8 @@ TEST(LatentFitTest, MatchingRoundsCountTheSolveOfTheirStart) {
   const ActiveModel model = TrainedModel(false);
   Eigen::Matrix3Xd state, scan;
   std::string error;
-  {
-    LatentFitter fitter(model, LatentFitOptions());
-    ASSERT_TRUE(fitter.Simulate(model.latents.col(2), &state, &scan, &error)) << error;
-  }
-  PointCloudFitOptions cloud;
-  cloud.max_distance = 0.5;
-  cloud.rematch_every_evaluation = false;
+  ASSERT_NO_FATAL_FAILURE(ScanOfTrainingPose(model, 2, &scan));
+  PointCloudFitOptions cloud = MatchingRounds();
   cloud.iterations_per_round = 3;
   cloud.max_rounds = 1;
   // No priors, which scan fits weigh by rules of their own.
