@@ -6,7 +6,7 @@
 #include <array>
 #include <utility>
 
-#include "geometry/disjoint_sets.h"
+#include "util/disjoint_sets.h"
 
 namespace aqs {
 namespace {
@@ -39,7 +39,7 @@ struct Incidence {
 SurfaceComponents FindSurfaceComponents(int num_vertices, const Eigen::Matrix3Xi& triangles) {
   CHECK_GE(num_vertices, 0);
   const int num_triangles = static_cast<int>(triangles.cols());
-  geometry_internal::DisjointSets sets(num_vertices);
+  DisjointSets sets(num_vertices);
   std::vector<char> used(num_vertices, 0);
   for (int t = 0; t < num_triangles; ++t) {
     for (int k = 0; k < 3; ++k) {

@@ -10,12 +10,13 @@
 #include <utility>
 #include <vector>
 
-#include "geometry/disjoint_sets.h"
 #include "geometry/embedding.h"
 #include "geometry/triangle_bvh.h"
 #include "geometry/winding_number.h"
 #include "mesh/element_subset.h"
+#include "mesh/tet_components.h"
 #include "mesh/tet_faces.h"
+#include "util/disjoint_sets.h"
 #include "util/option_checks.h"
 
 namespace aqs {
@@ -116,30 +117,10 @@ bool SurfaceLattice(const Eigen::Matrix3Xd& vertices, const SurfaceTetMeshOption
 // appearance. Returns the number of components.
 int FaceComponents(const TetMesh& lattice, const std::vector<int>& elements,
                    std::vector<int>* component) {
-  const int count = static_cast<int>(elements.size());
   TetMesh subset;
-  subset.vertices.resize(3, lattice.num_vertices());  // only the count is used
-  subset.tets.resize(4, count);
-  for (int i = 0; i < count; ++i) subset.tets.col(i) = lattice.tets.col(elements[i]);
-  const mesh_internal::TetFaceTable table = mesh_internal::BuildTetFaceTable(subset);
-  geometry_internal::DisjointSets sets(count);
-  for (int a = 0; a < subset.num_vertices(); ++a) {
-    const int end = table.offsets[a + 1];
-    for (int f = table.offsets[a]; f + 1 < end; ++f) {
-      const mesh_internal::TetFace& x = table.faces[f];
-      const mesh_internal::TetFace& y = table.faces[f + 1];
-      if (x.b == y.b && x.c == y.c) sets.Union(x.tet, y.tet);
-    }
-  }
-  component->assign(count, -1);
-  std::vector<int> label(count, -1);
-  int num_components = 0;
-  for (int i = 0; i < count; ++i) {
-    const int root = sets.Find(i);
-    if (label[root] < 0) label[root] = num_components++;
-    (*component)[i] = label[root];
-  }
-  return num_components;
+  subset.vertices = lattice.vertices;
+  subset.tets = lattice.tets(Eigen::all, elements);
+  return TetMeshPieces(subset, component);
 }
 
 // Vertex-to-element incidence: the elements using vertex v are
@@ -202,7 +183,7 @@ int BridgeTouchingComponents(const TetMesh& lattice, int num_components, std::ve
                    [&members](int a, int b) { return members[a].size() < members[b].size(); });
   const int largest = num_components > 0 ? order.back() : -1;
   const VertexElements incidence = BuildVertexElements(lattice);
-  geometry_internal::DisjointSets sets(num_components);
+  DisjointSets sets(num_components);
   std::vector<int> stamp(num_tets, -1), parent(num_tets, -1), depth(num_tets, 0);
   int added = 0;
   for (int run = 0; run + 1 < num_components; ++run) {

@@ -1,38 +1,29 @@
 #include "mesh/tet_components.h"
 
-#include <algorithm>
-#include <numeric>
-
 #include <Eigen/Geometry>
 #include <glog/logging.h>
 
 #include "mesh/tet_faces.h"
+#include "util/disjoint_sets.h"
 
 namespace aqs {
 
 int TetMeshPieces(const TetMesh& mesh, std::vector<int>* piece_of_element) {
   const int nt = mesh.num_tets();
-  std::vector<int> parent(nt);
-  std::iota(parent.begin(), parent.end(), 0);
-  auto find = [&parent](int x) {
-    while (parent[x] != x) x = parent[x] = parent[parent[x]];
-    return x;
-  };
+  DisjointSets sets(nt);
   const mesh_internal::TetFaceTable table = mesh_internal::BuildTetFaceTable(mesh);
   for (int a = 0; a + 1 < static_cast<int>(table.offsets.size()); ++a) {
     for (int i = table.offsets[a]; i + 1 < table.offsets[a + 1]; ++i) {
       const mesh_internal::TetFace& f = table.faces[i];
       const mesh_internal::TetFace& g = table.faces[i + 1];
-      if (f.b != g.b || f.c != g.c) continue;
-      const int x = find(f.tet), y = find(g.tet);
-      if (x != y) parent[std::max(x, y)] = std::min(x, y);
+      if (f.b == g.b && f.c == g.c) sets.Union(f.tet, g.tet);
     }
   }
   piece_of_element->assign(nt, -1);
   std::vector<int> number(nt, -1);
   int pieces = 0;
   for (int t = 0; t < nt; ++t) {
-    const int root = find(t);
+    const int root = sets.Find(t);
     if (number[root] < 0) number[root] = pieces++;
     (*piece_of_element)[t] = number[root];
   }

@@ -15,7 +15,7 @@ for header in equilibrium/quasistatic_solver.h diff/equilibrium_differentiator.h
     jobs/fit_sequence.h; do
   [ -f "$include/$header" ] || { echo "missing public header $header"; exit 1; }
 done
-for header in geometry/disjoint_sets.h mesh/text_io_util.h util/atomic_file.h; do
+for header in util/disjoint_sets.h mesh/text_io_util.h util/atomic_file.h; do
   [ -f "$include/$header" ] && { echo "private header $header was installed"; exit 1; }
 done
 cmake -S "$source_dir" -B "$work/build" -DCMAKE_BUILD_TYPE=Release \

@@ -1,15 +1,14 @@
-#ifndef AQS_GEOMETRY_DISJOINT_SETS_H_
-#define AQS_GEOMETRY_DISJOINT_SETS_H_
+#ifndef AQS_UTIL_DISJOINT_SETS_H_
+#define AQS_UTIL_DISJOINT_SETS_H_
 
-// Internal: union-find used by the component searches of this module. Not part of the
-// public API.
+// Union-find for the component searches (geometry's surface and lattice components,
+// mesh's pieces).
 
 #include <numeric>
 #include <utility>
 #include <vector>
 
 namespace aqs {
-namespace geometry_internal {
 
 // Disjoint sets over [0, size) with path halving. Union makes the smaller of the two
 // roots the representative, so the representative of every set is its smallest element.
@@ -39,7 +38,6 @@ class DisjointSets {
   std::vector<int> parent_;
 };
 
-}  // namespace geometry_internal
 }  // namespace aqs
 
-#endif  // AQS_GEOMETRY_DISJOINT_SETS_H_
+#endif  // AQS_UTIL_DISJOINT_SETS_H_
