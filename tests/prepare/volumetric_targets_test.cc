@@ -77,5 +77,27 @@ TEST_F(VolumetricTargetsTest, MakeVolumetricTargetsIsMakeVolumetricTargetsOfEver
   EXPECT_NE(log.str().find("by CG on an earlier factor"), std::string::npos) << log.str();
 }
 
+// A pose whose surface the embedded simulation can reach only by turning elements inside
+// out (the bar's surface mirrored across its middle, y -> 0.4 - y): its log line counts
+// them, as it does not for a pose without any.
+TEST_F(VolumetricTargetsTest, InvertedElementsAreCounted) {
+  ActiveModel model = base_;
+  Eigen::Matrix3Xd mirrored = model.neutral.vertices;
+  mirrored.row(1) = (0.4 - mirrored.row(1).array()).matrix();
+  model.poses[0].surface = mirrored;
+  VolumetricTargetOptions options;
+  options.num_threads = 1;
+  std::vector<std::string> failures(kPoses);
+  std::ostringstream log;
+  MakeVolumetricTargetsOf(options, {0, 1}, nullptr, &model, log, &failures);
+  const std::string text = log.str();
+  const size_t second = text.find("\n");
+  ASSERT_NE(second, std::string::npos) << text;
+  EXPECT_NE(text.substr(0, second).find(" element(s) inverted (lowest det F -"),
+            std::string::npos)
+      << text;
+  EXPECT_EQ(text.substr(second).find("inverted"), std::string::npos) << text;
+}
+
 }  // namespace
 }  // namespace aqs
