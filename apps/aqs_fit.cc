@@ -109,6 +109,22 @@ int main(int argc, char** argv) {
                                      "before it: it applies to a --sequence, not to one --target");
     return 1;
   }
+  // A sequence's flags, and a comparison's vertices without the comparison, would be
+  // dropped without a word.
+  if (!FLAGS_output_dir.empty() ||
+      !gflags::GetCommandLineFlagInfoOrDie("sequence_warm_start").is_default) {
+    aqs::PrintRankError(ranks.get(), std::string(FLAGS_output_dir.empty()
+                                                     ? "--sequence_warm_start"
+                                                     : "--output_dir") +
+                                         " applies to a --sequence, not to one --target "
+                                         "(whose outputs are --output and its kin)");
+    return 1;
+  }
+  if (!FLAGS_compare_vertices.empty() && FLAGS_compare_to.empty()) {
+    aqs::PrintRankError(ranks.get(), "--compare_vertices chooses the vertices of the comparison "
+                                     "with --compare_to, which is not given");
+    return 1;
+  }
   if (distributed) {
     aqs::PrintRankError(ranks.get(), "one --target is fitted by one process, not by " +
                                          std::to_string(ranks->size()) +

@@ -143,8 +143,9 @@ class LatentFitter::FitCost final : public ceres::CostFunction {
       const double scale = 1.0 / std::sqrt(static_cast<double>(cloud_->cols()));
       double slope = 0.0;
       const double clamp =
-          cap > 0 ? std::abs(scale * RobustDistance(cap, cloud_options_.robust_scale, &slope))
-                  : std::numeric_limits<double>::infinity();
+          cap > 0 && std::isfinite(cap)
+              ? std::abs(scale * RobustDistance(cap, cloud_options_.robust_scale, &slope))
+              : std::numeric_limits<double>::infinity();
       for (Eigen::Index i = 0; i < cloud_->cols(); ++i) {
         if (std::abs(residuals[i]) < clamp) use(residuals[i]);
       }

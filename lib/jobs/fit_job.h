@@ -78,8 +78,9 @@ bool ReadMarkerTarget(const std::string& path, const Eigen::Matrix3Xd& neutral,
 // are set (the surface as OBJ in the neutral's vertex order, the volume, the latent
 // file, the uncertainty PLY; each atomically) and logs to `log`. Status: kOk; kBadInput
 // for invalid options, unreadable or mismatched inputs or an output that cannot be
-// written; kNotConverged if no start could be simulated (nothing written) or the fit
-// failed or missed its tolerance (its finite outputs written, for inspection).
+// written; kNotConverged if no start could be simulated (nothing written), or the fit
+// failed or its errors are not finite (its finite outputs written, for inspection). A fit
+// that stops at its iteration limit is kOk (the log says so).
 // result.fit holds the fit, result.kind the target kind used.
 FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log);
 

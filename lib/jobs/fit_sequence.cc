@@ -116,7 +116,7 @@ std::string SequenceKey(const FitSequenceOptions& options, const ActiveModel& mo
   key << "model " << FingerprintText(ModelFingerprint(model)) << "\n"
       << "learned " << FingerprintText(LearnedStateFingerprint(model)) << "\n"
       << "target_kind " << options.target_kind << "\n"
-      << "landmarks " << (options.landmarks.empty() ? "none" : options.landmarks) << "\n"
+      << "landmarks " << (options.landmarks.empty() ? "none" : "yes") << "\n"
       << "start " << s.training_poses << " " << s.retry_from_given << " " << s.mean_latent
       << "\n"
       << options.points.KeyText() << options.fit.KeyText();
@@ -125,6 +125,19 @@ std::string SequenceKey(const FitSequenceOptions& options, const ActiveModel& mo
     key << "temporal_prior " << FormatDouble(options.temporal_prior) << "\n";
   }
   return key.str();
+}
+
+// Whether a folder's key.txt, `stored`, is `key`, SequenceKey's: the same but for the
+// landmarks line of keys written before 2026-12-06, which held the --landmarks spelling
+// (now "yes": which files they are is in each frame's fingerprint, targets.txt).
+bool SameSequenceKey(const std::string& stored, const std::string& key) {
+  std::istringstream lines(stored);
+  std::string line, normalized;
+  while (std::getline(lines, line)) {
+    if (line.rfind("landmarks ", 0) == 0 && line != "landmarks none") line = "landmarks yes";
+    normalized += line + "\n";
+  }
+  return normalized == key;
 }
 
 // Opens the output folder (rank 0 takes its writers' lock, reads and writes; the ranks
@@ -165,7 +178,7 @@ bool OpenOutputFolder(const FitSequenceOptions& options, const ActiveModel& mode
     const std::string key_path = options.output_dir + "/key.txt";
     const std::string key = SequenceKey(options, model);
     if (ok && MayExist(key_path) && MayExist(options.output_dir + "/frames.csv") &&
-        ReadWholeFile(key_path) != key) {
+        !SameSequenceKey(ReadWholeFile(key_path), key)) {
       *error = options.output_dir + ": its frames were fitted with another model or other fit "
                "options (key.txt); remove the folder, or write to another --output_dir";
       ok = false;
@@ -187,11 +200,23 @@ bool OpenOutputFolder(const FitSequenceOptions& options, const ActiveModel& mode
     // frames.csv keeps the rows of the frames done alone (not those after a frame whose
     // OBJ is missing, nor those whose target changed) before targets.txt records the
     // targets of all frames, so that a run killed in between does not take them for
-    // fits of these targets.
+    // fits of these targets. latents.bin keeps their latents alone, and the OBJs of the
+    // frames not done go (a run killed between a round's OBJs and its rows, or fitted
+    // to targets that changed): only the frames done have results in the folder.
     if (ok && MayExist(csv_path)) {
       std::string csv = SequenceCsvHeader(model) + "\n";
       for (const DoneFrame& d : *done) csv += d.line + "\n";
       if (ReadWholeFile(csv_path) != csv) ok = WriteFileAtomically(csv_path, csv, error);
+    }
+    const std::string latents_path = options.output_dir + "/latents.bin";
+    if (ok && MayExist(latents_path)) {
+      Eigen::MatrixXd track(model.latent_dim(), done->size());
+      for (size_t f = 0; f < done->size(); ++f) track.col(f) = (*done)[f].latent;
+      ok = WriteMatrixFile(latents_path, track, error);
+    }
+    for (size_t f = done->size(); f < frames.size() && ok; ++f) {
+      std::error_code code;
+      fs::remove(options.output_dir + "/" + frames[f].name + ".obj", code);
     }
     ok = ok && WriteFileAtomically(key_path, key, error);
     ok = ok && WriteFileAtomically(targets_path, targets, error);
@@ -282,7 +307,10 @@ class SequenceFrameFitter {
       fitted = is_cloud ? fitter->FitPointCloud(frame.cloud, cloud_options, z, &fit, &fit_error)
                         : fitter->Fit(frame.target, z, &fit, &fit_error);
     }
-    if (!fitted) {
+    // A fit whose minimizer failed (its Jacobian could not be evaluated at a point it
+    // accepted) is no result either, as for a single target (RunFitJob).
+    if (fitted && fit.failed) fit_error = "the fit failed: " + fit.message;
+    if (!fitted || fit.failed) {
       return Failed(frame, fit, start, frame_timer.Seconds(), fit_error, block, status, message);
     }
     if (warm_) {
@@ -456,7 +484,8 @@ FitSequenceResult RunFitSequence(const FitSequenceOptions& options, const Active
   }
   if (options.warm_start) {
     // Frames an independent run could not fit: fitted again, and every frame after them
-    // (each continues from the one before).
+    // (each continues from the one before). Their rows stay in frames.csv until this
+    // run writes frames of its own: a warm run that fails there loses no frame.
     done.erase(std::find_if(done.begin(), done.end(), [](const DoneFrame& d) { return d.failed; }),
                done.end());
   }

@@ -19,20 +19,27 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// The frame files of a sequence specification, with where each was listed
+// The files of a sequence specification `spec` given to `flag` (--sequence: the
+// frames, "target file"; --landmarks: "landmarks file"), with where each was listed
 // (util/file_list.h: a folder's .obj, .txt and .ply files, a glob, a .txt list or a comma
 // list).
-bool ResolveFrames(const std::string& spec, std::vector<ListedFile>* out, std::string* error) {
+bool ResolveFrames(const std::string& spec, const std::string& flag, const std::string& what,
+                   std::vector<ListedFile>* out, std::string* error) {
   if (spec.empty()) {
     *error = "no sequence given";
     return false;
   }
   FileListOptions options;
   options.folder_extensions = {".obj", ".txt", ".ply"};
-  options.what = "target file";
-  if (!ResolveFileList(spec, options, out, error)) return false;
+  options.what = what;
+  options.list_hint = "; a .txt file given to " + flag + " lists the " + what +
+                      "s, one per line: for a single " + what + " write '" + spec + ",'";
+  if (!ResolveFileList(spec, options, out, error)) {
+    *error = flag + ": " + *error;
+    return false;
+  }
   if (out->empty()) {
-    *error = "the sequence '" + spec + "' matches no target files (.obj, .txt, .ply)";
+    *error = flag + "='" + spec + "' matches no " + what + "s (.obj, .txt, .ply)";
     return false;
   }
   return true;
@@ -58,7 +65,7 @@ bool ReadSequenceFrames(const FitSequenceOptions& options, const Eigen::Matrix3X
                         std::vector<SequenceFrame>* frames, std::string* error) {
   const int ns = static_cast<int>(neutral.cols());
   std::vector<ListedFile> files;
-  if (!ResolveFrames(options.sequence, &files, error)) return false;
+  if (!ResolveFrames(options.sequence, "--sequence", "target file", &files, error)) return false;
   if (options.max_frames >= 0 && static_cast<int>(files.size()) > options.max_frames) {
     files.resize(options.max_frames);
   }
@@ -180,7 +187,10 @@ bool ReadSequenceFrames(const FitSequenceOptions& options, const Eigen::Matrix3X
     return false;
   }
   std::vector<ListedFile> landmark_files;
-  if (!ResolveFrames(options.landmarks, &landmark_files, error)) return false;
+  if (!ResolveFrames(options.landmarks, "--landmarks", "landmarks file", &landmark_files,
+                     error)) {
+    return false;
+  }
   if (options.max_frames >= 0 && static_cast<int>(landmark_files.size()) > options.max_frames) {
     landmark_files.resize(options.max_frames);
   }
@@ -192,6 +202,16 @@ bool ReadSequenceFrames(const FitSequenceOptions& options, const Eigen::Matrix3X
   }
   for (size_t k = 0; k < frames->size(); ++k) {
     const auto& [path, origin] = landmark_files[k];
+    // Not in the folder the outputs go to: the run's own files there (key.txt, frame
+    // OBJs) would be taken for landmarks by the next run, which then cannot resume.
+    std::error_code code;
+    const fs::path folder = fs::path(path).parent_path();
+    if (!options.output_dir.empty() &&
+        fs::equivalent(options.output_dir, folder.empty() ? fs::path(".") : folder, code)) {
+      *error = options.output_dir + ": is the folder of the landmarks file " + path +
+               "; write the outputs elsewhere";
+      return false;
+    }
     if (!ReadMarkerTarget(path, neutral, &(*frames)[k].landmarks, error)) {
       if (origin != path) *error = origin + ": " + *error;
       return false;

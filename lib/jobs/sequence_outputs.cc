@@ -89,10 +89,16 @@ bool ReadFramesDone(const std::string& csv, const std::string& output_dir,
                             std::to_string(columns) + " columns)");
       return false;
     }
-    if (f >= frames.size() || cells[1] != frames[f].name) {
+    if (f >= frames.size()) {
+      *error = reader.Where("frame " + std::to_string(f) + " (" + cells[1] +
+                           ") is done, but this sequence has " + std::to_string(frames.size()) +
+                           " frames: the folder holds a longer sequence's fits; give that "
+                           "whole sequence, or write to another --output_dir");
+      return false;
+    }
+    if (cells[1] != frames[f].name) {
       *error = reader.Where("frame " + std::to_string(f) + " is '" + cells[1] +
-                            "', but this sequence's is '" +
-                            (f < frames.size() ? frames[f].name : std::string("(none)")) +
+                            "', but this sequence's is '" + frames[f].name +
                             "': the folder holds another run; remove it or choose another "
                             "--output_dir");
       return false;

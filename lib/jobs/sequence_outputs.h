@@ -22,7 +22,7 @@ namespace aqs {
 // start, factorizations), then z1..zd, then <bone>_rx, ry, rz, tx, ty, tz per bone.
 // converged: 1 the fit met its tolerance, 0 it stopped at its iteration limit, -1 the
 // frame could not be fitted (independent frames only: its equilibrium could not be
-// computed, or no start reached it): then it has no OBJ, its errors, latent and bone
+// computed, no start reached it, or the fit's minimizer failed): then it has no OBJ, its errors, latent and bone
 // motions are "nan" (and so is its column of latents.bin), and start is "none" if no
 // start was chosen.
 std::string SequenceCsvHeader(const ActiveModel& model);

@@ -33,7 +33,8 @@ bool ReadListFile(const std::string& spec, const FileListOptions& options,
   std::vector<std::string> tokens;
   while (reader.NextTokens(&tokens)) {
     if (tokens.size() != 1) {
-      *error = reader.Where("expected one " + options.what + " per line (a list of files)");
+      *error = reader.Where("expected one " + options.what + " per line (a list of files)" +
+                            options.list_hint);
       return false;
     }
     fs::path p(tokens[0]);

@@ -22,6 +22,9 @@ struct FileListOptions {
   std::string base_dir;
   // Names the files in messages: "<what> 'x' does not exist".
   std::string what = "file";
+  // Appended to the message of a .txt list with a line that is not one path (for a
+  // .txt that was meant as one file, not as a list).
+  std::string list_hint;
 };
 
 // The files a specification names, the one way every app lists files (pose sets,

@@ -496,6 +496,21 @@ TEST_F(AqsFitTest, ScanSequenceTakesOneLandmarksFilePerFrame) {
                        "--output_dir=" + d + "/landmarks"));
   ASSERT_EQ(run.exit_code, 0) << run.output;
   EXPECT_NE(run.output.find("with landmarks from"), std::string::npos) << run.output;
+  // The same landmark files spelled otherwise: the same run (the key held the spelling).
+  const testing::CommandResult respelled = RunCommand(
+      Fit(scans + " --landmarks=" + d + "/./landmarks0.txt," + d + "/./landmarks1.txt" +
+          " --landmark_weight=100 --max_distance=0.5 --output_dir=" + d + "/landmarks"));
+  EXPECT_EQ(respelled.exit_code, 0) << respelled.output;
+  EXPECT_NE(respelled.output.find("all 2 frames were done already"), std::string::npos)
+      << respelled.output;
+  // Its first frame alone: refused, saying the folder holds a longer sequence.
+  const testing::CommandResult prefix = RunCommand(
+      Fit(" --sequence=" + d + "/scan0.ply, --landmarks=" + d + "/landmarks0.txt," +
+          " --landmark_weight=100 --max_distance=0.5 --output_dir=" + d + "/landmarks"));
+  EXPECT_EQ(prefix.exit_code, 1) << prefix.output;
+  EXPECT_NE(prefix.output.find("frame 1 (scan1) is done, but this sequence has 1 frames"),
+            std::string::npos)
+      << prefix.output;
   for (int frame = 0; frame < 2; ++frame) {
     SurfaceMesh plain, pulled;
     std::string error;
@@ -549,6 +564,14 @@ TEST_F(AqsFitTest, BadSequencesFailNamingTheFileAndLine) {
        "frame's) has"},
       {"--sequence=" + d + "/scan.ply," + d + "/empty.ply", "empty.ply: the file has no points"},
       {"--sequence=" + d + "/nothing*.txt", "matches no target files"},
+      // One markers file is a list to --sequence; the message says how to give one file.
+      {"--sequence=" + d + "/good.txt", "for a single target file write '" + d + "/good.txt,'"},
+      // Errors about --landmarks name it, not the sequence.
+      {"--sequence=" + d + "/scan.ply --landmarks=" + d + "/nolandmarks*.txt",
+       "--landmarks='" + d + "/nolandmarks*.txt' matches no landmarks files"},
+      // The outputs in the landmarks' folder would be taken for landmarks on a rerun.
+      {"--sequence=" + d + "/scan.ply --landmarks=" + d + "/good.txt, --output_dir=" + d,
+       d + ": is the folder of the landmarks file " + d + "/good.txt"},
       {"--sequence=" + d + "/good.txt", "--output_dir are required"},
       {"--sequence=" + d + "/good.txt, --landmarks=" + d + "/good.txt,",
        "landmarks go with a sequence of point clouds (scans), but"},
@@ -562,7 +585,9 @@ TEST_F(AqsFitTest, BadSequencesFailNamingTheFileAndLine) {
        "remote.txt: point 1 (1e+200 0 0) is"},
   };
   for (const auto& [flags, message] : cases) {
-    const std::string command = Fit(flags + (message.find("output_dir") == std::string::npos ? out : ""));
+    const bool own_output = message.find("output_dir") != std::string::npos ||
+                            flags.find("--output_dir") != std::string::npos;
+    const std::string command = Fit(flags + (own_output ? "" : out));
     const testing::CommandResult run = RunCommand(command);
     EXPECT_EQ(run.exit_code, 1) << command << "\n" << run.output;
     EXPECT_NE(run.output.find(message), std::string::npos) << command << "\n" << run.output;
@@ -599,6 +624,14 @@ TEST_F(AqsFitTest, MalformedTargetsFailClearly) {
        dir_->File("far_markers.txt"), "far_markers.txt:1: surface vertex 99999"},
       {"--target=" + dir_->File("test0.obj") + " --target_kind=points --landmarks=" +
        dir_->File("markers.txt") + " --landmark_weight=-1", "--landmark_weight must be"},
+      // A sequence's flags, and comparison vertices without a comparison, would be
+      // dropped without a word.
+      {"--target=" + dir_->File("test0.obj") + " --output_dir=" + dir_->File("never"),
+       "--output_dir applies to a --sequence, not to one --target"},
+      {"--target=" + dir_->File("test0.obj") + " --sequence_warm_start=false",
+       "--sequence_warm_start applies to a --sequence, not to one --target"},
+      {"--target=" + dir_->File("test0.obj") + " --compare_vertices=0:10",
+       "--compare_to, which is not given"},
       // Landmarks in another unit (ten times the model's), as any target would be.
       {"--target=" + dir_->File("test0.obj") + " --target_kind=points --landmarks=" +
        dir_->File("markers_x10.txt"), "markers_x10.txt: its points lie a median"},

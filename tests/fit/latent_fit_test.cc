@@ -608,6 +608,35 @@ TEST(LatentFitTest, ScanPointsBeyondMaxDistanceLeaveTheUncertaintyAlone) {
   }
 }
 
+// An infinite max_distance (no cap, which the options allow) estimates the uncertainty
+// as a cap no point reaches does (it had counted no residual at all: "fewer data
+// residuals (0) than parameters").
+TEST(LatentFitTest, ScanWithoutCapHasAnUncertainty) {
+  const ActiveModel model = TrainedModel(false);
+  LatentFitOptions options;
+  options.latent_prior = 0.0;
+  options.uncertainty = true;
+  Eigen::Matrix3Xd state, scan;
+  std::string error;
+  LatentFitter fitter(model, options);
+  ASSERT_TRUE(fitter.Simulate(model.latents.col(2), &state, &scan, &error)) << error;
+  std::mt19937 rng(7);
+  std::normal_distribution<double> noise(0.0, 0.01);
+  for (Eigen::Index i = 0; i < scan.size(); ++i) scan.data()[i] += noise(rng);
+  std::vector<LatentFitResult> fits(2);
+  for (int k = 0; k < 2; ++k) {
+    PointCloudFitOptions cloud_options;
+    cloud_options.max_distance = k == 0 ? 1e6 : std::numeric_limits<double>::infinity();
+    cloud_options.latent_prior = 0.0;
+    cloud_options.rematch_every_evaluation = true;
+    fitter.set_start_state(state);
+    ASSERT_TRUE(fitter.FitPointCloud(scan, cloud_options, model.latents.col(2), &fits[k], &error))
+        << error;
+    ASSERT_GT(fits[k].surface_std.size(), 0) << fits[k].uncertainty_message;
+  }
+  EXPECT_NEAR(fits[1].noise_sigma, fits[0].noise_sigma, 1e-6 * fits[0].noise_sigma);
+}
+
 TEST(LatentFitTest, ScanLatentPriorWeighsScanFitsOnly) {
   // PointCloudFitOptions::latent_prior: < 0 takes the other fits' weight; otherwise it
   // replaces it in scan fits and in the start's objective, and pulls the latent to the

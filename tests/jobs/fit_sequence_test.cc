@@ -307,6 +307,8 @@ TEST_F(FitSequenceTest, AFrameWhoseTargetChangedIsFittedAgain) {
 std::string g_sequence_folder, g_targets_before;
 bool g_targets_changed = false;
 std::vector<std::string> g_rows_at_targets;
+Eigen::Index g_latent_columns_at_targets = -1;
+bool g_frame_c_at_targets = false;
 
 void WatchTargetsInstall(const char* point) {
   if (std::string(point) != "atomic_file:renamed" || g_targets_changed) return;
@@ -315,12 +317,20 @@ void WatchTargetsInstall(const char* point) {
   for (const auto& [name, row] : Rows(g_sequence_folder + "/frames.csv")) {
     g_rows_at_targets.push_back(name);
   }
+  Eigen::MatrixXd track;
+  std::string error;
+  if (ReadMatrixFile(g_sequence_folder + "/latents.bin", -1, -1, &track, &error)) {
+    g_latent_columns_at_targets = track.cols();
+  }
+  g_frame_c_at_targets = std::filesystem::exists(g_sequence_folder + "/c.obj");
 }
 
 // frames.csv is cut back to the frames done before targets.txt records new targets, also
 // past a frame whose OBJ is missing (frames.csv's rows after it are not read as done, and
 // a later frame's may be of an old target: a run killed after targets.txt is written
-// would otherwise keep them as fits of the new one).
+// would otherwise keep them as fits of the new one). latents.bin is cut back with it,
+// and the OBJs of the frames not done go (they had stayed until the frames were fitted
+// again: a kill in between left latents and OBJs of old targets beside 1 row).
 TEST_F(FitSequenceTest, RowsPastAMissingFrameGoBeforeNewTargetsAreRecorded) {
   const std::string in = dir_->File("cutback_in");
   const FitSequenceOptions options = FitThreeFrameCopies("cutback_in", "cutback");
@@ -340,6 +350,8 @@ TEST_F(FitSequenceTest, RowsPastAMissingFrameGoBeforeNewTargetsAreRecorded) {
   EXPECT_EQ(result.frames_fitted, 2);
   ASSERT_TRUE(g_targets_changed);
   EXPECT_EQ(g_rows_at_targets, std::vector<std::string>{"a"});
+  EXPECT_EQ(g_latent_columns_at_targets, 1);
+  EXPECT_FALSE(g_frame_c_at_targets);
 }
 
 // Independent frames go on past a frame that cannot be fitted (here a scan shifted
