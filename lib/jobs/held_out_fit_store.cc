@@ -138,6 +138,15 @@ bool HeldOutFitStore::Save(const ActiveModel& model, int t, const std::string& n
   PackHeldOutFit(model, fit, seconds, &block);
   const Eigen::Map<const Eigen::MatrixXd> column(block.data(),
                                                  static_cast<Eigen::Index>(block.size()), 1);
+  // The record names the pose whose numbers the .bin holds: it goes before the .bin is
+  // replaced (item t may have held another pose, of another --test_poses list), so that
+  // a failed or killed write never leaves one pose's record over another's numbers.
+  std::error_code code;
+  std::filesystem::remove(store_.ItemPath(t, "txt"), code);
+  if (code) {
+    *error = store_.ItemPath(t, "txt") + ": cannot remove (" + code.message() + ")";
+    return false;
+  }
   if (!WriteMatrixFile(store_.ItemPath(t, "bin"), column, error)) return false;
   std::string record = "pose " + OneLine(name) + "\nsurface " + SurfaceFingerprint(surface) + "\n";
   if (!fit.message.empty()) record += "message " + OneLine(fit.message) + "\n";

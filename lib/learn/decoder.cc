@@ -17,6 +17,9 @@
 namespace aqs {
 namespace {
 
+// What a reader allocates before it has read that many entries of a counted list.
+constexpr int kReadChunk = 1 << 16;
+
 constexpr char kMagic[] = "aqs_actuation_decoder";
 constexpr int kVersion = 1;
 
@@ -437,10 +440,15 @@ bool ReadGridField(DecoderReader* in, GridFieldDescription* f) {
           static_cast<double>(f->grid_dims[0]) * f->grid_dims[1] * f->grid_dims[2]) {
     return in->Fail("num_nodes " + v[0] + " is more than the grid holds");
   }
-  f->nodes.resize(3, num_nodes);
+  // Grown as the nodes are read, not sized by the count: a damaged count would allocate
+  // gigabytes before the file's end is found.
+  f->nodes.resize(3, std::min(num_nodes, kReadChunk));
   int64_t previous = -1;
   for (int n = 0; n < num_nodes; ++n) {
     if (!in->Values(3, "grid coordinates i j k of node", n, &v)) return false;
+    if (n == f->nodes.cols()) {
+      f->nodes.conservativeResize(3, std::min<int64_t>(num_nodes, 2 * static_cast<int64_t>(n)));
+    }
     for (int a = 0; a < 3; ++a) {
       int value = 0;
       if (!ParseInt(v[a], &value) || value < 0 || value >= f->grid_dims[a]) {
@@ -509,8 +517,10 @@ bool ReadDecoderParameters(DecoderReader* in, int64_t expected, Eigen::VectorXd*
   if (expected > std::numeric_limits<int>::max()) {
     return in->Fail("too many parameters (" + std::to_string(expected) + ")");
   }
-  p->resize(expected);
+  // Grown as the parameters are read (see the nodes).
+  p->resize(std::min<int64_t>(expected, kReadChunk));
   for (int64_t i = 0; i < expected; ++i) {
+    if (i == p->size()) p->conservativeResize(std::min(expected, 2 * i));
     if (!in->Values(1, "parameter", i, &v) || !in->Double(v[0], "parameter", &(*p)[i], i)) {
       return false;
     }

@@ -4,7 +4,11 @@
 
 #include "jobs/held_out_fits.h"
 
+#include <unistd.h>
+
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <memory>
 #include <sstream>
 #include <string>
@@ -13,6 +17,7 @@
 #include <gtest/gtest.h>
 
 #include "eval/surface_autoencoder.h"
+#include "jobs/held_out_fit_store.h"
 #include "model/fit_prior.h"
 #include "testing/fit_fixtures.h"
 #include "testing/synthetic_muscles.h"
@@ -147,6 +152,29 @@ TEST_F(HeldOutFitsTest, KeptFitsOfAnotherModelOptionsOrPoseAreNotTaken) {
   HeldOutFits out;
   FitHeldOutPoses(model_, threads, false, names_, surfaces_, store, nullptr, &out);
   EXPECT_EQ(out.kept, 2);
+}
+
+// An item's record goes before its numbers are replaced: a save that fails after the
+// numbers (here the record's temporary file is blocked by a folder) leaves no record of
+// the pose the item held before (another --test_poses list's), which a later run took
+// the new numbers for.
+TEST_F(HeldOutFitsTest, AFailedSaveLeavesNoRecordOverAnotherPosesNumbers) {
+  const std::string folder = dir_.File("held_out_fits");
+  const HeldOutFits first = Fit(options_, folder);
+  std::ifstream key_file(folder + "/key.txt");
+  const std::string key((std::istreambuf_iterator<char>(key_file)),
+                        std::istreambuf_iterator<char>());
+  HeldOutFitStore store;
+  std::string error;
+  ASSERT_TRUE(store.Open(folder, key, &error)) << error;
+  LatentFitResult fit;
+  double seconds = 0.0;
+  ASSERT_TRUE(store.Load(model_, 0, names_[0], surfaces_[0], &fit, &seconds));
+  fs::create_directories(folder + "/0000.txt.tmp" + std::to_string(::getpid()));
+  EXPECT_FALSE(store.Save(model_, 0, names_[1], surfaces_[1], first.fits[1], 1.0, &error));
+  EXPECT_FALSE(store.Load(model_, 0, names_[0], surfaces_[0], &fit, &seconds))
+      << "pose 1's numbers taken for pose 0's fit";
+  EXPECT_FALSE(store.Load(model_, 0, names_[1], surfaces_[1], &fit, &seconds));
 }
 
 TEST_F(HeldOutFitsTest, FailedFitsAreKeptWithTheirMessage) {

@@ -1,5 +1,8 @@
 #include "learn/decoder.h"
 
+#include <sys/resource.h>
+#include <unistd.h>
+
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -11,6 +14,7 @@
 
 #include <gtest/gtest.h>
 
+#include "testing/fault_kill.h"
 #include "testing/finite_difference.h"
 #include "testing/temp_dir.h"
 #include "testing/test_meshes.h"
@@ -464,6 +468,82 @@ TEST_F(MalformedDecoderTest, EachBrokenLineIsNamed) {
   // A keyword out of order.
   n = LineStartingWith("activation");
   ExpectFailure(n, "output_scale 0.1", n, "expected 'activation'");
+}
+
+// A damaged count (hidden widths and num_parameters that agree, about 8 GB of
+// parameters, in a file that ends after them) fails naming the line where the file ends,
+// in a process that cannot allocate 1 GB more: the reader grows the parameters as it
+// reads them (it had allocated them all at once, std::bad_alloc). The same for the
+// control grid's node count.
+TEST_F(MalformedDecoderTest, HugeCountsInASmallFileDoNotAllocateThem) {
+  // The parameter count for hidden width w, from the message that names it.
+  auto parameters_for = [&](int64_t w) -> int64_t {
+    std::string content;
+    for (const std::string& line : lines_) {
+      content += (line.rfind("hidden_dims", 0) == 0 ? "hidden_dims 1 " + std::to_string(w)
+                                                     : line) + "\n";
+    }
+    const std::string path = dir_.Write("count.txt", content);
+    DecoderSpec spec;
+    GridFieldDescription field;
+    Eigen::VectorXd params;
+    std::string error;
+    EXPECT_FALSE(LoadDecoder(path, &spec, &field, &params, &error));
+    const size_t at = error.find("which need ");
+    return at == std::string::npos ? -1 : std::stoll(error.substr(at + 11));
+  };
+  const int64_t base = parameters_for(1), step = parameters_for(2) - base;
+  ASSERT_GT(step, 0);
+  const int64_t width = 1 + (1000000000 - base) / step;  // about 1e9 parameters
+  std::string huge;
+  for (const std::string& line : lines_) {
+    if (line.rfind("hidden_dims", 0) == 0) {
+      huge += "hidden_dims 1 " + std::to_string(width) + "\n";
+    } else if (line.rfind("num_parameters", 0) == 0) {
+      huge += "num_parameters " + std::to_string(base + (width - 1) * step) + "\n0.5\n";
+      break;
+    } else {
+      huge += line + "\n";
+    }
+  }
+  const std::string huge_parameters = dir_.Write("huge_parameters.txt", huge);
+  std::string nodes;
+  for (const std::string& line : lines_) {
+    if (line.rfind("grid_dims", 0) == 0) {
+      nodes += "grid_dims 1000 1000 1000\n";
+    } else if (line.rfind("num_nodes", 0) == 0) {
+      nodes += "num_nodes 300000000\n0 0 0\n";
+      break;
+    } else {
+      nodes += line + "\n";
+    }
+  }
+  const std::string huge_nodes = dir_.Write("huge_nodes.txt", nodes);
+  for (const std::string& path : {huge_parameters, huge_nodes}) {
+    SCOPED_TRACE(path);
+    const std::string outcome = testing::RunInChildKilledAt(-1, [&]() {
+      std::ifstream statm("/proc/self/statm");
+      long pages = 0;
+      statm >> pages;
+      struct rlimit limit;
+      limit.rlim_cur = limit.rlim_max =
+          static_cast<rlim_t>(pages) * static_cast<rlim_t>(sysconf(_SC_PAGESIZE)) + (1 << 30);
+      if (pages <= 0 || setrlimit(RLIMIT_AS, &limit) != 0) return false;
+      try {
+        DecoderSpec spec;
+        GridFieldDescription field;
+        Eigen::VectorXd params;
+        std::string error;
+        const bool loaded = LoadDecoder(path, &spec, &field, &params, &error);
+        std::fprintf(stderr, "error: '%s'\n", error.c_str());
+        return !loaded && error.find("unexpected end of file") != std::string::npos;
+      } catch (const std::exception& e) {
+        std::fprintf(stderr, "exception: %s\n", e.what());
+        return false;
+      }
+    });
+    EXPECT_EQ(outcome, "exit 0");
+  }
 }
 
 TEST_F(MalformedDecoderTest, MissingFileIsNamed) {
