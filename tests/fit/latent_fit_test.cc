@@ -599,9 +599,11 @@ TEST(LatentFitTest, ScanPointsBeyondMaxDistanceLeaveTheUncertaintyAlone) {
     ASSERT_TRUE(fitter.FitPointCloud(with_far, cloud_options, plain.latent, &far, &error)) << error;
     ASSERT_GT(far.surface_std.size(), 0) << far.uncertainty_message;
     EXPECT_GT(plain.noise_sigma, 0.0);
-    EXPECT_NEAR(far.noise_sigma, plain.noise_sigma, 0.01 * plain.noise_sigma);
     // (The rounds, matching again between capped solves, move in the bar's flat
-    // directions: their fit is not the same point.)
+    // directions: their fit is not the same point, and their noise is within 5%: 2.1% on
+    // one machine, under 1% on another. The far points, counted as zero residuals, had
+    // lowered it by about 1 - 1/sqrt(2) = 29%.)
+    EXPECT_NEAR(far.noise_sigma, plain.noise_sigma, (one_solve ? 0.01 : 0.05) * plain.noise_sigma);
     if (!one_solve) continue;
     EXPECT_LT(testing::RelativeError(far.latent, plain.latent), 1e-4);
     EXPECT_NEAR(far.surface_std.mean(), plain.surface_std.mean(), 0.01 * plain.surface_std.mean());
