@@ -10,6 +10,7 @@
 #include "latent_fit_flags.h"
 
 #include "prepare/pose_files.h"
+#include "prepare/volumetric_targets.h"
 #include "util/line_reader.h"
 #include "util/vertex_ranges.h"
 
@@ -54,6 +55,7 @@ DEFINE_string(python, AQS_PYTHON, "The Python 3 interpreter that runs the report
               "needs matplotlib and numpy; default: the one the build found).");
 DECLARE_string(model);
 DECLARE_double(attachment_stiffness);
+DECLARE_string(inverted_targets);
 DECLARE_double(prepare_tolerance);
 DECLARE_string(pose_dir);
 DECLARE_int32(threads);
@@ -129,6 +131,10 @@ bool EvaluateOptionsFromFlags(EvaluateJobOptions* options, std::string* error) {
   // The held-out poses' volumetric targets are made as prepare makes the training poses'
   // (the same spring stiffness, tolerance and equilibrium method).
   options->held_out_targets.relative_stiffness = FLAGS_attachment_stiffness;
+  if (!ParseInvertedTargets(FLAGS_inverted_targets, &options->held_out_targets.inverted_targets)) {
+    *error = "--inverted_targets=" + FLAGS_inverted_targets + ": expected exact or mirror";
+    return false;
+  }
   options->held_out_targets.solver.relative_force_tolerance = FLAGS_prepare_tolerance;
   if (!SolverMethodFromFlag(&options->held_out_targets.solver, error)) return false;
   if (FLAGS_report) {
@@ -165,6 +171,7 @@ FlagNames EvaluateFlagNames() {
                 {"autoencoder_linear_skip", "--baseline_linear_skip"},
                 {"autoencoder.lbfgs_scaling", "--baseline_lbfgs_scaling"},
                 {"held_out_targets.relative_stiffness", "--attachment_stiffness"},
+                {"held_out_targets.inverted_targets", "--inverted_targets"},
                 {"held_out_targets.solver.relative_force_tolerance", "--prepare_tolerance"}});
   return flags;
 }

@@ -4,6 +4,7 @@
 
 #include "app_common.h"
 #include "prepare/pose_files.h"
+#include "prepare/volumetric_targets.h"
 
 DEFINE_string(neutral, "", "Neutral surface (OBJ).");
 DEFINE_string(poses, "", "Pose surfaces with the neutral's vertex order: a folder (all *.obj), "
@@ -49,6 +50,10 @@ DEFINE_double(bone_clearance, 0.0, "Leave free the static fixed vertices within 
               "of a vertex the bone drives, so that the tissue between them can deform (0: none).");
 DEFINE_double(attachment_stiffness, 100.0, "Springs pulling the embedded surface to each pose, "
               "per unit area, relative to one layer of elements.");
+DEFINE_string(inverted_targets, "exact", "The volumetric target of an element a pose's embedded "
+              "simulation inverts: exact (a symmetric target with a negative eigenvalue, which "
+              "reproduces the inverted element) or mirror (sqrt(F^T F), its mirror image, as "
+              "models prepared before 2026-12-06 had).");
 DEFINE_bool(overwrite, false, "Replace whatever is at --model. Without it, only a missing path, "
             "an empty directory or an ActiveQS model is replaced; anything else is refused "
             "(exit 1) before any work.");
@@ -168,6 +173,10 @@ bool PrepareOptionsFromFlags(PrepareJobOptions* options, std::string* error) {
 
 bool PrepareTargetOptionsFromFlags(PrepareJobOptions* options, std::string* error) {
   options->targets.relative_stiffness = FLAGS_attachment_stiffness;
+  if (!ParseInvertedTargets(FLAGS_inverted_targets, &options->targets.inverted_targets)) {
+    *error = "--inverted_targets=" + FLAGS_inverted_targets + ": expected exact or mirror";
+    return false;
+  }
   options->targets.solver.relative_force_tolerance = FLAGS_prepare_tolerance;
   if (!SolverMethodFromFlag(&options->targets.solver, error)) return false;
   options->num_threads = FLAGS_threads;
@@ -197,6 +206,7 @@ FlagNames PrepareFlagNames() {
                 {"mirror.plane", "--mirror_plane"},
                 {"mirror.tolerance", "--mirror_tolerance"},
                 {"targets.relative_stiffness", "--attachment_stiffness"},
+                {"targets.inverted_targets", "--inverted_targets"},
                 {"targets.solver.relative_force_tolerance", "--prepare_tolerance"}});
   return flags;
 }

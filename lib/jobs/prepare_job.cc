@@ -340,7 +340,8 @@ ExistingModel CheckExistingModel(const std::string& output, const std::string& t
     why = "it records no key of its targets (some did not converge, or an older version "
           "wrote it)";
   } else if (existing.target_key != target_key) {
-    why = "its targets were made with other options";
+    why = "its targets were made with other options; models prepared before 2026-12-06 "
+          "have --inverted_targets=mirror";
   } else {
     log << "prepare: the model at " << output << " is the model of these inputs and flags "
         << "(targets " << target_key << "): kept, with its learned state (" << learned << ")\n";

@@ -21,6 +21,10 @@ std::string VolumetricTargetKey(const VolumetricTargetOptions& options, const Ac
       << "relative_stiffness " << FormatDouble(options.relative_stiffness) << "\n"
       << "continuation_steps " << options.continuation_steps << "\n"
       << "solver " << options.solver.KeyText() << "\n";
+  // Models prepared before the option was made had mirror targets and no such line.
+  if (options.inverted_targets != InvertedTargets::kMirror) {
+    key << "inverted_targets " << InvertedTargetsName(options.inverted_targets) << "\n";
+  }
   return key.str();
 }
 

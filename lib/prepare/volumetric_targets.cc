@@ -14,6 +14,7 @@
 #include "equilibrium/embedded_attachments.h"
 #include "equilibrium/rest_factor.h"
 #include "geometry/embedding.h"
+#include "physics/rotation_variant_svd.h"
 #include "prepare/target_store.h"
 #include "util/blas.h"
 #include "util/parallel_for.h"
@@ -27,6 +28,31 @@ Eigen::Matrix3d SymmetricPolarFactor(const Eigen::Matrix3d& f) {
   const Eigen::Matrix3d v = svd.matrixV();
   Eigen::Matrix3d s = v * svd.singularValues().asDiagonal() * v.transpose();
   return 0.5 * (s + s.transpose());
+}
+
+Eigen::Matrix3d SignedSymmetricFactor(const Eigen::Matrix3d& f) {
+  const RotationVariantSvd svd = ComputeRotationVariantSvd(f);
+  const Eigen::Matrix3d s = svd.v * svd.sigma.asDiagonal() * svd.v.transpose();
+  return 0.5 * (s + s.transpose());
+}
+
+Vector6d ElementTarget(const Eigen::Matrix3d& f, InvertedTargets inverted_targets) {
+  const bool exact = inverted_targets == InvertedTargets::kExact && !(f.determinant() > 0);
+  return ActuationFromSymmetric(exact ? SignedSymmetricFactor(f) : SymmetricPolarFactor(f));
+}
+
+const char* InvertedTargetsName(InvertedTargets kind) {
+  return kind == InvertedTargets::kExact ? "exact" : "mirror";
+}
+
+bool ParseInvertedTargets(const std::string& name, InvertedTargets* kind) {
+  for (InvertedTargets k : {InvertedTargets::kExact, InvertedTargets::kMirror}) {
+    if (name == InvertedTargetsName(k)) {
+      *kind = k;
+      return true;
+    }
+  }
+  return false;
 }
 
 Eigen::VectorXd AttachmentStiffness(const ActiveModel& model, double relative_stiffness) {
@@ -135,11 +161,11 @@ void MakeVolumetricTargetsOf(const VolumetricTargetOptions& options,
     }
     const Eigen::Matrix3Xd x = w.solver->positions();
     pose.target.resize(6, physics.num_elements());
-    int inverted = 0;  // elements whose target is a reflection of their shape at x
+    int inverted = 0;  // elements inverted at x
     double lowest_det = std::numeric_limits<double>::infinity();
     for (int e = 0; e < physics.num_elements(); ++e) {
       const Eigen::Matrix3d f = physics.DeformationGradient(x, e);
-      pose.target.col(e) = ActuationFromSymmetric(SymmetricPolarFactor(f));
+      pose.target.col(e) = ElementTarget(f, options.inverted_targets);
       const double det = f.determinant();
       if (det <= 0) ++inverted;
       lowest_det = std::min(lowest_det, det);
@@ -159,8 +185,10 @@ void MakeVolumetricTargetsOf(const VolumetricTargetOptions& options,
         << (steps > 1 ? " in " + std::to_string(steps) + " steps" : std::string()) << ", "
         << timer.Seconds() << " s" << (report.converged ? "" : ", NOT CONVERGED");
     if (inverted > 0) {
-      log << "; " << inverted << " element(s) inverted (lowest det F " << lowest_det
-          << "): their targets are mirror images (--bone_clearance may help)";
+      log << "; " << inverted << " element(s) inverted (lowest det F " << lowest_det << ")"
+          << (options.inverted_targets == InvertedTargets::kMirror
+                  ? ": their targets are mirror images (--bone_clearance may help)"
+                  : ", their targets inverted too");
     }
     log << "\n"
         << std::flush;

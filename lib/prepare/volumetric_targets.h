@@ -8,6 +8,7 @@
 #include "equilibrium/quasistatic_solver.h"
 #include "mesh/mesh_measures.h"
 #include "model/active_model.h"
+#include "physics/actuation.h"
 
 namespace aqs {
 
@@ -15,6 +16,23 @@ class TargetStore;
 
 // The largest VolumetricTargetOptions::relative_stiffness.
 inline constexpr double kMaxRelativeStiffness = 1e8;
+
+// The target of an element that a pose's embedded simulation inverts (det F <= 0).
+enum class InvertedTargets {
+  // S = V diag(sigma) V^T of the rotation-variant SVD F = U diag(sigma) V^T
+  // (physics/rotation_variant_svd.h; sigma_2 < 0 where det F < 0): R S = F for the
+  // rotation R = U V^T, so the target reproduces the inverted shape exactly and the
+  // pose's embedded equilibrium has zero energy under its targets. S has one negative
+  // eigenvalue.
+  kExact,
+  // S = sqrt(F^T F), the element's mirror image: no rotation takes it to F, and the
+  // element pushes the pose's equilibrium away from the embedded one.
+  kMirror,
+};
+
+// "exact", "mirror" (flag values), and back; false for another name.
+const char* InvertedTargetsName(InvertedTargets kind);
+bool ParseInvertedTargets(const std::string& name, InvertedTargets* kind);
 
 struct VolumetricTargetOptions {
   // Spring stiffness per unit surface area, relative to the material: surface vertex i
@@ -31,6 +49,8 @@ struct VolumetricTargetOptions {
   // A pose whose direct solve fails is retried in this many steps, moving the targets
   // and bones from rest to the pose.
   int continuation_steps = 4;
+  // What inverted elements get as their targets (see InvertedTargets).
+  InvertedTargets inverted_targets = InvertedTargets::kExact;
   // Keep every pose's target in this folder as it is made (prepare/target_store.h;
   // empty: none), and take the poses found there for this model and these options
   // instead of solving them again: a stopped prepare resumes.
@@ -46,8 +66,8 @@ struct VolumetricTargetOptions {
 // is pulled by zero-rest-length springs from its embedded surface points to pose p's
 // surface; at that equilibrium x_p, element e's target is the symmetric polar factor
 // S = sqrt(F_e^T F_e) of its deformation gradient (so that S reproduces x_p's shape up
-// to the rotation the equilibrium chooses; for an element x_p inverts, det F <= 0, up to
-// a reflection: its target is its mirror image, which the pose line counts). Fills
+// to the rotation the equilibrium chooses); an element x_p inverts, det F <= 0, gets
+// ElementTarget's target for options.inverted_targets, and the pose line counts them. Fills
 // pose.target and the mean and max distance between the embedded surface and the pose;
 // writes one line per pose to `log` (with the count of inverted elements, if any).
 // Returns false with *error if a pose's equilibrium cannot be reached, unless
@@ -85,6 +105,16 @@ Eigen::VectorXd AttachmentStiffness(const ActiveModel& model, double relative_st
 
 // sqrt(F^T F), the symmetric positive semi-definite polar factor of F.
 Eigen::Matrix3d SymmetricPolarFactor(const Eigen::Matrix3d& f);
+
+// V diag(sigma) V^T of the rotation-variant SVD F = U diag(sigma) V^T: the symmetric S
+// with (U V^T) S = F, a proper rotation times S, for any F. Equals SymmetricPolarFactor
+// where det F > 0; has one negative eigenvalue where det F < 0.
+Eigen::Matrix3d SignedSymmetricFactor(const Eigen::Matrix3d& f);
+
+// Element target (six numbers, physics/actuation.h) of the deformation gradient f:
+// SymmetricPolarFactor where det f > 0; where det f <= 0, SignedSymmetricFactor for
+// kExact, SymmetricPolarFactor for kMirror.
+Vector6d ElementTarget(const Eigen::Matrix3d& f, InvertedTargets inverted_targets);
 
 
 }  // namespace aqs

@@ -105,8 +105,9 @@ TEST(AqsPipelineTest, PreparesPretrainsTrainsAndResumes) {
   ASSERT_EQ(again.exit_code, 1) << again.output;
   EXPECT_NE(again.output.find("aqs_pipeline: error: prepare: the model at " + dir.File("model") +
                               " is not the model of these inputs and flags (its targets were "
-                              "made with other options), and preparing it anew would discard "
-                              "its learned state (pre-trained, 8 training iterations): "
+                              "made with other options; models prepared before 2026-12-06 "
+                              "have --inverted_targets=mirror), and preparing it anew would "
+                              "discard its learned state (pre-trained, 8 training iterations): "
                               "--restart replaces it"),
             std::string::npos)
       << again.output;

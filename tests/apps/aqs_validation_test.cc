@@ -658,6 +658,7 @@ TEST_F(AqsValidationModelTest, PrepareAndCollideRefuseBadFlags) {
                   {"--spacing=0.5 --attachment_stiffness=-1", 1, "--attachment_stiffness must be finite and > 0 (is -1)"},
                   {"--spacing=0.5 --attachment_stiffness=nan", 1, "--attachment_stiffness must be finite and > 0 (is nan)"},
                   {"--spacing=0.5 --attachment_stiffness=2147483647", 1, "--attachment_stiffness must be in [0, 1e+08] (is 2.14748e+09)"},
+                  {"--spacing=0.5 --inverted_targets=reflect", 1, "--inverted_targets=reflect: expected exact or mirror"},
                   {"--spacing=0.5 --prepare_tolerance=nan", 1, "--prepare_tolerance must be finite and > 0"},
                   {"--spacing=-1", 1, "--spacing must be finite and > 0 (is -1)"},
                   {"--spacing=0.5 --mu=1e300", 1, "--mu must be in [1e-12, 1e+12] (is 1e+300)"},

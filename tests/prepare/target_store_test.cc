@@ -77,6 +77,10 @@ TEST_F(TargetStoreTest, OtherOptionsOrAnotherModelEmptyTheStore) {
   const ActiveModel other = Make(stiffer, &log);
   EXPECT_EQ(log.find("taken from"), std::string::npos) << log;
   EXPECT_NE(other.poses[0].target, first.poses[0].target);
+  // Targets of the other rule for inverted elements are not taken either.
+  VolumetricTargetOptions mirror = options_;
+  mirror.inverted_targets = InvertedTargets::kMirror;
+  EXPECT_NE(TargetStoreKey(mirror, model_), TargetStoreKey(options_, model_));
   // The store now holds the stiffer springs' targets; another model (one pose moved)
   // takes none of them.
   model_.poses[2].surface.col(0).x() += 1e-3;

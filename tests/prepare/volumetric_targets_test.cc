@@ -7,12 +7,16 @@
 
 #include "prepare/volumetric_targets.h"
 
+#include <cmath>
+#include <random>
 #include <sstream>
 #include <string>
 #include <vector>
 
+#include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
+#include "physics/rotation_variant_svd.h"
 #include "testing/synthetic_muscles.h"
 
 namespace aqs {
@@ -97,6 +101,55 @@ TEST_F(VolumetricTargetsTest, InvertedElementsAreCounted) {
             std::string::npos)
       << text;
   EXPECT_EQ(text.substr(second).find("inverted"), std::string::npos) << text;
+}
+
+// An element's target reproduces its deformation gradient F up to a proper rotation:
+// R S = F with R in SO(3), for inverted F too with kExact (S then has one negative
+// eigenvalue, det S = det F); kMirror gives sqrt(F^T F) there, the mirror image, which
+// no rotation takes to F. Where det F > 0 both are SymmetricPolarFactor, bit for bit.
+// Random, rotated, inverted and nearly flat F.
+TEST(ElementTargetTest, ExactTargetsReproduceInvertedElements) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+  for (int trial = 0; trial < 200; ++trial) {
+    Eigen::Matrix3d f;
+    for (int i = 0; i < 9; ++i) f.data()[i] = uniform(rng);
+    if (trial % 4 == 1) f = Eigen::AngleAxisd(2.5, Eigen::Vector3d(1, 2, 3).normalized()) * f;
+    if (trial % 4 == 2) f.col(2) = 0.5 * f.col(0) - 0.25 * f.col(1) + 1e-7 * f.col(2);  // flat
+    if (trial % 4 == 3) f = Eigen::Matrix3d(Eigen::Vector3d(1.2, 0.9, -0.3).asDiagonal()) * f;
+    SCOPED_TRACE(::testing::Message() << "trial " << trial << ", det F " << f.determinant());
+    const Vector6d exact = ElementTarget(f, InvertedTargets::kExact);
+    const Vector6d mirror = ElementTarget(f, InvertedTargets::kMirror);
+    const Eigen::Matrix3d s = SymmetricFromActuation(exact.data());
+    // R = argmin over rotations of |F - R S|, by the physics' own SVD of F S.
+    const RotationVariantSvd svd = ComputeRotationVariantSvd(f * s);
+    const Eigen::Matrix3d r = svd.u * svd.v.transpose();
+    EXPECT_NEAR(r.determinant(), 1.0, 1e-12);
+    EXPECT_LT((f - r * s).norm(), 1e-10 * (1.0 + f.norm()));
+    if (f.determinant() > 0) {
+      EXPECT_EQ(exact, ActuationFromSymmetric(SymmetricPolarFactor(f)));
+      EXPECT_EQ(mirror, exact);
+    } else {
+      EXPECT_NEAR(s.determinant(), f.determinant(), 1e-10 * (1.0 + f.norm() * f.squaredNorm()));
+      EXPECT_EQ(mirror, ActuationFromSymmetric(SymmetricPolarFactor(f)));
+      const Eigen::Matrix3d m = SymmetricFromActuation(mirror.data());
+      const RotationVariantSvd mirror_svd = ComputeRotationVariantSvd(f * m);
+      const Eigen::Matrix3d best = mirror_svd.u * mirror_svd.v.transpose();
+      // (The closest it comes is 2 |sigma_2|, F's smallest singular value.)
+      EXPECT_GT((f - best * m).norm(), std::abs(ComputeRotationVariantSvd(f).sigma[2]));
+    }
+  }
+}
+
+TEST(ElementTargetTest, NamesRoundTrip) {
+  for (InvertedTargets kind : {InvertedTargets::kExact, InvertedTargets::kMirror}) {
+    InvertedTargets parsed = kind == InvertedTargets::kExact ? InvertedTargets::kMirror
+                                                             : InvertedTargets::kExact;
+    EXPECT_TRUE(ParseInvertedTargets(InvertedTargetsName(kind), &parsed));
+    EXPECT_EQ(parsed, kind);
+  }
+  InvertedTargets parsed = InvertedTargets::kExact;
+  EXPECT_FALSE(ParseInvertedTargets("reflect", &parsed));
 }
 
 }  // namespace
