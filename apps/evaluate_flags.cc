@@ -97,6 +97,11 @@ bool EvaluateOptionsFromFlags(EvaluateJobOptions* options, std::string* error) {
   // The held-out fits take the fit flags of aqs_fit (latent_fit_flags.cc).
   if (!LatentFitOptionsFromFlags(&options->fit, error)) return false;
   options->autoencoder.latent_regularization = FLAGS_latent_regularization;
+  if (FLAGS_baseline_iterations < 1) {  // untrained weights would pass for a baseline
+    *error = "--baseline_iterations must be >= 1 (is " +
+             std::to_string(FLAGS_baseline_iterations) + ")";
+    return false;
+  }
   options->autoencoder.max_iterations = FLAGS_baseline_iterations;
   // The physics training's restart rule and maximum (--train_restarts).
   options->autoencoder.max_restarts = FLAGS_train_restarts;
@@ -122,6 +127,11 @@ bool EvaluateOptionsFromFlags(EvaluateJobOptions* options, std::string* error) {
         return false;
       }
       widths.push_back(width);
+    }
+    if (widths.empty()) {  // a linear auto-encoder is PCA about the neutral, already a row
+      *error = "--baseline_hidden takes positive widths or 'decoder', got '" +
+               FLAGS_baseline_hidden + "' (no hidden layer)";
+      return false;
     }
     options->autoencoder_hidden_dims = widths;
   }

@@ -37,6 +37,24 @@
 namespace aqs {
 namespace {
 
+// The file that marks a folder as an evaluation's (written at its first run).
+constexpr char kEvaluationMarker[] = ".aqs-evaluation";
+
+// Whether the evaluation may write into (and empty the output subfolders of) `out`: a
+// folder that is empty, or that an evaluation wrote (kEvaluationMarker; or, from versions
+// before the marker, evaluation.md or evaluation.csv). False with *error otherwise.
+bool MayWriteEvaluationFolder(const std::string& out, std::string* error) {
+  std::error_code code;
+  if (std::filesystem::is_empty(out, code) && !code) return true;
+  for (const char* name : {kEvaluationMarker, "evaluation.md", "evaluation.csv"}) {
+    if (std::filesystem::exists(out + "/" + name, code)) return true;
+  }
+  *error = out + ": holds files, but no evaluation's (" + kEvaluationMarker + ", evaluation.md)" +
+           ": an evaluation empties its fields/, fitted/, budget/ and images/; give "
+           "--output_dir a new or empty folder, or an earlier evaluation's";
+  return false;
+}
+
 // Removes the temporary files (util/atomic_file.h) that a killed evaluation left in its
 // folder `out`: of its tables, of the auto-encoder's checkpoint and of the held-out
 // fits' store; logs each. Call it holding the folder's lock.
@@ -55,7 +73,10 @@ bool RemoveStaleEvaluationFiles(const std::string& out, std::ostream& log, std::
     return true;
   };
   const std::vector<std::pair<std::string, std::function<bool(const std::string&)>>> folders = {
-      {out, [](const std::string& n) { return n == "evaluation.md" || n == "evaluation.csv"; }},
+      {out,
+       [](const std::string& n) {
+         return n == "evaluation.md" || n == "evaluation.csv" || n == kEvaluationMarker;
+       }},
       {out + "/" + kAutoencoderCheckpointFolder,
        [](const std::string& n) {
          return n == "checkpoint.txt" || n == "parameters_a.bin" || n == "parameters_b.bin";
@@ -143,12 +164,20 @@ bool ReadEvaluationInputs(const EvaluateJobOptions& options, bool distributed, b
     } else {
       ok = output_lock->Acquire(out, error, "the evaluation folder " + out);
     }
+    // Only a folder of evaluations is emptied below: another folder (a project's, a
+    // home) with a fields/, fitted/ or budget/ of its own is refused, never emptied.
+    ok = ok && MayWriteEvaluationFolder(out, error);
+    ok = ok && WriteFileAtomically(out + "/" + kEvaluationMarker,
+                                   "An ActiveQS evaluation folder (aqs_evaluate).\n", error);
     // This job's per-pose outputs start empty: a method that writes nothing this run (a
     // failed fit, no error budget) must not leave an earlier run's file for the report
-    // to draw. (The held-out fits' store, held_out_fits/, is kept: it resumes.)
-    for (const char* folder : {"/fields", "/fitted", "/budget"}) {
+    // to draw, nor an earlier run's page and pictures stand for this run's when its
+    // report is not written. (The held-out fits' store, held_out_fits/, is kept: it
+    // resumes.)
+    for (const char* folder : {"/fields", "/fitted", "/budget", "/images"}) {
       if (ok && !code) std::filesystem::remove_all(out + folder, code);
     }
+    if (ok && !code) std::filesystem::remove(out + "/index.html", code);
     for (const char* folder : {"/fields", "/fitted"}) {
       if (ok && !code) std::filesystem::create_directories(out + folder, code);
     }

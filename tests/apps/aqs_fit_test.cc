@@ -136,6 +136,37 @@ TEST_F(AqsFitTest, EvaluationTablesAndFieldsAreWritten) {
   }
 }
 
+// The evaluation writes only into a new or empty folder or an evaluation's: another
+// folder is refused, its fitted/ left alone (it was emptied, recursively); and an
+// earlier run's page and pictures go when this run writes none (--report=false: they
+// had stayed, numbers of another run beside this run's tables).
+TEST_F(AqsFitTest, EvaluationEmptiesOnlyAnEvaluationsFolder) {
+  namespace fs = std::filesystem;
+  const std::string command = AppPath("aqs_evaluate") + " --model=" + dir_->File("model") +
+                              " --test_poses=" + dir_->File("test0.obj") +
+                              " --baseline_iterations=5 --error_budget=false "
+                              "--write_fields=false --report=false --output_dir=";
+  const std::string user = dir_->File("user_folder");
+  fs::create_directories(user + "/fitted");
+  std::ofstream(user + "/fitted/mine.obj") << "v 0 0 0\n";
+  const testing::CommandResult refused = RunCommand(command + user);
+  EXPECT_EQ(refused.exit_code, 1) << refused.output;
+  EXPECT_NE(refused.output.find(user + ": holds files, but no evaluation's"), std::string::npos)
+      << refused.output;
+  EXPECT_TRUE(fs::exists(user + "/fitted/mine.obj"));
+  const std::string folder = dir_->File("evaluation_again");
+  testing::CommandResult run = RunCommand(command + folder);
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  std::ofstream(folder + "/index.html") << "an earlier run's page\n";
+  fs::create_directories(folder + "/images/held_out");
+  std::ofstream(folder + "/images/held_out/test0.png") << "an earlier run's picture\n";
+  run = RunCommand(command + folder);
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_FALSE(fs::exists(folder + "/index.html"));
+  EXPECT_FALSE(fs::exists(folder + "/images"));
+  EXPECT_TRUE(fs::exists(folder + "/evaluation.md"));
+}
+
 // Held-out fits start from the best of the mean training latent and the training poses'
 // latents, for the physics model and the auto-encoder alike: a "held-out" pose that is
 // a training pose starts, for both, from that pose; with --held_out_starts=false both
@@ -187,8 +218,10 @@ TEST_F(AqsFitTest, EvaluationTakesTheAutoencodersOwnLayout) {
       "eval_layout/autoencoder_checkpoint/parameters_a.bin.tmp999999999",
       "eval_layout/held_out_fits/0000.bin.tmp999999999",
       "eval_layout/held_out_fits/10000.txt.tmp999999999"};
+  // (An evaluation's folder: its first run marked it.)
   for (const std::string& stale :
-       {std::string("eval_layout/fitted/old_physics.obj"),
+       {std::string("eval_layout/.aqs-evaluation"),
+        std::string("eval_layout/fitted/old_physics.obj"),
         std::string("eval_layout/fields/old.ply"),
         std::string("eval_layout/budget/training_errors.bin"),
         std::string("eval_layout/notes.txt.tmp999999999"), killed[0], killed[1], killed[2],

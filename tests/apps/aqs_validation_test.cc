@@ -495,7 +495,12 @@ TEST_F(AqsValidationModelTest, OutputsLeaveTheInputsAndTheModelAlone) {
               {{"--output_dir=" + model, 1, "is inside the input folder"},
                // A baseline too large for memory, before any fit (it aborted in training).
                {"--output_dir={dir}ev --baseline_hidden=100000,100000", 1,
-                "--baseline_hidden: the auto-encoder baseline would take about"}},
+                "--baseline_hidden: the auto-encoder baseline would take about"},
+               // A linear or untrained auto-encoder would pass for the network baseline.
+               {"--output_dir={dir}ev --baseline_hidden=,", 1,
+                "--baseline_hidden takes positive widths or 'decoder', got ',' (no hidden"},
+               {"--output_dir={dir}ev --baseline_iterations=0", 1,
+                "--baseline_iterations must be >= 1 (is 0)"}},
               dir.path());
   // Flags of the other mode are refused, not dropped without a word.
   ExpectCases("aqs_simulate", m + " --pose=bend_x --output={dir}s.obj",
