@@ -216,23 +216,29 @@ bool RunPretrainJob(const std::string& model_directory, const PretrainOptions& o
       !SimulatePretrainedPoses(comm, *simulation, &model, &surface_errors, log, error)) {
     return false;
   }
-  const std::string record_path = run.checkpoint_directory + "/" + kPretrainRecordName;
-  // The CSV log of pre-training goes into the new model (which replaces the folder).
+  // The CSV log of pre-training, its surface errors and its record go into the new model
+  // (which replaces the folder and, with it, the checkpoint) before it is installed: the
+  // model and its record take the folder's place as one unit. (Written after it, a kill
+  // or a full disk in between left a pre-trained model without its record, which the
+  // next run pre-trained again from iteration 0.)
   const std::string pretrain_log =
       ReadWholeFile(run.checkpoint_directory + "/" + kPretrainRunLogName);
-  if (!SaveModel(model_directory, model, error)) return false;
-  if (!pretrain_log.empty() &&
-      (!MakeDirectory(run.checkpoint_directory, error) ||
-       !WriteFileAtomically(run.checkpoint_directory + "/" + kPretrainLogName, pretrain_log,
-                            error))) {
-    return false;
-  }
-  if (simulation != nullptr &&
-      !WritePretrainSurfaceErrors(model_directory, model, surface_errors, error)) {
-    return false;
-  }
-  // Last: its presence says the pre-training (and its record) is whole.
-  if (!WriteFileAtomically(record_path, record, error)) return false;
+  SaveModelOptions save;
+  save.add_files = [&](const std::string& staging, std::string* file_error) {
+    const std::string folder = staging + "/pretrain";
+    if (!MakeDirectory(folder, file_error)) return false;
+    if (!pretrain_log.empty() &&
+        !WriteFileAtomically(folder + "/" + kPretrainLogName, pretrain_log, file_error)) {
+      return false;
+    }
+    if (simulation != nullptr &&
+        !WritePretrainSurfaceErrors(staging, model, surface_errors, file_error)) {
+      return false;
+    }
+    // Last: its presence says the pre-training (and its record) is whole.
+    return WriteFileAtomically(folder + "/" + kPretrainRecordName, record, file_error);
+  };
+  if (!SaveModel(model_directory, model, save, error)) return false;
   log << "wrote model " << model_directory << "\n";
   return true;
 }

@@ -1,6 +1,7 @@
 #ifndef AQS_MODEL_MODEL_IO_H_
 #define AQS_MODEL_MODEL_IO_H_
 
+#include <functional>
 #include <string>
 
 #include "model/active_model.h"
@@ -45,6 +46,10 @@ struct SaveModelOptions {
   // Carry the records of the model being replaced over: the training log
   // (train/log.csv) and the pre-training record (pretrain/, eval/error_budget.h).
   bool keep_records = false;
+  // Writes further files into the new model's staging directory (its argument) before
+  // the model is installed, so that they and the model take its place as one unit (the
+  // pre-training record); false with *error stops the save (nothing replaced).
+  std::function<bool(const std::string& staging, std::string* error)> add_files;
 };
 
 // Writes the whole model to `directory`: into a staging directory beside it, which then

@@ -224,6 +224,7 @@ bool SaveModel(const std::string& directory, const ActiveModel& model,
       ok = false;
     }
   }
+  if (ok && options.add_files) ok = options.add_files(staging, error);
   if (!ok) {
     std::string ignored;
     RemoveTemporaryTree(staging, &ignored);

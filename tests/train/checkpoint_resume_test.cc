@@ -21,6 +21,7 @@
 #include "testing/temp_dir.h"
 #include "testing/training_fixtures.h"
 #include "train/trainer.h"
+#include "util/fault_injection.h"
 
 namespace aqs {
 namespace {
@@ -326,6 +327,40 @@ TEST_F(CheckpointResumeTest, AShortLogIsReportedAndTrainingResumes) {
 
 // A file of the user's inside learned/, which a checkpoint would delete, stops training
 // before any work; pre-training likewise refuses a model holding foreign files.
+// What WatchModelInstall saw: at the last directory installed (a staged directory taking
+// its place), whether the model at g_model_path had its pre-training record.
+std::string g_model_path;
+int g_installs = 0;
+bool g_record_at_last_install = false;
+
+void WatchModelInstall(const char* point) {
+  const std::string p(point);
+  if (p != "staging:exchanged" && p != "staging:installed") return;
+  ++g_installs;
+  g_record_at_last_install = fs::exists(g_model_path + "/pretrain/key.txt");
+}
+
+// A pre-trained model takes the folder's place with its record (pretrain/key.txt) in
+// it: the record was written after the model, and a kill or a full disk in between
+// left a pre-trained model the next run pre-trained again, from iteration 0 (its
+// checkpoint went with the old folder).
+TEST_F(CheckpointResumeTest, APretrainedModelIsInstalledWithItsRecord) {
+  PretrainOptions options = testing::SyntheticPretrainOptions(testing::SyntheticBarSpec());
+  options.max_iterations = 2;
+  options.num_threads = 1;
+  g_model_path = path_;
+  g_installs = 0;
+  const FaultHook previous = SetFaultHookForTesting(&WatchModelInstall);
+  std::ostringstream log;
+  std::string error;
+  const bool ok = RunPretrainJob(path_, options, nullptr, log, &error, false);
+  SetFaultHookForTesting(previous);
+  ASSERT_TRUE(ok) << error << "\n" << log.str();
+  EXPECT_GE(g_installs, 1);
+  EXPECT_TRUE(g_record_at_last_install);
+  EXPECT_TRUE(fs::exists(path_ + "/pretrain/log.csv"));
+}
+
 TEST_F(CheckpointResumeTest, ForeignFilesStopTheJobsBeforeTheWork) {
   ASSERT_TRUE(Train(1));
   std::ofstream(path_ + "/learned/notes.txt") << "mine";
