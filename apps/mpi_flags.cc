@@ -1,7 +1,10 @@
 #include "mpi_flags.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
+#include <string>
+#include <vector>
 
 #include <gflags/gflags.h>
 
@@ -13,6 +16,35 @@ DEFINE_bool(mpi, false, "Run as one rank of an MPI job (docs/distributed.md). Au
             "mpirun starts the app with more than one process; exit 1 if this build has no MPI.");
 
 namespace aqs {
+namespace {
+
+// Whether every rank was given the same ActiveQS flags (those defined in apps/, the
+// folder of this file; defaults included, --mpi not) as rank 0: false on every rank
+// with *error naming the lowest rank's first flag that differs. Ranks with other flags
+// would train or fit other problems, or (one refusing a flag the others took) wait
+// for each other forever.
+bool SameFlagsOnEveryRank(const Communicator& communicator, std::string* error) {
+  const std::string here = __FILE__;
+  const std::string apps_folder = here.substr(0, here.rfind('/') + 1);
+  std::vector<gflags::CommandLineFlagInfo> all;
+  gflags::GetAllFlags(&all);
+  std::vector<std::string> items;
+  for (const gflags::CommandLineFlagInfo& info : all) {
+    if (info.filename.rfind(apps_folder, 0) != 0 || info.name == "mpi") continue;
+    std::string value = info.current_value;
+    std::replace(value.begin(), value.end(), '\n', ' ');
+    items.push_back("--" + info.name + "=" + value);
+  }
+  std::sort(items.begin(), items.end());
+  const int unlike = communicator.FirstItemUnlikeRoot(items);
+  if (unlike >= 0) {
+    *error = (unlike < static_cast<int>(items.size()) ? items[unlike] : std::string("its flags")) +
+             " differs from rank 0's: every rank must be given the same flags";
+  }
+  return communicator.Agree(unlike < 0, error);
+}
+
+}  // namespace
 
 std::unique_ptr<Communicator> StartRanks(int* argc, char*** argv) {
   const int launched = LauncherWorldSize();
@@ -34,6 +66,11 @@ std::unique_ptr<Communicator> StartRanks(int* argc, char*** argv) {
       gflags::SetCommandLineOption("threads", "1");
     }
     if (std::getenv("OPENBLAS_NUM_THREADS") == nullptr) SetBlasThreads(1);
+    if (!SameFlagsOnEveryRank(*communicator, &error)) {
+      PrintRankError(communicator.get(), error);
+      communicator.reset();  // every rank finalizes MPI, then exits
+      std::exit(1);
+    }
   }
   return communicator;
 }

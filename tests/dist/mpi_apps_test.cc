@@ -84,6 +84,30 @@ TEST(MpiAppsTest, TrainsOnTwoRanksAndResumesInOneProcess) {
   EXPECT_EQ(testing::TrainingLogRows(model + "/train/log.csv").size(), 5u);
 }
 
+// Ranks given other flags (a flagfile that differs between machines) stop at once, all
+// of them, with one message naming the flag: one rank refusing a flag the others took
+// had left them waiting for each other (a hang), and another value trained another
+// problem on that rank without a word.
+TEST(MpiAppsTest, RanksGivenOtherFlagsStopNamingTheFlag) {
+  testing::TempDir dir;
+  const std::string model = dir.File("m");
+  WritePretrainedModel(model, 2);
+  const std::string train =
+      AppPath("aqs_train") + " --model=" + model + " --train_iterations=1";
+  for (const std::string other : {"--threads=0", "--energy_regularization=50"}) {
+    SCOPED_TRACE(other);
+    const CommandResult run =
+        MpiRun(1, train + " : " AQS_MPIEXEC_NUMPROC_FLAG " 1 " + train + " " + other);
+    EXPECT_NE(run.exit_code, 0) << run.output;
+    EXPECT_NE(run.exit_code, 124) << "a hang: " << run.output;
+    EXPECT_NE(run.output.find("aqs_train: error: rank 1: " + other +
+                              " differs from rank 0's: every rank must be given the same flags"),
+              std::string::npos)
+        << run.output;
+    EXPECT_EQ(SavedIterations(model), 0);
+  }
+}
+
 TEST(MpiAppsTest, MoreRanksThanPosesLeavesTheSpareRanksIdle) {
   testing::TempDir dir;
   const std::string model = dir.File("m");
