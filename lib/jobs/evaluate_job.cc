@@ -27,6 +27,7 @@
 #include "util/blas.h"
 #include "util/input_file.h"
 #include "util/make_directory.h"
+#include "util/keyed_store.h"
 #include "util/matrix_io.h"
 #include "util/memory_limit.h"
 #include "util/option_checks.h"
@@ -715,7 +716,8 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
       << (options.write_fields ? ", fields/*.ply, fitted/*.obj" : "") << " ("
       << FormatDuration(total.Seconds()) << ")\n";
   *rows_out = rows;
-  for (const std::string& kept : {ae_options.checkpoint_directory, fit_store}) {
+  for (const std::string& kept : {ae_options.checkpoint_directory, fit_store,
+                                   KeyedStore::PreviousPath(fit_store)}) {
     std::string remove_error;
     if (!RemoveDirectory(kept, &remove_error)) log << "warning: " << remove_error << "\n";
   }

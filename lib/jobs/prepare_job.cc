@@ -22,6 +22,7 @@
 #include "prepare/target_store.h"
 #include "util/atomic_file.h"
 #include "util/fault_injection.h"
+#include "util/keyed_store.h"
 #include "util/make_directory.h"
 #include "util/option_checks.h"
 #include "util/wall_timer.h"
@@ -515,9 +516,12 @@ bool FinishModel(const PrepareJobOptions& options, const Communicator* comm,
   if (!SaveModel(output, model, save, error)) return false;
   log << "wrote model " << options.output << " (" << prepared->total.Seconds() << " s in all)\n";
   FaultPoint("prepare:model_written");  // a kill here leaves the targets' store
-  std::string store_error;
-  if (!RemoveDirectory(targets.store_directory, &store_error)) {
-    log << "warning: " << store_error << " (the targets kept while preparing)\n";
+  for (const std::string& store :
+       {targets.store_directory, KeyedStore::PreviousPath(targets.store_directory)}) {
+    std::string store_error;
+    if (!RemoveDirectory(store, &store_error)) {
+      log << "warning: " << store_error << " (the targets kept while preparing)\n";
+    }
   }
   if (!unconverged.empty()) {
     *status = JobStatus::kNotConverged;

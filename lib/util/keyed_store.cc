@@ -10,21 +10,27 @@ namespace aqs {
 
 namespace fs = std::filesystem;
 
+std::string KeyedStore::PreviousPath(const std::string& directory) {
+  return directory + ".previous";
+}
+
 bool KeyedStore::Open(const std::string& directory, const std::string& key, std::string* error) {
   directory_.clear();
   std::error_code code;
   const std::string key_path = directory + "/key.txt";
   if (fs::exists(directory, code) && ReadWholeFile(key_path) != key) {
-    for (const fs::directory_entry& entry : fs::directory_iterator(directory, code)) {
-      fs::remove_all(entry.path(), code);
+    if (fs::is_empty(directory, code) && !code) {
+      // Nothing to keep.
+    } else {
+      // Moved aside, not emptied: a rerun with one flag mistyped must not delete the
+      // stopped run's work before it has made anything (one generation is kept).
+      const std::string previous = PreviousPath(directory);
+      fs::remove_all(previous, code);
+      if (!code) fs::rename(directory, previous, code);
       if (code) {
-        *error = entry.path().string() + ": cannot remove (" + code.message() + ")";
+        *error = directory + ": cannot move aside to " + previous + " (" + code.message() + ")";
         return false;
       }
-    }
-    if (code) {
-      *error = directory + ": cannot list (" + code.message() + ")";
-      return false;
     }
   }
   if (!MakeDirectory(directory, error)) return false;

@@ -18,10 +18,16 @@ namespace aqs {
 class KeyedStore {
  public:
   // Opens `directory` (created with its parents if missing) for `key`. A folder that
-  // holds another key (or none) is emptied first: its items belong to something else.
-  // Returns false with *error (naming the path) if the folder cannot be made or emptied,
-  // or key.txt cannot be written.
+  // holds another key (or none, or an unreadable one) is moved aside first, to
+  // PreviousPath(directory) (replacing what an earlier such move left there): its items
+  // belong to something else, and a rerun with other options (a mistyped flag) must not
+  // delete them before it has made anything; the caller removes that folder with its
+  // own once the job is done. Returns false with *error (naming the path) if the folder
+  // cannot be made or moved aside, or key.txt cannot be written.
   bool Open(const std::string& directory, const std::string& key, std::string* error);
+
+  // Where Open moves a store of another key: directory + ".previous".
+  static std::string PreviousPath(const std::string& directory);
 
   bool is_open() const { return !directory_.empty(); }
   const std::string& directory() const { return directory_; }

@@ -1,5 +1,6 @@
 // util/keyed_store.h: a folder of numbered items that belongs to one key; opened for
-// another key it is emptied first.
+// another key it is moved aside first (one generation kept: a rerun with a mistyped flag
+// had deleted a stopped run's items before making any of its own).
 
 #include "util/keyed_store.h"
 
@@ -33,15 +34,23 @@ TEST(KeyedStoreTest, ItemsStayForTheSameKeyAndGoForAnother) {
   // The same key: the item stays.
   ASSERT_TRUE(store.Open(folder, "key one\n", &error)) << error;
   EXPECT_EQ(ReadWholeFile(store.ItemPath(7, "txt")), "done");
-  // Another key: emptied, and the new key written.
+  // Another key: the items move aside (kept), and the new key is written.
   ASSERT_TRUE(store.Open(folder, "key two\n", &error)) << error;
   EXPECT_FALSE(fs::exists(store.ItemPath(7, "txt")));
   EXPECT_EQ(ReadWholeFile(folder + "/key.txt"), "key two\n");
-  // A folder without a key (someone else's files) is emptied too.
+  const std::string previous = KeyedStore::PreviousPath(folder);
+  EXPECT_EQ(previous, folder + ".previous");
+  EXPECT_EQ(ReadWholeFile(previous + "/0007.txt"), "done");
+  EXPECT_EQ(ReadWholeFile(previous + "/key.txt"), "key one\n");
+  // A folder without a key (someone else's files) moves aside too, replacing the
+  // earlier generation.
   fs::remove(folder + "/key.txt");
   std::ofstream(folder + "/stray.txt") << "x";
   ASSERT_TRUE(store.Open(folder, "key two\n", &error)) << error;
   EXPECT_FALSE(fs::exists(folder + "/stray.txt"));
+  EXPECT_TRUE(fs::exists(previous + "/stray.txt"));
+  EXPECT_FALSE(fs::exists(previous + "/0007.txt"));
+  ASSERT_TRUE(RemoveDirectory(previous, &error)) << error;
   // Removed as a whole; a missing folder is fine.
   ASSERT_TRUE(RemoveDirectory(folder, &error)) << error;
   EXPECT_FALSE(fs::exists(folder));
