@@ -305,6 +305,9 @@ bool SurfaceAutoencoder::Train(const Eigen::Matrix3Xd& neutral,
       WhitenedPcaScores(displacements, Eigen::VectorXd::Ones(3 * n), d);
   log << "surface autoencoder: " << p << " surfaces x " << n << " vertices, latent " << d << ", "
       << np << " network parameters\n";
+  // The start of the training (deterministic: the same in every run of it), for its
+  // initial loss also when a checkpoint is resumed.
+  const Eigen::VectorXd fresh = x;
   // A checkpoint of an earlier run of this training.
   const bool checkpoints = !options.checkpoint_directory.empty();
   SolverCheckpoint start;
@@ -328,7 +331,8 @@ bool SurfaceAutoencoder::Train(const Eigen::Matrix3Xd& neutral,
                                                     options.latent_regularization);
   ceres::GradientProblem problem(objective);  // takes ownership
   SurfaceAutoencoderReport report;
-  report.initial_loss = objective->Loss(x.data(), nullptr);
+  report.initial_loss = objective->Loss(fresh.data(), nullptr);
+  if (start.iterations > 0) report.resumed_loss = objective->Loss(x.data(), nullptr);
   ceres::GradientProblemSolver::Options solver_options;
   solver_options.line_search_direction_type = ceres::LBFGS;
   solver_options.max_lbfgs_rank = kLbfgsRank;

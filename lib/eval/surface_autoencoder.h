@@ -82,7 +82,10 @@ struct SurfaceAutoencoderReport {
   int iterations = 0;         // in all runs (iterations_before included)
   int iterations_before = 0;  // done by an earlier run (from its checkpoint)
   int restarts = 0;           // L-BFGS restarts after a stall, in this run
+  // The loss at the training's start (its first run's start, also when this run
+  // resumed a checkpoint), and at the checkpoint this run resumed (0: none).
   double initial_loss = 0.0;
+  double resumed_loss = 0.0;
   double final_loss = 0.0;
   // sqrt of the data term at the end: the RMS distance between the decoded and the
   // training surfaces over all surfaces and vertices (model units).

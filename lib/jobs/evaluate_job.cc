@@ -647,6 +647,7 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
   parts.autoencoder_scaled_steps = ae_options.lbfgs_scaling;
   parts.autoencoder_seed = ae_options.seed;
   parts.autoencoder_initial_loss = ae.initial_loss;
+  parts.autoencoder_resumed_loss = ae.resumed_loss;
   parts.autoencoder_final_loss = ae.final_loss;
   parts.autoencoder_termination = ae.termination;
   parts.pca_components = pca.num_components();

@@ -254,8 +254,8 @@ std::string EvaluationMarkdown(const EvaluationReportParts& parts, const Evaluat
      << " (" << parts.autoencoder_termination << ")";
   if (parts.autoencoder_resumed_after > 0) {
     md << "; it resumed a stopped run's checkpoint after iteration "
-       << parts.autoencoder_resumed_after
-       << " (L-BFGS restarts there: the result differs a little from an uninterrupted run's)";
+       << parts.autoencoder_resumed_after << " (loss " << parts.autoencoder_resumed_loss
+       << "; L-BFGS restarts there: the result differs a little from an uninterrupted run's)";
   }
   md << ".\n\n";
   if (!parts.overlap_note.empty()) md << "**Warning:** " << parts.overlap_note << "\n\n";

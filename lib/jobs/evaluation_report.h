@@ -73,6 +73,7 @@ struct EvaluationReportParts {
   bool autoencoder_scaled_steps = false;
   int autoencoder_seed = 0;
   double autoencoder_initial_loss = 0.0, autoencoder_final_loss = 0.0;
+  double autoencoder_resumed_loss = 0.0;  // at the checkpoint resumed (resumed_after > 0)
   std::string autoencoder_termination;
   int pca_components = 0, pca_neutral_components = 0;
   // The latent priors of the held-out fits, the same for the physics model and the

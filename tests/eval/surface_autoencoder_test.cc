@@ -380,8 +380,12 @@ TEST(SurfaceAutoencoderTest, TrainingResumesFromItsCheckpoint) {
   EXPECT_NE(log.str().find("resuming after iteration 10"), std::string::npos) << log.str();
   EXPECT_EQ(resumed.report().iterations, 15);
   EXPECT_EQ(resumed.report().iterations_before, 10);
-  EXPECT_NEAR(resumed.report().initial_loss, first.report().final_loss,
+  // Its loss at the checkpoint; its initial loss the training's (it was the checkpoint's,
+  // and the report read as a training that had barely moved).
+  EXPECT_NEAR(resumed.report().resumed_loss, first.report().final_loss,
               1e-12 * first.report().final_loss);
+  EXPECT_EQ(resumed.report().initial_loss, first.report().initial_loss);
+  EXPECT_EQ(first.report().resumed_loss, 0.0);
   EXPECT_LT(resumed.report().final_loss, first.report().final_loss);
   // The budget used up: no iteration, the same decoder.
   SurfaceAutoencoder same;

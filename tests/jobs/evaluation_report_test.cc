@@ -151,8 +151,10 @@ TEST(EvaluationReportTest, MarkdownSaysWhatWasComparedAndCsvKeepsEveryDigit) {
                       "run's, kept in its output folder"),
             std::string::npos);
   parts.autoencoder_resumed_after = 432;
+  parts.autoencoder_resumed_loss = 0.25;
   EXPECT_NE(EvaluationMarkdown(parts, tables)
-                .find("; it resumed a stopped run's checkpoint after iteration 432 (L-BFGS"),
+                .find("; it resumed a stopped run's checkpoint after iteration 432 (loss "
+                      "0.25; L-BFGS"),
             std::string::npos);
 
   parts.error_budget = false;
