@@ -44,7 +44,8 @@ struct SaveModelOptions {
   // directory or an ActiveQS model is replaced (CheckModelDestination).
   bool overwrite = false;
   // Carry the records of the model being replaced over: the training log
-  // (train/log.csv) and the pre-training record (pretrain/, eval/error_budget.h).
+  // (train/log.csv) and the pre-training record (pretrain/log.csv, surface_errors.*,
+  // key.txt; eval/error_budget.h), not pre-training's checkpoint.
   bool keep_records = false;
   // Writes further files into the new model's staging directory (its argument) before
   // the model is installed, so that they and the model take its place as one unit (the

@@ -211,8 +211,11 @@ bool SaveModel(const std::string& directory, const ActiveModel& model,
   const std::string staging = StagingPathOf(target);
   if (!CreateStagingDirectory(staging, error)) return false;
   bool ok = WriteAll(staging, model, error);
+  // (The record pretrain/key.txt last: it says the pre-training's record is whole. The
+  // copies are flushed to the disk before the model is installed, as written files are.)
   for (const char* record : {"train/log.csv", "pretrain/surface_errors.bin",
-                             "pretrain/surface_errors.txt", "pretrain/log.csv"}) {
+                             "pretrain/surface_errors.txt", "pretrain/log.csv",
+                             "pretrain/key.txt"}) {
     const std::string from = target + "/" + record;
     if (!ok || !options.keep_records || !MayExist(from)) continue;
     const std::string to = staging + "/" + record;
@@ -223,6 +226,7 @@ bool SaveModel(const std::string& directory, const ActiveModel& model,
       *error = from + ": cannot copy into the new model (" + code.message() + ")";
       ok = false;
     }
+    ok = ok && SyncFile(to, error);
   }
   if (ok && options.add_files) ok = options.add_files(staging, error);
   if (!ok) {

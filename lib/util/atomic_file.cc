@@ -120,6 +120,17 @@ void SyncDirectory(const std::string& dir) {
   ::close(fd);
 }
 
+bool SyncFile(const std::string& path, std::string* error) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0 || ::fsync(fd) != 0) {
+    *error = path + ": cannot flush to the disk (" + std::strerror(errno) + ")";
+    if (fd >= 0) ::close(fd);
+    return false;
+  }
+  ::close(fd);
+  return true;
+}
+
 void SyncDirectoryTree(const std::string& dir) {
   std::error_code code;
   for (std::filesystem::recursive_directory_iterator it(dir, code), end; !code && it != end;

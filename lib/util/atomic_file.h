@@ -61,6 +61,10 @@ bool RemoveStaleTemporaryFiles(const std::string& dir,
 // effort: a folder that cannot be opened is left as it is.
 void SyncDirectory(const std::string& dir);
 
+// Flushes the file `path`'s data to the disk (fsync), for a file written by other means
+// than WriteFileAtomically (a copy). False with *error naming it.
+bool SyncFile(const std::string& path, std::string* error);
+
 // SyncDirectory of `dir` and of every folder under it.
 void SyncDirectoryTree(const std::string& dir);
 

@@ -618,6 +618,9 @@ TEST(ModelIoTest, FormatOneIsReadAndUpgradedByACheckpoint) {
   std::ofstream(path + "/train/log.csv") << "iteration,loss\n0,1\n1,0.5\n";
   fs::create_directories(path + "/pretrain");
   std::ofstream(path + "/pretrain/surface_errors.txt") << "record\n";
+  // The record that says the pre-training is whole: kept too (without it the pipeline
+  // pre-trained the upgraded model again).
+  std::ofstream(path + "/pretrain/key.txt") << "pretrain record\n";
   std::string manifest = ReadAll(path + "/model.txt");
   manifest.replace(manifest.find("format 2"), 8, "format 1");
   std::ofstream(path + "/model.txt") << manifest;
@@ -631,6 +634,7 @@ TEST(ModelIoTest, FormatOneIsReadAndUpgradedByACheckpoint) {
   EXPECT_EQ(ModelFormatVersion(path), 2);
   EXPECT_EQ(ReadAll(path + "/train/log.csv"), "iteration,loss\n0,1\n1,0.5\n");
   EXPECT_EQ(ReadAll(path + "/pretrain/surface_errors.txt"), "record\n");
+  EXPECT_EQ(ReadAll(path + "/pretrain/key.txt"), "pretrain record\n");
   EXPECT_FALSE(fs::exists(path + "/decoder.txt"));
   ActiveModel upgraded;
   ASSERT_TRUE(LoadModel(path, &upgraded, &error)) << error;
