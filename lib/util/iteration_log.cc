@@ -46,12 +46,21 @@ bool PrepareIterationLog(const std::string& path, const std::string& header, int
 }
 
 bool AppendLogRow(const std::string& path, const std::string& row, std::string* error) {
+  // A log that does not end in a newline ends in part of a row (an append that failed
+  // when the disk was full, or a kill): the row goes on a line of its own, not glued to
+  // that part (which readers then skip as a malformed row).
+  bool partial = false;
+  if (std::FILE* in = std::fopen(path.c_str(), "rb")) {
+    partial = std::fseek(in, -1, SEEK_END) == 0 && std::fgetc(in) != '\n';
+    std::fclose(in);
+  }
+  const std::string text = partial ? "\n" + row : row;
   std::FILE* file = std::fopen(path.c_str(), "a");
   if (file == nullptr) {
     *error = path + ": cannot append to the log (" + std::strerror(errno) + ")";
     return false;
   }
-  const bool written = std::fwrite(row.data(), 1, row.size(), file) == row.size() &&
+  const bool written = std::fwrite(text.data(), 1, text.size(), file) == text.size() &&
                        std::fflush(file) == 0;
   const int write_errno = errno;
   const bool closed = std::fclose(file) == 0;

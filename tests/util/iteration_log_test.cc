@@ -64,5 +64,16 @@ TEST(IterationLogTest, AppendsAndSaysWhyNot) {
   }
 }
 
+// A row appended after part of a row (an append that failed when the disk was full, or
+// a kill) goes on a line of its own: it was glued to the part, and both were lost as one
+// malformed line.
+TEST(IterationLogTest, ARowAfterAPartialRowIsALineOfItsOwn) {
+  testing::TempDir dir;
+  const std::string path = dir.Write("log.csv", std::string(kHeader) + "0,1,0\n1,0.");
+  std::string error;
+  ASSERT_TRUE(AppendLogRow(path, "2,0.25,3\n", &error)) << error;
+  EXPECT_EQ(testing::ReadAll(path), std::string(kHeader) + "0,1,0\n1,0.\n2,0.25,3\n");
+}
+
 }  // namespace
 }  // namespace aqs
