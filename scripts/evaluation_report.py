@@ -2,10 +2,12 @@
 """Pictures and an HTML page for an ActiveQS evaluation (aqs_evaluate's output folder).
 
     python3 evaluation_report.py --evaluation DIR [--model MODEL] [--output DIR]
-                                 [--error_vertices 0:9409]
+                                 [--training_pictures 3] [--error_vertices 0:9409]
 
 Reads DIR/evaluation.csv (per pose and method: mean, rms, max vertex error; the error
-budget's rows `floor` and `pretrain`), the held-out poses' surfaces DIR/fitted/<pose>_target.obj
+budget's rows `floor` and `pretrain`), DIR/evaluation.md (its warnings and its sentence on
+the auto-encoder's training, repeated on the page; where it is missing the page says so),
+the held-out poses' surfaces DIR/fitted/<pose>_target.obj
 and DIR/fitted/<pose>_<method>.obj (method: physics, autoencoder, pca, floor), and, with
 --model, the model's neutral.obj, train/log.csv (the training curve) and pretrain/log.csv
 (the pre-training curve, where recorded). Writes into the
@@ -23,15 +25,20 @@ output folder (default: DIR):
 
 A picture's file name is its pose's name (a file stem, unique in its split; the page quotes
 it for the link), in a folder per split, so no two poses and no pose and chart share a
-file. Both folders' PNG files are removed first, so that a pose no longer evaluated leaves
-no picture behind.
+file. Every input is read and checked before anything is written; the pictures are drawn
+into a temporary folder in images/ and then replace the earlier ones (both split folders'
+PNG files are removed, so that a pose no longer evaluated leaves no picture behind), and
+index.html is written last, through a temporary file: bad input leaves the output folder
+untouched, and a failure while drawing leaves the earlier page and pictures as they were.
 
 Error maps colour the distance of every vertex to the pose (model units) on the pose's
 surface, with one scale (viridis, 0 to the 98th percentile of the methods' errors) for
 all methods of a pose; vertices outside --error_vertices (not measured) are grey.
 
-Exit status: 0 done; 1 bad input (a missing or malformed file, named); 3 matplotlib or
-numpy cannot be imported (install python3-matplotlib and python3-numpy).
+Exit status: 0 done; 1 bad input (a missing or malformed file, named, with the line where
+it has lines) or an output that cannot be written; 2 bad arguments (argparse: e.g. a
+negative --training_pictures); 3 matplotlib or numpy cannot be imported (install
+python3-matplotlib and python3-numpy).
 """
 
 import argparse
@@ -39,7 +46,9 @@ import csv
 import html
 import math
 import os
+import shutil
 import sys
+import tempfile
 import urllib.parse
 
 MISSING_PACKAGE_STATUS = 3
@@ -75,9 +84,11 @@ def import_plotting():
 
 
 def read_obj(path):
-    """Vertices (N x 3) and triangles (T x 3, 0-based; polygons fanned) of an OBJ file."""
+    """Vertices (N x 3) and triangles (T x 3, 0-based; polygons fanned) of an OBJ file.
+    A malformed line (a 'v' without three finite numbers, a face with fewer than three
+    corners or a corner that is not a vertex index) is an InputError naming path:line."""
     import numpy as np
-    vertices, triangles = [], []
+    vertices, triangles, faces = [], [], []
     try:
         with open(path) as f:
             for number, line in enumerate(f, 1):
@@ -86,57 +97,102 @@ def read_obj(path):
                     continue
                 try:
                     if parts[0] == "v":
-                        vertices.append([float(x) for x in parts[1:4]])
+                        vertex = [float(x) for x in parts[1:4]]
+                        if len(vertex) != 3 or not all(math.isfinite(x) for x in vertex):
+                            raise ValueError
+                        vertices.append(vertex)
                     elif parts[0] == "f":
                         corners = []
                         for item in parts[1:]:
                             index = int(item.split("/")[0])
+                            if index == 0:
+                                raise ValueError
                             corners.append(index - 1 if index > 0 else len(vertices) + index)
+                        if len(corners) < 3:
+                            raise ValueError
+                        faces.append((number, min(corners), max(corners)))
                         for k in range(1, len(corners) - 1):
                             triangles.append([corners[0], corners[k], corners[k + 1]])
                 except (ValueError, IndexError):
                     raise InputError("%s:%d: malformed '%s' line" % (path, number, parts[0]))
     except OSError as e:
         raise InputError("%s: cannot be read (%s)" % (path, e.strerror))
+    except UnicodeDecodeError:
+        raise InputError("%s: not a text (OBJ) file" % path)
+    for number, lowest, highest in faces:
+        if lowest < 0 or highest >= len(vertices):
+            raise InputError("%s:%d: a face refers to a vertex that does not exist (the file "
+                             "has %d)" % (path, number, len(vertices)))
     v = np.array(vertices, dtype=float).reshape(-1, 3)
     t = np.array(triangles, dtype=int).reshape(-1, 3)
-    if len(t) and (t.min() < 0 or t.max() >= len(v)):
-        raise InputError("%s: a face refers to a vertex that does not exist" % path)
     return v, t
 
 
 def read_ply_values(path):
-    """The per-vertex `value` property of an ASCII PLY (as aqs_evaluate writes)."""
+    """The per-vertex `value` property of an ASCII PLY (as aqs_evaluate writes): one line
+    per element instance (blank lines skipped), the vertex element's lines after those of
+    the elements declared before it. A malformed header line or vertex line (a count or
+    a value that is not a number, too few or too many values, a file shorter than its
+    counts) is an InputError naming path:line."""
     import numpy as np
     try:
         with open(path) as f:
             lines = f.read().splitlines()
     except OSError as e:
         raise InputError("%s: cannot be read (%s)" % (path, e.strerror))
-    count, properties, in_vertex, body = None, [], False, None
-    for number, line in enumerate(lines):
+    except UnicodeDecodeError:
+        raise InputError("%s: not an ASCII PLY file" % path)
+    # Elements in header order: [name, count, properties].
+    elements, body = [], None
+    for number, line in enumerate(lines, 1):
         parts = line.split()
         if not parts:
             continue
         if parts[0] == "format" and parts[1:2] != ["ascii"]:
             raise InputError("%s: only ASCII PLY is read" % path)
         if parts[0] == "element":
-            in_vertex = parts[1] == "vertex"
-            if in_vertex:
-                count = int(parts[2])
-        elif parts[0] == "property" and in_vertex:
-            properties.append(parts[-1])
+            try:
+                if len(parts) != 3 or int(parts[2]) < 0:
+                    raise ValueError
+                elements.append([parts[1], int(parts[2]), []])
+            except ValueError:
+                raise InputError("%s:%d: malformed 'element' line (expected 'element NAME "
+                                 "COUNT', COUNT 0 or more)" % (path, number))
+        elif parts[0] == "property" and elements:
+            if len(parts) < 3:
+                raise InputError("%s:%d: malformed 'property' line" % (path, number))
+            if elements[-1][0] == "vertex" and parts[1] == "list":
+                raise InputError("%s:%d: a list property of the vertex element is not read"
+                                 % (path, number))
+            elements[-1][2].append(parts[-1])
         elif parts[0] == "end_header":
-            body = number + 1
+            body = number  # 0-based index of the first line after the header
             break
-    if body is None or count is None or "value" not in properties:
+    names = [e[0] for e in elements]
+    if body is None or "vertex" not in names or \
+            "value" not in elements[names.index("vertex")][2]:
         raise InputError("%s: no vertex element with a 'value' property" % path)
+    data = [(number, line.split()) for number, line in enumerate(lines[body:], body + 1)
+            if line.strip()]
+    _, count, properties = elements[names.index("vertex")]
+    first = sum(e[1] for e in elements[:names.index("vertex")])
     column = properties.index("value")
-    try:
-        values = [float(lines[body + i].split()[column]) for i in range(count)]
-    except (ValueError, IndexError):
-        raise InputError("%s: truncated or malformed vertex data" % path)
-    return np.array(values)
+    if len(data) < first + count:
+        raise InputError("%s: truncated: the header declares %d vertices (after %d lines of "
+                         "other elements), the file has %d data lines"
+                         % (path, count, first, len(data)))
+    values = []
+    for number, parts in data[first:first + count]:
+        try:
+            numbers = [float(x) for x in parts]
+            if len(numbers) != len(properties) or not math.isfinite(numbers[column]):
+                raise ValueError
+        except ValueError:
+            raise InputError("%s:%d: malformed vertex line (expected %d numbers, a finite "
+                             "'value' in column %d)" % (path, number, len(properties),
+                                                        column + 1))
+        values.append(numbers[column])
+    return np.array(values, dtype=float)
 
 
 def read_matrix(path):
@@ -158,10 +214,14 @@ def read_matrix(path):
 
 
 def read_evaluation_csv(path):
-    """Rows of evaluation.csv as dicts (split, pose, method, mean, rms, max as floats)."""
+    """Rows of evaluation.csv as dicts (split, pose, method, mean, rms, max as floats).
+    Pose names are file stems (aqs_evaluate's): never empty, no '/' (they name files)."""
+    fields = ("split", "pose", "method", "mean", "rms", "max")
     try:
         with open(path, newline="") as f:
             reader = csv.DictReader(f)
+            if reader.fieldnames is None or not set(fields) <= set(reader.fieldnames):
+                raise InputError("%s:1: expected the header %s" % (path, ",".join(fields)))
             rows = []
             for number, row in enumerate(reader, 2):
                 try:
@@ -171,22 +231,33 @@ def read_evaluation_csv(path):
                 except (KeyError, TypeError, ValueError):
                     raise InputError("%s:%d: expected split,pose,method,mean,rms,max" %
                                      (path, number))
+                pose = rows[-1]["pose"]
+                if not pose or "/" in pose or "\0" in pose or pose in (".", ".."):
+                    raise InputError("%s:%d: the pose name '%s' is not a file stem"
+                                     % (path, number, pose))
     except OSError as e:
         raise InputError("%s: cannot be read (%s); run aqs_evaluate first" % (path, e.strerror))
+    except (UnicodeDecodeError, csv.Error) as e:
+        raise InputError("%s: not a CSV file (%s)" % (path, e))
     return rows
 
 
 def read_log_columns(path, keys):
     """The columns `keys` of a CSV log with a header line, as lists of floats."""
-    with open(path, newline="") as f:
-        reader = csv.DictReader(f)
-        columns = {}
-        for number, row in enumerate(reader, 2):
-            try:
-                for key in keys:
-                    columns.setdefault(key, []).append(float(row[key]))
-            except (KeyError, TypeError, ValueError):
-                raise InputError("%s:%d: expected %s,..." % (path, number, ",".join(keys)))
+    try:
+        with open(path, newline="") as f:
+            reader = csv.DictReader(f)
+            columns = {}
+            for number, row in enumerate(reader, 2):
+                try:
+                    for key in keys:
+                        columns.setdefault(key, []).append(float(row[key]))
+                except (KeyError, TypeError, ValueError):
+                    raise InputError("%s:%d: expected %s,..." % (path, number, ",".join(keys)))
+    except OSError as e:
+        raise InputError("%s: cannot be read (%s)" % (path, e.strerror))
+    except (UnicodeDecodeError, csv.Error) as e:
+        raise InputError("%s: not a CSV file (%s)" % (path, e))
     return columns
 
 
@@ -199,6 +270,51 @@ def read_training_log(path):
 def read_pretraining_log(path):
     """Columns of pretrain/log.csv (iteration, loss, gradient_norm, seconds) as lists."""
     return read_log_columns(path, ("iteration", "loss", "gradient_norm", "seconds"))
+
+
+def read_evaluation_markdown(path):
+    """What the page repeats of evaluation.md: its '**Warning:**' paragraphs (the text
+    after the marker, lines joined) and the paragraph on the auto-encoder's training
+    ('The auto-encoder trained ...'), as {"warnings": [...], "autoencoder": text or None,
+    "problem": None, or why the file could not be read}. A missing or unreadable
+    evaluation.md is no error: the page says so."""
+    result = {"warnings": [], "autoencoder": None, "problem": None}
+    try:
+        with open(path) as f:
+            text = f.read()
+    except FileNotFoundError:
+        result["problem"] = ("%s is missing: any warning of the evaluation's is not shown here"
+                             % path)
+        return result
+    except OSError as e:
+        result["problem"] = ("%s cannot be read (%s): any warning of the evaluation's is not "
+                             "shown here" % (path, e.strerror))
+        return result
+    except UnicodeDecodeError:
+        result["problem"] = ("%s is not a text file: any warning of the evaluation's is not "
+                             "shown here" % path)
+        return result
+    # Paragraphs: runs of lines between blank lines; a warning, a heading or a table line
+    # starts a new one.
+    paragraphs = []
+    for line in text.splitlines():
+        line = line.strip()
+        if not line:
+            paragraphs.append([])
+        elif not paragraphs or line.startswith(("**Warning:**", "#", "|")) or \
+                (paragraphs[-1] and paragraphs[-1][0].startswith(("#", "|"))):
+            paragraphs.append([line])
+        else:
+            paragraphs[-1].append(line)
+    for lines in paragraphs:
+        if not lines:
+            continue
+        paragraph = " ".join(lines)
+        if paragraph.startswith("**Warning:**"):
+            result["warnings"].append(paragraph[len("**Warning:**"):].strip())
+        elif paragraph.startswith("The auto-encoder trained ") and not result["autoencoder"]:
+            result["autoencoder"] = paragraph
+    return result
 
 
 def parse_vertex_ranges(text, count):
@@ -288,6 +404,18 @@ def percentile_scale(arrays, mask, q=98.0):
     return top if top > 0 else 1.0
 
 
+def label_colour_bar(fig, bar, text="vertex error (model units)"):
+    """Labels a vertical colour bar along its length, or, where the bar is shorter than that
+    label (a wide, short surface makes a short figure), across it, beside the bar in two
+    lines: savefig's tight box would cut a label longer than its bar at the bar's ends."""
+    bar.set_label(text, fontsize=9)
+    renderer = fig.canvas.get_renderer()
+    if bar.ax.yaxis.label.get_window_extent(renderer).height > \
+            bar.ax.get_window_extent(renderer).height:
+        bar.set_label(text.replace(" (", "\n("), fontsize=9, rotation=0, ha="left",
+                      va="center")
+
+
 def pose_sheet(path, pose, surfaces, errors, neutral, triangles, mask, stats):
     """One PNG: top row the pose and each method's surface, bottom row the error maps."""
     import numpy as np
@@ -318,7 +446,7 @@ def pose_sheet(path, pose, surfaces, errors, neutral, triangles, mask, stats):
     fig.subplots_adjust(left=0.01, right=0.90, top=0.93, bottom=0.02, wspace=0.03, hspace=0.12)
     bar_axes = fig.add_axes([0.915, 0.06, 0.015, 0.38])
     bar = fig.colorbar(plt.cm.ScalarMappable(norm=norm, cmap=cmap), cax=bar_axes, extend="max")
-    bar.set_label("vertex error (model units)", fontsize=9)
+    label_colour_bar(fig, bar)
     fig.savefig(path, dpi=110, bbox_inches="tight", pad_inches=0.1)
     plt.close(fig)
     return vmax
@@ -350,7 +478,7 @@ def training_sheet(path, pose, target, errors, triangles, mask, stats):
     fig.subplots_adjust(left=0.01, right=0.90, top=0.9, bottom=0.02, wspace=0.03)
     bar_axes = fig.add_axes([0.915, 0.1, 0.015, 0.75])
     bar = fig.colorbar(plt.cm.ScalarMappable(norm=norm, cmap=cmap), cax=bar_axes, extend="max")
-    bar.set_label("vertex error (model units)", fontsize=9)
+    label_colour_bar(fig, bar)
     fig.savefig(path, dpi=110, bbox_inches="tight", pad_inches=0.1)
     plt.close(fig)
     return vmax, [title for _, title in stages]
@@ -559,14 +687,22 @@ img { max-width: 100%; border: 1px solid #ddd; }
 figure { margin: 1em 0 2em; }
 figcaption { font-size: 0.9em; color: #444; }
 .note { color: #555; font-size: 0.9em; }
+.warning { background: #fff4d6; border: 1px solid #e0a800; border-left-width: 5px;
+           padding: 0.45em 0.8em; }
 """
 
 
-def write_html(path, title, rows, figures, notes):
+def write_html(path, title, rows, figures, notes, markdown):
+    """index.html (written to a temporary file, then renamed): evaluation.md's warnings
+    (markdown: read_evaluation_markdown's) first, the headline, the tables, the pictures."""
     test_poses = ordered_poses(rows, "test")
     parts = ["<!DOCTYPE html>", "<html><head><meta charset='utf-8'>",
              "<title>%s</title><style>%s</style></head><body>" % (html.escape(title), STYLE),
              "<h1>%s</h1>" % html.escape(title)]
+    for warning in markdown["warnings"]:
+        parts.append("<p class='warning'><b>Warning:</b> %s</p>" % html.escape(warning))
+    if markdown["problem"]:
+        parts.append("<p class='note'>%s.</p>" % html.escape(markdown["problem"]))
     # The headline: held-out means of the physics model and the baselines.
     if test_poses:
         means = {m: method_means(rows, "test", m, len(test_poses)) for m in ["neutral"] + METHODS}
@@ -600,6 +736,8 @@ def write_html(path, title, rows, figures, notes):
                  "<b>PCA</b> (same size, about the training poses' mean), "
                  "<b>PCA (neutral)</b> (same size, about the neutral: its zero is the rest face), "
                  "<b>neutral</b> (the rest face, for reference).</p>")
+    if markdown["autoencoder"]:
+        parts.append("<p class='note'>%s</p>" % html.escape(markdown["autoencoder"]))
     for note in notes:
         parts.append("<p class='note'>%s</p>" % html.escape(note))
     parts.append("<h2>Held-out poses</h2>")
@@ -664,33 +802,28 @@ def picture_link(split, pose):
     return "images/%s/%s.png" % (split, urllib.parse.quote(pose))
 
 
-def main(argv):
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--evaluation", required=True, help="aqs_evaluate's --output_dir")
-    parser.add_argument("--model", default="", help="the model directory (training curve, "
-                        "neutral surface)")
-    parser.add_argument("--output", default="", help="where to write (default: --evaluation)")
-    parser.add_argument("--training_pictures", type=int, default=3,
-                        help="error-budget pictures of this many training poses (those "
-                        "with the largest trained error)")
-    parser.add_argument("--error_vertices", default="",
-                        help="the vertices the errors are measured on, as aqs_evaluate's "
-                        "--error_vertices (others are grey in error maps)")
-    args = parser.parse_args(argv)
-    import_plotting()
+def non_negative_int(text):
+    """argparse's type of a count (--training_pictures): an integer, 0 or more. Anything
+    else is a bad argument: argparse prints the usage and this message and exits 2."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError("'%s' is not an integer" % text)
+    if value < 0:
+        raise argparse.ArgumentTypeError("must be 0 or more, not %d" % value)
+    return value
 
+
+def read_inputs(args):
+    """Reads and checks every file the page and its pictures need (an InputError naming
+    the file otherwise), before anything is written: evaluation.csv, evaluation.md, the
+    held-out poses' surfaces and error fields, the training poses' budget, the model's
+    neutral, poses and logs. Returns them as a dict for write_report."""
     evaluation = args.evaluation
-    output = args.output or evaluation
-    images = os.path.join(output, "images")
-    picture_folders = {split: os.path.join(images, split) for split in ("held_out", "training")}
-    for folder in picture_folders.values():
-        os.makedirs(folder, exist_ok=True)
-        for name in os.listdir(folder):
-            if name.endswith(".png"):
-                os.remove(os.path.join(folder, name))
     rows = read_evaluation_csv(os.path.join(evaluation, "evaluation.csv"))
-    stats = {(r["method"], r["pose"]): r for r in rows if r["split"] == "test"}
-    figures, notes = [], []
+    inputs = {"rows": rows, "notes": [], "held_out": [], "training": [], "curves": [],
+              "markdown": read_evaluation_markdown(os.path.join(evaluation, "evaluation.md"))}
+    notes = inputs["notes"]
 
     neutral = None
     if args.model:
@@ -712,25 +845,14 @@ def main(argv):
                 continue
             surfaces[method], method_triangles = read_obj(obj)
             errors[method] = read_ply_values(ply)
-            if len(surfaces[method]) != len(target) or len(errors[method]) != len(target):
-                raise InputError("%s: %d vertices, the pose has %d" %
-                                 (obj, len(surfaces[method]), len(target)))
-        mask = parse_vertex_ranges(args.error_vertices, len(target))
-        pose_neutral = neutral if neutral is not None and len(neutral) == len(target) else None
-        path = os.path.join(picture_folders["held_out"], pose + ".png")
-        vmax = pose_sheet(path, pose, surfaces, errors, pose_neutral, triangles, mask, stats)
-        shown = ", ".join(METHOD_NAMES[m] for m in METHODS + ["floor"] if m in surfaces)
-        figures.append({"kind": "pose", "src": picture_link("held_out", pose), "alt": pose,
-                        "caption":
-                        "<b>%s</b> (held out), front view. Top: the pose and the surfaces of %s. "
-                        "Bottom: each one's distance to the pose per vertex, drawn on the pose, "
-                        "on one scale from 0 to %s (the 98th percentile of the methods' errors; "
-                        "larger values are yellow)%s; first column: the neutral face's distance "
-                        "(where the pose moves). Grey: vertices not measured."
-                        % (html.escape(pose), shown, number(vmax),
-                           "" if "floor" not in surfaces else
-                           "; floor: the pose's own volumetric target simulated"), })
-        print("evaluation_report: wrote %s" % path)
+            for path, count in ((obj, len(surfaces[method])), (ply, len(errors[method]))):
+                if count != len(target):
+                    raise InputError("%s: %d vertices, the pose has %d" %
+                                     (path, count, len(target)))
+        inputs["held_out"].append({
+            "pose": pose, "target": target, "triangles": triangles, "surfaces": surfaces,
+            "errors": errors, "mask": parse_vertex_ranges(args.error_vertices, len(target)),
+            "neutral": neutral if neutral is not None and len(neutral) == len(target) else None})
 
     # The training poses with the largest trained error: where their error comes from.
     errors_path = os.path.join(evaluation, "budget", "training_errors.bin")
@@ -741,49 +863,110 @@ def main(argv):
         if matrix.shape[1] != 3 * len(train_poses):
             raise InputError("%s: %d columns, expected 3 per training pose (%d)"
                              % (errors_path, matrix.shape[1], len(train_poses)))
-        _, triangles = read_obj(os.path.join(args.model, "neutral.obj"))
+        neutral_path = os.path.join(args.model, "neutral.obj")
+        _, triangles = read_obj(neutral_path)
+        if len(triangles) and triangles.max() >= matrix.shape[0]:
+            raise InputError("%s: its faces refer to vertex %d, %s has %d rows (vertices)"
+                             % (neutral_path, triangles.max() + 1, errors_path,
+                                matrix.shape[0]))
         worst = sorted(range(len(train_poses)), key=lambda p: -train_stats.get(
             ("physics", train_poses[p]), {"mean": 0.0})["mean"])[:args.training_pictures]
         for p in worst:
-            pose = train_poses[p]
-            target = read_matrix(os.path.join(args.model, "poses", "%04d.bin" % p)).T
+            pose_path = os.path.join(args.model, "poses", "%04d.bin" % p)
+            target = read_matrix(pose_path).T
+            if target.shape[1] != 3:
+                raise InputError("%s: %d rows, expected 3 (x, y, z)" % (pose_path,
+                                                                        target.shape[1]))
             if len(target) != matrix.shape[0]:
                 raise InputError("%s: %d vertices, the evaluation has %d" % (
-                    os.path.join(args.model, "poses", "%04d.bin" % p), len(target),
-                    matrix.shape[0]))
-            errors = {"floor": matrix[:, 3 * p], "pretrain": matrix[:, 3 * p + 1],
-                      "physics": matrix[:, 3 * p + 2]}
-            mask = parse_vertex_ranges(args.error_vertices, len(target))
-            path = os.path.join(picture_folders["training"], pose + ".png")
-            vmax, shown = training_sheet(path, pose, target, errors, triangles, mask,
-                                         train_stats)
-            figures.append({"kind": "train", "src": picture_link("training", pose), "alt": pose,
-                            "caption":
-                            "<b>%s</b> (training pose, one of the %d with the largest trained "
-                            "error): where its error comes from. Per vertex, on the pose, "
-                            "on one scale from 0 to %s: %s." % (
-                                html.escape(pose), len(worst), number(vmax),
-                                ", ".join(shown))})
-            print("evaluation_report: wrote %s" % path)
-
-    budget_path = os.path.join(images, "budget.png")
-    if budget_chart(budget_path, rows):
-        figures.append({"kind": "budget", "src": "images/budget.png", "alt": "error budget",
-                        "caption": "Mean vertex error per pose. Training poses: the floor (the "
-                        "pose's volumetric target simulated), after pre-training, the trained "
-                        "physics model, and the two baselines. Held-out poses: the neutral face "
-                        "(no motion), the floor, the physics model's fit and the baselines' "
-                        "(dark bars below the grey one: better than not moving at all)."})
-        print("evaluation_report: wrote %s" % budget_path)
+                    pose_path, len(target), matrix.shape[0]))
+            inputs["training"].append({
+                "pose": train_poses[p], "target": target, "triangles": triangles,
+                "errors": {"floor": matrix[:, 3 * p], "pretrain": matrix[:, 3 * p + 1],
+                           "physics": matrix[:, 3 * p + 2]},
+                "mask": parse_vertex_ranges(args.error_vertices, len(target)),
+                "stats": train_stats})
 
     if args.model:
         log_path = os.path.join(args.model, "train", "log.csv")
         if os.path.exists(log_path):
             log = read_training_log(log_path)
             if log.get("iteration"):
-                curve_path = os.path.join(images, "training_curve.png")
-                floor = read_embedding_floor(os.path.join(args.model, "poses.txt"))
-                training_curve(curve_path, log, floor)
+                inputs["curves"].append(("training", log_path, log, read_embedding_floor(
+                    os.path.join(args.model, "poses.txt"))))
+        else:
+            notes.append("No training curve: %s is missing." % log_path)
+        pretrain_path = os.path.join(args.model, "pretrain", "log.csv")
+        if os.path.exists(pretrain_path):
+            log = read_pretraining_log(pretrain_path)
+            if log.get("iteration"):
+                inputs["curves"].append(("pretraining", pretrain_path, log, None))
+    return inputs
+
+
+def write_report(args, inputs):
+    """Draws the pictures into a temporary folder in images/, then replaces the earlier
+    pictures with them (the split folders' PNG files removed, so that a pose no longer
+    evaluated leaves none) and writes index.html (through a temporary file): a failure
+    while drawing leaves the earlier page and its pictures as they were."""
+    rows, notes = inputs["rows"], inputs["notes"]
+    output = args.output or args.evaluation
+    images = os.path.join(output, "images")
+    os.makedirs(images, exist_ok=True)
+    staging = tempfile.mkdtemp(prefix=".new-", dir=images)
+    figures, written = [], []
+    try:
+        for split in ("held_out", "training"):
+            os.mkdir(os.path.join(staging, split))
+        stats = {(r["method"], r["pose"]): r for r in rows if r["split"] == "test"}
+        for item in inputs["held_out"]:
+            pose, surfaces = item["pose"], item["surfaces"]
+            name = os.path.join("held_out", pose + ".png")
+            vmax = pose_sheet(os.path.join(staging, name), pose, surfaces, item["errors"],
+                              item["neutral"], item["triangles"], item["mask"], stats)
+            written.append(name)
+            shown = ", ".join(METHOD_NAMES[m] for m in METHODS + ["floor"] if m in surfaces)
+            figures.append({"kind": "pose", "src": picture_link("held_out", pose), "alt": pose,
+                            "caption":
+                            "<b>%s</b> (held out), front view. Top: the pose and the surfaces "
+                            "of %s. Bottom: each one's distance to the pose per vertex, drawn "
+                            "on the pose, on one scale from 0 to %s (the 98th percentile of "
+                            "the methods' errors; larger values are yellow)%s; first column: "
+                            "the neutral face's distance (where the pose moves). Grey: "
+                            "vertices not measured."
+                            % (html.escape(pose), shown, number(vmax),
+                               "" if "floor" not in surfaces else
+                               "; floor: the pose's own volumetric target simulated"), })
+
+        for item in inputs["training"]:
+            pose = item["pose"]
+            name = os.path.join("training", pose + ".png")
+            vmax, shown = training_sheet(os.path.join(staging, name), pose, item["target"],
+                                         item["errors"], item["triangles"], item["mask"],
+                                         item["stats"])
+            written.append(name)
+            figures.append({"kind": "train", "src": picture_link("training", pose), "alt": pose,
+                            "caption":
+                            "<b>%s</b> (training pose, one of the %d with the largest trained "
+                            "error): where its error comes from. Per vertex, on the pose, "
+                            "on one scale from 0 to %s: %s." % (
+                                html.escape(pose), len(inputs["training"]), number(vmax),
+                                ", ".join(shown))})
+
+        if budget_chart(os.path.join(staging, "budget.png"), rows):
+            written.append("budget.png")
+            figures.append({"kind": "budget", "src": "images/budget.png", "alt": "error budget",
+                            "caption": "Mean vertex error per pose. Training poses: the floor "
+                            "(the pose's volumetric target simulated), after pre-training, the "
+                            "trained physics model, and the two baselines. Held-out poses: the "
+                            "neutral face (no motion), the floor, the physics model's fit and "
+                            "the baselines' (dark bars below the grey one: better than not "
+                            "moving at all)."})
+
+        for kind, log_path, log, floor in inputs["curves"]:
+            if kind == "training":
+                training_curve(os.path.join(staging, "training_curve.png"), log, floor)
+                written.append("training_curve.png")
                 first, last = log["mean_surface_error"][0], log["mean_surface_error"][-1]
                 figures.append({"kind": "curve", "src": "images/training_curve.png",
                                 "alt": "training curve", "caption":
@@ -796,27 +979,61 @@ def main(argv):
                                     int(log["iteration"][-1]),
                                     "" if floor is None else "; dashed: the volumetric targets' "
                                     "embedding floor over the same vertices, %s" % number(floor))})
-                print("evaluation_report: wrote %s" % curve_path)
-        else:
-            notes.append("No training curve: %s is missing." % log_path)
-        pretrain_path = os.path.join(args.model, "pretrain", "log.csv")
-        if os.path.exists(pretrain_path):
-            log = read_pretraining_log(pretrain_path)
-            if log.get("iteration"):
-                curve_path = os.path.join(images, "pretraining_curve.png")
-                pretraining_curve(curve_path, log)
+            else:
+                pretraining_curve(os.path.join(staging, "pretraining_curve.png"), log)
+                written.append("pretraining_curve.png")
                 figures.append({"kind": "curve", "src": "images/pretraining_curve.png",
                                 "alt": "pre-training curve", "caption":
                                 "Pre-training (%s): the loss (actuation error and "
                                 "regularizers) from %s to %s in %d iterations, %s s." % (
-                                    html.escape(pretrain_path), number(log["loss"][0]),
+                                    html.escape(log_path), number(log["loss"][0]),
                                     number(log["loss"][-1]), int(log["iteration"][-1]),
                                     number(log["seconds"][-1]))})
-                print("evaluation_report: wrote %s" % curve_path)
-    title = "Evaluation of %s" % (args.model or evaluation)
+
+        # Every picture is drawn: out with the earlier ones, in with these.
+        for split in ("held_out", "training"):
+            folder = os.path.join(images, split)
+            os.makedirs(folder, exist_ok=True)
+            for name in os.listdir(folder):
+                if name.endswith(".png"):
+                    os.remove(os.path.join(folder, name))
+        for name in written:
+            os.replace(os.path.join(staging, name), os.path.join(images, name))
+            print("evaluation_report: wrote %s" % os.path.join(images, name))
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
+
+    title = "Evaluation of %s" % (args.model or args.evaluation)
     index = os.path.join(output, "index.html")
-    write_html(index, title, rows, figures, notes)
+    write_html(index, title, rows, figures, notes, inputs["markdown"])
     print("evaluation_report: wrote %s" % index)
+
+
+def main(argv):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--evaluation", required=True, help="aqs_evaluate's --output_dir")
+    parser.add_argument("--model", default="", help="the model directory (training curve, "
+                        "neutral surface)")
+    parser.add_argument("--output", default="", help="where to write (default: --evaluation)")
+    # A negative count is a bad argument: argparse exits 2 (a slice [:-1] would draw all
+    # training poses but one).
+    parser.add_argument("--training_pictures", type=non_negative_int, default=3,
+                        help="error-budget pictures of this many training poses (those "
+                        "with the largest trained error; 0 or more)")
+    parser.add_argument("--error_vertices", default="",
+                        help="the vertices the errors are measured on, as aqs_evaluate's "
+                        "--error_vertices (others are grey in error maps)")
+    args = parser.parse_args(argv)
+    import_plotting()
+
+    # Every input is read and checked before anything is written: a mistyped --evaluation
+    # or a malformed file leaves the output folder as it was.
+    inputs = read_inputs(args)
+    try:
+        write_report(args, inputs)
+    except OSError as e:
+        raise InputError("%s: cannot be written (%s)" % (e.filename or args.output or
+                                                         args.evaluation, e.strerror or e))
     return 0
 
 

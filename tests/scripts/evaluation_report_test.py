@@ -10,6 +10,7 @@ only the script's own message for that case is checked, and CTest reports the te
 skipped, not passed).
 """
 
+import html
 import math
 import os
 import shutil
@@ -139,6 +140,83 @@ def run(command):
                           universal_newlines=True)
 
 
+def run_with_file(command, path, edit):
+    """Runs command with the text file at path replaced by edit(its text) (the file as it
+    was afterwards)."""
+    with open(path) as f:
+        text = f.read()
+    try:
+        with open(path, "w") as f:
+            f.write(edit(text))
+        return run(command)
+    finally:
+        with open(path, "w") as f:
+            f.write(text)
+
+
+def snapshot(folder):
+    """Every file under folder (path relative to it -> its bytes)."""
+    files = {}
+    for parent, _, names in os.walk(folder):
+        for name in names:
+            path = os.path.join(parent, name)
+            with open(path, "rb") as f:
+                files[os.path.relpath(path, folder)] = f.read()
+    return files
+
+
+def colour_bar_label_problems(script):
+    """Draws the sheets of a wide, short surface (41 x 3 vertices, 40 x 0.4 model units)
+    in this process and returns the colour bars whose label is longer than the bar: the
+    pictures are saved with a tight box, which cuts such a label at the bar's ends."""
+    import importlib.util
+    import numpy as np
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    spec = importlib.util.spec_from_file_location("evaluation_report", script)
+    report = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(report)
+    nx, ny = 41, 3
+    vertices = np.array([(float(i), 0.2 * j, 0.0) for j in range(ny) for i in range(nx)])
+    triangles = []
+    for j in range(ny - 1):
+        for i in range(nx - 1):
+            a = j * nx + i
+            triangles += [(a, a + 1, a + nx + 1), (a, a + nx + 1, a + nx)]
+    triangles = np.array(triangles)
+    values = 0.01 * vertices[:, 0]
+    mask = np.ones(len(vertices), dtype=bool)
+    surfaces = {"target": vertices, "physics": vertices + 0.01, "pca": vertices - 0.01}
+    errors = {"physics": values, "pca": 2 * values}
+    figures, close = [], plt.close
+    plt.switch_backend("Agg")
+    # Keep the sheets' figures to measure them (a backend switch closes "all").
+    plt.close = lambda figure: figures.append(figure) if hasattr(figure, "canvas") \
+        else close(figure)
+    root = tempfile.mkdtemp(prefix="aqs_report_bar_")
+    try:
+        report.pose_sheet(os.path.join(root, "pose.png"), "wide", surfaces, errors, vertices,
+                          triangles, mask, {})
+        report.training_sheet(os.path.join(root, "training.png"), "wide", vertices,
+                              {"floor": values, "pretrain": values, "physics": values},
+                              triangles, mask, {})
+    finally:
+        plt.close = close
+        shutil.rmtree(root, ignore_errors=True)
+    problems = []
+    for name, figure in zip(("held-out sheet", "training sheet"), figures):
+        renderer = figure.canvas.get_renderer()
+        bar = figure.axes[-1]
+        label = bar.yaxis.label.get_window_extent(renderer)
+        extent = bar.get_window_extent(renderer)
+        if label.y0 < extent.y0 - 1 or label.y1 > extent.y1 + 1:
+            problems.append("%s: the colour bar's label (%.0f px) is longer than the bar "
+                            "(%.0f px) and is cut" % (name, label.height, extent.height))
+        close(figure)
+    return problems
+
+
 def main():
     if len(sys.argv) != 2:
         print("usage: evaluation_report_test.py SCRIPT")
@@ -184,6 +262,13 @@ def main():
                            "train_1", "0.1000"):
                 if needle not in page:
                     failures.append("index.html lacks '%s'" % needle)
+            # No evaluation.md in this evaluation: the page says so (its warnings unknown).
+            if "evaluation.md is missing" not in page:
+                failures.append("without evaluation.md the page must say it is missing")
+        leftovers = [name for name in os.listdir(os.path.join(evaluation, "images"))
+                     if name.startswith(".")]
+        if leftovers:
+            failures.append("the pictures' temporary folder was left behind: %s" % leftovers)
         # Bad input: no evaluation.csv; a malformed OBJ.
         os.remove(os.path.join(evaluation, "evaluation.csv"))
         result = run(command)
@@ -241,6 +326,87 @@ def main():
         if "images/budget.png" not in page or os.path.exists(stale):
             failures.append("the budget chart must stay and a stale picture must go:\n%s"
                             % result.stdout)
+
+        # A negative --training_pictures is a bad argument (argparse: exit 2), not a slice
+        # from the end (-1 drew all the training poses but one).
+        evaluation6, model6 = make_evaluation(os.path.join(root, "sixth"))
+        command6 = [sys.executable, script, "--evaluation", evaluation6, "--model", model6]
+        images6 = os.path.join(evaluation6, "images")
+        result = run(command6 + ["--training_pictures", "-1"])
+        if result.returncode != 2 or "--training_pictures" not in result.stdout or \
+                os.path.exists(images6):
+            failures.append("--training_pictures -1 must exit 2 naming the argument, drawing "
+                            "nothing, got %d:\n%s" % (result.returncode, result.stdout))
+            shutil.rmtree(images6, ignore_errors=True)  # not to fail the checks below
+
+        # Malformed PLY and OBJ lines: exit 1 with the file and line, no traceback, and
+        # nothing written (every input is read before the first picture).
+        fitted_pca = os.path.join(evaluation6, "fitted", "smile_pca.obj")
+        field_pca = os.path.join(evaluation6, "fields", "smile_pca.ply")
+        for path, edit, where, what in (
+                (field_pca, lambda t: t.replace("element vertex 20", "element vertex abc"),
+                 "smile_pca.ply:4:", "a PLY vertex count that is not a number"),
+                (field_pca, lambda t: t.replace("\n0 0 0 0 0 0 0\n", "\n0 0 0 0 0 0 x\n"),
+                 "smile_pca.ply:15:", "a PLY value that is not a number"),
+                (field_pca, lambda t: t.replace("\n0 0 0 0 0 0 0\n", "\n0 0 0 0 0 0\n"),
+                 "smile_pca.ply:15:", "a PLY vertex line with too few values"),
+                (field_pca, lambda t: t.replace("element vertex 20", "element vertex 40"),
+                 "smile_pca.ply: truncated", "a PLY shorter than its vertex count"),
+                (fitted_pca, lambda t: t + "v 1 2\n", "smile_pca.obj:33:",
+                 "an OBJ 'v' line with two numbers"),
+                (fitted_pca, lambda t: t + "f 1 2 99\n", "smile_pca.obj:33:",
+                 "an OBJ face with a vertex that does not exist")):
+            result = run_with_file(command6, path, edit)
+            if result.returncode != 1 or where not in result.stdout or \
+                    "Traceback" in result.stdout or os.path.exists(images6):
+                failures.append("%s must exit 1 naming '%s' and write nothing, got %d:\n%s"
+                                % (what, where, result.returncode, result.stdout))
+        # A mistyped --evaluation creates no folder there.
+        typo = os.path.join(root, "typo", "evaluation")
+        result = run([sys.executable, script, "--evaluation", typo])
+        if result.returncode != 1 or os.path.exists(os.path.join(root, "typo")):
+            failures.append("a mistyped --evaluation must exit 1 and create nothing, got "
+                            "%d:\n%s" % (result.returncode, result.stdout))
+
+        # evaluation.md's warnings head the page (escaped), above the headline; its
+        # sentence on the auto-encoder's training is shown by the tables.
+        warning = ("held-out pose 'smile' is within 0.001 of the training pose 'smile' "
+                   "(<mean> & max): it is not held out")
+        autoencoder = ("The auto-encoder trained 200 L-BFGS iterations from seed 7, loss "
+                       "0.5 -> 0.01 (converged).")
+        with open(os.path.join(evaluation6, "evaluation.md"), "w") as f:
+            f.write("# Evaluation of %s\n\nVertex distances.\n\n%s\n\n**Warning:** %s\n"
+                    "\n## Training poses\n\n| pose | neutral |\n|---|---|\n"
+                    % (model6, autoencoder, warning))
+        result = run(command6)
+        page = open(os.path.join(evaluation6, "index.html")).read() \
+            if result.returncode == 0 else ""
+        escaped = ("held-out pose &#x27;smile&#x27; is within 0.001 of the training pose "
+                   "&#x27;smile&#x27; (&lt;mean&gt; &amp; max): it is not held out")
+        at = page.find(escaped)
+        if result.returncode != 0 or at < 0 or "Warning:" not in page[:at] or \
+                not 0 <= at < page.find("On 1 held-out poses") or \
+                "evaluation.md is missing" in page:
+            failures.append("the page must show evaluation.md's warning, escaped, above its "
+                            "headline, got %d:\n%s" % (result.returncode, result.stdout))
+        if html.escape(autoencoder) not in page or \
+                not page.find("<h2>Held-out poses</h2>") > page.find(html.escape(autoencoder)):
+            failures.append("the page must show evaluation.md's sentence on the "
+                            "auto-encoder's training before the tables")
+
+        # A malformed input leaves the earlier page and its pictures as they were (they
+        # were removed before the input was read, the page left linking to none).
+        before = snapshot(evaluation6)
+        result = run_with_file(command6, fitted_pca, lambda t: t + "v 1 two 3\n")
+        after = snapshot(evaluation6)
+        changed = sorted(name for name in set(before) | set(after)
+                         if before.get(name) != after.get(name))
+        if result.returncode != 1 or changed or "images/held_out/smile.png" not in before:
+            failures.append("a malformed OBJ must exit 1 and change nothing, got %d, changed "
+                            "%s:\n%s" % (result.returncode, changed, result.stdout))
+
+        # A wide, short surface: the colour bar's label is not cut.
+        failures += colour_bar_label_problems(script)
     finally:
         if os.environ.get("AQS_KEEP_TEST_FILES", "0") not in ("", "0"):
             print("kept " + root)
