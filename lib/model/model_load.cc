@@ -10,10 +10,12 @@
 #include <Eigen/LU>
 #include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
+#include <thread>
 
 #include "geometry/points_near_model.h"
 #include "io/actuation_io.h"
@@ -505,6 +507,19 @@ bool ReadEmbedding(const std::string& dir, ActiveModel* model, std::string* erro
   return true;
 }
 
+// A folder "learned.aqs-old<pid>" in the model folder `dir` (where a writer without an
+// atomic exchange moves learned/ while it puts the new one in place;
+// util/staged_directory.h), or "" if there is none.
+std::string MovedAsideLearnedFolder(const std::string& dir) {
+  const std::string prefix = std::string(internal::kLearnedFolder) + ".aqs-old";
+  std::error_code code;
+  for (const auto& entry : std::filesystem::directory_iterator(dir, code)) {
+    const std::string name = entry.path().filename().string();
+    if (name.rfind(prefix, 0) == 0) return entry.path().string();
+  }
+  return "";
+}
+
 // The learned part (decoder, latents, states, prior) of a model of format `version`,
 // read as one unit: read again if a writer replaced learned/ meanwhile (its directory
 // is then another one). A model not yet pre-trained has none.
@@ -524,7 +539,20 @@ bool ReadLearnedPart(const std::string& dir, int version, ActiveModel* model, st
       if (fd < 0 || ::fstat(fd, &held) != 0) {
         const int code = errno;
         if (fd >= 0) ::close(fd);
-        if (DirectoryIdentity(learned).second == 0) break;  // not pre-trained
+        if (DirectoryIdentity(learned).second == 0) {
+          // Not pre-trained, unless a writer without an atomic exchange (NFS) has moved
+          // learned/ aside and not yet put the new one in its place, or was killed then.
+          const std::string aside = MovedAsideLearnedFolder(dir);
+          if (aside.empty()) break;
+          if (attempt == 20) {
+            *error = learned + " is missing and " + aside + " is there: a writer was "
+                     "interrupted replacing it; run aqs_train or aqs_pipeline on the model "
+                     "once, which puts it back";
+            return false;
+          }
+          std::this_thread::sleep_for(std::chrono::milliseconds(50));
+          continue;
+        }
         if (attempt == 5) {
           *error = learned + ": cannot open the folder (" + std::strerror(code) + ")";
           return false;

@@ -602,6 +602,24 @@ TEST(ModelIoTest, LearnedStateOfAnotherModelIsRefused) {
 // Format 1 (learned files at the top, train/checkpoint.txt) is read, and the first
 // checkpoint rewrites the model as format 2, keeping the training log and the
 // pre-training record.
+// Where learned/ is missing and a writer's moved-aside learned.aqs-old<pid> is there (a
+// writer without an atomic exchange, killed between its two renames, or a read between
+// them), the model is not read as one never pre-trained: the error says what happened.
+TEST(ModelIoTest, ALearnedFolderMovedAsideIsNotANewModel) {
+  const ActiveModel model = TrainedSyntheticModel();
+  testing::TempDir dir;
+  const std::string path = dir.File("m");
+  std::string error;
+  ASSERT_TRUE(SaveModel(path, model, &error)) << error;
+  fs::rename(path + "/learned", path + "/learned.aqs-old12345");
+  ActiveModel back;
+  EXPECT_FALSE(LoadModel(path, &back, &error));
+  EXPECT_NE(error.find(path + "/learned is missing and " + path +
+                       "/learned.aqs-old12345 is there: a writer was interrupted"),
+            std::string::npos)
+      << error;
+}
+
 TEST(ModelIoTest, FormatOneIsReadAndUpgradedByACheckpoint) {
   const ActiveModel model = TrainedSyntheticModel();
   testing::TempDir dir;
