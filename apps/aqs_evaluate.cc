@@ -1,5 +1,6 @@
-// aqs_evaluate: per-pose errors of the physics model and of two surface-only baselines
-// of the same latent size (an auto-encoder, PCA) on training and held-out poses, as
+// aqs_evaluate: per-pose errors of the physics model and of three surface-only baselines
+// of the same latent size (an auto-encoder, PCA, PCA about the neutral) on training and
+// held-out poses, as
 // Markdown and CSV tables and per-vertex error fields (PLY). Under mpirun (or with
 // --mpi) the held-out poses' fits are shared among the ranks (docs/distributed.md);
 // rank 0 writes everything.

@@ -752,8 +752,9 @@ def write_html(path, title, rows, figures, notes, markdown):
     if have_budget:
         parts.append(
             "<p><b>(a) floor</b>: the pose's own volumetric target (prepare's embedded "
-            "simulation of the pose) simulated &mdash; what a perfect decoder could reach on "
-            "this simulation mesh and embedding. <b>(b) after pre-training</b>: the "
+            "simulation of the pose) simulated &mdash; what a decoder that reproduced the "
+            "targets exactly would reach on this simulation mesh and embedding (a reference, "
+            "not a lower bound). <b>(b) after pre-training</b>: the "
             "pre-trained decoder's actuation of the pose's latent, simulated (pre-training fits "
             "the volumetric targets, not the surfaces). <b>(c) trained</b>: the end-to-end "
             "trained model, simulated. (c) &minus; (a) is what the decoder and its latent "
@@ -958,7 +959,7 @@ def write_report(args, inputs):
             figures.append({"kind": "budget", "src": "images/budget.png", "alt": "error budget",
                             "caption": "Mean vertex error per pose. Training poses: the floor "
                             "(the pose's volumetric target simulated), after pre-training, the "
-                            "trained physics model, and the two baselines. Held-out poses: the "
+                            "trained physics model, and the baselines. Held-out poses: the "
                             "neutral face (no motion), the floor, the physics model's fit and "
                             "the baselines' (dark bars below the grey one: better than not "
                             "moving at all)."})

@@ -6,8 +6,9 @@ Usage: python3 scripts/make_heldout_poses.py --ict ../shared/data/ict-face
        --train data/ict-face-demo/train.txt --out out/heldout_poses.txt
 
 The demo trains on 12 of the 55 expressions and holds out 4 (data/ict-face-demo/test.txt);
-this list holds out the other 43, so that a comparison with the baselines does not rest
-on 4 poses (docs/results.md). Training entries are matched by file name
+this list holds the 43 it does not train on (those 4 among them), so that a comparison
+with the baselines does not rest on 4 poses (docs/results.md). The demo's settings were
+chosen on these 43 (docs/goals.md): they are a validation set, not an untouched test set. Training entries are matched by file name
 (poses/jawOpen.obj and jawOpen.obj are the same expression); the teeth poses
 (*.teeth.obj) are not expressions. A development-time tool; the tests do not run it."""
 import argparse

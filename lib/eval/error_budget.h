@@ -16,8 +16,9 @@ namespace aqs {
 // The error budget of a physics model: how far its simulated surface is from a pose at
 // each stage of learning, per surface vertex.
 //
-//   floor      the pose's own volumetric target simulated (what a perfect decoder could
-//              reach on this simulation mesh and embedding);
+//   floor      the pose's own volumetric target simulated (what a decoder that reproduced
+//              the targets exactly would reach on this simulation mesh and embedding; a
+//              reference, not a lower bound: other actuations may come closer);
 //   pretrain   the pre-trained decoder's actuation of the pose's latent, simulated (the
 //              decoder was fitted to the targets, not to the surfaces);
 //   trained    the end-to-end trained model, simulated.

@@ -91,7 +91,7 @@ inline constexpr char kHeldOutFitFolder[] = "held_out_fits";
 // neutral surface's error is a reference column; with error_budget, the budget tables),
 // <output>/evaluation.csv, and, with write_fields, <output>/fields/<pose>_<method>.ply
 // and <output>/fitted/<pose>_<method>.obj for the held-out poses (methods physics,
-// autoencoder, pca, and floor with error_budget; fitted/<pose>_target.obj is the pose
+// autoencoder, pca, pca_neutral, and floor with error_budget; fitted/<pose>_target.obj is the pose
 // itself); with write_fields and error_budget also <output>/budget/training_errors.bin
 // (util/matrix_io.h, num_surface_vertices x 3 num_poses: per training pose in the
 // model's order the per-vertex errors of the floor, after pre-training and trained; NaN

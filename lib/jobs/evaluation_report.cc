@@ -192,8 +192,9 @@ EvaluationTables MakeEvaluationTables(const std::vector<EvaluationRow>& rows,
   b << "## Error budget\n\n"
     << "Where the physics model's error comes from (mean vertex error over the same "
     << parts.num_error_vertices << " vertices). **(a) floor**: the pose's own volumetric target "
-    << "(prepare's embedded simulation of the pose) simulated: what a perfect decoder could "
-    << "reach on this simulation mesh and embedding. **(b) after pre-training**: the "
+    << "(prepare's embedded simulation of the pose) simulated: what a decoder that reproduced "
+    << "the targets exactly would reach on this simulation mesh and embedding (a reference, "
+    << "not a lower bound: other actuations may come closer). **(b) after pre-training**: the "
     << "pre-trained decoder's actuation of the pose's latent, simulated (pre-training fits the "
     << "targets, not the surfaces). **(c) trained**: the end-to-end trained model simulated "
     << "(the physics column above). (c) - (a) is what the decoder and its latent space still "
@@ -241,7 +242,14 @@ std::string EvaluationMarkdown(const EvaluationReportParts& parts, const Evaluat
      << parts.pca_components << " components about the training poses' mean, projection), "
      << "**PCA (neutral)** (linear, " << parts.pca_neutral_components
      << " components of the displacements from the neutral, uncentered: its zero is the "
-     << "neutral, like an anchored decoder's zero latent).\n\n";
+     << "neutral, like an anchored decoder's zero latent).";
+  if (parts.num_bones > 0) {
+    md << " Besides its latent the physics model has its bones' rigid motions (6 numbers per "
+       << "bone, " << parts.num_bones << (parts.num_bones > 1 ? " bones" : " bone")
+       << "): on training poses their measured motions, on held-out poses fitted with "
+       << "their prior; the surface baselines have none.";
+  }
+  md << "\n\n";
   md << "The auto-encoder trained " << parts.autoencoder_iterations << " L-BFGS iterations"
      << (parts.autoencoder_scaled_steps ? " with scaled steps" : "") << " from seed "
      << parts.autoencoder_seed;

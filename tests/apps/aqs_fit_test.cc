@@ -15,6 +15,7 @@
 #include "io/latent_io.h"
 #include "mesh/mesh_io.h"
 #include "mesh/ply_io.h"
+#include "testing/file_contents.h"
 #include "testing/run_command.h"
 #include "testing/synthetic_muscles.h"
 #include "testing/temp_dir.h"
@@ -165,6 +166,17 @@ TEST_F(AqsFitTest, EvaluationEmptiesOnlyAnEvaluationsFolder) {
   EXPECT_FALSE(fs::exists(folder + "/index.html"));
   EXPECT_FALSE(fs::exists(folder + "/images"));
   EXPECT_TRUE(fs::exists(folder + "/evaluation.md"));
+  // While the report runs, the held-out fits are still kept (a run killed then takes
+  // them; they were removed before the report, and the rerun fitted every pose again);
+  // they go once it is done. The "report" here lists the store.
+  const std::string probe = dir_->Write("probe.sh", "ls \"$2/held_out_fits\" > \"$2/probe.txt\"\n");
+  const std::string reported = dir_->File("evaluation_probed");
+  run = RunCommand(command + reported + " --report=true --python=/bin/sh --report_script=" +
+                   probe);
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(testing::ReadAll(reported + "/probe.txt").find("key.txt"), std::string::npos)
+      << testing::ReadAll(reported + "/probe.txt");
+  EXPECT_FALSE(fs::exists(reported + "/held_out_fits"));
 }
 
 // Held-out fits start from the best of the mean training latent and the training poses'

@@ -150,6 +150,16 @@ TEST(EvaluationReportTest, MarkdownSaysWhatWasComparedAndCsvKeepsEveryDigit) {
                 .find("with their prior). 1 of the 2 physics fits were a stopped "
                       "run's, kept in its output folder"),
             std::string::npos);
+  // The physics model's bone parameters, which the surface baselines do not have, are
+  // said (the comparison is of latent sizes; it was in a parenthesis on the fits only).
+  EXPECT_EQ(EvaluationMarkdown(parts, tables).find("Besides its latent"), std::string::npos);
+  parts.num_bones = 1;
+  EXPECT_NE(EvaluationMarkdown(parts, tables)
+                .find("Besides its latent the physics model has its bones' rigid motions (6 "
+                      "numbers per bone, 1 bone): on training poses their measured motions, "
+                      "on held-out poses fitted with their prior; the surface baselines have "
+                      "none."),
+            std::string::npos);
   parts.autoencoder_resumed_after = 432;
   parts.autoencoder_resumed_loss = 0.25;
   EXPECT_NE(EvaluationMarkdown(parts, tables)
