@@ -493,16 +493,22 @@ void HeldOutFloors(const EvaluateJobOptions& options, const ActiveModel& model,
 bool WriteHeldOutFields(const std::string& out, const ActiveModel& model,
                         const std::vector<std::string>& test_names,
                         const std::vector<Eigen::Matrix3Xd>& test_surfaces,
-                        const std::vector<HeldOut>& held_out, std::string* error) {
+                        const std::vector<HeldOut>& held_out,
+                        const std::vector<int>& error_vertices, std::string* error) {
   for (size_t t = 0; t < test_names.size(); ++t) {
     const HeldOut& h = held_out[t];
-    // One colour scale for the methods of a pose: the 95th percentile of all their
-    // vertex errors, so that the fields compare by eye.
+    // One colour scale for the methods of a pose, the report's pictures' own
+    // (ErrorMapScale), so that the fields compare by eye, with each other and with them.
     std::vector<double> pooled;
     for (const Eigen::VectorXd& e : h.errors) {
-      pooled.insert(pooled.end(), e.data(), e.data() + e.size());
+      if (e.size() == 0) continue;
+      if (error_vertices.empty()) {
+        pooled.insert(pooled.end(), e.data(), e.data() + e.size());
+      } else {
+        for (int v : error_vertices) pooled.push_back(e[v]);
+      }
     }
-    const double color_max = PercentileColorMax(std::move(pooled));
+    const double color_max = ErrorMapScale(std::move(pooled));
     SurfaceMesh surface = model.neutral;
     surface.vertices = test_surfaces[t];
     if (!WriteObj(out + "/fitted/" + test_names[t] + "_target.obj", surface, error)) return false;
@@ -704,7 +710,8 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
     }
   }
   if (options.write_fields &&
-      !WriteHeldOutFields(out, model, test_names, test_surfaces, held_out, error)) {
+      !WriteHeldOutFields(out, model, test_names, test_surfaces, held_out,
+                          options.error_vertices, error)) {
     return false;
   }
 

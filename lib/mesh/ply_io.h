@@ -24,6 +24,13 @@ std::array<std::uint8_t, 3> ScalarColor(double value, double color_max);
 // wash out the rest; at least 1e-12 (and 1e-12 for no values).
 double PercentileColorMax(std::vector<double> values);
 
+// The colour_max of the evaluation's error maps, the PLY fields and the report's pictures
+// (scripts/evaluation_report.py, percentile_scale) alike: the 98th percentile of `values`
+// (a pose's methods' errors over the measured vertices) as numpy computes it by default
+// (sorted v, position (n - 1) 0.98, linear between its two neighbours); 1 for no values
+// or a percentile <= 0.
+double ErrorMapScale(std::vector<double> values);
+
 // Writes `surface` as an ASCII PLY (format ascii 1.0) with one scalar per vertex, for
 // viewing an error map in ParaView, MeshLab or Blender:
 //

@@ -29,6 +29,16 @@ double PercentileColorMax(std::vector<double> values) {
   return std::max(1e-12, *at);
 }
 
+double ErrorMapScale(std::vector<double> values) {
+  if (values.empty()) return 1.0;
+  std::sort(values.begin(), values.end());
+  const double position = (values.size() - 1) * 0.98;
+  const size_t low = static_cast<size_t>(std::floor(position));
+  const size_t high = std::min(low + 1, values.size() - 1);
+  const double top = values[low] + (values[high] - values[low]) * (position - low);
+  return top > 0 ? top : 1.0;
+}
+
 std::array<std::uint8_t, 3> ScalarColor(double value, double color_max) {
   CHECK_GT(color_max, 0.0) << "color_max must be positive";
   double t = value / color_max;

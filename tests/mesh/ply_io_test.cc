@@ -79,6 +79,19 @@ TEST(PlyColorTest, PercentileColorMaxIsThe95thPercentile) {
   EXPECT_EQ(PercentileColorMax({2.0}), 2.0);
 }
 
+// The evaluation's error-map scale is numpy's default 98th percentile (what the report's
+// pictures use: np.percentile([1, 2, 3, 4], 98) = 3.94), so that its PLY fields and its
+// pictures of a pose share one scale (they were the 95th and the 98th percentile).
+TEST(PlyColorTest, ErrorMapScaleIsNumpysPercentile98) {
+  EXPECT_NEAR(ErrorMapScale({4, 1, 3, 2}), 3.94, 1e-12);
+  std::vector<double> values;
+  for (int i = 100; i >= 0; --i) values.push_back(i);
+  EXPECT_NEAR(ErrorMapScale(values), 98.0, 1e-12);
+  EXPECT_EQ(ErrorMapScale({}), 1.0);
+  EXPECT_EQ(ErrorMapScale({0.0, 0.0}), 1.0);
+  EXPECT_EQ(ErrorMapScale({0.5}), 0.5);
+}
+
 TEST(PlyWriteTest, WrittenFileReadsBackExactly) {
   testing::TempDir dir;
   SurfaceMesh surface;
