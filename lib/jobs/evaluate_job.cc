@@ -452,6 +452,14 @@ void HeldOutFloors(const EvaluateJobOptions& options, const ActiveModel& model,
   std::vector<std::vector<RigidTransform>> bones;
   std::vector<Eigen::Matrix3Xd> starts;
   for (size_t t = 0; t < test_names.size(); ++t) {
+    // A failed fit placed no bones: a floor with them at rest would be another pose's (a
+    // jaw pose's target with the jaw closed), so a model with bones leaves it out.
+    if ((*held_out)[t].fit.failed && !model.bones.empty()) {
+      ++parts->floor_without_fit;
+      log << "  held-out pose '" << test_names[t]
+          << "': its physics fit failed, which places the bones (floor left out)\n";
+      continue;
+    }
     if (!target_failures[t].empty()) {
       ++parts->floor_failures;
       log << "  held-out pose '" << test_names[t]

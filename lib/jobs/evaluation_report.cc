@@ -221,6 +221,10 @@ EvaluationTables MakeEvaluationTables(const std::vector<EvaluationRow>& rows,
     b << "\n" << parts.floor_failures << " floor equilibria did not converge and are left out "
       << "(n/a).\n";
   }
+  if (parts.floor_without_fit > 0) {
+    b << "\n" << parts.floor_without_fit << " held-out floor(s) are left out (n/a): the "
+      << "physics fit failed, and the floor takes the bones where it puts them.\n";
+  }
   tables.budget = b.str();
   return tables;
 }

@@ -57,6 +57,8 @@ struct EvaluationReportParts {
   int num_error_vertices = 0;  // vertices the errors are measured over
   int latent_dim = 0;
   int num_bones = 0;  // the physics model's bones (6 rigid parameters each)
+  // Held-out floors left out because the pose's physics fit failed (with bones).
+  int floor_without_fit = 0;
   // The physics decoder's and the auto-encoder's layouts.
   std::vector<int> decoder_hidden_dims, autoencoder_hidden_dims;
   bool decoder_anchored = false;

@@ -104,6 +104,14 @@ TEST(EvaluationReportTest, MarkdownSaysWhatWasComparedAndCsvKeepsEveryDigit) {
   EXPECT_NE(tables.budget.find("## Error budget"), std::string::npos);
   EXPECT_NE(tables.budget.find("(b) is not recorded in this model"), std::string::npos);
   EXPECT_NE(tables.budget.find("1 floor equilibria did not converge"), std::string::npos);
+  // A held-out floor left out because its fit failed (with bones) is said, not made with
+  // the bones at rest as if they were where a fit put them.
+  EXPECT_EQ(tables.budget.find("held-out floor(s) are left out"), std::string::npos);
+  parts.floor_without_fit = 1;
+  EXPECT_NE(MakeEvaluationTables(rows, parts)
+                .budget.find("1 held-out floor(s) are left out (n/a): the physics fit failed"),
+            std::string::npos);
+  parts.floor_without_fit = 0;
   const std::string md = EvaluationMarkdown(parts, tables);
   EXPECT_EQ(md.rfind("# Evaluation of out/model\n", 0), 0u) << md;
   EXPECT_NE(md.find("over 9409 surface vertices"), std::string::npos);
