@@ -22,9 +22,9 @@ namespace aqs {
 // start, factorizations), then z1..zd, then <bone>_rx, ry, rz, tx, ty, tz per bone.
 // converged: 1 the fit met its tolerance, 0 it stopped at its iteration limit, -1 the
 // frame could not be fitted (independent frames only: its equilibrium could not be
-// computed, no start reached it, or the fit's minimizer failed): then it has no OBJ, its errors, latent and bone
-// motions are "nan" (and so is its column of latents.bin), and start is "none" if no
-// start was chosen.
+// computed, no start reached it, or the fit's minimizer failed): then it has no OBJ, its
+// errors, latent and bone motions are "nan" (and so is its column of latents.bin), and
+// start is "none" if no start was chosen.
 std::string SequenceCsvHeader(const ActiveModel& model);
 
 // A frame found done in an earlier run: its CSV row as written, its latent (d) and its
