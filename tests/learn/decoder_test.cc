@@ -1,8 +1,5 @@
 #include "learn/decoder.h"
 
-#include <sys/resource.h>
-#include <unistd.h>
-
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -522,13 +519,7 @@ TEST_F(MalformedDecoderTest, HugeCountsInASmallFileDoNotAllocateThem) {
   for (const std::string& path : {huge_parameters, huge_nodes}) {
     SCOPED_TRACE(path);
     const std::string outcome = testing::RunInChildKilledAt(-1, [&]() {
-      std::ifstream statm("/proc/self/statm");
-      long pages = 0;
-      statm >> pages;
-      struct rlimit limit;
-      limit.rlim_cur = limit.rlim_max =
-          static_cast<rlim_t>(pages) * static_cast<rlim_t>(sysconf(_SC_PAGESIZE)) + (1 << 30);
-      if (pages <= 0 || setrlimit(RLIMIT_AS, &limit) != 0) return false;
+      if (!testing::LimitAddressSpaceToCurrentPlus(1L << 30)) return false;
       try {
         DecoderSpec spec;
         GridFieldDescription field;

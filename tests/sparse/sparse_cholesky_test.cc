@@ -1,11 +1,7 @@
 #include "sparse/sparse_cholesky.h"
 
-#include <sys/resource.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <cstdio>
-#include <fstream>
 #include <random>
 
 #include <Eigen/Cholesky>
@@ -87,13 +83,7 @@ TEST(SparseCholeskyMemoryTest, AnalysisOutOfMemoryIsAnError) {
   column_starts[n] = static_cast<int64_t>(row_indices.size());
   const std::vector<double> values(row_indices.size(), 1.0);
   const std::string outcome = testing::RunInChildKilledAt(-1, [&]() {
-    std::ifstream statm("/proc/self/statm");
-    long pages = 0;
-    statm >> pages;
-    struct rlimit limit;
-    limit.rlim_cur = limit.rlim_max =
-        static_cast<rlim_t>(pages) * static_cast<rlim_t>(sysconf(_SC_PAGESIZE)) + (2 << 20);
-    if (pages <= 0 || setrlimit(RLIMIT_AS, &limit) != 0) return false;
+    if (!testing::LimitAddressSpaceToCurrentPlus(2 << 20)) return false;
     try {
       SparseCholesky cholesky(n, &column_starts, &row_indices);
       std::string error;

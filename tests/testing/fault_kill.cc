@@ -1,8 +1,11 @@
 #include "testing/fault_kill.h"
 
 #include <signal.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
+
+#include <fstream>
 
 #include "util/fault_injection.h"
 
@@ -80,6 +83,18 @@ long DeadPid() {
   int status = 0;
   ::waitpid(pid, &status, 0);
   return static_cast<long>(pid);
+}
+
+bool LimitAddressSpaceToCurrentPlus(long headroom) {
+  std::ifstream statm("/proc/self/statm");
+  long pages = 0;
+  statm >> pages;
+  if (pages <= 0) return false;
+  struct rlimit limit;
+  limit.rlim_cur = limit.rlim_max =
+      static_cast<rlim_t>(pages) * static_cast<rlim_t>(sysconf(_SC_PAGESIZE)) +
+      static_cast<rlim_t>(headroom);
+  return setrlimit(RLIMIT_AS, &limit) == 0;
 }
 
 }  // namespace testing

@@ -28,6 +28,11 @@ std::string RunInChildKilledAt(const std::string& point, int occurrence,
 // used them). Returns "killed" if it ended by SIGKILL, else "exit <status>".
 std::string RunProgram(const std::vector<std::string>& argv);
 
+// In a child of RunInChildKilledAt: limits this process's address space to what it maps
+// now plus `headroom` bytes (setrlimit RLIMIT_AS), so that an allocation beyond that fails
+// (std::bad_alloc, or a library's out-of-memory error). False if it cannot.
+bool LimitAddressSpaceToCurrentPlus(long headroom);
+
 // The pid of a process that has ended (forked, exited and reaped).
 long DeadPid();
 
