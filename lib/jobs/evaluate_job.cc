@@ -443,10 +443,13 @@ void HeldOutFloors(const EvaluateJobOptions& options, const ActiveModel& model,
     return;
   }
   // A pose whose target's embedded simulation does not converge loses its floor alone.
-  std::vector<int> all(test_names.size());
-  for (size_t t = 0; t < all.size(); ++t) all[t] = static_cast<int>(t);
+  // (Not for a pose whose floor is left out below: its fit failed, with bones.)
+  std::vector<int> made;
+  for (size_t t = 0; t < test_names.size(); ++t) {
+    if (!(*held_out)[t].fit.failed || model.bones.empty()) made.push_back(static_cast<int>(t));
+  }
   std::vector<std::string> target_failures(test_names.size());
-  MakeVolumetricTargetsOf(target_options, all, nullptr, &held, target_log, &target_failures);
+  MakeVolumetricTargetsOf(target_options, made, nullptr, &held, target_log, &target_failures);
   std::vector<int> simulated;  // the poses with a target
   std::vector<ActuationMatrix> targets;
   std::vector<std::vector<RigidTransform>> bones;

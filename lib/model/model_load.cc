@@ -28,6 +28,7 @@
 #include "util/line_reader.h"
 #include "util/matrix_io.h"
 #include "util/number_format.h"
+#include "util/staged_directory.h"
 
 namespace aqs {
 namespace {
@@ -507,19 +508,6 @@ bool ReadEmbedding(const std::string& dir, ActiveModel* model, std::string* erro
   return true;
 }
 
-// A folder "learned.aqs-old<pid>" in the model folder `dir` (where a writer without an
-// atomic exchange moves learned/ while it puts the new one in place;
-// util/staged_directory.h), or "" if there is none.
-std::string MovedAsideLearnedFolder(const std::string& dir) {
-  const std::string prefix = std::string(internal::kLearnedFolder) + ".aqs-old";
-  std::error_code code;
-  for (const auto& entry : std::filesystem::directory_iterator(dir, code)) {
-    const std::string name = entry.path().filename().string();
-    if (name.rfind(prefix, 0) == 0) return entry.path().string();
-  }
-  return "";
-}
-
 // The learned part (decoder, latents, states, prior) of a model of format `version`,
 // read as one unit: read again if a writer replaced learned/ meanwhile (its directory
 // is then another one). A model not yet pre-trained has none.
@@ -542,7 +530,7 @@ bool ReadLearnedPart(const std::string& dir, int version, ActiveModel* model, st
         if (DirectoryIdentity(learned).second == 0) {
           // Not pre-trained, unless a writer without an atomic exchange (NFS) has moved
           // learned/ aside and not yet put the new one in its place, or was killed then.
-          const std::string aside = MovedAsideLearnedFolder(dir);
+          const std::string aside = MovedAsideOf(learned);
           if (aside.empty()) break;
           if (attempt == 20) {
             *error = learned + " is missing and " + aside + " is there: a writer was "

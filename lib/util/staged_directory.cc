@@ -94,6 +94,18 @@ long LeftoverPid(const std::string& name, const std::string& base, const std::st
 
 }  // namespace
 
+std::string MovedAsideOf(const std::string& target_in) {
+  const std::string target = WithoutTrailingSlashes(target_in);
+  const std::string base = fs::path(target).filename().string();
+  std::error_code code;
+  for (const fs::directory_entry& entry : fs::directory_iterator(ParentOf(target), code)) {
+    if (LeftoverPid(entry.path().filename().string(), base, "old") >= 0) {
+      return entry.path().string();
+    }
+  }
+  return "";
+}
+
 std::string StagingPathOf(const std::string& target) {
   return WithoutTrailingSlashes(target) + ".aqs-tmp" + std::to_string(static_cast<long>(::getpid()));
 }

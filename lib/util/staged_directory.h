@@ -56,6 +56,11 @@ bool ProcessIsGone(long pid);
 // folder's lock, can only be a dead predecessor's); -1 for any other name.
 long StaleWriterPid(const std::string& name, const std::string& stem, const std::string& suffix);
 
+// A "T.aqs-old<pid>" beside `target` (its old content, moved aside by a writer without
+// an atomic exchange: one writing now, or one killed between its two renames), or ""
+// if there is none. For readers, which take no lock.
+std::string MovedAsideOf(const std::string& target);
+
 // Cleans up what killed writers left beside `target` (the names above, of processes
 // that are gone or of this process's pid, which at lock time can only be a dead
 // predecessor's): when `target` is missing and a moved-aside "T.aqs-old<pid>" holds
