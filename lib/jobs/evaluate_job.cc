@@ -319,7 +319,10 @@ void TrainingPoseBudget(const EvaluateJobOptions& options, const ActiveModel& mo
     log << "  the pre-training record is unusable (stage (b) left out): " << read_error << "\n";
   }
   for (int p = 0; parts->have_pretrain && p < model.num_poses(); ++p) {
-    if (!pretrain.converged[p]) continue;  // no equilibrium: no error to report
+    if (!pretrain.converged[p]) {  // no equilibrium: no error to report
+      ++parts->pretrain_unconverged;
+      continue;
+    }
     training_errors->col(3 * p + 1) = pretrain.distances.col(p);
     rows->push_back(SummarizeErrors("train", model.poses[p].name, "pretrain",
                                     Eigen::VectorXd(pretrain.distances.col(p)), measured));
@@ -665,6 +668,7 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
   parts.autoencoder_scaled_steps = ae_options.lbfgs_scaling;
   parts.autoencoder_seed = ae_options.seed;
   parts.num_bones = static_cast<int>(model.bones.size());
+  parts.trained_iterations = model.checkpoint.iterations;
   parts.autoencoder_initial_loss = ae.initial_loss;
   parts.autoencoder_resumed_loss = ae.resumed_loss;
   parts.autoencoder_final_loss = ae.final_loss;

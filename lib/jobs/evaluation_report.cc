@@ -206,6 +206,14 @@ EvaluationTables MakeEvaluationTables(const std::vector<EvaluationRow>& rows,
     b << "\n(b) is not recorded in this model: it is measured when pre-training ends "
       << "(`--pretrain_simulate`, pretrain/surface_errors.* in the model directory).\n";
   }
+  if (parts.pretrain_unconverged > 0) {
+    b << "\n" << parts.pretrain_unconverged << " training pose(s) had no equilibrium when "
+      << "pre-training ended: their (b) is n/a, and so is its mean.\n";
+  }
+  if (parts.trained_iterations == 0) {
+    b << "\nThis model is pre-trained only (no end-to-end training iteration): (c) is its "
+      << "pre-trained decoder simulated again.\n";
+  }
   if (!parts.test_names.empty()) {
     b << "\nHeld-out poses: **floor**: the pose's own volumetric target, made by prepare's "
       << "embedded simulation with the bones where the physics fit put them, simulated; "

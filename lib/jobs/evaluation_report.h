@@ -59,6 +59,10 @@ struct EvaluationReportParts {
   int num_bones = 0;  // the physics model's bones (6 rigid parameters each)
   // Held-out floors left out because the pose's physics fit failed (with bones).
   int floor_without_fit = 0;
+  // Training poses whose (b) equilibrium did not converge when pre-training ended.
+  int pretrain_unconverged = 0;
+  // End-to-end training iterations of the model (0: pre-trained only; (c) is then (b)).
+  int trained_iterations = -1;
   // The physics decoder's and the auto-encoder's layouts.
   std::vector<int> decoder_hidden_dims, autoencoder_hidden_dims;
   bool decoder_anchored = false;

@@ -112,6 +112,17 @@ TEST(EvaluationReportTest, MarkdownSaysWhatWasComparedAndCsvKeepsEveryDigit) {
                 .budget.find("1 held-out floor(s) are left out (n/a): the physics fit failed"),
             std::string::npos);
   parts.floor_without_fit = 0;
+  // (b)'s n/a and a pre-trained-only model's (c) are explained.
+  EXPECT_EQ(tables.budget.find("had no equilibrium when pre-training ended"), std::string::npos);
+  EXPECT_EQ(tables.budget.find("pre-trained only"), std::string::npos);
+  parts.pretrain_unconverged = 2;
+  parts.trained_iterations = 0;
+  const std::string explained = MakeEvaluationTables(rows, parts).budget;
+  EXPECT_NE(explained.find("2 training pose(s) had no equilibrium when pre-training ended"),
+            std::string::npos);
+  EXPECT_NE(explained.find("This model is pre-trained only"), std::string::npos);
+  parts.pretrain_unconverged = 0;
+  parts.trained_iterations = -1;
   const std::string md = EvaluationMarkdown(parts, tables);
   EXPECT_EQ(md.rfind("# Evaluation of out/model\n", 0), 0u) << md;
   EXPECT_NE(md.find("over 9409 surface vertices"), std::string::npos);
