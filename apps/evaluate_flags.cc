@@ -8,9 +8,9 @@
 
 #include "app_common.h"
 #include "latent_fit_flags.h"
+#include "prepare_flags.h"
 
 #include "prepare/pose_files.h"
-#include "prepare/volumetric_targets.h"
 #include "util/line_reader.h"
 #include "util/vertex_ranges.h"
 
@@ -55,9 +55,6 @@ DEFINE_string(report_script, "", "The report script (default: evaluation_report.
 DEFINE_string(python, AQS_PYTHON, "The Python 3 interpreter that runs the report script (it "
               "needs matplotlib and numpy; default: the one the build found).");
 DECLARE_string(model);
-DECLARE_double(attachment_stiffness);
-DECLARE_string(inverted_targets);
-DECLARE_double(prepare_tolerance);
 DECLARE_string(pose_dir);
 DECLARE_int32(threads);
 DECLARE_double(latent_regularization);
@@ -140,14 +137,8 @@ bool EvaluateOptionsFromFlags(EvaluateJobOptions* options, std::string* error) {
   options->write_fields = FLAGS_write_fields;
   options->error_budget = FLAGS_error_budget;
   // The held-out poses' volumetric targets are made as prepare makes the training poses'
-  // (the same spring stiffness, tolerance and equilibrium method).
-  options->held_out_targets.relative_stiffness = FLAGS_attachment_stiffness;
-  if (!ParseInvertedTargets(FLAGS_inverted_targets, &options->held_out_targets.inverted_targets)) {
-    *error = "--inverted_targets=" + FLAGS_inverted_targets + ": expected exact or mirror";
-    return false;
-  }
-  options->held_out_targets.solver.relative_force_tolerance = FLAGS_prepare_tolerance;
-  if (!SolverMethodFromFlag(&options->held_out_targets.solver, error)) return false;
+  // (the same spring stiffness, rule for inverted elements, tolerance and method).
+  if (!VolumetricTargetOptionsFromFlags(&options->held_out_targets, error)) return false;
   if (FLAGS_report) {
     options->report_script = FLAGS_report_script.empty() ? DefaultReportScript() : FLAGS_report_script;
     if (options->report_script.empty()) {

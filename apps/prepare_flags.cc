@@ -171,14 +171,18 @@ bool PrepareOptionsFromFlags(PrepareJobOptions* options, std::string* error) {
   return true;
 }
 
-bool PrepareTargetOptionsFromFlags(PrepareJobOptions* options, std::string* error) {
-  options->targets.relative_stiffness = FLAGS_attachment_stiffness;
-  if (!ParseInvertedTargets(FLAGS_inverted_targets, &options->targets.inverted_targets)) {
+bool VolumetricTargetOptionsFromFlags(VolumetricTargetOptions* options, std::string* error) {
+  options->relative_stiffness = FLAGS_attachment_stiffness;
+  if (!ParseInvertedTargets(FLAGS_inverted_targets, &options->inverted_targets)) {
     *error = "--inverted_targets=" + FLAGS_inverted_targets + ": expected exact or mirror";
     return false;
   }
-  options->targets.solver.relative_force_tolerance = FLAGS_prepare_tolerance;
-  if (!SolverMethodFromFlag(&options->targets.solver, error)) return false;
+  options->solver.relative_force_tolerance = FLAGS_prepare_tolerance;
+  return SolverMethodFromFlag(&options->solver, error);
+}
+
+bool PrepareTargetOptionsFromFlags(PrepareJobOptions* options, std::string* error) {
+  if (!VolumetricTargetOptionsFromFlags(&options->targets, error)) return false;
   options->num_threads = FLAGS_threads;
   options->targets.num_threads = FLAGS_threads;
   return true;
