@@ -1,5 +1,6 @@
 #include "jobs/shared_pose_work.h"
 
+#include <algorithm>
 #include <sstream>
 #include <utility>
 
@@ -51,65 +52,78 @@ bool MakeVolumetricTargetsOnRanks(const Communicator& comm,
              " against " + root_key + "): every rank must be given the same flags";
   }
   if (!comm.Agree(key == root_key, error)) return false;
-  // The poses rank 0 finds in its store, and the others dealt round robin.
+  // The poses rank 0 finds in its store; the others are made in rounds.
   std::vector<int> stored(num_poses, 0);
   for (int p = 0; storing && p < num_poses; ++p) {
     stored[p] = store.Load(p, model->mesh.num_tets(), &model->poses[p], &failures[p]) ? 1 : 0;
   }
   if (num_poses > 0) comm.Broadcast(stored.data(), num_poses, 0);
-  std::vector<int> remaining, mine;
+  std::vector<int> remaining;
   for (int p = 0; p < num_poses; ++p) {
     if (!stored[p]) remaining.push_back(p);
   }
-  for (size_t k = rank; k < remaining.size(); k += size) mine.push_back(remaining[k]);
   if (root && remaining.size() < static_cast<size_t>(num_poses)) {
     log << "  " << num_poses - remaining.size() << " of " << num_poses
         << " poses' targets were taken from " << options.store_directory
         << " (an earlier run of the same preparation)\n";
   }
+  // A round deals each rank as many poses as it has threads, and rank 0 keeps the
+  // round's targets before the next round starts: a stop loses at most the round's
+  // (all made before being sent, the other ranks' targets were lost with any rank).
+  const size_t per_rank = static_cast<size_t>(options.num_threads);
+  const size_t per_round = per_rank * size;
   if (root && size > 1 && !remaining.empty()) {
-    log << "  " << remaining.size() << " poses shared among " << size << " ranks (rank 0 logs "
-        << "its own as they are made, then the others')\n";
+    log << "  " << remaining.size() << " poses shared among " << size << " ranks in rounds of "
+        << per_round << " (rank 0 logs its own as they are made, then the others')\n";
   }
-  std::ostringstream own_log;
-  MakeVolumetricTargetsOf(options, mine, storing ? &store : nullptr, model,
-                          root ? log : own_log, &failures);
-  // The other ranks' log lines, in rank order.
-  for (int r = 1; r < size; ++r) {
-    std::string text = rank == r ? own_log.str() : std::string();
-    comm.BroadcastText(&text, r);
-    if (root) log << text;
-  }
-  // Their targets, one pose at a time: has target, mean, max, target (6 x elements).
+  VolumetricTargetMaker maker(options, *model);
   const int elements = model->mesh.num_tets();
-  const int block = 3 + 6 * elements;
+  const int block = 3 + 6 * elements;  // has target, mean, max, target (6 x elements)
   std::vector<double> send, received;
-  for (size_t k = 0; k < remaining.size() && size > 1; ++k) {
-    const int owner = static_cast<int>(k % size);
-    if (owner == 0) continue;
-    const int p = remaining[k];
-    TrainingPose& pose = model->poses[p];
-    send.assign(rank == owner ? block : 0, 0.0);  // only the owner sends
-    if (rank == owner) {
-      send[0] = pose.target.cols() == elements ? 1.0 : 0.0;
-      send[1] = pose.embedding_mean_error;
-      send[2] = pose.embedding_max_error;
-      if (send[0] != 0) std::copy(pose.target.data(), pose.target.data() + 6 * elements,
-                                  send.begin() + 3);
+  for (size_t begin = 0; begin < remaining.size(); begin += per_round) {
+    const size_t end = std::min(remaining.size(), begin + per_round);
+    const auto owner_of = [&](size_t k) { return static_cast<int>((k - begin) / per_rank); };
+    std::vector<int> mine;
+    for (size_t k = begin; k < end; ++k) {
+      if (owner_of(k) == rank) mine.push_back(remaining[k]);
     }
-    SendToRoot(comm, owner, send, block, &received);
-    SendMessageToRoot(comm, owner, &failures[p]);
-    if (!root) continue;
-    pose.target.resize(6, received[0] != 0 ? elements : 0);
-    if (received[0] != 0) {
-      std::copy(received.begin() + 3, received.end(), pose.target.data());
+    std::ostringstream own_log;
+    maker.Make(mine, storing ? &store : nullptr, model, root ? log : own_log, &failures);
+    if (size == 1) continue;
+    // The other ranks' log lines of the round, in rank order.
+    for (int r = 1; r < size; ++r) {
+      std::string text = rank == r ? own_log.str() : std::string();
+      comm.BroadcastText(&text, r);
+      if (root) log << text;
     }
-    pose.embedding_mean_error = received[1];
-    pose.embedding_max_error = received[2];
-    std::string store_error;
-    if (storing && pose.target.cols() == elements &&
-        !store.Save(p, pose, failures[p], &store_error)) {
-      log << "  warning: pose '" << pose.name << "' not kept: " << store_error << "\n";
+    // Their targets, one pose at a time, kept by rank 0 as they come.
+    for (size_t k = begin; k < end; ++k) {
+      const int owner = owner_of(k);
+      if (owner == 0) continue;
+      const int p = remaining[k];
+      TrainingPose& pose = model->poses[p];
+      send.assign(rank == owner ? block : 0, 0.0);  // only the owner sends
+      if (rank == owner) {
+        send[0] = pose.target.cols() == elements ? 1.0 : 0.0;
+        send[1] = pose.embedding_mean_error;
+        send[2] = pose.embedding_max_error;
+        if (send[0] != 0) std::copy(pose.target.data(), pose.target.data() + 6 * elements,
+                                    send.begin() + 3);
+      }
+      SendToRoot(comm, owner, send, block, &received);
+      SendMessageToRoot(comm, owner, &failures[p]);
+      if (!root) continue;
+      pose.target.resize(6, received[0] != 0 ? elements : 0);
+      if (received[0] != 0) {
+        std::copy(received.begin() + 3, received.end(), pose.target.data());
+      }
+      pose.embedding_mean_error = received[1];
+      pose.embedding_max_error = received[2];
+      std::string store_error;
+      if (storing && pose.target.cols() == elements &&
+          !store.Save(p, pose, failures[p], &store_error)) {
+        log << "  warning: pose '" << pose.name << "' not kept: " << store_error << "\n";
+      }
     }
   }
   ok = true;

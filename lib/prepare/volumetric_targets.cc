@@ -17,6 +17,7 @@
 #include "physics/rotation_variant_svd.h"
 #include "prepare/target_store.h"
 #include "util/blas.h"
+#include "util/fault_injection.h"
 #include "util/parallel_for.h"
 #include "util/wall_timer.h"
 #include "util/option_checks.h"
@@ -86,23 +87,41 @@ double EquilibriumSolverMemoryBytes(double num_elements) {
          std::max(1.0, std::cbrt(num_elements / kMeasuredElements));
 }
 
+struct VolumetricTargetMaker::Worker {
+  std::unique_ptr<QuasistaticSolver> solver;
+  std::unique_ptr<EmbeddedAttachments> springs;
+  // The factor every pose's solve starts from (RestStiffnessFactor).
+  StoredStiffnessFactor start_factor;
+};
+
+VolumetricTargetMaker::VolumetricTargetMaker(const VolumetricTargetOptions& options,
+                                             const ActiveModel& model)
+    : options_(options),
+      model_(model),
+      physics_(std::make_unique<ShapeTargetModel>(model.mesh, model.mu)),
+      stiffness_(AttachmentStiffness(model, options.relative_stiffness)),
+      workers_(options.num_threads) {}
+
+VolumetricTargetMaker::~VolumetricTargetMaker() = default;
+
 void MakeVolumetricTargetsOf(const VolumetricTargetOptions& options,
                              const std::vector<int>& poses, const TargetStore* store,
                              ActiveModel* model, std::ostream& log,
                              std::vector<std::string>* failures) {
+  if (poses.empty()) return;
+  VolumetricTargetMaker(options, *model).Make(poses, store, model, log, failures);
+}
+
+void VolumetricTargetMaker::Make(const std::vector<int>& poses, const TargetStore* store,
+                                 ActiveModel* model, std::ostream& log,
+                                 std::vector<std::string>* failures) {
+  CHECK_EQ(model, &model_);
   CHECK_EQ(static_cast<int>(failures->size()), model->num_poses());
   const int count = static_cast<int>(poses.size());
   if (count == 0) return;
-  const ShapeTargetModel physics(model->mesh, model->mu);
-  const Eigen::VectorXd stiffness = AttachmentStiffness(*model, options.relative_stiffness);
+  const ShapeTargetModel& physics = *physics_;
+  const VolumetricTargetOptions& options = options_;
   const int threads = std::max(1, std::min(options.num_threads, count));
-  struct Worker {
-    std::unique_ptr<QuasistaticSolver> solver;
-    std::unique_ptr<EmbeddedAttachments> springs;
-    // The factor every pose's solve starts from (RestStiffnessFactor).
-    StoredStiffnessFactor start_factor;
-  };
-  std::vector<Worker> workers(threads);
   QuasistaticSolverOptions solver_options = options.solver;
   solver_options.num_threads = 1;  // parallel over poses instead
   // And BLAS single-threaded meanwhile: each pose's factorizations calling a threaded
@@ -113,17 +132,19 @@ void MakeVolumetricTargetsOf(const VolumetricTargetOptions& options,
   const ScopedBlasThreads blas(1);
   std::mutex log_mutex;
   ParallelFor(threads, 0, count, [&](int t, int k) {
+    FaultPoint("targets:pose");  // before each pose's solve
     WallTimer timer;
     const int p = poses[k];
     TrainingPose& pose = model->poses[p];
     std::string& failure = (*failures)[p];
     failure.clear();
-    Worker& w = workers[t];
+    if (!workers_[t]) workers_[t] = std::make_unique<Worker>();
+    Worker& w = *workers_[t];
     if (!w.solver) {
       w.solver = std::make_unique<QuasistaticSolver>(physics, PoseBoundaryConditions(*model, 0),
                                                      solver_options);
       w.springs = std::make_unique<EmbeddedAttachments>(model->embedding, model->mesh.tets,
-                                                        stiffness, model->mesh.vertices);
+                                                        stiffness_, model->mesh.vertices);
       w.solver->AddEnergyTerm(w.springs.get());
       w.start_factor = RestStiffnessFactor(model->mesh.vertices, w.solver.get());
     }

@@ -1,6 +1,7 @@
 #ifndef AQS_PREPARE_VOLUMETRIC_TARGETS_H_
 #define AQS_PREPARE_VOLUMETRIC_TARGETS_H_
 
+#include <memory>
 #include <ostream>
 #include <string>
 #include <vector>
@@ -92,6 +93,35 @@ void MakeVolumetricTargetsOf(const VolumetricTargetOptions& options,
                              ActiveModel* model, std::ostream& log,
                              std::vector<std::string>* failures);
 
+// MakeVolumetricTargetsOf over several calls: keeps its solvers (one per thread, each
+// with the rest stiffness factor every pose's solve starts from) from one call to the
+// next, so that poses made a few at a time (the rounds of jobs/shared_pose_work.h, each
+// kept before the next) cost what they cost made at once. Each pose's target is the
+// same as MakeVolumetricTargetsOf's, whichever call makes it.
+class VolumetricTargetMaker {
+ public:
+  // For `model`'s mesh, material, embedding, neutral surface and bones, which must not
+  // change while the maker lives (Make writes the poses' targets and errors only).
+  // options must be valid (options.Validate); store_directory is not used.
+  VolumetricTargetMaker(const VolumetricTargetOptions& options, const ActiveModel& model);
+  ~VolumetricTargetMaker();
+  VolumetricTargetMaker(const VolumetricTargetMaker&) = delete;
+  VolumetricTargetMaker& operator=(const VolumetricTargetMaker&) = delete;
+
+  // MakeVolumetricTargetsOf(options, poses, store, model, log, failures) for the model
+  // given to the constructor.
+  void Make(const std::vector<int>& poses, const TargetStore* store, ActiveModel* model,
+            std::ostream& log, std::vector<std::string>* failures);
+
+ private:
+  struct Worker;
+  const VolumetricTargetOptions options_;
+  const ActiveModel& model_;
+  std::unique_ptr<ShapeTargetModel> physics_;
+  Eigen::VectorXd stiffness_;  // AttachmentStiffness
+  std::vector<std::unique_ptr<Worker>> workers_;  // made when first needed
+};
+
 // The memory of the equilibrium solves of a mesh of num_elements elements (bytes): one
 // solver with its stiffness factorization, about 8 kB per element at 250,000 elements
 // (docs/benchmarks.md: 2.0 GB peak), growing as the cube root of the element count
@@ -115,7 +145,6 @@ Eigen::Matrix3d SignedSymmetricFactor(const Eigen::Matrix3d& f);
 // SymmetricPolarFactor where det f > 0; where det f <= 0, SignedSymmetricFactor for
 // kExact, SymmetricPolarFactor for kMirror.
 Vector6d ElementTarget(const Eigen::Matrix3d& f, InvertedTargets inverted_targets);
-
 
 }  // namespace aqs
 

@@ -19,6 +19,7 @@
 #include "model/model_fingerprint.h"
 #include "prepare/volumetric_targets.h"
 #include "testing/synthetic_muscles.h"
+#include "util/fault_injection.h"
 
 namespace aqs {
 namespace {
@@ -115,6 +116,47 @@ TEST(MpiPoseWorkTest, TargetsMadeByTheRanksAreOneProcesssAndRankZeroKeepsThem) {
         << rerun_log.str();
     for (int p = 0; p < 3; ++p) EXPECT_EQ(again.poses[p].target, shared.poses[p].target) << p;
   }
+}
+
+// The targets rank 0's store holds (NNNN.txt records) each time rank 0 starts a pose.
+std::string g_store_path;
+std::vector<int> g_stored_at_pose;
+
+void CountStoredTargets(const char* point) {
+  if (std::string(point) != "targets:pose") return;
+  int count = 0;
+  for (const auto& entry : fs::directory_iterator(g_store_path)) {
+    if (entry.path().extension() == ".txt" && entry.path().filename() != "key.txt") ++count;
+  }
+  g_stored_at_pose.push_back(count);
+}
+
+TEST(MpiPoseWorkTest, RankZeroKeepsEveryRanksTargetsBeforeTheNextRound) {
+  const Communicator& world = World();
+  testing::SharedTempDir dir;
+  const ActiveModel base = testing::MakeSyntheticMuscles(4, 0, 0.3, 5).model;
+  VolumetricTargetOptions options;
+  options.num_threads = 1;  // rounds of one pose per rank
+  if (world.is_root()) {
+    options.store_directory = dir.File("store");
+    g_store_path = options.store_directory;
+    g_stored_at_pose.clear();
+    SetFaultHookForTesting(&CountStoredTargets);
+  }
+  ActiveModel shared = base;
+  std::ostringstream log;
+  std::string error;
+  EXPECT_TRUE(MakeVolumetricTargetsOnRanks(world, options, &shared, log, &error, nullptr))
+      << error;
+  if (!world.is_root()) return;
+  SetFaultHookForTesting(nullptr);
+  // Rank 0 makes poses 0 and size (of 4, one a round): when it starts its second, the
+  // first round's (one per rank) are kept, so that a kill then would lose none of them.
+  const int size = world.size();
+  const std::vector<int> expected =
+      size == 1 ? std::vector<int>{0, 1, 2, 3}
+                : size < 4 ? std::vector<int>{0, size} : std::vector<int>{0};
+  EXPECT_EQ(g_stored_at_pose, expected) << log.str();
 }
 
 TEST(MpiPoseWorkTest, APoseThatDoesNotConvergeOnAnotherRankReachesRankZero) {
