@@ -24,6 +24,7 @@
 #include "fit/target_subset.h"
 #include "geometry/embedding.h"
 #include "geometry/triangle_bvh.h"
+#include "util/fault_injection.h"
 #include "util/wall_timer.h"
 
 namespace aqs {
@@ -372,6 +373,12 @@ bool LatentFitter::FitFrom(const FitTarget& target, const Eigen::VectorXd& initi
   result->converged = summary.termination_type == ceres::CONVERGENCE;
   result->failed = summary.termination_type == ceres::FAILURE;
   result->message = summary.message;
+  // As a minimizer that fails (the point it accepted could not be evaluated) for tests.
+  if (FailurePoint("latent_fit:minimizer")) {
+    result->converged = false;
+    result->failed = true;
+    result->message = "the minimizer failed (test)";
+  }
   return true;
 }
 

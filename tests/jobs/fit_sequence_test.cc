@@ -359,6 +359,37 @@ TEST_F(FitSequenceTest, RowsPastAMissingFrameGoBeforeNewTargetsAreRecorded) {
 // OBJ, the frames after it are fitted (as they are alone), and the run ends
 // kNotConverged, counting it. A rerun takes the failed frame as done; a warm-started run
 // in the folder fits it again.
+// Fails every fit's minimizer from the second on.
+int g_minimizer_runs = 0;
+bool FailFromTheSecondMinimizer(const char* point) {
+  return std::string(point) == "latent_fit:minimizer" && ++g_minimizer_runs >= 2;
+}
+
+TEST_F(FitSequenceTest, AWarmFrameWhoseMinimizerFailedStopsTheSequence) {
+  g_minimizer_runs = 0;
+  const FailureHook previous = SetFailureHookForTesting(&FailFromTheSecondMinimizer);
+  FitSequenceOptions options = Options();
+  for (int t : {0, 1, 2}) options.sequence += Target(t) + ",";
+  options.output_dir = dir_->File("failed_minimizer");
+  options.warm_start = true;
+  std::ostringstream log;
+  const FitSequenceResult result = RunFitSequence(options, *model_, log);
+  SetFailureHookForTesting(previous);
+  // The second frame is no result: not written as a fit that did not converge, and no
+  // frame starts from it.
+  EXPECT_EQ(result.status, JobStatus::kNotConverged) << log.str();
+  EXPECT_NE(result.message.find(Target(1) + ": the fit failed: the minimizer failed (test)"),
+            std::string::npos)
+      << result.message;
+  EXPECT_EQ(result.frames_fitted, 1) << log.str();
+  const auto rows = Rows(dir_->File("failed_minimizer/frames.csv"));
+  EXPECT_EQ(rows.size(), 1u);
+  EXPECT_EQ(rows.count("t0"), 1u);
+  EXPECT_TRUE(std::filesystem::exists(dir_->File("failed_minimizer/t0.obj")));
+  EXPECT_FALSE(std::filesystem::exists(dir_->File("failed_minimizer/t1.obj")));
+  EXPECT_FALSE(std::filesystem::exists(dir_->File("failed_minimizer/t2.obj")));
+}
+
 TEST_F(FitSequenceTest, IndependentFramesGoOnPastAFrameThatCannotBeFitted) {
   const Eigen::Matrix3Xd& neutral = model_->neutral.vertices;
   const double size = (neutral.rowwise().maxCoeff() - neutral.rowwise().minCoeff()).norm();
