@@ -101,10 +101,12 @@ class CsvLog final : public ceres::IterationCallback {
 
 // With options.checkpoint_directory: *start gets this pre-training's key and, with
 // options.resume, the checkpoint there that belongs to it (its point into *parameters);
-// the CSV log at log_path is cut back to that checkpoint. A run that starts anew removes
-// the checkpoint there first (else, stopped before its own first checkpoint, it would
-// leave the old one for the next run to resume, beside a log of this run). Says in `log`
-// what it resumed, or why not. False with *error if the log or the folder cannot be
+// the CSV log at log_path is cut back to that checkpoint. A run that starts anew moves
+// the checkpoint there and its log aside first (MoveSolverCheckpointAside: else, stopped
+// before its own first checkpoint, it would leave the old one for the next run to resume,
+// beside a log of this run; deleted, hours of another run's work were lost to one
+// mistyped flag). Says in `log` what it resumed, or why not, and where an earlier
+// checkpoint went. False with *error if the log or the folder cannot be
 // written.
 bool OpenCheckpoints(const PretrainOptions& options, const ActiveModel& model,
                      const std::string& log_path, Eigen::VectorXd* parameters,
@@ -130,7 +132,17 @@ bool OpenCheckpoints(const PretrainOptions& options, const ActiveModel& model,
         << "; starting anew\n";
   }
   if (!MakeDirectory(directory, error)) return false;
-  if (!resumed && !RemoveSolverCheckpoint(directory, error)) return false;
+  bool moved = false;
+  if (!resumed &&
+      !MoveSolverCheckpointAside(directory, {std::filesystem::path(log_path).filename()},
+                                 &moved, error)) {
+    return false;
+  }
+  if (moved) {
+    log << "pretrain: the earlier run's checkpoint and log are kept in "
+        << PreviousCheckpointPath(directory) << " (until this pre-training ends; move its "
+        << "files back into " << directory << " to resume it, with its own options)\n";
+  }
   // A run of an older version kept its log in kPretrainLogName.
   const std::string old_log = directory + "/" + kPretrainLogName;
   std::error_code code;

@@ -126,12 +126,47 @@ bool ReadSolverCheckpoint(const std::string& directory, const CheckpointKey& key
   return true;
 }
 
-bool RemoveSolverCheckpoint(const std::string& directory, std::string* error) {
-  const std::string path = directory + "/checkpoint.txt";
+std::string PreviousCheckpointPath(const std::string& directory) {
+  return directory + "/previous";
+}
+
+bool MoveSolverCheckpointAside(const std::string& directory,
+                               const std::vector<std::string>& also, bool* moved,
+                               std::string* error) {
+  namespace fs = std::filesystem;
+  *moved = false;
   std::error_code code;
-  if (std::filesystem::remove(path, code) || !code) return true;
-  *error = path + ": cannot remove the checkpoint of an earlier run (" + code.message() + ")";
-  return false;
+  const std::string text = TextPath(directory);
+  if (!fs::exists(text, code)) return true;
+  const std::string previous = PreviousCheckpointPath(directory);
+  const std::string staging = previous + ".tmp";
+  if (!RemoveDirectory(staging, error) || !MakeDirectory(staging, error)) return false;
+  std::vector<std::string> names = {"checkpoint.txt"};
+  const std::string slot = CurrentSlot(directory);
+  if (!slot.empty()) names.push_back(slot);
+  names.insert(names.end(), also.begin(), also.end());
+  for (const std::string& name : names) {
+    const std::string from = directory + "/" + name, to = staging + "/" + name;
+    if (!fs::exists(from, code)) continue;
+    fs::copy_file(from, to, fs::copy_options::overwrite_existing, code);
+    if (code) {
+      *error = from + ": cannot copy to " + to + " (" + code.message() + ")";
+      return false;
+    }
+    if (!SyncFile(to, error)) return false;
+  }
+  if (!RemoveDirectory(previous, error)) return false;
+  fs::rename(staging, previous, code);
+  if (code) {
+    *error = staging + ": cannot rename to " + previous + " (" + code.message() + ")";
+    return false;
+  }
+  if (!fs::remove(text, code) && code) {
+    *error = text + ": cannot remove the checkpoint of an earlier run (" + code.message() + ")";
+    return false;
+  }
+  *moved = true;
+  return true;
 }
 
 bool WriteSolverCheckpoint(const std::string& directory, const SolverCheckpoint& checkpoint,

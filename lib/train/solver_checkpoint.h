@@ -46,10 +46,20 @@ bool ReadSolverCheckpoint(const std::string& directory, const CheckpointKey& key
                           int num_parameters, SolverCheckpoint* checkpoint,
                           std::string* why_not);
 
-// Removes the checkpoint in `directory` (its checkpoint.txt; the slots, which nothing then
-// names, stay for the next write). True if there is none. False with *error if it
-// cannot be removed.
-bool RemoveSolverCheckpoint(const std::string& directory, std::string* error);
+// Moves the checkpoint in `directory` (checkpoint.txt, the slot it names, and the files
+// `also` names in `directory`, such as the run's log) into directory/previous/, replacing
+// what an earlier move left there, so that a run that starts anew does not destroy the
+// one it does not resume (moving the files back resumes it under its own options).
+// Copies into directory/previous.tmp first, then renames, then removes checkpoint.txt:
+// a kill at any moment leaves the checkpoint whole in one of the two places. True with
+// *moved false if there is no checkpoint.txt. False with *error if a file cannot be
+// copied or removed (the checkpoint then stays where it was).
+bool MoveSolverCheckpointAside(const std::string& directory,
+                               const std::vector<std::string>& also, bool* moved,
+                               std::string* error);
+
+// Where MoveSolverCheckpointAside puts a checkpoint of `directory`.
+std::string PreviousCheckpointPath(const std::string& directory);
 
 // Writes `checkpoint` into `directory` (created if missing) as described above.
 // Returns false with *error on failure (the checkpoint there before is kept).

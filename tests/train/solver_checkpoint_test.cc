@@ -228,13 +228,59 @@ TEST_F(PretrainResumeTest, ARunTheBudgetStopsLogsItsLastIteration) {
   EXPECT_TRUE(LogRowsAreZeroTo(stopped.iterations));
 }
 
-// Other options (here the seed of the decoder's weights) do not resume the checkpoint.
-TEST_F(PretrainResumeTest, OtherOptionsStartAnew) {
+// Other options (here the seed of the decoder's weights) do not resume the checkpoint,
+// and do not destroy it either: it is kept in previous/ with its log, and moved back it
+// resumes under its own options.
+TEST_F(PretrainResumeTest, OtherOptionsStartAnewAndKeepTheEarlierCheckpointAside) {
   Run(4);
+  const SolverCheckpoint first = Saved();
   options_.seed = 2;
   const PretrainReport other = Run(5);
   EXPECT_EQ(other.iterations_before, 0);
   EXPECT_EQ(other.iterations, 5);
+  const std::string& directory = options_.checkpoint_directory;
+  const std::string previous = PreviousCheckpointPath(directory);
+  EXPECT_EQ(previous, directory + "/previous");
+  EXPECT_FALSE(fs::exists(previous + ".tmp"));
+  options_.seed = 1;
+  for (const auto& entry : fs::directory_iterator(previous)) {
+    fs::copy_file(entry.path(), directory + "/" + entry.path().filename().string(),
+                  fs::copy_options::overwrite_existing);
+  }
+  EXPECT_EQ(Saved().parameters, first.parameters);
+  EXPECT_TRUE(LogRowsAreZeroTo(4));
+  const PretrainReport resumed = Run(6);
+  EXPECT_EQ(resumed.iterations_before, 4);
+  EXPECT_EQ(resumed.iterations, 6);
+  EXPECT_TRUE(LogRowsAreZeroTo(6));
+}
+
+// MoveSolverCheckpointAside: nothing to move without a checkpoint; a second move
+// replaces the first's.
+TEST(SolverCheckpointTest, MovedAsideReplacesAnEarlierMoveAndLeavesNoCheckpoint) {
+  testing::TempDir dir;
+  std::string error;
+  bool moved = true;
+  ASSERT_TRUE(MoveSolverCheckpointAside(dir.path(), {"log.csv"}, &moved, &error)) << error;
+  EXPECT_FALSE(moved);
+  EXPECT_FALSE(fs::exists(dir.File("previous")));
+  for (int iterations : {4, 9}) {
+    ASSERT_TRUE(WriteSolverCheckpoint(dir.path(), SomeCheckpoint(iterations), &error)) << error;
+    std::ofstream(dir.File("log.csv")) << "log of " << iterations << "\n";
+    ASSERT_TRUE(MoveSolverCheckpointAside(dir.path(), {"log.csv", "absent.csv"}, &moved,
+                                          &error))
+        << error;
+    EXPECT_TRUE(moved);
+    SolverCheckpoint read;
+    std::string why_not;
+    EXPECT_FALSE(ReadSolverCheckpoint(dir.path(), SomeKey(), 7, &read, &why_not));
+    EXPECT_TRUE(why_not.empty()) << why_not;
+    ASSERT_TRUE(ReadSolverCheckpoint(dir.File("previous"), SomeKey(), 7, &read, &why_not))
+        << why_not;
+    EXPECT_EQ(read.iterations, iterations);
+    EXPECT_EQ(testing::ReadAll(dir.File("previous/log.csv")),
+              "log of " + std::to_string(iterations) + "\n");
+  }
 }
 
 // aqs_pretrain's library call killed (SIGKILL) after the parameters of its second
@@ -281,10 +327,10 @@ TEST(PretrainKillTest, AKilledRunResumesItsLastWholeCheckpoint) {
 
 // A pre-training stopped in a model's folder leaves the model's pretrain/log.csv, its
 // decoder's, as it was (the running log is kept apart: it replaced the model's at the
-// start). A run that starts anew (--restart) removes the earlier run's checkpoint at
-// once: killed before its own first checkpoint, it left the old one for the next run to
-// resume, beside a log of its own.
-TEST(PretrainKillTest, AStoppedRunKeepsTheModelsLogAndARestartDropsTheOldCheckpoint) {
+// start). A run that starts anew (--restart) moves the earlier run's checkpoint aside
+// at once (to pretrain/previous/): killed before its own first checkpoint, it left the
+// old one for the next run to resume, beside a log of its own.
+TEST(PretrainKillTest, AStoppedRunKeepsTheModelsLogAndARestartMovesTheOldCheckpointAside) {
   testing::TempDir dir;
   const std::string path = dir.File("m");
   ASSERT_NO_FATAL_FAILURE(testing::WritePretrainedSyntheticModel(path, 3, 11, 8, 2));
@@ -294,12 +340,13 @@ TEST(PretrainKillTest, AStoppedRunKeepsTheModelsLogAndARestartDropsTheOldCheckpo
   testing::SyntheticBarSpec spec;
   spec.num_threads = 1;
   const PretrainOptions options = testing::SyntheticPretrainOptions(spec);
-  auto saved_checkpoint = [&](SolverCheckpoint* saved) {
+  auto saved_checkpoint = [&](SolverCheckpoint* saved,
+                              const std::string& folder = "/pretrain") {
     ActiveModel model;
     std::string error, why_not;
     EXPECT_TRUE(LoadModel(path, &model, &error)) << error;
     return ReadSolverCheckpoint(
-        path + "/pretrain", PretrainCheckpointKey(options, model),
+        path + folder, PretrainCheckpointKey(options, model),
         static_cast<int>(model.decoder_params.size() + model.latents.size()), saved, &why_not);
   };
   // Killed while it writes its third checkpoint: those of iterations 1 and 2 are whole.
@@ -316,6 +363,9 @@ TEST(PretrainKillTest, AStoppedRunKeepsTheModelsLogAndARestartDropsTheOldCheckpo
             "killed");
   EXPECT_FALSE(saved_checkpoint(&saved)) << "iteration " << saved.iterations;
   EXPECT_EQ(testing::ReadAll(path + "/pretrain/log.csv"), model_log);
+  // The abandoned checkpoint was moved aside, not deleted.
+  ASSERT_TRUE(saved_checkpoint(&saved, "/pretrain/previous"));
+  EXPECT_EQ(saved.iterations, 2);
 }
 
 }  // namespace
