@@ -485,7 +485,7 @@ def training_sheet(path, pose, target, errors, triangles, mask, stats):
 
 
 def format_mean(row):
-    return "mean %.4f" % row["mean"] if row else "n/a"
+    return "mean %s" % number(row["mean"]) if row else "n/a"
 
 
 def read_embedding_floor(path):
@@ -598,10 +598,24 @@ def html_table(headings, rows, numeric_from=1):
     return "\n".join(out)
 
 
-def number(value, digits=4):
+# Decimals of every error the page prints: table_decimals of the evaluation's rows,
+# set by write_report (as the tables of evaluation.md, jobs/evaluation_report.h).
+DECIMALS = 4
+
+
+def table_decimals(rows):
+    """Three significant digits at the median of the rows' positive mean errors, 4 to 12
+    decimals (TableDecimals in lib/jobs/evaluation_report.cc)."""
+    means = sorted(r["mean"] for r in rows if math.isfinite(r["mean"]) and r["mean"] > 0)
+    if not means:
+        return 4
+    return min(12, max(4, 2 - math.floor(math.log10(means[len(means) // 2]))))
+
+
+def number(value, digits=None):
     if value is None or (isinstance(value, float) and math.isnan(value)):
         return "n/a"
-    return "%.*f" % (digits, value)
+    return "%.*f" % (DECIMALS if digits is None else digits, value)
 
 
 def split_tables(rows, split):
@@ -910,7 +924,9 @@ def write_report(args, inputs):
     pictures with them (the split folders' PNG files removed, so that a pose no longer
     evaluated leaves none) and writes index.html (through a temporary file): a failure
     while drawing leaves the earlier page and its pictures as they were."""
+    global DECIMALS
     rows, notes = inputs["rows"], inputs["notes"]
+    DECIMALS = table_decimals(rows)
     output = args.output or args.evaluation
     images = os.path.join(output, "images")
     os.makedirs(images, exist_ok=True)
@@ -987,9 +1003,9 @@ def write_report(args, inputs):
                                 "alt": "pre-training curve", "caption":
                                 "Pre-training (%s): the loss (actuation error and "
                                 "regularizers) from %s to %s in %d iterations, %s s." % (
-                                    html.escape(log_path), number(log["loss"][0]),
-                                    number(log["loss"][-1]), int(log["iteration"][-1]),
-                                    number(log["seconds"][-1]))})
+                                    html.escape(log_path), "%.4g" % log["loss"][0],
+                                    "%.4g" % log["loss"][-1], int(log["iteration"][-1]),
+                                    number(log["seconds"][-1], 1))})
 
         # Every picture is drawn: out with the earlier ones, in with these.
         for split in ("held_out", "training"):

@@ -16,9 +16,9 @@ const char* const kNeutralMethod = "neutral";
 
 namespace {
 
-std::string Number(double v) {
-  char text[32];
-  std::snprintf(text, sizeof(text), "%.4f", v);
+std::string FixedDecimals(double v, int decimals) {
+  char text[64];
+  std::snprintf(text, sizeof(text), "%.*f", decimals, v);
   return text;
 }
 
@@ -87,7 +87,21 @@ EvaluationRow SummarizeErrors(const std::string& split, const std::string& pose,
   return row;
 }
 
+int TableDecimals(const std::vector<EvaluationRow>& rows) {
+  std::vector<double> means;
+  for (const EvaluationRow& row : rows) {
+    if (std::isfinite(row.mean) && row.mean > 0) means.push_back(row.mean);
+  }
+  if (means.empty()) return kMinTableDecimals;
+  std::nth_element(means.begin(), means.begin() + means.size() / 2, means.end());
+  const double median = means[means.size() / 2];
+  const int decimals = 2 - static_cast<int>(std::floor(std::log10(median)));
+  return std::clamp(decimals, kMinTableDecimals, kMaxTableDecimals);
+}
+
 std::string EvaluationTable(const std::vector<EvaluationRow>& rows, const std::string& split) {
+  const int decimals = TableDecimals(rows);
+  const auto number = [decimals](double v) { return FixedDecimals(v, decimals); };
   std::vector<std::string> poses;
   std::map<std::string, std::map<std::string, EvaluationRow>> table;
   if (!GroupBySplit(rows, split, &poses, &table)) return "";
@@ -103,7 +117,7 @@ std::string EvaluationTable(const std::vector<EvaluationRow>& rows, const std::s
     out += "| " + pose;
     for (const std::string& method : std::vector<std::string>{kNeutralMethod}) {
       const auto it = table[pose].find(method);
-      out += " | " + (it == table[pose].end() ? std::string("n/a") : Number(it->second.mean));
+      out += " | " + (it == table[pose].end() ? std::string("n/a") : number(it->second.mean));
       if (it != table[pose].end()) {
         average[method].mean += it->second.mean / poses.size();
         ++count[method];
@@ -116,7 +130,7 @@ std::string EvaluationTable(const std::vector<EvaluationRow>& rows, const std::s
         continue;
       }
       const EvaluationRow& r = it->second;
-      out += " | " + Number(r.mean) + " | " + Number(r.rms) + " | " + Number(r.max);
+      out += " | " + number(r.mean) + " | " + number(r.rms) + " | " + number(r.max);
       EvaluationRow& a = average[method];
       a.mean += r.mean / poses.size();
       a.rms += r.rms / poses.size();
@@ -127,13 +141,13 @@ std::string EvaluationTable(const std::vector<EvaluationRow>& rows, const std::s
   }
   const int all = static_cast<int>(poses.size());
   out += "| **mean** (max of max) | " +
-         (count[kNeutralMethod] == all ? Number(average[kNeutralMethod].mean) : "n/a");
+         (count[kNeutralMethod] == all ? number(average[kNeutralMethod].mean) : "n/a");
   for (const char* method : kEvaluationMethods) {
     const EvaluationRow& a = average[method];
     if (count[method] == all) {
-      out += " | **" + Number(a.mean) + "** | " + Number(a.rms) + " | " + Number(a.max);
+      out += " | **" + number(a.mean) + "** | " + number(a.rms) + " | " + number(a.max);
     } else {
-      out += " | n/a | n/a | " + (count[method] > 0 ? Number(a.max) : std::string("n/a"));
+      out += " | n/a | n/a | " + (count[method] > 0 ? number(a.max) : std::string("n/a"));
     }
   }
   out += " |\n";
@@ -142,6 +156,8 @@ std::string EvaluationTable(const std::vector<EvaluationRow>& rows, const std::s
 
 std::string ErrorBudgetTable(const std::vector<EvaluationRow>& rows, const std::string& split,
                              const std::vector<std::pair<std::string, std::string>>& columns) {
+  const int decimals = TableDecimals(rows);
+  const auto number = [decimals](double v) { return FixedDecimals(v, decimals); };
   std::vector<std::string> poses;
   std::map<std::string, std::map<std::string, EvaluationRow>> table;
   if (!GroupBySplit(rows, split, &poses, &table)) return "";
@@ -162,7 +178,7 @@ std::string ErrorBudgetTable(const std::vector<EvaluationRow>& rows, const std::
         out += " | n/a";
         continue;
       }
-      out += " | " + Number(it->second.mean);
+      out += " | " + number(it->second.mean);
       sum[c] += it->second.mean;
       worst[c] = std::max(worst[c], it->second.max);
       ++count[c];
@@ -171,12 +187,12 @@ std::string ErrorBudgetTable(const std::vector<EvaluationRow>& rows, const std::
   }
   out += "| **mean**";
   for (size_t c = 0; c < columns.size(); ++c) {
-    out += count[c] == static_cast<int>(poses.size()) ? " | **" + Number(sum[c] / count[c]) + "**"
+    out += count[c] == static_cast<int>(poses.size()) ? " | **" + number(sum[c] / count[c]) + "**"
                                                        : std::string(" | n/a");
   }
   out += " |\n| max vertex error";
   for (size_t c = 0; c < columns.size(); ++c) {
-    out += count[c] > 0 ? " | " + Number(worst[c]) : std::string(" |");
+    out += count[c] > 0 ? " | " + number(worst[c]) : std::string(" |");
   }
   out += " |\n";
   return out;

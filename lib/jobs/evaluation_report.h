@@ -39,15 +39,23 @@ EvaluationRow SummarizeErrors(const std::string& split, const std::string& pose,
                               const std::string& method, const Eigen::VectorXd& errors,
                               const std::vector<int>& vertices);
 
+// The decimals the tables print every error of `rows` with (all splits, so that the
+// tables of one evaluation agree): three significant digits at the median of the rows'
+// positive means (4 for errors of 0.01 to 0.1, as a face in cm has; 6 for one in
+// metres), at least kMinTableDecimals and at most kMaxTableDecimals.
+inline constexpr int kMinTableDecimals = 4;
+inline constexpr int kMaxTableDecimals = 12;
+int TableDecimals(const std::vector<EvaluationRow>& rows);
+
 // The Markdown table of one split ("train", "test"): per pose the neutral's mean and
-// every method's mean, rms and max, then the means over poses (max: the largest).
-// Empty if the split has no rows.
+// every method's mean, rms and max, then the means over poses (max: the largest), with
+// TableDecimals(rows) decimals. Empty if the split has no rows.
 std::string EvaluationTable(const std::vector<EvaluationRow>& rows, const std::string& split);
 
 // The error budget as Markdown: per pose the mean error of each stage, then the mean
-// over poses and the largest vertex error. `columns`: (method, heading) in order; a
-// method without a row for a pose shows "n/a" (and its mean "n/a"). Empty if the split
-// has no rows.
+// over poses and the largest vertex error (TableDecimals(rows) decimals). `columns`:
+// (method, heading) in order; a method without a row for a pose shows "n/a" (and its
+// mean "n/a"). Empty if the split has no rows.
 std::string ErrorBudgetTable(const std::vector<EvaluationRow>& rows, const std::string& split,
                              const std::vector<std::pair<std::string, std::string>>& columns);
 

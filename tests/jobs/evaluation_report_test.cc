@@ -60,6 +60,31 @@ TEST(EvaluationReportTest, TableHasARowPerPoseAndTheMeans) {
   EXPECT_EQ(EvaluationTable(TwoPoses(), "none"), "");
 }
 
+// The tables print three significant digits at the rows' median error, whatever the
+// model's unit: a face in metres (errors of 1e-4 to 1e-3) shows its differences, not
+// 0.0001 for values 2x apart; one in cm keeps 4 decimals; the budget table agrees.
+TEST(EvaluationReportTest, TablesPrintThreeDigitsAtTheMedianError) {
+  std::vector<EvaluationRow> metres = TwoPoses();
+  for (EvaluationRow& row : metres) {
+    row.mean *= 0.01;
+    row.rms *= 0.01;
+    row.max *= 0.01;
+  }
+  EXPECT_EQ(TableDecimals(TwoPoses()), 4);
+  EXPECT_EQ(TableDecimals(metres), 6);
+  const std::string table = EvaluationTable(metres, "test");
+  EXPECT_NE(table.find("| a | 0.005000 | 0.000100 | 0.000200 | 0.000300 | 0.000200 |"),
+            std::string::npos)
+      << table;
+  const std::string budget = ErrorBudgetTable(metres, "test", {{"floor", "floor"}});
+  EXPECT_NE(budget.find("| a | 0.000010 |"), std::string::npos) << budget;
+  // Bounds: no positive error at all, and errors far below any unit's.
+  EXPECT_EQ(TableDecimals({}), kMinTableDecimals);
+  EXPECT_EQ(TableDecimals({{"test", "a", "physics", 0.0, 0.0, 0.0}}), kMinTableDecimals);
+  EXPECT_EQ(TableDecimals({{"test", "a", "physics", 1e-30, 1e-30, 1e-30}}), kMaxTableDecimals);
+  EXPECT_EQ(TableDecimals({{"test", "a", "physics", 123.0, 1, 1}}), kMinTableDecimals);
+}
+
 // A held-out fit that failed has no row: n/a in its place and for its method's mean,
 // never a perfect 0.0000 averaged into the mean.
 TEST(EvaluationReportTest, TableMarksAFailedFitNotAvailable) {

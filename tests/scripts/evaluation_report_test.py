@@ -165,6 +165,29 @@ def snapshot(folder):
     return files
 
 
+def decimals_problems(script):
+    """The page prints errors with the decimals evaluation.md's tables use: three
+    significant digits at the median error (4 decimals in cm, 6 in metres; 4 to 12)."""
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("evaluation_report_decimals", script)
+    report = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(report)
+    def rows(*means):
+        return [{"split": "test", "pose": "p", "method": "physics", "mean": m, "rms": m,
+                 "max": m} for m in means]
+    problems = []
+    for means, expected in (((0.02, 0.05, 0.3), 4), ((0.0002, 0.0005, 0.003), 6), ((), 4),
+                            ((0.0,), 4), ((1e-30,), 12), ((123.0,), 4)):
+        got = report.table_decimals(rows(*means))
+        if got != expected:
+            problems.append("table_decimals%s: %d, expected %d" % (means, got, expected))
+    report.DECIMALS = 6
+    if report.format_mean({"mean": 0.00012345}) != "mean 0.000123":
+        problems.append("format_mean does not use the table's decimals: %s"
+                        % report.format_mean({"mean": 0.00012345}))
+    return problems
+
+
 def colour_bar_label_problems(script):
     """Draws the sheets of a wide, short surface (41 x 3 vertices, 40 x 0.4 model units)
     in this process and returns the colour bars whose label is longer than the bar: the
@@ -407,6 +430,7 @@ def main():
 
         # A wide, short surface: the colour bar's label is not cut.
         failures += colour_bar_label_problems(script)
+        failures += decimals_problems(script)
     finally:
         if os.environ.get("AQS_KEEP_TEST_FILES", "0") not in ("", "0"):
             print("kept " + root)
