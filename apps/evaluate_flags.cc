@@ -41,7 +41,8 @@ DEFINE_bool(write_fields, true, "Write per-vertex error fields and fitted surfac
 DEFINE_bool(error_budget, true, "Measure the error budget: the training poses' volumetric "
             "targets simulated (the floor), the surface error after pre-training (from the "
             "model), and the held-out poses' own volumetric targets (prepare's embedded "
-            "simulation: --attachment_stiffness, --prepare_tolerance).");
+            "simulation: --attachment_stiffness, --inverted_targets, --prepare_tolerance, "
+            "--solver; give the values the model was prepared with).");
 DEFINE_bool(report, true, "Write an HTML page with the tables, the error budget, the "
             "training curve and pictures (--output_dir/index.html, images/*.png) by the report "
             "script, run with --python. A missing interpreter or matplotlib is reported and "

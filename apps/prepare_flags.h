@@ -14,7 +14,7 @@ namespace aqs {
 bool PrepareOptionsFromFlags(PrepareJobOptions* options, std::string* error);
 
 // The volumetric targets' options from the flags (--attachment_stiffness,
-// --inverted_targets, --prepare_tolerance, --solver_method), for prepare's training poses
+// --inverted_targets, --prepare_tolerance, --solver), for prepare's training poses
 // and the evaluation's held-out ones alike (num_threads is the caller's). False with
 // *error naming the flag.
 bool VolumetricTargetOptionsFromFlags(VolumetricTargetOptions* options, std::string* error);

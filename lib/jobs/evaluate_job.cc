@@ -51,7 +51,8 @@ bool MayWriteEvaluationFolder(const std::string& out, std::string* error) {
   for (const char* name : {kEvaluationMarker, "evaluation.md", "evaluation.csv"}) {
     if (std::filesystem::exists(out + "/" + name, code)) return true;
   }
-  *error = out + ": holds files, but no evaluation's (" + kEvaluationMarker + ", evaluation.md)" +
+  *error = out + ": holds files, but no evaluation's (" + kEvaluationMarker +
+           ", evaluation.md, evaluation.csv)" +
            ": an evaluation empties its fields/, fitted/, budget/ and images/; give "
            "--output_dir a new or empty folder, or an earlier evaluation's";
   return false;
