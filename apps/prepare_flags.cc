@@ -63,6 +63,13 @@ DEFINE_string(mirror_poses, "", "Also train on the mirror image of every pose th
 DEFINE_double(mirror_plane, 0.0, "The mirror plane of --mirror_poses: axis = this.");
 DEFINE_double(mirror_tolerance, 1e-3, "The neutral's largest asymmetry --mirror_poses accepts, "
               "as a fraction of its bounding-box diagonal.");
+DEFINE_bool(halfway_poses, false, "Also train on the pose halfway to every pose whose bones "
+            "move (named half_NAME): the surface halfway between the neutral and the pose, each "
+            "bone halfway along its screw motion (a model trained on a jaw opened all the way "
+            "has no example of the way there; docs/results.md).");
+DEFINE_double(halfway_min_bone_motion, 0.01, "--halfway_poses: the poses whose bones move "
+              "a vertex farther than this fraction of the simulation mesh's bounding-box "
+              "diagonal get a halfway pose.");
 DEFINE_double(prepare_tolerance, 1e-6, "Relative force tolerance of the embedded simulations.");
 DECLARE_int32(threads);
 DECLARE_string(model);
@@ -164,6 +171,8 @@ bool PrepareOptionsFromFlags(PrepareJobOptions* options, std::string* error) {
   }
   options->mirror.plane = FLAGS_mirror_plane;
   options->mirror.tolerance = FLAGS_mirror_tolerance;
+  options->halfway.enabled = FLAGS_halfway_poses;
+  options->halfway.min_bone_motion = FLAGS_halfway_min_bone_motion;
   if (!PrepareTargetOptionsFromFlags(options, error)) return false;
   options->meshing.num_threads = FLAGS_threads;
   options->boundary.num_threads = FLAGS_threads;
@@ -209,6 +218,7 @@ FlagNames PrepareFlagNames() {
                 {"boundary.bones.region_boxes", "--bone_region"},
                 {"mirror.plane", "--mirror_plane"},
                 {"mirror.tolerance", "--mirror_tolerance"},
+                {"halfway.min_bone_motion", "--halfway_min_bone_motion"},
                 {"targets.relative_stiffness", "--attachment_stiffness"},
                 {"targets.inverted_targets", "--inverted_targets"},
                 {"targets.solver.relative_force_tolerance", "--prepare_tolerance"}});

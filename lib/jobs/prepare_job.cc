@@ -59,10 +59,11 @@ void ComposeOrigins(const std::vector<int>& kept, std::vector<int>* origin) {
 }  // namespace
 
 bool PrepareJobOptions::Validate(std::string* error) const {
-  std::string meshing_error, boundary_error, mirror_error, targets_error;
+  std::string meshing_error, boundary_error, mirror_error, halfway_error, targets_error;
   const bool meshing_ok = !tet_mesh.empty() || meshing.Validate(&meshing_error);
   const bool boundary_ok = boundary.Validate(&boundary_error);
   const bool mirror_ok = mirror.Validate(&mirror_error);
+  const bool halfway_ok = halfway.Validate(&halfway_error);
   const bool targets_ok = targets.Validate(&targets_error);
   OptionChecks checks;
   checks.Nested("meshing", meshing_ok, meshing_error)
@@ -73,6 +74,7 @@ bool PrepareJobOptions::Validate(std::string* error) const {
       .InRange("mu", mu, 1e-12, 1e12)
       .Nested("boundary", boundary_ok, boundary_error)
       .Nested("mirror", mirror_ok, mirror_error)
+      .Nested("halfway", halfway_ok, halfway_error)
       .Nested("targets", targets_ok, targets_error)
       .IntInRange("num_threads", num_threads, 1, 1024)
       .Positive("max_memory_bytes", max_memory_bytes);
@@ -451,6 +453,16 @@ BuildResult BuildModel(const PrepareJobOptions& options, PreparedModel* prepared
       log << "bone '" << bone.name << "': in the " << mirror_sources.size()
           << " mirror images, the mirror image of its motion in their sources\n";
     }
+  }
+  if (options.halfway.enabled) {
+    log << "halfway poses:\n";
+    int added = 0;
+    if (!AddHalfwayPoses(options.halfway, &model, &added, log, error)) {
+      return BuildResult::kFailed;
+    }
+    log << "poses with their halfway poses: " << model.num_poses() << " (" << added
+        << " added)\n";
+    if (!CheckTargetMemory(options, model, error)) return BuildResult::kFailed;
   }
 
   prepared->targets = options.targets;

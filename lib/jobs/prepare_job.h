@@ -11,6 +11,7 @@
 #include "geometry/plane_cuts.h"
 #include "geometry/surface_tet_mesher.h"
 #include "prepare/boundary_rules.h"
+#include "prepare/halfway_poses.h"
 #include "prepare/mirror_poses.h"
 #include "prepare/volumetric_targets.h"
 #include "util/job_status.h"
@@ -44,6 +45,9 @@ struct PrepareJobOptions {
   // Mirror images of the poses (prepare/mirror_poses.h; axis -1: none): appended after
   // the given poses as "mirror_NAME", with their bones' motions mirrored.
   MirrorOptions mirror;
+  // Halfway poses (prepare/halfway_poses.h): appended after the given poses and their
+  // mirror images as "half_NAME", for the poses whose bones move.
+  HalfwayOptions halfway;
   VolumetricTargetOptions targets;
   std::string output;                   // model directory; required
   // Replace whatever is at `output`; without it, only a missing path, an empty
