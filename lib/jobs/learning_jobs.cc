@@ -21,6 +21,10 @@
 #include "util/wall_timer.h"
 
 namespace aqs {
+
+std::string KeptPretrainCheckpointsPath(const std::string& model_directory) {
+  return ResolveModelPath(model_directory) + ".aqs-pretrain-kept";
+}
 namespace {
 
 // Takes the model's writers' lock (cleaning up after killed writers) and loads it. A
@@ -95,6 +99,7 @@ PretrainResult PretrainHere(const std::string& model_directory, const PretrainOp
   }
   *run = options;
   run->checkpoint_directory = ResolveModelPath(model_directory) + "/pretrain";
+  run->kept_checkpoints_directory = KeptPretrainCheckpointsPath(model_directory);
   const std::string record_path = run->checkpoint_directory + "/" + kPretrainRecordName;
   *record = PretrainRecord(*run, *model, simulation != nullptr);
   if (keep_pretrained && model->decoder) {

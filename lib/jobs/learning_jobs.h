@@ -53,6 +53,11 @@ bool RunPretrainJob(const std::string& model_directory, const PretrainOptions& o
 // The record of a finished pre-training in the model's pretrain/ folder.
 inline constexpr char kPretrainRecordName[] = "key.txt";
 
+// Where pre-trainings of the model at model_directory keep the checkpoints of other
+// runs they do not resume (PretrainOptions::kept_checkpoints_directory): beside the
+// model, MODEL.aqs-pretrain-kept (a folder of the model's own would make it no model).
+std::string KeptPretrainCheckpointsPath(const std::string& model_directory);
+
 // What the caller of RunTrainJob expects of the model's decoder (aqs_train's
 // --latent_dim, --hidden and --activation when given): training cannot change the
 // architecture, so a mismatch is an error rather than a silently ignored flag.

@@ -1,6 +1,7 @@
 #include "jobs/shared_pose_work.h"
 
 #include <algorithm>
+#include <memory>
 #include <sstream>
 #include <utility>
 
@@ -67,16 +68,20 @@ bool MakeVolumetricTargetsOnRanks(const Communicator& comm,
         << " poses' targets were taken from " << options.store_directory
         << " (an earlier run of the same preparation)\n";
   }
-  // A round deals each rank as many poses as it has threads, and rank 0 keeps the
-  // round's targets before the next round starts: a stop loses at most the round's
-  // (all made before being sent, the other ranks' targets were lost with any rank).
-  const size_t per_rank = static_cast<size_t>(options.num_threads);
+  // A round deals each rank as many poses as the ranks' fewest threads, and rank 0 keeps
+  // the round's targets before the next round starts: a stop loses at most the round's
+  // (all made before being sent, the other ranks' targets were lost with any rank). A
+  // round waits for its slowest pose: the price of keeping every round's.
+  // The same on every rank (a rank's own num_threads may differ): the least.
+  int threads = options.num_threads;
+  if (size > 1) comm.MinToAll(&threads, 1);
+  const size_t per_rank = static_cast<size_t>(std::max(1, threads));
   const size_t per_round = per_rank * size;
   if (root && size > 1 && !remaining.empty()) {
     log << "  " << remaining.size() << " poses shared among " << size << " ranks in rounds of "
         << per_round << " (rank 0 logs its own as they are made, then the others')\n";
   }
-  VolumetricTargetMaker maker(options, *model);
+  std::unique_ptr<VolumetricTargetMaker> maker;  // made when a rank has poses to make
   const int elements = model->mesh.num_tets();
   const int block = 3 + 6 * elements;  // has target, mean, max, target (6 x elements)
   std::vector<double> send, received;
@@ -88,7 +93,12 @@ bool MakeVolumetricTargetsOnRanks(const Communicator& comm,
       if (owner_of(k) == rank) mine.push_back(remaining[k]);
     }
     std::ostringstream own_log;
-    maker.Make(mine, storing ? &store : nullptr, model, root ? log : own_log, &failures);
+    if (!mine.empty() && !maker) {
+      maker = std::make_unique<VolumetricTargetMaker>(options, *model);
+    }
+    if (maker) {
+      maker->Make(mine, storing ? &store : nullptr, model, root ? log : own_log, &failures);
+    }
     if (size == 1) continue;
     // The other ranks' log lines of the round, in rank order.
     for (int r = 1; r < size; ++r) {

@@ -21,10 +21,10 @@ namespace aqs {
 // rank calls it with the same options (num_threads: the rank's own) and rank 0's model.
 // Rank 0 alone uses options.store_directory: it takes the poses found there (as one
 // process does). The poses still to be made are made in rounds: in each, every rank
-// makes options.num_threads of them (VolumetricTargetMaker, its solvers kept between
-// rounds), and rank 0 keeps its own in the store as they are made and the other ranks'
-// at the end of the round, before the next starts (a kill loses at most the round under
-// way). Rank 0's model then has every pose's target and errors, rank 0's `log` every
+// makes as many as the ranks' fewest options.num_threads (VolumetricTargetMaker, its
+// solvers kept between rounds), and rank 0 keeps its own in the store as they are made
+// and the other ranks' at the end of the round, before the next starts (a kill loses at
+// most the round under way; a round waits for its slowest pose). Rank 0's model then has every pose's target and errors, rank 0's `log` every
 // rank's lines (the other ranks' at the end of each round),
 // and *unconverged (rank 0's; may be null) the messages of the poses whose solve did not
 // converge, as MakeVolumetricTargets gives them. Returns the same on every rank: false

@@ -96,8 +96,9 @@ void MakeVolumetricTargetsOf(const VolumetricTargetOptions& options,
 // MakeVolumetricTargetsOf over several calls: keeps its solvers (one per thread, each
 // with the rest stiffness factor every pose's solve starts from) from one call to the
 // next, so that poses made a few at a time (the rounds of jobs/shared_pose_work.h, each
-// kept before the next) cost what they cost made at once. Each pose's target is the
-// same as MakeVolumetricTargetsOf's, whichever call makes it.
+// kept before the next) factorize the rest stiffness once per thread, not once per
+// call. Each pose's target is the same as MakeVolumetricTargetsOf's, whichever call
+// makes it.
 class VolumetricTargetMaker {
  public:
   // For `model`'s mesh, material, embedding, neutral surface and bones, which must not

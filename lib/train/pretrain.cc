@@ -101,11 +101,12 @@ class CsvLog final : public ceres::IterationCallback {
 
 // With options.checkpoint_directory: *start gets this pre-training's key and, with
 // options.resume, the checkpoint there that belongs to it (its point into *parameters);
-// the CSV log at log_path is cut back to that checkpoint. A run that starts anew moves
-// the checkpoint there and its log aside first (MoveSolverCheckpointAside: else, stopped
-// before its own first checkpoint, it would leave the old one for the next run to resume,
-// beside a log of this run; deleted, hours of another run's work were lost to one
-// mistyped flag). Says in `log` what it resumed, or why not, and where an earlier
+// the CSV log at log_path is cut back to that checkpoint. A run that does not resume the
+// checkpoint there removes it first (else, stopped before its own first checkpoint, it
+// would leave the old one for the next run to resume, beside a log of this run), or
+// with options.kept_checkpoints_directory keeps it and its log there and, with resume,
+// takes back one kept for its own key (a mistyped flag no longer costs the hours the
+// checkpoint held). Says in `log` what it resumed, or why not, and where an earlier
 // checkpoint went. False with *error if the log or the folder cannot be
 // written.
 bool OpenCheckpoints(const PretrainOptions& options, const ActiveModel& model,
@@ -132,16 +133,34 @@ bool OpenCheckpoints(const PretrainOptions& options, const ActiveModel& model,
         << "; starting anew\n";
   }
   if (!MakeDirectory(directory, error)) return false;
-  bool moved = false;
-  if (!resumed &&
-      !MoveSolverCheckpointAside(directory, {std::filesystem::path(log_path).filename()},
-                                 &moved, error)) {
-    return false;
-  }
-  if (moved) {
-    log << "pretrain: the earlier run's checkpoint and log are kept in "
-        << PreviousCheckpointPath(directory) << " (until this pre-training ends; move its "
-        << "files back into " << directory << " to resume it, with its own options)\n";
+  const std::string& kept = options.kept_checkpoints_directory;
+  const std::vector<std::string> also = {std::filesystem::path(log_path).filename()};
+  if (!resumed && kept.empty() && !RemoveSolverCheckpoint(directory, error)) return false;
+  if (!resumed && !kept.empty()) {
+    bool moved = false, restored = false;
+    if (!MoveSolverCheckpointAside(directory, kept, also, &moved, error)) return false;
+    if (moved) {
+      log << "pretrain: the earlier run's checkpoint and log are kept in " << kept
+          << " (a pre-training with its options takes them back)\n";
+    }
+    if (options.resume &&
+        !RestoreKeptCheckpoint(directory, kept, start->key, also, &restored, error)) {
+      return false;
+    }
+    if (restored &&
+        ReadSolverCheckpoint(directory, start->key, static_cast<int>(parameters->size()),
+                             &found, &why_not)) {
+      *start = std::move(found);
+      *parameters = start->parameters;
+      resumed = true;
+      log << "pretrain: resuming after iteration " << start->iterations << " ("
+          << FormatDuration(start->seconds) << " spent, loss " << start->loss
+          << ") from the checkpoint of these options kept in " << kept << "\n";
+    } else if (restored) {
+      log << "pretrain: the checkpoint of these options kept in " << kept
+          << " is not resumed: " << why_not << "; starting anew\n";
+      if (!RemoveSolverCheckpoint(directory, error)) return false;
+    }
   }
   // A run of an older version kept its log in kPretrainLogName.
   const std::string old_log = directory + "/" + kPretrainLogName;

@@ -65,6 +65,11 @@ struct PretrainOptions {
   // model, its targets and these options is the start: its iterations and time count
   // towards max_iterations and max_seconds.
   std::string checkpoint_directory;
+  // A run that starts anew keeps the checkpoint it does not resume (another run's, of
+  // other options or a --restart) in this folder, one per key (MoveSolverCheckpointAside;
+  // empty: it is removed), and a run whose key one of them has takes it back and resumes
+  // it (RestoreKeptCheckpoint). Outside the model: a model's, MODEL.aqs-pretrain-kept.
+  std::string kept_checkpoints_directory;
   double checkpoint_seconds = 60.0;
   bool resume = true;
   int num_threads = 2;

@@ -1,13 +1,18 @@
 #include "train/solver_checkpoint.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <map>
 #include <sstream>
 #include <utility>
 
+#include <glog/logging.h>
+
 #include "util/atomic_file.h"
 #include "util/fault_injection.h"
+#include "util/fnv_hash.h"
 #include "util/line_reader.h"
 #include "util/make_directory.h"
 #include "util/matrix_io.h"
@@ -30,6 +35,27 @@ std::string CurrentSlot(const std::string& directory) {
     if (tokens.size() == 3 && tokens[0] == "parameters") return tokens[1];
   }
   return "";
+}
+
+// The key's lines as checkpoint.txt holds them ("key NAME VALUE\n" each).
+std::string KeyLines(const CheckpointKey& key) {
+  std::string text;
+  for (const auto& [name, value] : key) text += "key " + name + " " + value + "\n";
+  return text;
+}
+
+// Copies `from` to `to` (replaced) and syncs it; a missing `from` is fine (nothing to
+// copy). False with *error otherwise.
+bool CopySynced(const std::string& from, const std::string& to, std::string* error) {
+  std::error_code code;
+  if (!std::filesystem::exists(from, code)) return true;
+  std::filesystem::copy_file(from, to, std::filesystem::copy_options::overwrite_existing,
+                             code);
+  if (code) {
+    *error = from + ": cannot copy to " + to + " (" + code.message() + ")";
+    return false;
+  }
+  return SyncFile(to, error);
 }
 
 }  // namespace
@@ -126,11 +152,16 @@ bool ReadSolverCheckpoint(const std::string& directory, const CheckpointKey& key
   return true;
 }
 
-std::string PreviousCheckpointPath(const std::string& directory) {
-  return directory + "/previous";
+std::string KeptCheckpointName(const CheckpointKey& key) {
+  const std::string text = KeyLines(key);
+  char name[17];
+  std::snprintf(name, sizeof(name), "%016llx",
+                static_cast<unsigned long long>(Fnv1a(text.data(), text.size(),
+                                                      kFnvOffsetBasis)));
+  return name;
 }
 
-bool MoveSolverCheckpointAside(const std::string& directory,
+bool MoveSolverCheckpointAside(const std::string& directory, const std::string& kept_root,
                                const std::vector<std::string>& also, bool* moved,
                                std::string* error) {
   namespace fs = std::filesystem;
@@ -138,27 +169,36 @@ bool MoveSolverCheckpointAside(const std::string& directory,
   std::error_code code;
   const std::string text = TextPath(directory);
   if (!fs::exists(text, code)) return true;
-  const std::string previous = PreviousCheckpointPath(directory);
-  const std::string staging = previous + ".tmp";
-  if (!RemoveDirectory(staging, error) || !MakeDirectory(staging, error)) return false;
+  // The key lines as written (a damaged file: whatever key lines it has).
+  CheckpointKey key;
+  {
+    LineReader reader(text);
+    std::vector<std::string> tokens;
+    while (reader.NextLine()) {
+      const std::string& line = reader.line();
+      if (line.rfind("key ", 0) != 0) continue;
+      const size_t split = line.find(' ', 4);
+      key.emplace_back(line.substr(4, split == std::string::npos ? split : split - 4),
+                       split == std::string::npos ? "" : line.substr(split + 1));
+    }
+  }
+  const std::string kept = kept_root + "/" + KeptCheckpointName(key);
+  const std::string staging = kept + ".tmp";
+  if (!MakeDirectory(kept_root, error) || !RemoveDirectory(staging, error) ||
+      !MakeDirectory(staging, error)) {
+    return false;
+  }
   std::vector<std::string> names = {"checkpoint.txt"};
   const std::string slot = CurrentSlot(directory);
   if (!slot.empty()) names.push_back(slot);
   names.insert(names.end(), also.begin(), also.end());
   for (const std::string& name : names) {
-    const std::string from = directory + "/" + name, to = staging + "/" + name;
-    if (!fs::exists(from, code)) continue;
-    fs::copy_file(from, to, fs::copy_options::overwrite_existing, code);
-    if (code) {
-      *error = from + ": cannot copy to " + to + " (" + code.message() + ")";
-      return false;
-    }
-    if (!SyncFile(to, error)) return false;
+    if (!CopySynced(directory + "/" + name, staging + "/" + name, error)) return false;
   }
-  if (!RemoveDirectory(previous, error)) return false;
-  fs::rename(staging, previous, code);
+  if (!RemoveDirectory(kept, error)) return false;
+  fs::rename(staging, kept, code);
   if (code) {
-    *error = staging + ": cannot rename to " + previous + " (" + code.message() + ")";
+    *error = staging + ": cannot rename to " + kept + " (" + code.message() + ")";
     return false;
   }
   if (!fs::remove(text, code) && code) {
@@ -166,7 +206,52 @@ bool MoveSolverCheckpointAside(const std::string& directory,
     return false;
   }
   *moved = true;
+  // At most kMaxKeptCheckpoints: the oldest go.
+  std::vector<std::pair<fs::file_time_type, std::string>> all;
+  for (const fs::directory_entry& entry : fs::directory_iterator(kept_root, code)) {
+    const std::string path = entry.path().string();
+    if (!entry.is_directory(code) || entry.path().extension() == ".tmp") continue;
+    all.emplace_back(fs::last_write_time(TextPath(path), code), path);
+  }
+  std::sort(all.begin(), all.end());
+  for (size_t k = 0; k + kMaxKeptCheckpoints < all.size(); ++k) {
+    std::string ignored;
+    RemoveDirectory(all[k].second, &ignored);
+  }
   return true;
+}
+
+bool RestoreKeptCheckpoint(const std::string& directory, const std::string& kept_root,
+                           const CheckpointKey& key, const std::vector<std::string>& also,
+                           bool* restored, std::string* error) {
+  namespace fs = std::filesystem;
+  *restored = false;
+  std::error_code code;
+  CHECK(!fs::exists(TextPath(directory), code));
+  const std::string kept = kept_root + "/" + KeptCheckpointName(key);
+  if (!fs::exists(TextPath(kept), code)) return true;
+  if (!MakeDirectory(directory, error)) return false;
+  std::vector<std::string> names = also;
+  const std::string slot = CurrentSlot(kept);
+  if (!slot.empty()) names.push_back(slot);
+  for (const std::string& name : names) {
+    if (!CopySynced(kept + "/" + name, directory + "/" + name, error)) return false;
+  }
+  if (!WriteFileAtomically(TextPath(directory), ReadWholeFile(TextPath(kept)), error)) {
+    return false;
+  }
+  std::string ignored;  // restored: a kept copy left behind is replaced by the next move
+  RemoveDirectory(kept, &ignored);
+  *restored = true;
+  return true;
+}
+
+bool RemoveSolverCheckpoint(const std::string& directory, std::string* error) {
+  const std::string path = TextPath(directory);
+  std::error_code code;
+  if (std::filesystem::remove(path, code) || !code) return true;
+  *error = path + ": cannot remove the checkpoint of an earlier run (" + code.message() + ")";
+  return false;
 }
 
 bool WriteSolverCheckpoint(const std::string& directory, const SolverCheckpoint& checkpoint,
@@ -177,7 +262,7 @@ bool WriteSolverCheckpoint(const std::string& directory, const SolverCheckpoint&
   FaultPoint("solver_checkpoint:parameters_written");
   std::ostringstream text;
   text << "# ActiveQS solver checkpoint (train/solver_checkpoint.h)\n";
-  for (const auto& [name, value] : checkpoint.key) text << "key " << name << " " << value << "\n";
+  text << KeyLines(checkpoint.key);
   text << "iterations " << checkpoint.iterations << "\n"
        << "seconds " << FormatDouble(checkpoint.seconds) << "\n"
        << "loss " << FormatDouble(checkpoint.loss) << "\n"

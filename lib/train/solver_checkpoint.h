@@ -46,20 +46,40 @@ bool ReadSolverCheckpoint(const std::string& directory, const CheckpointKey& key
                           int num_parameters, SolverCheckpoint* checkpoint,
                           std::string* why_not);
 
+// Checkpoints of other runs kept in `kept_root` (a folder outside any model: a run that
+// starts anew does not destroy the one it does not resume, and a run of that one's key
+// takes it back). One folder per key: kept_root/<KeptCheckpointName(key)>/ holds that
+// checkpoint's checkpoint.txt, its slot and the files `also` names (such as the run's
+// log); at most kMaxKeptCheckpoints, the oldest removed first.
+inline constexpr int kMaxKeptCheckpoints = 3;
+
+// The folder name of a key's kept checkpoint: 16 hexadecimal digits of a hash of its key
+// lines.
+std::string KeptCheckpointName(const CheckpointKey& key);
+
 // Moves the checkpoint in `directory` (checkpoint.txt, the slot it names, and the files
-// `also` names in `directory`, such as the run's log) into directory/previous/, replacing
-// what an earlier move left there, so that a run that starts anew does not destroy the
-// one it does not resume (moving the files back resumes it under its own options).
-// Copies into directory/previous.tmp first, then renames, then removes checkpoint.txt:
-// a kill at any moment leaves the checkpoint whole in one of the two places. True with
-// *moved false if there is no checkpoint.txt. False with *error if a file cannot be
-// copied or removed (the checkpoint then stays where it was).
-bool MoveSolverCheckpointAside(const std::string& directory,
+// `also` names in `directory`) into kept_root/<its key's name>/, replacing an earlier
+// one of the same key. Copies into <that>.tmp first, syncs, renames, then removes
+// checkpoint.txt: a kill at any moment leaves the checkpoint whole in one of the two
+// places. True with *moved false if there is no checkpoint.txt. False with *error if a
+// file cannot be copied or removed (the checkpoint then stays where it was).
+bool MoveSolverCheckpointAside(const std::string& directory, const std::string& kept_root,
                                const std::vector<std::string>& also, bool* moved,
                                std::string* error);
 
-// Where MoveSolverCheckpointAside puts a checkpoint of `directory`.
-std::string PreviousCheckpointPath(const std::string& directory);
+// Takes back into `directory` (which must hold no checkpoint.txt) the checkpoint kept
+// for `key` in kept_root, if there is one: its slot and `also` files are copied first,
+// its checkpoint.txt last (atomically), then its kept folder is removed. True with
+// *restored false if none is kept for the key. False with *error if a file cannot be
+// copied (the kept one stays).
+bool RestoreKeptCheckpoint(const std::string& directory, const std::string& kept_root,
+                           const CheckpointKey& key, const std::vector<std::string>& also,
+                           bool* restored, std::string* error);
+
+// Removes the checkpoint in `directory` (its checkpoint.txt; the slots, which nothing then
+// names, stay for the next write). True if there is none. False with *error if it
+// cannot be removed.
+bool RemoveSolverCheckpoint(const std::string& directory, std::string* error);
 
 // Writes `checkpoint` into `directory` (created if missing) as described above.
 // Returns false with *error on failure (the checkpoint there before is kept).

@@ -229,58 +229,101 @@ TEST_F(PretrainResumeTest, ARunTheBudgetStopsLogsItsLastIteration) {
 }
 
 // Other options (here the seed of the decoder's weights) do not resume the checkpoint,
-// and do not destroy it either: it is kept in previous/ with its log, and moved back it
-// resumes under its own options.
-TEST_F(PretrainResumeTest, OtherOptionsStartAnewAndKeepTheEarlierCheckpointAside) {
+// and do not destroy it either: it is kept with its log, and a run of its own options
+// takes it back and resumes it (each key's kept apart); without a folder to keep them
+// in, it is removed.
+TEST_F(PretrainResumeTest, OtherOptionsStartAnewAndKeepTheEarlierCheckpoint) {
+  options_.kept_checkpoints_directory = dir_.File("kept");
   Run(4);
   const SolverCheckpoint first = Saved();
   options_.seed = 2;
   const PretrainReport other = Run(5);
   EXPECT_EQ(other.iterations_before, 0);
   EXPECT_EQ(other.iterations, 5);
-  const std::string& directory = options_.checkpoint_directory;
-  const std::string previous = PreviousCheckpointPath(directory);
-  EXPECT_EQ(previous, directory + "/previous");
-  EXPECT_FALSE(fs::exists(previous + ".tmp"));
   options_.seed = 1;
-  for (const auto& entry : fs::directory_iterator(previous)) {
-    fs::copy_file(entry.path(), directory + "/" + entry.path().filename().string(),
-                  fs::copy_options::overwrite_existing);
-  }
-  EXPECT_EQ(Saved().parameters, first.parameters);
-  EXPECT_TRUE(LogRowsAreZeroTo(4));
-  const PretrainReport resumed = Run(6);
-  EXPECT_EQ(resumed.iterations_before, 4);
-  EXPECT_EQ(resumed.iterations, 6);
+  const PretrainReport again = Run(6);
+  EXPECT_EQ(again.iterations_before, 4);
+  EXPECT_EQ(again.iterations, 6);
   EXPECT_TRUE(LogRowsAreZeroTo(6));
+  options_.seed = 2;
+  const PretrainReport back = Run(7);
+  EXPECT_EQ(back.iterations_before, 5);
+  EXPECT_TRUE(LogRowsAreZeroTo(7));
+  // Without a folder to keep them in, a run that starts anew removes the checkpoint.
+  options_.kept_checkpoints_directory.clear();
+  options_.seed = 1;
+  EXPECT_EQ(Run(3).iterations_before, 0);
+  options_.seed = 2;
+  EXPECT_EQ(Run(3).iterations_before, 0);
+  EXPECT_EQ(first.iterations, 4);
 }
 
-// MoveSolverCheckpointAside: nothing to move without a checkpoint; a second move
-// replaces the first's.
-TEST(SolverCheckpointTest, MovedAsideReplacesAnEarlierMoveAndLeavesNoCheckpoint) {
+// MoveSolverCheckpointAside and RestoreKeptCheckpoint: nothing to move without a
+// checkpoint; a second move of the same key replaces the first's; another key's is kept
+// beside it; at most kMaxKeptCheckpoints are kept, the oldest go.
+TEST(SolverCheckpointTest, KeptCheckpointsAreOnePerKeyAndComeBack) {
   testing::TempDir dir;
+  const std::string kept = dir.File("kept");
   std::string error;
   bool moved = true;
-  ASSERT_TRUE(MoveSolverCheckpointAside(dir.path(), {"log.csv"}, &moved, &error)) << error;
+  ASSERT_TRUE(MoveSolverCheckpointAside(dir.path(), kept, {"log.csv"}, &moved, &error)) << error;
   EXPECT_FALSE(moved);
-  EXPECT_FALSE(fs::exists(dir.File("previous")));
-  for (int iterations : {4, 9}) {
-    ASSERT_TRUE(WriteSolverCheckpoint(dir.path(), SomeCheckpoint(iterations), &error)) << error;
+  EXPECT_FALSE(fs::exists(kept));
+  auto write = [&](int iterations, const std::string& option) {
+    SolverCheckpoint checkpoint = SomeCheckpoint(iterations);
+    checkpoint.key.back().second = option;
+    ASSERT_TRUE(WriteSolverCheckpoint(dir.path(), checkpoint, &error)) << error;
     std::ofstream(dir.File("log.csv")) << "log of " << iterations << "\n";
-    ASSERT_TRUE(MoveSolverCheckpointAside(dir.path(), {"log.csv", "absent.csv"}, &moved,
+  };
+  auto key = [](const std::string& option) {
+    CheckpointKey k = SomeKey();
+    k.back().second = option;
+    return k;
+  };
+  for (int iterations : {4, 9}) {
+    write(iterations, "a");
+    ASSERT_TRUE(MoveSolverCheckpointAside(dir.path(), kept, {"log.csv", "absent.csv"}, &moved,
                                           &error))
         << error;
     EXPECT_TRUE(moved);
     SolverCheckpoint read;
     std::string why_not;
-    EXPECT_FALSE(ReadSolverCheckpoint(dir.path(), SomeKey(), 7, &read, &why_not));
+    EXPECT_FALSE(ReadSolverCheckpoint(dir.path(), key("a"), 7, &read, &why_not));
     EXPECT_TRUE(why_not.empty()) << why_not;
-    ASSERT_TRUE(ReadSolverCheckpoint(dir.File("previous"), SomeKey(), 7, &read, &why_not))
-        << why_not;
+    const std::string folder = kept + "/" + KeptCheckpointName(key("a"));
+    ASSERT_TRUE(ReadSolverCheckpoint(folder, key("a"), 7, &read, &why_not)) << why_not;
     EXPECT_EQ(read.iterations, iterations);
-    EXPECT_EQ(testing::ReadAll(dir.File("previous/log.csv")),
+    EXPECT_EQ(testing::ReadAll(folder + "/log.csv"),
               "log of " + std::to_string(iterations) + "\n");
   }
+  write(5, "b");
+  ASSERT_TRUE(MoveSolverCheckpointAside(dir.path(), kept, {"log.csv"}, &moved, &error)) << error;
+  // Both keys kept; "a" comes back (9 iterations, its log), "c" has none.
+  bool restored = true;
+  ASSERT_TRUE(RestoreKeptCheckpoint(dir.path(), kept, key("c"), {"log.csv"}, &restored, &error))
+      << error;
+  EXPECT_FALSE(restored);
+  ASSERT_TRUE(RestoreKeptCheckpoint(dir.path(), kept, key("a"), {"log.csv"}, &restored, &error))
+      << error;
+  EXPECT_TRUE(restored);
+  SolverCheckpoint read;
+  std::string why_not;
+  ASSERT_TRUE(ReadSolverCheckpoint(dir.path(), key("a"), 7, &read, &why_not)) << why_not;
+  EXPECT_EQ(read.iterations, 9);
+  EXPECT_EQ(testing::ReadAll(dir.File("log.csv")), "log of 9\n");
+  EXPECT_FALSE(fs::exists(kept + "/" + KeptCheckpointName(key("a"))));
+  EXPECT_TRUE(fs::exists(kept + "/" + KeptCheckpointName(key("b")) + "/checkpoint.txt"));
+  // Four more keys: the three newest stay.
+  ASSERT_TRUE(RemoveSolverCheckpoint(dir.path(), &error)) << error;
+  for (const char* option : {"d", "e", "f", "g"}) {
+    write(1, option);
+    ASSERT_TRUE(MoveSolverCheckpointAside(dir.path(), kept, {}, &moved, &error)) << error;
+  }
+  int folders = 0;
+  for (const auto& entry : fs::directory_iterator(kept)) folders += entry.is_directory();
+  EXPECT_EQ(folders, kMaxKeptCheckpoints);
+  EXPECT_TRUE(fs::exists(kept + "/" + KeptCheckpointName(key("g"))));
+  EXPECT_FALSE(fs::exists(kept + "/" + KeptCheckpointName(key("b"))));
 }
 
 // aqs_pretrain's library call killed (SIGKILL) after the parameters of its second
@@ -327,10 +370,10 @@ TEST(PretrainKillTest, AKilledRunResumesItsLastWholeCheckpoint) {
 
 // A pre-training stopped in a model's folder leaves the model's pretrain/log.csv, its
 // decoder's, as it was (the running log is kept apart: it replaced the model's at the
-// start). A run that starts anew (--restart) moves the earlier run's checkpoint aside
-// at once (to pretrain/previous/): killed before its own first checkpoint, it left the
-// old one for the next run to resume, beside a log of its own.
-TEST(PretrainKillTest, AStoppedRunKeepsTheModelsLogAndARestartMovesTheOldCheckpointAside) {
+// start). A run that starts anew (--restart) moves the earlier run's checkpoint out of
+// pretrain/ at once (into MODEL.aqs-pretrain-kept): killed before its own first
+// checkpoint, it left the old one for the next run to resume, beside a log of its own.
+TEST(PretrainKillTest, AStoppedRunKeepsTheModelsLogAndARestartKeepsTheOldCheckpoint) {
   testing::TempDir dir;
   const std::string path = dir.File("m");
   ASSERT_NO_FATAL_FAILURE(testing::WritePretrainedSyntheticModel(path, 3, 11, 8, 2));
@@ -340,13 +383,12 @@ TEST(PretrainKillTest, AStoppedRunKeepsTheModelsLogAndARestartMovesTheOldCheckpo
   testing::SyntheticBarSpec spec;
   spec.num_threads = 1;
   const PretrainOptions options = testing::SyntheticPretrainOptions(spec);
-  auto saved_checkpoint = [&](SolverCheckpoint* saved,
-                              const std::string& folder = "/pretrain") {
+  auto saved_checkpoint = [&](SolverCheckpoint* saved) {
     ActiveModel model;
     std::string error, why_not;
     EXPECT_TRUE(LoadModel(path, &model, &error)) << error;
     return ReadSolverCheckpoint(
-        path + folder, PretrainCheckpointKey(options, model),
+        path + "/pretrain", PretrainCheckpointKey(options, model),
         static_cast<int>(model.decoder_params.size() + model.latents.size()), saved, &why_not);
   };
   // Killed while it writes its third checkpoint: those of iterations 1 and 2 are whole.
@@ -363,9 +405,16 @@ TEST(PretrainKillTest, AStoppedRunKeepsTheModelsLogAndARestartMovesTheOldCheckpo
             "killed");
   EXPECT_FALSE(saved_checkpoint(&saved)) << "iteration " << saved.iterations;
   EXPECT_EQ(testing::ReadAll(path + "/pretrain/log.csv"), model_log);
-  // The abandoned checkpoint was moved aside, not deleted.
-  ASSERT_TRUE(saved_checkpoint(&saved, "/pretrain/previous"));
-  EXPECT_EQ(saved.iterations, 2);
+  // The abandoned checkpoint was kept, not deleted: the next run of its options takes
+  // it back and resumes it, runs to the end, and the model saves and loads (the kept
+  // checkpoints are not in the model's folder).
+  std::ostringstream log;
+  std::string error;
+  ASSERT_TRUE(RunPretrainJob(path, options, nullptr, log, &error)) << error;
+  EXPECT_NE(log.str().find("pretrain: resuming after iteration 2 "), std::string::npos)
+      << log.str();
+  ActiveModel done;
+  EXPECT_TRUE(LoadModel(path, &done, &error)) << error;
 }
 
 }  // namespace
