@@ -173,7 +173,6 @@ bool MoveSolverCheckpointAside(const std::string& directory, const std::string& 
   CheckpointKey key;
   {
     LineReader reader(text);
-    std::vector<std::string> tokens;
     while (reader.NextLine()) {
       const std::string& line = reader.line();
       if (line.rfind("key ", 0) != 0) continue;
