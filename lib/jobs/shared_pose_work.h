@@ -24,10 +24,11 @@ namespace aqs {
 // makes as many as the ranks' fewest options.num_threads (VolumetricTargetMaker, its
 // solvers kept between rounds), and rank 0 keeps its own in the store as they are made
 // and the other ranks' at the end of the round, before the next starts (a kill loses at
-// most the round under way; a round waits for its slowest pose). Rank 0's model then has every pose's target and errors, rank 0's `log` every
-// rank's lines (the other ranks' at the end of each round),
-// and *unconverged (rank 0's; may be null) the messages of the poses whose solve did not
-// converge, as MakeVolumetricTargets gives them. Returns the same on every rank: false
+// most the round under way; a round waits for its slowest pose). Rank 0's model then
+// has every pose's target and errors, rank 0's `log` every rank's lines (the other
+// ranks' at the end of each round), and *unconverged (rank 0's; may be null) the
+// messages of the poses whose solve did not converge, as MakeVolumetricTargets gives
+// them. Returns the same on every rank: false
 // with *error for invalid options (Validate; naming the rank), a store rank 0 cannot
 // open, or, with `unconverged` null on rank 0, the first pose that did not converge.
 bool MakeVolumetricTargetsOnRanks(const Communicator& comm,
