@@ -117,17 +117,21 @@ bool OpenCheckpoints(const PretrainOptions& options, const ActiveModel& model,
   std::string why_not;
   SolverCheckpoint found;
   bool resumed = false;
+  // Resumes `found`, read from `where`.
+  const auto resume = [&](const std::string& where) {
+    *start = std::move(found);
+    *parameters = start->parameters;
+    resumed = true;
+    log << "pretrain: resuming after iteration " << start->iterations << " ("
+        << FormatDuration(start->seconds) << " spent, loss " << start->loss << ") from the "
+        << where << "\n";
+  };
   if (!options.resume) {
     log << "pretrain: starting anew (an earlier run's checkpoint in " << directory
         << " is not resumed)\n";
   } else if (ReadSolverCheckpoint(directory, start->key, static_cast<int>(parameters->size()),
                                   &found, &why_not)) {
-    *start = std::move(found);
-    *parameters = start->parameters;
-    resumed = true;
-    log << "pretrain: resuming after iteration " << start->iterations << " ("
-        << FormatDuration(start->seconds) << " spent, loss " << start->loss
-        << ") from the checkpoint in " << directory << "\n";
+    resume("checkpoint in " + directory);
   } else if (!why_not.empty()) {
     log << "pretrain: not resuming the checkpoint in " << directory << ": " << why_not
         << "; starting anew\n";
@@ -150,12 +154,7 @@ bool OpenCheckpoints(const PretrainOptions& options, const ActiveModel& model,
     if (restored &&
         ReadSolverCheckpoint(directory, start->key, static_cast<int>(parameters->size()),
                              &found, &why_not)) {
-      *start = std::move(found);
-      *parameters = start->parameters;
-      resumed = true;
-      log << "pretrain: resuming after iteration " << start->iterations << " ("
-          << FormatDuration(start->seconds) << " spent, loss " << start->loss
-          << ") from the checkpoint of these options kept in " << kept << "\n";
+      resume("checkpoint of these options kept in " + kept);
     } else if (restored) {
       log << "pretrain: the checkpoint of these options kept in " << kept
           << " is not resumed: " << why_not << "; starting anew\n";

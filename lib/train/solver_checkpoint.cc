@@ -44,6 +44,15 @@ std::string KeyLines(const CheckpointKey& key) {
   return text;
 }
 
+// The kept folder's name of a checkpoint whose key lines (KeyLines) are `text`.
+std::string KeptNameOfKeyLines(const std::string& text) {
+  char name[17];
+  std::snprintf(name, sizeof(name), "%016llx",
+                static_cast<unsigned long long>(Fnv1a(text.data(), text.size(),
+                                                      kFnvOffsetBasis)));
+  return name;
+}
+
 // Copies `from` to `to` (replaced) and syncs it; a missing `from` is fine (nothing to
 // copy). False with *error otherwise.
 bool CopySynced(const std::string& from, const std::string& to, std::string* error) {
@@ -153,12 +162,7 @@ bool ReadSolverCheckpoint(const std::string& directory, const CheckpointKey& key
 }
 
 std::string KeptCheckpointName(const CheckpointKey& key) {
-  const std::string text = KeyLines(key);
-  char name[17];
-  std::snprintf(name, sizeof(name), "%016llx",
-                static_cast<unsigned long long>(Fnv1a(text.data(), text.size(),
-                                                      kFnvOffsetBasis)));
-  return name;
+  return KeptNameOfKeyLines(KeyLines(key));
 }
 
 bool MoveSolverCheckpointAside(const std::string& directory, const std::string& kept_root,
@@ -170,18 +174,12 @@ bool MoveSolverCheckpointAside(const std::string& directory, const std::string& 
   const std::string text = TextPath(directory);
   if (!fs::exists(text, code)) return true;
   // The key lines as written (a damaged file: whatever key lines it has).
-  CheckpointKey key;
-  {
-    LineReader reader(text);
-    while (reader.NextLine()) {
-      const std::string& line = reader.line();
-      if (line.rfind("key ", 0) != 0) continue;
-      const size_t split = line.find(' ', 4);
-      key.emplace_back(line.substr(4, split == std::string::npos ? split : split - 4),
-                       split == std::string::npos ? "" : line.substr(split + 1));
-    }
+  std::string key_lines;
+  LineReader reader(text);
+  while (reader.NextLine()) {
+    if (reader.line().rfind("key ", 0) == 0) key_lines += reader.line() + "\n";
   }
-  const std::string kept = kept_root + "/" + KeptCheckpointName(key);
+  const std::string kept = kept_root + "/" + KeptNameOfKeyLines(key_lines);
   const std::string staging = kept + ".tmp";
   if (!MakeDirectory(kept_root, error) || !RemoveDirectory(staging, error) ||
       !MakeDirectory(staging, error)) {
