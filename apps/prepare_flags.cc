@@ -169,6 +169,18 @@ bool PrepareOptionsFromFlags(PrepareJobOptions* options, std::string* error) {
     }
     options->mirror.axis = static_cast<int>(axis);
   }
+  // Flags that describe a stage left off would be dropped without a word.
+  const auto given = [](const char* flag) {
+    return !gflags::GetCommandLineFlagInfoOrDie(flag).is_default;
+  };
+  if (FLAGS_mirror_poses.empty() && (given("mirror_plane") || given("mirror_tolerance"))) {
+    *error = "--mirror_plane and --mirror_tolerance describe --mirror_poses: they need it";
+    return false;
+  }
+  if (!FLAGS_halfway_poses && given("halfway_min_bone_motion")) {
+    *error = "--halfway_min_bone_motion describes --halfway_poses: it needs it";
+    return false;
+  }
   options->mirror.plane = FLAGS_mirror_plane;
   options->mirror.tolerance = FLAGS_mirror_tolerance;
   options->halfway.enabled = FLAGS_halfway_poses;

@@ -9,12 +9,17 @@
 #include <glog/logging.h>
 
 #include "geometry/rigid_transform.h"
+#include "util/number_format.h"
 #include "util/option_checks.h"
 
 namespace aqs {
 
 bool HalfwayOptions::Validate(std::string* error) const {
-  return OptionChecks().InRange("min_bone_motion", min_bone_motion, 0.0, 1.0).Done(error);
+  // 0 is refused: a bone whose fitted motion is round-off would get a halfway pose.
+  return OptionChecks()
+      .Require(min_bone_motion > 0.0 && min_bone_motion <= 1.0,
+               "min_bone_motion must be in (0, 1] (is " + FormatDouble(min_bone_motion) + ")")
+      .Done(error);
 }
 
 double LargestBoneMotion(const ActiveModel& model, int bone, int pose) {

@@ -16,6 +16,8 @@ namespace aqs {
 //   surface   neutral + (surface_p - neutral) / 2 (a blend shape at weight 1/2),
 //   bones     each bone's transform halfway along its screw motion
 //             (InterpolateRigidTransform(T_p, 1/2): applied twice, it is T_p).
+// (The rigid motion nearest the bone's vertices blended at 1/2, where the blended skin
+// around the jaw puts it, was measured and not kept: docs/results.md.)
 struct HalfwayOptions {
   bool enabled = false;
   // A pose gets a halfway pose when one of its bones moves one of its vertices farther

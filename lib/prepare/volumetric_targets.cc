@@ -100,7 +100,7 @@ VolumetricTargetMaker::VolumetricTargetMaker(const VolumetricTargetOptions& opti
       model_(model),
       physics_(std::make_unique<ShapeTargetModel>(model.mesh, model.mu)),
       stiffness_(AttachmentStiffness(model, options.relative_stiffness)),
-      workers_(options.num_threads) {}
+      workers_(std::max(1, options.num_threads)) {}  // Make uses at least one
 
 VolumetricTargetMaker::~VolumetricTargetMaker() = default;
 

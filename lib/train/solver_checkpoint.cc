@@ -192,12 +192,15 @@ bool MoveSolverCheckpointAside(const std::string& directory, const std::string& 
   for (const std::string& name : names) {
     if (!CopySynced(directory + "/" + name, staging + "/" + name, error)) return false;
   }
+  FaultPoint("checkpoint_aside:copied");
   if (!RemoveDirectory(kept, error)) return false;
+  FaultPoint("checkpoint_aside:old_removed");
   fs::rename(staging, kept, code);
   if (code) {
     *error = staging + ": cannot rename to " + kept + " (" + code.message() + ")";
     return false;
   }
+  FaultPoint("checkpoint_aside:renamed");
   if (!fs::remove(text, code) && code) {
     *error = text + ": cannot remove the checkpoint of an earlier run (" + code.message() + ")";
     return false;

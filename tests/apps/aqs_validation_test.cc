@@ -689,9 +689,14 @@ TEST_F(AqsValidationModelTest, PrepareAndCollideRefuseBadFlags) {
                   {"--spacing=0.5 --mirror_poses=x --mirror_plane=inf", 1, "--mirror_plane must be finite"},
                   {"--spacing=0.5 --mirror_poses=x --mirror_plane=100", 1, "the neutral surface is not mirror-symmetric (--mirror_poses): vertex 0 has no mirror image"},
                   {"--spacing=0.5 --halfway_poses --halfway_min_bone_motion=-1", 1,
-                   "--halfway_min_bone_motion must be in [0, 1] (is -1)"},
+                   "--halfway_min_bone_motion must be in (0, 1] (is -1)"},
                   {"--spacing=0.5 --halfway_poses --halfway_min_bone_motion=nan", 1,
-                   "--halfway_min_bone_motion must be in [0, 1]"},
+                   "--halfway_min_bone_motion must be in (0, 1]"},
+                  // Flags of a stage left off are refused, not dropped.
+                  {"--spacing=0.5 --mirror_plane=1", 1,
+                   "--mirror_plane and --mirror_tolerance describe --mirror_poses: they need it"},
+                  {"--spacing=0.5 --halfway_min_bone_motion=0.1", 1,
+                   "--halfway_min_bone_motion describes --halfway_poses: it needs it"},
               },
               dir.path());
   EXPECT_FALSE(fs::exists(dir.File("p"))) << "nothing written";

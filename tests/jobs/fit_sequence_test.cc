@@ -354,20 +354,18 @@ TEST_F(FitSequenceTest, RowsPastAMissingFrameGoBeforeNewTargetsAreRecorded) {
   EXPECT_FALSE(g_frame_c_at_targets);
 }
 
-// Independent frames go on past a frame that cannot be fitted (here a scan shifted
-// beyond every start's reach): its row says converged -1 with "nan" figures, it has no
-// OBJ, the frames after it are fitted (as they are alone), and the run ends
-// kNotConverged, counting it. A rerun takes the failed frame as done; a warm-started run
-// in the folder fits it again.
-// Fails every fit's minimizer from the second on.
-int g_minimizer_runs = 0;
-bool FailFromTheSecondMinimizer(const char* point) {
-  return std::string(point) == "latent_fit:minimizer" && ++g_minimizer_runs >= 2;
+// Fails every fit's minimizer once the file g_fail_after exists (here frame 0's OBJ: the
+// fits of the frames after it, however many minimizer runs frame 0's fit makes).
+std::string g_fail_after;
+bool FailAfterAFileIsWritten(const char* point) {
+  return std::string(point) == "latent_fit:minimizer" && std::filesystem::exists(g_fail_after);
 }
 
+// A warm-started sequence stops at a frame whose minimizer failed: that frame has neither
+// row nor OBJ (no result, not a fit that did not converge), and no frame starts from it.
 TEST_F(FitSequenceTest, AWarmFrameWhoseMinimizerFailedStopsTheSequence) {
-  g_minimizer_runs = 0;
-  const FailureHook previous = SetFailureHookForTesting(&FailFromTheSecondMinimizer);
+  g_fail_after = dir_->File("failed_minimizer/t0.obj");
+  const FailureHook previous = SetFailureHookForTesting(&FailAfterAFileIsWritten);
   FitSequenceOptions options = Options();
   for (int t : {0, 1, 2}) options.sequence += Target(t) + ",";
   options.output_dir = dir_->File("failed_minimizer");
@@ -390,6 +388,11 @@ TEST_F(FitSequenceTest, AWarmFrameWhoseMinimizerFailedStopsTheSequence) {
   EXPECT_FALSE(std::filesystem::exists(dir_->File("failed_minimizer/t2.obj")));
 }
 
+// Independent frames go on past a frame that cannot be fitted (here a scan shifted
+// beyond every start's reach): its row says converged -1 with "nan" figures, it has no
+// OBJ, the frames after it are fitted (as they are alone), and the run ends
+// kNotConverged, counting it. A rerun takes the failed frame as done; a warm-started run
+// in the folder fits it again.
 TEST_F(FitSequenceTest, IndependentFramesGoOnPastAFrameThatCannotBeFitted) {
   const Eigen::Matrix3Xd& neutral = model_->neutral.vertices;
   const double size = (neutral.rowwise().maxCoeff() - neutral.rowwise().minCoeff()).norm();

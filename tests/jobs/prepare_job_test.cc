@@ -11,6 +11,7 @@
 #include "mesh/element_subset.h"
 #include "mesh/mesh_io.h"
 #include "model/model_io.h"
+#include "prepare/halfway_poses.h"
 #include "prepare/target_store.h"
 #include "testing/temp_dir.h"
 #include "testing/test_surfaces.h"
@@ -396,6 +397,93 @@ TEST_F(PrepareJobTest, MirrorImagesOfAsymmetricPoses) {
   options.output = dir_.File("refused");
   EXPECT_FALSE(RunPrepareJob(options, log, &error));
   EXPECT_NE(error.find("not mirror-symmetric (--mirror_poses)"), std::string::npos) << error;
+}
+
+// --halfway_poses with --mirror_poses and a bone (a copy of the sphere, driving the
+// fixed core's lower half) that the twist's pose turns by 0.1 about the x axis: the twist and its mirror image get
+// halfway poses (half_pose2, half_mirror_pose2), the symmetric poses' bones stay and get
+// none. Every bone transform is saved and read back (6 per bone), the halfway bones are
+// halfway along their screw motions, and the halfway surfaces are the blends at 1/2. A
+// rerun that keeps the same model keeps it; a run stopped after the model was written
+// resumes from its targets' store; another threshold makes the model anew.
+TEST_F(PrepareJobTest, HalfwayPosesWithMirrorImagesAndABone) {
+  std::string error;
+  const Eigen::Matrix3d turn =
+      Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  SurfaceMesh turned = neutral_;
+  turned.vertices = turn * neutral_.vertices;
+  ASSERT_TRUE(WriteObj(dir_.File("bone_pose2.obj"), turned, &error)) << error;
+  PrepareJobOptions options = options_;
+  BoneRule bone;
+  bone.name = "core";
+  bone.neutral_mesh = options_.neutral;
+  bone.pose_mesh_pattern = dir_.File("bone_{pose}.obj");
+  bone.region_boxes.emplace_back(Eigen::Vector3d(-2, -2, -2), Eigen::Vector3d(2, 2, 0));
+  options.boundary.bones.push_back(bone);
+  options.mirror.axis = 0;
+  options.halfway.enabled = true;
+  g_store = TargetStorePath(options.output);
+  g_snapshot = dir_.File("halfway_snapshot");
+  std::ostringstream log;
+  const FaultHook previous = SetFaultHookForTesting(&SnapshotTheStore);
+  ASSERT_TRUE(RunPrepareJob(options, log, &error)) << error << "\n" << log.str();
+  SetFaultHookForTesting(previous);
+  ActiveModel model;
+  ASSERT_TRUE(LoadModel(options.output, &model, &error)) << error;
+  ASSERT_EQ(model.num_poses(), 6) << log.str();
+  const std::vector<std::string> names = {"pose0",        "pose1",      "pose2",
+                                          "mirror_pose2", "half_pose2", "half_mirror_pose2"};
+  for (int p = 0; p < 6; ++p) {
+    EXPECT_EQ(model.poses[p].name, names[p]);
+    EXPECT_EQ(model.poses[p].target.cols(), model.mesh.num_tets()) << names[p];
+  }
+  ASSERT_EQ(model.bones.size(), 1u);
+  const Bone& core = model.bones[0];
+  ASSERT_EQ(core.pose_transforms.size(), 6u);
+  ASSERT_FALSE(core.vertices.empty());
+  for (int p : {0, 1}) EXPECT_LT(LargestBoneMotion(model, 0, p), 1e-9) << names[p];
+  for (int p : {2, 3}) EXPECT_GT(LargestBoneMotion(model, 0, p), 1e-2) << names[p];
+  for (int h : {4, 5}) {
+    const RigidTransform& half = core.pose_transforms[h];
+    const RigidTransform& whole = core.pose_transforms[h - 2];
+    for (int v : core.vertices) {
+      const Eigen::Vector3d x = model.mesh.vertices.col(v);
+      EXPECT_LT((half.ApplyToPoint(half.ApplyToPoint(x)) - whole.ApplyToPoint(x)).norm(), 1e-9)
+          << names[h] << " vertex " << v;
+    }
+    const Eigen::Matrix3Xd blend =
+        model.neutral.vertices + 0.5 * (model.poses[h - 2].surface - model.neutral.vertices);
+    EXPECT_LT((model.poses[h].surface - blend).cwiseAbs().maxCoeff(), 1e-12) << names[h];
+    EXPECT_LT(model.poses[h].embedding_mean_error, 0.05) << names[h];
+  }
+  EXPECT_NE(log.str().find("pose2: halfway pose half_pose2"), std::string::npos) << log.str();
+  EXPECT_EQ(log.str().find("half_pose0"), std::string::npos) << log.str();
+  // Kept as it is by a rerun of the same options.
+  PrepareJobOptions keep = options;
+  keep.keep_same_model = true;
+  log.str("");
+  ASSERT_TRUE(RunPrepareJob(keep, log, &error)) << error;
+  EXPECT_NE(log.str().find("kept, with its learned state"), std::string::npos) << log.str();
+  // A run stopped after it wrote the model (its store as the snapshot) resumes with every
+  // target, the halfway poses' too, taken from the store.
+  std::filesystem::remove_all(options.output);
+  std::filesystem::rename(g_snapshot, g_store);
+  log.str("");
+  ASSERT_TRUE(RunPrepareJob(keep, log, &error)) << error;
+  EXPECT_NE(log.str().find("6 of 6 poses' targets were taken from"), std::string::npos)
+      << log.str();
+  ActiveModel resumed;
+  ASSERT_TRUE(LoadModel(options.output, &resumed, &error)) << error;
+  for (int p = 0; p < 6; ++p) EXPECT_EQ(resumed.poses[p].target, model.poses[p].target);
+  // Another threshold, above the twist's bone motion: no halfway pose, another model.
+  keep.halfway.min_bone_motion = 0.5;
+  log.str("");
+  ASSERT_TRUE(RunPrepareJob(keep, log, &error)) << error;
+  EXPECT_NE(log.str().find("is prepared anew"), std::string::npos) << log.str();
+  ActiveModel without;
+  ASSERT_TRUE(LoadModel(options.output, &without, &error)) << error;
+  EXPECT_EQ(without.num_poses(), 4);
+  EXPECT_EQ(without.bones[0].pose_transforms.size(), 4u);
 }
 
 TEST_F(PrepareJobTest, BadInputsFailClearly) {

@@ -125,6 +125,12 @@ TEST(HalfwayOptionsTest, MotionThresholdIsAFraction) {
   EXPECT_NE(error.find("min_bone_motion"), std::string::npos) << error;
   options.min_bone_motion = std::nan("");
   EXPECT_FALSE(options.Validate(&error));
+  // 0 would give a halfway pose to a bone whose fitted motion is round-off.
+  options.min_bone_motion = 0.0;
+  EXPECT_FALSE(options.Validate(&error));
+  EXPECT_EQ(error, "min_bone_motion must be in (0, 1] (is 0)");
+  options.min_bone_motion = 1.0;
+  EXPECT_TRUE(options.Validate(&error)) << error;
 }
 
 }  // namespace

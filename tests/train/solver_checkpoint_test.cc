@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -415,6 +416,38 @@ TEST(PretrainKillTest, AStoppedRunKeepsTheModelsLogAndARestartKeepsTheOldCheckpo
       << log.str();
   ActiveModel done;
   EXPECT_TRUE(LoadModel(path, &done, &error)) << error;
+}
+
+// A restart killed while it moves the earlier run's checkpoint aside (after the copies
+// into the staging folder, after the removal of an earlier kept copy of its key (here
+// none), after the rename, before checkpoint.txt is removed): the checkpoint is whole in
+// pretrain/ or in the kept folder, and the next run of its options resumes it.
+TEST(PretrainKillTest, ARestartKilledWhileItMovesTheCheckpointAsideLosesNothing) {
+  testing::TempDir dir;
+  const std::string original = dir.File("m");
+  ASSERT_NO_FATAL_FAILURE(testing::WritePretrainedSyntheticModel(original, 3, 11, 8, 2));
+  ASSERT_EQ(testing::RunProgram({AQS_KILL_AT, "solver_checkpoint:parameters_written", "2",
+                                 original, "8", "pretrain"}),
+            "killed");
+  testing::SyntheticBarSpec spec;
+  spec.num_threads = 1;
+  spec.pretrain_iterations = 8;
+  const PretrainOptions options = testing::SyntheticPretrainOptions(spec);
+  for (const char* point : {"checkpoint_aside:copied", "checkpoint_aside:old_removed",
+                            "checkpoint_aside:renamed"}) {
+    SCOPED_TRACE(point);
+    const std::string path = dir.File(std::string("m_") + (std::strchr(point, ':') + 1));
+    fs::copy(original, path, fs::copy_options::recursive);
+    ASSERT_EQ(testing::RunProgram({AQS_KILL_AT, point, "0", path, "8", "pretrain_restart"}),
+              "killed");
+    std::ostringstream log;
+    std::string error;
+    ASSERT_TRUE(RunPretrainJob(path, options, nullptr, log, &error)) << error;
+    EXPECT_NE(log.str().find("pretrain: resuming after iteration 2 "), std::string::npos)
+        << log.str();
+    ActiveModel done;
+    EXPECT_TRUE(LoadModel(path, &done, &error)) << error;
+  }
 }
 
 }  // namespace
