@@ -246,6 +246,9 @@ bool CleanLeftovers(const std::string& target_in, const std::string& identity_fi
     std::string path;
     long pid;
     bool moved_aside;
+    // A process of its pid is running. Under the target's lock it cannot be the writer
+    // that left it (every writer holds the lock): the pid was reused.
+    bool pid_running;
   };
   std::vector<Leftover> leftovers;
   std::error_code code;
@@ -255,8 +258,8 @@ bool CleanLeftovers(const std::string& target_in, const std::string& identity_fi
     const bool moved_aside = pid < 0;
     if (moved_aside) pid = LeftoverPid(name, base, "old");
     if (pid < 0) continue;
-    if (pid != static_cast<long>(::getpid()) && !ProcessIsGone(pid)) continue;  // alive
-    leftovers.push_back({entry.path().string(), pid, moved_aside});
+    const bool running = pid != static_cast<long>(::getpid()) && !ProcessIsGone(pid);
+    leftovers.push_back({entry.path().string(), pid, moved_aside, running});
   }
   if (code) return true;  // no parent folder: nothing left over
   if (Classify(target) == PathKind::kMissing) {
@@ -270,13 +273,23 @@ bool CleanLeftovers(const std::string& target_in, const std::string& identity_fi
         return false;
       }
       SyncDirectory(parent);
+      // Also when a process of its pid is running: the target is missing, and the old
+      // content would otherwise be left beside a new one (s23 IO review F12).
       actions->push_back("recovered " + target + " from " + it->path + " (moved aside by process " +
-                         std::to_string(it->pid) + ", which stopped before replacing it)");
+                         std::to_string(it->pid) + ", which stopped before replacing it" +
+                         (it->pid_running ? "; its pid is now another process's" : "") + ")");
       leftovers.erase(it);
       break;
     }
   }
   for (const Leftover& leftover : leftovers) {
+    if (leftover.pid_running) {
+      actions->push_back("kept " + leftover.path + ": named like a temporary of process " +
+                         std::to_string(leftover.pid) +
+                         ", which is running but does not hold the lock; remove it yourself "
+                         "if it is not needed");
+      continue;
+    }
     if (!RecognizedTemporary(leftover.path, identity_file)) {
       actions->push_back("kept " + leftover.path + ": named like a temporary of process " +
                          std::to_string(leftover.pid) +

@@ -61,12 +61,13 @@ long StaleWriterPid(const std::string& name, const std::string& stem, const std:
 // if there is none. For readers, which take no lock.
 std::string MovedAsideOf(const std::string& target);
 
-// Cleans up what killed writers left beside `target` (the names above, of processes
-// that are gone or of this process's pid, which at lock time can only be a dead
-// predecessor's): when `target` is missing and a moved-aside "T.aqs-old<pid>" holds
-// `identity_file` (a complete old version), it is renamed back to `target`. Leftover
-// directories that hold the marker, `identity_file`, or nothing are removed; others
-// are kept and reported. Call it only while holding the target's lock. Each action (or
+// Cleans up what killed writers left beside `target` (the names above): when `target`
+// is missing and a moved-aside "T.aqs-old<pid>" holds `identity_file` (a complete old
+// version), it is renamed back to `target`, whatever runs under that pid now (under the
+// lock no writer of the target is running: a running process of that pid has it by
+// reuse). Other leftovers of processes that are gone, or of this process's pid (at lock
+// time a dead predecessor's), are removed if they hold the marker, `identity_file`, or
+// nothing; the rest, and those of running processes, are kept and reported. Call it only while holding the target's lock. Each action (or
 // kept leftover) is described by one line in *actions. Returns false with *error if a
 // removal or rename failed.
 bool CleanLeftovers(const std::string& target, const std::string& identity_file,
