@@ -78,17 +78,21 @@ bool ContactSolver::SolveRounds(const ActuationMatrix& a, const std::vector<Rigi
   solver_options.relative_force_tolerance = relative_force_tolerance;
   solver_options.num_threads = options_.num_threads;
   Eigen::Matrix3Xd& x = state->x;
+  ContactOffsetRule offset_rule;
+  offset_rule.thickness = options_.thickness;
+  offset_rule.max_depth = options_.max_depth;
+  offset_rule.max_outside = kResidualMargin;
+  offset_rule.max_offset = kMaxOffset * options_.thickness;
   for (int round = 0; round < options_.max_rounds; ++round) {
     const Eigen::Matrix3Xd surface = EmbeddedPositions(model_.embedding, model_.mesh.tets, x);
     const ObstacleCandidates near = DetectObstacleContacts(surface, obstacles);
     std::vector<SelfContactPair> pairs =
         options_.self_contact ? DetectSelfContacts(surface) : std::vector<SelfContactPair>();
-    for (SelfContactPair& pair : pairs) pair.offset = state->vertex_offsets[pair.surface_vertex];
+    for (SelfContactPair& pair : pairs) pair.offset = state->offsets.Of(pair);
     int edge_pairs = 0;
     if (options_.self_contact && options_.edge_contact) {
       for (SelfContactPair& pair : DetectEdgeContacts(surface, reference)) {
-        const auto found = state->edge_offsets.find({pair.edge, pair.second_edge});
-        pair.offset = found != state->edge_offsets.end() ? found->second : 0.0;
+        pair.offset = state->offsets.Of(pair);
         pairs.push_back(pair);
         ++edge_pairs;
       }
@@ -142,20 +146,8 @@ bool ContactSolver::SolveRounds(const ActuationMatrix& a, const std::vector<Rigi
           state->touched[pair.surface_vertex] = 1;
         }
       }
-      // Augmented Lagrangian: the multiplier k * offset grows by k (thickness - s), except
-      // for a pair faded out entirely (its distance is ill-conditioned there: the
-      // point's offset waits for its next pair).
-      const Eigen::Vector3d points[4] = {pair.point.Position(x), pair.corner[0].Position(x),
-                                         pair.corner[1].Position(x), pair.corner[2].Position(x)};
-      double s = 0, outside = 0, fade = 0;
-      if (options_.augmented_lagrangian &&
-          SelfContactDistance(pair, points, &s, nullptr, &outside) && outside <= kResidualMargin &&
-          s > -options_.max_depth && SelfContactFadeVariable(pair, points, &fade, nullptr) &&
-          fade > FadeBandOf(pair).zero) {
-        double& offset = edge ? state->edge_offsets[{pair.edge, pair.second_edge}]
-                              : state->vertex_offsets[pair.surface_vertex];
-        offset = std::clamp(offset + options_.thickness - s, 0.0, kMaxOffset * options_.thickness);
-      }
+      // Augmented Lagrangian: the multiplier k * offset grows by k (thickness - s).
+      if (options_.augmented_lagrangian) state->offsets.Update(pair, x, offset_rule);
     }
     if (!largest_pair.empty()) VLOG(2) << "round " << round + 1 << label << ": " << largest_pair;
     const Eigen::Matrix3Xd moved = EmbeddedPositions(model_.embedding, model_.mesh.tets, x);
@@ -195,8 +187,7 @@ bool ContactSolver::Resolve(const ActuationMatrix& a, const std::vector<RigidTra
   // surface vertices in contact in any round), no augmented-Lagrangian offsets.
   PathState current;
   current.touched.assign(rest_surface_.cols(), 0);
-  current.vertex_offsets.assign(rest_surface_.cols(), 0.0);
-  current.edge_offsets.clear();
+  current.offsets = ContactOffsets(static_cast<int>(rest_surface_.cols()));
   // The path needs a start without penetrations: obstacles placed around the pose may
   // already hold the rest surface.
   const std::vector<RigidTransform> rest_bones(bones.size());

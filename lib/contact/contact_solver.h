@@ -1,7 +1,6 @@
 #ifndef AQS_CONTACT_CONTACT_SOLVER_H_
 #define AQS_CONTACT_CONTACT_SOLVER_H_
 
-#include <map>
 #include <memory>
 #include <string>
 #include <utility>
@@ -9,6 +8,7 @@
 
 #include <Eigen/Core>
 
+#include "contact/contact_offsets.h"
 #include "contact/contact_report.h"
 #include "contact/obstacle.h"
 #include "contact/obstacle_contact_term.h"
@@ -200,10 +200,7 @@ class ContactSolver {
   struct PathState {
     Eigen::Matrix3Xd x;
     std::vector<char> touched;
-    std::vector<double> vertex_offsets;
-    // Edge-edge pairs' offsets, by the pair's edges (lower first): one per pair, as the
-    // update asks (one per first edge let a partner apart clamp a pressed pair's to 0).
-    std::map<std::pair<int, int>, double> edge_offsets;
+    ContactOffsets offsets;
     int self_intersections = 0;
     int obstacle_intersections = 0;
   };
