@@ -60,16 +60,17 @@ DEFINE_bool(overwrite, false, "Replace whatever is at --model. Without it, only 
 DEFINE_string(mirror_poses, "", "Also train on the mirror image of every pose that is not "
               "symmetric (named mirror_NAME; its bones' motions mirrored): the axis normal to the "
               "mirror plane, x, y or z (empty: none). The neutral must be mirror-symmetric.");
-DEFINE_double(mirror_plane, 0.0, "The mirror plane of --mirror_poses: axis = this.");
+DEFINE_double(mirror_plane, 0.0, "The mirror plane of --mirror_poses: axis = this (needs "
+              "--mirror_poses).");
 DEFINE_double(mirror_tolerance, 1e-3, "The neutral's largest asymmetry --mirror_poses accepts, "
-              "as a fraction of its bounding-box diagonal.");
+              "as a fraction of its bounding-box diagonal (needs --mirror_poses).");
 DEFINE_bool(halfway_poses, false, "Also train on the pose halfway to every pose whose bones "
             "move (named half_NAME): the surface halfway between the neutral and the pose, each "
             "bone halfway along its screw motion (a model trained on a jaw opened all the way "
             "has no example of the way there; docs/results.md).");
 DEFINE_double(halfway_min_bone_motion, 0.01, "--halfway_poses: the poses whose bones move "
               "a vertex farther than this fraction of the simulation mesh's bounding-box "
-              "diagonal get a halfway pose.");
+              "diagonal get a halfway pose; in (0, 1] (needs --halfway_poses).");
 DEFINE_double(prepare_tolerance, 1e-6, "Relative force tolerance of the embedded simulations.");
 DECLARE_int32(threads);
 DECLARE_string(model);
@@ -174,7 +175,10 @@ bool PrepareOptionsFromFlags(PrepareJobOptions* options, std::string* error) {
     return !gflags::GetCommandLineFlagInfoOrDie(flag).is_default;
   };
   if (FLAGS_mirror_poses.empty() && (given("mirror_plane") || given("mirror_tolerance"))) {
-    *error = "--mirror_plane and --mirror_tolerance describe --mirror_poses: they need it";
+    *error = given("mirror_plane") && given("mirror_tolerance")
+                 ? "--mirror_plane and --mirror_tolerance describe --mirror_poses: they need it"
+                 : std::string(given("mirror_plane") ? "--mirror_plane" : "--mirror_tolerance") +
+                       " describes --mirror_poses: it needs it";
     return false;
   }
   if (!FLAGS_halfway_poses && given("halfway_min_bone_motion")) {

@@ -9,7 +9,6 @@
 #include <glog/logging.h>
 
 #include "geometry/rigid_transform.h"
-#include "util/number_format.h"
 #include "util/option_checks.h"
 
 namespace aqs {
@@ -18,7 +17,8 @@ bool HalfwayOptions::Validate(std::string* error) const {
   // 0 is refused: a bone whose fitted motion is round-off would get a halfway pose.
   return OptionChecks()
       .Require(min_bone_motion > 0.0 && min_bone_motion <= 1.0,
-               "min_bone_motion must be in (0, 1] (is " + FormatDouble(min_bone_motion) + ")")
+               "min_bone_motion must be finite and in (0, 1] (is " + OptionValue(min_bone_motion) +
+                   ")")
       .Done(error);
 }
 
@@ -36,6 +36,8 @@ double LargestBoneMotion(const ActiveModel& model, int bone, int pose) {
 bool AddHalfwayPoses(const HalfwayOptions& options, ActiveModel* model, int* added,
                      std::ostream& log, std::string* error) {
   CHECK(options.enabled);
+  std::string invalid;
+  DCHECK(options.Validate(&invalid)) << invalid;
   *added = 0;
   const int given = model->num_poses();
   for (const Bone& bone : model->bones) {

@@ -21,7 +21,8 @@ namespace aqs {
 struct HalfwayOptions {
   bool enabled = false;
   // A pose gets a halfway pose when one of its bones moves one of its vertices farther
-  // than this fraction of the simulation mesh's bounding-box diagonal.
+  // than this fraction of the simulation mesh's bounding-box diagonal; in (0, 1] (0 would
+  // give one to a bone whose fitted motion is round-off).
   double min_bone_motion = 0.01;
 
   // Checks every field; false with *error naming the first bad one (util/option_checks.h).

@@ -139,6 +139,14 @@ bool OpenCheckpoints(const PretrainOptions& options, const ActiveModel& model,
   if (!MakeDirectory(directory, error)) return false;
   const std::string& kept = options.kept_checkpoints_directory;
   const std::vector<std::string> also = {std::filesystem::path(log_path).filename()};
+  bool removed = false;
+  if (resumed && !kept.empty() && !RemoveKeptCheckpoint(kept, start->key, &removed, error)) {
+    return false;
+  }
+  if (removed) {
+    log << "pretrain: removed the copy of this checkpoint kept in " << kept
+        << " (left by a run stopped while it moved the checkpoint there)\n";
+  }
   if (!resumed && kept.empty() && !RemoveSolverCheckpoint(directory, error)) return false;
   if (!resumed && !kept.empty()) {
     bool moved = false, restored = false;

@@ -221,6 +221,14 @@ bool MoveSolverCheckpointAside(const std::string& directory, const std::string& 
   return true;
 }
 
+bool RemoveKeptCheckpoint(const std::string& kept_root, const CheckpointKey& key,
+                          bool* removed, std::string* error) {
+  std::error_code code;
+  const std::string kept = kept_root + "/" + KeptCheckpointName(key);
+  *removed = std::filesystem::exists(kept, code) || std::filesystem::exists(kept + ".tmp", code);
+  return RemoveDirectory(kept, error) && RemoveDirectory(kept + ".tmp", error);
+}
+
 bool RestoreKeptCheckpoint(const std::string& directory, const std::string& kept_root,
                            const CheckpointKey& key, const std::vector<std::string>& also,
                            bool* restored, std::string* error) {

@@ -67,6 +67,14 @@ bool MoveSolverCheckpointAside(const std::string& directory, const std::string& 
                                const std::vector<std::string>& also, bool* moved,
                                std::string* error);
 
+// Removes the checkpoint kept for `key` in kept_root and a staging folder of it left by
+// a stopped move (a run that resumes the same key's checkpoint from its own folder: a
+// move killed after its rename left the checkpoint in both places, and the kept copy
+// would be taken back by a later run instead of starting anew). True if there is none.
+// False with *error if a folder cannot be removed.
+bool RemoveKeptCheckpoint(const std::string& kept_root, const CheckpointKey& key,
+                          bool* removed, std::string* error);
+
 // Takes back into `directory` (which must hold no checkpoint.txt) the checkpoint kept
 // for `key` in kept_root, if there is one: its slot and `also` files are copied first,
 // its checkpoint.txt last (atomically), then its kept folder is removed. True with

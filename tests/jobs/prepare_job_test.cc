@@ -1,5 +1,6 @@
 #include "jobs/prepare_job.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -400,7 +401,7 @@ TEST_F(PrepareJobTest, MirrorImagesOfAsymmetricPoses) {
 }
 
 // --halfway_poses with --mirror_poses and a bone (a copy of the sphere, driving the
-// fixed core's lower half) that the twist's pose turns by 0.1 about the x axis: the twist and its mirror image get
+// fixed core's lower half) that the twist's pose turns by 0.1 about the z axis: the twist and its mirror image get
 // halfway poses (half_pose2, half_mirror_pose2), the symmetric poses' bones stay and get
 // none. Every bone transform is saved and read back (6 per bone), the halfway bones are
 // halfway along their screw motions, and the halfway surfaces are the blends at 1/2. A
@@ -409,7 +410,7 @@ TEST_F(PrepareJobTest, MirrorImagesOfAsymmetricPoses) {
 TEST_F(PrepareJobTest, HalfwayPosesWithMirrorImagesAndABone) {
   std::string error;
   const Eigen::Matrix3d turn =
-      Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitX()).toRotationMatrix();
+      Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   SurfaceMesh turned = neutral_;
   turned.vertices = turn * neutral_.vertices;
   ASSERT_TRUE(WriteObj(dir_.File("bone_pose2.obj"), turned, &error)) << error;
@@ -443,6 +444,27 @@ TEST_F(PrepareJobTest, HalfwayPosesWithMirrorImagesAndABone) {
   ASSERT_FALSE(core.vertices.empty());
   for (int p : {0, 1}) EXPECT_LT(LargestBoneMotion(model, 0, p), 1e-9) << names[p];
   for (int p : {2, 3}) EXPECT_GT(LargestBoneMotion(model, 0, p), 1e-2) << names[p];
+  // The mirror image turns the other way (x -> -x maps a turn about z to its inverse),
+  // and so do the halfway poses: T_3(v) = M T_2(M v), T_5(v) = M T_4(M v), T_5 != T_4.
+  const Eigen::Vector3d flip(-1, 1, 1);
+  for (int v : core.vertices) {
+    const Eigen::Vector3d x = model.mesh.vertices.col(v);
+    for (int p : {2, 4}) {
+      EXPECT_LT((core.pose_transforms[p + 1].ApplyToPoint(x) -
+                 flip.cwiseProduct(core.pose_transforms[p].ApplyToPoint(flip.cwiseProduct(x))))
+                    .norm(),
+                1e-9)
+          << names[p + 1] << " vertex " << v;
+    }
+  }
+  EXPECT_GT(LargestBoneMotion(model, 0, 4), 1e-3);
+  double apart = 0.0;
+  for (int v : core.vertices) {
+    const Eigen::Vector3d x = model.mesh.vertices.col(v);
+    apart = std::max(apart, (core.pose_transforms[5].ApplyToPoint(x) -
+                             core.pose_transforms[4].ApplyToPoint(x)).norm());
+  }
+  EXPECT_GT(apart, 1e-3);
   for (int h : {4, 5}) {
     const RigidTransform& half = core.pose_transforms[h];
     const RigidTransform& whole = core.pose_transforms[h - 2];

@@ -89,7 +89,7 @@ TEST_F(HalfwayPosesTest, APoseWhoseBonesMoveGetsItsHalfwayPose) {
 TEST_F(HalfwayPosesTest, TheThresholdDecidesWhichPosesGetOne) {
   HalfwayOptions options;
   options.enabled = true;
-  options.min_bone_motion = 0.0;  // any motion: the nudge too
+  options.min_bone_motion = 1e-6;  // the nudge's motion too
   std::ostringstream log;
   std::string error;
   int added = 0;
@@ -128,7 +128,7 @@ TEST(HalfwayOptionsTest, MotionThresholdIsAFraction) {
   // 0 would give a halfway pose to a bone whose fitted motion is round-off.
   options.min_bone_motion = 0.0;
   EXPECT_FALSE(options.Validate(&error));
-  EXPECT_EQ(error, "min_bone_motion must be in (0, 1] (is 0)");
+  EXPECT_EQ(error, "min_bone_motion must be finite and in (0, 1] (is 0)");
   options.min_bone_motion = 1.0;
   EXPECT_TRUE(options.Validate(&error)) << error;
 }

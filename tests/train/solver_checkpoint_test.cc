@@ -421,7 +421,8 @@ TEST(PretrainKillTest, AStoppedRunKeepsTheModelsLogAndARestartKeepsTheOldCheckpo
 // A restart killed while it moves the earlier run's checkpoint aside (after the copies
 // into the staging folder, after the removal of an earlier kept copy of its key (here
 // none), after the rename, before checkpoint.txt is removed): the checkpoint is whole in
-// pretrain/ or in the kept folder, and the next run of its options resumes it.
+// pretrain/ (and after the rename a whole copy in the kept folder too), the next run of
+// its options resumes it, and no kept copy or staging folder of its key stays behind.
 TEST(PretrainKillTest, ARestartKilledWhileItMovesTheCheckpointAsideLosesNothing) {
   testing::TempDir dir;
   const std::string original = dir.File("m");
@@ -438,15 +439,37 @@ TEST(PretrainKillTest, ARestartKilledWhileItMovesTheCheckpointAsideLosesNothing)
     SCOPED_TRACE(point);
     const std::string path = dir.File(std::string("m_") + (std::strchr(point, ':') + 1));
     fs::copy(original, path, fs::copy_options::recursive);
+    ASSERT_FALSE(fs::exists(KeptPretrainCheckpointsPath(path)));
     ASSERT_EQ(testing::RunProgram({AQS_KILL_AT, point, "0", path, "8", "pretrain_restart"}),
               "killed");
+    ActiveModel model;
+    std::string error, why_not;
+    ASSERT_TRUE(LoadModel(path, &model, &error)) << error;
+    const CheckpointKey key = PretrainCheckpointKey(options, model);
+    const int count = static_cast<int>(model.decoder_params.size() + model.latents.size());
+    const std::string kept = KeptPretrainCheckpointsPath(path) + "/" + KeptCheckpointName(key);
+    SolverCheckpoint read;
+    ASSERT_TRUE(ReadSolverCheckpoint(path + "/pretrain", key, count, &read, &why_not))
+        << why_not;
+    EXPECT_EQ(read.iterations, 2);
+    if (std::string(point) == "checkpoint_aside:renamed") {
+      // In both places: the copy is whole too.
+      ASSERT_TRUE(ReadSolverCheckpoint(kept, key, count, &read, &why_not)) << why_not;
+      EXPECT_EQ(read.iterations, 2);
+    } else {
+      EXPECT_FALSE(fs::exists(kept));
+      EXPECT_TRUE(fs::exists(kept + ".tmp"));
+    }
     std::ostringstream log;
-    std::string error;
     ASSERT_TRUE(RunPretrainJob(path, options, nullptr, log, &error)) << error;
     EXPECT_NE(log.str().find("pretrain: resuming after iteration 2 "), std::string::npos)
         << log.str();
     ActiveModel done;
     EXPECT_TRUE(LoadModel(path, &done, &error)) << error;
+    // Resumed from pretrain/: no copy of the key stays kept, to be taken back by a later
+    // pre-training of these options that would otherwise start anew.
+    EXPECT_FALSE(fs::exists(kept));
+    EXPECT_FALSE(fs::exists(kept + ".tmp"));
   }
 }
 
