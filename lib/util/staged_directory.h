@@ -67,9 +67,9 @@ std::string MovedAsideOf(const std::string& target);
 // lock no writer of the target is running: a running process of that pid has it by
 // reuse). Other leftovers of processes that are gone, or of this process's pid (at lock
 // time a dead predecessor's), are removed if they hold the marker, `identity_file`, or
-// nothing; the rest, and those of running processes, are kept and reported. Call it only while holding the target's lock. Each action (or
-// kept leftover) is described by one line in *actions. Returns false with *error if a
-// removal or rename failed.
+// nothing; the rest, and those of running processes, are kept and reported. Call it
+// only while holding the target's lock. Each action (or kept leftover) is described by
+// one line in *actions. Returns false with *error if a removal or rename failed.
 bool CleanLeftovers(const std::string& target, const std::string& identity_file,
                     std::vector<std::string>* actions, std::string* error);
 

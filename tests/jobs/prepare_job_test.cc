@@ -401,12 +401,13 @@ TEST_F(PrepareJobTest, MirrorImagesOfAsymmetricPoses) {
 }
 
 // --halfway_poses with --mirror_poses and a bone (a copy of the sphere, driving the
-// fixed core's lower half) that the twist's pose turns by 0.1 about the z axis: the twist and its mirror image get
-// halfway poses (half_pose2, half_mirror_pose2), the symmetric poses' bones stay and get
-// none. Every bone transform is saved and read back (6 per bone), the halfway bones are
-// halfway along their screw motions, and the halfway surfaces are the blends at 1/2. A
-// rerun that keeps the same model keeps it; a run stopped after the model was written
-// resumes from its targets' store; another threshold makes the model anew.
+// fixed core's lower half) that the twist's pose turns by 0.1 about the z axis: the
+// twist and its mirror image get halfway poses (half_pose2, half_mirror_pose2), the
+// symmetric poses' bones stay and get none. Every bone transform is saved and read back
+// (6 per bone), the halfway bones are halfway along their screw motions, and the halfway
+// surfaces are the blends at 1/2. A rerun that keeps the same model keeps it; a run
+// stopped after the model was written resumes from its targets' store; another
+// threshold makes the model anew.
 TEST_F(PrepareJobTest, HalfwayPosesWithMirrorImagesAndABone) {
   std::string error;
   const Eigen::Matrix3d turn =
