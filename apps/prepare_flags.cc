@@ -174,10 +174,11 @@ bool PrepareOptionsFromFlags(PrepareJobOptions* options, std::string* error) {
   const auto given = [](const char* flag) {
     return !gflags::GetCommandLineFlagInfoOrDie(flag).is_default;
   };
-  if (FLAGS_mirror_poses.empty() && (given("mirror_plane") || given("mirror_tolerance"))) {
-    *error = given("mirror_plane") && given("mirror_tolerance")
+  const bool plane = given("mirror_plane"), tolerance = given("mirror_tolerance");
+  if (FLAGS_mirror_poses.empty() && (plane || tolerance)) {
+    *error = plane && tolerance
                  ? "--mirror_plane and --mirror_tolerance describe --mirror_poses: they need it"
-                 : std::string(given("mirror_plane") ? "--mirror_plane" : "--mirror_tolerance") +
+                 : std::string(plane ? "--mirror_plane" : "--mirror_tolerance") +
                        " describes --mirror_poses: it needs it";
     return false;
   }

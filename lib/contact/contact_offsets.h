@@ -42,7 +42,7 @@ class ContactOffsets {
   // the closest points lie more than max_outside outside the feature, or the pair is
   // faded out entirely (its fade variable at or below its band's zero: its distance is
   // ill-conditioned there, and a point's offset waits for its next pair). Returns
-  // whether it changed the offset.
+  // false where it left the offset alone for one of these reasons.
   bool Update(const SelfContactPair& pair, const Eigen::Matrix3Xd& x,
               const ContactOffsetRule& rule);
 

@@ -70,8 +70,9 @@ bool MoveSolverCheckpointAside(const std::string& directory, const std::string& 
 // Removes the checkpoint kept for `key` in kept_root and a staging folder of it left by
 // a stopped move (a run that resumes the same key's checkpoint from its own folder: a
 // move killed after its rename left the checkpoint in both places, and the kept copy
-// would be taken back by a later run instead of starting anew). True if there is none.
-// False with *error if a folder cannot be removed.
+// would be taken back by a later run instead of starting anew). True, with *removed
+// saying whether there was one, when none is left; false with *error if a folder cannot
+// be removed.
 bool RemoveKeptCheckpoint(const std::string& kept_root, const CheckpointKey& key,
                           bool* removed, std::string* error);
 
