@@ -42,6 +42,23 @@ SolverCheckpoint SomeCheckpoint(int iterations) {
   return checkpoint;
 }
 
+// Reads from `folder` (the model's pretrain/ or a kept copy) the pre-training checkpoint
+// of the model at `path` with `options`: ReadSolverCheckpoint with the model's key and
+// parameter count. *key (if not null) receives the key. A model that cannot be read is a
+// test failure.
+bool ReadPretrainCheckpoint(const std::string& path, const std::string& folder,
+                            const PretrainOptions& options, SolverCheckpoint* checkpoint,
+                            std::string* why_not, CheckpointKey* key = nullptr) {
+  ActiveModel model;
+  std::string error;
+  EXPECT_TRUE(LoadModel(path, &model, &error)) << error;
+  const CheckpointKey model_key = PretrainCheckpointKey(options, model);
+  if (key != nullptr) *key = model_key;
+  return ReadSolverCheckpoint(folder, model_key,
+                              static_cast<int>(model.decoder_params.size() + model.latents.size()),
+                              checkpoint, why_not);
+}
+
 // The slots are written in turn; the checkpoint read is always the one last written,
 // exactly (numbers round-trip).
 TEST(SolverCheckpointTest, RoundTripsAndAlternatesSlots) {
@@ -342,14 +359,9 @@ TEST(PretrainKillTest, AKilledRunResumesItsLastWholeCheckpoint) {
   spec.num_threads = 1;
   spec.pretrain_iterations = 8;
   PretrainOptions options = testing::SyntheticPretrainOptions(spec);
-  ActiveModel model;
   std::string error, why_not;
-  ASSERT_TRUE(LoadModel(path, &model, &error)) << error;
   SolverCheckpoint saved;
-  ASSERT_TRUE(ReadSolverCheckpoint(path + "/pretrain", PretrainCheckpointKey(options, model),
-                                     static_cast<int>(model.decoder_params.size() +
-                                                      model.latents.size()),
-                                     &saved, &why_not))
+  ASSERT_TRUE(ReadPretrainCheckpoint(path, path + "/pretrain", options, &saved, &why_not))
       << why_not;
   EXPECT_EQ(saved.iterations, 1);
   std::ostringstream log;
@@ -385,12 +397,8 @@ TEST(PretrainKillTest, AStoppedRunKeepsTheModelsLogAndARestartKeepsTheOldCheckpo
   spec.num_threads = 1;
   const PretrainOptions options = testing::SyntheticPretrainOptions(spec);
   auto saved_checkpoint = [&](SolverCheckpoint* saved) {
-    ActiveModel model;
-    std::string error, why_not;
-    EXPECT_TRUE(LoadModel(path, &model, &error)) << error;
-    return ReadSolverCheckpoint(
-        path + "/pretrain", PretrainCheckpointKey(options, model),
-        static_cast<int>(model.decoder_params.size() + model.latents.size()), saved, &why_not);
+    std::string why_not;
+    return ReadPretrainCheckpoint(path, path + "/pretrain", options, saved, &why_not);
   };
   // Killed while it writes its third checkpoint: those of iterations 1 and 2 are whole.
   ASSERT_EQ(testing::RunProgram({AQS_KILL_AT, "solver_checkpoint:parameters_written", "2", path,
@@ -442,19 +450,16 @@ TEST(PretrainKillTest, ARestartKilledWhileItMovesTheCheckpointAsideLosesNothing)
     ASSERT_FALSE(fs::exists(KeptPretrainCheckpointsPath(path)));
     ASSERT_EQ(testing::RunProgram({AQS_KILL_AT, point, "0", path, "8", "pretrain_restart"}),
               "killed");
-    ActiveModel model;
     std::string error, why_not;
-    ASSERT_TRUE(LoadModel(path, &model, &error)) << error;
-    const CheckpointKey key = PretrainCheckpointKey(options, model);
-    const int count = static_cast<int>(model.decoder_params.size() + model.latents.size());
-    const std::string kept = KeptPretrainCheckpointsPath(path) + "/" + KeptCheckpointName(key);
+    CheckpointKey key;
     SolverCheckpoint read;
-    ASSERT_TRUE(ReadSolverCheckpoint(path + "/pretrain", key, count, &read, &why_not))
+    ASSERT_TRUE(ReadPretrainCheckpoint(path, path + "/pretrain", options, &read, &why_not, &key))
         << why_not;
+    const std::string kept = KeptPretrainCheckpointsPath(path) + "/" + KeptCheckpointName(key);
     EXPECT_EQ(read.iterations, 2);
     if (std::string(point) == "checkpoint_aside:renamed") {
       // In both places: the copy is whole too.
-      ASSERT_TRUE(ReadSolverCheckpoint(kept, key, count, &read, &why_not)) << why_not;
+      ASSERT_TRUE(ReadPretrainCheckpoint(path, kept, options, &read, &why_not)) << why_not;
       EXPECT_EQ(read.iterations, 2);
     } else {
       EXPECT_FALSE(fs::exists(kept));
