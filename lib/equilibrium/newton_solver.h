@@ -54,6 +54,10 @@ struct NewtonSolveReport {
   // one), or its step failed.
   int exact_rejections = 0;
   int energy_evaluations = 0;  // line-search trials
+  // Stopped because 16 accepted steps in a row lowered neither the energy (by 1e-10 of
+  // itself) nor the largest force (by 10%): a kink of the energy, where the force cannot
+  // reach the tolerance, or its round-off floor.
+  bool stalled = false;
   double initial_energy = 0.0, final_energy = 0.0;
   double initial_max_force = 0.0, final_max_force = 0.0;
   std::string message;  // why the solve stopped
@@ -81,7 +85,9 @@ struct NewtonSolveReport {
 // A singular projected K (e.g. elements with no resisting mode) is shifted by a multiple
 // of its mean diagonal, growing until CHOLMOD succeeds.
 //
-// Returns with converged = true once the largest force is at most force_tolerance. The
+// Returns with converged = true once the largest force is at most force_tolerance; it
+// also stops, not converged (stalled = true), after 16 accepted steps in a row that
+// lowered neither the energy by 1e-10 of itself nor the largest force by 10%. The
 // factorization (built for the model, fixed vertices and energy terms of x) is left
 // holding the last factorized stiffness.
 NewtonSolveReport MinimizeEnergyNewton(const NewtonSolverOptions& options,

@@ -10,7 +10,9 @@
 #include <gtest/gtest.h>
 
 #include "equilibrium/quasistatic_solver.h"
+#include "equilibrium/energy_term.h"
 #include "physics/stiffness_assembly.h"
+#include "sparse/stiffness_pattern.h"
 #include "testing/test_meshes.h"
 
 namespace aqs {
@@ -412,6 +414,99 @@ TEST(NewtonSolverTest, ShiftsASingularProjectedStiffness) {
   EXPECT_TRUE(x.allFinite());
   EXPECT_FALSE(report.message.empty());
   EXPECT_LT(report.final_energy, report.initial_energy);
+}
+
+// A cone pinning one vertex: E = c + k |x_v - p|, whose gradient k (x_v - p) / |x_v - p|
+// jumps at p (a kink of the energy, as a contact switching on and off makes one). Its
+// Hessian k (I - u u^T) / |x_v - p| is positive semi-definite (both kinds). The constant
+// c stands for the energy of the rest of a large system: it sets the energy's round-off.
+class ConeTerm : public EnergyTerm {
+ public:
+  ConeTerm(int vertex, const Eigen::Vector3d& apex, double k, double c)
+      : vertex_(vertex), apex_(apex), k_(k), c_(c) {}
+
+  double AddEnergyAndGradient(const Eigen::Ref<const Eigen::Matrix3Xd>& x,
+                              Eigen::Matrix3Xd* gradient) const override {
+    const Eigen::Vector3d d = x.col(vertex_) - apex_;
+    const double r = d.norm();
+    if (r > 0.0) gradient->col(vertex_) += k_ * d / r;
+    return c_ + k_ * r;
+  }
+  void AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>& x, const StiffnessPattern& pattern,
+                    StiffnessKind /*kind*/, std::vector<double>* values) const override {
+    const Eigen::Vector3d d = x.col(vertex_) - apex_;
+    const double r = d.norm();
+    if (!(r > 0.0)) return;
+    const Eigen::Vector3d u = d / r;
+    const Eigen::MatrixXd hessian = k_ / r * (Eigen::Matrix3d::Identity() - u * u.transpose());
+    AddVertexHessian({vertex_}, hessian, pattern, values);
+  }
+  void AddResidualBlocks(ceres::Problem* /*problem*/,
+                         const std::vector<double*>& /*vertex_blocks*/) const override {
+    ADD_FAILURE() << "Newton solves do not build a Ceres problem";
+  }
+
+ private:
+  int vertex_;
+  Eigen::Vector3d apex_;
+  double k_;
+  double c_;
+};
+
+// Newton at a kink: the minimum is at the cone's apex, where the force on the pinned
+// vertex cannot fall below the cone's pull minus the bar's. Exact steps toward it shrink
+// and the force wavers; without the stall test the solve spends its whole budget (200
+// factorizations here). It must stop early, not converged, saying so.
+TEST(NewtonSolverTest, AKinkOfTheEnergyStopsTheSolveEarly) {
+  const TetMesh mesh = BarMesh(16, 2, 2, 0.5);
+  const ShapeTargetModel model(mesh, 1.0);
+  const BoundaryConditions bc = LeftFaceFixed(mesh);
+  const ActuationMatrix a = CurlActuation(mesh, 0.4);
+  // The vertex farthest from the fixed face, pinned at its rest position.
+  int tip = 0;
+  for (int v = 1; v < mesh.num_vertices(); ++v) {
+    if (mesh.vertices.col(v).sum() > mesh.vertices.col(tip).sum()) tip = v;
+  }
+  StiffnessFactorization factorization(model, FixedVertexMask(bc, mesh.num_vertices()), 2);
+  // The bar's pull on the tip held at rest, and a cone 1.5 times as strong.
+  Eigen::Matrix3Xd gradient;
+  factorization.EnergyAndGradient(mesh.vertices, a, &gradient);
+  const double pull = gradient.col(tip).norm();
+  ASSERT_GT(pull, 0.0);
+  const ConeTerm cone(tip, mesh.vertices.col(tip), 1.5 * pull, 1e4);
+  factorization.set_energy_terms({&cone});
+  NewtonSolverOptions options = Options(model, 1e-10);
+  options.max_factorizations = 200;
+  options.exact_force_threshold = model.force_scale();  // exact steps near the kink
+  Eigen::Matrix3Xd x = mesh.vertices;
+  x.col(tip) += Eigen::Vector3d(0.01, 0.02, -0.01);  // off the apex
+  const NewtonSolveReport report = MinimizeEnergyNewton(options, a, &factorization, &x);
+  std::printf("cone: %d exact, %d projected steps, %d factorizations, largest force %.3g "
+              "(pull %.3g); %s\n",
+              report.exact_steps, report.projected_steps, report.factorizations,
+              report.final_max_force, pull, report.message.c_str());
+  EXPECT_FALSE(report.converged);
+  EXPECT_TRUE(report.stalled) << report.message;
+  EXPECT_NE(report.message.find("stalled"), std::string::npos) << report.message;
+  EXPECT_LT(report.factorizations, 100) << report.message;
+  EXPECT_LT(report.final_energy, report.initial_energy);
+  // It stopped at the kink: the tip at the apex.
+  EXPECT_LT((x.col(tip) - mesh.vertices.col(tip)).norm(), 1e-3);
+}
+
+// A smooth solve never stalls: the curled bar reaches a tight tolerance.
+TEST(NewtonSolverTest, ASmoothSolveDoesNotStall) {
+  const TetMesh mesh = BarMesh(16, 2, 2, 0.5);
+  const ShapeTargetModel model(mesh, 1.0);
+  const BoundaryConditions bc = LeftFaceFixed(mesh);
+  StiffnessFactorization factorization(model, FixedVertexMask(bc, mesh.num_vertices()), 2);
+  for (double amount : {0.25, 0.4}) {
+    Eigen::Matrix3Xd x = mesh.vertices;
+    const NewtonSolveReport report = MinimizeEnergyNewton(
+        Options(model, 1e-12), CurlActuation(mesh, amount), &factorization, &x);
+    EXPECT_TRUE(report.converged) << amount << ": " << report.message;
+    EXPECT_FALSE(report.stalled) << amount;
+  }
 }
 
 TEST(NewtonSolverTest, RefusesFreeBodiesAndNonFiniteActuations) {
