@@ -3,6 +3,7 @@
 #include <cmath>
 #include <random>
 
+#include <Eigen/Eigenvalues>
 #include <glog/logging.h>
 
 namespace aqs {
@@ -11,9 +12,29 @@ namespace {
 // Energies within this fraction of |E| of each other are equal up to round-off.
 constexpr double kEnergyNoise = 1e-12;
 
-// Power iteration stops early once the Rayleigh quotient is negative and changed by less
-// than this fraction of itself in the last iteration.
-constexpr double kCurvatureSettled = 1e-2;
+// The search stops early once the Rayleigh quotient rho is negative and the residual
+// |K x - rho x| is at most this fraction of |rho| (a change of the quotient by under 1% in
+// one iteration is no such sign: with a preconditioner that misses part of K it moves in
+// plateaus).
+constexpr double kResidualSettled = 0.1;
+
+// A new basis vector whose norm, after it is made orthogonal to the others, is below this
+// fraction of its norm before is dropped (it adds nothing to the subspace).
+constexpr double kDependent = 1e-10;
+
+// Appends v to the orthonormal columns `basis` (Gram-Schmidt, twice for round-off) unless
+// it is (nearly) in their span.
+void AppendOrthonormal(const Eigen::VectorXd& v, std::vector<Eigen::VectorXd>* basis) {
+  const double norm = v.norm();
+  if (!(norm > 0.0) || !std::isfinite(norm)) return;
+  Eigen::VectorXd u = v;
+  for (int pass = 0; pass < 2; ++pass) {
+    for (const Eigen::VectorXd& q : *basis) u -= q.dot(u) * q;
+  }
+  const double rest = u.norm();
+  if (!(rest > kDependent * norm)) return;
+  basis->push_back(u / rest);
+}
 
 }  // namespace
 
@@ -27,27 +48,58 @@ bool FindNegativeCurvature(const std::vector<double>& exact_values, int iteratio
   if (!(scale > 0.0)) return false;
   std::mt19937 generator(12345u);
   std::uniform_real_distribution<double> uniform(-1.0, 1.0);
-  Eigen::VectorXd v(n);
-  for (int i = 0; i < n; ++i) v[i] = uniform(generator);
-  v.normalize();
+  Eigen::VectorXd x(n);
+  for (int i = 0; i < n; ++i) x[i] = uniform(generator);
+  x.normalize();
+  Eigen::VectorXd kx = factorization->MultiplyValues(exact_values, x);
+  Eigen::VectorXd previous_step;  // p: the last change of x, orthogonal to the x before
   double curvature = 0.0;
   bool found = false;
   for (int k = 0; k < iterations; ++k) {
-    const Eigen::VectorXd kv = factorization->MultiplyValues(exact_values, v);
-    const double next = v.dot(kv) / scale;  // v has unit norm
+    const double rho = x.dot(kx);  // x has unit norm
+    const double next = rho / scale;
     if (!std::isfinite(next)) return false;
-    if (next < 0.0) {
-      const bool settled = found && std::abs(next - curvature) <= kCurvatureSettled * std::abs(next);
-      *direction = v;
+    const Eigen::VectorXd residual = kx - rho * x;
+    if (next < curvature) {
+      *direction = x;
       curvature = next;
       found = true;
-      if (settled) break;
+      if (residual.norm() <= kResidualSettled * std::abs(rho)) break;
     }
-    // v <- (I - P^-1 K) v, normalized.
-    Eigen::VectorXd w = v - factorization->SolveFree(kv);
-    const double norm = w.norm();
+    if (k + 1 == iterations) break;
+    // Rayleigh-Ritz on span{x, P^-1 (K x - rho x), p}: the smallest eigenpair of K
+    // restricted to it is the next x.
+    std::vector<Eigen::VectorXd> basis = {x};
+    AppendOrthonormal(factorization->SolveFree(residual), &basis);
+    if (previous_step.size() == n) AppendOrthonormal(previous_step, &basis);
+    const int m = static_cast<int>(basis.size());
+    if (m == 1) break;  // the residual is (nearly) zero: x is an eigenvector
+    std::vector<Eigen::VectorXd> k_basis = {kx};
+    for (int j = 1; j < m; ++j) {
+      k_basis.push_back(factorization->MultiplyValues(exact_values, basis[j]));
+    }
+    Eigen::MatrixXd restricted(m, m);
+    for (int i = 0; i < m; ++i) {
+      for (int j = i; j < m; ++j) {
+        restricted(i, j) = restricted(j, i) = 0.5 * (basis[i].dot(k_basis[j]) +
+                                                     basis[j].dot(k_basis[i]));
+      }
+    }
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(restricted);
+    if (eigen.info() != Eigen::Success) break;
+    const Eigen::VectorXd c = eigen.eigenvectors().col(0);
+    Eigen::VectorXd next_x = Eigen::VectorXd::Zero(n), next_kx = Eigen::VectorXd::Zero(n);
+    for (int j = 0; j < m; ++j) {
+      next_x += c[j] * basis[j];
+      next_kx += c[j] * k_basis[j];
+    }
+    const double norm = next_x.norm();
     if (!(norm > 0.0) || !std::isfinite(norm)) break;
-    v = w / norm;
+    next_x /= norm;
+    next_kx /= norm;
+    previous_step = next_x - x.dot(next_x) * x;
+    x = next_x;
+    kx = next_kx;
   }
   if (!found) return false;
   *relative_curvature = curvature;

@@ -16,7 +16,7 @@ namespace aqs {
 // Newton steps on the exact K are drawn to the saddle and steps on the PSD-projected K
 // leave it only by a small factor per step.
 
-// Power iterations of a negative-curvature search, and energy evaluations of the step
+// Iterations of a negative-curvature search, and energy evaluations of the step
 // along it, as the Newton solver uses them: from a first trial of 1e-2 element sizes,
 // 8 trials double it up to 1.28 element sizes (or halve it down to 1e-4). A longer step
 // along the direction, found only approximately at 30 iterations, can land where
@@ -27,13 +27,16 @@ inline constexpr int kNegativeCurvatureTrials = 8;
 
 // Searches a direction d (free DOFs, unit 2-norm) along which K = `exact_values` (a copy
 // of factorization->values() assembled with StiffnessKind::kExact at the current state)
-// curves down: power iteration on I - P^-1 K from a fixed pseudo-random start, for P the
-// matrix whose factor `factorization` holds (a PSD-projected or shifted stiffness of the
-// same state, P >= K, so that the iteration's dominant mode is the one where K falls
-// furthest below P: the most negative). Returns true with *direction and
-// *relative_curvature = d'Kd / mean|diag K| < 0; false if no factor is held or no
-// negative curvature was found in `iterations` iterations (each one K product and one
-// solve with the held factor).
+// curves down: the smallest eigenvector of K by preconditioned Rayleigh-Ritz iteration
+// (LOBPCG with one vector: each iteration minimizes the Rayleigh quotient x'Kx / x'x over
+// span{x, P^-1 (K x - rho x), the last step}), from a fixed pseudo-random start, with
+// the factor `factorization` holds as the preconditioner P (a PSD-projected or shifted
+// stiffness of the same state). Unlike power iteration on I - P^-1 K, it does not need
+// P >= K: in contact solves P holds a pair's Gauss-Newton part only and K also its
+// curvature term, which can exceed P and then dominated that iteration. Returns true with
+// *direction and *relative_curvature = d'Kd / mean|diag K| < 0 (the lowest quotient met);
+// false if no factor is held or no negative curvature was found in `iterations`
+// iterations (each one solve with the held factor and at most three K products).
 bool FindNegativeCurvature(const std::vector<double>& exact_values, int iterations,
                            StiffnessFactorization* factorization, Eigen::VectorXd* direction,
                            double* relative_curvature);

@@ -31,8 +31,8 @@ constexpr double kExactRetryFraction = 0.5;
 constexpr int kExactRetrySteps = 4;
 
 // Where the exact K is still indefinite on a retry, the next projected factor also
-// serves a search for K's direction of most negative curvature (power iteration, at most
-// kNegativeCurvatureIterations products and solves), and a step along it replaces the
+// serves a search for K's direction of most negative curvature (preconditioned by it, at
+// most kNegativeCurvatureIterations solves), and a step along it replaces the
 // projected step: the first trial moves the vertex it moves most by
 // kNegativeCurvatureFirstLength element sizes, then lengths double while the energy falls
 // (at most kNegativeCurvatureTrials energy evaluations). Near a saddle (the energy flat,

@@ -263,6 +263,9 @@ TEST(NewtonSolverTest, NegativeCurvatureStepsLeaveASaddleInFewFactorizations) {
     EXPECT_EQ(report.negative_curvature_steps > 0, negative_curvature);
     energies[negative_curvature] = report.final_energy;
     factorizations[negative_curvature] = report.factorizations;
+    std::printf("buckled bar, negative curvature steps %s: %d factorizations, %d steps along "
+                "negative curvature\n", negative_curvature ? "on" : "off",
+                report.factorizations, report.negative_curvature_steps);
     std::string error;
     EXPECT_TRUE(factorization.Factorize(x, bar.a, StiffnessKind::kExact, &error))
         << "a stable (buckled) equilibrium: " << error;
