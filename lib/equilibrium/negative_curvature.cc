@@ -18,6 +18,11 @@ constexpr double kEnergyNoise = 1e-12;
 // plateaus).
 constexpr double kResidualSettled = 0.1;
 
+// Quotients above -kMinCurvature (relative to the mean |diagonal|) are round-off of a
+// singular, positive semi-definite K (a mode no element resists), not negative
+// curvature.
+constexpr double kMinCurvature = 1e-8;
+
 // A new basis vector whose norm, after it is made orthogonal to the others, is below this
 // fraction of its norm before is dropped (it adds nothing to the subspace).
 constexpr double kDependent = 1e-10;
@@ -58,9 +63,9 @@ bool FindNegativeCurvature(const std::vector<double>& exact_values, int iteratio
   for (int k = 0; k < iterations; ++k) {
     const double rho = x.dot(kx);  // x has unit norm
     const double next = rho / scale;
-    if (!std::isfinite(next)) return false;
+    if (!std::isfinite(next)) break;  // keeps what was found before
     const Eigen::VectorXd residual = kx - rho * x;
-    if (next < curvature) {
+    if (next < -kMinCurvature && next < curvature) {
       *direction = x;
       curvature = next;
       found = true;

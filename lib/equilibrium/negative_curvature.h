@@ -27,16 +27,21 @@ inline constexpr int kNegativeCurvatureTrials = 8;
 
 // Searches a direction d (free DOFs, unit 2-norm) along which K = `exact_values` (a copy
 // of factorization->values() assembled with StiffnessKind::kExact at the current state)
-// curves down: the smallest eigenvector of K by preconditioned Rayleigh-Ritz iteration
-// (LOBPCG with one vector: each iteration minimizes the Rayleigh quotient x'Kx / x'x over
-// span{x, P^-1 (K x - rho x), the last step}), from a fixed pseudo-random start, with
-// the factor `factorization` holds as the preconditioner P (a PSD-projected or shifted
-// stiffness of the same state). Unlike power iteration on I - P^-1 K, it does not need
-// P >= K: in contact solves P holds a pair's Gauss-Newton part only and K also its
-// curvature term, which can exceed P and then dominated that iteration. Returns true with
-// *direction and *relative_curvature = d'Kd / mean|diag K| < 0 (the lowest quotient met);
-// false if no factor is held or no negative curvature was found in `iterations`
-// iterations (each one solve with the held factor and at most three K products).
+// curves down, approximating K's smallest eigenvector by preconditioned Rayleigh-Ritz
+// iteration (LOBPCG with one vector: each iteration minimizes the Rayleigh quotient
+// x'Kx / x'x over span{x, P^-1 (K x - rho x), the last step}), from a fixed
+// pseudo-random start, with the factor `factorization` holds as the preconditioner P (a
+// PSD-projected or shifted stiffness of the same state). It stops once the quotient is
+// negative and the residual |K x - rho x| is at most 0.1 |rho| (then some eigenvalue of
+// K lies within 10% of rho), or after `iterations` iterations (each one solve with the
+// held factor and at most two products with K). Unlike power iteration on I - P^-1 K, the
+// search before 2026-12-06, it does not need P >= K: in contact solves P holds a pair's
+// Gauss-Newton part only and K also its curvature term, which can exceed P and then
+// dominated that iteration. Its target differs too: K's own most negative curvature,
+// where power iteration's was the most negative relative to P. Returns true with
+// *direction and *relative_curvature = d'Kd / mean|diag K| < -1e-8 (the lowest quotient
+// met); false if no factor is held, K or a solve is not finite before one was met, or no
+// quotient below -1e-8 (a singular PSD K's round-off) was met.
 bool FindNegativeCurvature(const std::vector<double>& exact_values, int iterations,
                            StiffnessFactorization* factorization, Eigen::VectorXd* direction,
                            double* relative_curvature);

@@ -41,14 +41,12 @@ constexpr int kExactRetrySteps = 4;
 // negative curvature).
 constexpr double kNegativeCurvatureFirstLength = 1e-2;
 
-// A solve has stalled when kStallSteps accepted steps in a row lowered neither the energy
-// by more than kStallEnergy of itself nor the largest force below kStallForce of its value
-// before them. Where the energy has a kink (the gradient jumps), the force cannot fall
-// below the jump: on the demo's jawOpen+mouthClose contact path one solve took 197 exact
-// steps of length 1e-4 to 1e-7, the energy changing in its 12th digit and the largest
-// force alternating between 0.0029 and 0.0038 at one vertex, until its 200 factorizations
-// were spent (102 s). A solve crawling at its round-off floor is stopped the same way.
-constexpr int kStallSteps = 16;
+// The stall rule's progress (NewtonSolverOptions::stall_steps): the energy below its value
+// at the last progress by more than kStallEnergy of it, or the largest force below
+// kStallForce of its value then. Measured on the demo's jawOpen+mouthClose contact path
+// (2026-12-06): one solve took 197 exact steps of length 1e-4 to 1e-7, the energy changing
+// in its 12th digit and the largest force alternating between 0.0029 and 0.0038 at one
+// vertex, until its 200 factorizations were spent (102 s).
 constexpr double kStallEnergy = 1e-10;
 constexpr double kStallForce = 0.9;
 
@@ -103,7 +101,7 @@ class NewtonMinimizer {
       } else {
         if (!FactorizeProjected()) break;
         if (StepAlongStoredNegativeCurvature()) {
-          if (Stalled()) break;
+          StartStallWindow();  // an escape from a saddle: progress
           continue;
         }
       }
@@ -121,7 +119,7 @@ class NewtonMinimizer {
         if (reused) ++report_.reused_steps;
         projected_here_ = false;
         no_reuse_here_ = false;
-        if (Stalled()) break;
+        if (Stalled(length)) break;
         continue;
       }
       if (reused) {  // the inexact step failed: an exact one from a fresh factorization
@@ -210,21 +208,22 @@ class NewtonMinimizer {
     window_steps_ = 0;
   }
 
-  // After an accepted step: true (with the message) if kStallSteps steps in a row have
-  // made no progress (neither the energy nor the largest force fell enough, as
-  // kStallSteps says); a step that makes progress starts a new window.
-  bool Stalled() {
+  // After an accepted step of length t: true (with the message) if it is the
+  // options_.stall_steps-th step without progress since the window began (see
+  // NewtonSolverOptions::stall_steps); a step that makes progress starts a new window.
+  bool Stalled(double t) {
+    if (options_.stall_steps <= 0) return false;
     if (force_ <= options_.force_tolerance) return false;  // converged: the loop ends
-    if (window_energy_ - energy_ > kStallEnergy * std::abs(window_energy_) ||
+    if (t >= 1.0 || window_energy_ - energy_ > kStallEnergy * std::abs(window_energy_) ||
         force_ < kStallForce * window_force_) {
       StartStallWindow();
       return false;
     }
-    if (++window_steps_ < kStallSteps) return false;
+    if (++window_steps_ < options_.stall_steps) return false;
     report_.stalled = true;
-    message_ << "stalled at largest force " << force_ << ": " << kStallSteps
-             << " steps lowered the energy by less than " << kStallEnergy
-             << " of itself and the largest force by less than " << (1.0 - kStallForce) * 100.0
+    message_ << "stalled at largest force " << force_ << ": " << options_.stall_steps
+             << " shortened steps lowered the energy by at most " << kStallEnergy
+             << " of itself and the largest force by at most " << (1.0 - kStallForce) * 100.0
              << "% (a kink of the energy, or its round-off floor)";
     return true;
   }
@@ -375,6 +374,8 @@ bool NewtonSolverOptions::Validate(std::string* error) const {
     out << "max_factorizations must be >= 1 (is " << max_factorizations << ")";
   } else if (max_reused_steps < 0) {
     out << "max_reused_steps must be >= 0 (is " << max_reused_steps << ")";
+  } else if (stall_steps < 0) {
+    out << "stall_steps must be >= 0 (is " << stall_steps << ")";
   }
   *error = out.str();
   return error->empty() && line_search.Validate(error);

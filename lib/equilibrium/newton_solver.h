@@ -27,6 +27,15 @@ struct NewtonSolverOptions {
   // within max_factorizations. (At the energy's round-off floor such steps can be
   // accepted without end, the force wavering in its last digits.)
   int max_reused_steps = 100;
+  // The solve stops, not converged (NewtonSolveReport::stalled), after this many accepted
+  // steps that backtracked (step length below 1) since the last step that made progress:
+  // that lowered the energy by more than 1e-10 of its value then, or the largest force
+  // below 0.9 of its value then. A full step or a step along negative curvature is
+  // progress too (a saddle's escape, a projected crawl). Where the energy has a kink, the
+  // force cannot fall below the gradient's jump and the line search accepts ever shorter
+  // steps at the energy's round-off; this stops that. 0: never (the budget alone ends
+  // such a solve; at the round-off floor max_reused_steps then decides).
+  int stall_steps = 16;
   // Where the exact K is still indefinite on a retry, a step along its direction of most
   // negative curvature (found with the projected factor; see negative_curvature.h)
   // replaces the projected step: it leaves a saddle that projected steps leave only
@@ -54,9 +63,7 @@ struct NewtonSolveReport {
   // one), or its step failed.
   int exact_rejections = 0;
   int energy_evaluations = 0;  // line-search trials
-  // Stopped because 16 accepted steps in a row lowered neither the energy (by 1e-10 of
-  // itself) nor the largest force (by 10%): a kink of the energy, where the force cannot
-  // reach the tolerance, or its round-off floor.
+  // Stopped by the stall rule (NewtonSolverOptions::stall_steps).
   bool stalled = false;
   double initial_energy = 0.0, final_energy = 0.0;
   double initial_max_force = 0.0, final_max_force = 0.0;
@@ -86,8 +93,7 @@ struct NewtonSolveReport {
 // of its mean diagonal, growing until CHOLMOD succeeds.
 //
 // Returns with converged = true once the largest force is at most force_tolerance; it
-// also stops, not converged (stalled = true), after 16 accepted steps in a row that
-// lowered neither the energy by 1e-10 of itself nor the largest force by 10%. The
+// also stops, not converged (stalled = true), by the stall rule (options.stall_steps). The
 // factorization (built for the model, fixed vertices and energy terms of x) is left
 // holding the last factorized stiffness.
 NewtonSolveReport MinimizeEnergyNewton(const NewtonSolverOptions& options,

@@ -76,6 +76,7 @@ std::string QuasistaticSolveReport::Path() const {
     std::string newton = "Newton " + std::to_string(projected_steps) + " projected + " +
                          std::to_string(exact_steps) + " exact steps";
     if (reused_steps > 0) newton += " (" + std::to_string(reused_steps) + " by CG on an earlier factor)";
+    if (newton_stalled) newton += " (stalled)";
     parts.push_back(newton);
   }
   std::string path = parts.empty() ? std::string("no iterations") : parts[0];
@@ -261,6 +262,7 @@ bool QuasistaticSolver::RunNewton(double exact_threshold, QuasistaticSolveReport
   report->iterations += result.factorizations;
   report->final_max_force = result.final_max_force;
   report->final_energy = result.final_energy;
+  report->newton_stalled = report->newton_stalled || result.stalled;
   if (!report->termination.empty()) report->termination += "; ";
   report->termination += "Newton: " + result.message;
   return result.converged;
@@ -477,13 +479,15 @@ QuasistaticSolveReport QuasistaticSolver::Solve() {
     if (use_newton && report.initial_max_force <= ceres_tolerance) {
       done = RunNewton(std::numeric_limits<double>::infinity(), &report);  // a warm start
     }
-    if (!done) {
+    // A stalled Newton phase (a kink of the energy) ends the solve: neither LM nor
+    // another Newton phase gets past the kink.
+    if (!done && !report.newton_stalled) {
       RunCeres(use_newton ? ceres_tolerance : report.force_tolerance, &report);
       done = report.final_max_force <= report.force_tolerance;
       if (!done && use_newton && report.final_max_force <= ceres_tolerance &&
           report.iterations < options_.max_iterations) {
         done = RunNewton(std::numeric_limits<double>::infinity(), &report);
-        if (!done && report.iterations < options_.max_iterations) {
+        if (!done && !report.newton_stalled && report.iterations < options_.max_iterations) {
           RunCeres(report.force_tolerance, &report);  // Newton failed: Ceres to the end
         }
       }

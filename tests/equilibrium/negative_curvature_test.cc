@@ -133,6 +133,25 @@ TEST(NegativeCurvatureTest, FindsNoneWhereTheStiffnessIsDefinite) {
   EXPECT_FALSE(FindNegativeCurvature(exact, 30, &empty, &direction, &curvature));
 }
 
+// A free body at rest: K is positive semi-definite with six zero modes (rigid motions),
+// which the search converges to; their quotient is round-off (about 1e-17), no negative
+// curvature.
+TEST(NegativeCurvatureTest, FindsNoneWhereTheStiffnessIsSingularButNotIndefinite) {
+  const TetMesh mesh = BarMesh(4, 2, 2, 0.5);
+  const ShapeTargetModel model(mesh, 1.0);
+  StiffnessFactorization factorization(model, std::vector<bool>(mesh.num_vertices(), false), 1);
+  const ActuationMatrix a = IdentityActuations(mesh.num_tets());
+  factorization.Assemble(mesh.vertices, a, StiffnessKind::kExact);
+  const std::vector<double> exact = factorization.values();
+  factorization.Assemble(mesh.vertices, a, StiffnessKind::kProjected);
+  std::string error;
+  ASSERT_TRUE(factorization.FactorizeAssembled(1e-6, &error)) << error;
+  Eigen::VectorXd direction;
+  double curvature = 0.0;
+  EXPECT_FALSE(FindNegativeCurvature(exact, 30, &factorization, &direction, &curvature))
+      << curvature;
+}
+
 TEST(NegativeCurvatureTest, StepLowersTheEnergyOfASaddleAndKeepsFixedVertices) {
   StraightBar straight(1.4);
   const HeldBar& bar = straight.bar;

@@ -7,6 +7,7 @@
 #include <random>
 
 #include <Eigen/Eigenvalues>
+#include <ceres/ceres.h>
 #include <gtest/gtest.h>
 
 #include "equilibrium/quasistatic_solver.h"
@@ -99,10 +100,12 @@ TEST(NewtonSolverTest, AnUnreachableToleranceEndsWithinTheBudget) {
   NewtonSolverOptions options = Options(model, 0.0);
   options.max_factorizations = 20;
   options.max_reused_steps = 20;
+  options.stall_steps = 0;  // the budgets, not the stall rule, end it
   const NewtonSolveReport report = MinimizeEnergyNewton(options, a, &factorization, &x);
   EXPECT_FALSE(report.converged) << report.message;
   EXPECT_LE(report.factorizations, 20) << report.message;
   EXPECT_LE(report.reused_steps, 20) << report.message;
+  EXPECT_NE(report.message.find("limit"), std::string::npos) << report.message;
   std::printf("tolerance 0: %d exact steps (%d by CG), %d projected, %d factorizations, "
               "largest force %.3g; %s\n",
               report.exact_steps, report.reused_steps, report.projected_steps,
@@ -444,12 +447,38 @@ class ConeTerm : public EnergyTerm {
     const Eigen::MatrixXd hessian = k_ / r * (Eigen::Matrix3d::Identity() - u * u.transpose());
     AddVertexHessian({vertex_}, hessian, pattern, values);
   }
-  void AddResidualBlocks(ceres::Problem* /*problem*/,
-                         const std::vector<double*>& /*vertex_blocks*/) const override {
-    ADD_FAILURE() << "Newton solves do not build a Ceres problem";
+  // One residual sqrt(2 (c + k |x_v - p|)), whose Ceres cost (half its square) is E.
+  void AddResidualBlocks(ceres::Problem* problem,
+                         const std::vector<double*>& vertex_blocks) const override {
+    problem->AddResidualBlock(new Residual(apex_, k_, c_), nullptr, vertex_blocks[vertex_]);
   }
 
  private:
+  class Residual : public ceres::SizedCostFunction<1, 3> {
+   public:
+    Residual(const Eigen::Vector3d& apex, double k, double c) : apex_(apex), k_(k), c_(c) {}
+    bool Evaluate(double const* const* parameters, double* residuals,
+                  double** jacobians) const override {
+      const Eigen::Vector3d d = Eigen::Map<const Eigen::Vector3d>(parameters[0]) - apex_;
+      const double r = d.norm();
+      residuals[0] = std::sqrt(2.0 * (c_ + k_ * r));
+      if (jacobians != nullptr && jacobians[0] != nullptr) {
+        Eigen::Map<Eigen::Vector3d> jacobian(jacobians[0]);
+        if (r > 0.0 && residuals[0] > 0.0) {
+          jacobian = k_ * d / (r * residuals[0]);
+        } else {
+          jacobian.setZero();
+        }
+      }
+      return true;
+    }
+
+   private:
+    Eigen::Vector3d apex_;
+    double k_;
+    double c_;
+  };
+
   int vertex_;
   Eigen::Vector3d apex_;
   double k_;
@@ -495,6 +524,85 @@ TEST(NewtonSolverTest, AKinkOfTheEnergyStopsTheSolveEarly) {
   EXPECT_LT(report.final_energy, report.initial_energy);
   // It stopped at the kink: the tip at the apex.
   EXPECT_LT((x.col(tip) - mesh.vertices.col(tip)).norm(), 1e-3);
+}
+
+// The Levenberg-Marquardt path (a warm start's Newton phase, then Ceres, then Newton
+// again, then Ceres to the end) ends where its Newton phase stalls: neither method gets
+// past the kink, and before 2026-12-06 the next phases spent the rest of the budget.
+TEST(NewtonSolverTest, AStalledNewtonPhaseEndsALevenbergMarquardtSolve) {
+  const TetMesh mesh = BarMesh(16, 2, 2, 0.5);
+  const ShapeTargetModel model(mesh, 1.0);
+  const ActuationMatrix a = CurlActuation(mesh, 0.4);
+  int tip = 0;
+  for (int v = 1; v < mesh.num_vertices(); ++v) {
+    if (mesh.vertices.col(v).sum() > mesh.vertices.col(tip).sum()) tip = v;
+  }
+  QuasistaticSolverOptions options;
+  options.method = EquilibriumMethod::kLevenbergMarquardt;
+  options.relative_force_tolerance = 1e-10;
+  options.newton_relative_force = 10.0;  // the start is warm enough for Newton
+  options.max_iterations = 200;
+  QuasistaticSolver solver(model, LeftFaceFixed(mesh), options);
+  solver.actuation() = a;
+  Eigen::Matrix3Xd gradient;
+  StiffnessFactorization factorization(model, FixedVertexMask(LeftFaceFixed(mesh),
+                                                              mesh.num_vertices()), 1);
+  factorization.EnergyAndGradient(mesh.vertices, a, &gradient);
+  const ConeTerm cone(tip, mesh.vertices.col(tip), 1.5 * gradient.col(tip).norm(), 1e4);
+  solver.AddEnergyTerm(&cone);
+  Eigen::Matrix3Xd start = mesh.vertices;
+  start.col(tip) += Eigen::Vector3d(0.01, 0.02, -0.01);
+  solver.SetPositions(start);
+  const QuasistaticSolveReport report = solver.Solve();
+  std::printf("LM path at a kink: %s\n", report.Summary().c_str());
+  EXPECT_FALSE(report.converged);
+  EXPECT_TRUE(report.newton_stalled) << report.Summary();
+  EXPECT_NE(report.Path().find("(stalled)"), std::string::npos) << report.Path();
+  EXPECT_EQ(report.lm_iterations, 0) << report.Summary();
+  EXPECT_LT(report.factorizations, 60) << report.Summary();
+}
+
+// The energy of the rest of a large system, a constant: E = c (no force, no stiffness).
+class ConstantTerm : public EnergyTerm {
+ public:
+  explicit ConstantTerm(double c) : c_(c) {}
+  double AddEnergyAndGradient(const Eigen::Ref<const Eigen::Matrix3Xd>& /*x*/,
+                              Eigen::Matrix3Xd* /*gradient*/) const override {
+    return c_;
+  }
+  void AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>& /*x*/,
+                    const StiffnessPattern& /*pattern*/, StiffnessKind /*kind*/,
+                    std::vector<double>* /*values*/) const override {}
+  void AddResidualBlocks(ceres::Problem* /*problem*/,
+                         const std::vector<double*>& /*vertex_blocks*/) const override {
+    ADD_FAILURE() << "Newton solves do not build a Ceres problem";
+  }
+
+ private:
+  double c_;
+};
+
+// Leaving a saddle by projected steps looks like a stall to a rule that only asks for
+// progress: the force grows step after step, and the energy falls by an amount that does
+// not grow with the system, below 1e-10 of a large energy. Those are full steps, which
+// the rule takes for progress: the buckling bar of
+// NegativeCurvatureStepsLeaveASaddleInFewFactorizations, in a system whose energy is
+// 1e6, leaves its saddle by projected steps alone and converges.
+TEST(NewtonSolverTest, ASaddleEscapeByProjectedStepsDoesNotStall) {
+  CompressedBar bar;
+  bar.a.row(0).setConstant(1.13);
+  StiffnessFactorization factorization(bar.model,
+                                       FixedVertexMask(bar.bc, bar.mesh.num_vertices()), 1);
+  const ConstantTerm rest_of_system(1e6);
+  factorization.set_energy_terms({&rest_of_system});
+  Eigen::Matrix3Xd x = bar.bent;
+  const NewtonSolveReport report =
+      MinimizeEnergyNewton(SaddleOptions(bar.model, false, 200), bar.a, &factorization, &x);
+  std::printf("saddle escape at energy 1e6: %d projected, %d exact steps, %d factorizations; "
+              "%s\n", report.projected_steps, report.exact_steps, report.factorizations,
+              report.message.c_str());
+  EXPECT_TRUE(report.converged) << report.message;
+  EXPECT_FALSE(report.stalled) << report.message;
 }
 
 // A smooth solve never stalls: the curled bar reaches a tight tolerance.
