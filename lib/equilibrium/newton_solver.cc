@@ -7,6 +7,7 @@
 
 #include <glog/logging.h>
 
+#include "equilibrium/energy_term.h"
 #include "equilibrium/negative_curvature.h"
 
 namespace aqs {
@@ -220,12 +221,38 @@ class NewtonMinimizer {
       return false;
     }
     if (++window_steps_ < options_.stall_steps) return false;
+    if (VLOG_IS_ON(2)) LogForceSplit();
     report_.stalled = true;
     message_ << "stalled at largest force " << force_ << ": " << options_.stall_steps
              << " shortened steps lowered the energy by at most " << kStallEnergy
              << " of itself and the largest force by at most " << (1.0 - kStallForce) * 100.0
              << "% (a kink of the energy, or its round-off floor)";
     return true;
+  }
+
+  // The --v=2 trace of a stall: the force on the vertex that carries the largest one,
+  // split into the model's part and each energy term's (where a stalled solve's kink is).
+  void LogForceSplit() const {
+    int worst = -1;
+    double largest = -1.0;
+    for (int f = 0; f < pattern_.num_free_vertices(); ++f) {
+      const double norm = gradient_.col(pattern_.vertex_of_free(f)).norm();
+      if (norm > largest) largest = norm, worst = pattern_.vertex_of_free(f);
+    }
+    if (worst < 0) return;
+    std::ostringstream line;
+    line << "Newton: stalled with force " << gradient_.col(worst).transpose() << " at vertex "
+         << worst << "; of it";
+    Eigen::Vector3d model_part = gradient_.col(worst);
+    const std::vector<const EnergyTerm*>& terms = factorization_->energy_terms();
+    for (size_t i = 0; i < terms.size(); ++i) {
+      Eigen::Matrix3Xd term_gradient = Eigen::Matrix3Xd::Zero(3, x_->cols());
+      terms[i]->AddEnergyAndGradient(*x_, &term_gradient);
+      model_part -= term_gradient.col(worst);
+      line << " energy term " << i << " " << term_gradient.col(worst).transpose() << ",";
+    }
+    line << " the model " << model_part.transpose();
+    VLOG(2) << line.str();
   }
 
   // Assembles and factorizes the projected K at x: unshifted first, unless the last
