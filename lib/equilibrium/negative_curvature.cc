@@ -65,11 +65,15 @@ bool FindNegativeCurvature(const std::vector<double>& exact_values, int iteratio
     const double next = rho / scale;
     if (!std::isfinite(next)) break;  // keeps what was found before
     const Eigen::VectorXd residual = kx - rho * x;
+    const double residual_norm = residual.norm();
     if (next < -kMinCurvature && next < curvature) {
       *direction = x;
       curvature = next;
       found = true;
-      if (residual.norm() <= kResidualSettled * std::abs(rho)) break;
+      if (residual_norm <= kResidualSettled * std::abs(rho)) break;  // settled
+    } else if (!found && std::abs(next) <= kMinCurvature &&
+               residual_norm <= kResidualSettled * kMinCurvature * scale) {
+      break;  // a null mode of a singular PSD K: round-off, which iterations do not lower
     }
     if (k + 1 == iterations) break;
     // Rayleigh-Ritz on span{x, P^-1 (K x - rho x), p}: the smallest eigenpair of K

@@ -102,7 +102,10 @@ class NewtonMinimizer {
       } else {
         if (!FactorizeProjected()) break;
         if (StepAlongStoredNegativeCurvature()) {
-          StartStallWindow();  // an escape from a saddle: progress
+          // Judged by what it lowered only: at a kink whose exact K is indefinite, steps
+          // along negative curvature that lower the energy by round-off must not keep
+          // the solve from stopping.
+          if (Stalled(0.0)) break;
           continue;
         }
       }
@@ -209,7 +212,8 @@ class NewtonMinimizer {
     window_steps_ = 0;
   }
 
-  // After an accepted step of length t: true (with the message) if it is the
+  // After an accepted step of length t (0 for a step along negative curvature, which only
+  // its energy and force decide): true (with the message) if it is the
   // options_.stall_steps-th step without progress since the window began (see
   // NewtonSolverOptions::stall_steps); a step that makes progress starts a new window.
   bool Stalled(double t) {
@@ -226,12 +230,13 @@ class NewtonMinimizer {
     message_ << "stalled at largest force " << force_ << ": " << options_.stall_steps
              << " shortened steps lowered the energy by at most " << kStallEnergy
              << " of itself and the largest force by at most " << (1.0 - kStallForce) * 100.0
-             << "% (a kink of the energy, or its round-off floor)";
+             << "% (a kink of the energy: its gradient jumps)";
     return true;
   }
 
-  // The --v=2 trace of a stall: the force on the vertex that carries the largest one,
-  // split into the model's part and each energy term's (where a stalled solve's kink is).
+  // The --v=2 trace of a stall: the force (-dE/dx) on the vertex that carries the largest
+  // one, split into the model's part and each energy term's (which terms act where a
+  // stalled solve is stuck; not which of them jumps).
   void LogForceSplit() const {
     int worst = -1;
     double largest = -1.0;
@@ -241,15 +246,15 @@ class NewtonMinimizer {
     }
     if (worst < 0) return;
     std::ostringstream line;
-    line << "Newton: stalled with force " << gradient_.col(worst).transpose() << " at vertex "
+    line << "Newton: stalled with force " << -gradient_.col(worst).transpose() << " at vertex "
          << worst << "; of it";
-    Eigen::Vector3d model_part = gradient_.col(worst);
+    Eigen::Vector3d model_part = -gradient_.col(worst);
     const std::vector<const EnergyTerm*>& terms = factorization_->energy_terms();
     for (size_t i = 0; i < terms.size(); ++i) {
       Eigen::Matrix3Xd term_gradient = Eigen::Matrix3Xd::Zero(3, x_->cols());
       terms[i]->AddEnergyAndGradient(*x_, &term_gradient);
-      model_part -= term_gradient.col(worst);
-      line << " energy term " << i << " " << term_gradient.col(worst).transpose() << ",";
+      model_part += term_gradient.col(worst);
+      line << " energy term " << i << " " << -term_gradient.col(worst).transpose() << ",";
     }
     line << " the model " << model_part.transpose();
     VLOG(2) << line.str();

@@ -30,8 +30,9 @@ struct NewtonSolverOptions {
   // The solve stops, not converged (NewtonSolveReport::stalled), after this many accepted
   // steps that backtracked (step length below 1) since the last step that made progress:
   // that lowered the energy by more than 1e-10 of its value then, or the largest force
-  // below 0.9 of its value then. A full step or a step along negative curvature is
-  // progress too (a saddle's escape, a projected crawl). Where the energy has a kink, the
+  // below 0.9 of its value then. A full step is progress too (a saddle's escape by
+  // projected steps, a projected crawl); a step along negative curvature is judged by
+  // the energy and force alone. Where the energy has a kink, the
   // force cannot fall below the gradient's jump and the line search accepts ever shorter
   // steps at the energy's round-off; this stops that. 0: never (the budget alone ends
   // such a solve; at the round-off floor max_reused_steps then decides).

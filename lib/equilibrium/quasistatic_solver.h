@@ -144,7 +144,9 @@ struct QuasistaticSolveReport {
   // rotation-fixed stiffness each; equilibrium/preconditioned_lbfgs.h).
   int lbfgs_iterations = 0;
   bool lbfgs_stalled = false;  // Newton took over from a stalled L-BFGS phase
-  bool newton_stalled = false;  // a Newton phase stopped by its stall rule (not converged)
+  // A Newton phase stopped by its stall rule (the solve may still converge after it, as
+  // in EnsureStable's descent from a perturbed state).
+  bool newton_stalled = false;
   // Newton steps taken (projected + exact), and the stiffness factorizations of the
   // solve: Newton's (a step whose exact stiffness is rejected, or that needs a shift,
   // factorizes more than once) plus the L-BFGS preconditioner's, when it had to be
