@@ -51,17 +51,25 @@ constexpr double kNegativeCurvatureFirstLength = 1e-2;
 constexpr double kStallEnergy = 1e-10;
 constexpr double kStallForce = 0.9;
 
-// The --v=3 trace of one Newton step: its kind, the energy (to 15 digits, since a stalled
-// solve changes it in the 12th), the largest free-vertex force and the vertex that carries
-// it (where a crawling solve is stuck), the accepted step length (0: rejected).
-void LogStep(const StiffnessPattern& pattern, int step, const char* kind, double shift,
-             double energy, const Eigen::Matrix3Xd& gradient, double length, int factorizations) {
+// The free vertex whose column of `gradient` (3 x num_vertices) is longest (-1 if none is
+// free): where the largest force acts.
+int LargestForceVertex(const StiffnessPattern& pattern, const Eigen::Matrix3Xd& gradient) {
   int worst = -1;
   double largest = -1.0;
   for (int f = 0; f < pattern.num_free_vertices(); ++f) {
     const double norm = gradient.col(pattern.vertex_of_free(f)).norm();
     if (norm > largest) largest = norm, worst = pattern.vertex_of_free(f);
   }
+  return worst;
+}
+
+// The --v=3 trace of one Newton step: its kind, the energy (to 15 digits, since a stalled
+// solve changes it in the 12th), the largest free-vertex force and the vertex that carries
+// it (where a crawling solve is stuck), the accepted step length (0: rejected).
+void LogStep(const StiffnessPattern& pattern, int step, const char* kind, double shift,
+             double energy, const Eigen::Matrix3Xd& gradient, double length, int factorizations) {
+  const int worst = LargestForceVertex(pattern, gradient);
+  const double largest = worst < 0 ? 0.0 : gradient.col(worst).norm();
   std::ostringstream line;
   line << "Newton step " << step << " " << kind;
   if (shift > 0.0) line << " (shift " << shift << ")";
@@ -238,12 +246,7 @@ class NewtonMinimizer {
   // one, split into the model's part and each energy term's (which terms act where a
   // stalled solve is stuck; not which of them jumps).
   void LogForceSplit() const {
-    int worst = -1;
-    double largest = -1.0;
-    for (int f = 0; f < pattern_.num_free_vertices(); ++f) {
-      const double norm = gradient_.col(pattern_.vertex_of_free(f)).norm();
-      if (norm > largest) largest = norm, worst = pattern_.vertex_of_free(f);
-    }
+    const int worst = LargestForceVertex(pattern_, gradient_);
     if (worst < 0) return;
     std::ostringstream line;
     line << "Newton: stalled with force " << -gradient_.col(worst).transpose() << " at vertex "
