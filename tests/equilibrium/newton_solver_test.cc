@@ -485,74 +485,87 @@ class ConeTerm : public EnergyTerm {
   double c_;
 };
 
+// The curled bar with its tip (the vertex farthest from the fixed face) pinned at its rest
+// position by a cone 1.5 times as strong as the bar's pull on the tip held there, in a
+// system of energy 1e4; `start` is the rest state with the tip moved off the apex.
+struct ConePinnedBar {
+  ConePinnedBar()
+      : mesh(BarMesh(16, 2, 2, 0.5)),
+        model(mesh, 1.0),
+        bc(LeftFaceFixed(mesh)),
+        a(CurlActuation(mesh, 0.4)),
+        tip(FarthestVertex(mesh)),
+        pull(PullAtRest(mesh, model, bc, a, tip)),
+        cone(tip, mesh.vertices.col(tip), 1.5 * pull, 1e4),
+        start(mesh.vertices) {
+    start.col(tip) += Eigen::Vector3d(0.01, 0.02, -0.01);
+  }
+  static int FarthestVertex(const TetMesh& mesh) {
+    int tip = 0;
+    for (int v = 1; v < mesh.num_vertices(); ++v) {
+      if (mesh.vertices.col(v).sum() > mesh.vertices.col(tip).sum()) tip = v;
+    }
+    return tip;
+  }
+  static double PullAtRest(const TetMesh& mesh, const ShapeTargetModel& model,
+                           const BoundaryConditions& bc, const ActuationMatrix& a, int vertex) {
+    StiffnessFactorization factorization(model, FixedVertexMask(bc, mesh.num_vertices()), 1);
+    Eigen::Matrix3Xd gradient;
+    factorization.EnergyAndGradient(mesh.vertices, a, &gradient);
+    return gradient.col(vertex).norm();
+  }
+  TetMesh mesh;
+  ShapeTargetModel model;
+  BoundaryConditions bc;
+  ActuationMatrix a;
+  int tip;
+  double pull;
+  ConeTerm cone;
+  Eigen::Matrix3Xd start;
+};
+
 // Newton at a kink: the minimum is at the cone's apex, where the force on the pinned
 // vertex cannot fall below the cone's pull minus the bar's. Exact steps toward it shrink
 // and the force wavers; without the stall test the solve spends its whole budget (200
 // factorizations here). It must stop early, not converged, saying so.
 TEST(NewtonSolverTest, AKinkOfTheEnergyStopsTheSolveEarly) {
-  const TetMesh mesh = BarMesh(16, 2, 2, 0.5);
-  const ShapeTargetModel model(mesh, 1.0);
-  const BoundaryConditions bc = LeftFaceFixed(mesh);
-  const ActuationMatrix a = CurlActuation(mesh, 0.4);
-  // The vertex farthest from the fixed face, pinned at its rest position.
-  int tip = 0;
-  for (int v = 1; v < mesh.num_vertices(); ++v) {
-    if (mesh.vertices.col(v).sum() > mesh.vertices.col(tip).sum()) tip = v;
-  }
-  StiffnessFactorization factorization(model, FixedVertexMask(bc, mesh.num_vertices()), 2);
-  // The bar's pull on the tip held at rest, and a cone 1.5 times as strong.
-  Eigen::Matrix3Xd gradient;
-  factorization.EnergyAndGradient(mesh.vertices, a, &gradient);
-  const double pull = gradient.col(tip).norm();
-  ASSERT_GT(pull, 0.0);
-  const ConeTerm cone(tip, mesh.vertices.col(tip), 1.5 * pull, 1e4);
-  factorization.set_energy_terms({&cone});
-  NewtonSolverOptions options = Options(model, 1e-10);
+  const ConePinnedBar bar;
+  ASSERT_GT(bar.pull, 0.0);
+  StiffnessFactorization factorization(bar.model,
+                                       FixedVertexMask(bar.bc, bar.mesh.num_vertices()), 2);
+  factorization.set_energy_terms({&bar.cone});
+  NewtonSolverOptions options = Options(bar.model, 1e-10);
   options.max_factorizations = 200;
-  options.exact_force_threshold = model.force_scale();  // exact steps near the kink
-  Eigen::Matrix3Xd x = mesh.vertices;
-  x.col(tip) += Eigen::Vector3d(0.01, 0.02, -0.01);  // off the apex
-  const NewtonSolveReport report = MinimizeEnergyNewton(options, a, &factorization, &x);
+  options.exact_force_threshold = bar.model.force_scale();  // exact steps near the kink
+  Eigen::Matrix3Xd x = bar.start;
+  const NewtonSolveReport report = MinimizeEnergyNewton(options, bar.a, &factorization, &x);
   std::printf("cone: %d exact, %d projected steps, %d factorizations, largest force %.3g "
               "(pull %.3g); %s\n",
               report.exact_steps, report.projected_steps, report.factorizations,
-              report.final_max_force, pull, report.message.c_str());
+              report.final_max_force, bar.pull, report.message.c_str());
   EXPECT_FALSE(report.converged);
   EXPECT_TRUE(report.stalled) << report.message;
   EXPECT_NE(report.message.find("stalled"), std::string::npos) << report.message;
   EXPECT_LT(report.factorizations, 100) << report.message;
   EXPECT_LT(report.final_energy, report.initial_energy);
   // It stopped at the kink: the tip at the apex.
-  EXPECT_LT((x.col(tip) - mesh.vertices.col(tip)).norm(), 1e-3);
+  EXPECT_LT((x.col(bar.tip) - bar.mesh.vertices.col(bar.tip)).norm(), 1e-3);
 }
 
 // The Levenberg-Marquardt path (a warm start's Newton phase, then Ceres, then Newton
 // again, then Ceres to the end) ends where its Newton phase stalls: neither method gets
 // past the kink, and before 2026-12-06 the next phases spent the rest of the budget.
 TEST(NewtonSolverTest, AStalledNewtonPhaseEndsALevenbergMarquardtSolve) {
-  const TetMesh mesh = BarMesh(16, 2, 2, 0.5);
-  const ShapeTargetModel model(mesh, 1.0);
-  const ActuationMatrix a = CurlActuation(mesh, 0.4);
-  int tip = 0;
-  for (int v = 1; v < mesh.num_vertices(); ++v) {
-    if (mesh.vertices.col(v).sum() > mesh.vertices.col(tip).sum()) tip = v;
-  }
+  const ConePinnedBar bar;
   QuasistaticSolverOptions options;
   options.method = EquilibriumMethod::kLevenbergMarquardt;
   options.relative_force_tolerance = 1e-10;
   options.newton_relative_force = 10.0;  // the start is warm enough for Newton
   options.max_iterations = 200;
-  QuasistaticSolver solver(model, LeftFaceFixed(mesh), options);
-  solver.actuation() = a;
-  Eigen::Matrix3Xd gradient;
-  StiffnessFactorization factorization(model, FixedVertexMask(LeftFaceFixed(mesh),
-                                                              mesh.num_vertices()), 1);
-  factorization.EnergyAndGradient(mesh.vertices, a, &gradient);
-  const ConeTerm cone(tip, mesh.vertices.col(tip), 1.5 * gradient.col(tip).norm(), 1e4);
-  solver.AddEnergyTerm(&cone);
-  Eigen::Matrix3Xd start = mesh.vertices;
-  start.col(tip) += Eigen::Vector3d(0.01, 0.02, -0.01);
-  solver.SetPositions(start);
+  QuasistaticSolver solver(bar.model, bar.bc, options);
+  solver.actuation() = bar.a;
+  solver.AddEnergyTerm(&bar.cone);
+  solver.SetPositions(bar.start);
   const QuasistaticSolveReport report = solver.Solve();
   std::printf("LM path at a kink: %s\n", report.Summary().c_str());
   EXPECT_FALSE(report.converged);
