@@ -29,6 +29,10 @@ DEFINE_bool(negative_curvature_steps, false, "Newton: where the exact stiffness 
             "of a projected step (leaves saddles and crawls near buckling in a few "
             "factorizations; docs/solver.md). Unset: each stage's own default (on for contact "
             "solves, off elsewhere).");
+DEFINE_int32(newton_stall_steps, 16, "Newton: a phase stops, not converged, after this many "
+             "backtracked steps without progress (where the energy has a kink, as a contact's "
+             "closest feature switching, the force cannot fall further; docs/solver.md). 0: "
+             "never (the factorization budget ends such a phase).");
 DEFINE_int32(threads, 2, "Threads (per-element work, parallel poses; BLAS follows OPENBLAS_NUM_THREADS).");
 DEFINE_double(max_memory_gb, 8.0, "Memory limit in GB: the work whose memory is estimated before "
               "it is allocated (prepare's lattice and simulations, pre-training's decoder, the "
@@ -188,6 +192,12 @@ bool SolverMethodFromFlag(QuasistaticSolverOptions* options, std::string* error)
   if (!gflags::GetCommandLineFlagInfoOrDie("negative_curvature_steps").is_default) {
     options->negative_curvature_steps = FLAGS_negative_curvature_steps;
   }
+  if (FLAGS_newton_stall_steps < 0) {
+    *error = "--newton_stall_steps must be >= 0 (is " + std::to_string(FLAGS_newton_stall_steps) +
+             ")";
+    return false;
+  }
+  options->newton_stall_steps = FLAGS_newton_stall_steps;
   return true;
 }
 

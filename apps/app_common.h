@@ -13,8 +13,9 @@ namespace aqs {
 
 // Sets options->method from --solver ("newton" or "lm") and, where the flag is given,
 // options->negative_curvature_steps from --negative_curvature_steps (unset, the options'
-// own value stays: contact solves default to on). Returns false with
-// *error naming the flag for any other --solver value.
+// own value stays: contact solves default to on), and options->newton_stall_steps from
+// --newton_stall_steps. Returns false with *error naming the flag for any other --solver
+// value or a negative --newton_stall_steps.
 bool SolverMethodFromFlag(QuasistaticSolverOptions* options, std::string* error);
 
 // Makes standard output line-buffered (a log file shows each line as it is printed and

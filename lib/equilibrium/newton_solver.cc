@@ -420,6 +420,8 @@ NewtonSolveReport MinimizeEnergyNewton(const NewtonSolverOptions& options,
                                        const ShapeTargetModel::ActuationRef& a,
                                        StiffnessFactorization* factorization,
                                        Eigen::Matrix3Xd* x) {
+  std::string error;
+  CHECK(options.Validate(&error)) << "NewtonSolverOptions: " << error;
   return NewtonMinimizer(options, a, factorization, x).Run();
 }
 

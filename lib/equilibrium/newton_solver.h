@@ -96,7 +96,8 @@ struct NewtonSolveReport {
 // Returns with converged = true once the largest force is at most force_tolerance; it
 // also stops, not converged (stalled = true), by the stall rule (options.stall_steps). The
 // factorization (built for the model, fixed vertices and energy terms of x) is left
-// holding the last factorized stiffness.
+// holding the last factorized stiffness. options must be valid (Validate; CHECKed: the
+// library builds them, from validated QuasistaticSolverOptions).
 NewtonSolveReport MinimizeEnergyNewton(const NewtonSolverOptions& options,
                                        const ShapeTargetModel::ActuationRef& a,
                                        StiffnessFactorization* factorization,

@@ -19,6 +19,12 @@
 #include "util/wall_timer.h"
 
 namespace aqs {
+namespace {
+
+// The stall rule's default, which KeyText leaves out (keys stored before the option).
+constexpr int kDefaultNewtonStallSteps = 16;
+
+}  // namespace
 
 std::string QuasistaticSolverOptions::KeyText() const {
   const FactorReuseOptions& r = factor_reuse;
@@ -31,6 +37,7 @@ std::string QuasistaticSolverOptions::KeyText() const {
        << FormatDouble(r.relative_tolerance) << " " << r.probe_iterations << " "
        << FormatDouble(r.probe_tolerance) << " " << r.max_columns << " " << r.refresh_iterations
        << " " << FormatDouble(function_tolerance) << " " << FormatDouble(parameter_tolerance);
+  if (newton_stall_steps != kDefaultNewtonStallSteps) text << " stall " << newton_stall_steps;
   return text.str();
 }
 
@@ -46,6 +53,8 @@ bool QuasistaticSolverOptions::Validate(std::string* error) const {
   } else if (lbfgs_reused_factor_stall_iterations < 0) {
     out << "lbfgs_reused_factor_stall_iterations must be >= 0 (is "
         << lbfgs_reused_factor_stall_iterations << ")";
+  } else if (newton_stall_steps < 0) {
+    out << "newton_stall_steps must be >= 0 (is " << newton_stall_steps << ")";
   } else if (num_threads < 1 || num_threads > 1024) {
     out << "num_threads must be in [1, 1024] (is " << num_threads << ")";
   } else if (!(newton_relative_force >= 0.0) || !std::isfinite(newton_relative_force)) {
@@ -248,6 +257,7 @@ bool QuasistaticSolver::RunNewton(double exact_threshold, QuasistaticSolveReport
   newton.max_reused_steps = options_.max_iterations;
   newton.reuse = options_.factor_reuse;
   newton.negative_curvature_steps = options_.negative_curvature_steps;
+  newton.stall_steps = options_.newton_stall_steps;
   Eigen::Matrix3Xd x = positions();
   const NewtonSolveReport result =
       MinimizeEnergyNewton(newton, actuation(), stiffness_factorization(), &x);

@@ -487,16 +487,17 @@ class ConeTerm : public EnergyTerm {
 
 // The curled bar with its tip (the vertex farthest from the fixed face) pinned at its rest
 // position by a cone 1.5 times as strong as the bar's pull on the tip held there, in a
-// system of energy 1e4; `start` is the rest state with the tip moved off the apex.
+// system of energy `constant` more; `start` is the rest state with the tip moved off the
+// apex.
 struct ConePinnedBar {
-  ConePinnedBar()
+  explicit ConePinnedBar(double constant = 1e4)
       : mesh(BarMesh(16, 2, 2, 0.5)),
         model(mesh, 1.0),
         bc(LeftFaceFixed(mesh)),
         a(CurlActuation(mesh, 0.4)),
         tip(FarthestVertex(mesh)),
         pull(PullAtRest(mesh, model, bc, a, tip)),
-        cone(tip, mesh.vertices.col(tip), 1.5 * pull, 1e4),
+        cone(tip, mesh.vertices.col(tip), 1.5 * pull, constant),
         start(mesh.vertices) {
     start.col(tip) += Eigen::Vector3d(0.01, 0.02, -0.01);
   }
@@ -550,6 +551,141 @@ TEST(NewtonSolverTest, AKinkOfTheEnergyStopsTheSolveEarly) {
   EXPECT_LT(report.final_energy, report.initial_energy);
   // It stopped at the kink: the tip at the apex.
   EXPECT_LT((x.col(bar.tip) - bar.mesh.vertices.col(bar.tip)).norm(), 1e-3);
+}
+
+// The rule does not lean on the energy's size: the bar alone (its own energy, about
+// 0.06 here) and in systems of energy 1e4 and 1e8 stops at the kink early (the energy
+// test's 1e-10 of its value is a different amount in each).
+TEST(NewtonSolverTest, AKinkStopsTheSolveWhateverTheEnergysSize) {
+  for (const double constant : {0.0, 1e4, 1e8}) {
+    const ConePinnedBar bar(constant);
+    StiffnessFactorization factorization(bar.model,
+                                         FixedVertexMask(bar.bc, bar.mesh.num_vertices()), 2);
+    factorization.set_energy_terms({&bar.cone});
+    NewtonSolverOptions options = Options(bar.model, 1e-10);
+    options.max_factorizations = 200;
+    options.exact_force_threshold = bar.model.force_scale();
+    Eigen::Matrix3Xd x = bar.start;
+    const NewtonSolveReport report = MinimizeEnergyNewton(options, bar.a, &factorization, &x);
+    std::printf("cone in a system of energy %g more: %d factorizations, largest force %.3g; "
+                "%s\n", constant, report.factorizations, report.final_max_force,
+                report.message.c_str());
+    EXPECT_FALSE(report.converged) << constant << ": " << report.message;
+    // Stalled, or (the bar alone, whose energy's 1e-10 is a smaller amount, so more
+    // tiny decreases count as progress) at the energy's round-off floor first.
+    EXPECT_TRUE(report.stalled || report.message.find("round-off") != std::string::npos)
+        << constant << ": " << report.message;
+    EXPECT_LT(report.factorizations, 50) << constant << ": " << report.message;
+    EXPECT_LT((x.col(bar.tip) - bar.mesh.vertices.col(bar.tip)).norm(), 1e-3) << constant;
+  }
+}
+
+// A kink across a plane through one vertex: E = k |n . (x_v - p)|, n a unit normal. Its
+// gradient k sign(n . (x_v - p)) n jumps at the plane and its Hessian is zero: where the
+// rest of the system curves down, the exact K stays indefinite at the kink.
+class PlaneKinkTerm : public EnergyTerm {
+ public:
+  PlaneKinkTerm(int vertex, const Eigen::Vector3d& point, const Eigen::Vector3d& normal,
+                double k)
+      : vertex_(vertex), point_(point), normal_(normal.normalized()), k_(k) {}
+  double AddEnergyAndGradient(const Eigen::Ref<const Eigen::Matrix3Xd>& x,
+                              Eigen::Matrix3Xd* gradient) const override {
+    const double s = normal_.dot(x.col(vertex_) - point_);
+    if (s != 0.0) gradient->col(vertex_) += (s > 0.0 ? k_ : -k_) * normal_;
+    return k_ * std::abs(s);
+  }
+  void AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>& /*x*/,
+                    const StiffnessPattern& /*pattern*/, StiffnessKind /*kind*/,
+                    std::vector<double>* /*values*/) const override {}
+  void AddResidualBlocks(ceres::Problem* /*problem*/,
+                         const std::vector<double*>& /*vertex_blocks*/) const override {
+    ADD_FAILURE() << "Newton solves do not build a Ceres problem";
+  }
+
+ private:
+  int vertex_;
+  Eigen::Vector3d point_;
+  Eigen::Vector3d normal_;
+  double k_;
+};
+
+// A kink where the exact stiffness is indefinite: the buckling bar of
+// NegativeCurvatureStepsLeaveASaddleInFewFactorizations with a vertex at the middle of
+// its length held sideways (in y, the way the start bends) by a plane kink where it
+// stands, straight. The kink holds the middle but adds no stiffness, so the exact K stays
+// indefinite there: every retry of an exact step is rejected and searches for the
+// negative curvature (relative -2e-4), but no step along it lowers the energy (the kink's
+// cost grows linearly, the bar's gain quadratically), and projected steps crawl at the
+// kink. With steps along negative curvature on, the solve must still stop early by the
+// stall rule; without the rule it spends its whole budget.
+TEST(NewtonSolverTest, AKinkWithNegativeCurvatureStopsTheSolveEarly) {
+  CompressedBar bar;
+  bar.a.row(0).setConstant(1.13);
+  const double length = bar.mesh.vertices.row(0).maxCoeff();
+  int middle = 0;
+  for (int v = 1; v < bar.mesh.num_vertices(); ++v) {
+    const auto distance = [&](int u) {
+      return (bar.mesh.vertices.col(u) - Eigen::Vector3d(0.5 * length, 1.0, 1.0)).norm();
+    };
+    if (distance(v) < distance(middle)) middle = v;
+  }
+  const PlaneKinkTerm kink(middle, bar.mesh.vertices.col(middle), Eigen::Vector3d::UnitY(),
+                           0.01 * bar.model.force_scale());
+  const std::vector<bool> fixed = FixedVertexMask(bar.bc, bar.mesh.num_vertices());
+  int factorizations[2];
+  for (const int stall_steps : {16, 0}) {
+    StiffnessFactorization factorization(bar.model, fixed, 2);
+    factorization.set_energy_terms({&kink});
+    NewtonSolverOptions options = SaddleOptions(bar.model, true, 200);
+    options.exact_force_threshold = std::numeric_limits<double>::infinity();
+    options.stall_steps = stall_steps;
+    Eigen::Matrix3Xd x = bar.bent;
+    const NewtonSolveReport report = MinimizeEnergyNewton(options, bar.a, &factorization, &x);
+    std::printf("plane kink on the buckling bar, stall_steps %d: %d factorizations, %d exact "
+                "rejections, %d projected, %d along negative curvature, largest force %.3g; "
+                "%s\n", stall_steps, report.factorizations, report.exact_rejections,
+                report.projected_steps, report.negative_curvature_steps, report.final_max_force,
+                report.message.c_str());
+    factorizations[stall_steps > 0] = report.factorizations;
+    EXPECT_FALSE(report.converged) << report.message;
+    EXPECT_GT(report.exact_rejections, 1) << report.message;  // retries: searches ran
+    EXPECT_EQ(report.stalled, stall_steps > 0) << report.message;
+    EXPECT_LT(report.final_energy, report.initial_energy);
+    EXPECT_LT(std::abs(x(1, middle) - bar.mesh.vertices(1, middle)), 1e-3);
+  }
+  EXPECT_LT(factorizations[1], 100);
+  EXPECT_EQ(factorizations[0], 200);
+}
+
+// QuasistaticSolverOptions::newton_stall_steps reaches the Newton phase: the cone-pinned
+// bar stalls with the default and runs to its factorization budget with 0.
+TEST(NewtonSolverTest, TheQuasistaticSolverPassesItsStallSteps) {
+  const ConePinnedBar bar;
+  for (const int stall_steps : {16, 0}) {
+    QuasistaticSolverOptions options;
+    options.relative_force_tolerance = 1e-10;
+    options.max_iterations = 120;
+    options.newton_stall_steps = stall_steps;
+    // Newton from the start, exact steps below the force scale (as in
+    // AKinkOfTheEnergyStopsTheSolveEarly; L-BFGS first finds a smooth equilibrium off the
+    // apex, where the bar pulls as hard as the cone).
+    options.max_lbfgs_iterations = 0;
+    options.newton_relative_force = 1.0;
+    QuasistaticSolver solver(bar.model, bar.bc, options);
+    solver.actuation() = bar.a;
+    solver.AddEnergyTerm(&bar.cone);
+    solver.SetPositions(bar.start);
+    const QuasistaticSolveReport report = solver.Solve();
+    std::printf("quasistatic solve at a kink, newton_stall_steps %d: %s\n", stall_steps,
+                report.Summary().c_str());
+    EXPECT_FALSE(report.converged) << report.Summary();
+    EXPECT_EQ(report.newton_stalled, stall_steps > 0) << report.Summary();
+    if (stall_steps > 0) {
+      EXPECT_LT(report.iterations, 60) << report.Summary();
+    } else {
+      EXPECT_EQ(report.iterations, options.max_iterations) << report.Summary();
+    }
+  }
 }
 
 // The Levenberg-Marquardt path (a warm start's Newton phase, then Ceres, then Newton
@@ -662,6 +798,10 @@ TEST(NewtonSolverTest, OptionsAreValidated) {
   options.max_factorizations = 0;
   EXPECT_FALSE(options.Validate(&error));
   EXPECT_NE(error.find("max_factorizations"), std::string::npos);
+  options = NewtonSolverOptions();
+  options.stall_steps = -1;
+  EXPECT_FALSE(options.Validate(&error));
+  EXPECT_NE(error.find("stall_steps"), std::string::npos);
   QuasistaticSolverOptions solver;
   EXPECT_TRUE(solver.Validate(&error)) << error;
   solver.relative_force_tolerance = std::numeric_limits<double>::infinity();
@@ -671,6 +811,17 @@ TEST(NewtonSolverTest, OptionsAreValidated) {
   solver.newton_relative_force = std::numeric_limits<double>::quiet_NaN();
   EXPECT_FALSE(solver.Validate(&error));
   EXPECT_NE(error.find("newton_relative_force"), std::string::npos);
+  solver = QuasistaticSolverOptions();
+  solver.newton_stall_steps = -1;
+  EXPECT_FALSE(solver.Validate(&error));
+  EXPECT_NE(error.find("newton_stall_steps"), std::string::npos);
+  // The default stall rule leaves the key as it was before the option (stored results
+  // still match); another value changes it.
+  solver = QuasistaticSolverOptions();
+  EXPECT_EQ(solver.KeyText().find("stall"), std::string::npos) << solver.KeyText();
+  const std::string default_key = solver.KeyText();
+  solver.newton_stall_steps = 0;
+  EXPECT_NE(solver.KeyText(), default_key);
 }
 
 TEST(NewtonSolverTest, FactorOfANearbyStateSolvesByConjugateGradients) {
