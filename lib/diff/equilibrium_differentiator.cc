@@ -71,10 +71,12 @@ bool EquilibriumDifferentiator::PrepareAt(const ShapeTargetModel::PositionsRef& 
   factorization_->Assemble(x_, a_, StiffnessKind::kExact);
   if (deferred_) {
     timings_.assembly = factorization_->timings().assembly;
+    generation_ = factorization_->generation();
     prepared_ = true;
     return true;
   }
   const bool ok = factorization_->FactorizeAssembled(relative_shift, error);
+  generation_ = factorization_->generation();
   const FactorizationTimings& t = factorization_->timings();
   timings_.assembly = t.assembly;
   timings_.analysis = t.analysis;
@@ -83,8 +85,15 @@ bool EquilibriumDifferentiator::PrepareAt(const ShapeTargetModel::PositionsRef& 
   return ok;
 }
 
-Eigen::Matrix3Xd EquilibriumDifferentiator::SolveAdjoint(const Eigen::Matrix3Xd& dl_dx) {
+void EquilibriumDifferentiator::CheckPrepared() const {
   CHECK(prepared_) << "call Prepare() successfully first";
+  CHECK_EQ(factorization_->generation(), generation_)
+      << "the stiffness factorization changed since Prepare() (a solve on the shared "
+         "factorization assembled or factorized another state): call Prepare() again";
+}
+
+Eigen::Matrix3Xd EquilibriumDifferentiator::SolveAdjoint(const Eigen::Matrix3Xd& dl_dx) {
+  CheckPrepared();
   CHECK(!deferred_) << "with options().reuse, use the overloads that return false on failure";
   Eigen::Matrix3Xd lambda = factorization_->Solve(dl_dx);
   timings_.solve = factorization_->timings().solve;
@@ -93,17 +102,18 @@ Eigen::Matrix3Xd EquilibriumDifferentiator::SolveAdjoint(const Eigen::Matrix3Xd&
 
 bool EquilibriumDifferentiator::SolveAdjoint(const Eigen::Matrix3Xd& dl_dx, Eigen::Matrix3Xd* lambda,
                                              std::string* error) {
-  CHECK(prepared_) << "call Prepare() successfully first";
+  CheckPrepared();
   if (!deferred_) {
     *lambda = SolveAdjoint(dl_dx);
     return true;
   }
   Eigen::MatrixXd free;
   const int factorizations = factorization_->counters().factorizations;
-  if (!factorization_->SolveAssembled(factorization_->GatherFree(dl_dx), options_.reuse, &free,
-                                      error)) {
-    return false;
-  }
+  const bool solved = factorization_->SolveAssembled(factorization_->GatherFree(dl_dx),
+                                                     options_.reuse, &free, error);
+  // A factorization there was of the K Prepare assembled.
+  generation_ = factorization_->generation();
+  if (!solved) return false;
   if (factorization_->counters().factorizations > factorizations) {
     timings_.factorization = factorization_->timings().factorization;
   }
@@ -148,7 +158,7 @@ ActuationMatrix EquilibriumDifferentiator::GradientFromAdjoint(const Eigen::Matr
 
 Eigen::MatrixXd EquilibriumDifferentiator::ActuationJacobianProduct(
     const Eigen::MatrixXd& directions) {
-  CHECK(prepared_) << "call Prepare() successfully first";
+  CheckPrepared();
   CHECK(!deferred_) << "Jacobian products need Prepare without options().reuse";
   CHECK_EQ(directions.rows(), 6 * static_cast<Eigen::Index>(model_.num_elements()));
   const int k = static_cast<int>(directions.cols());
@@ -172,7 +182,7 @@ Eigen::MatrixXd EquilibriumDifferentiator::ActuationJacobianProduct(
 namespace aqs {
 
 Eigen::MatrixXd EquilibriumDifferentiator::FixedVertexJacobianProduct(const Eigen::MatrixXd& motion) {
-  CHECK(prepared_) << "call Prepare() successfully first";
+  CheckPrepared();
   CHECK(!deferred_) << "Jacobian products need Prepare without options().reuse";
   CHECK(factorization_->energy_terms().empty())
       << "fixed-vertex products ignore energy terms; the system has some";

@@ -43,8 +43,12 @@ struct DifferentiationTimings {
 //   dx*/da = -K^-1 B,     dL/da = -lambda^T B  with  K lambda = dL/dx.
 //
 // Built once per mesh and fixed-vertex set (the symbolic factorization is reused);
-// then, per state: Prepare(x, a) assembles K at (x, a) and factorizes it, after which
-// any number of gradients and Jacobian-vector products reuse that factorization.
+// then, per state: Prepare(x, a) assembles K at (x, a) and factorizes it (or, with
+// options.reuse, defers that to the first adjoint solve), after which any number of
+// gradients and Jacobian-vector products reuse that factorization. A factorization
+// shared with a solver must not change between Prepare and those calls (a solve on it
+// assembles and factorizes another state): they CHECK that it did not
+// (StiffnessFactorization::generation()); Prepare again after such a solve.
 // The model must outlive this object. Not thread-safe.
 class EquilibriumDifferentiator {
  public:
@@ -62,7 +66,9 @@ class EquilibriumDifferentiator {
   // Assembles the exact K at positions x (3 x num_vertices, an equilibrium of a) and
   // factorizes it. Returns false with *error if K is not positive definite there
   // (naming the vertex where the factorization broke down: an unstable equilibrium,
-  // or a body whose fixed vertices do not remove all rigid motions).
+  // or a body whose fixed vertices do not remove all rigid motions). With
+  // options().reuse (max_iterations > 0) it only assembles K and returns true: whether K
+  // is positive definite is found by the first adjoint solve (the bool overloads).
   bool Prepare(const ShapeTargetModel::PositionsRef& x, const ShapeTargetModel::ActuationRef& a,
                std::string* error);
 
@@ -101,7 +107,8 @@ class EquilibriumDifferentiator {
   // (3 x num_vertices); returns 3 x num_vertices with zeros on fixed vertices.
   Eigen::Matrix3Xd SolveAdjoint(const Eigen::Matrix3Xd& dl_dx);
   // The same two with options().reuse (Prepare may have deferred the factorization):
-  // false with *error if K had to be factorized and is not positive definite.
+  // false with *error if K is not positive definite (CG on an earlier factor met a
+  // direction of non-positive curvature, or K had to be factorized and could not be).
   bool SolveAdjoint(const Eigen::Matrix3Xd& dl_dx, Eigen::Matrix3Xd* lambda, std::string* error);
   bool LossGradient(const Eigen::Matrix3Xd& dl_dx, ActuationMatrix* gradient, std::string* error);
 
@@ -119,6 +126,11 @@ class EquilibriumDifferentiator {
   ActuationMatrix a_;
   bool prepared_ = false;
   bool deferred_ = false;  // Prepare assembled K without factorizing it (options_.reuse)
+  // factorization_->generation() as Prepare left it (or a deferred solve, which may
+  // factorize the K Prepare assembled).
+  int64_t generation_ = 0;
+  // CHECKs that Prepare succeeded and the factorization has not changed since.
+  void CheckPrepared() const;
   // Prepare and PrepareShifted: assembles the exact K at (x, a), then factorizes
   // K + relative_shift mean(diag K) I unless `defer`.
   bool PrepareAt(const ShapeTargetModel::PositionsRef& x, const ShapeTargetModel::ActuationRef& a,

@@ -44,6 +44,7 @@ bool StiffnessFactorization::Factorize(const ShapeTargetModel::PositionsRef& x,
 void StiffnessFactorization::Assemble(const ShapeTargetModel::PositionsRef& x,
                                       const ShapeTargetModel::ActuationRef& a, StiffnessKind kind) {
   timings_ = FactorizationTimings();
+  ++generation_;
   WallTimer timer;
   AssembleStiffness(model_, pattern_, x, a, kind, num_threads_, &values_, &polar_cache_);
   for (const EnergyTerm* term : terms_) {
@@ -73,6 +74,7 @@ bool StiffnessFactorization::FactorizeAssembled(double relative_shift, std::stri
   const bool first = cholesky_.factor_nonzeros() == 0.0;
   std::string cholmod_error;
   ++counters_.factorizations;
+  ++generation_;
   const bool ok = cholesky_.Factorize(values_, &cholmod_error);
   // values() stay K itself (unshifted) for products and later shifts.
   for (int c = 0; c < pattern_.num_dofs(); ++c) values_[starts[c + 1] - 1] = diagonal_[c];
@@ -252,6 +254,7 @@ bool StiffnessFactorization::StoreFactor(StoredStiffnessFactor* stored) const {
 
 bool StiffnessFactorization::RestoreFactor(const StoredStiffnessFactor& stored) {
   if (!cholesky_.LoadFactor(stored.factor)) return false;
+  ++generation_;
   factor_current_ = false;
   factor_rounded_ = true;
   refresh_requested_ = stored.aged;

@@ -1,6 +1,7 @@
 #ifndef AQS_EQUILIBRIUM_STIFFNESS_FACTORIZATION_H_
 #define AQS_EQUILIBRIUM_STIFFNESS_FACTORIZATION_H_
 
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -173,6 +174,12 @@ class StiffnessFactorization {
 
   const FactorizationCounters& counters() const { return counters_; }
   void ResetCounters() { counters_ = FactorizationCounters(); }
+  // Counts the changes of K as assembled (values()) and of the factor held: every
+  // Assemble, factorization (FactorizeAssembled, also inside SolveAssembled) and
+  // RestoreFactor adds one (ResetCounters does not reset it). A user of the factor made
+  // at one state (EquilibriumDifferentiator) records it and checks that it is unchanged
+  // before solving with it: a solver sharing the factorization may have moved on.
+  int64_t generation() const { return generation_; }
 
   // K^-1 b for per-vertex b.
   Eigen::Matrix3Xd Solve(const Eigen::Matrix3Xd& b);
@@ -209,6 +216,7 @@ class StiffnessFactorization {
   bool last_reuse_found_indefinite_ = false;
   double last_reuse_relative_curvature_ = 0.0;
   FactorizationCounters counters_;
+  int64_t generation_ = 0;
   std::vector<const EnergyTerm*> terms_;
   FactorizationTimings timings_;
   mutable PolarCache polar_cache_;  // a cache: filled by the const EnergyAndGradient

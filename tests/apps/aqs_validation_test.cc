@@ -199,6 +199,8 @@ TEST(AqsValidationTest, SimulateRefusesBadFlagsAndInputs) {
               {
                   {finger + " --mu=inf --output={dir}x.mesh", 1, "--mu must be finite and > 0 (is inf)"},
                   {finger + " --threads=0 --output={dir}x.mesh", 1, "--threads must be in [1, 1024]"},
+                  {finger + " --newton_stall_steps=-1 --output={dir}x.mesh", 1,
+                   "--newton_stall_steps must be >= 0 (is -1)"},
                   {finger + " --tolerance=inf --output={dir}x.mesh", 1,
                    "--tolerance must be finite and > 0 (is inf)"},
                   {finger + " --newton_relative_force=nan --output={dir}x.mesh", 1,
@@ -418,6 +420,7 @@ TEST_F(AqsValidationModelTest, FitRefusesBadFlagsTargetsAndOutputs) {
                   {target + " --fit_tolerance=0", 1, "--fit_tolerance must be finite and > 0 (is 0)"},
                   {target + " --fit_tolerance=nan", 1, "--fit_tolerance must be finite and > 0 (is nan)"},
                   {target + " --threads=0", 1, "--threads must be in [1, 1024] (is 0)"},
+                  {target + " --newton_stall_steps=-3", 1, "--newton_stall_steps must be >= 0 (is -3)"},
                   {target + " --fit_tolerance=1", 1, "--fit_tolerance must be at most 0.1 (is 1)"},
                   {target + " --landmark_weight=1e300", 1,
                    "--landmark_weight must be in [0, 1e+06]"},

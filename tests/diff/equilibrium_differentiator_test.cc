@@ -386,6 +386,61 @@ TEST(EquilibriumDifferentiatorTest, DeferredAdjointReusesANearbyFactor) {
   }
 }
 
+// A differentiator sharing a solver's factorization, prepared at one equilibrium, after
+// the solver solved another actuation on that factorization: its K and factor are of
+// another state, and the gradients and products would be silently wrong (31% and 28%
+// off on this bar before 2026-12-07). Every use CHECKs that the factorization is as
+// Prepare left it; Prepare again makes it right. The deferred adjoint's own
+// factorization (of the K Prepare assembled) does not count as a change.
+TEST(EquilibriumDifferentiatorTest, RefusesAFactorizationChangedSincePrepare) {
+  ::testing::FLAGS_gtest_death_test_style = "threadsafe";  // the solver's threads
+  const TetMesh mesh = testing::BarMesh(4, 2, 2, 0.4);
+  const ShapeTargetModel model(mesh, 1.0);
+  QuasistaticSolver solver(model, testing::LeftFaceFixed(mesh), SolverOptions());
+  const ActuationMatrix a1 = testing::SmoothActuation(mesh, 0.2);
+  const ActuationMatrix a2 = testing::SmoothActuation(mesh, 0.35);
+  solver.actuation() = a1;
+  ASSERT_TRUE(solver.Solve().converged);
+  const Eigen::Matrix3Xd x1 = solver.positions();
+  const Eigen::Matrix3Xd dl_dx = Eigen::Matrix3Xd::Constant(3, x1.cols(), 0.1);
+  EquilibriumDifferentiator own(model, solver.fixed_mask());
+  std::string error;
+  ASSERT_TRUE(own.Prepare(x1, a1, &error)) << error;
+  const ActuationMatrix reference = own.LossGradient(dl_dx);
+  const Eigen::MatrixXd direction =
+      Eigen::MatrixXd::Constant(6 * static_cast<Eigen::Index>(model.num_elements()), 1, 0.01);
+  const Eigen::MatrixXd product_reference = own.ActuationJacobianProduct(direction);
+
+  EquilibriumDifferentiator shared(solver.stiffness_factorization());
+  ASSERT_TRUE(shared.Prepare(x1, a1, &error)) << error;
+  solver.actuation() = a2;
+  ASSERT_GT(solver.Solve().factorizations, 0);
+  EXPECT_DEATH(shared.LossGradient(dl_dx), "changed since Prepare");
+  EXPECT_DEATH(shared.ActuationJacobianProduct(direction), "changed since Prepare");
+  ActuationMatrix gradient;
+  EXPECT_DEATH(shared.LossGradient(dl_dx, &gradient, &error), "changed since Prepare");
+  ASSERT_TRUE(shared.Prepare(x1, a1, &error)) << error;
+  EXPECT_LT(testing::RelativeError(shared.LossGradient(dl_dx), reference), 1e-12);
+  EXPECT_LT((shared.ActuationJacobianProduct(direction) - product_reference).norm(),
+            1e-12 * product_reference.norm());
+
+  EquilibriumDifferentiatorOptions deferred_options;
+  deferred_options.reuse.max_iterations = 20;
+  deferred_options.reuse.relative_tolerance = 1e-12;
+  EquilibriumDifferentiator deferred(solver.stiffness_factorization(), deferred_options);
+  ASSERT_TRUE(deferred.Prepare(x1, a1, &error)) << error;
+  solver.stiffness_factorization()->RequestRefresh();  // its adjoint solve factorizes
+  ASSERT_TRUE(deferred.LossGradient(dl_dx, &gradient, &error)) << error;
+  EXPECT_LT(testing::RelativeError(gradient, reference), 1e-10);
+  ASSERT_TRUE(deferred.LossGradient(dl_dx, &gradient, &error)) << error;  // no CHECK
+  const int64_t generation = solver.stiffness_factorization()->generation();
+  solver.actuation() = a1;
+  solver.SetPositions(mesh.vertices);
+  ASSERT_TRUE(solver.Solve().converged);
+  ASSERT_NE(solver.stiffness_factorization()->generation(), generation);
+  EXPECT_DEATH(deferred.LossGradient(dl_dx, &gradient, &error), "changed since Prepare");
+}
+
 TEST(NewtonRefinementTest, ConvergesQuadraticallyFromSolverResult) {
   const TetMesh mesh = testing::BarMesh(5, 2, 2, 0.4);
   const ShapeTargetModel model(mesh, 1.0);
