@@ -11,8 +11,7 @@ Eigen::Matrix3d PolarRotation(const RotationVariantSvd& svd) {
 
 PolarTwists ComputePolarTwists(const RotationVariantSvd& svd) {
   static const int kPairs[3][2] = {{0, 1}, {0, 2}, {1, 2}};
-  const double floor =
-      kPolarDegenerateRatio * std::max(svd.sigma[0], 1e-100);
+  const double floor = kPolarDegenerateRatio * std::max(svd.sigma[0], 1.0);
   PolarTwists out;
   for (int k = 0; k < 3; ++k) {
     const int i = kPairs[k][0];

@@ -11,10 +11,13 @@ namespace aqs {
 // G, i.e. argmax_R tr(R^T G)). For det G < 0 this is still a proper rotation.
 Eigen::Matrix3d PolarRotation(const RotationVariantSvd& svd);
 
-// sigma_i + sigma_j below this fraction of max(sigma_0, tiny) is treated as this
-// fraction: the polar rotation is not differentiable where sigma_i + sigma_j = 0
-// (flat or inverted elements), and there its derivative is reported finite, as the
-// derivative at the clamped value.
+// sigma_i + sigma_j below this fraction of max(sigma_0, 1) is treated as this fraction:
+// the polar rotation is not differentiable where sigma_i + sigma_j = 0 (flat or
+// inverted elements), and there its derivative is reported finite, as the derivative at
+// the clamped value. The floor has an absolute part (G = F S is dimensionless, of order
+// 1): relative to sigma_0 alone, an element collapsed to a point (G = 0) had gains of
+// 2e106, whose stiffness entries made a shifted adjoint's shift (a multiple of the mean
+// diagonal) swamp the whole system.
 constexpr double kPolarDegenerateRatio = 1e-6;
 
 // The three twist directions of the polar rotation and their gains, for pairs

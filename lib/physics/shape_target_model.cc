@@ -59,7 +59,7 @@ double ShapeTargetModel::Energy(const PositionsRef& x, const ActuationRef& a,
   CHECK_EQ(a.cols(), num_elements());
   const int threads = ParallelForThreadCount(num_threads, num_elements());
   std::vector<double> partial(threads, 0.0);
-  ParallelFor(threads, 0, num_elements(), [&](int t, int e) {
+  ParallelForFixedOrder(threads, 0, num_elements(), [&](int t, int e) {
     partial[t] += rest_shapes_[e].volume * Element(x, a, e).EnergyDensity();
   });
   double total = 0.0;
@@ -78,7 +78,7 @@ double ShapeTargetModel::EnergyAndGradient(const PositionsRef& x, const Actuatio
   const PolarCache* known = PolarCache::IfMatches(cache, x, a);
   PolarCache* fill = cache != nullptr && known == nullptr ? cache : nullptr;
   if (fill != nullptr) fill->Begin(x, a, num_elements());
-  ParallelFor(threads, 0, num_elements(), [&](int t, int e) {
+  ParallelForFixedOrder(threads, 0, num_elements(), [&](int t, int e) {
     const ShapeTargetElement element = Element(x, a, e, known);
     if (fill != nullptr) fill->Store(e, element.svd());
     const double volume = rest_shapes_[e].volume;
@@ -105,7 +105,7 @@ double ShapeTargetModel::EnergyActuationGradient(const PositionsRef& x, const Ac
   const int threads = ParallelForThreadCount(num_threads, num_elements());
   std::vector<double> partial(threads, 0.0);
   const PolarCache* known = PolarCache::IfMatches(cache, x, a);
-  ParallelFor(threads, 0, num_elements(), [&](int t, int e) {
+  ParallelForFixedOrder(threads, 0, num_elements(), [&](int t, int e) {
     const ShapeTargetElement element = Element(x, a, e, known);
     const double volume = rest_shapes_[e].volume;
     partial[t] += volume * element.EnergyDensity();

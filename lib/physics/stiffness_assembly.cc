@@ -19,7 +19,7 @@ void AssembleStiffness(const ShapeTargetModel& model, const StiffnessPattern& pa
   values->assign(nnz, 0.0);
   std::vector<std::vector<double>> extra(threads > 1 ? threads - 1 : 0,
                                          std::vector<double>(nnz, 0.0));
-  ParallelFor(threads, 0, num_elements, [&](int t, int e) {
+  ParallelForFixedOrder(threads, 0, num_elements, [&](int t, int e) {
     double* out = t == 0 ? values->data() : extra[t - 1].data();
     Eigen::Matrix<double, 9, 9> h;
     if (kind == StiffnessKind::kRotationFixed) {

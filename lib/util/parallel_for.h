@@ -15,6 +15,17 @@ void ParallelFor(int num_threads, int begin, int end,
                  const std::function<void(int thread_id, int i)>& body,
                  int grain = 256);
 
+// As ParallelFor, but chunk c (indices begin + c grain .. begin + (c + 1) grain - 1)
+// always goes to thread c mod T (T = ParallelForThreadCount(num_threads, count, grain)),
+// in increasing c: which indices a thread sees, and in which order, is the same in every
+// run with the same thread count, so per-thread partial sums reduced in thread order are
+// bit-reproducible (with ParallelFor's shared counter they changed in their last bits
+// from run to run). For loops whose iterations cost about the same (a mesh's elements);
+// ParallelFor balances uneven ones (poses).
+void ParallelForFixedOrder(int num_threads, int begin, int end,
+                           const std::function<void(int thread_id, int i)>& body,
+                           int grain = 256);
+
 // The number of threads ParallelFor would use for a range of `count` indices.
 int ParallelForThreadCount(int num_threads, int count, int grain = 256);
 

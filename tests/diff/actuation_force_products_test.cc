@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "mesh/tet_mesh.h"
+#include "physics/boundary_conditions.h"
 #include "physics/polar_cache.h"
 #include "physics/shape_target_model.h"
 #include "sparse/stiffness_pattern.h"
@@ -139,6 +140,33 @@ TEST(ActuationForceProductsTest, AssemblesOntoFreeDofsAndIsLinearInDirections) {
                                    Eigen::MatrixXd(18, 0), 1)
                 .cols(),
             0);
+}
+
+// A mesh of more elements than one block of the products' buffer (16,384) and than two
+// grains of 256, so that the blocks and the threaded path run: the products agree with
+// differenced forces, and are bit-identical for 1 and 2 threads, with a PolarCache
+// filled by 2 threads too.
+TEST(ActuationForceProductsTest, BlocksAndThreadsGiveTheSameProducts) {
+  const TetMesh mesh = testing::BarMesh(30, 12, 10, 0.1);
+  const ShapeTargetModel model(mesh, 1.0);
+  ASSERT_GT(model.num_elements(), 16384);
+  const StiffnessPattern pattern(mesh.tets,
+                                 FixedVertexMask(testing::LeftFaceFixed(mesh), mesh.num_vertices()));
+  std::mt19937 rng(47);
+  std::normal_distribution<double> normal(0.0, 0.01);
+  Eigen::Matrix3Xd x = mesh.vertices;
+  for (Eigen::Index i = 0; i < x.size(); ++i) x.data()[i] += normal(rng);
+  const ActuationMatrix a = testing::SmoothActuation(mesh, 0.3);
+  const Eigen::MatrixXd directions = RandomDirections(model.num_elements(), 2, &rng);
+  const Eigen::MatrixXd one = ActuationForceProducts(model, pattern, x, a, directions, 1);
+  EXPECT_LT(testing::RelativeError(
+                one, ForceChangeByDifferences(model, pattern, x, a, directions, 1e-5)),
+            1e-7);
+  EXPECT_EQ(one, ActuationForceProducts(model, pattern, x, a, directions, 2));
+  PolarCache cache;
+  Eigen::Matrix3Xd gradient;
+  model.EnergyAndGradient(x, a, &gradient, 2, &cache);
+  EXPECT_EQ(one, ActuationForceProducts(model, pattern, x, a, directions, 2, &cache));
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 
 #include <random>
 
+#include <Eigen/Geometry>
 #include <Eigen/LU>
 #include <gtest/gtest.h>
 
@@ -47,6 +48,19 @@ TEST(PolarTest, RotationMaximizesTraceAgainstNearbyRotations) {
     for (int trial = 0; trial < 50; ++trial) {
       const Eigen::Matrix3d other = testing::RandomRotation(&rng) * r;
       EXPECT_LE((other.transpose() * g).trace(), best + 1e-12) << state.name;
+    }
+    // Rotations near r (turned by 1e-3 and 1e-2 about random axes), where a slightly
+    // wrong r would be beaten (the trace falls quadratically in the angle): random
+    // rotations alone almost never come that close.
+    std::normal_distribution<double> normal(0.0, 1.0);
+    for (const double angle : {1e-3, 1e-2}) {
+      for (int trial = 0; trial < 20; ++trial) {
+        const Eigen::Vector3d axis =
+            Eigen::Vector3d(normal(rng), normal(rng), normal(rng)).normalized();
+        const Eigen::Matrix3d other = Eigen::AngleAxisd(angle, axis).toRotationMatrix() * r;
+        EXPECT_LE((other.transpose() * g).trace(), best + 1e-12 * g.norm())
+            << state.name << " angle " << angle;
+      }
     }
   }
 }

@@ -69,7 +69,6 @@ TEST(ShapeTargetElementTest, StressDerivativeMatchesFiniteDifferences) {
     const Matrix9d analytic = element.StressDerivative();
     EXPECT_LT(RelativeError(analytic, numeric), 1e-6) << state.name;
     EXPECT_LT((analytic - analytic.transpose()).norm(), 1e-12 * analytic.norm()) << state.name;
-    EXPECT_LT(RelativeError(element.DeviationJacobian() * 2 * kMu, analytic), 1e-14);
   }
 }
 
@@ -149,6 +148,10 @@ TEST(ShapeTargetElementTest, DegenerateAndCollapsedStatesAreFinite) {
     EXPECT_TRUE(element.EnergyActuationGradient().allFinite());
     Eigen::SelfAdjointEigenSolver<Matrix9d> eig(element.ProjectedStressDerivative());
     EXPECT_GE(eig.eigenvalues().minCoeff(), -1e-6 * eig.eigenvalues().cwiseAbs().maxCoeff());
+    // Bounded, not only finite: the polar gains are at most 2 / kPolarDegenerateRatio
+    // (the element collapsed to a point had entries of 2e106 before 2026-12-07).
+    EXPECT_LT(element.StressDerivative().cwiseAbs().maxCoeff(),
+              4.0 * kMu / kPolarDegenerateRatio);
   }
   // The energy is continuous across the degenerate state: nearby states give nearby values.
   const Eigen::Matrix3d f0 = Eigen::Vector3d(1, 1, -1).asDiagonal();

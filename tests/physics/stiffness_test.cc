@@ -11,6 +11,7 @@
 #include "testing/element_states.h"
 #include "testing/finite_difference.h"
 #include "testing/test_meshes.h"
+#include "util/parallel_for.h"
 
 namespace aqs {
 namespace {
@@ -151,6 +152,46 @@ TEST_F(StiffnessAssemblyTest, ExactStiffnessMatchesFiniteDifferencesOfForces) {
     AssembleStiffness(model_, pattern_, x, a, StiffnessKind::kExact, 1, &serial);
     EXPECT_LT(testing::RelativeError(DenseFromUpperCsc(pattern_, serial), k), 1e-13);
   }
+}
+
+// With several threads (a mesh of more than two grains of 256 elements, so that the
+// threaded path runs), the energy, gradient and stiffness are the same to the last bit
+// in every run (fixed chunks per thread, partial sums reduced in thread order; with a
+// shared counter they differed in every one of 200 runs), and agree with one thread's to
+// round-off.
+TEST(StiffnessAssemblyThreadsTest, ThreadedResultsAreReproducibleAndAgreeWithSerial) {
+  const TetMesh mesh = testing::BarMesh(6, 5, 4, 0.3);
+  const ShapeTargetModel model(mesh, 1.0);
+  ASSERT_GT(ParallelForThreadCount(2, model.num_elements()), 1) << model.num_elements();
+  const StiffnessPattern pattern(mesh.tets,
+                                 FixedVertexMask(testing::LeftFaceFixed(mesh), mesh.num_vertices()));
+  std::mt19937 rng(7);
+  std::normal_distribution<double> normal(0.0, 0.03);
+  Eigen::Matrix3Xd x = mesh.vertices;
+  for (Eigen::Index i = 0; i < x.size(); ++i) x.data()[i] += normal(rng);
+  const ActuationMatrix a = testing::SmoothActuation(mesh, 0.3);
+  Eigen::Matrix3Xd first_gradient;
+  const double first_energy = model.EnergyAndGradient(x, a, &first_gradient, 2);
+  std::vector<double> first_values;
+  AssembleStiffness(model, pattern, x, a, StiffnessKind::kExact, 2, &first_values);
+  for (int run = 0; run < 20; ++run) {
+    Eigen::Matrix3Xd gradient;
+    EXPECT_EQ(model.EnergyAndGradient(x, a, &gradient, 2), first_energy) << run;
+    EXPECT_TRUE(gradient == first_gradient) << run;
+    EXPECT_EQ(model.Energy(x, a, 2), model.Energy(x, a, 2)) << run;
+    std::vector<double> values;
+    AssembleStiffness(model, pattern, x, a, StiffnessKind::kExact, 2, &values);
+    EXPECT_TRUE(values == first_values) << run;
+  }
+  Eigen::Matrix3Xd serial_gradient;
+  const double serial_energy = model.EnergyAndGradient(x, a, &serial_gradient, 1);
+  EXPECT_NEAR(first_energy, serial_energy, 1e-13 * std::abs(serial_energy));
+  EXPECT_LT(testing::RelativeError(first_gradient, serial_gradient), 1e-13);
+  std::vector<double> serial_values;
+  AssembleStiffness(model, pattern, x, a, StiffnessKind::kExact, 1, &serial_values);
+  EXPECT_LT(testing::RelativeError(DenseFromUpperCsc(pattern, first_values),
+                                   DenseFromUpperCsc(pattern, serial_values)),
+            1e-13);
 }
 
 // One element, no vertex fixed (12 DOFs), at every state the derivative tests share:

@@ -42,5 +42,27 @@ TEST(ParallelForTest, EmptyAndShortRanges) {
   EXPECT_EQ(calls, 3);
 }
 
+// Chunk c goes to thread c mod T, in increasing c: each thread's sequence of indices is
+// the same in every run (per-thread partial sums are then reproducible).
+TEST(ParallelForTest, FixedOrderGivesEachThreadTheSameIndicesInOrder) {
+  for (int threads : {1, 2, 3}) {
+    for (int grain : {1, 7, 64}) {
+      const int begin = 5, end = 1000;
+      const int used = ParallelForThreadCount(threads, end - begin, grain);
+      std::vector<std::vector<int>> seen(used);
+      ParallelForFixedOrder(threads, begin, end, [&](int t, int i) {
+        ASSERT_LT(t, used);
+        seen[t].push_back(i);
+      }, grain);
+      std::vector<std::vector<int>> expected(used);
+      for (int i = begin; i < end; ++i) expected[((i - begin) / grain) % used].push_back(i);
+      EXPECT_EQ(seen, expected) << threads << " threads, grain " << grain;
+    }
+  }
+  int calls = 0;
+  ParallelForFixedOrder(4, 5, 5, [&](int, int) { ++calls; });
+  EXPECT_EQ(calls, 0);
+}
+
 }  // namespace
 }  // namespace aqs
