@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <vector>
 
 #include <glog/logging.h>
 
@@ -18,13 +19,57 @@ Eigen::Matrix3Xi PointTriangles(Eigen::Index count) {
   return triangles;
 }
 
+// The diagonal of the box between the kTrimmedFraction and 1 - kTrimmedFraction
+// quantiles of each coordinate of `cloud` (3 x M): the extent of the bulk of a scan,
+// which a few stray points far from it do not change.
+constexpr double kTrimmedFraction = 0.02;
+
+double TrimmedDiagonal(const Eigen::Matrix3Xd& cloud) {
+  const Eigen::Index m = cloud.cols();
+  const Eigen::Index low = static_cast<Eigen::Index>(kTrimmedFraction * (m - 1));
+  const Eigen::Index high = m - 1 - low;
+  std::vector<double> values(m);
+  double squared = 0.0;
+  for (int axis = 0; axis < 3; ++axis) {
+    for (Eigen::Index i = 0; i < m; ++i) values[i] = cloud(axis, i);
+    std::nth_element(values.begin(), values.begin() + low, values.end());
+    const double lo = values[low];
+    std::nth_element(values.begin(), values.begin() + high, values.end());
+    const double hi = values[high];
+    squared += (hi - lo) * (hi - lo);
+  }
+  return std::sqrt(squared);
+}
+
+// The distinct columns of `cloud` (3 x M), in lexicographic order.
+Eigen::Matrix3Xd DistinctPoints(const Eigen::Matrix3Xd& cloud) {
+  std::vector<Eigen::Index> order(cloud.cols());
+  for (Eigen::Index i = 0; i < cloud.cols(); ++i) order[i] = i;
+  const auto less = [&](Eigen::Index i, Eigen::Index j) {
+    return std::lexicographical_compare(cloud.col(i).data(), cloud.col(i).data() + 3,
+                                        cloud.col(j).data(), cloud.col(j).data() + 3);
+  };
+  std::sort(order.begin(), order.end(), less);
+  Eigen::Matrix3Xd distinct(3, cloud.cols());
+  Eigen::Index count = 0;
+  for (Eigen::Index k = 0; k < static_cast<Eigen::Index>(order.size()); ++k) {
+    if (count > 0 && cloud.col(order[k]) == distinct.col(count - 1)) continue;
+    distinct.col(count++) = cloud.col(order[k]);
+  }
+  return distinct.leftCols(count);
+}
+
 }  // namespace
 
-double MedianPointSpacing(const Eigen::Matrix3Xd& cloud) {
+double MedianPointSpacing(const Eigen::Matrix3Xd& all_points) {
+  CHECK_GE(all_points.cols(), 2);
+  const Eigen::Matrix3Xd cloud = DistinctPoints(all_points);
   const Eigen::Index m = cloud.cols();
-  CHECK_GE(m, 2);
-  const double diagonal = (cloud.rowwise().maxCoeff() - cloud.rowwise().minCoeff()).norm();
-  if (!(diagonal > 0)) return 0.0;  // all points coincide
+  if (m < 2) return 0.0;  // all points coincide
+  double diagonal = TrimmedDiagonal(cloud);
+  if (!(diagonal > 0)) {  // the bulk at one position: the whole box
+    diagonal = (cloud.rowwise().maxCoeff() - cloud.rowwise().minCoeff()).norm();
+  }
   const double cell = diagonal / std::sqrt(static_cast<double>(m));
   const TriangleGrid grid(cloud, PointTriangles(m), cell);
   std::vector<int> marks, near;

@@ -298,7 +298,8 @@ bool SurfaceAutoencoder::Train(const Eigen::Matrix3Xd& neutral,
   Eigen::VectorXd x(static_cast<Eigen::Index>(np) + static_cast<Eigen::Index>(d) * p);
   mlp->InitializeParameters(options.seed, x.data());
   // The output bias starts at the mean displacement: the network then only learns the
-  // variation around it.
+  // variation around it. Anchored (surface(0) = neutral), the bias cancels and this does
+  // nothing: the network starts near the neutral.
   Eigen::Map<Eigen::VectorXd>(x.data() + mlp->bias_offset(mlp->num_layers() - 1), 3 * n) =
       displacements.rowwise().mean() / options.output_scale;
   Eigen::Map<Eigen::MatrixXd>(x.data() + np, d, p) =

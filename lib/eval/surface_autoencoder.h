@@ -178,8 +178,11 @@ class SurfaceAutoencoder {
   // before max_iterations as end-to-end training's is (RunLbfgsWithRestarts, up to
   // max_restarts times; the report and the log count the restarts). Latents start at the
   // whitened principal-component scores of the training displacements
-  // (WhitenedPcaScores), the weights at random (Mlp::InitializeParameters with output
-  // gain 0.1) and the output bias at the mean displacement / output_scale. The result
+  // (WhitenedPcaScores: about their mean, where the physics model's, with
+  // --pretrain_latents=surfaces, are about the neutral), the weights at random
+  // (Mlp::InitializeParameters with output gain 0.1) and the output bias at the mean
+  // displacement / output_scale (with `anchored` the bias cancels: the start is near the
+  // neutral). The result
   // is the last point L-BFGS accepted, with or without checkpoints. Then learns the
   // latent prior of fits from the trained latents as the physics model's is learned
   // (latent_prior()). Progress lines go to `log`. Returns false with *error (and leaves

@@ -276,8 +276,9 @@ bool EvaluateTrainingPoses(const ActiveModel& model, const Baselines& baselines,
   return true;
 }
 
-// The training poses' error budget: (a) each pose's volumetric target simulated from its
-// trained state (columns 3 p of *training_errors, "floor" rows), (b) the record of
+// The training poses' error budget: (a) each pose's volumetric target simulated from rest
+// (from its trained state where that does not converge; SimulateActuations), columns
+// 3 p of *training_errors, "floor" rows, (b) the record of
 // pre-training (columns 3 p + 1, "pretrain" rows); (c) is the physics rows. Sets
 // parts->have_pretrain and counts floor failures in parts->floor_failures.
 void TrainingPoseBudget(const EvaluateJobOptions& options, const ActiveModel& model,

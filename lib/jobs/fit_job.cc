@@ -127,10 +127,19 @@ void LogScanErrorSplit(const Eigen::Matrix3Xd& surface, const SurfaceMesh& truth
     if (!in_scan[v]) unseen.push_back(v);
   }
   log << "  of them, " << seen.size() << " within " << kScannedSpacings
-      << " scan spacings of a scan point: mean " << split.total << ", along the pose's normals "
-      << split.normal << " (what a scan measures), across them " << split.tangential
-      << "; the " << unseen.size() << " others: mean "
-      << SplitError(surface, truth.vertices, normals, unseen).total << "\n";
+      << " scan spacings of a scan point: ";
+  if (seen.empty()) {
+    log << "n/a";  // an empty set's split is zeros, not a perfect fit
+  } else {
+    log << "mean " << split.total << ", along the pose's normals " << split.normal
+        << " (what a scan measures), across them " << split.tangential;
+  }
+  log << "; the " << unseen.size() << " others: ";
+  if (unseen.empty()) {
+    log << "n/a\n";
+  } else {
+    log << "mean " << SplitError(surface, truth.vertices, normals, unseen).total << "\n";
+  }
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <random>
+#include <vector>
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
@@ -34,6 +35,32 @@ TEST(ScanErrorSplitTest, MedianSpacingOfAGridIsItsStep) {
   Eigen::Matrix3Xd two(3, 2);
   two << 0, 1, 0, 0, 0, 0;
   EXPECT_NEAR(MedianPointSpacing(two), 1.0, 1e-12);
+}
+
+// Copies of points (a triangle soup's vertices, a scan written twice) count once: before
+// 2026-12-07 a cloud whose points all had a copy had spacing 0, and no vertex was in the
+// region it sees. All copies of one point: spacing 0, no region.
+TEST(ScanErrorSplitTest, CopiesOfPointsCountOnce) {
+  const Eigen::Matrix3Xd grid = PlaneGrid(20, 0.25);
+  Eigen::Matrix3Xd twice(3, 2 * grid.cols());
+  twice << grid, grid;
+  EXPECT_NEAR(MedianPointSpacing(twice), 0.25, 1e-12);
+  std::vector<int> all(grid.cols());
+  for (int v = 0; v < static_cast<int>(grid.cols()); ++v) all[v] = v;
+  EXPECT_EQ(ScannedVertices(grid, all, twice).size(), grid.cols());
+  const Eigen::Matrix3Xd one_point = Eigen::Matrix3Xd::Constant(3, 5, 0.5);
+  EXPECT_EQ(MedianPointSpacing(one_point), 0.0);
+  EXPECT_TRUE(ScannedVertices(grid, all, one_point).empty());
+}
+
+// A few stray points far from the scan change neither its spacing nor the grid's cells
+// (which are sized from the bulk of the points: with the bounding box, one point 1e4 away
+// put 80,000 points into a few cells, and the search took 200 times as long).
+TEST(ScanErrorSplitTest, StrayPointsLeaveTheSpacingAlone) {
+  Eigen::Matrix3Xd points(3, 250 * 250 + 3);
+  points << PlaneGrid(250, 0.1), Eigen::Vector3d(1e4, 1e4, 1e4), Eigen::Vector3d(-3e3, 0, 7),
+      Eigen::Vector3d(0, 0, 1e5);
+  EXPECT_NEAR(MedianPointSpacing(points), 0.1, 1e-12);
 }
 
 // Brute force against the grid, on random points and random radii.

@@ -3,9 +3,12 @@
 
 #include "eval/surface_pca.h"
 
+#include <algorithm>
+#include <cmath>
 #include <random>
 #include <vector>
 
+#include <Eigen/SVD>
 #include <gtest/gtest.h>
 
 namespace aqs {
@@ -47,6 +50,69 @@ TEST(SurfacePcaTest, ReproducesSurfacesInItsSpan) {
     EXPECT_LT((pca.FitToVertices(markers, at) - s).cwiseAbs().maxCoeff(), 1e-9);
     EXPECT_LT((pca.FitToVerticesRidge(markers, at, 0.0) - s).cwiseAbs().maxCoeff(), 1e-9);
   }
+}
+
+// The documented properties, on surfaces of more modes than kept: the centre is the mean
+// of the surfaces, the basis orthonormal, the variances the squared singular values of
+// the centred data over the number of surfaces, and the components the leading ones
+// (any centre inside the span would pass ReproducesSurfacesInItsSpan).
+TEST(SurfacePcaTest, CentreBasisAndVariancesAreThoseOfClassicPca) {
+  const std::vector<Eigen::Matrix3Xd> surfaces = LinearSurfaces(9, 5, 4);
+  const int p = static_cast<int>(surfaces.size());
+  const SurfacePca pca(surfaces, 3);
+  ASSERT_EQ(pca.num_components(), 3);
+  Eigen::MatrixXd data(3 * kVertices, p);
+  for (int i = 0; i < p; ++i) {
+    data.col(i) = Eigen::Map<const Eigen::VectorXd>(surfaces[i].data(), 3 * kVertices);
+  }
+  const Eigen::VectorXd mean = data.rowwise().mean();
+  EXPECT_LT((pca.mean() - mean).cwiseAbs().maxCoeff(), 1e-13);
+  EXPECT_LT((pca.basis().transpose() * pca.basis() - Eigen::MatrixXd::Identity(3, 3))
+                .cwiseAbs()
+                .maxCoeff(),
+            1e-12);
+  const Eigen::MatrixXd centred = data.colwise() - mean;
+  Eigen::BDCSVD<Eigen::MatrixXd> svd(centred, Eigen::ComputeThinU);
+  for (int j = 0; j < 3; ++j) {
+    const double variance = svd.singularValues()[j] * svd.singularValues()[j] / p;
+    EXPECT_NEAR(pca.variances()[j], variance, 1e-10 * variance) << j;
+    // The same direction (up to sign) as the j-th left singular vector.
+    EXPECT_NEAR(std::abs(pca.basis().col(j).dot(svd.matrixU().col(j))), 1.0, 1e-9) << j;
+  }
+}
+
+// PCA about a given centre (the evaluation's "PCA (neutral)"): the zero coefficients
+// give the centre exactly and the centre encodes to zero. It is a PCA of the
+// displacements from the centre, uncentred: surfaces on a line that misses the centre
+// (centre + offset + t mode) take two components about the centre, where one holds them
+// about their mean (a PCA that recentred on the mean would reproduce them with one).
+TEST(SurfacePcaTest, PcaAboutAGivenCentreIsOfTheDisplacementsFromIt) {
+  std::mt19937 rng(5);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  Eigen::Matrix3Xd centre(3, kVertices), offset(3, kVertices), mode(3, kVertices);
+  for (Eigen::Matrix3Xd* m : {&centre, &offset, &mode}) {
+    for (Eigen::Index i = 0; i < m->size(); ++i) m->data()[i] = normal(rng);
+  }
+  std::vector<Eigen::Matrix3Xd> surfaces;
+  for (int i = 0; i < 5; ++i) surfaces.push_back(centre + offset + normal(rng) * mode);
+  const auto worst_error = [&](const SurfacePca& pca) {
+    double worst = 0.0;
+    for (const Eigen::Matrix3Xd& s : surfaces) {
+      worst = std::max(worst, (pca.Decode(pca.Encode(s)) - s).cwiseAbs().maxCoeff());
+    }
+    return worst;
+  };
+  const SurfacePca about_mean(surfaces, 1);
+  EXPECT_LT(worst_error(about_mean), 1e-10);
+  const SurfacePca one(surfaces, 1, &centre);
+  ASSERT_EQ(one.num_components(), 1);
+  EXPECT_LT((one.Decode(Eigen::VectorXd::Zero(1)) - centre).cwiseAbs().maxCoeff(), 1e-13);
+  EXPECT_LT(one.Encode(centre).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_GT(worst_error(one), 1e-2);
+  const SurfacePca two(surfaces, 2, &centre);
+  ASSERT_EQ(two.num_components(), 2);
+  EXPECT_LT((two.Decode(Eigen::VectorXd::Zero(2)) - centre).cwiseAbs().maxCoeff(), 1e-13);
+  EXPECT_LT(worst_error(two), 1e-10);
 }
 
 // Markers that determine the coefficients: no ridge reproduces a left-out surface
