@@ -170,9 +170,12 @@ bool ReadPretrainSurfaceErrors(const std::string& model_directory, const ActiveM
   int p = 0;
   while (reader.NextTokens(&tokens)) {
     int index = -1, converged = -1;
-    if (tokens.size() != 5 || !ParseInt(tokens[0], &index) || !ParseInt(tokens[4], &converged) ||
+    double mean = 0.0, max = 0.0;  // checked only: the distances come from the binary file
+    if (tokens.size() != 5 || !ParseInt(tokens[0], &index) || !ParseDouble(tokens[2], &mean) ||
+        !ParseDouble(tokens[3], &max) || !ParseInt(tokens[4], &converged) ||
         (converged != 0 && converged != 1)) {
-      *error = reader.Where("expected 'index name mean max converged' (converged 0 or 1)");
+      *error = reader.Where(
+          "expected 'index name mean max converged' (mean and max numbers, converged 0 or 1)");
       return false;
     }
     if (p >= model.num_poses() || index != p || tokens[1] != model.poses[p].name) {

@@ -67,7 +67,14 @@ Eigen::Matrix3Xd SurfacePca::FitToVerticesRidge(const std::vector<int>& vertices
     b.segment<3>(3 * i) = positions.col(i) - mean_.segment<3>(3 * vertices[i]);
   }
   if (k == 0) return Decode(Eigen::VectorXd());
-  if (ridge <= 0) return Decode(a.colPivHouseholderQr().solve(b));
+  if (ridge <= 0) {
+    // Least squares; where the markers leave coefficients free, the solution of least
+    // sum_j c_j^2 / variances_j (the limit of small ridges): c = W^1/2 u, u the
+    // minimum-norm solution of A W^1/2 u = b, W = diag(variances).
+    const Eigen::VectorXd scale = variances_.cwiseSqrt();
+    const Eigen::MatrixXd scaled = a * scale.asDiagonal();
+    return Decode(scale.cwiseProduct(scaled.completeOrthogonalDecomposition().solve(b)));
+  }
   Eigen::MatrixXd normal = a.transpose() * a;
   for (Eigen::Index j = 0; j < k; ++j) normal(j, j) += ridge / variances_[j];
   return Decode(normal.ldlt().solve(a.transpose() * b));

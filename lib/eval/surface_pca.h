@@ -37,7 +37,9 @@ class SurfacePca {
   // The same with a ridge penalty on the whitened coefficients (a Gaussian prior of
   // the training spread):  min_c |A c - b|^2 + ridge sum_j c_j^2 / variances_j,  A the
   // basis rows of the given vertices and b their positions minus the mean (3K numbers).
-  // ridge is a squared length (per coordinate); 0: plain least squares.
+  // ridge is a squared length (per coordinate); 0: plain least squares, and where the
+  // markers do not determine the coefficients (fewer than k independent rows), the
+  // solution of least sum_j c_j^2 / variances_j (the limit of small ridges).
   Eigen::Matrix3Xd FitToVerticesRidge(const std::vector<int>& vertices,
                                       const Eigen::Matrix3Xd& positions, double ridge) const;
 

@@ -428,7 +428,7 @@ bool ReadGridField(DecoderReader* in, GridFieldDescription* f) {
       return in->Fail("grid_dims must be at least 2 along each axis, got " + v[a]);
     }
   }
-  if (f->grid_dims.cast<double>().prod() > 1e15) {
+  if (f->grid_dims.cast<double>().prod() > kMaxGridNodes) {
     return in->Fail("grid_dims describe an implausibly large grid");
   }
   int num_nodes = 0;

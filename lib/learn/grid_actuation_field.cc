@@ -94,6 +94,15 @@ bool PlanGridActuationField(const TetMesh& mesh, const GridActuationFieldOptions
     }
     grid_nodes *= cells + 1.0;
   }
+  // The model reader refuses larger grids (LoadDecoder): a model must load once saved.
+  if (grid_nodes > kMaxGridNodes) {
+    std::ostringstream out;
+    out << field << " " << OptionValue(value) << " gives the control grid a spacing of "
+        << OptionValue(spacing) << ", " << OptionValue(grid_nodes) << " grid nodes (at most "
+        << OptionValue(kMaxGridNodes) << "); use a larger spacing";
+    *error = out.str();
+    return false;
+  }
   if (max_nodes != nullptr) *max_nodes = std::min(grid_nodes, 8.0 * num_elements);
   return true;
 }

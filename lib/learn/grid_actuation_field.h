@@ -48,13 +48,17 @@ struct GridFieldDescription {
   int num_nodes() const { return per_element ? num_elements : static_cast<int>(nodes.cols()); }
 };
 
+// The most grid nodes (product of grid_dims) a field may have: the decoder reader
+// refuses more as implausible, so PlanGridActuationField refuses to plan more.
+constexpr double kMaxGridNodes = 1e15;
+
 // The grid GridActuationField(mesh, options) would build, planned without building it:
 // *max_nodes (may be null) is an upper bound of its control nodes (the element count
 // for per_element; else the smaller of the grid's node count and 8 per element).
 // Returns false with *error, naming the option that sets the spacing (node_spacing, or
 // node_spacing_factor when node_spacing is 0), if the spacing is not positive and
-// finite or the grid would need 1e6 cells or more along an axis (which the constructor
-// CHECKs). `mesh` needs at least one element.
+// finite, the grid would need 1e6 cells or more along an axis (which the constructor
+// CHECKs), or more than kMaxGridNodes nodes. `mesh` needs at least one element.
 bool PlanGridActuationField(const TetMesh& mesh, const GridActuationFieldOptions& options,
                             double* max_nodes, std::string* error);
 

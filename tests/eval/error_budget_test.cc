@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <sstream>
 
 #include <Eigen/Geometry>
@@ -197,6 +198,21 @@ TEST(ErrorBudgetTest, RecordFilesRoundTripAndBadFilesAreNamed) {
   other.poses.pop_back();
   EXPECT_FALSE(ReadPretrainSurfaceErrors(dir.path(), other, &errors, &error));
   EXPECT_NE(error.find("surface_errors.bin"), std::string::npos) << error;
+  // A mean that is not a number.
+  std::string text;
+  {
+    std::ifstream in(dir.File("pretrain/surface_errors.txt"));
+    text.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  const size_t line = text.find("\n1 train_1 ");
+  ASSERT_NE(line, std::string::npos) << text;
+  std::string damaged = text;
+  damaged.replace(line + 11, damaged.find(' ', line + 11) - (line + 11), "x0.5");
+  std::ofstream(dir.File("pretrain/surface_errors.txt")) << damaged;
+  EXPECT_FALSE(ReadPretrainSurfaceErrors(dir.path(), model, &errors, &error));
+  EXPECT_NE(error.find("surface_errors.txt:5"), std::string::npos) << error;
+  EXPECT_NE(error.find("mean and max numbers"), std::string::npos) << error;
+  std::ofstream(dir.File("pretrain/surface_errors.txt")) << text;
   // A malformed line.
   std::ofstream(dir.File("pretrain/surface_errors.txt"), std::ios::app) << "3 train_3 0.1\n";
   EXPECT_FALSE(ReadPretrainSurfaceErrors(dir.path(), model, &errors, &error));

@@ -115,6 +115,22 @@ TEST(SurfacePcaTest, PcaAboutAGivenCentreIsOfTheDisplacementsFromIt) {
   EXPECT_LT(worst_error(two), 1e-10);
 }
 
+// Too few markers to determine the coefficients (one marker, 3 rows, for 5 components):
+// ridge 0 gives the limit of small ridges (the solution of least whitened norm), not
+// whichever least-squares solution a pivoted QR picks.
+TEST(SurfacePcaTest, NoRidgeWithTooFewMarkersIsTheLimitOfSmallRidges) {
+  const std::vector<Eigen::Matrix3Xd> surfaces = LinearSurfaces(10, 6, 6);
+  const SurfacePca pca(surfaces, 5);
+  ASSERT_EQ(pca.num_components(), 5);
+  const std::vector<int> markers = {7};
+  const Eigen::Matrix3Xd at = surfaces[3].col(7) + Eigen::Vector3d(0.1, -0.2, 0.05);
+  const Eigen::Matrix3Xd none = pca.FitToVerticesRidge(markers, at, 0.0);
+  const Eigen::Matrix3Xd small = pca.FitToVerticesRidge(markers, at, 1e-9);
+  EXPECT_LT((none - small).cwiseAbs().maxCoeff(), 1e-6 * (small - pca.Decode(
+      Eigen::VectorXd::Zero(5))).cwiseAbs().maxCoeff());
+  EXPECT_LT((none.col(7) - at.col(0)).norm(), 1e-10);  // still through the marker
+}
+
 // Markers that determine the coefficients: no ridge reproduces a left-out surface
 // exactly, and a large one pulls it to the mean; ridge 0 wins.
 TEST(SurfacePcaTest, LeaveOneOutPrefersNoRidgeWhereMarkersDetermineTheFit) {

@@ -128,6 +128,23 @@ TEST(GridActuationFieldTest, TransposeIsTheAdjointOfInterpolate) {
   }
 }
 
+// A spacing that gives fewer than 1e6 cells per axis but more grid nodes than a model
+// file may hold (kMaxGridNodes) is refused when planned, naming the option: before, such
+// a model was trained and saved, and then refused to load.
+TEST(GridActuationFieldTest, PlanRefusesGridsTheModelReaderWouldRefuse) {
+  const TetMesh mesh = testing::BarMesh(1, 1, 1, 1.0);
+  GridActuationFieldOptions options;
+  options.node_spacing = 3e-6;  // 333,334 cells per axis: 3.7e16 nodes
+  double nodes = 0.0;
+  std::string error;
+  EXPECT_FALSE(PlanGridActuationField(mesh, options, &nodes, &error));
+  EXPECT_NE(error.find("node_spacing"), std::string::npos) << error;
+  EXPECT_NE(error.find("grid nodes"), std::string::npos) << error;
+  options.node_spacing = 1e-4;  // 1e12 nodes: planned (bounded by 8 per element)
+  EXPECT_TRUE(PlanGridActuationField(mesh, options, &nodes, &error)) << error;
+  EXPECT_LE(nodes, 8.0 * mesh.num_tets());
+}
+
 TEST(GridActuationFieldTest, PerElementIsTheIdentityMap) {
   const TetMesh mesh = JitteredBar();
   GridActuationFieldOptions options;
