@@ -150,12 +150,10 @@ TEST(ActuationForceProductsTest, BlocksAndThreadsGiveTheSameProducts) {
   const TetMesh mesh = testing::BarMesh(30, 12, 10, 0.1);
   const ShapeTargetModel model(mesh, 1.0);
   ASSERT_GT(model.num_elements(), 16384);
-  const StiffnessPattern pattern(mesh.tets,
-                                 FixedVertexMask(testing::LeftFaceFixed(mesh), mesh.num_vertices()));
+  const BoundaryConditions bc = testing::LeftFaceFixed(mesh);
+  const StiffnessPattern pattern(mesh.tets, FixedVertexMask(bc, mesh.num_vertices()));
   std::mt19937 rng(47);
-  std::normal_distribution<double> normal(0.0, 0.01);
-  Eigen::Matrix3Xd x = mesh.vertices;
-  for (Eigen::Index i = 0; i < x.size(); ++i) x.data()[i] += normal(rng);
+  const Eigen::Matrix3Xd x = testing::JitteredVertices(mesh, 0.01, &rng);
   const ActuationMatrix a = testing::SmoothActuation(mesh, 0.3);
   const Eigen::MatrixXd directions = RandomDirections(model.num_elements(), 2, &rng);
   const Eigen::MatrixXd one = ActuationForceProducts(model, pattern, x, a, directions, 1);

@@ -501,6 +501,14 @@ struct ConePinnedBar {
         start(mesh.vertices) {
     start.col(tip) += Eigen::Vector3d(0.01, 0.02, -0.01);
   }
+  // A QuasistaticSolver's solve from `start`, with the cone as its energy term.
+  QuasistaticSolveReport Solve(const QuasistaticSolverOptions& options) const {
+    QuasistaticSolver solver(model, bc, options);
+    solver.actuation() = a;
+    solver.AddEnergyTerm(&cone);
+    solver.SetPositions(start);
+    return solver.Solve();
+  }
   static int FarthestVertex(const TetMesh& mesh) {
     int tip = 0;
     for (int v = 1; v < mesh.num_vertices(); ++v) {
@@ -580,10 +588,23 @@ TEST(NewtonSolverTest, AKinkStopsTheSolveWhateverTheEnergysSize) {
   }
 }
 
+// An energy term with no stiffness, for Newton solves alone (which build no Ceres
+// problem).
+class StiffnessFreeTerm : public EnergyTerm {
+ public:
+  void AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>& /*x*/,
+                    const StiffnessPattern& /*pattern*/, StiffnessKind /*kind*/,
+                    std::vector<double>* /*values*/) const override {}
+  void AddResidualBlocks(ceres::Problem* /*problem*/,
+                         const std::vector<double*>& /*vertex_blocks*/) const override {
+    ADD_FAILURE() << "Newton solves do not build a Ceres problem";
+  }
+};
+
 // A kink across a plane through one vertex: E = k |n . (x_v - p)|, n a unit normal. Its
 // gradient k sign(n . (x_v - p)) n jumps at the plane and its Hessian is zero: where the
 // rest of the system curves down, the exact K stays indefinite at the kink.
-class PlaneKinkTerm : public EnergyTerm {
+class PlaneKinkTerm : public StiffnessFreeTerm {
  public:
   PlaneKinkTerm(int vertex, const Eigen::Vector3d& point, const Eigen::Vector3d& normal,
                 double k)
@@ -593,13 +614,6 @@ class PlaneKinkTerm : public EnergyTerm {
     const double s = normal_.dot(x.col(vertex_) - point_);
     if (s != 0.0) gradient->col(vertex_) += (s > 0.0 ? k_ : -k_) * normal_;
     return k_ * std::abs(s);
-  }
-  void AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>& /*x*/,
-                    const StiffnessPattern& /*pattern*/, StiffnessKind /*kind*/,
-                    std::vector<double>* /*values*/) const override {}
-  void AddResidualBlocks(ceres::Problem* /*problem*/,
-                         const std::vector<double*>& /*vertex_blocks*/) const override {
-    ADD_FAILURE() << "Newton solves do not build a Ceres problem";
   }
 
  private:
@@ -671,11 +685,7 @@ TEST(NewtonSolverTest, TheQuasistaticSolverPassesItsStallSteps) {
     // apex, where the bar pulls as hard as the cone).
     options.max_lbfgs_iterations = 0;
     options.newton_relative_force = 1.0;
-    QuasistaticSolver solver(bar.model, bar.bc, options);
-    solver.actuation() = bar.a;
-    solver.AddEnergyTerm(&bar.cone);
-    solver.SetPositions(bar.start);
-    const QuasistaticSolveReport report = solver.Solve();
+    const QuasistaticSolveReport report = bar.Solve(options);
     std::printf("quasistatic solve at a kink, newton_stall_steps %d: %s\n", stall_steps,
                 report.Summary().c_str());
     EXPECT_FALSE(report.converged) << report.Summary();
@@ -698,11 +708,7 @@ TEST(NewtonSolverTest, AStalledNewtonPhaseEndsALevenbergMarquardtSolve) {
   options.relative_force_tolerance = 1e-10;
   options.newton_relative_force = 10.0;  // the start is warm enough for Newton
   options.max_iterations = 200;
-  QuasistaticSolver solver(bar.model, bar.bc, options);
-  solver.actuation() = bar.a;
-  solver.AddEnergyTerm(&bar.cone);
-  solver.SetPositions(bar.start);
-  const QuasistaticSolveReport report = solver.Solve();
+  const QuasistaticSolveReport report = bar.Solve(options);
   std::printf("LM path at a kink: %s\n", report.Summary().c_str());
   EXPECT_FALSE(report.converged);
   EXPECT_TRUE(report.newton_stalled) << report.Summary();
@@ -712,19 +718,12 @@ TEST(NewtonSolverTest, AStalledNewtonPhaseEndsALevenbergMarquardtSolve) {
 }
 
 // The energy of the rest of a large system, a constant: E = c (no force, no stiffness).
-class ConstantTerm : public EnergyTerm {
+class ConstantTerm : public StiffnessFreeTerm {
  public:
   explicit ConstantTerm(double c) : c_(c) {}
   double AddEnergyAndGradient(const Eigen::Ref<const Eigen::Matrix3Xd>& /*x*/,
                               Eigen::Matrix3Xd* /*gradient*/) const override {
     return c_;
-  }
-  void AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>& /*x*/,
-                    const StiffnessPattern& /*pattern*/, StiffnessKind /*kind*/,
-                    std::vector<double>* /*values*/) const override {}
-  void AddResidualBlocks(ceres::Problem* /*problem*/,
-                         const std::vector<double*>& /*vertex_blocks*/) const override {
-    ADD_FAILURE() << "Newton solves do not build a Ceres problem";
   }
 
  private:

@@ -163,12 +163,10 @@ TEST(StiffnessAssemblyThreadsTest, ThreadedResultsAreReproducibleAndAgreeWithSer
   const TetMesh mesh = testing::BarMesh(6, 5, 4, 0.3);
   const ShapeTargetModel model(mesh, 1.0);
   ASSERT_GT(ParallelForThreadCount(2, model.num_elements()), 1) << model.num_elements();
-  const StiffnessPattern pattern(mesh.tets,
-                                 FixedVertexMask(testing::LeftFaceFixed(mesh), mesh.num_vertices()));
+  const BoundaryConditions bc = testing::LeftFaceFixed(mesh);
+  const StiffnessPattern pattern(mesh.tets, FixedVertexMask(bc, mesh.num_vertices()));
   std::mt19937 rng(7);
-  std::normal_distribution<double> normal(0.0, 0.03);
-  Eigen::Matrix3Xd x = mesh.vertices;
-  for (Eigen::Index i = 0; i < x.size(); ++i) x.data()[i] += normal(rng);
+  const Eigen::Matrix3Xd x = testing::JitteredVertices(mesh, 0.03, &rng);
   const ActuationMatrix a = testing::SmoothActuation(mesh, 0.3);
   Eigen::Matrix3Xd first_gradient;
   const double first_energy = model.EnergyAndGradient(x, a, &first_gradient, 2);

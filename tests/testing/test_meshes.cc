@@ -72,5 +72,12 @@ ActuationMatrix RandomActuation(int num_elements, double amplitude, std::mt19937
   return a;
 }
 
+Eigen::Matrix3Xd JitteredVertices(const TetMesh& mesh, double sigma, std::mt19937* rng) {
+  std::normal_distribution<double> normal(0.0, sigma);
+  Eigen::Matrix3Xd x = mesh.vertices;
+  for (Eigen::Index i = 0; i < x.size(); ++i) x.data()[i] += normal(*rng);
+  return x;
+}
+
 }  // namespace testing
 }  // namespace aqs

@@ -37,6 +37,10 @@ ActuationMatrix CurlActuation(const TetMesh& mesh, double amount);
 // Identity plus uniform noise of the given amplitude on every number.
 ActuationMatrix RandomActuation(int num_elements, double amplitude, std::mt19937* rng);
 
+// The mesh's rest positions (3 x num_vertices) plus normal noise of standard deviation
+// `sigma` on every coordinate.
+Eigen::Matrix3Xd JitteredVertices(const TetMesh& mesh, double sigma, std::mt19937* rng);
+
 }  // namespace testing
 }  // namespace aqs
 
