@@ -8,6 +8,7 @@
 #include "util/atomic_file.h"
 #include "util/line_reader.h"
 #include "util/number_format.h"
+#include "util/finite_values.h"
 
 namespace aqs {
 namespace {
@@ -126,6 +127,7 @@ int CountNonPositiveDefinite(const ActuationMatrix& a, int* first) {
 
 bool WriteActuation(const std::string& path, const ActuationMatrix& values,
                     const std::string& header, std::string* error) {
+  if (!AllFiniteForWriting(path, values, "element", error)) return false;
   std::string text;
   text.reserve(static_cast<size_t>(values.cols()) * 6 * 24 + 256);
   if (!header.empty()) {

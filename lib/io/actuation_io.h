@@ -41,7 +41,9 @@ bool ReadActuationTargets(const std::string& path, int num_elements, ActuationMa
 // <= 0). *first (may be null) receives the first such element, or -1.
 int CountNonPositiveDefinite(const ActuationMatrix& a, int* first = nullptr);
 
-// Writes `values` (6 x num_elements) in the same format, 17 significant digits, after
+// Writes `values` (6 x num_elements) in the same format, each number as the shortest
+// text that reads back exactly (util/number_format.h); false with *error naming the
+// element if a number is not finite (nothing is written). After
 // '#' comment lines `header` (may be empty; may contain several lines). Used for
 // actuations and for gradients dL/d(sxx syy szz sxy sxz syz).
 bool WriteActuation(const std::string& path, const ActuationMatrix& values,

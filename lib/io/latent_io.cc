@@ -7,6 +7,7 @@
 #include "util/atomic_file.h"
 #include "util/line_reader.h"
 #include "util/number_format.h"
+#include "util/finite_values.h"
 
 namespace aqs {
 
@@ -14,6 +15,14 @@ bool WriteLatentFile(const std::string& path, const Eigen::VectorXd& latent,
                      const std::vector<std::string>& bone_names,
                      const std::vector<RigidTransform>& bones, const std::string& comment,
                      const LatentFileModel& origin, std::string* error) {
+  if (!AllFiniteForWriting(path, latent.transpose(), "latent entry", error)) return false;
+  for (size_t b = 0; b < bones.size(); ++b) {
+    Eigen::Matrix<double, 3, 4> bone;
+    bone << bones[b].rotation, bones[b].translation;
+    if (!AllFiniteForWriting(path, bone, "bone " + std::to_string(b) + " column", error)) {
+      return false;
+    }
+  }
   std::string text = "# ActiveQS latent file";
   if (!comment.empty()) text += ": " + comment;
   text += "\nlatent";

@@ -28,6 +28,8 @@ struct LatentFileModel {
 };
 
 // Writes a latent, the named bones' transforms and (unless empty) `origin`. Atomic.
+// False with *error naming the entry or bone if a number is not finite (nothing is
+// written: the reader refuses them).
 bool WriteLatentFile(const std::string& path, const Eigen::VectorXd& latent,
                      const std::vector<std::string>& bone_names,
                      const std::vector<RigidTransform>& bones, const std::string& comment,

@@ -10,6 +10,7 @@
 #include "util/file_extension.h"
 #include "util/line_reader.h"
 #include "util/number_format.h"
+#include "util/finite_values.h"
 
 namespace aqs {
 namespace {
@@ -313,6 +314,7 @@ bool ReadMeditMesh(const std::string& path, TetMesh* mesh, std::string* error) {
 }
 
 bool WriteMeditMesh(const std::string& path, const TetMesh& mesh, std::string* error) {
+  if (!AllFiniteForWriting(path, mesh.vertices, "vertex", error)) return false;
   AtomicFileWriter writer(path);
   {
     mesh_internal::ChunkedWriter out(&writer.stream());

@@ -27,13 +27,14 @@ namespace aqs {
 // the file are 1-based. Binary .meshb is rejected with a message saying so.
 // Details: records may span lines and '#' starts a comment; keywords are
 // case-sensitive; Prisms, Pyramids and Required{Triangles,Quadrilaterals,Tetrahedra,
-// Hexahedra} are skipped too; Dimension must be 3; Vertices and Tetrahedra must each
+// Hexahedra} are skipped too; Dimension, if present, must be 3; Vertices and Tetrahedra must each
 // appear exactly once (in either order); a missing final End is tolerated and anything
 // after End is ignored.
 bool ReadMeditMesh(const std::string& path, TetMesh* mesh, std::string* error);
 
 // TetGen .node/.ele. `path` may name the .node file, the .ele file or their common
-// stem; both files must exist. Index base (0 or 1) is taken from the first .node
+// stem; both files must exist (T.NODE goes with T.ELE: an extension given in upper case
+// is looked for in upper case; a stem alone, in lower case). Index base (0 or 1) is taken from the first .node
 // entry as TetGen does; attributes and boundary markers are parsed (finite numbers) and
 // not used. 10-node elements keep their 4 corner nodes (the mid-edge points stay unused
 // vertices, as in ReadGmshMesh). Points and tetrahedra must be
@@ -76,7 +77,10 @@ bool ReadTetMeshFile(const std::string& path, TetMesh* mesh, std::string* error)
 bool ReadObj(const std::string& path, SurfaceMesh* surface, std::string* error);
 
 // Writers. Every number reads back bit for bit (util/number_format.h); files are written
-// atomically (temporary file, then rename). Return false with *error on failure.
+// atomically (temporary file, then rename). Return false with *error on failure. The
+// MEDIT, OBJ and PLY writers refuse a vertex with a non-finite coordinate, naming it
+// (the readers refuse nan and inf, so such a file could not be read back); VTU, for
+// viewers only, writes them as nan and inf.
 
 // MEDIT ASCII .mesh (MeshVersionFormatted 2) with the vertices and tets of `mesh`
 // in the same order (1-based in the file, references 0).

@@ -11,6 +11,7 @@
 #include "util/atomic_file.h"
 #include "util/line_reader.h"
 #include "util/number_format.h"
+#include "util/finite_values.h"
 
 namespace aqs {
 namespace {
@@ -169,6 +170,7 @@ bool ReadObj(const std::string& path, SurfaceMesh* surface, std::string* error) 
 
 bool WriteObj(const std::string& path, const SurfaceMesh& surface, std::string* error) {
   const int num_vertices = surface.num_vertices();
+  if (!AllFiniteForWriting(path, surface.vertices, "vertex", error)) return false;
   auto check_index = [num_vertices](int v) {
     CHECK(v >= 0 && v < num_vertices)
         << "surface index " << v << " out of range [0, " << num_vertices << ")";

@@ -42,8 +42,9 @@ double ErrorMapScale(std::vector<double> values);
 //
 // A comment line records color_max. Numbers read back bit for bit (AppendDouble);
 // the file is written atomically. values must have one entry per vertex and color_max
-// must be positive (CHECK). Returns false with *error if a value is not finite (naming
-// the file and the vertex) or the file cannot be written.
+// must be positive (CHECK). Returns false with *error if a value or a coordinate is not
+// finite (naming the file and the vertex; nothing is written) or the file cannot be
+// written.
 bool WritePlyWithScalar(const std::string& path, const SurfaceMesh& surface,
                         const std::vector<double>& values, double color_max, std::string* error);
 

@@ -11,6 +11,7 @@
 #include "mesh/text_io_util.h"
 #include "util/atomic_file.h"
 #include "util/number_format.h"
+#include "util/finite_values.h"
 
 namespace aqs {
 namespace {
@@ -60,6 +61,7 @@ bool WritePlyWithScalar(const std::string& path, const SurfaceMesh& surface,
   const int num_vertices = surface.num_vertices();
   CHECK_EQ(values.size(), static_cast<size_t>(num_vertices)) << "one value per vertex";
   CHECK_GT(color_max, 0.0) << "color_max must be positive";
+  if (!AllFiniteForWriting(path, surface.vertices, "vertex", error)) return false;
   for (int v = 0; v < num_vertices; ++v) {
     if (!std::isfinite(values[v])) {
       *error = path + ": the value of vertex " + std::to_string(v) + " is not finite (" +

@@ -246,12 +246,20 @@ bool ReadEleFile(const std::string& path, int base, int num_vertices, Eigen::Mat
 bool ReadTetgenMesh(const std::string& path, TetMesh* mesh, std::string* error) {
   const std::string extension = LowercaseExtension(path);
   std::string stem = path;
-  if (extension == ".node" || extension == ".ele") stem.resize(path.size() - extension.size());
+  // The pair's extensions in the case of the one given (T.NODE goes with T.ELE).
+  std::string node = ".node", ele = ".ele";
+  if (extension == ".node" || extension == ".ele") {
+    stem.resize(path.size() - extension.size());
+    if (path.substr(stem.size()) != extension) {
+      node = ".NODE";
+      ele = ".ELE";
+    }
+  }
   Eigen::Matrix3Xd vertices;
   Eigen::Matrix4Xi tets;
   int base = 0;
-  if (!ReadNodeFile(stem + ".node", &vertices, &base, error)) return false;
-  if (!ReadEleFile(stem + ".ele", base, static_cast<int>(vertices.cols()), &tets, error)) {
+  if (!ReadNodeFile(stem + node, &vertices, &base, error)) return false;
+  if (!ReadEleFile(stem + ele, base, static_cast<int>(vertices.cols()), &tets, error)) {
     return false;
   }
   mesh->vertices = std::move(vertices);

@@ -1,5 +1,9 @@
 #include "io/actuation_io.h"
 
+#include <fstream>
+#include <limits>
+#include <string>
+
 #include <gtest/gtest.h>
 
 #include "testing/temp_dir.h"
@@ -18,6 +22,19 @@ TEST(ActuationIoTest, RoundTripsBitForBit) {
   ActuationMatrix back;
   ASSERT_TRUE(ReadActuation(dir.File("a.txt"), 3, &back, &error)) << error;
   EXPECT_EQ((back - a).cwiseAbs().maxCoeff(), 0.0);
+}
+
+// A non-finite number is refused naming the element, and nothing is written (the reader
+// refuses nan and inf).
+TEST(ActuationIoTest, NonFiniteNumbersAreRefusedNamingTheElement) {
+  testing::TempDir dir;
+  ActuationMatrix a = IdentityActuations(4);
+  a(5, 3) = -std::numeric_limits<double>::infinity();
+  std::string error;
+  EXPECT_FALSE(WriteActuation(dir.File("a.txt"), a, "", &error));
+  EXPECT_NE(error.find("a.txt: element 3 has a number that is not finite (-inf)"),
+            std::string::npos) << error;
+  EXPECT_FALSE(std::ifstream(dir.File("a.txt")).good());
 }
 
 TEST(ActuationIoTest, WrongCountsAndBadNumbersNameTheLine) {

@@ -4,6 +4,8 @@
 #include "io/latent_io.h"
 
 #include <cmath>
+#include <fstream>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -45,6 +47,25 @@ TEST(LatentIoTest, WrittenFilesReadBackBitForBit) {
   EXPECT_TRUE(origin.model.empty() && origin.learned.empty());
   EXPECT_EQ(bones[0].rotation, Eigen::Matrix3d::Identity());
   EXPECT_EQ(bones[0].translation, Eigen::Vector3d::Zero());
+}
+
+// Non-finite numbers are refused naming the entry or bone, and nothing is written (the
+// reader refuses nan and inf).
+TEST(LatentIoTest, NonFiniteNumbersAreRefused) {
+  testing::TempDir dir;
+  Eigen::VectorXd z = Eigen::VectorXd::Zero(4);
+  z[2] = std::numeric_limits<double>::quiet_NaN();
+  std::string error;
+  EXPECT_FALSE(WriteLatentFile(dir.File("z.txt"), z, {}, {}, "", {}, &error));
+  EXPECT_NE(error.find("z.txt: latent entry 2 has a number that is not finite (nan)"),
+            std::string::npos) << error;
+  RigidTransform jaw;
+  jaw.translation[1] = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(WriteLatentFile(dir.File("z.txt"), Eigen::VectorXd::Zero(4), {"skull", "jaw"},
+                               {RigidTransform(), jaw}, "", {}, &error));
+  EXPECT_NE(error.find("bone 1 column 3 has a number that is not finite (inf)"),
+            std::string::npos) << error;
+  EXPECT_FALSE(std::ifstream(dir.File("z.txt")).good());
 }
 
 TEST(LatentIoTest, BadFilesNameTheLine) {

@@ -2,11 +2,14 @@
 
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <string>
+#include <vector>
 
 #include "mesh/boundary_surface.h"
 #include "mesh/lattice.h"
 #include "mesh/mesh_io.h"
+#include "mesh/ply_io.h"
 #include "mesh_test_util.h"
 #include "testing/temp_dir.h"
 
@@ -145,6 +148,35 @@ TEST(ObjWriteTest, TrianglesOnlySurface) {
   EXPECT_EQ(read.vertices, surface.vertices);
   EXPECT_EQ(read.triangles, surface.triangles);
   EXPECT_EQ(read.num_polygons(), surface.num_triangles());
+}
+
+// A vertex with a non-finite coordinate is refused by the writers whose files the
+// readers must read back (which refuse nan and inf), naming the file and the vertex, and
+// nothing is written (before 2026-12-07 the OBJ, MEDIT and PLY writers wrote 'nan', and
+// the file could not be read back).
+TEST(ObjWriteTest, NonFiniteCoordinatesAreRefusedNamingTheVertex) {
+  LatticeOptions options;
+  options.nx = 2;
+  TetMesh mesh = MakeLatticeMesh(options);
+  mesh.vertices(2, 3) = std::numeric_limits<double>::quiet_NaN();
+  SurfaceMesh surface = BoundaryToSurface(ExtractBoundarySurface(mesh), mesh.vertices);
+  surface.vertices(0, 4) = std::numeric_limits<double>::infinity();
+  testing::TempDir dir;
+  std::string error;
+  EXPECT_FALSE(WriteObj(dir.File("s.obj"), surface, &error));
+  EXPECT_NE(error.find("s.obj: vertex 3 has a number that is not finite (nan)"),
+            std::string::npos) << error;
+  EXPECT_FALSE(std::ifstream(dir.File("s.obj")).good());
+  EXPECT_FALSE(WriteMeditMesh(dir.File("m.mesh"), mesh, &error));
+  EXPECT_NE(error.find("m.mesh: vertex 3 has a number that is not finite"), std::string::npos)
+      << error;
+  EXPECT_FALSE(std::ifstream(dir.File("m.mesh")).good());
+  surface.vertices(2, 3) = 0.0;
+  const std::vector<double> values(surface.num_vertices(), 1.0);
+  EXPECT_FALSE(WritePlyWithScalar(dir.File("p.ply"), surface, values, 1.0, &error));
+  EXPECT_NE(error.find("p.ply: vertex 4 has a number that is not finite (inf)"),
+            std::string::npos) << error;
+  EXPECT_FALSE(std::ifstream(dir.File("p.ply")).good());
 }
 
 }  // namespace

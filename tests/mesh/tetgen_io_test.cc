@@ -60,6 +60,21 @@ TEST(TetgenReadTest, OneBasedWithAttributesByAnyName) {
   }
 }
 
+// Files named in upper case (T.NODE, T.ELE) are found through either name: before
+// 2026-12-07 the reader looked for T.node and said that file could not be opened.
+TEST(TetgenReadTest, UpperCaseExtensionsAreKept) {
+  testing::TempDir dir;
+  dir.Write("T.NODE", kNode1);
+  dir.Write("T.ELE", kEle1);
+  for (const char* name : {"T.NODE", "T.ELE"}) {
+    TetMesh mesh;
+    std::string error;
+    ASSERT_TRUE(ReadTetgenMesh(dir.File(name), &mesh, &error)) << name << ": " << error;
+    EXPECT_EQ(mesh.num_vertices(), 5) << name;
+    EXPECT_EQ(mesh.num_tets(), 2) << name;
+  }
+}
+
 TEST(TetgenReadTest, ZeroBasedAndTenNodeElements) {
   testing::TempDir dir;
   const std::string stem = WriteTetgen(dir, "4 3 0 0\n0 0 0 0\n1 1 0 0\n2 0 1 0\n3 0 0 2.5\n",
