@@ -43,7 +43,7 @@ bool ReadFixedWidthRows(const std::string& path, int count, int width, const cha
     }
     for (int c = 0; c < width; ++c) {
       if (!ParseDouble(tokens[c], &(*values)[static_cast<size_t>(row) * width + c])) {
-        *error = reader.Where("expected a finite number, got '" + tokens[c] + "'");
+        *error = reader.Where("expected a finite number, got " + Quoted(tokens[c]));
         return false;
       }
     }

@@ -80,7 +80,7 @@ bool ReadLatentFile(const std::string& path, int latent_dim,
       z.resize(latent_dim);
       for (int i = 0; i < latent_dim; ++i) {
         if (!ParseDouble(t[1 + i], &z[i])) {
-          *error = reader.Where("expected a number, got '" + t[1 + i] + "'");
+          *error = reader.Where("expected a number, got " + Quoted(t[1 + i]));
           return false;
         }
       }
@@ -107,7 +107,7 @@ bool ReadLatentFile(const std::string& path, int latent_dim,
       for (int i = 0; i < 12; ++i) {
         double v = 0;
         if (!ParseDouble(t[2 + i], &v)) {
-          *error = reader.Where("expected a number, got '" + t[2 + i] + "'");
+          *error = reader.Where("expected a number, got " + Quoted(t[2 + i]));
           return false;
         }
         if (i < 9) {
@@ -141,7 +141,7 @@ bool ReadLatentFile(const std::string& path, int latent_dim,
       model.learned = t[2];
       have_model = true;
     } else {
-      *error = reader.Where("expected a 'latent', 'bone' or 'model' line, got '" + t[0] + "'");
+      *error = reader.Where("expected a 'latent', 'bone' or 'model' line, got " + Quoted(t[0]));
       return false;
     }
   }

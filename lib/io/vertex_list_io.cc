@@ -12,7 +12,7 @@ namespace {
 bool ParseVertexIndex(const LineReader& reader, const std::string& token, int num_vertices,
                       std::vector<int>* first_line, int* index, std::string* error) {
   if (!ParseInt(token, index)) {
-    *error = reader.Where("expected a vertex index (a non-negative integer), got '" + token + "'");
+    *error = reader.Where("expected a vertex index (a non-negative integer), got " + Quoted(token));
     return false;
   }
   if (*index < 0 || *index >= num_vertices) {
@@ -59,7 +59,7 @@ bool ReadFixedVertices(const std::string& path, const Eigen::Matrix3Xd& rest_pos
     if (tokens.size() == 4) {
       for (int c = 0; c < 3; ++c) {
         if (!ParseDouble(tokens[1 + c], &p[c])) {
-          *error = reader.Where("expected a finite coordinate, got '" + tokens[1 + c] + "'");
+          *error = reader.Where("expected a finite coordinate, got " + Quoted(tokens[1 + c]));
           return false;
         }
       }

@@ -32,25 +32,6 @@ bool FileLooksBinary(const std::string& path) {
   return std::find(buffer, buffer + n, '\0') != buffer + n;
 }
 
-std::string Quoted(const std::string& token) {
-  constexpr size_t kMaxShown = 40;
-  std::string out = "'";
-  const size_t shown = std::min(token.size(), kMaxShown);
-  for (size_t i = 0; i < shown; ++i) {
-    const unsigned char c = static_cast<unsigned char>(token[i]);
-    if (std::isprint(c)) {
-      out.push_back(static_cast<char>(c));
-    } else {
-      char escaped[8];
-      std::snprintf(escaped, sizeof(escaped), "\\x%02X", c);
-      out += escaped;
-    }
-  }
-  if (token.size() > kMaxShown) out += "...";
-  out += "'";
-  return out;
-}
-
 bool CheckRecordCount(const LineReader& reader, long long count, int tokens_per_record,
                       long long file_size, const std::string& what, std::string* error) {
   CHECK_GE(tokens_per_record, 1);

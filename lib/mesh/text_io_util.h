@@ -25,9 +25,7 @@ long long FileSizeBytes(const std::string& path);
 // True if the first few kilobytes of the file contain a NUL byte (a binary file).
 bool FileLooksBinary(const std::string& path);
 
-// `token` in quotes for an error message: 'abc'; long tokens are shortened and
-// non-printable bytes escaped as \xNN.
-std::string Quoted(const std::string& token);
+using ::aqs::Quoted;  // util/line_reader.h
 
 // Checks a record count read from a file: returns false with *error ("path:line: ...",
 // at the reader's current line) if it is negative, larger than the largest int, or if

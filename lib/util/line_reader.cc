@@ -1,7 +1,10 @@
 #include "util/line_reader.h"
 
+#include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <limits>
@@ -195,6 +198,25 @@ bool ParseInt(const std::string& token, int* value) {
   if (v < std::numeric_limits<int>::min() || v > std::numeric_limits<int>::max()) return false;
   *value = static_cast<int>(v);
   return true;
+}
+
+std::string Quoted(const std::string& token) {
+  constexpr size_t kMaxShown = 40;
+  std::string out = "'";
+  const size_t shown = std::min(token.size(), kMaxShown);
+  for (size_t i = 0; i < shown; ++i) {
+    const unsigned char c = static_cast<unsigned char>(token[i]);
+    if (std::isprint(c)) {
+      out.push_back(static_cast<char>(c));
+    } else {
+      char escaped[8];
+      std::snprintf(escaped, sizeof(escaped), "\\x%02X", c);
+      out += escaped;
+    }
+  }
+  if (token.size() > kMaxShown) out += "...";
+  out += "'";
+  return out;
 }
 
 }  // namespace aqs

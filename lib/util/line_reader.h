@@ -74,6 +74,11 @@ bool ParseDouble(const std::string& token, double* value);
 bool ParseInt(const std::string& token, int* value);
 bool ParseInt64(const std::string& token, long long* value);
 
+// `token` in quotes for an error message: 'abc'; tokens longer than 40 bytes are
+// shortened (with "...") and non-printable bytes escaped as \xNN, so that a damaged or
+// binary file cannot print a megabyte of bytes into a message.
+std::string Quoted(const std::string& token);
+
 }  // namespace aqs
 
 #endif  // AQS_UTIL_LINE_READER_H_

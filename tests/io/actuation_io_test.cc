@@ -37,6 +37,21 @@ TEST(ActuationIoTest, NonFiniteNumbersAreRefusedNamingTheElement) {
   EXPECT_FALSE(std::ifstream(dir.File("a.txt")).good());
 }
 
+// A damaged file's long token is shortened in the message and its control bytes escaped
+// (the whole 100 kB token was echoed before 2026-12-07).
+TEST(ActuationIoTest, LongBadTokensAreShortenedInTheMessage) {
+  testing::TempDir dir;
+  std::string token(100000, 'x');
+  token[3] = '\x01';
+  dir.Write("a.txt", "1 1 1 0 0 0\n1 1 " + token + " 0 0 0\n");
+  ActuationMatrix a;
+  std::string error;
+  EXPECT_FALSE(ReadActuation(dir.File("a.txt"), 2, &a, &error));
+  EXPECT_LT(error.size(), 200u) << error.size();
+  EXPECT_NE(error.find("a.txt:2"), std::string::npos) << error;
+  EXPECT_NE(error.find("'xxx\\x01xx"), std::string::npos) << error;
+}
+
 TEST(ActuationIoTest, WrongCountsAndBadNumbersNameTheLine) {
   testing::TempDir dir;
   ActuationMatrix a;
