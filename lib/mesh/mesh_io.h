@@ -34,10 +34,10 @@ bool ReadMeditMesh(const std::string& path, TetMesh* mesh, std::string* error);
 
 // TetGen .node/.ele. `path` may name the .node file, the .ele file or their common
 // stem; both files must exist (T.NODE goes with T.ELE: an extension given in upper case
-// is looked for in upper case; a stem alone, in lower case). Index base (0 or 1) is taken from the first .node
-// entry as TetGen does; attributes and boundary markers are parsed (finite numbers) and
-// not used. 10-node elements keep their 4 corner nodes (the mid-edge points stay unused
-// vertices, as in ReadGmshMesh). Points and tetrahedra must be
+// is looked for in upper case; a stem alone, in lower case). Index base (0 or 1) is
+// taken from the first .node entry as TetGen does; attributes and boundary markers are
+// parsed (finite numbers) and not used. 10-node elements keep their 4 corner nodes (the
+// mid-edge points stay unused vertices, as in ReadGmshMesh). Points and tetrahedra must be
 // numbered consecutively from the base, node indices must name points of the .node
 // file, and nothing but comments may follow the records the headers count; '#' starts
 // a comment. Point lines may omit trailing attributes/markers.
@@ -70,7 +70,9 @@ bool ReadTetMeshFile(const std::string& path, TetMesh* mesh, std::string* error)
 // corners; negative (relative) indices are resolved; polygons are kept in
 // face_offsets/face_vertices and fan-triangulated into `triangles`. Other records
 // (vt, vn, g, o, s, usemtl, mtllib, l, ...) are ignored. Faces with fewer than 3
-// corners or out-of-range indices are errors naming the line.
+// corners or out-of-range indices are errors naming the line; a face that repeats a
+// vertex is kept as it is (zero-area triangles: scanners write them, and a scan read as
+// a point cloud through this reader must not fail on its faces).
 // Details: 'v' may carry w or an r g b colour after x y z (ignored); a positive index
 // may refer to a vertex defined later in the file (checked at the end); face_offsets,
 // face_vertices and triangle_face are filled whenever the file has faces.
