@@ -29,7 +29,8 @@ DEFINE_bool(negative_curvature_steps, false, "Newton: where the exact stiffness 
             "of a projected step (leaves saddles and crawls near buckling in a few "
             "factorizations; docs/solver.md). Unset: each stage's own default (on for contact "
             "solves, off elsewhere).");
-DEFINE_int32(newton_stall_steps, 16, "Newton: a phase stops, not converged, after this many "
+DEFINE_int32(newton_stall_steps, aqs::QuasistaticSolverOptions::kDefaultNewtonStallSteps,
+             "Newton: a phase stops, not converged, after this many "
              "backtracked steps without progress (where the energy has a kink, as a contact's "
              "closest feature switching, the force cannot fall further; docs/solver.md). 0: "
              "never (the factorization budget ends such a phase).");

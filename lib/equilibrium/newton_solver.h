@@ -36,7 +36,7 @@ struct NewtonSolverOptions {
   // force cannot fall below the gradient's jump and the line search accepts ever shorter
   // steps at the energy's round-off; this stops that. 0: never (the budget alone ends
   // such a solve; at the round-off floor max_reused_steps then decides).
-  int stall_steps = 16;
+  int stall_steps = 16;  // QuasistaticSolverOptions::kDefaultNewtonStallSteps
   // Where the exact K is still indefinite on a retry, a step along its direction of most
   // negative curvature (found with the projected factor; see negative_curvature.h)
   // replaces the projected step: it leaves a saddle that projected steps leave only

@@ -19,12 +19,6 @@
 #include "util/wall_timer.h"
 
 namespace aqs {
-namespace {
-
-// The stall rule's default, which KeyText leaves out (keys stored before the option).
-constexpr int kDefaultNewtonStallSteps = 16;
-
-}  // namespace
 
 std::string QuasistaticSolverOptions::KeyText() const {
   const FactorReuseOptions& r = factor_reuse;

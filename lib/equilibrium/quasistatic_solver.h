@@ -96,7 +96,8 @@ struct QuasistaticSolverOptions {
   // converged (QuasistaticSolveReport::newton_stalled), after this many backtracked steps
   // without progress, as at a kink of the energy (a contact's closest feature switching);
   // 0: never (its factorization budget alone ends such a phase).
-  int newton_stall_steps = 16;
+  static constexpr int kDefaultNewtonStallSteps = 16;
+  int newton_stall_steps = kDefaultNewtonStallSteps;
   // After a converged solve (with fixed vertices and every term's stiffness), check that
   // the equilibrium is stable: one factorization of the exact stiffness there, which
   // fails where K is not positive definite (a saddle: zero force, yet not a rest state;
@@ -134,8 +135,8 @@ struct QuasistaticSolverOptions {
   // What shapes a solve's result, as one line of text: every field but num_threads and
   // log_progress, doubles exactly (the keys of stored results: prepare's targets, the
   // evaluation's fits). A new field that changes results belongs here; newton_stall_steps
-  // is written only where it is not 16 (the rule's default since before it was an
-  // option), so keys stored before it still match.
+  // is written only where it is not kDefaultNewtonStallSteps (the rule's length since
+  // before it was an option), so keys stored before it still match.
   std::string KeyText() const;
 };
 
