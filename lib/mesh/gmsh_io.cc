@@ -13,8 +13,6 @@
 namespace aqs {
 namespace {
 
-using mesh_internal::Quoted;
-
 // Number of nodes of a Gmsh element type, or -1 for a type this reader does not know.
 int GmshNodesPerElement(long long type) {
   // Types 1 to 31: lines, triangles, quadrangles, tetrahedra, hexahedra, prisms,

@@ -15,8 +15,6 @@
 namespace aqs {
 namespace {
 
-using mesh_internal::Quoted;
-
 // Sections that are read past: each record has `doubles` floating-point numbers
 // followed by `ints` integers.
 struct SkippedSection {

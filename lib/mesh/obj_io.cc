@@ -16,8 +16,6 @@
 namespace aqs {
 namespace {
 
-using mesh_internal::Quoted;
-
 // A positive face index larger than the vertices defined so far; OBJ readers commonly
 // accept vertices defined after the face, so it is checked at the end of the file.
 struct PendingIndex {

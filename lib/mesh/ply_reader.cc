@@ -31,7 +31,6 @@ using mesh_internal::PlyProperty;
 using mesh_internal::PlyType;
 using mesh_internal::PlyTypeName;
 using mesh_internal::PlyTypeSize;
-using mesh_internal::Quoted;
 using mesh_internal::ReadPlyHeader;
 
 // Where x, y and z are among the vertex element's properties.

@@ -12,8 +12,6 @@
 namespace aqs {
 namespace {
 
-using mesh_internal::Quoted;
-
 bool OpenText(const std::string& path, LineReader* reader, std::string* error) {
   if (!reader->ok()) {
     *error = reader->error();

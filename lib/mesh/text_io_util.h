@@ -25,8 +25,6 @@ long long FileSizeBytes(const std::string& path);
 // True if the first few kilobytes of the file contain a NUL byte (a binary file).
 bool FileLooksBinary(const std::string& path);
 
-using ::aqs::Quoted;  // util/line_reader.h
-
 // Checks a record count read from a file: returns false with *error ("path:line: ...",
 // at the reader's current line) if it is negative, larger than the largest int, or if
 // `count` records of `tokens_per_record` tokens cannot fit in a file of `file_size`
