@@ -105,7 +105,9 @@ struct VtuField {
 // VTK XML unstructured grid (.vtu, ASCII, readable by ParaView) of `mesh` with
 // per-vertex and per-element fields. Field sizes are checked (CHECK: programmer error).
 // Points and fields are Float64, connectivity and offsets Int64, types UInt8 (10 =
-// tetra); VTU file version 0.1. Field names are XML-escaped.
+// tetra); VTU file version 0.1. Field names are XML-escaped. A point or field value
+// that is not finite is refused (false, *error naming the vertex or the field and entry;
+// nothing is written).
 bool WriteVtu(const std::string& path, const TetMesh& mesh,
               const std::vector<VtuField>& point_fields,
               const std::vector<VtuField>& cell_fields, std::string* error);

@@ -9,6 +9,7 @@
 #include "mesh/mesh_io.h"
 #include "mesh/text_io_util.h"
 #include "util/atomic_file.h"
+#include "util/finite_values.h"
 #include "util/number_format.h"
 
 namespace aqs {
@@ -67,6 +68,24 @@ void WriteFields(const std::vector<VtuField>& fields, size_t entries, const char
   }
 }
 
+// False with *error naming the field and entry if a value of `fields` is not finite
+// (ParaView's ASCII reader stops at "nan" and "inf", and the points of a failed solve
+// would be drawn as a valid mesh).
+bool FieldsFinite(const std::string& path, const std::vector<VtuField>& fields, const char* kind,
+                  std::string* error) {
+  for (const VtuField& field : fields) {
+    if (field.components < 1) continue;  // CHECKed when written
+    const Eigen::Map<const Eigen::MatrixXd> values(
+        field.values.data(), field.components,
+        static_cast<Eigen::Index>(field.values.size()) / field.components);
+    if (!AllFiniteForWriting(path, values,
+                             std::string(kind) + " field '" + field.name + "': entry", error)) {
+      return false;
+    }
+  }
+  return true;
+}
+
 }  // namespace
 
 bool WriteVtu(const std::string& path, const TetMesh& mesh,
@@ -74,6 +93,11 @@ bool WriteVtu(const std::string& path, const TetMesh& mesh,
               std::string* error) {
   const int num_points = mesh.num_vertices();
   const int num_cells = mesh.num_tets();
+  if (!AllFiniteForWriting(path, mesh.vertices, "vertex", error) ||
+      !FieldsFinite(path, point_fields, "point", error) ||
+      !FieldsFinite(path, cell_fields, "cell", error)) {
+    return false;
+  }
   AtomicFileWriter writer(path);
   {
     mesh_internal::ChunkedWriter out(&writer.stream());

@@ -2,6 +2,7 @@
 
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <map>
 #include <string>
 #include <vector>
@@ -180,6 +181,28 @@ TEST(VtuWriterTest, NoFieldsAndUnwritablePath) {
   EXPECT_EQ(arrays.size(), 4u);
   EXPECT_FALSE(WriteVtu("/nonexistent/dir/x.vtu", testing::UnitTet(), {}, {}, &error));
   EXPECT_TRUE(Contains(error, "/nonexistent/dir/x.vtu")) << error;
+}
+
+TEST(VtuWriterTest, RefusesNumbersThatAreNotFinite) {
+  testing::TempDir dir;
+  std::string error;
+  const std::string path = dir.File("x.vtu");
+  TetMesh mesh = testing::UnitTet();
+  mesh.vertices(1, 2) = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(WriteVtu(path, mesh, {}, {}, &error));
+  EXPECT_TRUE(Contains(error, "vertex 2 has a number that is not finite")) << error;
+  const VtuField point{"displacement", 3, std::vector<double>(12, 0.0)};
+  VtuField cell{"energy", 1, {std::numeric_limits<double>::infinity()}};
+  EXPECT_FALSE(WriteVtu(path, testing::UnitTet(), {point}, {cell}, &error));
+  EXPECT_TRUE(Contains(error, "cell field 'energy': entry 0 has a number that is not finite"))
+      << error;
+  VtuField bad_point = point;
+  bad_point.values[10] = -std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(WriteVtu(path, testing::UnitTet(), {bad_point}, {}, &error));
+  EXPECT_TRUE(Contains(error, "point field 'displacement': entry 3")) << error;
+  EXPECT_FALSE(std::ifstream(path).good()) << "nothing is written";
+  cell.values[0] = 1.5;
+  EXPECT_TRUE(WriteVtu(path, testing::UnitTet(), {point}, {cell}, &error)) << error;
 }
 
 TEST(VtuWriterDeathTest, WrongFieldSizeIsAProgrammerError) {
