@@ -1,5 +1,6 @@
 #include "contact/obstacle.h"
 
+#include <algorithm>
 #include <limits>
 #include <set>
 
@@ -11,17 +12,14 @@
 
 namespace aqs {
 
-Obstacle::Obstacle(std::string name, const Eigen::Matrix3Xd& vertices,
-                   const Eigen::Matrix3Xi& triangles)
-    : name_(std::move(name)),
-      vertices_(vertices),
-      triangles_(triangles),
-      bvh_(vertices, triangles),
-      winding_(vertices, triangles) {
-  // Six times the enclosed signed volume, about the triangles' mean corner: for a closed
-  // surface the point does not matter, for one with a hole (which the inside test
-  // tolerates) a point that moves with the surface keeps the sign the same at every
-  // placement (about the origin, an open box turned inside out 2 units away from it).
+namespace {
+
+// +1 if the triangles face outward (positive enclosed volume), -1 if inward. Six times the
+// enclosed signed volume, about the triangles' mean corner: for a closed surface the
+// point does not matter, for one with a hole (which the inside test tolerates) a point
+// that moves with the surface keeps the sign the same at every placement (about the
+// origin, an open box turned inside out 2 units away from it).
+double Orientation(const Eigen::Matrix3Xd& vertices, const Eigen::Matrix3Xi& triangles) {
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
   for (Eigen::Index t = 0; t < triangles.cols(); ++t) {
     for (int k = 0; k < 3; ++k) centre += vertices.col(triangles(k, t));
@@ -33,8 +31,48 @@ Obstacle::Obstacle(std::string name, const Eigen::Matrix3Xd& vertices,
     volume += a.dot((vertices.col(triangles(1, t)) - centre)
                         .cross(vertices.col(triangles(2, t)) - centre));
   }
-  orientation_ = volume < 0 ? -1.0 : 1.0;
+  return volume < 0 ? -1.0 : 1.0;
 }
+
+// The triangles that bound the inside: those whose centroid, moved off the triangle along
+// its outward normal by 1e-6 of the surface's size, is outside (winding number <= 0.5).
+// A triangle of one closed shell buried inside another shell that overlaps it (the teeth
+// of a dental model: 32 shells, neighbours interpenetrating) is not: the distance to it
+// would measure a penetration to a face inside the obstacle, and push toward it. All
+// triangles if every one is buried (no surface).
+Eigen::Matrix3Xi BoundingTriangles(const Eigen::Matrix3Xd& vertices,
+                                   const Eigen::Matrix3Xi& triangles,
+                                   const FastWindingNumber& winding, double orientation) {
+  if (triangles.cols() == 0) return triangles;
+  const double offset =
+      1e-6 * (vertices.rowwise().maxCoeff() - vertices.rowwise().minCoeff()).norm();
+  std::vector<int> kept;
+  for (Eigen::Index t = 0; t < triangles.cols(); ++t) {
+    const Eigen::Vector3d a = vertices.col(triangles(0, t));
+    const Eigen::Vector3d b = vertices.col(triangles(1, t));
+    const Eigen::Vector3d c = vertices.col(triangles(2, t));
+    const Eigen::Vector3d normal = orientation * (b - a).cross(c - a).normalized();
+    const Eigen::Vector3d probe = (a + b + c) / 3.0 + offset * normal;
+    if (!(orientation * winding.WindingNumber(probe) > 0.5)) kept.push_back(static_cast<int>(t));
+  }
+  if (kept.empty()) return triangles;
+  Eigen::Matrix3Xi bounding(3, kept.size());
+  for (size_t i = 0; i < kept.size(); ++i) bounding.col(i) = triangles.col(kept[i]);
+  return bounding;
+}
+
+}  // namespace
+
+Obstacle::Obstacle(std::string name, const Eigen::Matrix3Xd& vertices,
+                   const Eigen::Matrix3Xi& triangles)
+    : name_(std::move(name)),
+      vertices_(vertices),
+      triangles_(triangles),
+      winding_(vertices, triangles),
+      orientation_(Orientation(vertices, triangles)),
+      surface_(BoundingTriangles(vertices, triangles, winding_, orientation_)),
+      bvh_(vertices, surface_),
+      features_(BuildSurfaceFeatures(surface_, static_cast<int>(vertices.cols()))) {}
 
 double Obstacle::SignedDistance(const Eigen::Vector3d& p, Eigen::Vector3d* gradient,
                                 double max_distance) const {
@@ -54,14 +92,64 @@ double Obstacle::SignedDistance(const Eigen::Vector3d& p, Eigen::Vector3d* gradi
   if (distance > 1e-12) {
     direction /= distance;
   } else {  // on the surface: the triangle's outward normal, as p - closest would be
-    const Eigen::Vector3d a = vertices_.col(triangles_(0, closest.triangle));
+    const Eigen::Vector3d a = vertices_.col(surface_(0, closest.triangle));
     direction = (inside ? -orientation_ : orientation_) *
-                (vertices_.col(triangles_(1, closest.triangle)) - a)
-                    .cross(vertices_.col(triangles_(2, closest.triangle)) - a)
+                (vertices_.col(surface_(1, closest.triangle)) - a)
+                    .cross(vertices_.col(surface_(2, closest.triangle)) - a)
                     .normalized();
   }
   *gradient = inside ? -direction : direction;
   return inside ? -distance : distance;
+}
+
+void Obstacle::FeaturesWithin(const Eigen::Vector3d& p, double reach,
+                              std::vector<FeatureDistance>* features) const {
+  std::vector<int> triangles;
+  bvh_.TrianglesWithin(p, reach, &triangles);
+  if (triangles.empty()) return;
+  auto add = [&](const Eigen::Vector3d& closest, double weight, int triangle) {
+    FeatureDistance feature;
+    feature.direction = p - closest;
+    feature.distance = feature.direction.norm();
+    if (!(feature.distance < reach)) return;
+    feature.weight = weight;
+    if (feature.distance > 1e-12) {
+      feature.direction /= feature.distance;
+    } else if (triangle >= 0) {  // on the triangle: its outward normal
+      const Eigen::Vector3d a = vertices_.col(surface_(0, triangle));
+      feature.direction = orientation_ * (vertices_.col(surface_(1, triangle)) - a)
+                                             .cross(vertices_.col(surface_(2, triangle)) - a)
+                                             .normalized();
+    } else {
+      feature.direction.setZero();
+    }
+    features->push_back(feature);
+  };
+  std::vector<int> edges, corners;
+  for (int t : triangles) {
+    add(ClosestPointOnTriangle(p, vertices_.col(surface_(0, t)), vertices_.col(surface_(1, t)),
+                               vertices_.col(surface_(2, t)), nullptr),
+        1.0, t);
+    for (int k = 0; k < 3; ++k) {
+      edges.push_back(features_.triangle_edges(k, t));
+      corners.push_back(surface_(k, t));
+    }
+  }
+  std::sort(edges.begin(), edges.end());
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  std::sort(corners.begin(), corners.end());
+  corners.erase(std::unique(corners.begin(), corners.end()), corners.end());
+  for (int e : edges) {
+    if (features_.edge_weights[e] == 0.0) continue;
+    const Eigen::Vector3d a = vertices_.col(features_.edges(0, e));
+    const Eigen::Vector3d b = vertices_.col(features_.edges(1, e));
+    const double length2 = (b - a).squaredNorm();
+    const double s = length2 > 0 ? std::clamp((p - a).dot(b - a) / length2, 0.0, 1.0) : 0.0;
+    add(a + s * (b - a), features_.edge_weights[e], -1);
+  }
+  for (int v : corners) {
+    if (features_.vertex_weights[v] != 0.0) add(vertices_.col(v), features_.vertex_weights[v], -1);
+  }
 }
 
 bool ParseObstacleSpecs(const std::string& text, std::vector<ObstacleSpec>* specs,

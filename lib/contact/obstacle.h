@@ -8,13 +8,26 @@
 #include <Eigen/Core>
 
 #include "geometry/rigid_transform.h"
+#include "geometry/surface_features.h"
 #include "geometry/triangle_bvh.h"
 #include "geometry/winding_number.h"
 
 namespace aqs {
 
-// A rigid obstacle at one placement: a closed triangle surface (e.g. teeth) with its
-// signed distance: positive outside, negative inside (inside by winding number).
+// A closed feature (triangle, edge or vertex) of an obstacle near a point, for sums over
+// features (Obstacle::FeaturesWithin, contact/obstacle_penalty.h).
+struct FeatureDistance {
+  double distance = 0.0;  // unsigned, from the point to the feature's closest point
+  // The unit vector from the closest point to the point (the gradient of `distance`);
+  // on a triangle (distance <= 1e-12) its outward normal, on an edge or vertex zero.
+  Eigen::Vector3d direction = Eigen::Vector3d::Zero();
+  double weight = 1.0;  // 1 for triangles, SurfaceFeatures' weight for edges and vertices
+};
+
+// A rigid obstacle at one placement: a closed triangle surface, or closed shells that may
+// overlap (the teeth of a dental model, one shell per tooth), with its signed distance:
+// positive outside, negative inside the union (inside by winding number), measured to
+// the triangles not buried inside another shell (surface_triangles).
 class Obstacle {
  public:
   // vertices: 3 x N at the placement; triangles: 3 x M, consistently oriented, outward
@@ -26,22 +39,38 @@ class Obstacle {
   const Eigen::Matrix3Xd& vertices() const { return vertices_; }
   const Eigen::Matrix3Xi& triangles() const { return triangles_; }
 
+  // The triangles distances are measured to (3 x M'): all but those buried inside the
+  // obstacle (where closed shells overlap, the parts of each inside another).
+  const Eigen::Matrix3Xi& surface_triangles() const { return surface_; }
+
   // The signed distance of p and its gradient (the unit vector from the closest surface
-  // point to p, flipped inside: it points out of the obstacle). Points outside farther
-  // than max_distance (when finite) return +max_distance with a zero gradient, without a
-  // full search; points inside always get their whole (negative) distance.
+  // point to p, flipped inside: it points out of the obstacle), measured to the surface
+  // triangles. Points outside farther than max_distance (when finite) return
+  // +max_distance with a zero gradient, without a full search; points inside always get
+  // their whole (negative) distance.
   double SignedDistance(const Eigen::Vector3d& p, Eigen::Vector3d* gradient,
                         double max_distance = std::numeric_limits<double>::infinity()) const;
+
+  // The features of the surface triangles nearer to p than `reach` (> 0) with a nonzero
+  // weight (geometry/surface_features.h), appended to *features: the triangles in
+  // ascending order, then their edges, then their vertices (each once, ascending). A
+  // feature within reach always belongs to a triangle within reach.
+  void FeaturesWithin(const Eigen::Vector3d& p, double reach,
+                      std::vector<FeatureDistance>* features) const;
 
  private:
   std::string name_;
   Eigen::Matrix3Xd vertices_;
   Eigen::Matrix3Xi triangles_;
-  TriangleBvh bvh_;
-  FastWindingNumber winding_;
+  FastWindingNumber winding_;  // over all triangles: the inside test
   // +1 if the triangles face outward (positive enclosed volume), -1 if inward: the
   // winding number inside is then -1, and the triangles' normals point in.
   double orientation_ = 1.0;
+  // The triangles not buried inside the obstacle (3 x M', those of triangles_ whose outer
+  // side is outside): what distances are measured to.
+  Eigen::Matrix3Xi surface_;
+  TriangleBvh bvh_;  // over surface_
+  SurfaceFeatures features_;  // of surface_
 };
 
 // A rigid obstacle that moves with one of a model's bones, or stays: its surface at rest.

@@ -8,33 +8,37 @@
 #include <ceres/problem.h>
 #include <glog/logging.h>
 
+#include "contact/obstacle_penalty.h"
+
 namespace aqs {
 
 namespace {
 
 class ObstacleCost final : public ceres::CostFunction {
  public:
-  ObstacleCost(const ObstacleContactTerm& term, const PointStencil& point, double stiffness,
-               double thickness)
-      : term_(term), point_(point), scale_(std::sqrt(stiffness)), thickness_(thickness) {
+  ObstacleCost(const std::vector<const Obstacle*>& obstacles, const PointStencil& point,
+               double stiffness, double thickness)
+      : obstacles_(obstacles), point_(point), stiffness_(stiffness), thickness_(thickness) {
     set_num_residuals(1);
     for (int j = 0; j < 4; ++j) mutable_parameter_block_sizes()->push_back(3);
   }
 
+  // r = sqrt(2 k P(p)) (P clamped at 0), so that r^2 / 2 is the point's energy; where P
+  // is one face's phi(d), r = sqrt(k) (t - d) and its Jacobian -sqrt(k) grad d^T dp/dx.
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override {
     Eigen::Vector3d p = point_.offset;
     for (int j = 0; j < 4; ++j) p += point_.weight[j] * Eigen::Map<const Eigen::Vector3d>(parameters[j]);
     Eigen::Vector3d g;
-    const double d = term_.Distance(p, &g);
-    const bool active = d < thickness_;
-    residuals[0] = active ? scale_ * (thickness_ - d) : 0.0;
+    const double penalty = ObstaclePenalty(obstacles_, thickness_, p, &g, nullptr);
+    const double r = penalty > 0.0 ? std::sqrt(2.0 * stiffness_ * penalty) : 0.0;
+    residuals[0] = r;
     if (jacobians == nullptr) return true;
     for (int j = 0; j < 4; ++j) {
       if (jacobians[j] == nullptr) continue;
       Eigen::Map<Eigen::RowVector3d> jac(jacobians[j]);
-      if (active) {
-        jac = -scale_ * point_.weight[j] * g.transpose();
+      if (r > 0.0) {
+        jac = (stiffness_ * point_.weight[j] / r) * g.transpose();
       } else {
         jac.setZero();
       }
@@ -43,9 +47,9 @@ class ObstacleCost final : public ceres::CostFunction {
   }
 
  private:
-  const ObstacleContactTerm& term_;
+  std::vector<const Obstacle*> obstacles_;
   PointStencil point_;
-  double scale_;
+  double stiffness_;
   double thickness_;
 };
 
@@ -60,18 +64,7 @@ ObstacleContactTerm::ObstacleContactTerm(const std::vector<PointStencil>& points
 }
 
 double ObstacleContactTerm::Distance(const Eigen::Vector3d& p, Eigen::Vector3d* gradient) const {
-  double best = std::numeric_limits<double>::infinity();
-  gradient->setZero();
-  for (const Obstacle* obstacle : obstacles_) {
-    Eigen::Vector3d g;
-    // Beyond a few thicknesses the exact distance does not matter.
-    const double d = obstacle->SignedDistance(p, &g, std::max(10.0 * thickness_, std::min(best, 1e300)));
-    if (d < best) {
-      best = d;
-      *gradient = g;
-    }
-  }
-  return best;
+  return NearestObstacleDistance(obstacles_, p, gradient);
 }
 
 double ObstacleContactTerm::AddEnergyAndGradient(const Eigen::Ref<const Eigen::Matrix3Xd>& x,
@@ -80,11 +73,10 @@ double ObstacleContactTerm::AddEnergyAndGradient(const Eigen::Ref<const Eigen::M
   for (size_t i = 0; i < points_.size(); ++i) {
     const PointStencil& s = points_[i];
     Eigen::Vector3d g;
-    const double d = Distance(s.Position(x), &g);
-    if (!(d < thickness_)) continue;
-    const double gap = thickness_ - d;
-    energy += 0.5 * stiffness_[i] * gap * gap;
-    for (int j = 0; j < 4; ++j) gradient->col(s.vertex[j]) -= stiffness_[i] * gap * s.weight[j] * g;
+    const double penalty = ObstaclePenalty(obstacles_, thickness_, s.Position(x), &g, nullptr);
+    if (penalty == 0.0 && g.isZero()) continue;
+    energy += stiffness_[i] * penalty;
+    for (int j = 0; j < 4; ++j) gradient->col(s.vertex[j]) += stiffness_[i] * s.weight[j] * g;
   }
   return energy;
 }
@@ -96,8 +88,10 @@ void ObstacleContactTerm::AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>&
   for (size_t i = 0; i < points_.size(); ++i) {
     const PointStencil& s = points_[i];
     Eigen::Vector3d g;
-    if (!(Distance(s.Position(x), &g) < thickness_)) continue;
-    const Eigen::Matrix3d h = stiffness_[i] * g * g.transpose();
+    Eigen::Matrix3d h;
+    ObstaclePenalty(obstacles_, thickness_, s.Position(x), &g, &h);
+    if (h.isZero()) continue;
+    h *= stiffness_[i];
     std::vector<int> vertices(s.vertex, s.vertex + 4);
     Eigen::MatrixXd hessian(12, 12);
     for (int j = 0; j < 4; ++j) {
@@ -108,7 +102,7 @@ void ObstacleContactTerm::AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>&
 }
 
 ceres::CostFunction* ObstacleContactTerm::NewCostFunction(int i) const {
-  return new ObstacleCost(*this, points_[i], stiffness_[i], thickness_);
+  return new ObstacleCost(obstacles_, points_[i], stiffness_[i], thickness_);
 }
 
 void ObstacleContactTerm::AddResidualBlocks(ceres::Problem* problem,

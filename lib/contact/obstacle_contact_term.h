@@ -17,16 +17,18 @@ namespace aqs {
 
 // Contact with rigid obstacles as a penalty on embedded surface points p_i(x):
 //
-//   E = sum_i k_i / 2 max(0, thickness - d(p_i))^2,
+//   E = sum_i k_i P(p_i),
 //
-// d the signed distance to the nearest obstacle (Obstacle::SignedDistance: negative
-// inside). Its Ceres residual per point is r_i = sqrt(k_i) max(0, thickness - d(p_i)),
-// whose Jacobian -sqrt(k_i) grad d(p_i)^T dp_i/dx is exact wherever the closest obstacle
-// feature is unique (grad d is the unit vector from the closest point). The closest
-// point is found anew at every evaluation (obstacle trees), so contacts follow the solve.
-// Its stiffness (for Newton steps) is the Gauss-Newton part k_i grad d grad d^T of each
-// active point, exact where the closest obstacle feature is a face (there Hess d = 0);
-// a point's stencil lies in one element, so it needs no extra couplings.
+// P the point's penalty (ObstaclePenalty, contact/obstacle_penalty.h): 1/2 max(0,
+// thickness - d(p_i))^2, d the signed distance to the nearest obstacle (negative inside),
+// wherever the features of the obstacles within reach share their closest point, and a
+// C1 sum over those features where they do not (a concave crease), so that Newton steps
+// do not crawl there. Its Ceres residual per point is r_i = sqrt(2 k_i P(p_i)), with the
+// exact Jacobian k_i grad P^T dp_i/dx / r_i. The features are found anew at every
+// evaluation (obstacle trees), so contacts follow the solve. Its stiffness (for Newton
+// steps) is the Gauss-Newton part of each point's Hessian (projected positive
+// semi-definite), exact where all features within reach are faces (there Hess d = 0); a
+// point's stencil lies in one element, so it needs no extra couplings.
 class ObstacleContactTerm : public EnergyTerm {
  public:
   ObstacleContactTerm(const std::vector<PointStencil>& points, const Eigen::VectorXd& stiffness,
@@ -41,7 +43,8 @@ class ObstacleContactTerm : public EnergyTerm {
 
   // The residual cost function of point i (1 residual, 4 blocks of 3), for tests.
   ceres::CostFunction* NewCostFunction(int i) const;
-  // Signed distance of a point to the nearest obstacle (and its gradient).
+  // Signed distance of a point to the nearest obstacle and its gradient
+  // (NearestObstacleDistance): what the reports count as contact (d < thickness).
   double Distance(const Eigen::Vector3d& p, Eigen::Vector3d* gradient) const;
 
  private:

@@ -159,6 +159,34 @@ ClosestPointResult TriangleBvh::ClosestPoint(const Eigen::Vector3d& point,
   return result;
 }
 
+void TriangleBvh::TrianglesWithin(const Eigen::Vector3d& point, double radius,
+                                  std::vector<int>* triangles) const {
+  triangles->clear();
+  if (tree_.nodes.empty() || !(radius > 0)) return;
+  const double reach = radius * radius;
+  int stack[128];
+  int size = 0;
+  stack[size++] = 0;
+  while (size > 0) {
+    const geometry_internal::TriangleTreeNode& node = tree_.nodes[stack[--size]];
+    if (SquaredDistanceToBox(node.box, point) >= reach) continue;
+    if (node.is_leaf()) {
+      for (int i = node.begin; i < node.end; ++i) {
+        const int t = tree_.order[i];
+        const Eigen::Vector3d closest = ClosestPointOnTriangle(
+            point, vertices_.col(triangles_(0, t)), vertices_.col(triangles_(1, t)),
+            vertices_.col(triangles_(2, t)), nullptr);
+        if ((closest - point).squaredNorm() < reach) triangles->push_back(t);
+      }
+      continue;
+    }
+    CHECK_LE(size + 2, 128) << "tree too deep";
+    stack[size++] = node.right;
+    stack[size++] = node.left;
+  }
+  std::sort(triangles->begin(), triangles->end());
+}
+
 std::vector<ClosestPointResult> TriangleBvh::ClosestPoints(const Eigen::Matrix3Xd& points,
                                                            int num_threads,
                                                            double max_distance) const {

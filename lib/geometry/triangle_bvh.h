@@ -55,6 +55,11 @@ class TriangleBvh {
       const Eigen::Vector3d& point,
       double max_distance = std::numeric_limits<double>::infinity()) const;
 
+  // The triangles whose closest point to `point` is nearer than `radius` (strictly),
+  // in ascending index order, in *triangles (cleared first); none for a radius <= 0.
+  void TrianglesWithin(const Eigen::Vector3d& point, double radius,
+                       std::vector<int>* triangles) const;
+
   // ClosestPoint for every column of `points` (3 x K) on up to num_threads threads;
   // result i belongs to column i. The results do not depend on the thread count.
   std::vector<ClosestPointResult> ClosestPoints(

@@ -10,6 +10,10 @@
 #include <ceres/gradient_checker.h>
 #include <gtest/gtest.h>
 
+#include "contact/contact_solver.h"
+#include "equilibrium/quasistatic_solver.h"
+#include "mesh/lattice.h"
+#include "model/active_model.h"
 #include "testing/contact_scenes.h"
 #include "testing/element_states.h"
 #include "testing/energy_term_checks.h"
@@ -227,6 +231,115 @@ TEST(ObstacleContactTermTest, EdgeAndCornerContactsOnRotatedBoxes) {
             0.1);  // measured 0.9
   // Measured: 5.0e-9 (the corner form of Hess d at the edges gives 0.83).
   EXPECT_LT(testing::RelativeError(hessian - stiffness_matrix, omitted), 5e-7);
+}
+
+// The nearest obstacle distance's penalty, as ObstacleContactTerm was before its sum
+// over features (2026-12-07): E = sum_i k_i / 2 max(0, t - d(p_i))^2 with the Gauss-Newton
+// stiffness k_i grad d grad d^T. The reference whose Newton steps crawl at a crease.
+class NearestPenaltyTerm : public EnergyTerm {
+ public:
+  NearestPenaltyTerm(const std::vector<PointStencil>& points, double stiffness, double thickness,
+                     const Obstacle* obstacle)
+      : points_(points), stiffness_(stiffness), thickness_(thickness), obstacle_(obstacle) {}
+
+  double AddEnergyAndGradient(const Eigen::Ref<const Eigen::Matrix3Xd>& x,
+                              Eigen::Matrix3Xd* gradient) const override {
+    double energy = 0.0;
+    for (const PointStencil& s : points_) {
+      Eigen::Vector3d g;
+      const double d = obstacle_->SignedDistance(s.Position(x), &g);
+      if (!(d < thickness_)) continue;
+      energy += 0.5 * stiffness_ * (thickness_ - d) * (thickness_ - d);
+      for (int j = 0; j < 4; ++j) {
+        gradient->col(s.vertex[j]) -= stiffness_ * (thickness_ - d) * s.weight[j] * g;
+      }
+    }
+    return energy;
+  }
+  void AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>& x, const StiffnessPattern& pattern,
+                    StiffnessKind /*kind*/, std::vector<double>* values) const override {
+    for (const PointStencil& s : points_) {
+      Eigen::Vector3d g;
+      if (!(obstacle_->SignedDistance(s.Position(x), &g) < thickness_)) continue;
+      Eigen::MatrixXd hessian(12, 12);
+      for (int j = 0; j < 4; ++j) {
+        for (int l = 0; l < 4; ++l) {
+          hessian.block<3, 3>(3 * j, 3 * l) = stiffness_ * s.weight[j] * s.weight[l] * g * g.transpose();
+        }
+      }
+      AddVertexHessian(std::vector<int>(s.vertex, s.vertex + 4), hessian, pattern, values);
+    }
+  }
+  void AddResidualBlocks(ceres::Problem* /*problem*/,
+                         const std::vector<double*>& /*vertex_blocks*/) const override {
+    ADD_FAILURE() << "Newton solves do not build a Ceres problem";
+  }
+
+ private:
+  std::vector<PointStencil> points_;
+  double stiffness_;
+  double thickness_;
+  const Obstacle* obstacle_;
+};
+
+TEST(ObstacleContactTermTest, ABlockPressedIntoACreaseConvergesWhereTheNearestPenaltyStalls) {
+  // A block [-0.5, 0.5] x [0, 0.75] x [-0.25, 0.25] (4 x 3 x 2 cubes) whose top is pushed
+  // down by 0.2 and sideways by 0.01 into a shallow valley: the notched prism with faces
+  // 11.3 degrees off the horizontal (as at the demo's stalled point, 11.9), its crease
+  // along z at x = 0, y = -0.05, below the bottom row of vertices at x = 0.
+  LatticeOptions lattice;
+  lattice.nx = 4;
+  lattice.ny = 3;
+  lattice.nz = 2;
+  lattice.spacing = 0.25;
+  lattice.origin = Eigen::Vector3d(-0.5, 0.0, -0.25);
+  const TetMesh block = MakeLatticeMesh(lattice);
+  std::vector<int> top, bottom;
+  for (int v = 0; v < block.num_vertices(); ++v) {
+    if (block.vertices(1, v) > 0.75 - 1e-9) top.push_back(v);
+    if (block.vertices(1, v) < 1e-9) bottom.push_back(v);
+  }
+  ActiveModel model = testing::BlockModel(block, {});
+  Bone lid;
+  lid.name = "lid";
+  lid.vertices = top;
+  model.bones = {lid};
+  RigidTransform push;
+  push.translation = Eigen::Vector3d(0.01, -0.2, 0);
+  Eigen::Matrix3Xd free;
+  ASSERT_TRUE(testing::ContactFreeEquilibrium(model, push, &free));
+  Eigen::Matrix3Xd v;
+  Eigen::Matrix3Xi t;
+  testing::NotchedPrismSurface(0.2, &v, &t);
+  const Obstacle notch("notch", v.colwise() + Eigen::Vector3d(0, 0.15, 0), t);
+  std::vector<PointStencil> points;
+  for (int b : bottom) points.push_back(EmbeddingStencil(model.embedding, block.tets, b));
+  const double thickness = 0.02, stiffness = 300.0;
+  const ObstacleContactTerm sum(points, Eigen::VectorXd::Constant(points.size(), stiffness),
+                                thickness, {&notch});
+  const NearestPenaltyTerm nearest(points, stiffness, thickness, &notch);
+  const ShapeTargetModel physics(block, model.mu);
+  QuasistaticSolveReport reports[2];
+  for (int k = 0; k < 2; ++k) {
+    QuasistaticSolverOptions options = DefaultContactSolverOptions();
+    options.relative_force_tolerance = 1e-9;
+    QuasistaticSolver solver(physics, ModelBoundaryConditions(model, {push}), options);
+    solver.AddEnergyTerm(k == 0 ? static_cast<const EnergyTerm*>(&nearest) : &sum);
+    solver.SetPositions(free);
+    reports[k] = solver.Solve();
+  }
+  const QuasistaticSolveReport& before = reports[0];
+  const QuasistaticSolveReport& after = reports[1];
+  EXPECT_TRUE(after.converged) << after.Summary();
+  EXPECT_FALSE(after.newton_stalled) << after.Summary();
+  // The nearest penalty's Newton phase ends where no step along its direction lowers the
+  // energy (a kink: measured largest force 3.1e-3 after 16 factorizations, the tolerance
+  // 3.8e-11); the sum converges in 3.
+  EXPECT_FALSE(before.converged) << before.Summary();
+  EXPECT_GT(before.final_max_force, 1e-4) << before.Summary();
+  EXPECT_LE(after.factorizations, 6) << after.Summary();
+  EXPECT_LT(after.factorizations, before.factorizations)
+      << before.Summary() << "\n" << after.Summary();
 }
 
 }  // namespace

@@ -159,6 +159,44 @@ TEST(TriangleBvhTest, MatchesBruteForceOnSphereAndSoup) {
   }
 }
 
+TEST(TriangleBvhTest, TrianglesWithinMatchBruteForce) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> uniform(-1, 1);
+  const SurfaceMesh sphere = testing::Icosphere(3, 1.0);
+  const TriangleBvh bvh(sphere.vertices, sphere.triangles);
+  std::vector<int> found;
+  int total = 0;
+  for (int i = 0; i < 200; ++i) {
+    const Eigen::Vector3d p(1.3 * uniform(rng), 1.3 * uniform(rng), 1.3 * uniform(rng));
+    const double radius = 0.02 + 0.3 * (0.5 + 0.5 * uniform(rng));
+    std::vector<int> expected;
+    for (int t = 0; t < sphere.triangles.cols(); ++t) {
+      const Eigen::Vector3d q = ClosestPointOnTriangle(
+          p, sphere.vertices.col(sphere.triangles(0, t)),
+          sphere.vertices.col(sphere.triangles(1, t)),
+          sphere.vertices.col(sphere.triangles(2, t)), nullptr);
+      if ((q - p).norm() < radius) expected.push_back(t);
+    }
+    bvh.TrianglesWithin(p, radius, &found);
+    EXPECT_EQ(found, expected) << "point " << i;
+    total += static_cast<int>(found.size());
+    // Just below the closest distance nothing is within; just above, the closest is.
+    const ClosestPointResult closest = bvh.ClosestPoint(p);
+    bvh.TrianglesWithin(p, closest.distance * (1.0 - 1e-12), &found);
+    EXPECT_TRUE(found.empty());
+    bvh.TrianglesWithin(p, closest.distance * (1.0 + 1e-12), &found);
+    EXPECT_EQ(std::count(found.begin(), found.end(), closest.triangle), 1);
+  }
+  EXPECT_GT(total, 200);  // the radii reach several triangles on average
+  bvh.TrianglesWithin(Eigen::Vector3d(0, 0, 3), 0.0, &found);
+  EXPECT_TRUE(found.empty());
+  bvh.TrianglesWithin(Eigen::Vector3d(0, 0, 3), 10.0, &found);
+  EXPECT_EQ(found.size(), static_cast<size_t>(sphere.triangles.cols()));
+  const TriangleBvh empty(Eigen::Matrix3Xd(3, 0), Eigen::Matrix3Xi(3, 0));
+  empty.TrianglesWithin(Eigen::Vector3d::Zero(), 1.0, &found);
+  EXPECT_TRUE(found.empty());
+}
+
 TEST(TriangleBvhTest, SearchRadiusAndEmptySurface) {
   const SurfaceMesh sphere = testing::Icosphere(2, 1.0);
   const TriangleBvh bvh(sphere.vertices, sphere.triangles);

@@ -38,6 +38,27 @@ void BoxSurface(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, Eigen::Mat
   *t = boundary.triangles;
 }
 
+void NotchedPrismSurface(double depth, Eigen::Matrix3Xd* v, Eigen::Matrix3Xi* t) {
+  const double profile[5][2] = {{-1, -2}, {1, -2}, {1, 0}, {0, -depth}, {-1, 0}};  // CCW
+  v->resize(3, 10);
+  for (int i = 0; i < 5; ++i) {
+    v->col(i) << profile[i][0], profile[i][1], -1.0;
+    v->col(i + 5) << profile[i][0], profile[i][1], 1.0;
+  }
+  t->resize(3, 16);
+  int n = 0;
+  for (int i = 0; i < 5; ++i) {  // the sides, outward for a counter-clockwise profile
+    const int j = (i + 1) % 5;
+    t->col(n++) << i, j, j + 5;
+    t->col(n++) << i, j + 5, i + 5;
+  }
+  const int caps[3][3] = {{0, 1, 3}, {1, 2, 3}, {0, 3, 4}};  // counter-clockwise in (x, y)
+  for (const auto& c : caps) {
+    t->col(n++) << c[0] + 5, c[1] + 5, c[2] + 5;  // top cap, normal +z
+    t->col(n++) << c[0], c[2], c[1];              // bottom cap, normal -z
+  }
+}
+
 ActiveModel BlockModel(const TetMesh& mesh, const std::vector<int>& fixed) {
   ActiveModel model;
   model.mesh = mesh;

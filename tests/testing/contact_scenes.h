@@ -24,6 +24,12 @@ PointStencil Stencil(int first, const Eigen::Vector4d& w);
 void BoxSurface(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, Eigen::Matrix3Xd* v,
                 Eigen::Matrix3Xi* t);
 
+// A prism along z in [-1, 1] (closed, outward) whose top has a concave crease: the profile
+// (-1, -2), (1, -2), (1, 0), (0, -depth), (-1, 0) in (x, y), 0 < depth < 2, so the top's
+// two faces meet along x = 0, y = -depth, at an angle of atan(depth) to the horizontal
+// each (the crease is sharper than a right angle for depth > 1).
+void NotchedPrismSurface(double depth, Eigen::Matrix3Xd* v, Eigen::Matrix3Xi* t);
+
 // A model of lattice blocks with the given boundary conditions, its surface the mesh
 // boundary (no training data: only what ContactSolver needs).
 ActiveModel BlockModel(const TetMesh& mesh, const std::vector<int>& fixed);

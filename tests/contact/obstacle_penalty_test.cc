@@ -1,0 +1,243 @@
+// ObstaclePenalty (contact/obstacle_penalty.h): the per-point contact penalty as a sum over
+// the obstacles' features. It is the nearest distance's penalty where the features' closest
+// points coincide, C1 at a concave crease, continuous through the surface, and its
+// gradient matches central differences at random, rotated and near-degenerate points.
+
+#include "contact/obstacle_penalty.h"
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include <Eigen/Eigenvalues>
+#include <gtest/gtest.h>
+
+#include "testing/contact_scenes.h"
+#include "testing/element_states.h"
+#include "testing/finite_difference.h"
+
+namespace aqs {
+namespace {
+
+double Phi(double thickness, double d) {
+  const double gap = std::max(0.0, thickness - d);
+  return 0.5 * gap * gap;
+}
+
+double Penalty(const Obstacle& obstacle, double thickness, const Eigen::Vector3d& p,
+               Eigen::Vector3d* gradient = nullptr, Eigen::Matrix3d* gauss_newton = nullptr) {
+  Eigen::Vector3d g;
+  const double value = ObstaclePenalty({&obstacle}, thickness, p, &g, gauss_newton);
+  if (gradient != nullptr) *gradient = g;
+  return value;
+}
+
+// The penalty's gradient at p against fourth-order central differences (step h).
+double GradientError(const std::vector<const Obstacle*>& obstacles, double thickness,
+                     const Eigen::Vector3d& p, double h) {
+  Eigen::Vector3d gradient;
+  ObstaclePenalty(obstacles, thickness, p, &gradient, nullptr);
+  auto penalty = [&](const Eigen::VectorXd& q) {
+    Eigen::Vector3d unused;
+    return ObstaclePenalty(obstacles, thickness, q, &unused, nullptr);
+  };
+  return testing::RelativeError(gradient, testing::CentralDifferenceGradient(penalty, p, h),
+                                1e-3);
+}
+
+// A rotated, shifted box [0, 2] x [0, 1] x [0, 1] (12 triangles: each face split by a
+// diagonal, which its sum must cancel).
+Obstacle RotatedBox(std::mt19937* rng, Eigen::Matrix3d* rotation, Eigen::Vector3d* shift) {
+  Eigen::Matrix3Xd v;
+  Eigen::Matrix3Xi t;
+  testing::BoxSurface(Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(2, 1, 1), &v, &t);
+  *rotation = testing::RandomRotation(rng);
+  *shift = Eigen::Vector3d(0.3, -0.2, 0.7);
+  return Obstacle("box", (*rotation * v).colwise() + *shift, t);
+}
+
+TEST(ObstaclePenaltyTest, IsTheNearestDistancesPenaltyWhereClosestPointsCoincide) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  Eigen::Matrix3d rotation;
+  Eigen::Vector3d shift;
+  const Obstacle box = RotatedBox(&rng, &rotation, &shift);
+  const double thickness = 0.1;
+  // Outside a convex box every feature's closest point lies on the nearest one's closure,
+  // so the sum reduces to phi(d) near faces, edges and corners alike.
+  int outside = 0, inside = 0;
+  for (int i = 0; i < 4000; ++i) {
+    const Eigen::Vector3d local(-0.12 + 2.24 * uniform(rng), -0.12 + 1.24 * uniform(rng),
+                                -0.12 + 1.24 * uniform(rng));
+    const Eigen::Vector3d p = rotation * local + shift;
+    Eigen::Vector3d g;
+    const double s = box.SignedDistance(p, &g);
+    if (!(s < thickness)) continue;
+    // Inside, only where one face is within reach (no convex edge nearer than t).
+    const Eigen::Vector3d to_hi = Eigen::Vector3d(2, 1, 1) - local;
+    const Eigen::Vector3d gaps = local.cwiseMin(to_hi);
+    std::vector<double> sorted(gaps.data(), gaps.data() + 3);
+    std::sort(sorted.begin(), sorted.end());
+    if (s < 0 && sorted[1] < thickness) continue;
+    ++(s < 0 ? inside : outside);
+    Eigen::Vector3d gradient;
+    Eigen::Matrix3d gauss_newton;
+    const double penalty = Penalty(box, thickness, p, &gradient, &gauss_newton);
+    ASSERT_NEAR(penalty, Phi(thickness, s), 1e-13) << "local " << local.transpose();
+    ASSERT_LT((gradient + (thickness - s) * g).norm(), 1e-12) << "local " << local.transpose();
+    ASSERT_LT((gauss_newton - g * g.transpose()).norm(), 1e-12) << "local " << local.transpose();
+  }
+  EXPECT_GT(outside, 300);
+  EXPECT_GT(inside, 50);
+}
+
+// The notched prism (testing::NotchedPrismSurface) rotated: its crease along local z.
+struct Notch {
+  Obstacle obstacle;
+  Eigen::Matrix3d rotation;
+  Eigen::Vector3d shift;
+  double depth;
+  Eigen::Vector3d World(const Eigen::Vector3d& local) const { return rotation * local + shift; }
+};
+
+Notch MakeNotch(std::mt19937* rng, double depth) {
+  Eigen::Matrix3Xd v;
+  Eigen::Matrix3Xi t;
+  testing::NotchedPrismSurface(depth, &v, &t);
+  const Eigen::Matrix3d rotation = testing::RandomRotation(rng);
+  const Eigen::Vector3d shift(-0.4, 0.9, 0.2);
+  return {Obstacle("notch", (rotation * v).colwise() + shift, t), rotation, shift, depth};
+}
+
+TEST(ObstaclePenaltyTest, IsC1AcrossAConcaveCreaseWhereTheNearestPenaltyKinks) {
+  std::mt19937 rng(11);
+  const Notch notch = MakeNotch(&rng, 0.2);  // faces 11.3 degrees off the horizontal
+  const double thickness = 0.05;
+  // Across the bisector x = 0, 0.03 above the crease: the nearest face changes there.
+  for (double eps : {1e-4, 1e-7}) {
+    SCOPED_TRACE(eps);
+    const Eigen::Vector3d left = notch.World(Eigen::Vector3d(-eps, -0.2 + 0.03, 0.1));
+    const Eigen::Vector3d right = notch.World(Eigen::Vector3d(eps, -0.2 + 0.03, 0.1));
+    Eigen::Vector3d g_left, g_right, n_left, n_right;
+    Penalty(notch.obstacle, thickness, left, &g_left);
+    Penalty(notch.obstacle, thickness, right, &g_right);
+    const double d_left = notch.obstacle.SignedDistance(left, &n_left);
+    const double d_right = notch.obstacle.SignedDistance(right, &n_right);
+    // The nearest penalty's gradient, -(t - d) n, jumps by (t - d) |n_left - n_right|
+    // (measured 0.0039 at 0.03 above the crease).
+    const double nearest_jump =
+        ((thickness - d_left) * n_left - (thickness - d_right) * n_right).norm();
+    EXPECT_GT(nearest_jump, 3e-3);
+    // The sum's changes by O(eps) (its Hessian there is about 1).
+    EXPECT_LT((g_left - g_right).norm(), 10 * eps);
+  }
+}
+
+TEST(ObstaclePenaltyTest, IsContinuousThroughTheSurface) {
+  std::mt19937 rng(13);
+  const double thickness = 0.05;
+  // At a crease of 157 degrees (depth 0.2) a point of one face sees the other's interior
+  // nowhere, and the sum is phi(0) on the surface; at 67 degrees (depth 1.5) it does
+  // within reach of the crease, where the sum exceeds phi(0) outside and the inside's
+  // depth term must meet it.
+  for (double depth : {0.2, 1.5}) {
+    const Notch notch = MakeNotch(&rng, depth);
+    const double slope = std::atan(depth);
+    for (double along : {0.002, 0.01, 0.03, 0.3}) {
+      SCOPED_TRACE("depth " + std::to_string(depth) + ", " + std::to_string(along) +
+                   " from the crease");
+      // On the right face (from (0, -depth) up to (1, 0)).
+      const Eigen::Vector3d on = notch.World(
+          Eigen::Vector3d(along * std::cos(slope), -depth + along * std::sin(slope), 0.3));
+      const Eigen::Vector3d normal =
+          notch.rotation * Eigen::Vector3d(-std::sin(slope), std::cos(slope), 0);
+      const double step = 1e-9;
+      const double out = Penalty(notch.obstacle, thickness, on + step * normal);
+      const double in = Penalty(notch.obstacle, thickness, on - step * normal);
+      EXPECT_NEAR(out, in, 4 * thickness * step);  // the gradient is at most about 2 t
+      if (depth > 1.0 && along < thickness) {
+        EXPECT_GT(out, Phi(thickness, 0.0) + 1e-6);
+      } else {
+        EXPECT_NEAR(out, Phi(thickness, 0.0), 2 * thickness * step);
+      }
+    }
+  }
+}
+
+TEST(ObstaclePenaltyTest, GradientMatchesDifferencesNearACreaseItsEndsAndInside) {
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+  const double thickness = 0.05;
+  for (int trial = 0; trial < 3; ++trial) {
+    const Notch notch = MakeNotch(&rng, trial == 0 ? 0.2 : (trial == 1 ? 1.5 : 0.01));
+    SCOPED_TRACE("depth " + std::to_string(notch.depth));
+    // (name, local position, difference step, tolerance): 1e-6 above the crease the
+    // edge's curvature (t - d) / d is 5e4, so the step must be far smaller than the
+    // distance (and no smaller than 1e-8: the distances' round-off); there the region
+    // where both faces' interiors are nearest is 2e-8 wide at the flattest crease, and
+    // the differences straddle its C1-only boundaries (measured 1.2e-5).
+    std::vector<std::tuple<std::string, Eigen::Vector3d, double, double>> points = {
+        {"on the bisector, 1e-6 above the crease", Eigen::Vector3d(0, -notch.depth + 1e-6, 0.2),
+         1e-8, 5e-5},
+        {"near the crease's end (a cap's corner)",
+         Eigen::Vector3d(0.01, -notch.depth + 0.02, 1.02), 1e-7, 1e-6},
+        {"inside below the crease", Eigen::Vector3d(0.003, -notch.depth - 0.01, -0.4), 1e-7,
+         1e-6},
+        {"inside near a cap and a face", Eigen::Vector3d(0.5, -0.03, 0.985), 1e-7, 1e-6},
+    };
+    for (int i = 0; i < 40; ++i) {  // random points in the band about the crease
+      points.push_back({"random " + std::to_string(i),
+                        Eigen::Vector3d(0.06 * uniform(rng),
+                                        -notch.depth + 0.02 + 0.03 * uniform(rng),
+                                        0.9 * uniform(rng)),
+                        1e-7, 1e-6});
+    }
+    for (const auto& [name, local, step, tolerance] : points) {
+      SCOPED_TRACE(name);
+      const Eigen::Vector3d p = notch.World(local);
+      Eigen::Vector3d gradient;
+      Eigen::Matrix3d gauss_newton;
+      const double penalty = Penalty(notch.obstacle, thickness, p, &gradient, &gauss_newton);
+      if (penalty == 0.0) continue;  // out of reach
+      EXPECT_GT(penalty, 0.0);
+      EXPECT_LT(GradientError({&notch.obstacle}, thickness, p, step), tolerance);
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(gauss_newton);
+      EXPECT_GE(eigen.eigenvalues().minCoeff(), -1e-12);
+      EXPECT_LT((gauss_newton - gauss_newton.transpose()).norm(), 1e-12);
+    }
+  }
+}
+
+TEST(ObstaclePenaltyTest, PenaltiesOfSeveralObstaclesAdd) {
+  // Two boxes 0.06 apart along x and a point between them: 0.02 from one, 0.04 from the
+  // other (the nearest distance alone saw only the first, and kinked midway).
+  Eigen::Matrix3Xd v1, v2;
+  Eigen::Matrix3Xi t1, t2;
+  testing::BoxSurface(Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(1, 1, 1), &v1, &t1);
+  testing::BoxSurface(Eigen::Vector3d(1.06, 0, 0), Eigen::Vector3d(2, 1, 1), &v2, &t2);
+  const Obstacle first("first", v1, t1), second("second", v2, t2);
+  const double thickness = 0.05;
+  const Eigen::Vector3d p(1.02, 0.4, 0.6);
+  Eigen::Vector3d gradient;
+  Eigen::Matrix3d gauss_newton;
+  const double penalty = ObstaclePenalty({&first, &second}, thickness, p, &gradient, &gauss_newton);
+  EXPECT_NEAR(penalty, Phi(thickness, 0.02) + Phi(thickness, 0.04), 1e-14);
+  EXPECT_LT((gradient - Eigen::Vector3d(-(0.03 - 0.01), 0, 0)).norm(), 1e-13);
+  EXPECT_LT((gauss_newton - 2 * Eigen::Vector3d::UnitX() * Eigen::Vector3d::UnitX().transpose())
+                .norm(),
+            1e-13);
+  EXPECT_LT(GradientError({&first, &second}, thickness, p, 1e-6), 1e-8);
+  // Deep inside one obstacle, out of reach of any feature: the depth's own penalty.
+  Eigen::Vector3d g;
+  EXPECT_NEAR(ObstaclePenalty({&first, &second}, thickness, Eigen::Vector3d(0.5, 0.5, 0.5), &g,
+                              &gauss_newton),
+              Phi(thickness, -0.5), 1e-14);
+  EXPECT_EQ(ObstaclePenalty({}, thickness, p, &g, &gauss_newton), 0.0);
+  EXPECT_TRUE(g.isZero());
+}
+
+}  // namespace
+}  // namespace aqs
