@@ -140,8 +140,10 @@ bool ContactSolver::SolveRounds(const ActuationMatrix& a, const std::vector<Rigi
       if (single.AddEnergyAndGradient(x, &g) > 0) {
         if (VLOG_IS_ON(2)) NoteLargestPairForce(single, pair, x, &largest_force, &largest_pair);
         ++report->self_contacts;
-        if (edge) {
-          state->touched[edges_(0, pair.edge)] = state->touched[edges_(1, pair.edge)] = 1;
+        if (edge) {  // both edges' vertices
+          for (int e : {pair.edge, pair.second_edge}) {
+            state->touched[edges_(0, e)] = state->touched[edges_(1, e)] = 1;
+          }
         } else {
           state->touched[pair.surface_vertex] = 1;
         }

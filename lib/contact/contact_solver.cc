@@ -24,7 +24,7 @@ bool ContactOptions::Validate(std::string* error) const {
       .Positive("thickness", thickness)
       .Positive("relative_stiffness", relative_stiffness)
       .Positive("search_radius", search_radius)
-      .IntInRange("exclusion_rings", exclusion_rings, 0, 100)
+      .IntInRange("exclusion_rings", exclusion_rings, 0, kMaxExclusionRings)
       .NonNegative("rest_tolerance", rest_tolerance)
       .Positive("max_depth", max_depth)
       .NonNegative("margin", margin)
@@ -59,9 +59,8 @@ QuasistaticSolverOptions DefaultContactSolverOptions() {
 
 ContactSolver::ContactSolver(const ActiveModel& model, const ContactOptions& options)
     : model_(model), options_(options) {
-  CHECK_GE(options.max_rounds, 1);
-  CHECK_GE(options.path_steps, 0);
-  CHECK_GE(options.max_step_halvings, 0);
+  std::string error;
+  CHECK(options.Validate(&error)) << "ContactOptions: " << error;
   physics_ = std::make_unique<ShapeTargetModel>(model.mesh, model.mu);
   stencils_ = EmbeddingStencils(model.embedding, model.mesh.tets);
   stiffness_ = VertexAreas(model.neutral.vertices, model.neutral.triangles);
@@ -127,25 +126,35 @@ ContactSolver::ContactSolver(const ActiveModel& model, const ContactOptions& opt
     std::sort(list.begin(), list.end());
     list.erase(std::unique(list.begin(), list.end()), list.end());
   }
+  // Breadth first, ring after ring, marking the vertices met with the start's index (a
+  // re-sort of the whole ring at every step took 23 s at 30 rings on the demo face).
   rings_.resize(ns);
-  ParallelFor(options.num_threads, 0, ns, [&](int, int v) {
-    std::vector<int> ring = {v}, frontier = {v};
-    for (int r = 0; r < options.exclusion_rings; ++r) {
-      std::vector<int> next;
-      for (int u : frontier) {
-        for (int w : neighbours[u]) next.push_back(w);
+  const int threads = ParallelForThreadCount(options.num_threads, ns, 64);
+  std::vector<std::vector<int>> seen(threads, std::vector<int>(ns, -1));
+  ParallelFor(options.num_threads, 0, ns, [&](int thread, int v) {
+    std::vector<int>& met = seen[thread];
+    std::vector<int> ring = {v};
+    met[v] = v;
+    size_t begin = 0;
+    for (int r = 0; r < options.exclusion_rings && begin < ring.size(); ++r) {
+      const size_t end = ring.size();
+      for (size_t i = begin; i < end; ++i) {
+        for (int w : neighbours[ring[i]]) {
+          if (met[w] == v) continue;
+          met[w] = v;
+          ring.push_back(w);
+        }
       }
-      std::sort(next.begin(), next.end());
-      next.erase(std::unique(next.begin(), next.end()), next.end());
-      frontier.clear();
-      for (int w : next) {
-        if (!std::binary_search(ring.begin(), ring.end(), w)) frontier.push_back(w);
-      }
-      ring.insert(ring.end(), frontier.begin(), frontier.end());
-      std::sort(ring.begin(), ring.end());
+      begin = end;
     }
-    rings_[v] = ring;
-  });
+    std::sort(ring.begin(), ring.end());
+    rings_[v] = std::move(ring);
+  }, 64);
+}
+
+const std::vector<int>& ContactSolver::ExclusionRing(int v) const {
+  CHECK(v >= 0 && v < static_cast<int>(rings_.size())) << "surface vertex " << v;
+  return rings_[v];
 }
 
 ContactSolver::~ContactSolver() = default;

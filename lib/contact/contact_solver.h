@@ -46,7 +46,9 @@ struct ContactOptions {
   // pairs of the surface closer than this to each other.
   double search_radius = 0.5;
   // Self contact: triangles within this many edge rings of a point never pair with it
-  // (its own neighbourhood).
+  // (its own neighbourhood). At most kMaxExclusionRings: every surface vertex keeps its
+  // rings, whose size grows with their square (on the demo face, 13,294 surface vertices:
+  // 52 MB at 3 rings, 258 MB at 30, 773 MB at 100).
   int exclusion_rings = 3;
   // Self contact: a pair forms only if the point was on the outer side of the
   // triangle at rest (signed distance > -rest_tolerance) and is less than max_depth
@@ -118,6 +120,8 @@ struct ContactOptions {
 // kMaxPathSteps x 2^max_step_halvings x (max_step_halvings + 1) x kMaxContactRounds solves.
 constexpr int kMaxPathSteps = 256;
 constexpr int kMaxContactRounds = 64;
+// The largest ContactOptions::exclusion_rings.
+constexpr int kMaxExclusionRings = 30;
 
 // Obstacle-contact candidates (ContactSolver::DetectObstacleContacts): the surface
 // points near obstacles, with their stencils, stiffness and surface vertices.
@@ -135,7 +139,9 @@ struct ObstacleCandidates {
 // and its rounds (contact_path.cc), the report's measurements (contact_report.cc).
 class ContactSolver {
  public:
-  // The model must outlive the solver.
+  // The model must outlive the solver. `options` must be valid (CHECK:
+  // ContactOptions::Validate) and its surface_vertices in [0, the model's surface vertex
+  // count) (CHECK; RunCollideJob reports both as user errors first).
   ContactSolver(const ActiveModel& model, const ContactOptions& options);
   ~ContactSolver();
 
@@ -189,6 +195,10 @@ class ContactSolver {
                                                   const Eigen::Matrix3Xd& reference) const;
   // The edges of the contact triangles (2 x num_edges, surface vertices, first < second).
   const Eigen::Matrix2Xi& edges() const { return edges_; }
+  // The surface vertices within exclusion_rings edge rings of surface vertex v (0 <= v <
+  // num_surface_vertices: CHECK), v among them, ascending: those whose triangles v never
+  // pairs with.
+  const std::vector<int>& ExclusionRing(int v) const;
 
  private:
   // What one path step of a Resolve hands to the next: the positions x

@@ -36,12 +36,15 @@ bool CheckTargetOffsetFromModel(const std::string& path, const Eigen::Matrix3Xd&
                                 const Eigen::Matrix3Xd& points, std::string* error) {
   if (neutral.cols() == 0 || points.cols() == 0) return true;
   if (!vertices.empty()) CHECK_EQ(static_cast<Eigen::Index>(vertices.size()), points.cols());
+  for (int v : vertices) CHECK(v >= 0 && v < neutral.cols()) << "neutral vertex " << v;
   const double size = std::max(
       (neutral.rowwise().maxCoeff() - neutral.rowwise().minCoeff()).norm(), 1e-300);
   constexpr Eigen::Index kMaxMeasured = 2000;
-  const Eigen::Index stride = vertices.empty() ? std::max<Eigen::Index>(
-                                                    1, points.cols() / kMaxMeasured)
-                                              : 1;
+  // Rounded up: at most kMaxMeasured points (3,999 points had stride 1).
+  const Eigen::Index stride =
+      vertices.empty()
+          ? std::max<Eigen::Index>(1, (points.cols() + kMaxMeasured - 1) / kMaxMeasured)
+          : 1;
   std::vector<double> distances;
   for (Eigen::Index i = 0; i < points.cols(); i += stride) {
     if (!vertices.empty()) {

@@ -33,7 +33,8 @@ constexpr double kMaxMedianOffsetInModelSizes = 1.0;
 // entries), or, with `vertices` empty, to the nearest neutral vertex (a scan; at most
 // 2,000 points, evenly spaced, are measured). Returns false, if the median is above
 // kMaxMedianOffsetInModelSizes model sizes, with *error naming `path`, the median and
-// the model's size. With no points or no neutral vertices every target passes.
+// the model's size. With no points or no neutral vertices every target passes. The
+// vertices must be neutral vertices (CHECK: callers read them from validated files).
 bool CheckTargetOffsetFromModel(const std::string& path, const Eigen::Matrix3Xd& neutral,
                                 const std::vector<int>& vertices,
                                 const Eigen::Matrix3Xd& points, std::string* error);

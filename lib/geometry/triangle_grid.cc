@@ -63,6 +63,35 @@ void TriangleGrid::Near(const Eigen::Vector3d& p, int stamp, std::vector<int>* m
   }
 }
 
+void TriangleGrid::InBox(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int stamp,
+                         std::vector<int>* marks, std::vector<int>* out) const {
+  out->clear();
+  marks->resize(num_triangles_, -1);
+  const Eigen::Vector3i ca = Cell(lo), cb = Cell(hi);
+  const Eigen::Array3d span = (cb - ca).cast<double>().array() + 1.0;
+  if ((span <= 0.0).any()) return;
+  if (span.prod() > static_cast<double>(cells_.size())) {  // cheaper to list them all
+    for (int t = 0; t < num_triangles_; ++t) {
+      (*marks)[t] = stamp;
+      out->push_back(t);
+    }
+    return;
+  }
+  for (int i = ca.x(); i <= cb.x(); ++i) {
+    for (int j = ca.y(); j <= cb.y(); ++j) {
+      for (int k = ca.z(); k <= cb.z(); ++k) {
+        auto it = cells_.find(Key(i, j, k));
+        if (it == cells_.end()) continue;
+        for (int t : it->second) {
+          if ((*marks)[t] == stamp) continue;
+          (*marks)[t] = stamp;
+          out->push_back(t);
+        }
+      }
+    }
+  }
+}
+
 Eigen::Vector3i TriangleGrid::Cell(const Eigen::Vector3d& p) const {
   // Clamped: a query far outside the grid stays in int's range (and finds nothing).
   return ((p - lo_) / cell_).array().floor().max(-1e9).min(1e9).cast<int>();

@@ -29,6 +29,13 @@ class TriangleGrid {
   void Near(const Eigen::Vector3d& p, int stamp, std::vector<int>* marks,
             std::vector<int>* out) const;
 
+  // Into *out: the triangles listed in the cells that overlap the box [lo, hi] (so every
+  // triangle whose bounding box meets the box, and more), each once, in the order the
+  // cells list them; every triangle when the box spans more cells than the grid holds.
+  // `marks` and `stamp` as in Near.
+  void InBox(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int stamp,
+             std::vector<int>* marks, std::vector<int>* out) const;
+
   // The cells' edge (>= the `cell` asked for).
   double cell() const { return cell_; }
 

@@ -165,5 +165,58 @@ TEST(ContactReportTest, TextNamesEveryMeasurementBeforeAndAfter) {
             "self contacts active; NOT CONVERGED");
 }
 
+// The exclusion rings are the vertices within that many edges of each surface vertex (by
+// hop distances from a breadth-first search of the whole surface per vertex), and
+// ContactOptions refuses more rings than kMaxExclusionRings.
+TEST(ContactRingsTest, ExclusionRingsAreTheVerticesWithinThatManyEdges) {
+  LatticeOptions lattice;
+  lattice.nx = 4;
+  lattice.ny = 3;
+  lattice.nz = 2;
+  lattice.spacing = 0.25;
+  const ActiveModel model = BlockModel(MakeLatticeMesh(lattice), {0});
+  const int ns = model.num_surface_vertices();
+  std::vector<std::vector<int>> neighbours(ns);
+  const Eigen::Matrix3Xi& tris = model.neutral.triangles;
+  for (Eigen::Index t = 0; t < tris.cols(); ++t) {
+    for (int a = 0; a < 3; ++a) {
+      for (int b = 0; b < 3; ++b) {
+        if (a != b) neighbours[tris(a, t)].push_back(tris(b, t));
+      }
+    }
+  }
+  for (int rings : {0, 1, 2, 4}) {
+    ContactOptions options;
+    options.exclusion_rings = rings;
+    const ContactSolver solver(model, options);
+    for (int v = 0; v < ns; ++v) {
+      if (neighbours[v].empty()) continue;  // not on a triangle
+      std::vector<int> hops(ns, -1);
+      std::vector<int> queue = {v};
+      hops[v] = 0;
+      for (size_t q = 0; q < queue.size(); ++q) {
+        for (int w : neighbours[queue[q]]) {
+          if (hops[w] < 0) {
+            hops[w] = hops[queue[q]] + 1;
+            queue.push_back(w);
+          }
+        }
+      }
+      std::vector<int> expected;
+      for (int w = 0; w < ns; ++w) {
+        if (hops[w] >= 0 && hops[w] <= rings) expected.push_back(w);
+      }
+      ASSERT_EQ(solver.ExclusionRing(v), expected) << "vertex " << v << ", rings " << rings;
+    }
+  }
+  ContactOptions options;
+  std::string error;
+  options.exclusion_rings = kMaxExclusionRings;
+  EXPECT_TRUE(options.Validate(&error)) << error;
+  options.exclusion_rings = kMaxExclusionRings + 1;
+  EXPECT_FALSE(options.Validate(&error));
+  EXPECT_NE(error.find("exclusion_rings"), std::string::npos) << error;
+}
+
 }  // namespace
 }  // namespace aqs

@@ -84,5 +84,49 @@ TEST(TriangleGridTest, NearFindsEveryTriangleWithinACellOnce) {
   EXPECT_EQ(fresh.size(), static_cast<size_t>(num_triangles));
 }
 
+// InBox lists every triangle whose bounding box meets the box (and, for a box larger
+// than the grid, all of them), each once.
+TEST(TriangleGridTest, InBoxFindsEveryTriangleWhoseBoxMeetsIt) {
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> uniform(0.0, 10.0), small(-0.3, 0.3);
+  Eigen::Matrix3Xd vertices(3, 900);
+  Eigen::Matrix3Xi triangles(3, 300);
+  for (int t = 0; t < 300; ++t) {
+    const Eigen::Vector3d centre(uniform(rng), uniform(rng), uniform(rng));
+    for (int k = 0; k < 3; ++k) {
+      vertices.col(3 * t + k) = centre + Eigen::Vector3d(small(rng), small(rng), small(rng));
+    }
+    triangles.col(t) << 3 * t, 3 * t + 1, t % 7 == 0 ? 3 * t + 1 : 3 * t + 2;  // some segments
+  }
+  const TriangleGrid grid(vertices, triangles, 0.7);
+  std::vector<int> marks, found;
+  for (int q = 0; q < 200; ++q) {
+    const Eigen::Vector3d a(uniform(rng), uniform(rng), uniform(rng));
+    const Eigen::Vector3d half = (q < 190 ? 0.2 : 30.0) * Eigen::Vector3d(uniform(rng),
+                                                                         uniform(rng),
+                                                                         uniform(rng));
+    const Eigen::Vector3d lo = a - half, hi = a + half;
+    grid.InBox(lo, hi, q, &marks, &found);
+    const std::set<int> unique(found.begin(), found.end());
+    ASSERT_EQ(unique.size(), found.size()) << "query " << q;
+    for (int t = 0; t < 300; ++t) {
+      Eigen::Vector3d t_lo = vertices.col(triangles(0, t)), t_hi = t_lo;
+      for (int k = 1; k < 3; ++k) {
+        t_lo = t_lo.cwiseMin(vertices.col(triangles(k, t)));
+        t_hi = t_hi.cwiseMax(vertices.col(triangles(k, t)));
+      }
+      const bool meets = (t_lo.array() <= hi.array()).all() && (lo.array() <= t_hi.array()).all();
+      if (meets) {
+        EXPECT_EQ(unique.count(t), 1u) << "query " << q << ", triangle " << t;
+      }
+    }
+    if (q >= 190) {
+      EXPECT_EQ(found.size(), 300u);  // a box wider than the grid: all
+    }
+  }
+  grid.InBox(Eigen::Vector3d::Constant(1.0), Eigen::Vector3d::Constant(0.0), 500, &marks, &found);
+  EXPECT_TRUE(found.empty()) << "an empty box";
+}
+
 }  // namespace
 }  // namespace aqs
