@@ -69,17 +69,11 @@ bool CheckInput(const Eigen::Matrix3Xd& vertices, const Eigen::Matrix3Xi& triang
       }
     }
   }
-  if (!(options.spacing > 0) || !std::isfinite(options.spacing)) {
-    *error = "the lattice spacing must be positive and finite, got " + Short(options.spacing);
-    return false;
-  }
-  if (!(options.shell_thickness >= 0) || !std::isfinite(options.shell_thickness)) {
-    *error = "the shell thickness must be zero (no shell) or positive, got " +
-             Short(options.shell_thickness);
-    return false;
-  }
-  if (!std::isfinite(options.winding_threshold)) {
-    *error = "the winding-number threshold must be finite, got " + Short(options.winding_threshold);
+  // The options by their one validation (this checked spacing, shell and threshold by
+  // rules of its own, a winding threshold of 5 only for being finite).
+  std::string options_error;
+  if (!options.Validate(&options_error)) {
+    *error = "surface meshing options: " + options_error;
     return false;
   }
   return true;
@@ -288,7 +282,7 @@ bool MeshSurfaceInterior(const Eigen::Matrix3Xd& surface_vertices,
   if (!SurfaceLattice(surface_vertices, options, &lattice_options, error)) return false;
   const TetMesh lattice = MakeLatticeMesh(lattice_options);
   const int num_lattice_tets = lattice.num_tets();
-  const int num_threads = std::max(1, options.num_threads);
+  const int num_threads = options.num_threads;
 
   // The winding-number test at element centroids.
   Eigen::Matrix3Xd centroids(3, num_lattice_tets);

@@ -72,8 +72,8 @@ struct SurfaceTetMeshStats {
 // Unused lattice vertices are removed and the rest renumbered in lattice order;
 // elements keep the lattice's order and positive orientation.
 // Returns false with *error (and leaves *mesh unchanged) if the surface is empty, has a
-// non-finite coordinate or an index out of range, the options are invalid (spacing not
-// positive, shell negative, the lattice too large for the spacing), or the surface
+// non-finite coordinate or an index out of range, the options are invalid
+// (SurfaceTetMeshOptions::Validate; or the lattice too large for the spacing), or the surface
 // encloses nothing (no element passes the winding-number and shell tests: a flat open
 // patch, an inward-oriented surface, a shell too thin). `stats` may be null.
 bool MeshSurfaceInterior(const Eigen::Matrix3Xd& surface_vertices,

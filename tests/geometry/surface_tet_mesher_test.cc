@@ -321,6 +321,16 @@ TEST(SurfaceTetMesherTest, BadInputFails) {
   options.shell_thickness = -1;
   EXPECT_FALSE(MeshSurfaceInterior(sphere.vertices, sphere.triangles, options, &mesh, &error));
   EXPECT_TRUE(Contains(error, "shell")) << error;
+  // The options' one validation: a winding threshold out of [-1, 2] (it failed later as
+  // "the surface encloses nothing"), threads below 1 (raised to 1 silently).
+  options.shell_thickness = 0;
+  options.winding_threshold = 5;
+  EXPECT_FALSE(MeshSurfaceInterior(sphere.vertices, sphere.triangles, options, &mesh, &error));
+  EXPECT_TRUE(Contains(error, "surface meshing options: winding_threshold")) << error;
+  options.winding_threshold = 0.5;
+  options.num_threads = 0;
+  EXPECT_FALSE(MeshSurfaceInterior(sphere.vertices, sphere.triangles, options, &mesh, &error));
+  EXPECT_TRUE(Contains(error, "num_threads")) << error;
 }
 
 TEST(IctFaceTest, MeshTheFaceWithAShell) {
