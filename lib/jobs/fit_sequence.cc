@@ -110,7 +110,8 @@ bool ReadFramesOnEveryRank(const FitSequenceOptions& options, const ActiveModel&
 // What a sequence's frames depend on besides their targets (output_dir/key.txt): the
 // model (prepared part and learned state) and every option that shapes a fit. (Not
 // warm_start: a warm-started run may go on from an independent run's frames.)
-std::string SequenceKey(const FitSequenceOptions& options, const ActiveModel& model) {
+std::string SequenceKey(const FitSequenceOptions& options, const ActiveModel& model,
+                        const std::vector<SequenceFrame>& frames) {
   const FitStartOptions& s = options.start;
   std::ostringstream key;
   key << "model " << FingerprintText(ModelFingerprint(model)) << "\n"
@@ -123,6 +124,12 @@ std::string SequenceKey(const FitSequenceOptions& options, const ActiveModel& mo
   // Only when on, so that the keys of runs without it stay as they were.
   if (options.temporal_prior > 0) {
     key << "temporal_prior " << FormatDouble(options.temporal_prior) << "\n";
+  }
+  // Scan fits measure to the neutral's faces, which the model's fingerprint leaves out
+  // (only for scans, so that other keys stay as they were).
+  if (std::any_of(frames.begin(), frames.end(),
+                  [](const SequenceFrame& f) { return f.kind == "points"; })) {
+    key << "faces " << FacesFingerprint(model.neutral) << "\n";
   }
   return key.str();
 }
@@ -176,7 +183,7 @@ bool OpenOutputFolder(const FitSequenceOptions& options, const ActiveModel& mode
                     error));
     for (const std::string& line : removed) *note += "cleanup: " + line + "\n";
     const std::string key_path = options.output_dir + "/key.txt";
-    const std::string key = SequenceKey(options, model);
+    const std::string key = SequenceKey(options, model, frames);
     if (ok && MayExist(key_path) && MayExist(options.output_dir + "/frames.csv") &&
         !SameSequenceKey(ReadWholeFile(key_path), key)) {
       *error = options.output_dir + ": its frames were fitted with another model or other fit "

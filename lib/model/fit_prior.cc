@@ -211,9 +211,21 @@ bool ReadFitPrior(const std::string& path, int latent_dim,
     }
     return true;
   };
+  // Each line's kind ("center", "latent_covariance 3", "bone jaw mean", ...) and where
+  // it first came: a second one would silently replace the first.
+  std::map<std::string, int> seen;
+  auto first_time = [&](const std::string& kind) {
+    const auto [it, inserted] = seen.emplace(kind, reader.line_number());
+    if (!inserted) {
+      *error = reader.Where("a second '" + kind + "' line (the first is line " +
+                            std::to_string(it->second) + ")");
+    }
+    return inserted;
+  };
   while (reader.NextTokens(&t)) {
     Eigen::VectorXd values;
     if (t[0] == "center" && t.size() == 2) {
+      if (!first_time("center")) return false;
       prior.center = t[1] == "-" ? "" : t[1];
       have_center = true;
       continue;
@@ -261,6 +273,10 @@ bool ReadFitPrior(const std::string& path, int latent_dim,
       *error = reader.Where("expected " + std::to_string(n) + " finite numbers");
       return false;
     }
+    std::string kind = t[0];
+    for (size_t k = 1; k + 1 < first; ++k) kind += " " + t[k];
+    if (first > 1) kind += " " + (is_mean ? t[first - 1] : std::to_string(row));
+    if (!first_time(kind)) return false;
     if (is_mean) {
       b.mean = values;
     } else {

@@ -44,7 +44,16 @@ uint64_t DecoderArchitectureFingerprint(const ActiveModel& model) {
                                  static_cast<double>(d.num_elements()),
                                  static_cast<double>(d.num_parameters())};
   for (int width : d.spec().hidden_dims) numbers.push_back(width);
-  return Fnv1a(numbers.data(), sizeof(double) * numbers.size(), kFnvOffsetBasis) | 1;
+  // Where the control nodes sit (a spacing changed within what keeps the node set
+  // changes every decoded actuation, and left the fingerprint as it was).
+  const GridFieldDescription& field = d.field().description();
+  numbers.push_back(field.per_element ? 1.0 : 0.0);
+  for (int a = 0; a < 3; ++a) numbers.push_back(field.origin[a]);
+  numbers.push_back(field.spacing);
+  for (int a = 0; a < 3; ++a) numbers.push_back(field.grid_dims[a]);
+  uint64_t hash = Fnv1a(numbers.data(), sizeof(double) * numbers.size(), kFnvOffsetBasis);
+  hash = Fnv1a(field.nodes.data(), sizeof(int) * field.nodes.size(), hash);
+  return hash | 1;
 }
 
 uint64_t LearnedStateFingerprint(const ActiveModel& model) {

@@ -18,8 +18,9 @@ namespace aqs {
 uint64_t ModelFingerprint(const ActiveModel& model);
 
 // A 64-bit fingerprint of a model's decoder architecture (latent size, activation,
-// output scale, anchoring, linear skip, control nodes, elements, parameter count, hidden
-// widths); 0 for a model without a decoder. Not its parameters.
+// output scale, anchoring, linear skip, control nodes and their grid: origin, spacing,
+// dimensions, kept nodes; elements, parameter count, hidden widths); 0 for a model
+// without a decoder. Not its parameters.
 uint64_t DecoderArchitectureFingerprint(const ActiveModel& model);
 
 // A 64-bit fingerprint of what training made of a model, which results computed with

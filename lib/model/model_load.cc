@@ -15,8 +15,12 @@
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
+#include <map>
+#include <sstream>
+#include <utility>
 #include <thread>
 
+#include "geometry/embedding.h"
 #include "geometry/points_near_model.h"
 #include "io/actuation_io.h"
 #include "mesh/mesh_io.h"
@@ -114,10 +118,20 @@ bool ReadCheckpoint(const std::string& path, TrainingCheckpoint* checkpoint,
   return true;
 }
 
-// Reads "key value" lines of model.txt: the format version and (may be null) the
-// targets' key (ActiveModel::target_key; "" if absent or not a fingerprint).
+// The counts model.txt records (-1 where a line is absent).
+struct ManifestCounts {
+  int vertices = -1;
+  int elements = -1;
+  int surface_vertices = -1;
+  int poses = -1;
+  int bones = -1;
+};
+
+// Reads "key value" lines of model.txt: the format version, (may be null) the targets'
+// key (ActiveModel::target_key; "" if absent or not a fingerprint) and (may be null) the
+// counts.
 bool ReadManifest(const std::string& path, int* version, std::string* error,
-                  std::string* target_key = nullptr) {
+                  std::string* target_key = nullptr, ManifestCounts* counts = nullptr) {
   LineReader reader(path);
   if (!reader.ok()) {
     *error = reader.error() + " (is this an ActiveQS model directory?)";
@@ -128,6 +142,18 @@ bool ReadManifest(const std::string& path, int* version, std::string* error,
   uint64_t fingerprint = 0;
   while (reader.NextTokens(&tokens)) {
     if (tokens.size() == 2 && tokens[0] == "format") ParseInt(tokens[1], version);
+    if (counts != nullptr && tokens.size() == 2) {
+      const std::pair<const char*, int*> fields[] = {
+          {"vertices", &counts->vertices}, {"elements", &counts->elements},
+          {"surface_vertices", &counts->surface_vertices}, {"poses", &counts->poses},
+          {"bones", &counts->bones}};
+      for (const auto& [key, value] : fields) {
+        if (tokens[0] == key && (!ParseInt(tokens[1], value) || *value < 0)) {
+          *error = reader.Where("'" + tokens[0] + "' needs a count, not '" + tokens[1] + "'");
+          return false;
+        }
+      }
+    }
     if (target_key != nullptr && tokens.size() == 2 && tokens[0] == "targets" &&
         ParseFingerprint(tokens[1], &fingerprint)) {
       *target_key = FingerprintText(fingerprint);
@@ -141,6 +167,38 @@ bool ReadManifest(const std::string& path, int* version, std::string* error,
     *error = path + ": expected 'format 1' or 'format " +
              std::to_string(internal::kModelFormatVersion) +
              "' (a model of another ActiveQS version?)";
+    return false;
+  }
+  return true;
+}
+
+// The counts model.txt records against what the files hold: a file that lost lines
+// (poses.txt a pose, bones.txt a bone) is named, not loaded short.
+bool CheckManifestCounts(const std::string& dir, const ManifestCounts& counts,
+                         const ActiveModel& model, std::string* error) {
+  const struct {
+    const char* key;
+    int recorded;
+    int read;
+    const char* file;
+  } checks[] = {
+      {"vertices", counts.vertices, model.mesh.num_vertices(), "mesh.mesh"},
+      {"elements", counts.elements, model.mesh.num_tets(), "mesh.mesh"},
+      {"surface_vertices", counts.surface_vertices, model.neutral.num_vertices(), "neutral.obj"},
+      {"poses", counts.poses, model.num_poses(), "poses.txt"},
+      {"bones", counts.bones, static_cast<int>(model.bones.size()), "bones.txt"},
+  };
+  for (const auto& check : checks) {
+    if (check.recorded >= 0 && check.recorded != check.read) {
+      *error = dir + "/model.txt says " + check.key + " " + std::to_string(check.recorded) +
+               ", but " + dir + "/" + check.file + " has " + std::to_string(check.read) +
+               " (a damaged or partly copied model directory)";
+      return false;
+    }
+  }
+  if (model.neutral.triangles.cols() == 0) {
+    *error = dir + "/neutral.obj has no faces: a model's neutral surface needs its triangles "
+             "(scan fits, contact and the attachment springs read them)";
     return false;
   }
   return true;
@@ -305,6 +363,7 @@ bool ReadPoses(const std::string& dir, ActiveModel* model, std::string* error) {
     return false;
   }
   std::vector<std::string> t;
+  std::map<std::string, int> lines;  // pose name -> its line
   while (reader.NextTokens(&t)) {
     TrainingPose pose;
     int index = 0;
@@ -316,6 +375,12 @@ bool ReadPoses(const std::string& dir, ActiveModel* model, std::string* error) {
       return false;
     }
     pose.name = t[1];
+    const auto [it, inserted] = lines.emplace(pose.name, reader.line_number());
+    if (!inserted) {
+      *error = reader.Where("pose '" + pose.name + "' again (first on line " +
+                            std::to_string(it->second) + "): pose names must differ");
+      return false;
+    }
     m.poses.push_back(pose);
   }
   if (!reader.ok()) {
@@ -461,6 +526,7 @@ bool ReadEmbedding(const std::string& dir, ActiveModel* model, std::string* erro
   m.embedding.weights.resize(4, ns);
   m.embedding.offsets.resize(3, ns);
   std::vector<std::string> t;
+  std::vector<int> line_of(ns, 0);
   int i = 0;
   while (reader.NextTokens(&t)) {
     int e = 0;
@@ -477,6 +543,7 @@ bool ReadEmbedding(const std::string& dir, ActiveModel* model, std::string* erro
     }
     m.embedding.element.push_back(e);
     m.embedding.outside_distance.push_back(outside);
+    line_of[i] = reader.line_number();
     ++i;
   }
   if (!reader.ok()) {
@@ -502,6 +569,20 @@ bool ReadEmbedding(const std::string& dir, ActiveModel* model, std::string* erro
       *error = dir + "/embedding.txt: surface vertex " + std::to_string(k) +
                ": the weights must be barycentric (in [0, 1], summing to 1) and the offset and "
                "outside distance within the model";
+      return false;
+    }
+  }
+  // At rest the embedding gives the neutral back (the writer's text keeps it to 1e-14 of
+  // the model's size): a line changed by hand embeds its vertex elsewhere.
+  const Eigen::Matrix3Xd rest = EmbeddedPositions(m.embedding, m.mesh.tets, m.mesh.vertices);
+  for (int k = 0; k < ns; ++k) {
+    const double off = (rest.col(k) - m.neutral.vertices.col(k)).norm();
+    if (!(off <= 1e-6 * size)) {
+      std::ostringstream message;
+      message << dir << "/embedding.txt:" << line_of[k] << ": surface vertex " << k
+              << " is embedded " << off << " from its place in neutral.obj (the model is "
+              << size << " across): the file is damaged";
+      *error = message.str();
       return false;
     }
   }
@@ -570,10 +651,14 @@ bool LoadModel(const std::string& directory, ActiveModel* model_out, std::string
   const std::string& dir = directory;
   int version = 0;
   ActiveModel model;
-  if (!ReadManifest(dir + "/model.txt", &version, error, &model.target_key)) return false;
+  ManifestCounts counts;
+  if (!ReadManifest(dir + "/model.txt", &version, error, &model.target_key, &counts)) {
+    return false;
+  }
   if (!ReadTetMesh(dir + "/mesh.mesh", &model.mesh, error) || !ReadStiffness(dir, &model, error) ||
       !ReadObj(dir + "/neutral.obj", &model.neutral, error) || !ReadPoses(dir, &model, error) ||
-      !ReadFixedVerticesAndBones(dir, &model, error) || !ReadEmbedding(dir, &model, error) ||
+      !ReadFixedVerticesAndBones(dir, &model, error) ||
+      !CheckManifestCounts(dir, counts, model, error) || !ReadEmbedding(dir, &model, error) ||
       !ReadLearnedPart(dir, version, &model, error) || !ValidateModel(model, dir, error)) {
     return false;
   }

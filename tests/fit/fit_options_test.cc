@@ -1,4 +1,5 @@
-// LatentFitOptions::KeyText (fit/fit_options.cc) and QuasistaticSolverOptions::KeyText:
+// LatentFitOptions::KeyText (fit/fit_options.cc), PointCloudFitOptions::KeyText and
+// QuasistaticSolverOptions::KeyText:
 // every option that changes a fit's result changes the key (stored fits of other options
 // are not taken: jobs/held_out_fit_store.h); threads and logging do not.
 
@@ -85,6 +86,35 @@ TEST(FitOptionsTest, EveryResultShapingOptionChangesTheKey) {
   same = base;
   same.latent_prior = std::nextafter(same.latent_prior, 1.0);
   EXPECT_NE(same.KeyText(), base.KeyText());
+}
+
+// The same for scan fits (PointCloudFitOptions::KeyText, the key of stored scan-sequence
+// frames): every option changes it; the landmarks (data, fingerprinted per frame) do not.
+TEST(FitOptionsTest, EveryScanFitOptionChangesItsKey) {
+  using PointsChange = std::pair<const char*, std::function<void(PointCloudFitOptions*)>>;
+  const PointCloudFitOptions base;
+  const std::vector<PointsChange> changes = {
+      {"max_rounds", [](PointCloudFitOptions* o) { o->max_rounds += 1; }},
+      {"iterations_per_round", [](PointCloudFitOptions* o) { o->iterations_per_round += 1; }},
+      {"max_distance", [](PointCloudFitOptions* o) { o->max_distance *= 0.5; }},
+      {"robust_scale", [](PointCloudFitOptions* o) { o->robust_scale *= 0.5; }},
+      {"relative_tolerance", [](PointCloudFitOptions* o) { o->relative_tolerance *= 0.5; }},
+      {"tangential_weight", [](PointCloudFitOptions* o) { o->tangential_weight *= 0.5; }},
+      {"rematch_every_evaluation",
+       [](PointCloudFitOptions* o) { o->rematch_every_evaluation = !o->rematch_every_evaluation; }},
+      {"landmark_weight", [](PointCloudFitOptions* o) { o->landmark_weight *= 0.5; }},
+      {"bone_prior", [](PointCloudFitOptions* o) { o->bone_prior *= 0.5; }},
+      {"latent_prior",
+       [](PointCloudFitOptions* o) { o->latent_prior = std::nextafter(o->latent_prior, 1.0); }},
+  };
+  for (const auto& [name, change] : changes) {
+    PointCloudFitOptions changed = base;
+    change(&changed);
+    EXPECT_NE(changed.KeyText(), base.KeyText()) << name;
+  }
+  PointCloudFitOptions same = base;
+  same.landmarks.positions = Eigen::Matrix3Xd::Zero(3, 2);
+  EXPECT_EQ(same.KeyText(), base.KeyText());
 }
 
 }  // namespace

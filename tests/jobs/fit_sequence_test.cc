@@ -472,6 +472,17 @@ TEST_F(FitSequenceTest, IndependentFramesGoOnPastAFrameThatCannotBeFitted) {
   // "converged" where it started, with 0 points and error 0).
   EXPECT_NE(warm.message.find(scans[1] + ": fewer than 3 of the scan's"), std::string::npos)
       << warm.message;
+
+  // Scan fits measure to the neutral's faces, which the model's fingerprint leaves out:
+  // frames fitted against other faces are not taken (the key holds the faces).
+  const Eigen::Matrix3Xi faces = model_->neutral.triangles;
+  model_->neutral.triangles.row(1).swap(model_->neutral.triangles.row(2));  // turned inside out
+  const FitSequenceResult other_faces = run({0, 2}, "gaps_alone", false);
+  model_->neutral.triangles = faces;
+  EXPECT_EQ(other_faces.status, JobStatus::kBadInput);
+  EXPECT_NE(other_faces.message.find("fitted with another model or other fit options"),
+            std::string::npos)
+      << other_faces.message;
 }
 
 }  // namespace

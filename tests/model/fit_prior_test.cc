@@ -155,6 +155,18 @@ TEST(FitPriorTest, FileRoundTripsIsLearnedWhenAbsentAndBadFilesNameTheLine) {
   std::ofstream(path + "/learned/prior.txt", std::ios::app) << "latent_mean 1 2\n";
   EXPECT_FALSE(LoadModel(path, &back, &error));
   EXPECT_NE(error.find("prior.txt:15: expected 3 finite numbers"), std::string::npos) << error;
+  // A line given twice: the second replaced the first silently.
+  for (const std::string& line : {std::string("latent_mean 1 2 3"),
+                                  std::string("latent_covariance 01 1 0 0"),
+                                  std::string("bone tip mean 0 0 0 0 0 0"),
+                                  std::string("center -")}) {
+    SCOPED_TRACE(line);
+    ASSERT_TRUE(WriteFitPrior(path + "/learned/prior.txt", learned, names, &error)) << error;
+    std::ofstream(path + "/learned/prior.txt", std::ios::app) << line << "\n";
+    EXPECT_FALSE(LoadModel(path, &back, &error));
+    EXPECT_NE(error.find("prior.txt:15: a second '"), std::string::npos) << error;
+    EXPECT_NE(error.find("(the first is line "), std::string::npos) << error;
+  }
 }
 
 }  // namespace

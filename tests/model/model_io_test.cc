@@ -6,12 +6,15 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <sstream>
 
 #include <set>
 
 #include <gtest/gtest.h>
 
+#include "learn/decoder.h"
+#include "learn/grid_actuation_field.h"
 #include "model/model_directory.h"
 #include "model/model_fingerprint.h"
 #include "prepare/volumetric_targets.h"
@@ -166,6 +169,89 @@ TEST(ModelIoTest, DamagedModelsFailNamingTheFile) {
   EXPECT_NE(error.find("mu.bin: the stiffness of element 3 is -1, not positive"),
             std::string::npos)
       << error;
+}
+
+// Damage the other checks let through (review of lib/model): a file that lost a line
+// against model.txt's counts, a repeated pose name, an embedding line that no longer
+// gives the neutral back at rest, a neutral without faces.
+TEST(ModelIoTest, CountsNamesEmbeddingAndFacesAreChecked) {
+  const ActiveModel model = TrainedSyntheticModel();
+  ASSERT_GE(model.num_poses(), 2);
+  testing::TempDir dir;
+  std::string error;
+  ActiveModel back;
+  const std::string path = dir.File("m");
+  auto rewrite = [&](const std::string& file, const std::function<std::string(std::string)>& edit) {
+    const std::string text = testing::ReadAll(path + "/" + file);
+    std::ofstream(path + "/" + file) << edit(text);
+  };
+  auto last_line_removed = [](std::string text) {
+    text.pop_back();  // the final newline
+    return text.substr(0, text.rfind('\n') + 1);
+  };
+  // poses.txt without its last pose.
+  ASSERT_TRUE(SaveModel(path, model, &error)) << error;
+  rewrite("poses.txt", last_line_removed);
+  EXPECT_FALSE(LoadModel(path, &back, &error));
+  EXPECT_NE(error.find("model.txt says poses " + std::to_string(model.num_poses()) +
+                       ", but " + path + "/poses.txt has " +
+                       std::to_string(model.num_poses() - 1)),
+            std::string::npos)
+      << error;
+  // A count that is not one.
+  ASSERT_TRUE(SaveModel(path, model, &error)) << error;
+  rewrite("model.txt", [](std::string text) { return text + "elements many\n"; });
+  EXPECT_FALSE(LoadModel(path, &back, &error));
+  EXPECT_NE(error.find("'elements' needs a count, not 'many'"), std::string::npos) << error;
+  // The second pose named as the first.
+  ASSERT_TRUE(SaveModel(path, model, &error)) << error;
+  rewrite("poses.txt", [&](std::string text) {
+    const std::string second = " " + model.poses[1].name + " ";
+    text.replace(text.find(second), second.size(), " " + model.poses[0].name + " ");
+    return text;
+  });
+  EXPECT_FALSE(LoadModel(path, &back, &error));
+  EXPECT_NE(error.find("pose '" + model.poses[0].name + "' again (first on line"),
+            std::string::npos)
+      << error;
+  // The first embedding line moved to another element (its weights still barycentric).
+  ASSERT_TRUE(SaveModel(path, model, &error)) << error;
+  int first_line = 0;
+  rewrite("embedding.txt", [&](std::string text) {
+    size_t at = 0;
+    for (int line = 1;; ++line) {
+      if (text[at] != '#') {
+        first_line = line;
+        break;
+      }
+      at = text.find('\n', at) + 1;
+    }
+    const size_t space = text.find(' ', at);
+    const int element = std::stoi(text.substr(at, space - at));
+    const int other = (element + model.mesh.num_tets() / 2) % model.mesh.num_tets();
+    return text.substr(0, at) + std::to_string(other) + text.substr(space);
+  });
+  EXPECT_FALSE(LoadModel(path, &back, &error));
+  EXPECT_NE(error.find("embedding.txt:" + std::to_string(first_line) +
+                       ": surface vertex 0 is embedded "),
+            std::string::npos)
+      << error;
+  EXPECT_EQ(error.find("learned"), std::string::npos) << "not blamed on the learned state";
+  // A neutral without faces.
+  ASSERT_TRUE(SaveModel(path, model, &error)) << error;
+  rewrite("neutral.obj", [](const std::string& text) {
+    std::istringstream lines(text);
+    std::string kept;
+    for (std::string line; std::getline(lines, line);) {
+      if (line.rfind("f ", 0) != 0) kept += line + "\n";
+    }
+    return kept;
+  });
+  EXPECT_FALSE(LoadModel(path, &back, &error));
+  EXPECT_NE(error.find("neutral.obj has no faces"), std::string::npos) << error;
+  // Intact, it loads.
+  ASSERT_TRUE(SaveModel(path, model, &error)) << error;
+  EXPECT_TRUE(LoadModel(path, &back, &error)) << error;
 }
 
 // A bones.txt whose first line is a motion (no bone yet) is refused naming its line (it
@@ -549,6 +635,20 @@ TEST(ModelIoTest, LearnedStateFingerprintAndTargetKeyRoundTrip) {
   other = model;
   other.fit_prior.latent.mean[0] += 1e-12;
   EXPECT_NE(LearnedStateFingerprint(other), learned);
+  // The control grid's spacing, changed within what keeps its node set (the decoded
+  // actuations change; the fingerprint did not).
+  {
+    GridFieldDescription grid = model.decoder->field().description();
+    ASSERT_FALSE(grid.per_element);
+    grid.spacing *= 1.0 + 1e-9;
+    GridActuationField field;
+    ASSERT_TRUE(GridActuationField::FromDescription(model.mesh, grid, "test", &field, &error))
+        << error;
+    other = model;
+    other.decoder = std::make_shared<ActuationDecoder>(model.decoder->spec(), field);
+    EXPECT_NE(DecoderArchitectureFingerprint(other), DecoderArchitectureFingerprint(model));
+    EXPECT_NE(LearnedStateFingerprint(other), learned);
+  }
   other = model;
   ASSERT_EQ(other.states.size(), 3u);
   ASSERT_EQ(other.states[1].cols(), model.mesh.num_vertices());  // the one stored state
