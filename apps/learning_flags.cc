@@ -139,7 +139,6 @@ bool PretrainOptionsFromFlags(PretrainOptions* options, std::string* error) {
     return false;
   }
   options->seed = FLAGS_seed;
-  options->num_threads = FLAGS_threads;
   options->max_memory_bytes = MaxMemoryBytes();
   return true;
 }

@@ -243,7 +243,6 @@ bool PretrainOptions::Validate(std::string* error) const {
       .IntAtLeast("max_restarts", max_restarts, 0)
       .NonNegative("max_seconds", max_seconds)
       .NonNegative("checkpoint_seconds", checkpoint_seconds)
-      .IntInRange("num_threads", num_threads, 1, 1024)
       .IntAtLeast("log_every", log_every, 0)
       .Positive("max_memory_bytes", max_memory_bytes)
       .Done(error);

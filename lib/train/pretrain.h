@@ -72,7 +72,6 @@ struct PretrainOptions {
   std::string kept_checkpoints_directory;
   double checkpoint_seconds = 60.0;
   bool resume = true;
-  int num_threads = 2;
   // Progress line every this many iterations (0: none).
   int log_every = 25;
   // Memory limit (bytes): Pretrain estimates the decoder, its L-BFGS history and the

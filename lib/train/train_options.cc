@@ -25,6 +25,9 @@ bool TrainOptions::Validate(std::string* error) const {
       .IntAtLeast("log_every", log_every, 0)
       .IntAtLeast("latent_refit_every", latent_refit_every, 0)
       .IntInRange("latent_refit_iterations", latent_refit_iterations, 0, 1000)
+      .Require(latent_refit_every == 0 || latent_refit_iterations > 0,
+               "latent_refit_every needs latent_refit_iterations > 0 (refits of 0 "
+               "iterations do nothing)")
       .Done(error);
 }
 

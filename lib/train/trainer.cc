@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <memory>
 #include <sstream>
 
@@ -20,6 +21,7 @@
 #include "util/atomic_file.h"
 #include "util/blas.h"
 #include "util/iteration_log.h"
+#include "util/line_reader.h"
 #include "util/number_format.h"
 #include "util/parallel_for.h"
 #include "util/wall_timer.h"
@@ -34,15 +36,35 @@ constexpr char kLogHeader[] =
     "iteration,loss,mean_surface_error,max_surface_error,gradient_norm,step_norm,seconds,"
     "function_evaluations,factorizations_per_pose,cg_solves_per_pose\n";
 
+// The seconds column (the 7th) of the last row of the log at `path`: what the runs
+// before this one spent; 0 if there is none.
+double LastLoggedSeconds(const std::string& path) {
+  std::ifstream in(path);
+  std::string line, last;
+  while (std::getline(in, line)) {
+    if (!line.empty()) last = line;
+  }
+  std::stringstream fields(last);
+  std::string field;
+  for (int k = 0; k < 7 && std::getline(fields, field, ','); ++k) {
+    double seconds = 0.0;
+    if (k == 6 && ParseDouble(field, &seconds) && seconds >= 0.0) return seconds;
+  }
+  return 0.0;
+}
+
 class TrainingCallback final : public ceres::IterationCallback {
  public:
+  // seconds_before: what the runs before spent (the log's seconds go on from there).
   TrainingCallback(const TrainOptions& options, ActiveModel* model, EndToEndObjective* objective,
-                   const Eigen::VectorXd& parameters, int iterations_before, std::ostream& log)
+                   const Eigen::VectorXd& parameters, int iterations_before,
+                   double seconds_before, std::ostream& log)
       : options_(options),
         model_(model),
         objective_(*objective),
         parameters_(parameters),
         first_(iterations_before),
+        seconds_before_(seconds_before),
         log_(log),
         counters_before_(objective->total_counters()) {}
 
@@ -92,7 +114,7 @@ class TrainingCallback final : public ceres::IterationCallback {
       char row[400];
       std::snprintf(row, sizeof(row), "%d,%.17g,%.17g,%.17g,%.17g,%.17g,%.6f,%d,%.6g,%.6g\n",
                     iteration, s.cost, mean_error, max_error, s.gradient_norm, s.step_norm,
-                    elapsed,
+                    seconds_before_ + elapsed,
                     s.line_search_function_evaluations, factorizations, cg_solves);
       // Appended before the checkpoint of this iteration: a kill in between leaves one
       // row more than the checkpoint, which the next run drops (PrepareIterationLog).
@@ -144,6 +166,7 @@ class TrainingCallback final : public ceres::IterationCallback {
   EndToEndObjective& objective_;
   const Eigen::VectorXd& parameters_;
   int first_;  // iterations done before this run
+  double seconds_before_;  // and the seconds they took (train/log.csv)
   std::ostream& log_;
   WallTimer timer_;
   bool budget_reached_ = false;
@@ -376,6 +399,7 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
   report->iterations_before =
       options.model_directory.empty() ? 0 : model->checkpoint.iterations;
   const int remaining = options.max_iterations - report->iterations_before;
+  double seconds_before = 0.0;
   if (!options.model_directory.empty()) {
     std::error_code code;
     fs::create_directories(options.model_directory + "/train", code);
@@ -384,6 +408,7 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
                              report->iterations_before, &last_row, error)) {
       return false;
     }
+    if (last_row >= 0) seconds_before = LastLoggedSeconds(LogPath(options.model_directory));
     if (report->iterations_before > 0 && last_row < report->iterations_before) {
       // The learned state is whole (it is saved as one unit); only the record is short.
       log << "train: warning: " << options.model_directory << "/train/log.csv has rows up to "
@@ -424,7 +449,8 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
   const EvaluationCounters cost_before = objective->total_counters();
   WallTimer budget_timer;
   ceres::GradientProblem problem(owned_objective.release());  // owns the objective
-  TrainingCallback callback(options, model, objective, parameters, report->iterations_before, log);
+  TrainingCallback callback(options, model, objective, parameters, report->iterations_before,
+                            seconds_before, log);
   int done = report->iterations_before;
   if (remaining > 0) {
     done = RunTrainingSolves(options, problem, budget_timer, done, model, objective, &callback,

@@ -81,7 +81,8 @@ struct TrainOptions {
   // after every that many iterations (then L-BFGS continues with an empty memory, which
   // costs more than the refit gains: on the demo face, 5-minute budget, a refit at the
   // start only ends at loss 2.04e-3, every 20 iterations at 2.42e-3, none at 2.24e-3).
-  // 0: no refits. One process only (a distributed run with refits is refused).
+  // 0: no refits; latent_refit_every > 0 needs latent_refit_iterations > 0 (Validate).
+  // Distributed runs refit too (docs/distributed.md).
   int latent_refit_iterations = 0;
   int latent_refit_every = 0;
   // Distributed training (docs/distributed.md): every rank of the communicator calls

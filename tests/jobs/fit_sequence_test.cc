@@ -66,7 +66,6 @@ class FitSequenceTest : public ::testing::Test {
     pretrain.field.node_spacing = 0.35;
     pretrain.max_iterations = 30;
     pretrain.log_every = 0;
-    pretrain.num_threads = 1;
     PretrainReport report;
     ASSERT_TRUE(Pretrain(pretrain, model_, &report, log, &error)) << error;
     LatentFitter fitter(*model_, Options().fit);

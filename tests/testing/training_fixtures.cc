@@ -39,7 +39,6 @@ PretrainOptions SyntheticPretrainOptions(const SyntheticBarSpec& spec) {
   pretrain.decoder_regularization = spec.decoder_regularization;
   pretrain.latent_start = spec.latent_start;
   pretrain.log_every = 0;
-  pretrain.num_threads = spec.num_threads;
   return pretrain;
 }
 

@@ -18,6 +18,7 @@
 #include "model/model_directory.h"
 #include "model/model_io.h"
 #include "testing/fault_kill.h"
+#include "testing/file_contents.h"
 #include "testing/temp_dir.h"
 #include "testing/training_fixtures.h"
 #include "train/trainer.h"
@@ -137,6 +138,23 @@ TEST_F(CheckpointResumeTest, ResumeAfterAFinishedRunStartsAtTheLoggedLoss) {
               report.initial_loss, rows[3].second);
   EXPECT_NEAR(report.initial_loss, rows[3].second, 1e-9 * rows[3].second);
   EXPECT_TRUE(RowsAreZeroTo(testing::TrainingLogRows(LogPath()), 5));
+  // The seconds column counts on across the runs (it started at 0 again in the resumed
+  // run, going backwards).
+  std::istringstream lines(testing::ReadAll(LogPath()));
+  std::string line;
+  std::getline(lines, line);  // the header
+  double previous = -1.0;
+  int count = 0;
+  while (std::getline(lines, line)) {
+    std::istringstream fields(line);
+    std::string field;
+    for (int k = 0; k < 7; ++k) std::getline(fields, field, ',');
+    const double seconds = std::stod(field);
+    EXPECT_GE(seconds, previous) << "row " << count << ": " << line;
+    previous = seconds;
+    ++count;
+  }
+  EXPECT_EQ(count, 6);
 }
 
 // A periodic latent refit runs after its iteration's checkpoint. A run resumed at that
@@ -347,7 +365,6 @@ void WatchModelInstall(const char* point) {
 TEST_F(CheckpointResumeTest, APretrainedModelIsInstalledWithItsRecord) {
   PretrainOptions options = testing::SyntheticPretrainOptions(testing::SyntheticBarSpec());
   options.max_iterations = 2;
-  options.num_threads = 1;
   g_model_path = path_;
   g_installs = 0;
   const FaultHook previous = SetFaultHookForTesting(&WatchModelInstall);

@@ -45,6 +45,20 @@ TEST(LatentRefitTest, OptionsValidateNamesTheBadField) {
   EXPECT_EQ(error.rfind("solver.", 0), 0u) << error;
 }
 
+// Periodic refits of no iterations would do nothing: TrainOptions refuses them (the flag
+// was accepted and silently ignored).
+TEST(LatentRefitTest, RefitsEveryNIterationsNeedIterations) {
+  std::string error;
+  TrainOptions options;
+  options.latent_refit_every = 20;
+  EXPECT_FALSE(options.Validate(&error));
+  EXPECT_NE(error.find("latent_refit_every needs latent_refit_iterations > 0"),
+            std::string::npos)
+      << error;
+  options.latent_refit_iterations = 5;
+  EXPECT_TRUE(options.Validate(&error)) << error;
+}
+
 // Without and with the equilibrium-energy regularizer (a weight at which its term is
 // a large part of the loss): the report's losses are the training objective's before
 // and after, and the refits never raise it (the energy term is part of the test a refit
