@@ -50,15 +50,7 @@ void TriangleGrid::Near(const Eigen::Vector3d& p, int stamp, std::vector<int>* m
   const Eigen::Vector3i c = Cell(p);
   for (int i = c.x() - 1; i <= c.x() + 1; ++i) {
     for (int j = c.y() - 1; j <= c.y() + 1; ++j) {
-      for (int k = c.z() - 1; k <= c.z() + 1; ++k) {
-        auto it = cells_.find(Key(i, j, k));
-        if (it == cells_.end()) continue;
-        for (int t : it->second) {
-          if ((*marks)[t] == stamp) continue;
-          (*marks)[t] = stamp;
-          out->push_back(t);
-        }
-      }
+      for (int k = c.z() - 1; k <= c.z() + 1; ++k) CollectCell(i, j, k, stamp, marks, out);
     }
   }
 }
@@ -79,16 +71,19 @@ void TriangleGrid::InBox(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, i
   }
   for (int i = ca.x(); i <= cb.x(); ++i) {
     for (int j = ca.y(); j <= cb.y(); ++j) {
-      for (int k = ca.z(); k <= cb.z(); ++k) {
-        auto it = cells_.find(Key(i, j, k));
-        if (it == cells_.end()) continue;
-        for (int t : it->second) {
-          if ((*marks)[t] == stamp) continue;
-          (*marks)[t] = stamp;
-          out->push_back(t);
-        }
-      }
+      for (int k = ca.z(); k <= cb.z(); ++k) CollectCell(i, j, k, stamp, marks, out);
     }
+  }
+}
+
+void TriangleGrid::CollectCell(int i, int j, int k, int stamp, std::vector<int>* marks,
+                               std::vector<int>* out) const {
+  auto it = cells_.find(Key(i, j, k));
+  if (it == cells_.end()) return;
+  for (int t : it->second) {
+    if ((*marks)[t] == stamp) continue;
+    (*marks)[t] = stamp;
+    out->push_back(t);
   }
 }
 

@@ -41,6 +41,9 @@ class TriangleGrid {
 
  private:
   Eigen::Vector3i Cell(const Eigen::Vector3d& p) const;
+  // Appends the triangles of cell (i, j, k) not yet stamped to *out, stamping them.
+  void CollectCell(int i, int j, int k, int stamp, std::vector<int>* marks,
+                   std::vector<int>* out) const;
   static int64_t Key(int i, int j, int k);
 
   double cell_;

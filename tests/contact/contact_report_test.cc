@@ -12,6 +12,7 @@
 #include "geometry/embedding.h"
 #include "mesh/lattice.h"
 #include "testing/contact_scenes.h"
+#include "testing/test_meshes.h"
 
 namespace aqs {
 namespace {
@@ -169,21 +170,15 @@ TEST(ContactReportTest, TextNamesEveryMeasurementBeforeAndAfter) {
 // hop distances from a breadth-first search of the whole surface per vertex), and
 // ContactOptions refuses more rings than kMaxExclusionRings.
 TEST(ContactRingsTest, ExclusionRingsAreTheVerticesWithinThatManyEdges) {
-  LatticeOptions lattice;
-  lattice.nx = 4;
-  lattice.ny = 3;
-  lattice.nz = 2;
-  lattice.spacing = 0.25;
-  const ActiveModel model = BlockModel(MakeLatticeMesh(lattice), {0});
+  const ActiveModel model = BlockModel(testing::BarMesh(4, 3, 2, 0.25), {0});
   const int ns = model.num_surface_vertices();
+  // The surface's edges (those of its triangles, as the solver lists them).
   std::vector<std::vector<int>> neighbours(ns);
-  const Eigen::Matrix3Xi& tris = model.neutral.triangles;
-  for (Eigen::Index t = 0; t < tris.cols(); ++t) {
-    for (int a = 0; a < 3; ++a) {
-      for (int b = 0; b < 3; ++b) {
-        if (a != b) neighbours[tris(a, t)].push_back(tris(b, t));
-      }
-    }
+  const ContactSolver edge_source(model, ContactOptions());
+  const Eigen::Matrix2Xi& edges = edge_source.edges();
+  for (Eigen::Index e = 0; e < edges.cols(); ++e) {
+    neighbours[edges(0, e)].push_back(edges(1, e));
+    neighbours[edges(1, e)].push_back(edges(0, e));
   }
   for (int rings : {0, 1, 2, 4}) {
     ContactOptions options;

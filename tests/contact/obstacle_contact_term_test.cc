@@ -12,9 +12,9 @@
 
 #include "contact/contact_solver.h"
 #include "equilibrium/quasistatic_solver.h"
-#include "mesh/lattice.h"
 #include "model/active_model.h"
 #include "testing/contact_scenes.h"
+#include "testing/test_meshes.h"
 #include "testing/element_states.h"
 #include "testing/energy_term_checks.h"
 #include "testing/finite_difference.h"
@@ -264,7 +264,8 @@ class NearestPenaltyTerm : public EnergyTerm {
       Eigen::MatrixXd hessian(12, 12);
       for (int j = 0; j < 4; ++j) {
         for (int l = 0; l < 4; ++l) {
-          hessian.block<3, 3>(3 * j, 3 * l) = stiffness_ * s.weight[j] * s.weight[l] * g * g.transpose();
+          hessian.block<3, 3>(3 * j, 3 * l) =
+              stiffness_ * s.weight[j] * s.weight[l] * g * g.transpose();
         }
       }
       AddVertexHessian(std::vector<int>(s.vertex, s.vertex + 4), hessian, pattern, values);
@@ -287,13 +288,8 @@ TEST(ObstacleContactTermTest, ABlockPressedIntoACreaseConvergesWhereTheNearestPe
   // down by 0.2 and sideways by 0.01 into a shallow valley: the notched prism with faces
   // 11.3 degrees off the horizontal (as at the demo's stalled point, 11.9), its crease
   // along z at x = 0, y = -0.05, below the bottom row of vertices at x = 0.
-  LatticeOptions lattice;
-  lattice.nx = 4;
-  lattice.ny = 3;
-  lattice.nz = 2;
-  lattice.spacing = 0.25;
-  lattice.origin = Eigen::Vector3d(-0.5, 0.0, -0.25);
-  const TetMesh block = MakeLatticeMesh(lattice);
+  TetMesh block = testing::BarMesh(4, 3, 2, 0.25);
+  block.vertices.colwise() += Eigen::Vector3d(-0.5, 0.0, -0.25);
   std::vector<int> top, bottom;
   for (int v = 0; v < block.num_vertices(); ++v) {
     if (block.vertices(1, v) > 0.75 - 1e-9) top.push_back(v);
