@@ -10,6 +10,7 @@
 #include <glog/logging.h>
 
 #include "contact/contact_solver.h"
+#include "contact/far_displacement.h"
 #include "geometry/embedding.h"
 #include "geometry/rigid_transform.h"
 #include "physics/actuation.h"
@@ -272,17 +273,8 @@ bool ContactSolver::Resolve(const ActuationMatrix& a, const std::vector<RigidTra
   report->mean_displacement = moved.mean();
   report->max_displacement = moved.maxCoeff();
   report->far_distance = 4.0 * options_.search_radius;
-  std::vector<int> contact_vertices;
-  for (Eigen::Index i = 0; i < after.cols(); ++i) {
-    if (current.touched[i]) contact_vertices.push_back(static_cast<int>(i));
-  }
-  for (Eigen::Index i = 0; i < after.cols(); ++i) {
-    double nearest = std::numeric_limits<double>::infinity();
-    for (int c : contact_vertices) nearest = std::min(nearest, (after.col(i) - after.col(c)).norm());
-    if (nearest > report->far_distance) {
-      report->max_far_displacement = std::max(report->max_far_displacement, moved[i]);
-    }
-  }
+  report->max_far_displacement =
+      MaxFarDisplacement(after, moved, current.touched, report->far_distance);
   return true;
 }
 
