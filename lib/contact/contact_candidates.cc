@@ -34,7 +34,8 @@ ObstacleCandidates ContactSolver::DetectObstacleContacts(
   for (Eigen::Index i = 0; i < surface.cols(); ++i) {
     if (!in_contact_[i]) continue;
     Eigen::Vector3d g;
-    if (probe.Distance(surface.col(i), &g) < options_.thickness + options_.search_radius) {
+    const double reach = options_.thickness + options_.search_radius;
+    if (probe.Distance(surface.col(i), &g, reach) < reach) {
       candidates.points.push_back(stencils_[i]);
       candidates.stiffness.push_back(stiffness_[i]);
       candidates.surface_vertices.push_back(static_cast<int>(i));

@@ -126,7 +126,8 @@ bool ContactSolver::SolveRounds(const ActuationMatrix& a, const std::vector<Rigi
     report->obstacle_contacts = 0;
     for (size_t k = 0; k < near.points.size(); ++k) {
       Eigen::Vector3d gradient;
-      if (obstacle_term.Distance(near.points[k].Position(x), &gradient) < options_.thickness) {
+      if (obstacle_term.Distance(near.points[k].Position(x), &gradient, options_.thickness) <
+          options_.thickness) {
         ++report->obstacle_contacts;
         state->touched[near.surface_vertices[k]] = 1;
       }

@@ -6,6 +6,7 @@
 
 #include <glog/logging.h>
 
+#include "geometry/surface_components.h"
 #include "mesh/mesh_io.h"
 #include "util/line_reader.h"
 #include "util/text_split.h"
@@ -34,33 +35,6 @@ double Orientation(const Eigen::Matrix3Xd& vertices, const Eigen::Matrix3Xi& tri
   return volume < 0 ? -1.0 : 1.0;
 }
 
-// The triangles that bound the inside: those whose centroid, moved off the triangle along
-// its outward normal by 1e-6 of the surface's size, is outside (winding number <= 0.5).
-// A triangle of one closed shell buried inside another shell that overlaps it (the teeth
-// of a dental model: 32 shells, neighbours interpenetrating) is not: the distance to it
-// would measure a penetration to a face inside the obstacle, and push toward it. All
-// triangles if every one is buried (no surface).
-Eigen::Matrix3Xi BoundingTriangles(const Eigen::Matrix3Xd& vertices,
-                                   const Eigen::Matrix3Xi& triangles,
-                                   const FastWindingNumber& winding, double orientation) {
-  if (triangles.cols() == 0) return triangles;
-  const double offset =
-      1e-6 * (vertices.rowwise().maxCoeff() - vertices.rowwise().minCoeff()).norm();
-  std::vector<int> kept;
-  for (Eigen::Index t = 0; t < triangles.cols(); ++t) {
-    const Eigen::Vector3d a = vertices.col(triangles(0, t));
-    const Eigen::Vector3d b = vertices.col(triangles(1, t));
-    const Eigen::Vector3d c = vertices.col(triangles(2, t));
-    const Eigen::Vector3d normal = orientation * (b - a).cross(c - a).normalized();
-    const Eigen::Vector3d probe = (a + b + c) / 3.0 + offset * normal;
-    if (!(orientation * winding.WindingNumber(probe) > 0.5)) kept.push_back(static_cast<int>(t));
-  }
-  if (kept.empty()) return triangles;
-  Eigen::Matrix3Xi bounding(3, kept.size());
-  for (size_t i = 0; i < kept.size(); ++i) bounding.col(i) = triangles.col(kept[i]);
-  return bounding;
-}
-
 }  // namespace
 
 Obstacle::Obstacle(std::string name, const Eigen::Matrix3Xd& vertices,
@@ -70,12 +44,22 @@ Obstacle::Obstacle(std::string name, const Eigen::Matrix3Xd& vertices,
       triangles_(triangles),
       winding_(vertices, triangles),
       orientation_(Orientation(vertices, triangles)),
-      surface_(BoundingTriangles(vertices, triangles, winding_, orientation_)),
-      bvh_(vertices, surface_),
-      features_(BuildSurfaceFeatures(surface_, static_cast<int>(vertices.cols()))) {}
+      bvh_(vertices, triangles),
+      features_(BuildSurfaceFeatures(triangles, static_cast<int>(vertices.cols()))) {
+  if (vertices.cols() > 0) {
+    lower_ = vertices.rowwise().minCoeff();
+    upper_ = vertices.rowwise().maxCoeff();
+  }
+}
 
 double Obstacle::SignedDistance(const Eigen::Vector3d& p, Eigen::Vector3d* gradient,
                                 double max_distance) const {
+  // Farther than max_distance from the bounding box: outside, and out of reach (no tree
+  // search and no winding number: most of the points against most of a model's shells).
+  if ((lower_ - p).cwiseMax(p - upper_).cwiseMax(0.0).norm() > max_distance) {
+    gradient->setZero();
+    return max_distance;
+  }
   ClosestPointResult closest = bvh_.ClosestPoint(p, max_distance);
   const bool inside = orientation_ * winding_.WindingNumber(p) > 0.5;
   if (closest.triangle < 0) {
@@ -92,10 +76,10 @@ double Obstacle::SignedDistance(const Eigen::Vector3d& p, Eigen::Vector3d* gradi
   if (distance > 1e-12) {
     direction /= distance;
   } else {  // on the surface: the triangle's outward normal, as p - closest would be
-    const Eigen::Vector3d a = vertices_.col(surface_(0, closest.triangle));
+    const Eigen::Vector3d a = vertices_.col(triangles_(0, closest.triangle));
     direction = (inside ? -orientation_ : orientation_) *
-                (vertices_.col(surface_(1, closest.triangle)) - a)
-                    .cross(vertices_.col(surface_(2, closest.triangle)) - a)
+                (vertices_.col(triangles_(1, closest.triangle)) - a)
+                    .cross(vertices_.col(triangles_(2, closest.triangle)) - a)
                     .normalized();
   }
   *gradient = inside ? -direction : direction;
@@ -104,7 +88,8 @@ double Obstacle::SignedDistance(const Eigen::Vector3d& p, Eigen::Vector3d* gradi
 
 void Obstacle::FeaturesWithin(const Eigen::Vector3d& p, double reach,
                               std::vector<FeatureDistance>* features) const {
-  std::vector<int> triangles;
+  // Scratch kept per thread (this runs for every contact point at every evaluation).
+  thread_local std::vector<int> triangles, edges, corners;
   bvh_.TrianglesWithin(p, reach, &triangles);
   if (triangles.empty()) return;
   auto add = [&](const Eigen::Vector3d& closest, double weight, int triangle) {
@@ -116,23 +101,24 @@ void Obstacle::FeaturesWithin(const Eigen::Vector3d& p, double reach,
     if (feature.distance > 1e-12) {
       feature.direction /= feature.distance;
     } else if (triangle >= 0) {  // on the triangle: its outward normal
-      const Eigen::Vector3d a = vertices_.col(surface_(0, triangle));
-      feature.direction = orientation_ * (vertices_.col(surface_(1, triangle)) - a)
-                                             .cross(vertices_.col(surface_(2, triangle)) - a)
+      const Eigen::Vector3d a = vertices_.col(triangles_(0, triangle));
+      feature.direction = orientation_ * (vertices_.col(triangles_(1, triangle)) - a)
+                                             .cross(vertices_.col(triangles_(2, triangle)) - a)
                                              .normalized();
     } else {
       feature.direction.setZero();
     }
     features->push_back(feature);
   };
-  std::vector<int> edges, corners;
+  edges.clear();
+  corners.clear();
   for (int t : triangles) {
-    add(ClosestPointOnTriangle(p, vertices_.col(surface_(0, t)), vertices_.col(surface_(1, t)),
-                               vertices_.col(surface_(2, t)), nullptr),
+    add(ClosestPointOnTriangle(p, vertices_.col(triangles_(0, t)), vertices_.col(triangles_(1, t)),
+                               vertices_.col(triangles_(2, t)), nullptr),
         1.0, t);
     for (int k = 0; k < 3; ++k) {
       edges.push_back(features_.triangle_edges(k, t));
-      corners.push_back(surface_(k, t));
+      corners.push_back(triangles_(k, t));
     }
   }
   std::sort(edges.begin(), edges.end());
@@ -240,6 +226,35 @@ bool ReadObstacleSurfaces(const std::vector<ObstacleSpec>& specs,
     triangles->push_back(tris);
   }
   return true;
+}
+
+std::vector<MovingObstacle> SplitIntoShells(const MovingObstacle& obstacle) {
+  const SurfaceComponents components =
+      FindSurfaceComponents(static_cast<int>(obstacle.vertices.cols()), obstacle.triangles);
+  if (components.num_components() <= 1) return {obstacle};
+  std::vector<MovingObstacle> shells(components.num_components());
+  std::vector<int> local(obstacle.vertices.cols(), -1);
+  for (int c = 0; c < components.num_components(); ++c) {
+    MovingObstacle& shell = shells[c];
+    shell.name = obstacle.name + " shell " + std::to_string(c + 1);
+    shell.bone = obstacle.bone;
+    const std::vector<int>& vertices = components.vertices[c];
+    shell.vertices.resize(3, vertices.size());
+    for (size_t k = 0; k < vertices.size(); ++k) {
+      shell.vertices.col(k) = obstacle.vertices.col(vertices[k]);
+      local[vertices[k]] = static_cast<int>(k);
+    }
+  }
+  std::vector<int> count(components.num_components(), 0);
+  for (int component : components.triangle_component) ++count[component];
+  for (int c = 0; c < components.num_components(); ++c) shells[c].triangles.resize(3, count[c]);
+  std::fill(count.begin(), count.end(), 0);
+  for (Eigen::Index t = 0; t < obstacle.triangles.cols(); ++t) {
+    const int c = components.triangle_component[t];
+    for (int k = 0; k < 3; ++k) shells[c].triangles(k, count[c]) = local[obstacle.triangles(k, t)];
+    ++count[c];
+  }
+  return shells;
 }
 
 std::unique_ptr<Obstacle> MovingObstacle::Place(const std::vector<RigidTransform>& bones) const {

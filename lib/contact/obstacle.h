@@ -24,10 +24,9 @@ struct FeatureDistance {
   double weight = 1.0;  // 1 for triangles, SurfaceFeatures' weight for edges and vertices
 };
 
-// A rigid obstacle at one placement: a closed triangle surface, or closed shells that may
-// overlap (the teeth of a dental model, one shell per tooth), with its signed distance:
-// positive outside, negative inside the union (inside by winding number), measured to
-// the triangles not buried inside another shell (surface_triangles).
+// A rigid obstacle at one placement: a closed triangle surface (one shell; closed shells
+// that overlap, as the teeth of a dental model, are one obstacle each: SplitIntoShells)
+// with its signed distance: positive outside, negative inside (inside by winding number).
 class Obstacle {
  public:
   // vertices: 3 x N at the placement; triangles: 3 x M, consistently oriented, outward
@@ -39,19 +38,14 @@ class Obstacle {
   const Eigen::Matrix3Xd& vertices() const { return vertices_; }
   const Eigen::Matrix3Xi& triangles() const { return triangles_; }
 
-  // The triangles distances are measured to (3 x M'): all but those buried inside the
-  // obstacle (where closed shells overlap, the parts of each inside another).
-  const Eigen::Matrix3Xi& surface_triangles() const { return surface_; }
-
   // The signed distance of p and its gradient (the unit vector from the closest surface
-  // point to p, flipped inside: it points out of the obstacle), measured to the surface
-  // triangles. Points outside farther than max_distance (when finite) return
-  // +max_distance with a zero gradient, without a full search; points inside always get
-  // their whole (negative) distance.
+  // point to p, flipped inside: it points out of the obstacle). Points outside farther
+  // than max_distance (when finite) return +max_distance with a zero gradient, without a
+  // full search; points inside always get their whole (negative) distance.
   double SignedDistance(const Eigen::Vector3d& p, Eigen::Vector3d* gradient,
                         double max_distance = std::numeric_limits<double>::infinity()) const;
 
-  // The features of the surface triangles nearer to p than `reach` (> 0) with a nonzero
+  // The features of the surface nearer to p than `reach` (> 0) with a nonzero
   // weight (geometry/surface_features.h), appended to *features: the triangles in
   // ascending order, then their edges, then their vertices (each once, ascending). A
   // feature within reach always belongs to a triangle within reach.
@@ -66,11 +60,9 @@ class Obstacle {
   // +1 if the triangles face outward (positive enclosed volume), -1 if inward: the
   // winding number inside is then -1, and the triangles' normals point in.
   double orientation_ = 1.0;
-  // The triangles not buried inside the obstacle (3 x M', those of triangles_ whose outer
-  // side is outside): what distances are measured to.
-  Eigen::Matrix3Xi surface_;
-  TriangleBvh bvh_;  // over surface_
-  SurfaceFeatures features_;  // of surface_
+  TriangleBvh bvh_;
+  SurfaceFeatures features_;
+  Eigen::Vector3d lower_ = Eigen::Vector3d::Zero(), upper_ = Eigen::Vector3d::Zero();  // box
 };
 
 // A rigid obstacle that moves with one of a model's bones, or stays: its surface at rest.
@@ -84,6 +76,14 @@ struct MovingObstacle {
   // CHECKs that the bone exists).
   std::unique_ptr<Obstacle> Place(const std::vector<RigidTransform>& bones) const;
 };
+
+// The connected components of `obstacle`'s surface (triangles sharing a vertex), each an
+// obstacle of its own moving with the same bone, named "<name> shell k" (k from 1, in the
+// order of their smallest vertex), its vertices renumbered; `obstacle` itself if it has
+// one. Closed shells that overlap (teeth) are not one closed surface: measured as one, a
+// point inside an overlap got the distance to a face buried in the other shell, and the
+// penalty held it there.
+std::vector<MovingObstacle> SplitIntoShells(const MovingObstacle& obstacle);
 
 // A rigid obstacle as specified by users: a surface file, optionally only the triangles
 // whose vertices all lie in a vertex range (e.g. the lower teeth of a file with both

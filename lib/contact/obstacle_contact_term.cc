@@ -63,8 +63,9 @@ ObstacleContactTerm::ObstacleContactTerm(const std::vector<PointStencil>& points
   CHECK_GT(thickness, 0.0);
 }
 
-double ObstacleContactTerm::Distance(const Eigen::Vector3d& p, Eigen::Vector3d* gradient) const {
-  return NearestObstacleDistance(obstacles_, p, gradient);
+double ObstacleContactTerm::Distance(const Eigen::Vector3d& p, Eigen::Vector3d* gradient,
+                                     double max_distance) const {
+  return NearestObstacleDistance(obstacles_, p, gradient, max_distance);
 }
 
 double ObstacleContactTerm::AddEnergyAndGradient(const Eigen::Ref<const Eigen::Matrix3Xd>& x,

@@ -1,6 +1,7 @@
 #ifndef AQS_CONTACT_OBSTACLE_CONTACT_TERM_H_
 #define AQS_CONTACT_OBSTACLE_CONTACT_TERM_H_
 
+#include <limits>
 #include <vector>
 
 #include <Eigen/Core>
@@ -44,8 +45,10 @@ class ObstacleContactTerm : public EnergyTerm {
   // The residual cost function of point i (1 residual, 4 blocks of 3), for tests.
   ceres::CostFunction* NewCostFunction(int i) const;
   // Signed distance of a point to the nearest obstacle and its gradient
-  // (NearestObstacleDistance): what the reports count as contact (d < thickness).
-  double Distance(const Eigen::Vector3d& p, Eigen::Vector3d* gradient) const;
+  // (NearestObstacleDistance, searched as far as max_distance): what the reports count as
+  // contact (d < thickness) and candidates are chosen by.
+  double Distance(const Eigen::Vector3d& p, Eigen::Vector3d* gradient,
+                  double max_distance = std::numeric_limits<double>::infinity()) const;
 
  private:
   std::vector<PointStencil> points_;

@@ -9,14 +9,12 @@
 namespace aqs {
 
 double NearestObstacleDistance(const std::vector<const Obstacle*>& obstacles,
-                               const Eigen::Vector3d& p, Eigen::Vector3d* gradient) {
-  double best = std::numeric_limits<double>::infinity();
+                               const Eigen::Vector3d& p, Eigen::Vector3d* gradient,
+                               double max_distance) {
+  double best = max_distance;
   gradient->setZero();
   for (const Obstacle* obstacle : obstacles) {
     Eigen::Vector3d g;
-    // The first obstacle in full (contact candidates are chosen by distances beyond the
-    // thickness); the others only as far as the nearest so far, which is all that can win
-    // (points inside are found at any depth).
     const double d = obstacle->SignedDistance(p, &g, std::min(best, 1e300));
     if (d < best) {
       best = d;
@@ -31,21 +29,26 @@ double ObstaclePenalty(const std::vector<const Obstacle*>& obstacles, double thi
                        Eigen::Matrix3d* gauss_newton) {
   gradient->setZero();
   if (gauss_newton != nullptr) gauss_newton->setZero();
-  Eigen::Vector3d outward;
-  const double s = NearestObstacleDistance(obstacles, p, &outward);
-  if (!(s < thickness)) return 0.0;  // nothing within reach (or no obstacle)
+  // Scratch kept per thread (this runs for every contact point at every evaluation).
+  thread_local std::vector<FeatureDistance> features;
+  features.clear();
   double penalty = 0.0;
-  if (s < 0.0) {  // inside: phi(s) - phi(|s|), whose gradient is along the outward normal
-    const double depth = -s;
-    const double beyond = std::max(0.0, thickness - depth);
-    penalty += 0.5 * ((thickness + depth) * (thickness + depth) - beyond * beyond);
-    *gradient -= ((thickness + depth) + beyond) * outward;
-    // Only the nearest face reaches when the depth is t or more: then the features add
-    // nothing, and the Gauss-Newton part is phi(s)'s own.
-    if (gauss_newton != nullptr && beyond == 0.0) *gauss_newton = outward * outward.transpose();
+  for (const Obstacle* obstacle : obstacles) {
+    Eigen::Vector3d outward;
+    // Searched only within the thickness (points inside at any depth).
+    const double s = obstacle->SignedDistance(p, &outward, thickness);
+    if (!(s < thickness)) continue;  // out of reach
+    if (s < 0.0) {  // inside: phi(s) - phi(|s|), whose gradient is along the outward normal
+      const double depth = -s;
+      const double beyond = std::max(0.0, thickness - depth);
+      penalty += 0.5 * ((thickness + depth) * (thickness + depth) - beyond * beyond);
+      *gradient -= ((thickness + depth) + beyond) * outward;
+      // When the depth is t or more no feature of this obstacle reaches, and the
+      // Gauss-Newton part is phi(s)'s own.
+      if (gauss_newton != nullptr && beyond == 0.0) *gauss_newton += outward * outward.transpose();
+    }
+    obstacle->FeaturesWithin(p, thickness, &features);
   }
-  std::vector<FeatureDistance> features;
-  for (const Obstacle* obstacle : obstacles) obstacle->FeaturesWithin(p, thickness, &features);
   for (const FeatureDistance& f : features) {
     const double gap = thickness - f.distance;
     penalty += 0.5 * f.weight * gap * gap;

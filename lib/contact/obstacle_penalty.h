@@ -1,6 +1,7 @@
 #ifndef AQS_CONTACT_OBSTACLE_PENALTY_H_
 #define AQS_CONTACT_OBSTACLE_PENALTY_H_
 
+#include <limits>
 #include <vector>
 
 #include <Eigen/Core>
@@ -12,34 +13,40 @@ namespace aqs {
 // The contact penalty of one point p against rigid obstacles, per unit stiffness, with
 // phi(d) = 1/2 max(0, t - d)^2 (t = thickness > 0):
 //
-//   P(p) = sum_f w_f phi(d_f(p))  +  phi(s(p)) - phi(|s(p)|),
+//   P(p) = sum_f w_f phi(d_f(p))  +  sum_o [phi(s_o(p)) - phi(|s_o(p)|)],
 //
 // the first sum over the closed features f (triangles, edges, vertices) of every obstacle
 // nearer than t, d_f the unsigned distance to f and w_f its inclusion-exclusion weight
-// (Obstacle::FeaturesWithin); s the signed distance to the nearest obstacle (negative
-// inside: Obstacle::SignedDistance). Outside every obstacle the last two cancel and P is
-// the feature sum: phi(s) wherever the closest points of the features within reach
-// coincide (over a face, a convex edge or corner, a flat tessellation), C1 at a concave
-// crease, where phi(s) kinks (its gradient jumps between the two faces' normals, and
-// Newton steps crawl along the crease: docs/solver.md, "Stalls"), and the penalties of
-// several obstacles add. Inside, phi(s) - phi(|s|) = 2 t |s| (or 1/2 (t + |s|)^2 past t)
-// adds the depth, so P is continuous through the surface; its gradient still kinks at
-// the interior bisector of a convex edge, where the nearest face changes.
+// (Obstacle::FeaturesWithin); s_o the signed distance to obstacle o (negative inside:
+// Obstacle::SignedDistance). Outside every obstacle the second sum vanishes and P is the
+// feature sum: phi(d) of the nearest distance wherever the closest points of the
+// features within reach coincide (over a face, a convex edge or corner, a flat
+// tessellation), C1 at a concave crease, where phi(d) kinks (its gradient jumps between
+// the two faces' normals, and Newton steps crawl along it: docs/solver.md, "Stalls"), and
+// the penalties of several obstacles add. A part of an obstacle thinner than about 2 t (or
+// an obstacle smaller than that) is counted from both sides: up to twice phi(d). Inside
+// obstacle o, phi(s_o) - phi(|s_o|) = 2 t |s_o| (or 1/2 (t + |s_o|)^2 past t) adds its
+// depth, so P is continuous through each surface, and a point inside several obstacles
+// that overlap (shells of one model: SplitIntoShells) is pushed out of each; the gradient
+// still kinks at the interior bisector of a convex edge, where the nearest face changes.
 //
 // Returns P; *gradient = dP/dp; *gauss_newton (may be null) = the Gauss-Newton part of
-// the Hessian, sum_f w_f n_f n_f^T over the features within reach (n_f = grad d_f), with
-// its negative eigenvalues (from edges of weight < 0) set to 0. It omits the distances'
-// curvature, sum_f -w_f (t - d_f) Hess d_f, which is 0 where all features are faces.
+// the Hessian, sum_f w_f n_f n_f^T over the features within reach (n_f = grad d_f; and
+// n n^T of each obstacle the point is deeper in than t), with its negative eigenvalues
+// (from edges of weight < 0) set to 0. It omits the distances' curvature, sum_f -w_f
+// (t - d_f) Hess d_f, which is 0 where all features are faces. P >= 0.
 double ObstaclePenalty(const std::vector<const Obstacle*>& obstacles, double thickness,
                        const Eigen::Vector3d& p, Eigen::Vector3d* gradient,
                        Eigen::Matrix3d* gauss_newton);
 
-// The signed distance of p to the nearest of `obstacles` (Obstacle::SignedDistance; each
-// obstacle after the first searched only as far as the nearest so far, penetrations at
-// any depth) and its gradient; +infinity with a zero gradient when there are no
-// obstacles.
-double NearestObstacleDistance(const std::vector<const Obstacle*>& obstacles,
-                               const Eigen::Vector3d& p, Eigen::Vector3d* gradient);
+// The signed distance of p to the nearest of `obstacles` (Obstacle::SignedDistance, each
+// obstacle searched only as far as max_distance and the nearest so far, penetrations at
+// any depth) and its gradient; max_distance with a zero gradient when none is nearer
+// (+infinity: when there are no obstacles).
+double NearestObstacleDistance(
+    const std::vector<const Obstacle*>& obstacles, const Eigen::Vector3d& p,
+    Eigen::Vector3d* gradient,
+    double max_distance = std::numeric_limits<double>::infinity());
 
 }  // namespace aqs
 

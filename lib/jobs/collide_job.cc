@@ -121,8 +121,12 @@ bool ReadObstacles(const std::string& spec, const ActiveModel& model,
         return false;
       }
     }
-    obstacles->push_back(std::move(obstacle));
+    // One obstacle per closed shell: a file of teeth holds one shell per tooth, and
+    // neighbours overlap (their union is no closed surface of its own).
+    const std::vector<MovingObstacle> shells = SplitIntoShells(obstacle);
+    obstacles->insert(obstacles->end(), shells.begin(), shells.end());
     log << "obstacle " << specs[i].path << ": " << obstacle_triangles[i].cols() << " triangles"
+        << (shells.size() > 1 ? " in " + std::to_string(shells.size()) + " shells" : "")
         << (specs[i].bone.empty() ? "" : ", moving with " + specs[i].bone) << "\n";
   }
   return true;

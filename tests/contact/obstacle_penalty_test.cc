@@ -48,6 +48,15 @@ double GradientError(const std::vector<const Obstacle*>& obstacles, double thick
                                 1e-3);
 }
 
+// The axis-aligned box [lo, hi] as an obstacle.
+Obstacle BoxObstacle(const std::string& name, const Eigen::Vector3d& lo,
+                     const Eigen::Vector3d& hi) {
+  Eigen::Matrix3Xd v;
+  Eigen::Matrix3Xi t;
+  testing::BoxSurface(lo, hi, &v, &t);
+  return Obstacle(name, v, t);
+}
+
 // A rotated, shifted box [0, 2] x [0, 1] x [0, 1] (12 triangles: each face split by a
 // diagonal, which its sum must cancel).
 Obstacle RotatedBox(std::mt19937* rng, Eigen::Matrix3d* rotation, Eigen::Vector3d* shift) {
@@ -214,11 +223,9 @@ TEST(ObstaclePenaltyTest, GradientMatchesDifferencesNearACreaseItsEndsAndInside)
 TEST(ObstaclePenaltyTest, PenaltiesOfSeveralObstaclesAdd) {
   // Two boxes 0.06 apart along x and a point between them: 0.02 from one, 0.04 from the
   // other (the nearest distance alone saw only the first, and kinked midway).
-  Eigen::Matrix3Xd v1, v2;
-  Eigen::Matrix3Xi t1, t2;
-  testing::BoxSurface(Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(1, 1, 1), &v1, &t1);
-  testing::BoxSurface(Eigen::Vector3d(1.06, 0, 0), Eigen::Vector3d(2, 1, 1), &v2, &t2);
-  const Obstacle first("first", v1, t1), second("second", v2, t2);
+  const Obstacle first = BoxObstacle("first", Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(1, 1, 1));
+  const Obstacle second =
+      BoxObstacle("second", Eigen::Vector3d(1.06, 0, 0), Eigen::Vector3d(2, 1, 1));
   const double thickness = 0.05;
   const Eigen::Vector3d p(1.02, 0.4, 0.6);
   Eigen::Vector3d gradient;
@@ -237,6 +244,22 @@ TEST(ObstaclePenaltyTest, PenaltiesOfSeveralObstaclesAdd) {
               Phi(thickness, -0.5), 1e-14);
   EXPECT_EQ(ObstaclePenalty({}, thickness, p, &g, &gauss_newton), 0.0);
   EXPECT_TRUE(g.isZero());
+}
+
+// A point inside two overlapping obstacles is pushed out of each: with the depth of the
+// deepest alone, the nearer face of the other one (whose distance the feature sum sees
+// unsigned) drew it deeper into that one.
+TEST(ObstaclePenaltyTest, APointInsideTwoObstaclesIsPushedOutOfEach) {
+  const Obstacle a = BoxObstacle("a", Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(2, 1, 1));
+  const Obstacle b = BoxObstacle("b", Eigen::Vector3d(1.5, 0, 0), Eigen::Vector3d(3, 1, 1));
+  const double thickness = 0.05;
+  // 0.04 below both tops, 0.03 inside b's face x = 1.5 (which lies inside a).
+  const Eigen::Vector3d p(1.53, 0.5, 0.96);
+  Eigen::Vector3d gradient;
+  ObstaclePenalty({&a, &b}, thickness, p, &gradient, nullptr);
+  EXPECT_LT(-gradient.x(), 0.0) << "out of b, not deeper in: " << gradient.transpose();
+  EXPECT_GT(-gradient.z(), 0.0) << "up, out of both: " << gradient.transpose();
+  EXPECT_LT(GradientError({&a, &b}, thickness, p, 1e-7), 1e-6);
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #include "contact/obstacle.h"
 
 #include <algorithm>
+#include <memory>
 #include <random>
 #include <string>
 #include <vector>
@@ -11,6 +12,7 @@
 #include <Eigen/Core>
 #include <gtest/gtest.h>
 
+#include "contact/obstacle_penalty.h"
 #include "mesh/surface_mesh.h"
 #include "testing/contact_scenes.h"
 #include "testing/element_states.h"
@@ -124,43 +126,49 @@ TEST(ObstacleTest, AnOpenBoxFarFromTheOriginKeepsItsInside) {
   }
 }
 
-// Two overlapping closed shells in one obstacle (as the teeth of a dental model): the
-// inside is their union, and distances are measured to its boundary, not to the cap of
-// one sphere buried inside the other (which held penetrating points inside, pushed
-// toward it).
-TEST(ObstacleTest, OverlappingShellsMeasureToTheBoundaryOfTheirUnion) {
-  const SurfaceMesh left = testing::Icosphere(4, 1.0, Eigen::Vector3d(0, 0, 0));
-  const SurfaceMesh right = testing::Icosphere(4, 1.0, Eigen::Vector3d(1.2, 0, 0));
-  Eigen::Matrix3Xd v(3, left.num_vertices() + right.num_vertices());
-  v << left.vertices, right.vertices;
-  Eigen::Matrix3Xi t(3, left.triangles.cols() + right.triangles.cols());
-  t << left.triangles, (right.triangles.array() + left.num_vertices()).matrix();
-  const Obstacle spheres("two spheres", v, t);
-  // The caps inside the other sphere are not measured to; every other triangle is. A
-  // triangle is buried where its centroid lies inside the other (faceted) sphere, whose
-  // faces are within 1e-3 of the true one.
-  int surely = 0, possibly = 0;
-  for (Eigen::Index c = 0; c < t.cols(); ++c) {
-    const Eigen::Vector3d centroid = (v.col(t(0, c)) + v.col(t(1, c)) + v.col(t(2, c))) / 3.0;
-    const Eigen::Vector3d other(c < left.triangles.cols() ? 1.2 : 0.0, 0, 0);
-    surely += (centroid - other).norm() < 0.999;
-    possibly += (centroid - other).norm() < 1.0;
-  }
-  const int removed = static_cast<int>(t.cols() - spheres.surface_triangles().cols());
-  EXPECT_GT(surely, 1000);
-  EXPECT_GE(removed, surely);
-  EXPECT_LE(removed, possibly);
-  // In the lens where the spheres overlap: the nearest boundary point of the union is on
-  // the circle where the spheres meet, (0.6, 0, 0.8), 0.5 away (less the rim's facets:
-  // measured 0.483); the buried cap of the right sphere is 0.33 away.
-  Eigen::Vector3d gradient;
-  EXPECT_NEAR(spheres.SignedDistance(Eigen::Vector3d(0.6, 0, 0.3), &gradient), -0.5, 0.03);
-  EXPECT_LT((gradient - Eigen::Vector3d(0, 0, 1)).norm(), 0.1) << gradient.transpose();
-  // Outside, the nearer sphere's distance.
-  for (const Eigen::Vector3d& p : {Eigen::Vector3d(-1.3, 0.2, 0), Eigen::Vector3d(2.0, 0.9, 0.5),
-                                   Eigen::Vector3d(0.6, 0.5, 0.9)}) {
-    const double expected = std::min(p.norm(), (p - Eigen::Vector3d(1.2, 0, 0)).norm()) - 1.0;
-    EXPECT_NEAR(spheres.SignedDistance(p, &gradient), expected, 0.01) << p.transpose();
+// Two overlapping closed shells in one file (as the teeth of a dental model): split into
+// one obstacle each, and a point in the overlap is pushed out of the union by the
+// penalty (measured as one surface, it got the distance to the cap of one sphere buried
+// in the other, and the penalty held it there; filtering the buried triangles left
+// traps and jumps along the curve where the shells meet).
+TEST(ObstacleTest, OverlappingShellsAreSplitAndAPointInTheOverlapIsPushedOut) {
+  const SurfaceMesh left = testing::Icosphere(3, 1.0, Eigen::Vector3d(0, 0, 0));
+  const SurfaceMesh right = testing::Icosphere(3, 1.0, Eigen::Vector3d(1.2, 0, 0));
+  MovingObstacle both;
+  both.name = "spheres";
+  both.bone = 2;
+  both.vertices.resize(3, left.num_vertices() + right.num_vertices());
+  both.vertices << left.vertices, right.vertices;
+  both.triangles.resize(3, left.triangles.cols() + right.triangles.cols());
+  both.triangles << left.triangles, (right.triangles.array() + left.num_vertices()).matrix();
+  const std::vector<MovingObstacle> shells = SplitIntoShells(both);
+  ASSERT_EQ(shells.size(), 2u);
+  EXPECT_EQ(shells[1].name, "spheres shell 2");
+  EXPECT_EQ(shells[1].bone, 2);
+  EXPECT_EQ(shells[0].vertices, left.vertices);
+  EXPECT_EQ(shells[1].vertices, right.vertices);
+  EXPECT_EQ(shells[1].triangles, right.triangles);
+  EXPECT_EQ(SplitIntoShells(shells[0]).size(), 1u);
+  std::vector<RigidTransform> bones(3);
+  const std::unique_ptr<Obstacle> a = shells[0].Place(bones), b = shells[1].Place(bones);
+  const std::vector<const Obstacle*> obstacles = {a.get(), b.get()};
+  const double thickness = 0.05;
+  // From points in the lens where the spheres overlap, normalized descent on the penalty
+  // leaves the union (its nearest exit from (0.6, 0, 0.3) is up, through the circle where
+  // the spheres meet) and stops within the thickness of it.
+  for (const Eigen::Vector3d& start : {Eigen::Vector3d(0.6, 0, 0.3), Eigen::Vector3d(0.5, 0.2, 0),
+                                       Eigen::Vector3d(0.7, -0.3, 0.4)}) {
+    SCOPED_TRACE(start.transpose());
+    Eigen::Vector3d p = start, gradient;
+    for (int step = 0; step < 4000; ++step) {
+      ObstaclePenalty(obstacles, thickness, p, &gradient, nullptr);
+      if (gradient.norm() == 0.0) break;
+      p -= 1e-3 * gradient.normalized();
+    }
+    Eigen::Vector3d g;
+    const double d = std::min(a->SignedDistance(p, &g), b->SignedDistance(p, &g));
+    EXPECT_GT(d, 0.0) << "ended at " << p.transpose();
+    EXPECT_LT(d, thickness + 2e-3) << "ended at " << p.transpose();
   }
 }
 
