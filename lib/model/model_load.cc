@@ -196,12 +196,16 @@ bool CheckManifestCounts(const std::string& dir, const ManifestCounts& counts,
       return false;
     }
   }
-  if (model.neutral.triangles.cols() == 0) {
-    *error = dir + "/neutral.obj has no faces: a model's neutral surface needs its triangles "
-             "(scan fits, contact and the attachment springs read them)";
-    return false;
-  }
   return true;
+}
+
+// A neutral surface without faces (scan fits, contact and the attachment springs read
+// them) is refused naming neutral.obj.
+bool CheckNeutralHasFaces(const std::string& dir, const ActiveModel& model, std::string* error) {
+  if (model.neutral.triangles.cols() > 0) return true;
+  *error = dir + "/neutral.obj has no faces: a model's neutral surface needs its triangles "
+           "(scan fits, contact and the attachment springs read them)";
+  return false;
 }
 
 // The learned state must give actuations a simulation can use: the training latents
@@ -656,7 +660,8 @@ bool LoadModel(const std::string& directory, ActiveModel* model_out, std::string
     return false;
   }
   if (!ReadTetMesh(dir + "/mesh.mesh", &model.mesh, error) || !ReadStiffness(dir, &model, error) ||
-      !ReadObj(dir + "/neutral.obj", &model.neutral, error) || !ReadPoses(dir, &model, error) ||
+      !ReadObj(dir + "/neutral.obj", &model.neutral, error) ||
+      !CheckNeutralHasFaces(dir, model, error) || !ReadPoses(dir, &model, error) ||
       !ReadFixedVerticesAndBones(dir, &model, error) ||
       !CheckManifestCounts(dir, counts, model, error) || !ReadEmbedding(dir, &model, error) ||
       !ReadLearnedPart(dir, version, &model, error) || !ValidateModel(model, dir, error)) {

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <memory>
 #include <sstream>
 
@@ -36,15 +35,10 @@ constexpr char kLogHeader[] =
     "iteration,loss,mean_surface_error,max_surface_error,gradient_norm,step_norm,seconds,"
     "function_evaluations,factorizations_per_pose,cg_solves_per_pose\n";
 
-// The seconds column (the 7th) of the last row of the log at `path`: what the runs
-// before this one spent; 0 if there is none.
-double LastLoggedSeconds(const std::string& path) {
-  std::ifstream in(path);
-  std::string line, last;
-  while (std::getline(in, line)) {
-    if (!line.empty()) last = line;
-  }
-  std::stringstream fields(last);
+// The seconds column (the 7th, kLogHeader's) of a row of the log: what the runs before
+// this one spent; 0 if it has none.
+double LoggedSeconds(const std::string& row) {
+  std::stringstream fields(row);
   std::string field;
   for (int k = 0; k < 7 && std::getline(fields, field, ','); ++k) {
     double seconds = 0.0;
@@ -404,11 +398,12 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
     std::error_code code;
     fs::create_directories(options.model_directory + "/train", code);
     int last_row = -1;
+    std::string last_line;
     if (!PrepareIterationLog(LogPath(options.model_directory), kLogHeader,
-                             report->iterations_before, &last_row, error)) {
+                             report->iterations_before, &last_row, error, &last_line)) {
       return false;
     }
-    if (last_row >= 0) seconds_before = LastLoggedSeconds(LogPath(options.model_directory));
+    seconds_before = LoggedSeconds(last_line);
     if (report->iterations_before > 0 && last_row < report->iterations_before) {
       // The learned state is whole (it is saved as one unit); only the record is short.
       log << "train: warning: " << options.model_directory << "/train/log.csv has rows up to "

@@ -26,9 +26,10 @@ bool IsWholeLogRow(const std::string& line, const std::string& header) {
 }
 
 bool PrepareIterationLog(const std::string& path, const std::string& header, int iteration,
-                         int* last_row, std::string* error) {
+                         int* last_row, std::string* error, std::string* last_line) {
   std::string kept = header;
   *last_row = -1;
+  if (last_line != nullptr) last_line->clear();
   if (iteration > 0) {
     std::ifstream in(path);
     std::string line;
@@ -39,6 +40,7 @@ bool PrepareIterationLog(const std::string& path, const std::string& header, int
           IsWholeLogRow(line, header)) {
         kept += line + "\n";
         *last_row = it;
+        if (last_line != nullptr) *last_line = line;
       }
     }
   }

@@ -19,9 +19,10 @@ bool IsWholeLogRow(const std::string& line, const std::string& header);
 // row), or holds the header alone when `iteration` is 0 (a new run logs its row 0).
 // `header` ends with a newline. Replaced atomically. *last_row is the last iteration
 // kept (-1: none): less than `iteration` if the log was cut or replaced apart from what
-// it records. Returns false with *error if it cannot be written.
+// it records; *last_line (may be null) that row's text ("" for none). Returns false with
+// *error if it cannot be written.
 bool PrepareIterationLog(const std::string& path, const std::string& header, int iteration,
-                         int* last_row, std::string* error);
+                         int* last_row, std::string* error, std::string* last_line = nullptr);
 
 // Appends `row` (one line, with its newline) to the log at `path` and flushes it (a log
 // is appended row by row, not replaced: a kill may leave a partial last row, which

@@ -33,12 +33,15 @@ TEST(IterationLogTest, AResumeKeepsTheWholeRowsUpToItsCheckpointInOrder) {
                                "0,1,0\n1,0.9,1\n2,0.8,2\n1,0.85,3\n3,0.7,4\n4,0.6,5\n5,0.5");
   int last = -2;
   std::string error;
-  ASSERT_TRUE(PrepareIterationLog(path, kHeader, 3, &last, &error)) << error;
+  std::string last_line = "stale";
+  ASSERT_TRUE(PrepareIterationLog(path, kHeader, 3, &last, &error, &last_line)) << error;
   EXPECT_EQ(last, 3);
+  EXPECT_EQ(last_line, "3,0.7,4");
   EXPECT_EQ(testing::ReadAll(path), std::string(kHeader) + "0,1,0\n1,0.9,1\n2,0.8,2\n3,0.7,4\n");
   // A fresh run (iteration 0) keeps the header alone; a missing log becomes one.
-  ASSERT_TRUE(PrepareIterationLog(path, kHeader, 0, &last, &error)) << error;
+  ASSERT_TRUE(PrepareIterationLog(path, kHeader, 0, &last, &error, &last_line)) << error;
   EXPECT_EQ(last, -1);
+  EXPECT_EQ(last_line, "");
   EXPECT_EQ(testing::ReadAll(path), kHeader);
   const std::string missing = dir.File("new.csv");
   ASSERT_TRUE(PrepareIterationLog(missing, kHeader, 7, &last, &error)) << error;
