@@ -1,6 +1,7 @@
 #include "contact/obstacle.h"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <set>
 
@@ -92,12 +93,15 @@ void Obstacle::FeaturesWithin(const Eigen::Vector3d& p, double reach,
   thread_local std::vector<int> triangles, edges, corners;
   bvh_.TrianglesWithin(p, reach, &triangles);
   if (triangles.empty()) return;
-  auto add = [&](const Eigen::Vector3d& closest, double weight, int triangle) {
+  auto add = [&](const Eigen::Vector3d& closest, double weight, int triangle, int dimension,
+                 const Eigen::Vector3d& tangent) {
     FeatureDistance feature;
     feature.direction = p - closest;
     feature.distance = feature.direction.norm();
     if (!(feature.distance < reach)) return;
     feature.weight = weight;
+    feature.closest_dimension = dimension;
+    feature.tangent = tangent;
     if (feature.distance > 1e-12) {
       feature.direction /= feature.distance;
     } else if (triangle >= 0) {  // on the triangle: its outward normal
@@ -113,9 +117,27 @@ void Obstacle::FeaturesWithin(const Eigen::Vector3d& p, double reach,
   edges.clear();
   corners.clear();
   for (int t : triangles) {
-    add(ClosestPointOnTriangle(p, vertices_.col(triangles_(0, t)), vertices_.col(triangles_(1, t)),
-                               vertices_.col(triangles_(2, t)), nullptr),
-        1.0, t);
+    Eigen::Vector3d barycentric;
+    const Eigen::Vector3d closest =
+        ClosestPointOnTriangle(p, vertices_.col(triangles_(0, t)), vertices_.col(triangles_(1, t)),
+                               vertices_.col(triangles_(2, t)), &barycentric);
+    // The closest point's region: the corners of nonzero weight span it.
+    int corners_used[3], count = 0;
+    for (int k = 0; k < 3; ++k) {
+      if (barycentric[k] != 0.0) corners_used[count++] = k;
+    }
+    Eigen::Vector3d tangent = Eigen::Vector3d::Zero();
+    if (count == 2) {
+      tangent = vertices_.col(triangles_(corners_used[1], t)) -
+                vertices_.col(triangles_(corners_used[0], t));
+      const double length = tangent.norm();
+      if (length > 0.0) {
+        tangent /= length;
+      } else {
+        count = 1;  // coincident corners: a point
+      }
+    }
+    add(closest, 1.0, t, std::max(0, count - 1), tangent);
     for (int k = 0; k < 3; ++k) {
       edges.push_back(features_.triangle_edges(k, t));
       corners.push_back(triangles_(k, t));
@@ -131,11 +153,25 @@ void Obstacle::FeaturesWithin(const Eigen::Vector3d& p, double reach,
     const Eigen::Vector3d b = vertices_.col(features_.edges(1, e));
     const double length2 = (b - a).squaredNorm();
     const double s = length2 > 0 ? std::clamp((p - a).dot(b - a) / length2, 0.0, 1.0) : 0.0;
-    add(a + s * (b - a), features_.edge_weights[e], -1);
+    const bool inside = s > 0.0 && s < 1.0;
+    add(a + s * (b - a), features_.edge_weights[e], -1, inside ? 1 : 0,
+        inside ? Eigen::Vector3d((b - a) / std::sqrt(length2)) : Eigen::Vector3d::Zero());
   }
   for (int v : corners) {
-    if (features_.vertex_weights[v] != 0.0) add(vertices_.col(v), features_.vertex_weights[v], -1);
+    if (features_.vertex_weights[v] != 0.0) {
+      add(vertices_.col(v), features_.vertex_weights[v], -1, 0, Eigen::Vector3d::Zero());
+    }
   }
+}
+
+Eigen::Matrix3d FeatureDistanceHessian(const FeatureDistance& feature) {
+  if (feature.closest_dimension >= 2 || !(feature.distance > 1e-12)) {
+    return Eigen::Matrix3d::Zero();
+  }
+  Eigen::Matrix3d hessian =
+      Eigen::Matrix3d::Identity() - feature.direction * feature.direction.transpose();
+  if (feature.closest_dimension == 1) hessian -= feature.tangent * feature.tangent.transpose();
+  return hessian / feature.distance;
 }
 
 bool ParseObstacleSpecs(const std::string& text, std::vector<ObstacleSpec>* specs,

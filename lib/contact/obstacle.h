@@ -22,7 +22,19 @@ struct FeatureDistance {
   // on a triangle (distance <= 1e-12) its outward normal, on an edge or vertex zero.
   Eigen::Vector3d direction = Eigen::Vector3d::Zero();
   double weight = 1.0;  // 1 for triangles, SurfaceFeatures' weight for edges and vertices
+  // Where the closest point lies: 0 at a point (a vertex, an edge's end, a triangle's
+  // corner), 1 inside a segment (an edge, a triangle's side) running along the unit
+  // `tangent`, 2 inside a triangle. It sets the distance's curvature
+  // (FeatureDistanceHessian).
+  int closest_dimension = 2;
+  Eigen::Vector3d tangent = Eigen::Vector3d::Zero();
 };
+
+// The Hessian of a feature's unsigned distance with respect to the point (3 x 3): (I -
+// u u^T) / d at a point, (I - u u^T - e e^T) / d along a segment (u = direction, e =
+// tangent, d = distance), 0 inside a triangle; 0 when d <= 1e-12 (where the distance is
+// not differentiable).
+Eigen::Matrix3d FeatureDistanceHessian(const FeatureDistance& feature);
 
 // A rigid obstacle at one placement: a closed triangle surface (one shell; closed shells
 // that overlap, as the teeth of a dental model, are one obstacle each: SplitIntoShells)

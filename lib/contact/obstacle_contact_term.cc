@@ -85,7 +85,7 @@ double ObstacleContactTerm::AddEnergyAndGradient(const Eigen::Ref<const Eigen::M
 void ObstacleContactTerm::AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>& x,
                                        const StiffnessPattern& pattern, StiffnessKind /*kind*/,
                                        std::vector<double>* values) const {
-  // The Gauss-Newton part (positive semi-definite) for both kinds.
+  // The point's Hessian projected positive semi-definite, for both kinds.
   for (size_t i = 0; i < points_.size(); ++i) {
     const PointStencil& s = points_[i];
     Eigen::Vector3d g;

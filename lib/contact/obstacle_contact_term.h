@@ -27,9 +27,9 @@ namespace aqs {
 // do not crawl there. Its Ceres residual per point is r_i = sqrt(2 k_i P(p_i)), with the
 // exact Jacobian k_i grad P^T dp_i/dx / r_i. The features are found anew at every
 // evaluation (obstacle trees), so contacts follow the solve. Its stiffness (for Newton
-// steps) is the Gauss-Newton part of each point's Hessian (projected positive
-// semi-definite), exact where all features within reach are faces (there Hess d = 0); a
-// point's stencil lies in one element, so it needs no extra couplings.
+// steps) is each point's Hessian projected positive semi-definite (ObstaclePenalty:
+// exact outside the obstacles); a point's stencil lies in one element, so it needs no
+// extra couplings.
 class ObstacleContactTerm : public EnergyTerm {
  public:
   ObstacleContactTerm(const std::vector<PointStencil>& points, const Eigen::VectorXd& stiffness,

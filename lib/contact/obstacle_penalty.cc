@@ -26,9 +26,9 @@ double NearestObstacleDistance(const std::vector<const Obstacle*>& obstacles,
 
 double ObstaclePenalty(const std::vector<const Obstacle*>& obstacles, double thickness,
                        const Eigen::Vector3d& p, Eigen::Vector3d* gradient,
-                       Eigen::Matrix3d* gauss_newton) {
+                       Eigen::Matrix3d* hessian) {
   gradient->setZero();
-  if (gauss_newton != nullptr) gauss_newton->setZero();
+  if (hessian != nullptr) hessian->setZero();
   // Scratch kept per thread (this runs for every contact point at every evaluation).
   thread_local std::vector<FeatureDistance> features;
   features.clear();
@@ -43,9 +43,9 @@ double ObstaclePenalty(const std::vector<const Obstacle*>& obstacles, double thi
       const double beyond = std::max(0.0, thickness - depth);
       penalty += 0.5 * ((thickness + depth) * (thickness + depth) - beyond * beyond);
       *gradient -= ((thickness + depth) + beyond) * outward;
-      // When the depth is t or more no feature of this obstacle reaches, and the
-      // Gauss-Newton part is phi(s)'s own.
-      if (gauss_newton != nullptr && beyond == 0.0) *gauss_newton += outward * outward.transpose();
+      // When the depth is t or more no feature of this obstacle reaches; phi(s)'s
+      // Hessian then, its curvature left out, is n n^T.
+      if (hessian != nullptr && beyond == 0.0) *hessian += outward * outward.transpose();
     }
     obstacle->FeaturesWithin(p, thickness, &features);
   }
@@ -53,11 +53,14 @@ double ObstaclePenalty(const std::vector<const Obstacle*>& obstacles, double thi
     const double gap = thickness - f.distance;
     penalty += 0.5 * f.weight * gap * gap;
     *gradient -= f.weight * gap * f.direction;
-    if (gauss_newton != nullptr) *gauss_newton += f.weight * f.direction * f.direction.transpose();
+    if (hessian != nullptr) {
+      *hessian += f.weight * (f.direction * f.direction.transpose() -
+                              gap * FeatureDistanceHessian(f));
+    }
   }
-  if (gauss_newton != nullptr && !features.empty()) {
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(*gauss_newton);
-    *gauss_newton = eigen.eigenvectors() * eigen.eigenvalues().cwiseMax(0.0).asDiagonal() *
+  if (hessian != nullptr && !features.empty()) {
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(*hessian);
+    *hessian = eigen.eigenvectors() * eigen.eigenvalues().cwiseMax(0.0).asDiagonal() *
                     eigen.eigenvectors().transpose();
   }
   return penalty;

@@ -30,14 +30,16 @@ namespace aqs {
 // that overlap (shells of one model: SplitIntoShells) is pushed out of each; the gradient
 // still kinks at the interior bisector of a convex edge, where the nearest face changes.
 //
-// Returns P; *gradient = dP/dp; *gauss_newton (may be null) = the Gauss-Newton part of
-// the Hessian, sum_f w_f n_f n_f^T over the features within reach (n_f = grad d_f; and
-// n n^T of each obstacle the point is deeper in than t), with its negative eigenvalues
-// (from edges of weight < 0) set to 0. It omits the distances' curvature, sum_f -w_f
-// (t - d_f) Hess d_f, which is 0 where all features are faces. P >= 0.
+// Returns P; *gradient = dP/dp; *hessian (may be null) = d2P/dp2 with its negative
+// eigenvalues set to 0. Before that projection it is exact outside the obstacles: sum_f w_f (n_f n_f^T - (t -
+// d_f) Hess d_f) over the features within reach (n_f = grad d_f, Hess d_f =
+// FeatureDistanceHessian), whose curvature part is negative about convex edges and
+// corners (removed by the projection) and positive in concave creases, from the edges of
+// weight < 0. Inside an obstacle its depth term adds n n^T only (the depth's curvature is
+// left out). P >= 0.
 double ObstaclePenalty(const std::vector<const Obstacle*>& obstacles, double thickness,
                        const Eigen::Vector3d& p, Eigen::Vector3d* gradient,
-                       Eigen::Matrix3d* gauss_newton);
+                       Eigen::Matrix3d* hessian);
 
 // The signed distance of p to the nearest of `obstacles` (Obstacle::SignedDistance, each
 // obstacle searched only as far as max_distance and the nearest so far, penetrations at

@@ -96,6 +96,58 @@ TEST(ObstacleTest, SignedDistanceGradientOnARotatedBox) {
   }
 }
 
+// FeatureDistanceHessian against central differences of each feature's direction (the
+// distance's gradient), at random points about a rotated box and a notched prism (a
+// concave crease), with a reach that takes in every feature so that the list's order does
+// not change between the differenced points. Closest points at corners (dimension 0),
+// inside segments (1) and inside triangles (2) all occur.
+TEST(ObstacleTest, FeatureDistanceHessianMatchesDifferencesOfItsDirection) {
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+  int checked[3] = {0, 0, 0};
+  for (int shape = 0; shape < 2; ++shape) {
+    Eigen::Matrix3Xd v;
+    Eigen::Matrix3Xi t;
+    if (shape == 0) {
+      testing::BoxSurface(Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(2, 1, 1), &v, &t);
+    } else {
+      testing::NotchedPrismSurface(0.6, &v, &t);
+    }
+    const Eigen::Matrix3d rotation = testing::RandomRotation(&rng);
+    const Obstacle obstacle("shape", (rotation * v).colwise() + Eigen::Vector3d(0.2, -0.1, 0.4),
+                            t);
+    const double reach = 100.0;
+    for (int i = 0; i < 30; ++i) {
+      const Eigen::Vector3d p = rotation * Eigen::Vector3d(1.5 * uniform(rng), 1.5 * uniform(rng),
+                                                           1.5 * uniform(rng)) +
+                                Eigen::Vector3d(0.2, -0.1, 0.4);
+      std::vector<FeatureDistance> features;
+      obstacle.FeaturesWithin(p, reach, &features);
+      for (size_t f = 0; f < features.size(); ++f) {
+        if (features[f].distance < 1e-2) continue;  // too near its kink for the step
+        SCOPED_TRACE("shape " + std::to_string(shape) + ", point " + std::to_string(i) +
+                     ", feature " + std::to_string(f) + " of dimension " +
+                     std::to_string(features[f].closest_dimension));
+        auto direction = [&](const Eigen::VectorXd& q) -> Eigen::VectorXd {
+          std::vector<FeatureDistance> at_q;
+          obstacle.FeaturesWithin(q, reach, &at_q);
+          EXPECT_EQ(at_q.size(), features.size());
+          return at_q.size() == features.size() ? at_q[f].direction : Eigen::Vector3d::Zero();
+        };
+        const Eigen::Matrix3d hessian = FeatureDistanceHessian(features[f]);
+        const Eigen::MatrixXd differenced = testing::CentralDifferenceJacobian(direction, p, 1e-6);
+        // Measured: at most 1.1e-9 of the larger of 1 and the largest entry.
+        EXPECT_LT(testing::RelativeError(hessian, differenced, 1.0), 1e-7)
+            << "analytic\n" << hessian << "\ndifferenced\n" << differenced;
+        ++checked[features[f].closest_dimension];
+      }
+    }
+  }
+  EXPECT_GT(checked[0], 100);
+  EXPECT_GT(checked[1], 100);
+  EXPECT_GT(checked[2], 20);
+}
+
 // A box without its top (a small hole is tolerated), either way oriented, far from the
 // origin too: a point inside it is inside (its orientation came from the volume about
 // the origin, which a hole makes depend on where the box is: 2 units up, it turned
