@@ -164,14 +164,14 @@ void Obstacle::FeaturesWithin(const Eigen::Vector3d& p, double reach,
   }
 }
 
-Eigen::Matrix3d FeatureDistanceHessian(const FeatureDistance& feature) {
+Eigen::Matrix3d FeatureDistanceHessian(const FeatureDistance& feature, double min_distance) {
   if (feature.closest_dimension >= 2 || !(feature.distance > 1e-12)) {
     return Eigen::Matrix3d::Zero();
   }
   Eigen::Matrix3d hessian =
       Eigen::Matrix3d::Identity() - feature.direction * feature.direction.transpose();
   if (feature.closest_dimension == 1) hessian -= feature.tangent * feature.tangent.transpose();
-  return hessian / feature.distance;
+  return hessian / std::max(feature.distance, min_distance);
 }
 
 bool ParseObstacleSpecs(const std::string& text, std::vector<ObstacleSpec>* specs,

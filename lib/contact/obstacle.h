@@ -33,8 +33,9 @@ struct FeatureDistance {
 // The Hessian of a feature's unsigned distance with respect to the point (3 x 3): (I -
 // u u^T) / d at a point, (I - u u^T - e e^T) / d along a segment (u = direction, e =
 // tangent, d = distance), 0 inside a triangle; 0 when d <= 1e-12 (where the distance is
-// not differentiable).
-Eigen::Matrix3d FeatureDistanceHessian(const FeatureDistance& feature);
+// not differentiable). With min_distance > 0, d in the division is at least
+// min_distance (a bounded curvature, exact where d >= min_distance).
+Eigen::Matrix3d FeatureDistanceHessian(const FeatureDistance& feature, double min_distance = 0.0);
 
 // A rigid obstacle at one placement: a closed triangle surface (one shell; closed shells
 // that overlap, as the teeth of a dental model, are one obstacle each: SplitIntoShells)

@@ -7,6 +7,16 @@
 #include <Eigen/Eigenvalues>
 
 namespace aqs {
+namespace {
+
+// The features' distance curvature enters the Hessian with d no less than this fraction
+// of the thickness: (t - d) / d grows without bound toward an edge or corner (t / r in a
+// concave crease, and the round-off of the terms that cancel about a convex edge, as
+// 1e-16 / d^2), and a stiffness of more than 100 times the penalty's own would freeze
+// such a point in Newton steps and spoil the factorization.
+constexpr double kCurvatureFloor = 0.01;
+
+}  // namespace
 
 double NearestObstacleDistance(const std::vector<const Obstacle*>& obstacles,
                                const Eigen::Vector3d& p, Eigen::Vector3d* gradient,
@@ -55,7 +65,7 @@ double ObstaclePenalty(const std::vector<const Obstacle*>& obstacles, double thi
     *gradient -= f.weight * gap * f.direction;
     if (hessian != nullptr) {
       *hessian += f.weight * (f.direction * f.direction.transpose() -
-                              gap * FeatureDistanceHessian(f));
+                              gap * FeatureDistanceHessian(f, kCurvatureFloor * thickness));
     }
   }
   if (hessian != nullptr && !features.empty()) {

@@ -31,12 +31,13 @@ namespace aqs {
 // still kinks at the interior bisector of a convex edge, where the nearest face changes.
 //
 // Returns P; *gradient = dP/dp; *hessian (may be null) = d2P/dp2 with its negative
-// eigenvalues set to 0. Before that projection it is exact outside the obstacles: sum_f w_f (n_f n_f^T - (t -
-// d_f) Hess d_f) over the features within reach (n_f = grad d_f, Hess d_f =
-// FeatureDistanceHessian), whose curvature part is negative about convex edges and
-// corners (removed by the projection) and positive in concave creases, from the edges of
-// weight < 0. Inside an obstacle its depth term adds n n^T only (the depth's curvature is
-// left out). P >= 0.
+// eigenvalues set to 0. Before that projection it is exact outside the obstacles, at
+// least t / 100 from every feature's closest point: sum_f w_f (n_f n_f^T - (t - d_f)
+// Hess d_f) over the features within reach (n_f = grad d_f, Hess d_f =
+// FeatureDistanceHessian). The curvature part is negative about convex edges and corners
+// (removed by the projection) and positive in concave creases, from the edges of weight
+// < 0; nearer than t / 100 to an edge or corner it is that at t / 100 (bounded). Inside an
+// obstacle its depth term adds n n^T only (the depth's curvature is left out). P >= 0.
 double ObstaclePenalty(const std::vector<const Obstacle*>& obstacles, double thickness,
                        const Eigen::Vector3d& p, Eigen::Vector3d* gradient,
                        Eigen::Matrix3d* hessian);

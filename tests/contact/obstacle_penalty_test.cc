@@ -282,6 +282,41 @@ TEST(ObstaclePenaltyTest, HessianIsTheProjectedSecondDerivativeOutside) {
   EXPECT_GT(curved, 10);
 }
 
+// Toward an edge the features' curvature (t - d) / d grows without bound: about a convex
+// edge of a rotated box its terms cancel but for round-off of order 1e-16 / d^2 (measured
+// 2.2e7 at 1e-12 before the floor), in a concave crease it is t / r. The Hessian bounds it
+// by taking d no less than t / 100, so its norm stays within 1 + 2 * 100 (the weights
+// are +-1), and about a convex edge it is n n^T to 1e-2.
+TEST(ObstaclePenaltyTest, HessianStaysBoundedTowardAnEdge) {
+  std::mt19937 rng(31);
+  const double thickness = 0.05;
+  Eigen::Matrix3d rotation;
+  Eigen::Vector3d shift;
+  const Obstacle box = RotatedBox(&rng, &rotation, &shift);
+  const Notch notch = MakeNotch(&rng, 0.2);
+  for (double distance : {1e-4, 1e-6, 1e-8, 1e-10, 1e-11, 1e-12, 0.0}) {
+    SCOPED_TRACE(distance);
+    // Off the convex edge y = z = 1 of the box, along its outward bisector.
+    const Eigen::Vector3d off_edge =
+        rotation * (Eigen::Vector3d(0.7, 1, 1) +
+                    distance * Eigen::Vector3d(0, 1, 1) / std::sqrt(2.0)) + shift;
+    Eigen::Vector3d gradient;
+    Eigen::Matrix3d hessian;
+    Penalty(box, thickness, off_edge, &gradient, &hessian);
+    EXPECT_TRUE(hessian.allFinite());
+    if (distance > 0.0) {
+      const Eigen::Vector3d n = rotation * Eigen::Vector3d(0, 1, 1) / std::sqrt(2.0);
+      EXPECT_LT((hessian - n * n.transpose()).norm(), 1e-2) << hessian;
+    }
+    EXPECT_LT(hessian.norm(), 3.0) << hessian;
+    // Above the notch's crease.
+    const Eigen::Vector3d above = notch.World(Eigen::Vector3d(0, -notch.depth + distance, 0.3));
+    Penalty(notch.obstacle, thickness, above, &gradient, &hessian);
+    EXPECT_TRUE(hessian.allFinite());
+    EXPECT_LT(hessian.norm(), 1.0 + 2.0 * 100.0) << hessian;
+  }
+}
+
 TEST(ObstaclePenaltyTest, PenaltiesOfSeveralObstaclesAdd) {
   // Two boxes 0.06 apart along x and a point between them: 0.02 from one, 0.04 from the
   // other (the nearest distance alone saw only the first, and kinked midway).
