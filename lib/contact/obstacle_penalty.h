@@ -37,7 +37,9 @@ namespace aqs {
 // FeatureDistanceHessian). The curvature part is negative about convex edges and corners
 // (removed by the projection) and positive in concave creases, from the edges of weight
 // < 0; nearer than t / 100 to an edge or corner it is that at t / 100 (bounded). Inside an
-// obstacle its depth term adds n n^T only (the depth's curvature is left out). P >= 0.
+// obstacle its depth term adds n n^T only (the depth's curvature is left out). On the
+// surface (within 1e-12) the features that hold the point take the obstacle's normal
+// there, so that the gradient is -t n, as on either side. P >= 0.
 double ObstaclePenalty(const std::vector<const Obstacle*>& obstacles, double thickness,
                        const Eigen::Vector3d& p, Eigen::Vector3d* gradient,
                        Eigen::Matrix3d* hessian);

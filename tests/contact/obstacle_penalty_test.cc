@@ -317,6 +317,44 @@ TEST(ObstaclePenaltyTest, HessianStaysBoundedTowardAnEdge) {
   }
 }
 
+// On the surface the penalty's gradient is -t n, as on either side of it: at the centre of
+// a face, where the face's two triangles and their diagonal meet (the triangles counted
+// their normals, the diagonal nothing: -2 t n), and on a convex edge (two faces' normals:
+// t sqrt(2) long). Within 1e-12 of the surface the features whose closest point is the
+// point take the obstacle's normal, inward when the point counts as inside.
+TEST(ObstaclePenaltyTest, OnTheSurfaceTheGradientIsTheNormalsOnce) {
+  std::mt19937 rng(37);
+  Eigen::Matrix3d rotation;
+  Eigen::Vector3d shift;
+  const Obstacle box = RotatedBox(&rng, &rotation, &shift);
+  const double thickness = 0.05;
+  const Eigen::Vector3d n = rotation.col(2);  // the face z = 1
+  for (double offset : {-1e-10, -1e-13, 0.0, 1e-13, 1e-10}) {
+    SCOPED_TRACE(offset);
+    const Eigen::Vector3d centre = rotation * Eigen::Vector3d(1, 0.5, 1 + offset) + shift;
+    Eigen::Vector3d gradient;
+    Eigen::Matrix3d hessian;
+    const double penalty = Penalty(box, thickness, centre, &gradient, &hessian);
+    EXPECT_NEAR(penalty, Phi(thickness, 0.0), 1e-11);
+    if (std::abs(offset) < 1e-12) {
+      EXPECT_LT((gradient + thickness * n).norm(), 1e-12) << gradient.transpose();
+      EXPECT_LT((hessian - n * n.transpose()).norm(), 1e-12) << hessian;
+    } else {
+      // 1e-10 off, the closest points of the two triangles and the diagonal agree to
+      // round-off (1e-16 / 1e-10 in their directions: measured 1.5e-7 in the gradient).
+      // Exactly above the diagonal both triangles' closest points lie on it, so one
+      // segment's curvature is counted where the sum is flat on either side: the
+      // Hessian is only bounded there (1 + 100, a set of no volume).
+      EXPECT_LT((gradient + thickness * n).norm(), 1e-5 * thickness) << gradient.transpose();
+      EXPECT_LT(hessian.norm(), 1.0 + 2.0 * 100.0) << hessian;
+    }
+  }
+  const Eigen::Vector3d on_edge = rotation * Eigen::Vector3d(0.7, 1, 1) + shift;
+  Eigen::Vector3d gradient;
+  Penalty(box, thickness, on_edge, &gradient);
+  EXPECT_NEAR(gradient.norm(), thickness, 1e-9) << gradient.transpose();
+}
+
 TEST(ObstaclePenaltyTest, PenaltiesOfSeveralObstaclesAdd) {
   // Two boxes 0.06 apart along x and a point between them: 0.02 from one, 0.04 from the
   // other (the nearest distance alone saw only the first, and kinked midway).
