@@ -93,7 +93,7 @@ void Obstacle::FeaturesWithin(const Eigen::Vector3d& p, double reach,
   thread_local std::vector<int> triangles, edges, corners;
   bvh_.TrianglesWithin(p, reach, &triangles);
   if (triangles.empty()) return;
-  auto add = [&](const Eigen::Vector3d& closest, double weight, int triangle, int dimension,
+  auto add = [&](const Eigen::Vector3d& closest, double weight, int dimension,
                  const Eigen::Vector3d& tangent) {
     FeatureDistance feature;
     feature.direction = p - closest;
@@ -104,12 +104,7 @@ void Obstacle::FeaturesWithin(const Eigen::Vector3d& p, double reach,
     feature.tangent = tangent;
     if (feature.distance > 1e-12) {
       feature.direction /= feature.distance;
-    } else if (triangle >= 0) {  // on the triangle: its outward normal
-      const Eigen::Vector3d a = vertices_.col(triangles_(0, triangle));
-      feature.direction = orientation_ * (vertices_.col(triangles_(1, triangle)) - a)
-                                             .cross(vertices_.col(triangles_(2, triangle)) - a)
-                                             .normalized();
-    } else {
+    } else {  // on the feature: no direction of its own (ObstaclePenalty gives the normal)
       feature.direction.setZero();
     }
     features->push_back(feature);
@@ -137,7 +132,7 @@ void Obstacle::FeaturesWithin(const Eigen::Vector3d& p, double reach,
         count = 1;  // coincident corners: a point
       }
     }
-    add(closest, 1.0, t, std::max(0, count - 1), tangent);
+    add(closest, 1.0, std::max(0, count - 1), tangent);
     for (int k = 0; k < 3; ++k) {
       edges.push_back(features_.triangle_edges(k, t));
       corners.push_back(triangles_(k, t));
@@ -154,12 +149,12 @@ void Obstacle::FeaturesWithin(const Eigen::Vector3d& p, double reach,
     const double length2 = (b - a).squaredNorm();
     const double s = length2 > 0 ? std::clamp((p - a).dot(b - a) / length2, 0.0, 1.0) : 0.0;
     const bool inside = s > 0.0 && s < 1.0;
-    add(a + s * (b - a), features_.edge_weights[e], -1, inside ? 1 : 0,
+    add(a + s * (b - a), features_.edge_weights[e], inside ? 1 : 0,
         inside ? Eigen::Vector3d((b - a) / std::sqrt(length2)) : Eigen::Vector3d::Zero());
   }
   for (int v : corners) {
     if (features_.vertex_weights[v] != 0.0) {
-      add(vertices_.col(v), features_.vertex_weights[v], -1, 0, Eigen::Vector3d::Zero());
+      add(vertices_.col(v), features_.vertex_weights[v], 0, Eigen::Vector3d::Zero());
     }
   }
 }

@@ -19,7 +19,7 @@ namespace aqs {
 struct FeatureDistance {
   double distance = 0.0;  // unsigned, from the point to the feature's closest point
   // The unit vector from the closest point to the point (the gradient of `distance`);
-  // on a triangle (distance <= 1e-12) its outward normal, on an edge or vertex zero.
+  // zero on the feature (distance <= 1e-12), where it has none.
   Eigen::Vector3d direction = Eigen::Vector3d::Zero();
   double weight = 1.0;  // 1 for triangles, SurfaceFeatures' weight for edges and vertices
   // Where the closest point lies: 0 at a point (a vertex, an edge's end, a triangle's

@@ -60,11 +60,10 @@ double ObstaclePenalty(const std::vector<const Obstacle*>& obstacles, double thi
     const size_t first = features.size();
     obstacle->FeaturesWithin(p, thickness, &features);
     // On the surface (within 1e-12) the features whose closest point is p have no
-    // direction of their own (a triangle's would be its normal, an edge's or a vertex's
-    // zero). Their weights add up to 1 (the count of the point itself), and each takes
-    // the direction p - q has just off the surface: the obstacle's outward normal there,
-    // or inward when the point counts as inside (its depth term then pushes out with 2 t),
-    // so that the gradient is -t n either way, as on either side.
+    // direction of their own. Their weights add up to 1 (the count of the point itself),
+    // and each takes the direction p - q has just off the surface: the obstacle's outward
+    // normal there, or inward when the point counts as inside (its depth term then pushes
+    // out with 2 t), so that the gradient is -t n either way, as on either side.
     for (size_t i = first; i < features.size(); ++i) {
       if (features[i].distance <= 1e-12) features[i].direction = s < 0.0 ? -outward : outward;
     }
