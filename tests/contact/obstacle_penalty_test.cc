@@ -225,6 +225,13 @@ TEST(ObstaclePenaltyTest, GradientMatchesDifferencesNearACreaseItsEndsAndInside)
   }
 }
 
+// A symmetric 3 x 3 matrix with its negative eigenvalues set to 0.
+Eigen::Matrix3d ProjectedPsd(const Eigen::Matrix3d& symmetric) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(symmetric);
+  return eigen.eigenvectors() * eigen.eigenvalues().cwiseMax(0.0).asDiagonal() *
+         eigen.eigenvectors().transpose();
+}
+
 // Outside the obstacle the Hessian is the exact second derivative with its negative
 // eigenvalues set to 0: the projected, symmetrized central differences of the gradient,
 // at random points in the band about the notch's crease (where the negative-weight edge
@@ -255,11 +262,8 @@ TEST(ObstaclePenaltyTest, HessianIsTheProjectedSecondDerivativeOutside) {
         return g;
       };
       const Eigen::Matrix3d differenced = testing::CentralDifferenceJacobian(gradient_at, p, 1e-7);
-      const Eigen::Matrix3d symmetric = 0.5 * (differenced + differenced.transpose());
-      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(symmetric);
-      const Eigen::Matrix3d projected = eigen.eigenvectors() *
-                                        eigen.eigenvalues().cwiseMax(0.0).asDiagonal() *
-                                        eigen.eigenvectors().transpose();
+      const Eigen::Matrix3d projected =
+          ProjectedPsd(0.5 * (differenced + differenced.transpose()));
       // Measured: at most 2.0e-8 of the larger of 1 and the largest entry.
       EXPECT_LT(testing::RelativeError(hessian, projected, 1.0), 1e-6)
           << "analytic\n" << hessian << "\nprojected differences\n" << projected;
@@ -272,10 +276,7 @@ TEST(ObstaclePenaltyTest, HessianIsTheProjectedSecondDerivativeOutside) {
       for (const FeatureDistance& f : features) {
         gauss_newton += f.weight * f.direction * f.direction.transpose();
       }
-      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> sum(gauss_newton);
-      gauss_newton = sum.eigenvectors() * sum.eigenvalues().cwiseMax(0.0).asDiagonal() *
-                     sum.eigenvectors().transpose();
-      if ((hessian - gauss_newton).norm() > 1e-3) ++curved;
+      if ((hessian - ProjectedPsd(gauss_newton)).norm() > 1e-3) ++curved;
     }
   }
   EXPECT_GT(checked, 60);
