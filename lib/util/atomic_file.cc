@@ -93,7 +93,7 @@ std::string ReadWholeFile(const std::string& path) {
 
 bool RemoveStaleTemporaryFiles(const std::string& dir,
                                const std::function<bool(const std::string& name)>& is_output,
-                               std::vector<std::string>* removed, std::string* error) {
+                               std::vector<std::string>* actions, std::string* error) {
   std::error_code code;
   for (const std::filesystem::directory_entry& entry :
        std::filesystem::directory_iterator(dir, code)) {
@@ -101,14 +101,24 @@ bool RemoveStaleTemporaryFiles(const std::string& dir,
     const std::string name = entry.path().filename().string();
     const size_t at = name.rfind(".tmp");
     if (at == std::string::npos || at == 0 || !is_output(name.substr(0, at))) continue;
-    const long pid = StaleWriterPid(name, name.substr(0, at), ".tmp");
+    const long pid = WriterPidOf(name, name.substr(0, at), ".tmp");
     if (pid < 0) continue;
+    const bool gone = pid == static_cast<long>(::getpid()) || ProcessIsGone(pid);
+    const bool reused = !gone && ProcessStartedAfterWrite(pid, entry.path().string());
+    if (!gone && !reused) {
+      actions->push_back("kept " + entry.path().string() + ": named like a temporary file of "
+                         "process " + std::to_string(pid) + ", which runs; remove it if no "
+                         "ActiveQS process writes into " + dir);
+      continue;
+    }
     if (::unlink(entry.path().c_str()) != 0 && errno != ENOENT) {
       *error = "cannot remove " + entry.path().string() + " (" + std::strerror(errno) + ")";
       return false;
     }
-    removed->push_back("removed " + entry.path().string() + ", left by process " +
-                       std::to_string(pid));
+    actions->push_back("removed " + entry.path().string() + ", left by process " +
+                       std::to_string(pid) +
+                       (reused ? " (its pid now names a process started after it was written)"
+                               : ""));
   }
   return true;
 }

@@ -47,14 +47,16 @@ std::string ReadWholeFile(const std::string& path);
 
 // Removes from the folder `dir` (not its subfolders) the temporary files
 // "<name>.tmp<pid>" that killed writers left, for the names `is_output` accepts: those of
-// processes that are gone, or of this process's pid (which, under the folder's lock, can
-// only be a dead predecessor's). Call it only while holding the folder's writers' lock.
-// Appends one line per file removed to *removed ("removed PATH, left by process PID").
+// processes that are gone, of this process's pid (which, under the folder's lock, can
+// only be a dead predecessor's), or of a process that started after the file was last
+// written (a reused pid). Call it only while holding the folder's writers' lock.
+// Appends one line per file to *removed: "removed PATH, left by process PID", or "kept
+// PATH: ..." for one of a process that runs and may have written it.
 // Returns false with *error if one cannot be removed; a folder that cannot be listed is
 // left as it is.
 bool RemoveStaleTemporaryFiles(const std::string& dir,
                                const std::function<bool(const std::string& name)>& is_output,
-                               std::vector<std::string>* removed, std::string* error);
+                               std::vector<std::string>* actions, std::string* error);
 
 // Flushes the folder `dir`'s entries to the disk (fsync of the folder), so that renames
 // and new entries in it survive a crash of the machine, not only of the process. Best

@@ -26,7 +26,8 @@ bool PrepareIterationLog(const std::string& path, const std::string& header, int
 
 // Appends `row` (one line, with its newline) to the log at `path` and flushes it (a log
 // is appended row by row, not replaced: a kill may leave a partial last row, which
-// PrepareIterationLog drops; a row appended after such a part starts a line of its own).
+// PrepareIterationLog drops; an append after such a part first cuts the part off, since
+// a part cut in its last field can look whole, with a wrong number).
 // False with *error naming the path and the reason if it could not be opened or written
 // (a full disk, a removed folder).
 bool AppendLogRow(const std::string& path, const std::string& row, std::string* error);

@@ -10,7 +10,8 @@ namespace aqs {
 // consecutive indices from a shared counter, so uneven work balances. thread_id is in
 // [0, number of threads used) and lets the body use per-thread scratch storage.
 // num_threads <= 1, or a range shorter than two grains, runs serially in order.
-// The body must not throw.
+// Where the system cannot start a thread, a warning is logged and the calling thread
+// runs that thread's share (with its thread_id) after its own. The body must not throw.
 void ParallelFor(int num_threads, int begin, int end,
                  const std::function<void(int thread_id, int i)>& body,
                  int grain = 256);

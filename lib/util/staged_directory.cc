@@ -110,7 +110,7 @@ std::string StagingPathOf(const std::string& target) {
   return WithoutTrailingSlashes(target) + ".aqs-tmp" + std::to_string(static_cast<long>(::getpid()));
 }
 
-long StaleWriterPid(const std::string& name, const std::string& stem, const std::string& suffix) {
+long WriterPidOf(const std::string& name, const std::string& stem, const std::string& suffix) {
   const std::string prefix = stem + suffix;
   if (name.size() <= prefix.size() || name.compare(0, prefix.size(), prefix) != 0) return -1;
   long pid = 0;
@@ -118,8 +118,45 @@ long StaleWriterPid(const std::string& name, const std::string& stem, const std:
     if (name[i] < '0' || name[i] > '9' || pid > 1000000000L) return -1;
     pid = 10 * pid + (name[i] - '0');
   }
-  if (pid != static_cast<long>(::getpid()) && !ProcessIsGone(pid)) return -1;
   return pid;
+}
+
+long StaleWriterPid(const std::string& name, const std::string& stem, const std::string& suffix) {
+  const long pid = WriterPidOf(name, stem, suffix);
+  if (pid < 0 || (pid != static_cast<long>(::getpid()) && !ProcessIsGone(pid))) return -1;
+  return pid;
+}
+
+bool ProcessStartedAfterWrite(long pid, const std::string& path) {
+  struct stat file;
+  if (pid <= 0 || ::stat(path.c_str(), &file) != 0) return false;
+  // Field 22 of /proc/PID/stat: the start in clock ticks after boot. The second field
+  // (the command in parentheses) may hold spaces, so the fields count from its last ')'.
+  std::FILE* stat_file = std::fopen(("/proc/" + std::to_string(pid) + "/stat").c_str(), "r");
+  if (stat_file == nullptr) return false;
+  char buffer[4096];
+  const size_t size = std::fread(buffer, 1, sizeof(buffer) - 1, stat_file);
+  std::fclose(stat_file);
+  buffer[size] = '\0';
+  const char* field = std::strrchr(buffer, ')');
+  unsigned long long start_ticks = 0;
+  for (int f = 2; field != nullptr && f < 22; ++f) field = std::strchr(field + 1, ' ');
+  if (field == nullptr || std::sscanf(field, " %llu", &start_ticks) != 1) return false;
+  std::FILE* boot_file = std::fopen("/proc/stat", "r");
+  if (boot_file == nullptr) return false;
+  char line[512];
+  long long boot_seconds = -1;
+  while (boot_seconds < 0 && std::fgets(line, sizeof(line), boot_file) != nullptr) {
+    if (std::sscanf(line, "btime %lld", &boot_seconds) != 1) boot_seconds = -1;
+  }
+  std::fclose(boot_file);
+  const long ticks_per_second = ::sysconf(_SC_CLK_TCK);
+  if (boot_seconds < 0 || ticks_per_second <= 0) return false;
+  const double started = static_cast<double>(boot_seconds) +
+                         static_cast<double>(start_ticks) / static_cast<double>(ticks_per_second);
+  const double modified =
+      static_cast<double>(file.st_mtim.tv_sec) + 1e-9 * static_cast<double>(file.st_mtim.tv_nsec);
+  return started > modified + 2.0;
 }
 
 bool ProcessIsGone(long pid) {

@@ -51,6 +51,16 @@ bool RemoveTemporaryTree(const std::string& path, std::string* error);
 // True if no process `pid` exists (kill(pid, 0) fails with ESRCH).
 bool ProcessIsGone(long pid);
 
+// True if process `pid` runs and started more than 2 s after the file at `path` was last
+// modified, so that it cannot have written it (its pid was reused, as after a reboot):
+// the start from /proc/PID/stat and the boot time in /proc/stat. False where either is
+// unknown.
+bool ProcessStartedAfterWrite(long pid, const std::string& path);
+
+// The pid digits of `name` = "<stem><suffix><pid digits>" (e.g. "frames.csv.tmp4242");
+// -1 for any other name.
+long WriterPidOf(const std::string& name, const std::string& stem, const std::string& suffix);
+
 // The pid of a killed writer's leftover `name` = "<stem><suffix><pid digits>" (e.g.
 // "frames.csv.tmp4242"), where that process is gone or is this one (which, under the
 // folder's lock, can only be a dead predecessor's); -1 for any other name.

@@ -1,8 +1,11 @@
 #include "util/atomic_file.h"
 
+#include <signal.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -13,6 +16,7 @@
 
 #include "testing/file_contents.h"
 #include "testing/temp_dir.h"
+#include "util/staged_directory.h"
 
 namespace aqs {
 namespace {
@@ -69,11 +73,50 @@ TEST(AtomicFileTest, StaleTemporaryFilesOfOutputsAreRemoved) {
   for (const std::string& kept : {live, other, not_pid, output, nested}) {
     EXPECT_TRUE(std::filesystem::exists(kept)) << kept;
   }
-  ASSERT_EQ(removed.size(), 2u);
+  ASSERT_EQ(removed.size(), 3u);
   std::sort(removed.begin(), removed.end());
-  EXPECT_EQ(removed[1], "removed " + dead + ", left by process 999999999");
+  EXPECT_EQ(removed[0], "kept " + live + ": named like a temporary file of process 1, which "
+                        "runs; remove it if no ActiveQS process writes into " + dir.path());
+  EXPECT_EQ(removed[2], "removed " + dead + ", left by process 999999999");
   // A folder that cannot be listed is left as it is.
   EXPECT_TRUE(RemoveStaleTemporaryFiles(dir.File("none"), is_output, &removed, &error));
+}
+
+// A temporary file named after a process that started after the file was last written
+// cannot be that process's (its pid was reused, as after a reboot): it is removed. One
+// written after the process started is kept, and said so (it used to be kept silently,
+// and later model saves refused the folder for it).
+TEST(AtomicFileTest, TemporaryFilesOfAReusedPidAreRemoved) {
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    ::pause();
+    ::_exit(0);
+  }
+  testing::TempDir dir;
+  const std::string suffix = ".tmp" + std::to_string(child);
+  const std::string older = dir.Write("a.obj" + suffix, "a dead writer's");
+  const std::string newer = dir.Write("b.obj" + suffix, "maybe the child's");
+  std::filesystem::last_write_time(
+      older, std::filesystem::last_write_time(older) - std::chrono::hours(1));
+  EXPECT_TRUE(ProcessStartedAfterWrite(child, older));
+  EXPECT_FALSE(ProcessStartedAfterWrite(child, newer));
+  EXPECT_FALSE(ProcessStartedAfterWrite(999999999, older));
+  std::vector<std::string> actions;
+  std::string error;
+  const bool ok = RemoveStaleTemporaryFiles(
+      dir.path(), [](const std::string& name) { return name == "a.obj" || name == "b.obj"; },
+      &actions, &error);
+  ::kill(child, SIGKILL);
+  ::waitpid(child, nullptr, 0);
+  ASSERT_TRUE(ok) << error;
+  EXPECT_FALSE(std::filesystem::exists(older));
+  EXPECT_TRUE(std::filesystem::exists(newer));
+  std::sort(actions.begin(), actions.end());
+  ASSERT_EQ(actions.size(), 2u);
+  EXPECT_EQ(actions[0].rfind("kept " + newer + ": ", 0), 0u) << actions[0];
+  EXPECT_EQ(actions[1], "removed " + older + ", left by process " + std::to_string(child) +
+                            " (its pid now names a process started after it was written)");
 }
 
 }  // namespace

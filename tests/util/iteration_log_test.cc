@@ -68,14 +68,36 @@ TEST(IterationLogTest, AppendsAndSaysWhyNot) {
 }
 
 // A row appended after part of a row (an append that failed when the disk was full, or
-// a kill) goes on a line of its own: it was glued to the part, and both were lost as one
-// malformed line.
-TEST(IterationLogTest, ARowAfterAPartialRowIsALineOfItsOwn) {
+// a kill) replaces the part. It used to be glued to the part (both lost as one malformed
+// line), then put on a line of its own, which kept a part cut in its last field as a
+// whole row with a wrong number.
+TEST(IterationLogTest, ARowAfterAPartialRowReplacesThePart) {
   testing::TempDir dir;
-  const std::string path = dir.Write("log.csv", std::string(kHeader) + "0,1,0\n1,0.");
+  for (const char* part : {"1,0.", "1,0.4,12.", "1,0.4,1e-0", "1,0.4,1"}) {
+    const std::string path =
+        dir.Write("log.csv", std::string(kHeader) + "0,1,0\n" + part);
+    std::string error;
+    ASSERT_TRUE(AppendLogRow(path, "2,0.25,3\n", &error)) << error;
+    EXPECT_EQ(testing::ReadAll(path), std::string(kHeader) + "0,1,0\n2,0.25,3\n") << part;
+    int last_row = -1;
+    ASSERT_TRUE(PrepareIterationLog(path, kHeader, 2, &last_row, &error)) << error;
+    EXPECT_EQ(last_row, 2) << part;
+    EXPECT_EQ(testing::ReadAll(path), std::string(kHeader) + "0,1,0\n2,0.25,3\n") << part;
+  }
+  // A part longer than the blocks the end is searched in.
+  {
+    const std::string path = dir.Write(
+        "long.csv", std::string(kHeader) + "0,1,0\n1,0.4," + std::string(9000, '1'));
+    std::string error;
+    ASSERT_TRUE(AppendLogRow(path, "2,0.25,3\n", &error)) << error;
+    EXPECT_EQ(testing::ReadAll(path), std::string(kHeader) + "0,1,0\n2,0.25,3\n");
+  }
+  // Text without a newline is not a log this code wrote: it stays, and the row follows
+  // on a line of its own.
+  const std::string path = dir.Write("other.csv", "iteration");
   std::string error;
   ASSERT_TRUE(AppendLogRow(path, "2,0.25,3\n", &error)) << error;
-  EXPECT_EQ(testing::ReadAll(path), std::string(kHeader) + "0,1,0\n1,0.\n2,0.25,3\n");
+  EXPECT_EQ(testing::ReadAll(path), "iteration\n2,0.25,3\n");
 }
 
 }  // namespace
