@@ -227,4 +227,22 @@ Eigen::MatrixXd EquilibriumDifferentiator::FixedVertexJacobianProduct(const Eige
   return out;
 }
 
+bool PrepareExactOrShifted(EquilibriumDifferentiator* differentiator,
+                           const ShapeTargetModel::PositionsRef& x,
+                           const ShapeTargetModel::ActuationRef& a, double* shift,
+                           std::string* error) {
+  CHECK_LE(differentiator->options().reuse.max_iterations, 0) << "a deferred Prepare cannot fail";
+  *shift = 0.0;
+  if (differentiator->Prepare(x, a, error)) return true;
+  for (double s = EquilibriumDifferentiator::kFirstRelativeShift;
+       s <= EquilibriumDifferentiator::kLastRelativeShift; s *= 100.0) {
+    std::string shift_error;
+    if (differentiator->PrepareShifted(x, a, s, &shift_error)) {
+      *shift = s;
+      return true;
+    }
+  }
+  return false;
+}
+
 }  // namespace aqs

@@ -81,6 +81,11 @@ class EquilibriumDifferentiator {
                       const ShapeTargetModel::ActuationRef& a, double relative_shift,
                       std::string* error);
 
+  // The relative shifts the regularized adjoints try, from the first up by factors of
+  // 100 to the last (PrepareExactOrShifted, training's adjoint).
+  static constexpr double kFirstRelativeShift = 1e-10;
+  static constexpr double kLastRelativeShift = 1e-4;
+
   // dL/da (6 x num_elements) for a loss L(x) whose gradient with respect to the
   // positions is dl_dx (3 x num_vertices; entries of fixed vertices are ignored since
   // fixed positions do not depend on a).
@@ -142,6 +147,16 @@ class EquilibriumDifferentiator {
   const PolarCache* CacheAtState() const;
   DifferentiationTimings timings_;
 };
+
+// Prepare at (x, a) without deferring (the differentiator's options().reuse must be off,
+// as for Jacobian products); where the exact K cannot be factorized, PrepareShifted with
+// relative shifts kFirstRelativeShift, 100 times that, ... up to kLastRelativeShift, the
+// first that factorizes. *shift: 0 (the exact K) or the shift used. false with *error
+// (why the exact K failed) where none factorizes.
+bool PrepareExactOrShifted(EquilibriumDifferentiator* differentiator,
+                           const ShapeTargetModel::PositionsRef& x,
+                           const ShapeTargetModel::ActuationRef& a, double* shift,
+                           std::string* error);
 
 }  // namespace aqs
 

@@ -102,7 +102,10 @@ class LatentFitter::FitEquilibrium final : public ceres::EvaluationCallback {
       fitter_->stats_.solves += 1;
       fitter_->stats_.solve_factorizations += report.factorizations;
       fitter_->stats_.solve_seconds += timer.Seconds();
-      if (!report.converged) return nullptr;
+      if (!report.converged) {
+        failure_ = "the equilibrium was not reached: " + report.Summary();
+        return nullptr;
+      }
       point_.solved = true;
       point_.state = solver.positions();
     }
@@ -112,9 +115,18 @@ class LatentFitter::FitEquilibrium final : public ceres::EvaluationCallback {
       WallTimer timer;
       fitter_->stats_.jacobians += 1;
       std::string error;
-      const bool prepared = fitter_->differentiator_->Prepare(point_.state, point_.a, &error);
+      // Where the exact K is singular or barely not positive definite (a free mesh piece
+      // without surface, which prepare keeps: its block is singular at every state), the
+      // regularized K, as training's adjoint does.
+      double shift = 0.0;
+      const bool prepared = PrepareExactOrShifted(fitter_->differentiator_.get(), point_.state,
+                                                  point_.a, &shift, &error);
       fitter_->stats_.jacobian_seconds += timer.Seconds();
-      if (!prepared) return nullptr;
+      if (!prepared) {
+        failure_ = "the stiffness cannot be factorized at the equilibrium: " + error;
+        return nullptr;
+      }
+      if (shift > 0.0) fitter_->stats_.shifted_jacobians += 1;
       point_.differentiated = true;
     }
     return &point_;
@@ -123,6 +135,11 @@ class LatentFitter::FitEquilibrium final : public ceres::EvaluationCallback {
   // dx*/dz at the last point prepared, which must be differentiated (cached). Thread-safe
   // between Prepares: Ceres evaluates the residual blocks of one point in parallel, and
   // the data blocks of a fit (a scan and its landmarks) share this object.
+  // Why the last point that could not be prepared failed ("" : none failed): an
+  // equilibrium not reached, or a stiffness that cannot be factorized (absurd actuations
+  // say nothing: an unsuccessful trial step).
+  const std::string& failure() const { return failure_; }
+
   const Eigen::MatrixXd& LatentProduct() {
     CHECK(point_.differentiated);
     std::lock_guard<std::mutex> hold(products_mutex_);
@@ -189,6 +206,7 @@ class LatentFitter::FitEquilibrium final : public ceres::EvaluationCallback {
   int parameter_count_ = 0;
   std::vector<double*> blocks_;
   Point point_;
+  std::string failure_;
   std::mutex products_mutex_;  // the lazy fills of point_'s products
 };
 

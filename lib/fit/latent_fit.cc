@@ -144,6 +144,7 @@ void AddFitCounters(const LatentFitResult& other, LatentFitResult* result) {
   result->solve_seconds += other.solve_seconds;
   result->jacobians += other.jacobians;
   result->jacobian_seconds += other.jacobian_seconds;
+  result->shifted_jacobians += other.shifted_jacobians;
 }
 
 bool LatentFitter::Fit(const FitTarget& target, const Eigen::VectorXd& initial,
@@ -369,10 +370,16 @@ bool LatentFitter::FitFrom(const FitTarget& target, const Eigen::VectorXd& initi
   result->solve_factorizations = stats_.solve_factorizations;
   result->solve_seconds = stats_.solve_seconds;
   result->jacobians = stats_.jacobians;
+  result->shifted_jacobians = stats_.shifted_jacobians;
   result->jacobian_seconds = stats_.jacobian_seconds;
   result->converged = summary.termination_type == ceres::CONVERGENCE;
   result->failed = summary.termination_type == ceres::FAILURE;
   result->message = summary.message;
+  // Ceres says only that an evaluation failed; where the start could not be evaluated,
+  // the equilibrium says why.
+  if (result->failed && !equilibrium.failure().empty()) {
+    result->message += " (" + equilibrium.failure() + ")";
+  }
   // As a minimizer that fails (the point it accepted could not be evaluated) for tests.
   if (FailurePoint("latent_fit:minimizer")) {
     result->converged = false;

@@ -126,6 +126,9 @@ struct LatentFitResult {
   // and Jacobians (count, seconds: one factorization and the products each).
   int solves = 0, solve_factorizations = 0, jacobians = 0;
   double solve_seconds = 0.0, jacobian_seconds = 0.0;
+  // Jacobians from the regularized stiffness, where the exact one could not be factorized
+  // (PrepareExactOrShifted: a free mesh piece without surface, a singular state).
+  int shifted_jacobians = 0;
   bool converged = false;
   // Levenberg-Marquardt stopped with a failure (Ceres' FAILURE: e.g. the residuals or
   // Jacobian could not be evaluated at the start), not for an iteration limit.

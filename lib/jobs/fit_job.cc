@@ -354,8 +354,12 @@ void LogFit(const FitJobOptions& options, const ActiveModel& model, const JobTar
       << fit.used_points << " points (" << fit.message << ")\n";
   log << std::setprecision(3) << "work: " << fit.solves << " equilibrium solves ("
       << fit.solve_factorizations << " factorizations, " << fit.solve_seconds << " s), "
-      << fit.jacobians << " Jacobians (" << fit.jacobian_seconds << " s)\n"
-      << std::setprecision(6);
+      << fit.jacobians << " Jacobians (" << fit.jacobian_seconds << " s"
+      << (fit.shifted_jacobians > 0
+              ? "; " + std::to_string(fit.shifted_jacobians) +
+                    " of a regularized stiffness: the exact one is singular there"
+              : std::string())
+      << ")\n" << std::setprecision(6);
   if (fit.second_start_ran) {
     log << "second start through " << options.fit.coarse_points << " of the points: "
         << (fit.second_start_kept ? "kept (a smaller objective than the direct fit)"

@@ -111,8 +111,8 @@ class EndToEndObjective final : public ceres::FirstOrderFunction {
   static constexpr double kEscapeRelativeSize = 1e-2;
   // Then the adjoint of K + shift mean(diag K) I, shifts from the first to the last by
   // factors of 100 (EquilibriumDifferentiator::PrepareShifted).
-  static constexpr double kFirstAdjointShift = 1e-10;
-  static constexpr double kLastAdjointShift = 1e-4;
+  static constexpr double kFirstAdjointShift = EquilibriumDifferentiator::kFirstRelativeShift;
+  static constexpr double kLastAdjointShift = EquilibriumDifferentiator::kLastRelativeShift;
   // Both are local to this rank (StatesAt: its own poses' states); UseStatesOf, on rank
   // 0, also commands the other ranks to use theirs.
   bool StatesAt(const double* parameters, std::vector<Eigen::Matrix3Xd>* states) const;

@@ -102,6 +102,10 @@ LbfgsRunReport RunLbfgsWithRestarts(ceres::GradientProblemSolver::Options solver
     done += steps;
     report.termination_type = summary.termination_type;
     report.termination = summary.message;
+    if (done == first && summary.iterations.empty() &&
+        summary.termination_type == ceres::FAILURE) {
+      report.start_failed = true;
+    }
     // A callback that stops the solver (a time budget, a checkpoint that failed) ends
     // the run as it ends the solve.
     bool stopped = summary.termination_type == ceres::USER_SUCCESS ||
@@ -111,7 +115,7 @@ LbfgsRunReport RunLbfgsWithRestarts(ceres::GradientProblemSolver::Options solver
       stopped = true;
     }
     const bool go_on = hooks->AfterSolve(summary, done, &report.termination);
-    if (!go_on || stopped || done >= options.max_iterations) break;
+    if (!go_on || stopped || report.start_failed || done >= options.max_iterations) break;
     const bool stalled = LbfgsStalled(summary);
     // Reached the hooks' limit: the next solve follows (with an empty memory).
     if (done >= limit && !stalled) continue;

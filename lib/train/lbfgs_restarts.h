@@ -75,6 +75,9 @@ struct LbfgsRunReport {
   // LbfgsSolveHooks::AfterSolve).
   ceres::TerminationType termination_type = ceres::NO_CONVERGENCE;
   std::string termination;
+  // The first solve could not evaluate its start with the gradient (Ceres records no
+  // iteration 0 then): nothing was done, and no restart can do better.
+  bool start_failed = false;
 };
 
 // Ceres' L-BFGS (solver_options, with max_num_iterations set per solve) on `problem`

@@ -348,7 +348,8 @@ class TrainingSolveHooks final : public LbfgsSolveHooks {
 int RunTrainingSolves(const TrainOptions& options, const ceres::GradientProblem& problem,
                       const WallTimer& budget_timer, int done, ActiveModel* model,
                       EndToEndObjective* objective, TrainingCallback* callback,
-                      Eigen::VectorXd* parameters, TrainReport* report, std::ostream& log) {
+                      Eigen::VectorXd* parameters, TrainReport* report, bool* start_failed,
+                      std::ostream& log) {
   TrainingSolveHooks hooks(options, budget_timer, done, model, objective, callback, report, log);
   LbfgsRestartOptions restart_options;
   restart_options.max_iterations = options.max_iterations;
@@ -359,6 +360,7 @@ int RunTrainingSolves(const TrainOptions& options, const ceres::GradientProblem&
                            parameters->data(), log, &hooks);
   report->termination = run.termination;
   report->restarts += run.restarts;
+  *start_failed = run.start_failed;
   return run.iterations;
 }
 
@@ -448,8 +450,18 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
                             seconds_before, log);
   int done = report->iterations_before;
   if (remaining > 0) {
+    bool start_failed = false;
     done = RunTrainingSolves(options, problem, budget_timer, done, model, objective, &callback,
-                             &parameters, report, log);
+                             &parameters, report, &start_failed, log);
+    const bool out_of_time =
+        options.max_seconds > 0 && budget_timer.Seconds() > options.max_seconds;
+    if (start_failed && !out_of_time) {
+      // Not a training that ended early (as where a latent refit used up the time
+      // budget, which fails the next evaluation at once): none could start (it used to
+      // exit 0 here, with 0 iterations).
+      *error = "the gradient at the starting point cannot be computed: " + report->termination;
+      return false;
+    }
   } else {
     report->termination = "no iterations left";
   }

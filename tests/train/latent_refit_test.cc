@@ -125,6 +125,26 @@ int RefitLines(const std::string& log) {
   return lines;
 }
 
+// Training whose gradient cannot be computed at its start (here: every vertex fixed, so
+// the stiffness has no free degrees of freedom, while the loss itself can be evaluated)
+// fails and says why; it used to report 0 iterations as a finished run (exit 0).
+TEST(LatentRefitTest, TrainingThatCannotStartFailsAndSaysWhy) {
+  TrainOptions train;
+  train.max_iterations = 5;
+  train.log_every = 0;
+  std::string error;
+  ASSERT_TRUE(train.Validate(&error)) << error;
+  ActiveModel model = PretrainedBar();
+  model.static_vertices.resize(model.mesh.num_vertices());
+  for (int v = 0; v < model.mesh.num_vertices(); ++v) model.static_vertices[v] = v;
+  std::ostringstream log;
+  TrainReport report;
+  EXPECT_FALSE(TrainEndToEnd(train, &model, &report, log, &error)) << log.str();
+  EXPECT_EQ(error.rfind("the gradient at the starting point cannot be computed: ", 0), 0u)
+      << error;
+  EXPECT_NE(error.find("every vertex is fixed"), std::string::npos) << error;
+}
+
 TEST(LatentRefitTest, TrainingWithRefitsRefitsOnScheduleAndLowersTheLoss) {
   TrainOptions train;
   train.latent_regularization = 1e-2;

@@ -214,6 +214,31 @@ TEST(LbfgsRestartsTest, AFailureRestartsFromTheAcceptedPoint) {
   }
 }
 
+// A start that cannot be evaluated ends the run at once, said as start_failed (training
+// then fails: it used to report 0 iterations as a finished run); a failure later, after
+// iteration 0, is a stall as above.
+TEST(LbfgsRestartsTest, AStartThatCannotBeEvaluatedEndsTheRun) {
+  auto* function = new Rosenbrock(4);
+  function->failing = true;
+  ceres::GradientProblem problem(function);
+  Eigen::VectorXd x = RosenbrockStart(4);
+  LbfgsRestartOptions options;
+  options.max_iterations = 30;
+  options.max_restarts = 50;
+  std::ostringstream log;
+  LbfgsRunReport report =
+      RunLbfgsWithRestarts(LbfgsOptions(1e-12), problem, options, 0, x.data(), log, nullptr);
+  EXPECT_TRUE(report.start_failed);
+  EXPECT_EQ(report.termination_type, ceres::FAILURE);
+  EXPECT_EQ(report.iterations, 0);
+  EXPECT_EQ(report.restarts, 0);
+  EXPECT_EQ(x, RosenbrockStart(4));
+  function->failing = false;
+  report = RunLbfgsWithRestarts(LbfgsOptions(1e-12), problem, options, 0, x.data(), log, nullptr);
+  EXPECT_FALSE(report.start_failed);
+  EXPECT_EQ(report.iterations, 30);
+}
+
 // Hooks that end each solve every 7 iterations continue the run without a restart (each
 // solve a new L-BFGS memory), and one that says stop after a solve ends it; a callback
 // that stops the solver ends the run as well.
