@@ -515,13 +515,23 @@ bool FinishModel(const PrepareJobOptions& options, const Communicator* comm,
   } else if (!MakeVolumetricTargets(targets, &model, log, error, &unconverged)) {
     return false;
   }
-  double mean = 0, worst = 0;
+  // Over the poses that have a target (a pose whose embedded simulation ended in a state
+  // that is not finite has none, and no error to count as 0).
+  double sum = 0, worst = 0;
+  int with_target = 0;
   for (const TrainingPose& pose : model.poses) {
-    mean += pose.embedding_mean_error / model.num_poses();
+    if (pose.target.cols() == 0) continue;
+    sum += pose.embedding_mean_error;
     worst = std::max(worst, pose.embedding_max_error);
+    ++with_target;
   }
-  log << "targets: mean surface error " << mean << ", max " << worst << " (" << timer.Seconds()
-      << " s)\n";
+  log << "targets: mean surface error " << (with_target > 0 ? sum / with_target : 0.0) << ", max "
+      << worst;
+  if (with_target < model.num_poses()) {
+    log << " (over " << with_target << " poses; " << model.num_poses() - with_target
+        << " without a target)";
+  }
+  log << " (" << timer.Seconds() << " s)\n";
   if (unconverged.empty()) model.target_key = prepared->target_key;
   SaveModelOptions save;
   save.overwrite = options.overwrite;

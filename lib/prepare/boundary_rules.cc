@@ -23,7 +23,11 @@ namespace {
 namespace fs = std::filesystem;
 
 std::string Replace(std::string text, const std::string& key, const std::string& value) {
-  for (size_t pos; (pos = text.find(key)) != std::string::npos;) text.replace(pos, key.size(), value);
+  // Searched on after the inserted value, which may hold the key itself (a pose named
+  // "wide{pose}": searched from the start, the replacement never ended).
+  for (size_t pos = 0; (pos = text.find(key, pos)) != std::string::npos; pos += value.size()) {
+    text.replace(pos, key.size(), value);
+  }
   return text;
 }
 
@@ -193,7 +197,8 @@ bool ApplyBoundaryRules(const BoundaryRuleOptions& options, const TetMesh& mesh,
         bvh.ClosestPoints(mesh.vertices, options.num_threads);
     int selected = 0;
     for (int v = 0; v < nv; ++v) {
-      if (w[v] > 0.5 && closest[v].distance > options.fixed_depth) {
+      // |w|: exporters may write a surface's triangles inward (as InsideMesh allows).
+      if (std::abs(w[v]) > 0.5 && closest[v].distance > options.fixed_depth) {
         fixed[v] = true;
         ++selected;
       }
@@ -257,11 +262,6 @@ bool ApplyBoundaryRules(const BoundaryRuleOptions& options, const TetMesh& mesh,
              "--fixed_list (a body without fixed vertices has no unique equilibrium)";
     return false;
   }
-  if (count(fixed) == nv && options.bones.empty()) {
-    *error = "every simulation vertex (" + std::to_string(nv) + ") is fixed at rest: nothing "
-             "can move (check --fixed_depth, --fixed_box, --fixed_inside and --fixed_list)";
-    return false;
-  }
   model->static_vertices.clear();
   model->bones.clear();
   std::vector<int> owner(nv, -1);
@@ -295,8 +295,19 @@ bool ApplyBoundaryRules(const BoundaryRuleOptions& options, const TetMesh& mesh,
     if (fixed[v] && owner[v] < 0 && !cleared[v]) model->static_vertices.push_back(v);
   }
   log << "fixed vertices: " << model->static_vertices.size() << " static";
-  for (const Bone& bone : model->bones) log << ", " << bone.vertices.size() << " on " << bone.name;
+  size_t held = model->static_vertices.size();
+  for (const Bone& bone : model->bones) {
+    log << ", " << bone.vertices.size() << " on " << bone.name;
+    held += bone.vertices.size();
+  }
   log << " (of " << nv << ")\n";
+  // (Bone-driven vertices are as fixed as static ones; --bone_clearance frees some.)
+  if (held == static_cast<size_t>(nv)) {
+    *error = "every simulation vertex (" + std::to_string(nv) + ") is fixed, at rest or driven "
+             "by a bone: nothing can move (check --fixed_depth, --fixed_box, --fixed_inside, "
+             "--fixed_list, --bone_region and --bone_clearance)";
+    return false;
+  }
   *log_out += log.str();
   return true;
 }

@@ -48,8 +48,10 @@ std::string TargetStorePath(const std::string& model_directory);
 class TargetStore {
  public:
   // Opens `directory` (created if missing) for `key`. A folder that holds another key
-  // (or none) is emptied first: its targets belong to something else. Returns false
-  // with *error if the folder cannot be made or emptied or key.txt written.
+  // (or none) is moved aside first, to KeyedStore::PreviousPath(directory): its targets
+  // belong to something else, and are not deleted before this run has made its own.
+  // Returns false with *error if the folder cannot be made or moved aside or key.txt
+  // written.
   bool Open(const std::string& directory, const std::string& key, std::string* error);
 
   // Pose p's stored target, if there is a whole one of num_elements elements: fills

@@ -178,7 +178,17 @@ void VolumetricTargetMaker::Make(const std::vector<int>& poses, const TargetStor
     if (!report.converged) {
       failure = "pose '" + pose.name + "': the embedded simulation did not converge: " +
                 report.Summary();
-      if (!w.solver->positions().allFinite()) return;
+      if (!w.solver->positions().allFinite()) {
+        // No target (pose.target has no columns), and no surface error to record (0, not
+        // an earlier call's; the summary leaves such poses out).
+        pose.embedding_mean_error = pose.embedding_max_error = 0.0;
+        std::lock_guard<std::mutex> lock(log_mutex);
+        log << "  " << std::left << std::setw(22) << pose.name << std::right
+            << " no target: the embedded simulation ended in a state that is not finite ("
+            << report.Summary() << ")\n"
+            << std::flush;
+        return;
+      }
     }
     const Eigen::Matrix3Xd x = w.solver->positions();
     pose.target.resize(6, physics.num_elements());

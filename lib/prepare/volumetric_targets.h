@@ -73,7 +73,8 @@ struct VolumetricTargetOptions {
 // writes one line per pose to `log` (with the count of inverted elements, if any).
 // Returns false with *error if a pose's equilibrium cannot be reached, unless
 // `unconverged` is given: then such a pose's target is made from the state its solve
-// ended in (if that is finite; else the pose gets no target), the pose's message is
+// ended in (if that is finite; else the pose gets no target, errors 0 and a line that
+// says so), the pose's message is
 // appended to *unconverged, and the function returns true. Returns false for invalid
 // options (options.Validate) either way.
 bool MakeVolumetricTargets(const VolumetricTargetOptions& options, ActiveModel* model,

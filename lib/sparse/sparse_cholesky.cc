@@ -1,5 +1,7 @@
 #include "sparse/sparse_cholesky.h"
 
+#include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <sstream>
 
@@ -77,10 +79,23 @@ bool SparseCholesky::Analyze(std::string* error) {
 
 bool SparseCholesky::Factorize(const std::vector<double>& values, std::string* error) {
   CHECK_EQ(values.size(), impl_->row_indices->size());
-  if (!Analyze(error)) {
-    factorized_ = false;
+  factorized_ = false;
+  failed_column_ = -1;
+  // CHOLMOD (and the BLAS under it) takes NaN pivots for positive ones: a matrix with a
+  // non-finite entry "factorizes" into NaN solves. Refused here, naming the entry.
+  for (size_t k = 0; k < values.size(); ++k) {
+    if (std::isfinite(values[k])) continue;
+    const std::vector<int64_t>& starts = *impl_->column_starts;
+    const auto after = std::upper_bound(starts.begin(), starts.end(), static_cast<int64_t>(k));
+    const int64_t column = (after - starts.begin()) - 1;
+    failed_column_ = static_cast<int>(column);
+    std::ostringstream out;
+    out << "the matrix has a non-finite entry (" << values[k] << ") at row "
+        << (*impl_->row_indices)[k] << ", column " << column << " of " << n_;
+    *error = out.str();
     return false;
   }
+  if (!Analyze(error)) return false;
   WallTimer timer;
   impl_->matrix.x = const_cast<double*>(values.data());
   const int ok = cholmod_l_factorize(&impl_->matrix, impl_->factor, &impl_->common);

@@ -46,9 +46,10 @@ class SparseCholesky {
 
   // Numeric factorization of the matrix with these values (CSC order of the pattern).
   // Returns false, with *error saying so, if the symbolic analysis or the factorization
-  // fails (out of memory), or if the matrix is not positive definite;
-  // failed_column() is then the (original, unpermuted) index of the column where a
-  // non-positive pivot appeared.
+  // fails (out of memory), if the matrix is not positive definite, or if an entry is
+  // not finite (which CHOLMOD would pass as a pivot); failed_column() is then the
+  // (original, unpermuted) index of the column where a non-positive pivot appeared, or
+  // of the non-finite entry.
   bool Factorize(const std::vector<double>& values, std::string* error);
   // Runs the symbolic analysis now (it otherwise runs in the first Factorize). Returns
   // false with *error (may be null) if CHOLMOD cannot (out of memory: the ordering's

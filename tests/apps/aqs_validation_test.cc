@@ -673,7 +673,7 @@ TEST_F(AqsValidationModelTest, PrepareAndCollideRefuseBadFlags) {
                   {"--spacing=-1", 1, "--spacing must be finite and > 0 (is -1)"},
                   {"--spacing=0.5 --mu=1e300", 1, "--mu must be in [1e-12, 1e+12] (is 1e+300)"},
                   {"--spacing=0.5 --fixed_box=-100,-100,-100,100,100,100", 1,
-                   "is fixed at rest: nothing can move"},
+                   "is fixed, at rest or driven by a bone: nothing can move"},
                   {"--spacing=0.5 --bone_region=-2,-2,-1,2,2,0.3", 1,
                    "--bone_region and --bone_poses describe a bone: they need --bone_mesh"},
                   {"--spacing=0.5 --tet_mesh=" + dir_->File("model/mesh.mesh"), 1,

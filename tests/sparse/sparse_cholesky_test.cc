@@ -2,7 +2,10 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <limits>
 #include <random>
+#include <sstream>
+#include <utility>
 
 #include <Eigen/Cholesky>
 #include <gtest/gtest.h>
@@ -115,6 +118,37 @@ TEST_F(SparseCholeskyTest, ReportsIndefiniteMatrixAndRecovers) {
   // The same object factorizes a good matrix afterwards.
   ASSERT_TRUE(cholesky.Factorize(values_, &error)) << error;
   EXPECT_TRUE(cholesky.factorized());
+}
+
+// A non-finite entry (NaN on or off the diagonal, an infinite diagonal) is refused by
+// its column: CHOLMOD took a NaN pivot for a positive one, and the solves were NaN.
+TEST_F(SparseCholeskyTest, RefusesNonFiniteEntriesByTheirColumn) {
+  SparseCholesky cholesky(pattern_.num_dofs(), &pattern_.column_starts(), &pattern_.row_indices());
+  const std::vector<int64_t>& starts = pattern_.column_starts();
+  const std::vector<int64_t>& rows = pattern_.row_indices();
+  const int column = pattern_.num_dofs() / 2;
+  // The column's diagonal entry (its last: rows <= column, in order) and its first.
+  const int64_t diagonal = starts[column + 1] - 1, first = starts[column];
+  ASSERT_EQ(rows[diagonal], column);
+  ASSERT_LT(rows[first], column);
+  for (const auto& [entry, value] :
+       {std::make_pair(diagonal, std::numeric_limits<double>::quiet_NaN()),
+        std::make_pair(first, std::numeric_limits<double>::quiet_NaN()),
+        std::make_pair(diagonal, std::numeric_limits<double>::infinity())}) {
+    std::vector<double> values = values_;
+    values[entry] = value;
+    std::string error;
+    EXPECT_FALSE(cholesky.Factorize(values, &error));
+    EXPECT_FALSE(cholesky.factorized());
+    EXPECT_EQ(cholesky.failed_column(), column);
+    std::ostringstream expected;
+    expected << "the matrix has a non-finite entry (" << value << ") at row " << rows[entry]
+             << ", column " << column << " of " << pattern_.num_dofs();
+    EXPECT_EQ(error, expected.str());
+  }
+  std::string error;
+  ASSERT_TRUE(cholesky.Factorize(values_, &error)) << error;
+  EXPECT_EQ(cholesky.failed_column(), -1);
 }
 
 // A single-precision copy of a factor, loaded back into an object of the same
