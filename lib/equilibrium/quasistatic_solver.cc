@@ -53,9 +53,10 @@ bool QuasistaticSolverOptions::Validate(std::string* error) const {
     out << "num_threads must be in [1, 1024] (is " << num_threads << ")";
   } else if (!(newton_relative_force >= 0.0) || !std::isfinite(newton_relative_force)) {
     out << "newton_relative_force must be finite and >= 0 (is " << newton_relative_force << ")";
-  } else if (factor_reuse.max_iterations < 0 || !(factor_reuse.relative_tolerance > 0.0) ||
-             factor_reuse.max_columns < 1) {
-    out << "factor_reuse needs max_iterations >= 0, relative_tolerance > 0 and max_columns >= 1";
+  } else if (std::string reuse_error; !factor_reuse.Validate(&reuse_error)) {
+    out << "factor_reuse." << reuse_error;
+  } else if (!(factor_reuse.relative_tolerance > 0.0) || factor_reuse.max_columns < 1) {
+    out << "factor_reuse needs relative_tolerance > 0 and max_columns >= 1";
   } else if (!(function_tolerance >= 0.0) || !std::isfinite(function_tolerance)) {
     out << "function_tolerance must be finite and >= 0 (is " << function_tolerance << ")";
   } else if (!(parameter_tolerance >= 0.0) || !std::isfinite(parameter_tolerance)) {
@@ -300,9 +301,21 @@ void QuasistaticSolver::RunLbfgs(double tolerance, QuasistaticSolveReport* repor
     preconditioner_->Assemble(positions(), actuation(), StiffnessKind::kRotationFixed);
     ++report->factorizations;
     ++report->iterations;
-    if (!preconditioner_->FactorizeAssembled(0.0, &error)) {
+    // The rotation-fixed K is PSD: where it does not factorize it is singular (a piece
+    // nothing holds), and a small shift makes it definite.
+    bool factorized = preconditioner_->FactorizeAssembled(0.0, &error);
+    if (!factorized) {
+      std::string shifted_error;
+      ++report->factorizations;
+      factorized = preconditioner_->FactorizeAssembled(kSingularShift, &shifted_error);
+    }
+    if (!factorized) {
       if (!report->termination.empty()) report->termination += "; ";
       report->termination += "L-BFGS: no preconditioner: " + error;
+      if (options_.lbfgs_reuses_factor) {  // as after the L-BFGS phase: not kept
+        preconditioner_.reset();
+        preconditioner_current_ = false;
+      }
       return;  // Newton's projected steps take over
     }
     preconditioner_current_ = true;
@@ -513,8 +526,17 @@ void QuasistaticSolver::EnsureStable(QuasistaticSolveReport* report) {
   for (int escape = 0;; ++escape) {
     std::string error;
     ++report->factorizations;
-    if (stiffness_factorization()->Factorize(positions(), actuation(), StiffnessKind::kExact,
-                                             &error)) {
+    StiffnessFactorization& factorization = *stiffness_factorization();
+    factorization.Assemble(positions(), actuation(), StiffnessKind::kExact);
+    bool stable = factorization.FactorizeAssembled(0.0, &error);
+    if (!stable) {
+      // Singular, not indefinite (a piece nothing holds: its zero modes round either
+      // way): not a saddle to leave.
+      std::string shifted_error;
+      ++report->factorizations;
+      stable = factorization.FactorizeAssembled(kSingularShift, &shifted_error);
+    }
+    if (stable) {
       report->stable = true;
       return;
     }

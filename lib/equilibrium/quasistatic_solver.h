@@ -143,8 +143,9 @@ struct QuasistaticSolverOptions {
 struct QuasistaticSolveReport {
   // final_max_force <= force_tolerance.
   bool converged = false;
-  // Levenberg-Marquardt iterations (Ceres, after its initial evaluation) plus Newton
-  // steps; and how many LM steps were accepted.
+  // Levenberg-Marquardt iterations (Ceres, after its initial evaluation) plus stiffness
+  // factorizations (lm_iterations + factorizations; Newton steps by CG on an earlier
+  // factor are not counted); and how many LM steps were accepted.
   int iterations = 0;
   int lm_iterations = 0;
   int successful_iterations = 0;
@@ -218,6 +219,10 @@ class QuasistaticSolver {
   // solve, each by a perturbation of kStabilityEscapeSize mean rest edge lengths.
   static constexpr int kMaxStabilityEscapes = 3;
   static constexpr double kStabilityEscapeSize = 1e-2;
+  // The relative shift (of mean(diag K)) under which a K that is singular but not
+  // indefinite factorizes: the stability check's second try, and the L-BFGS
+  // preconditioner's (a mesh piece that nothing holds makes every K singular).
+  static constexpr double kSingularShift = 1e-10;
 
   // bc must be valid for the model (ValidateBoundaryConditions; CHECKed).
   // The initial state is the rest shape with fixed vertices at their prescribed
@@ -314,7 +319,9 @@ class QuasistaticSolver {
   void RunLbfgsWith(StiffnessFactorization* preconditioner, double tolerance,
                     int stall_iterations, QuasistaticSolveReport* report);
   // options_.ensure_stable after a converged solve: factorizes the exact K at the final
-  // state; from a saddle leaves (perturbation and projected Newton steps) and checks
+  // state, and where that fails K + kSingularShift mean(diag K) I (which factorizes where
+  // K is only singular, as with a mesh piece nothing holds: stable, not a saddle); from a
+  // saddle leaves (perturbation and projected Newton steps) and checks
   // again, at most kMaxStabilityEscapes times. Sets report->stability_checked, stable
   // and unstable_escapes; if a descent from a saddle fails, the saddle stays the result.
   void EnsureStable(QuasistaticSolveReport* report);

@@ -17,7 +17,8 @@ enum class StiffnessKind {
   // The Hessian with every element's rotation R held fixed: dP/dF = 2 mu I, i.e.
   // sum_e 2 mu_e V_e G_e^T G_e (G_e: x -> vec F_e). Independent of x and a (the matrix
   // of projective dynamics / as-rigid-as-possible global steps); positive definite
-  // once fixed vertices remove rigid motions.
+  // once fixed vertices remove the rigid motions of every mesh piece (a piece nothing
+  // holds leaves it singular).
   kRotationFixed,
 };
 
