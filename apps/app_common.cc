@@ -1,12 +1,15 @@
 #include "app_common.h"
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <string>
 #include <system_error>
+#include <vector>
 
 #include <gflags/gflags.h>
 #include <glog/logging.h>
@@ -48,13 +51,25 @@ namespace {
 // keep its default. Checks every "--name[=value]" line of the flagfiles in `list`
 // (comma-separated; nested --flagfile lines too): the name must be a flag of this app,
 // or of another ActiveQS app (kAllAppFlagNames: a flagfile is shared by the stages).
-// False with *error at file:line.
-bool CheckFlagfiles(const std::string& list, int depth, std::string* error) {
-  if (depth > 8) {
-    *error = "--flagfile: nested more than 8 deep (a flagfile that includes itself?)";
+// `chain` holds the flagfiles that include this list, outermost first (canonical paths):
+// a file among them would include itself, which gflags follows until its stack
+// overflows, so this runs before gflags reads them. False with *error at file:line.
+bool CheckFlagfiles(const std::string& list, std::vector<std::string>* chain,
+                    std::string* error) {
+  if (chain->size() > 8) {
+    *error = "--flagfile: nested more than 8 deep";
     return false;
   }
   for (const std::string& path : SplitList(list)) {
+    std::error_code code;
+    const std::string canonical = std::filesystem::weakly_canonical(path, code).string();
+    const std::string key = code ? path : canonical;
+    if (std::find(chain->begin(), chain->end(), key) != chain->end()) {
+      std::string through;
+      for (const std::string& file : *chain) through += file + " -> ";
+      *error = "--flagfile: " + path + " includes itself (" + through + key + ")";
+      return false;
+    }
     LineReader reader(path);
     if (!reader.ok()) {
       *error = reader.error();
@@ -75,6 +90,11 @@ bool CheckFlagfiles(const std::string& list, int depth, std::string* error) {
         return false;
       }
       const size_t start = line.find_first_not_of('-');
+      if (start == std::string::npos) {
+        *error = reader.Where("'" + line + "' is not a flag (a flagfile holds --name=value "
+                              "lines and # comments)");
+        return false;
+      }
       const size_t end = line.find_first_of("= \t", start);
       const std::string name = line.substr(start, end == std::string::npos ? end : end - start);
       // gflags drops "--name value" and a non-bool "--name" inside a flagfile, keeping the
@@ -91,13 +111,20 @@ bool CheckFlagfiles(const std::string& list, int depth, std::string* error) {
       }
       gflags::CommandLineFlagInfo info;
       bool known = gflags::GetCommandLineFlagInfo(name.c_str(), &info);
-      if (!known && name.compare(0, 2, "no") == 0) {  // --noflag for a bool
-        known = gflags::GetCommandLineFlagInfo(name.substr(2).c_str(), &info) &&
-                info.type == "bool";
+      if (!known && name.compare(0, 2, "no") == 0 &&
+          gflags::GetCommandLineFlagInfo(name.substr(2).c_str(), &info)) {
+        // --noflag: for a bool only (gflags drops it for another type, in a flagfile).
+        if (info.type != "bool") {
+          *error = reader.Where("--" + name + ": --" + name.substr(2) + " is not a bool flag "
+                                "(write --" + name.substr(2) + "=value)");
+          return false;
+        }
+        known = true;
       }
+      // Another app's flag (this app does not link it, so its type is not known here).
       for (const char* app_flag : kAllAppFlagNames) {
         known = known || name == app_flag ||
-                (name.compare(0, 2, "no") == 0 && name.substr(2) == app_flag);
+                (info.type.empty() && name.compare(0, 2, "no") == 0 && name.substr(2) == app_flag);
       }
       if (!known) {
         *error = reader.Where("unknown flag --" + name + " (no ActiveQS app has it)");
@@ -108,9 +135,11 @@ bool CheckFlagfiles(const std::string& list, int depth, std::string* error) {
         *error = reader.Where("--" + name + " needs a value (--" + name + "=value)");
         return false;
       }
-      if (name == "flagfile" && end != std::string::npos &&
-          !CheckFlagfiles(line.substr(end + 1), depth + 1, error)) {
-        return false;
+      if (name == "flagfile" && end != std::string::npos) {
+        chain->push_back(key);
+        const bool nested_ok = CheckFlagfiles(line.substr(end + 1), chain, error);
+        chain->pop_back();
+        if (!nested_ok) return false;
       }
     }
     if (!reader.ok()) {
@@ -145,6 +174,15 @@ void InitApp(const std::string& usage, int* argc, char*** argv) {
       flagfiles += (flagfiles.empty() ? "" : ",") + std::string((*argv)[i + 1]);
     }
   }
+  // Before gflags reads them: it follows a flagfile that includes itself until its stack
+  // overflows.
+  std::string flagfile_error;
+  std::vector<std::string> chain;
+  if (!flagfiles.empty() && !CheckFlagfiles(flagfiles, &chain, &flagfile_error)) {
+    std::fprintf(stderr, "%s: error: %s\n",
+                 std::filesystem::path((*argv)[0]).filename().c_str(), flagfile_error.c_str());
+    std::exit(1);
+  }
   gflags::ParseCommandLineNonHelpFlags(argc, argv, true);
   // gflags' own --helpshort lists only the flags of the file holding main(). An app also
   // takes the shared flags of apps/app_common.cc and of the apps/*_flags.cc units it
@@ -163,12 +201,6 @@ void InitApp(const std::string& usage, int* argc, char*** argv) {
   if (*argc > 1) {
     std::fprintf(stderr, "%s: error: unexpected argument '%s' (flags are --name=value)\n",
                  gflags::ProgramInvocationShortName(), (*argv)[1]);
-    std::exit(1);
-  }
-  std::string flagfile_error;
-  if (!flagfiles.empty() && !CheckFlagfiles(flagfiles, 0, &flagfile_error)) {
-    std::fprintf(stderr, "%s: error: %s\n", gflags::ProgramInvocationShortName(),
-                 flagfile_error.c_str());
     std::exit(1);
   }
   // Every app takes it (some estimate no memory): checked in one place, in the flag's

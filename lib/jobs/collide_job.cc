@@ -41,8 +41,8 @@ bool CheckCollideOutputs(const CollideJobOptions& options, std::string* error) {
   const std::vector<const std::string*> outputs = {
       &options.output, &options.output_before, &options.output_volume,
       &options.output_intersections, &options.report};
-  for (size_t i = 0; i < outputs.size(); ++i) {
-    const std::string& output = *outputs[i];
+  for (const std::string* path : outputs) {
+    const std::string& output = *path;
     if (output.empty()) continue;
     if (!CheckOutputFile(output, error) || !CheckOutputApart(output, options.model, error) ||
         !CheckOutputApart(output, options.latent, error)) {
@@ -51,15 +51,10 @@ bool CheckCollideOutputs(const CollideJobOptions& options, std::string* error) {
     for (const ObstacleSpec& obstacle : obstacles) {
       if (!CheckOutputApart(output, obstacle.path, error)) return false;
     }
-    for (size_t j = 0; j < i; ++j) {  // two outputs at one path: the last would win
-      std::string same;
-      if (!CheckOutputApart(output, *outputs[j], &same)) {
-        *error = output + ": given for two outputs; each needs its own file";
-        return false;
-      }
-    }
   }
-  return true;
+  std::vector<std::string> paths;
+  for (const std::string* output : outputs) paths.push_back(*output);
+  return CheckOutputsDistinct(paths, error);
 }
 
 // The contact options against `model`: distances within kMaxDistanceInModelSizes of the

@@ -447,6 +447,11 @@ FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log) {
       LowercaseExtension(options.output_uncertainty) != ".ply") {
     return Fail(options.output_uncertainty + ": --output_uncertainty must be a .ply");
   }
+  if (!CheckOutputsDistinct({options.output, options.output_volume, options.latent_output,
+                             options.output_uncertainty},
+                            &error)) {
+    return Fail(error);
+  }
   for (const std::string* output : {&options.output, &options.output_volume, &options.latent_output,
                                     &options.output_uncertainty}) {
     if (output->empty()) continue;

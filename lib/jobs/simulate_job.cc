@@ -48,6 +48,7 @@ bool CheckOutputs(const SimulateJobOptions& options, std::string* error) {
   }
   std::vector<std::string> outputs = options.outputs;
   if (!options.gradient.empty()) outputs.push_back(options.gradient);
+  if (!CheckOutputsDistinct(outputs, error)) return false;
   for (const std::string& output : outputs) {
     if (!CheckOutputFile(output, error)) return false;
     for (const std::string* input :

@@ -127,4 +127,18 @@ bool CheckInputOutside(const std::string& input, const std::string& replaced,
   return true;
 }
 
+bool CheckOutputsDistinct(const std::vector<std::string>& outputs, std::string* error) {
+  for (size_t i = 0; i < outputs.size(); ++i) {
+    if (outputs[i].empty()) continue;
+    for (size_t j = 0; j < i; ++j) {
+      std::string same;
+      if (!outputs[j].empty() && !CheckOutputApart(outputs[i], outputs[j], &same)) {
+        *error = outputs[i] + ": given for two outputs; each needs its own file";
+        return false;
+      }
+    }
+  }
+  return true;
+}
+
 }  // namespace aqs

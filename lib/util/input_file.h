@@ -2,6 +2,7 @@
 #define AQS_UTIL_INPUT_FILE_H_
 
 #include <string>
+#include <vector>
 
 namespace aqs {
 
@@ -37,6 +38,11 @@ bool CheckOutputFile(const std::string& path, std::string* error);
 // (symbolic links and "." and ".." resolved). Empty paths pass. Returns false with
 // *error naming both.
 bool CheckOutputApart(const std::string& output, const std::string& input, std::string* error);
+
+// Checks that no two of a job's outputs (empty paths skipped) are one file (symbolic
+// links and "." and ".." resolved): the last written would replace the other. Returns
+// false with *error naming the path ("PATH: given for two outputs; ...").
+bool CheckOutputsDistinct(const std::vector<std::string>& outputs, std::string* error);
 
 // Checks that the input `input` (a file or a folder) is neither the folder `replaced`,
 // which a job empties and writes anew, nor inside it (symbolic links and "." and ".."

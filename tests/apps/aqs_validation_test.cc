@@ -117,8 +117,24 @@ TEST(AqsValidationTest, FlagfilesRefuseNamesNoAppHas) {
   dir.Write("bare.flags", "--train_minutes\n");
   dir.Write("filter.flags", "threads=1\n--train_minutes=1\n");
   dir.Write("comment.flags", "--neutral=n.obj  # the rest face\n");
+  // A flagfile that includes itself, directly or through another (gflags recursed until
+  // its stack overflowed: a crash), a line of dashes only (an uncaught exception), and
+  // --noNAME for a flag that is not a bool (gflags drops it in a flagfile).
+  dir.Write("self.flags", Replaced("--threads=1\n--flagfile={dir}self.flags\n", dir.path()));
+  dir.Write("ping.flags", Replaced("--flagfile={dir}pong.flags\n", dir.path()));
+  dir.Write("pong.flags", Replaced("--threads=1\n--flagfile={dir}ping.flags\n", dir.path()));
+  dir.Write("dashes.flags", "--\n");
+  dir.Write("nothreads.flags", "--nothreads\n");
   ExpectCases("aqs_train", "--model={dir}missing",
               {
+                  {"--flagfile={dir}self.flags", 1,
+                   "--flagfile: {dir}self.flags includes itself ("},
+                  {"--flagfile={dir}ping.flags", 1,
+                   "--flagfile: {dir}ping.flags includes itself ("},
+                  {"--flagfile={dir}dashes.flags", 1,
+                   "{dir}dashes.flags:1: '--' is not a flag"},
+                  {"--flagfile={dir}nothreads.flags", 1,
+                   "{dir}nothreads.flags:1: --nothreads: --threads is not a bool flag"},
                   {"--flagfile={dir}typo.flags", 1,
                    "{dir}typo.flags:2: unknown flag --latent_dimm (no ActiveQS app has it)"},
                   {"--flagfile={dir}shared.flags", 1, "{dir}typo.flags:2: unknown flag"},
@@ -479,6 +495,11 @@ TEST_F(AqsValidationModelTest, OutputsLeaveTheInputsAndTheModelAlone) {
                    "is inside the input folder " + model},
                   {"--target={dir}t.obj --output={dir}f.obj --latent_output=" + model + "/z.txt", 1,
                    "is inside the input folder"},
+                  // Two outputs at one path: the latent file replaced the surface.
+                  {"--target={dir}t.obj --output={dir}f.obj --latent_output={dir}f.obj", 1,
+                   "{dir}f.obj: given for two outputs"},
+                  {"--target={dir}t.obj --output={dir}f.obj --output_volume={dir}./f.obj", 1,
+                   "{dir}./f.obj: given for two outputs"},
                   {"--sequence={dir}seq --output_dir={dir}seq", 1, "is the folder of the frame"},
                   {"--sequence={dir}seq --output_dir=" + model + "/fits", 1,
                    "is inside the input folder"},
@@ -487,7 +508,9 @@ TEST_F(AqsValidationModelTest, OutputsLeaveTheInputsAndTheModelAlone) {
               },
               dir.path());
   ExpectCases("aqs_simulate", m + " --pose=bend_x",
-              {{"--output=" + model + "/mesh.mesh", 1, "is inside the input folder"}}, dir.path());
+              {{"--output=" + model + "/mesh.mesh", 1, "is inside the input folder"},
+               {"--output={dir}s.obj,{dir}s.obj", 1, "{dir}s.obj: given for two outputs"}},
+              dir.path());
   ExpectCases("aqs_collide", m + " --pose=bend_x",
               {{"--output={dir}c.obj --report=" + model + "/r.txt", 1,
                 "is inside the input folder"},
