@@ -212,6 +212,17 @@ void InitApp(const std::string& usage, int* argc, char*** argv) {
   }
 }
 
+bool RefuseSolverMethodFlags(std::string* error) {
+  for (const char* flag : {"solver", "negative_curvature_steps", "newton_stall_steps"}) {
+    if (!gflags::GetCommandLineFlagInfoOrDie(flag).is_default) {
+      *error = std::string("--") + flag + " does not apply here: this benchmark sets its "
+               "solves' methods itself";
+      return false;
+    }
+  }
+  return true;
+}
+
 bool SolverMethodFromFlag(QuasistaticSolverOptions* options, std::string* error) {
   if (FLAGS_solver == "newton") {
     options->method = EquilibriumMethod::kNewton;

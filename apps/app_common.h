@@ -18,6 +18,11 @@ namespace aqs {
 // value or a negative --newton_stall_steps.
 bool SolverMethodFromFlag(QuasistaticSolverOptions* options, std::string* error);
 
+// For apps whose solves choose their own method (the benchmarks: --methods, or the
+// methods they compare): false with *error naming --solver, --negative_curvature_steps
+// or --newton_stall_steps where one is given, which the app would otherwise ignore.
+bool RefuseSolverMethodFlags(std::string* error);
+
 // Makes standard output line-buffered (a log file shows each line as it is printed and
 // keeps it if the process is killed), parses gflags (with `usage`), sets up glog to
 // print warnings and errors on stderr.

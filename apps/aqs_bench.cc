@@ -41,6 +41,11 @@ int main(int argc, char** argv) {
   aqs::InitApp("Benchmark the simulator on cube lattices.\n  aqs_bench [--cubes=12,20,35]",
                &argc, &argv);
   aqs::LatticeBenchmarkOptions options;
+  std::string error;
+  if (!aqs::RefuseSolverMethodFlags(&error)) {
+    aqs::PrintError(error);
+    return 1;
+  }
   options.cubes.clear();
   for (const std::string& item : aqs::SplitList(FLAGS_cubes)) {
     int n = 0;
@@ -62,6 +67,5 @@ int main(int argc, char** argv) {
                              {"tolerance", "--tolerance"},
                              {"compare_orderings_max_elements", "--compare_orderings_max_elements"},
                              {"csv", "--csv"}});
-  std::string error;
   return aqs::FinishJob(aqs::RunLatticeBenchmark(options, std::cout, &error), error, flags);
 }

@@ -41,10 +41,13 @@ int main(int argc, char** argv) {
   options.sequence_frames = FLAGS_sequence_frames;
   options.temporal_prior = aqs::TemporalPriorFlag();
   std::string error;
-  if (!aqs::FitOptionsFromFlags(&options.fit, &options.points, &options.start, &error) ||
-      (!FLAGS_error_vertices.empty() &&
-       !aqs::ParseVertexRanges(FLAGS_error_vertices, &options.error_vertices, &error))) {
+  if (!aqs::FitOptionsFromFlags(&options.fit, &options.points, &options.start, &error)) {
     aqs::PrintError(error);
+    return 1;
+  }
+  if (!FLAGS_error_vertices.empty() &&
+      !aqs::ParseVertexRanges(FLAGS_error_vertices, &options.error_vertices, &error)) {
+    aqs::PrintError("--error_vertices: " + error);
     return 1;
   }
   options.fit.uncertainty = FLAGS_uncertainty;

@@ -70,6 +70,17 @@ int Main() {
     PrintError("--poses and --latents need --model");
     return 1;
   }
+  // Flags that would be ignored: the methods are --methods; springs are the poses' own.
+  std::string flag_error;
+  if (!RefuseSolverMethodFlags(&flag_error)) {
+    PrintError(flag_error);
+    return 1;
+  }
+  if (options.poses.empty() &&
+      (FLAGS_springs || !gflags::GetCommandLineFlagInfoOrDie("attachment_stiffness").is_default)) {
+    PrintError("--springs and --attachment_stiffness describe solves of --poses: they need it");
+    return 1;
+  }
   options.springs = FLAGS_springs;
   options.attachment_stiffness = FLAGS_attachment_stiffness;
   options.methods = SplitList(FLAGS_methods);

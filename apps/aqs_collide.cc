@@ -76,7 +76,7 @@ int main(int argc, char** argv) {
   }
   if (!FLAGS_contact_vertices.empty() &&
       !aqs::ParseVertexRanges(FLAGS_contact_vertices, &options.contact.surface_vertices, &error)) {
-    aqs::PrintError(error);
+    aqs::PrintError("--contact_vertices: " + error);
     return 1;
   }
   aqs::FlagNames flags = aqs::CommonFlagNames("contact.");

@@ -145,7 +145,7 @@ int main(int argc, char** argv) {
   options.compare_to = FLAGS_compare_to;
   if (!FLAGS_compare_vertices.empty() &&
       !aqs::ParseVertexRanges(FLAGS_compare_vertices, &options.compare_vertices, &error)) {
-    aqs::PrintError(error);
+    aqs::PrintError("--compare_vertices: " + error);
     return 1;
   }
   options.fit = fit;

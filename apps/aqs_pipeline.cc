@@ -9,6 +9,7 @@
 // pose) with the other ranks; training shares the poses among all ranks, and the
 // evaluation's fits of held-out poses are shared too; rank 0 alone logs and writes.
 
+#include <algorithm>
 #include <filesystem>
 #include <iostream>
 #include <sstream>
@@ -107,6 +108,14 @@ int main(int argc, char** argv) {
     // pre-training to finish. On rank 0, which alone reads prepare's and pre-training's
     // inputs; the other ranks agree with it.
     bool ok = true;
+    if (FLAGS_model.empty()) {  // prepare and evaluate say so themselves
+      for (const char* stage : {"pretrain", "train"}) {
+        if (ok && std::find(plan.stages.begin(), plan.stages.end(), stage) != plan.stages.end()) {
+          error = std::string(stage) + ": --model is required";
+          ok = false;
+        }
+      }
+    }
     for (size_t k = 0; root && ok && k < plan.stages.size(); ++k) {
       StageOptions options;
       if (!ReadStageOptions(plan.stages[k], true, &options, &error)) {

@@ -1,5 +1,6 @@
 #include "evaluate_flags.h"
 
+#include <algorithm>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -91,6 +92,7 @@ bool EvaluateOptionsFromFlags(EvaluateJobOptions* options, std::string* error) {
   }
   if (!FLAGS_error_vertices.empty() &&
       !ParseVertexRanges(FLAGS_error_vertices, &options->error_vertices, error)) {
+    *error = "--error_vertices: " + *error;
     return false;
   }
   // The held-out fits take the fit flags of aqs_fit (latent_fit_flags.cc).
@@ -119,7 +121,15 @@ bool EvaluateOptionsFromFlags(EvaluateJobOptions* options, std::string* error) {
   }
   if (FLAGS_baseline_hidden != "decoder") {
     std::vector<int> widths;
-    for (const std::string& item : SplitList(FLAGS_baseline_hidden)) {
+    const std::vector<std::string> items = SplitList(FLAGS_baseline_hidden);
+    // An empty item is a typo (SplitList drops it), as --hidden says.
+    if (!FLAGS_baseline_hidden.empty() &&
+        static_cast<size_t>(std::count(FLAGS_baseline_hidden.begin(), FLAGS_baseline_hidden.end(),
+                                       ',')) + 1 != items.size()) {
+      *error = "--baseline_hidden has an empty width in '" + FLAGS_baseline_hidden + "'";
+      return false;
+    }
+    for (const std::string& item : items) {
       int width = 0;
       if (!ParseInt(item, &width) || width < 1) {
         *error = "--baseline_hidden takes positive widths or 'decoder', got '" + item + "'";

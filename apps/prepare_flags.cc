@@ -124,11 +124,17 @@ bool PrepareOptionsFromFlags(PrepareJobOptions* options, std::string* error) {
   options->meshing.shell_thickness = FLAGS_shell;
   options->min_elements_per_vertex = FLAGS_min_vertex_elements;
   options->meshing.num_threads = FLAGS_threads;
-  if (!ParseBoxes(FLAGS_keep_box, &options->keep_boxes, error)) return false;
+  if (!ParseBoxes(FLAGS_keep_box, &options->keep_boxes, error)) {
+    *error = "--keep_box: " + *error;
+    return false;
+  }
   {
     for (const std::string& item : SplitList(FLAGS_cut, ';')) {
       PlaneCut cut;
-      if (!ParsePlaneCut(item, &cut, error)) return false;
+      if (!ParsePlaneCut(item, &cut, error)) {
+        *error = "--cut: " + *error;
+        return false;
+      }
       options->cuts.push_back(cut);
     }
   }
@@ -136,7 +142,10 @@ bool PrepareOptionsFromFlags(PrepareJobOptions* options, std::string* error) {
   options->mu = FLAGS_mu;
   options->boundary.fixed_depth = FLAGS_fixed_depth;
   options->boundary.bone_clearance = FLAGS_bone_clearance;
-  if (!ParseBoxes(FLAGS_fixed_box, &options->boundary.fixed_boxes, error)) return false;
+  if (!ParseBoxes(FLAGS_fixed_box, &options->boundary.fixed_boxes, error)) {
+    *error = "--fixed_box: " + *error;
+    return false;
+  }
   options->boundary.fixed_inside_meshes = SplitList(FLAGS_fixed_inside);
   options->boundary.fixed_list = FLAGS_fixed_list;
   if (!FLAGS_bone_mesh.empty()) {
@@ -145,7 +154,10 @@ bool PrepareOptionsFromFlags(PrepareJobOptions* options, std::string* error) {
     bone.neutral_mesh = FLAGS_bone_mesh;
     bone.pose_mesh_pattern = FLAGS_bone_poses;
     bone.moving_fraction = FLAGS_bone_moving_fraction;
-    if (!ParseBoxes(FLAGS_bone_region, &bone.region_boxes, error)) return false;
+    if (!ParseBoxes(FLAGS_bone_region, &bone.region_boxes, error)) {
+      *error = "--bone_region: " + *error;
+      return false;
+    }
     if (bone.region_boxes.empty()) {
       *error = "--bone_mesh needs --bone_region (the boxes of fixed vertices it drives)";
       return false;
@@ -184,6 +196,18 @@ bool PrepareOptionsFromFlags(PrepareJobOptions* options, std::string* error) {
   }
   if (!FLAGS_halfway_poses && given("halfway_min_bone_motion")) {
     *error = "--halfway_min_bone_motion describes --halfway_poses: it needs it";
+    return false;
+  }
+  if (FLAGS_bone_mesh.empty()) {
+    for (const char* flag : {"bone_name", "bone_clearance", "bone_moving_fraction"}) {
+      if (given(flag)) {
+        *error = std::string("--") + flag + " describes a bone: it needs --bone_mesh";
+        return false;
+      }
+    }
+  }
+  if (FLAGS_cut.empty() && given("cut_margin")) {
+    *error = "--cut_margin describes --cut: it needs it";
     return false;
   }
   options->mirror.plane = FLAGS_mirror_plane;

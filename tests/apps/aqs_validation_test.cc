@@ -168,6 +168,9 @@ TEST(AqsValidationTest, BenchmarksRefuseBadSizesBeforeAnyMeasurement) {
                   {"--cubes=12x", 1, "--cubes takes positive integers, got '12x'"},
                   {"--cubes=3 --csv={dir}missing/b.csv", 1,
                    "--csv: {dir}missing/b.csv: cannot write here"},
+                  // Solver flags the benchmark would ignore (they were accepted, even bad).
+                  {"--cubes=3 --solver=foo", 1, "--solver does not apply here"},
+                  {"--cubes=3 --newton_stall_steps=-7", 1, "--newton_stall_steps does not apply"},
               },
               dir.path());
   // Flags, before the model and the test set are read.
@@ -191,6 +194,11 @@ TEST(AqsValidationTest, BenchmarksRefuseBadSizesBeforeAnyMeasurement) {
                   {"--lattice=4,4,4 --spacing=-1", 1, "the lattice's spacing must be finite"},
                   {"--lattice=4,4,4 --curl=5", 1, "--curl must be in [0, 1)"},
                   {"--lattice=4,4,4 --csv={dir}missing/b.csv", 1, "cannot write here"},
+                  {"--lattice=4,4,4 --solver=lm", 1, "--solver does not apply here"},
+                  {"--lattice=4,4,4 --springs", 1,
+                   "--springs and --attachment_stiffness describe solves of --poses"},
+                  {"--lattice=4,4,4 --attachment_stiffness=5", 1,
+                   "--springs and --attachment_stiffness describe solves of --poses"},
               },
               dir.path());
 }
@@ -524,8 +532,13 @@ TEST_F(AqsValidationModelTest, OutputsLeaveTheInputsAndTheModelAlone) {
                {"--output_dir={dir}ev --baseline_hidden=100000,100000", 1,
                 "--baseline_hidden: the auto-encoder baseline would take about"},
                // A linear or untrained auto-encoder would pass for the network baseline.
+               {"--output_dir={dir}ev --baseline_hidden=", 1,
+                "--baseline_hidden takes positive widths or 'decoder', got '' (no hidden"},
+               // An empty item is a typo, as in --hidden (it was dropped).
                {"--output_dir={dir}ev --baseline_hidden=,", 1,
-                "--baseline_hidden takes positive widths or 'decoder', got ',' (no hidden"},
+                "--baseline_hidden has an empty width in ','"},
+               {"--output_dir={dir}ev --baseline_hidden=64,,64", 1,
+                "--baseline_hidden has an empty width in '64,,64'"},
                {"--output_dir={dir}ev --baseline_iterations=0", 1,
                 "--baseline_iterations must be >= 1 (is 0)"}},
               dir.path());
@@ -668,6 +681,9 @@ TEST_F(AqsValidationModelTest, LearningAppsRefuseBadFlags) {
                   {"--stages=train,prepare", 1, "--stages: 'prepare' after a later stage"},
                   {"--stages=train,train", 1, "'train' after a later stage or twice"},
                   {"--stages=", 1, "--stages: no stage given"},
+                  // Without a model (it said "pretrain: /model.txt: cannot open file").
+                  {"--stages=pretrain --model=", 1, "pretrain: --model is required"},
+                  {"--stages=train --model=", 1, "train: --model is required"},
                   // A bad training flag, before prepare replaces the model.
                   {"--stages=prepare,pretrain,train --train_minutes=-1", 1,
                    "train: --train_minutes must be finite and >= 0 (is -1)"},
@@ -728,6 +744,15 @@ TEST_F(AqsValidationModelTest, PrepareAndCollideRefuseBadFlags) {
                    "--mirror_plane and --mirror_tolerance describe --mirror_poses: they need it"},
                   {"--spacing=0.5 --halfway_min_bone_motion=0.1", 1,
                    "--halfway_min_bone_motion describes --halfway_poses: it needs it"},
+                  {"--spacing=0.5 --bone_clearance=0.5", 1,
+                   "--bone_clearance describes a bone: it needs --bone_mesh"},
+                  {"--spacing=0.5 --bone_name=skull", 1,
+                   "--bone_name describes a bone: it needs --bone_mesh"},
+                  {"--spacing=0.5 --cut_margin=0.2", 1, "--cut_margin describes --cut: it needs it"},
+                  // Malformed boxes and cuts name their flag (three flags take boxes).
+                  {"--spacing=0.5 --keep_box=1,2,3", 1, "--keep_box: box '1,2,3'"},
+                  {"--spacing=0.5 --fixed_box=1,2,3", 1, "--fixed_box: box '1,2,3'"},
+                  {"--spacing=0.5 --cut=bad", 1, "--cut: cut 'bad'"},
               },
               dir.path());
   EXPECT_FALSE(fs::exists(dir.File("p"))) << "nothing written";
@@ -735,6 +760,7 @@ TEST_F(AqsValidationModelTest, PrepareAndCollideRefuseBadFlags) {
   dir.Write("flat.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n");  // three points on a line
   ExpectCases("aqs_collide", "--model=" + dir_->File("model") + " --pose=bend_x --output={dir}c.obj",
               {
+                  {"--contact_vertices=5:3", 1, "--contact_vertices: vertex range '5:3'"},
                   {"--path_steps=100000", 1, "--path_steps must be in [0, 256] (is 100000)"},
                   {"--contact_rounds=1000", 1, "--contact_rounds must be in [1, 64] (is 1000)"},
                   {"--thickness=nan", 1, "--thickness must be finite and > 0 (is nan)"},
