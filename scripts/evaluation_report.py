@@ -222,19 +222,30 @@ def read_evaluation_csv(path):
             reader = csv.DictReader(f)
             if reader.fieldnames is None or not set(fields) <= set(reader.fieldnames):
                 raise InputError("%s:1: expected the header %s" % (path, ",".join(fields)))
-            rows = []
+            rows, seen = [], {}
             for number, row in enumerate(reader, 2):
                 try:
-                    rows.append({"split": row["split"], "pose": row["pose"],
-                                 "method": row["method"], "mean": float(row["mean"]),
-                                 "rms": float(row["rms"]), "max": float(row["max"])})
+                    parsed = {"split": row["split"], "pose": row["pose"],
+                              "method": row["method"], "mean": float(row["mean"]),
+                              "rms": float(row["rms"]), "max": float(row["max"])}
                 except (KeyError, TypeError, ValueError):
                     raise InputError("%s:%d: expected split,pose,method,mean,rms,max" %
                                      (path, number))
-                pose = rows[-1]["pose"]
+                pose = parsed["pose"]
                 if not pose or "/" in pose or "\0" in pose or pose in (".", ".."):
                     raise InputError("%s:%d: the pose name '%s' is not a file stem"
                                      % (path, number, pose))
+                if any(math.isinf(parsed[k]) for k in ("mean", "rms", "max")):
+                    raise InputError("%s:%d: an infinite error" % (path, number))
+                key = (parsed["split"], pose, parsed["method"])
+                if key in seen:
+                    raise InputError("%s:%d: %s of pose '%s' (%s) again (first on line %d)"
+                                     % (path, number, parsed["method"], pose, parsed["split"],
+                                        seen[key]))
+                seen[key] = number
+                # A value that could not be measured (NaN) is n/a, as a missing row is.
+                if not any(math.isnan(parsed[k]) for k in ("mean", "rms", "max")):
+                    rows.append(parsed)
     except OSError as e:
         raise InputError("%s: cannot be read (%s); run aqs_evaluate first" % (path, e.strerror))
     except (UnicodeDecodeError, csv.Error) as e:
@@ -641,7 +652,8 @@ def split_tables(rows, split):
     # has n/a there, and n/a as its mean (the largest vertex error is still shown).
     neutral = [stats[("neutral", p)]["mean"] for p in poses if ("neutral", p) in stats]
     mean_row = ["<b>mean</b> (max of max)",
-                number(sum(neutral) / len(neutral)) if len(neutral) == len(poses) else "n/a"]
+                number(sum(neutral) / len(neutral))
+                if poses and len(neutral) == len(poses) else "n/a"]
     for method in METHODS:
         s = sums.get(method)
         if s and s[3] == len(poses):
@@ -669,7 +681,7 @@ def budget_table(rows, split, columns):
                 worst[method] = max(worst.get(method, 0.0), r["max"])
         body.append(cells)
     body.append(["<b>mean</b>"] + ["<b>%s</b>" % number(sum(sums[m]) / len(sums[m]))
-                                   if len(sums.get(m, [])) == len(poses) else "n/a"
+                                   if poses and len(sums.get(m, [])) == len(poses) else "n/a"
                                    for m, _ in columns])
     body.append(["max vertex error"] + [number(worst[m]) if m in worst else "" for m, _ in columns])
     return html_table(["pose"] + [heading for _, heading in columns], body)

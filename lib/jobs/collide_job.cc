@@ -38,6 +38,11 @@ bool CheckCollideOutputs(const CollideJobOptions& options, std::string* error) {
   }
   std::vector<ObstacleSpec> obstacles;
   if (!ParseObstacleSpecs(options.obstacles, &obstacles, error)) return false;
+  if (obstacles.empty() && !options.contact.self_contact) {
+    *error = "no contact to resolve: give --obstacles, or leave --self_contact on (the "
+             "result would be the pose without contact)";
+    return false;
+  }
   const std::vector<const std::string*> outputs = {
       &options.output, &options.output_before, &options.output_volume,
       &options.output_intersections, &options.report};

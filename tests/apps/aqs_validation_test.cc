@@ -761,6 +761,7 @@ TEST_F(AqsValidationModelTest, PrepareAndCollideRefuseBadFlags) {
   ExpectCases("aqs_collide", "--model=" + dir_->File("model") + " --pose=bend_x --output={dir}c.obj",
               {
                   {"--contact_vertices=5:3", 1, "--contact_vertices: vertex range '5:3'"},
+                  {"--self_contact=false", 1, "no contact to resolve: give --obstacles"},
                   {"--path_steps=100000", 1, "--path_steps must be in [0, 256] (is 100000)"},
                   {"--contact_rounds=1000", 1, "--contact_rounds must be in [1, 64] (is 1000)"},
                   {"--thickness=nan", 1, "--thickness must be finite and > 0 (is nan)"},

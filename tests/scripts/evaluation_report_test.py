@@ -428,6 +428,27 @@ def main():
             failures.append("a malformed OBJ must exit 1 and change nothing, got %d, changed "
                             "%s:\n%s" % (result.returncode, changed, result.stdout))
 
+        # evaluation.csv edited by hand (the script is documented for standalone use): a
+        # row given twice and an infinite error exit 1 naming the line; a file with no
+        # pose (its header only) gives a page with n/a, not a ZeroDivisionError.
+        csv_path = os.path.join(evaluation6, "evaluation.csv")
+        for edit, where, what in (
+                (lambda t: t + t.splitlines()[-1] + "\n", "again (first on line",
+                 "a row given twice"),
+                (lambda t: t.replace(t.splitlines()[1],
+                                     ",".join(t.splitlines()[1].split(",")[:3] +
+                                              ["inf", "1", "1"])),
+                 "evaluation.csv:2: an infinite error", "an infinite error")):
+            result = run_with_file(command6, csv_path, edit)
+            if result.returncode != 1 or where not in result.stdout or \
+                    "Traceback" in result.stdout:
+                failures.append("%s in evaluation.csv must exit 1 naming '%s', got %d:\n%s"
+                                % (what, where, result.returncode, result.stdout))
+        result = run_with_file(command6, csv_path, lambda t: t.splitlines()[0] + "\n")
+        if result.returncode != 0 or "Traceback" in result.stdout:
+            failures.append("an evaluation.csv without rows must give a page, got %d:\n%s"
+                            % (result.returncode, result.stdout))
+
         # A wide, short surface: the colour bar's label is not cut.
         failures += colour_bar_label_problems(script)
         failures += decimals_problems(script)
