@@ -49,6 +49,8 @@ def write_blend(source, dest, name, suffix, neutral_name):
 
 
 def main():
+    if len(sys.argv) < 3:
+        sys.exit("usage: make_face_subset.py ICT_FOLDER OUTPUT_FOLDER [POSE ...]")
     source, dest, names = sys.argv[1], sys.argv[2], sys.argv[3:]
     os.makedirs(os.path.join(dest, "poses"), exist_ok=True)
     for name in names:

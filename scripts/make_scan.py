@@ -18,7 +18,9 @@ face_landmarks finds except the mouth corners (6155 and 5650 here, about 0.28 cm
 the lip seam's extreme vertices 6434 and 5929 that face_landmarks returns).
 A development-time tool; the project does not run it."""
 import argparse
+import os
 import random
+import sys
 
 
 def read_vertices(path):
@@ -35,6 +37,27 @@ def read_triangles(path):
                 for k in range(1, len(corners) - 1):
                     triangles.append((corners[0], corners[k], corners[k + 1]))
     return triangles
+
+
+class AtomicText:
+    """A text file written whole or not at all: a temporary file beside it, moved into
+    place when the block ends without an exception (and removed when it does not)."""
+
+    def __init__(self, path):
+        self.path = path
+        self.temporary = "%s.tmp%d" % (path, os.getpid())
+
+    def __enter__(self):
+        self.file = open(self.temporary, "w")
+        return self.file
+
+    def __exit__(self, kind, value, traceback):
+        self.file.close()
+        if kind is None:
+            os.replace(self.temporary, self.path)
+        else:
+            os.remove(self.temporary)
+        return False
 
 
 def main():
@@ -60,6 +83,19 @@ def main():
         n = [e[1] * f[2] - e[2] * f[1], e[2] * f[0] - e[0] * f[2], e[0] * f[1] - e[1] * f[0]]
         return 0.5 * sum(x * x for x in n) ** 0.5
 
+    if not triangles:
+        sys.exit("make_scan.py: no triangle of %s has every vertex at z >= %g (--min_z)"
+                 % (args.neutral, args.min_z))
+    try:
+        landmark_vertices = [int(x) for x in args.landmark_vertices.split(",")] \
+            if args.landmarks else []
+    except ValueError:
+        sys.exit("make_scan.py: --landmark_vertices takes vertex indices, got '%s'"
+                 % args.landmark_vertices)
+    for v in landmark_vertices:
+        if not 0 <= v < len(vertices):
+            sys.exit("make_scan.py: --landmark_vertices: vertex %d is not one of %s's %d"
+                     % (v, args.pose, len(vertices)))
     chosen = rng.choices(triangles, weights=[area(t) for t in triangles], k=args.points)
     points = []
     for t in chosen:
@@ -69,7 +105,7 @@ def main():
             u, v = 1 - u, 1 - v
         points.append([a[k] + u * (b[k] - a[k]) + v * (c[k] - a[k]) + rng.gauss(0, args.noise)
                        for k in range(3)])
-    with open(args.output, "w") as out:
+    with AtomicText(args.output) as out:
         out.write("ply\nformat ascii 1.0\n")
         out.write("comment synthetic scan of %s: %d points on triangles with z >= %g, noise %g\n"
                   % (args.pose, len(points), args.min_z, args.noise))
@@ -79,10 +115,10 @@ def main():
             out.write("%.5f %.5f %.5f\n" % tuple(p))
     if args.landmarks:
         landmark_rng = random.Random(args.seed + 1000)
-        with open(args.landmarks, "w") as out:
+        with AtomicText(args.landmarks) as out:
             out.write("# landmarks of %s: vertices of %s plus noise %g\n# vertex x y z\n"
                       % (args.output, args.pose, args.landmark_noise))
-            for v in (int(x) for x in args.landmark_vertices.split(",")):
+            for v in landmark_vertices:
                 p = [vertices[v][k] + landmark_rng.gauss(0, args.landmark_noise) for k in range(3)]
                 out.write("%d %.5f %.5f %.5f\n" % (v, p[0], p[1], p[2]))
 
