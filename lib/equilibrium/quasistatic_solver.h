@@ -34,9 +34,10 @@ enum class NormalEquationsOrdering {
 
 // How QuasistaticSolver::Solve minimizes the energy. Measured in docs/benchmarks.md.
 enum class EquilibriumMethod {
-  // Newton's method with a line search on the energy (equilibrium/newton_solver.h):
-  // steps on the PSD-projected stiffness far from equilibrium, on the exact stiffness
-  // near it (below newton_relative_force). Converges from any start in a few tens of
+  // Far from equilibrium, L-BFGS preconditioned by the rotation-fixed stiffness (one
+  // factorization for the phase); then Newton's method with a line search on the energy
+  // (equilibrium/newton_solver.h): steps on the PSD-projected stiffness, on the exact one
+  // below newton_relative_force (docs/solver.md). Converges from any start in a few
   // factorizations. Needs fixed vertices (a free body's stiffness is singular) and
   // energy terms that have a stiffness.
   kNewton,
@@ -198,8 +199,9 @@ struct QuasistaticSolveReport {
 };
 
 // Finds the quasistatic equilibrium x*(a) = argmin_x E(x, a) of a ShapeTargetModel
-// under fixed vertices, as a Ceres nonlinear least-squares problem made of one
-// ShapeTargetCostFunction per element.
+// under fixed vertices, by options().method: preconditioned L-BFGS and Newton steps on
+// CHOLMOD factorizations (kNewton, the default), or as a Ceres nonlinear least-squares
+// problem made of one ShapeTargetCostFunction per element (kLevenbergMarquardt).
 //
 // Built once per mesh and boundary-condition set; then, between solves, the
 // actuation is changed in place (actuation()), prescribed positions moved
