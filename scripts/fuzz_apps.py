@@ -304,6 +304,34 @@ def gflags_mutation(flag, rng):
     return rng.choice(["--%s_typo=1" % flag, "--%s" % flag, "--no%s" % flag])
 
 
+# Flagfiles: the case's flags written to run.flags, which the app then reads, with one of
+# the line forms gflags itself mishandles (a file that includes itself, directly or
+# through another, overflowed its stack; a line of dashes threw), or text mutations.
+def flagfile_flags(flags, case_dir, rng):
+    """Writes flags to case_dir/run.flags, mutated; returns (the app's flags, description)."""
+    lines = list(flags)
+    kind = rng.choice(["self", "cycle", "dashes", "not_a_flag", "space", "text"])
+    if kind == "self":
+        lines.insert(rng.randrange(len(lines) + 1), "--flagfile=run.flags")
+    elif kind == "cycle":
+        with open(os.path.join(case_dir, "other.flags"), "w") as f:
+            f.write("--flagfile=run.flags\n")
+        lines.insert(rng.randrange(len(lines) + 1), "--flagfile=other.flags")
+    elif kind == "dashes":
+        lines.insert(rng.randrange(len(lines) + 1), rng.choice(["--", "---", "-"]))
+    elif kind == "not_a_flag":
+        lines.insert(rng.randrange(len(lines) + 1), rng.choice(["threads=1", "x", "# ok", ""]))
+    elif kind == "space" and lines:
+        i = rng.randrange(len(lines))
+        lines[i] = lines[i].replace("=", " ", 1)
+    text = ("\n".join(lines) + "\n").encode()
+    if kind == "text":
+        text, _ = mutate_text(text, rng)
+    with open(os.path.join(case_dir, "run.flags"), "wb") as f:
+        f.write(text)
+    return ["--flagfile=run.flags"], "flagfile: " + kind
+
+
 def flag_value(kind, rng):
     if kind == "count":
         return rng.choice(COUNT_VALUES)
@@ -509,6 +537,9 @@ def main():
             flags.append(memory_flag)
         if not any(f.startswith("--threads=") for f in flags):
             flags.append("--threads=1")
+        if rng.random() < 0.08:
+            flags, mutation = flagfile_flags(flags, case_dir, rng)
+            mutations.append(mutation)
         command = [os.path.join(apps, app)] + flags
         code, output, seconds = run(command, case_dir, args.timeout, memory_bytes)
         outcome, detail = classify(app, code, output, case_dir, outputs)
