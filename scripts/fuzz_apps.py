@@ -10,7 +10,9 @@ again over its own model) with one input
 file mutated (bytes flipped, lines dropped or repeated, numbers replaced by nan, inf,
 0x10, 1e308 or -1, truncated, emptied, a 2 MB line, a directory, a FIFO, a link to
 /dev/zero, NaN written into a binary model file, ...) and/or one flag set to a bad value
-(0, -1, nan, inf, 1e308, 2147483647, 1e-9, a word, ...). Every run has a timeout and a
+(0, -1, nan, inf, 1e308, 2147483647, 1e-9, a word, ...); in about 8% of the cases the
+flags are read from a flagfile with a line gflags mishandles (one that includes the file
+itself, dashes only, ...) or mutated text. Every run has a timeout and a
 memory limit (RLIMIT_AS) and is classified:
 
   exit 0      ok, and its outputs and its log are checked for nan/inf: if any, the case
