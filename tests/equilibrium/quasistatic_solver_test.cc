@@ -4,7 +4,6 @@
 #include <limits>
 #include <random>
 #include <string>
-#include <utility>
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
@@ -365,20 +364,7 @@ TEST(QuasistaticSolverTest, OptionsCheckEveryFactorReuseField) {
 // preconditioner. Both now factorize K + 1e-10 mean(diag K) I where K does not.
 TEST(QuasistaticSolverTest, AFreePieceIsNotTakenForASaddle) {
   TetMesh mesh = BarMesh(4, 2, 2, 0.5);
-  const int n = mesh.num_vertices(), m = mesh.num_tets();
-  const Eigen::Vector3d corner =
-      mesh.vertices.rowwise().maxCoeff() + Eigen::Vector3d(0.0, 0.0, 0.5);
-  mesh.vertices.conservativeResize(3, n + 4);
-  mesh.vertices.col(n) = corner;
-  mesh.vertices.col(n + 1) = corner + Eigen::Vector3d(-0.3, 0.0, 0.0);
-  mesh.vertices.col(n + 2) = corner + Eigen::Vector3d(0.0, -0.3, 0.0);
-  mesh.vertices.col(n + 3) = corner + Eigen::Vector3d(0.0, 0.0, 0.3);
-  mesh.tets.conservativeResize(4, m + 1);
-  mesh.tets.col(m) << n, n + 1, n + 2, n + 3;
-  const bool positive = SignedTetVolume(mesh, mesh.vertices, 0) > 0;
-  if ((SignedTetVolume(mesh, mesh.vertices, m) > 0) != positive) {
-    std::swap(mesh.tets(1, m), mesh.tets(2, m));
-  }
+  testing::AppendLoneElement(&mesh, 0.5, 0.3);
   const ShapeTargetModel model(mesh, 1.0);
   QuasistaticSolverOptions options = TightOptions();
   options.num_threads = 1;

@@ -1,15 +1,14 @@
 #include "testing/fit_fixtures.h"
 
 #include <sstream>
-#include <utility>
 #include <string>
 
 #include <gtest/gtest.h>
 
 #include "fit/latent_fit.h"
-#include "mesh/tet_mesh.h"
 #include "prepare/volumetric_targets.h"
 #include "testing/synthetic_muscles.h"
+#include "testing/test_meshes.h"
 #include "train/pretrain.h"
 
 namespace aqs {
@@ -19,21 +18,8 @@ ActiveModel PretrainedBarForFits(bool with_bone, bool with_free_piece) {
   SyntheticMuscles data = MakeSyntheticMuscles(8, 0, 0.3, 21);
   ActiveModel model = data.model;
   if (with_free_piece) {
-    TetMesh& mesh = model.mesh;
-    const int n = mesh.num_vertices(), m = mesh.num_tets();
-    const Eigen::Vector3d corner =
-        mesh.vertices.rowwise().maxCoeff() + Eigen::Vector3d(0.0, 0.0, 0.3);
-    mesh.vertices.conservativeResize(3, n + 4);
-    mesh.vertices.col(n) = corner;
-    mesh.vertices.col(n + 1) = corner + Eigen::Vector3d(-0.2, 0.0, 0.0);
-    mesh.vertices.col(n + 2) = corner + Eigen::Vector3d(0.0, -0.2, 0.0);
-    mesh.vertices.col(n + 3) = corner + Eigen::Vector3d(0.0, 0.0, 0.2);
-    mesh.tets.conservativeResize(4, m + 1);
-    mesh.tets.col(m) << n, n + 1, n + 2, n + 3;
-    const bool positive = SignedTetVolume(mesh, mesh.vertices, 0) > 0;
-    if ((SignedTetVolume(mesh, mesh.vertices, m) > 0) != positive) {
-      std::swap(mesh.tets(1, m), mesh.tets(2, m));
-    }
+    const int m = model.mesh.num_tets();
+    AppendLoneElement(&model.mesh, 0.3, 0.2);
     model.mu.conservativeResize(m + 1);
     model.mu(m) = model.mu(0);
   }

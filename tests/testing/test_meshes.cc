@@ -1,5 +1,7 @@
 #include "testing/test_meshes.h"
 
+#include <utility>
+
 #include "mesh/lattice.h"
 #include "physics/actuation_fields.h"
 
@@ -77,6 +79,23 @@ Eigen::Matrix3Xd JitteredVertices(const TetMesh& mesh, double sigma, std::mt1993
   Eigen::Matrix3Xd x = mesh.vertices;
   for (Eigen::Index i = 0; i < x.size(); ++i) x.data()[i] += normal(*rng);
   return x;
+}
+
+void AppendLoneElement(TetMesh* mesh, double gap, double size) {
+  const int n = mesh->num_vertices(), m = mesh->num_tets();
+  const Eigen::Vector3d corner =
+      mesh->vertices.rowwise().maxCoeff() + Eigen::Vector3d(0.0, 0.0, gap);
+  mesh->vertices.conservativeResize(3, n + 4);
+  mesh->vertices.col(n) = corner;
+  mesh->vertices.col(n + 1) = corner + Eigen::Vector3d(-size, 0.0, 0.0);
+  mesh->vertices.col(n + 2) = corner + Eigen::Vector3d(0.0, -size, 0.0);
+  mesh->vertices.col(n + 3) = corner + Eigen::Vector3d(0.0, 0.0, size);
+  mesh->tets.conservativeResize(4, m + 1);
+  mesh->tets.col(m) << n, n + 1, n + 2, n + 3;
+  const bool positive = SignedTetVolume(*mesh, mesh->vertices, 0) > 0;
+  if ((SignedTetVolume(*mesh, mesh->vertices, m) > 0) != positive) {
+    std::swap(mesh->tets(1, m), mesh->tets(2, m));
+  }
 }
 
 }  // namespace testing

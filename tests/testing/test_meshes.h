@@ -26,6 +26,12 @@ TetMesh ThreeTetMesh();
 // The vertices with x <= tolerance (the bar's left face), fixed at rest.
 BoundaryConditions LeftFaceFixed(const TetMesh& mesh, double tolerance = 1e-9);
 
+// Appends one element apart from the mesh (4 new vertices, the last element): a corner
+// `gap` above the mesh's largest x, y and z, and edges of length `size` along -x, -y and
+// +z from it, oriented as element 0. Nothing holds it: a piece whose stiffness is
+// singular, as meshers leave and prepare keeps.
+void AppendLoneElement(TetMesh* mesh, double gap, double size);
+
 // SmoothFibreActuation(mesh, amplitude) (physics/actuation_fields.h).
 ActuationMatrix SmoothActuation(const TetMesh& mesh, double amplitude);
 
