@@ -748,7 +748,8 @@ TEST_F(AqsValidationModelTest, PrepareAndCollideRefuseBadFlags) {
                    "--bone_clearance describes a bone: it needs --bone_mesh"},
                   {"--spacing=0.5 --bone_name=skull", 1,
                    "--bone_name describes a bone: it needs --bone_mesh"},
-                  {"--spacing=0.5 --cut_margin=0.2", 1, "--cut_margin describes --cut: it needs it"},
+                  {"--spacing=0.5 --cut_margin=0.2", 1,
+                   "--cut_margin describes --cut: it needs it"},
                   // Malformed boxes and cuts name their flag (three flags take boxes).
                   {"--spacing=0.5 --keep_box=1,2,3", 1, "--keep_box: box '1,2,3'"},
                   {"--spacing=0.5 --fixed_box=1,2,3", 1, "--fixed_box: box '1,2,3'"},
