@@ -319,6 +319,14 @@ void EndToEndObjective::EvaluatePose(int k, int t, const ActuationMatrix& a,
     CountSolve(report, counters);
   }
   counters->solve_seconds = solve_timer.Seconds();
+  // The CG iterations of every evaluation (Newton steps by CG on an earlier factor too),
+  // counted on every way out (they were counted only with a gradient).
+  struct CountCg {
+    ~CountCg() { counters->cg_iterations = factorization->counters().cg_iterations - start; }
+    Counters* counters;
+    const StiffnessFactorization* factorization;
+    int start;
+  } count_cg{counters, factorization, cg_start};
   if (!report.converged) {
     failures_[p] = "pose '" + model_.poses[p].name + "': " + report.Summary();
     return;

@@ -35,8 +35,10 @@ struct PointOnLine;
 // else per thread; warm-started from each pose's last state) and, with a gradient, runs
 // one adjoint solve per pose and back-propagates through the embedding and the decoder.
 // It returns false (a failed step for Ceres, which then shortens the line-search step)
-// if an equilibrium cannot be reached or its stiffness is not positive definite, or
-// once a time limit has passed. A pose whose warm start fails is retried from the rest shape
+// if an equilibrium cannot be reached, if the loss is not finite, if an adjoint cannot
+// be solved even with the shifted stiffness (an equilibrium whose exact stiffness is not
+// positive definite is first left by a perturbation, kMaxEscapes times, then takes the
+// adjoint of K + shift I: kFirstAdjointShift...), or once a time limit has passed. A pose whose warm start fails is retried from the rest shape
 // only until it has converged once: afterwards a failure is a step too long for the
 // branch training follows (retrying from rest would cost a long solve and could jump
 // to another branch of the non-convex energy). Not thread-safe (Ceres calls it from

@@ -10,6 +10,7 @@
 #include <ceres/gradient_problem_solver.h>
 #include <ceres/iteration_callback.h>
 
+#include "model/fit_prior.h"
 #include "model/model_fingerprint.h"
 #include "train/latent_init.h"
 #include "train/lbfgs_restarts.h"
@@ -457,6 +458,13 @@ bool Pretrain(const PretrainOptions& options, ActiveModel* model, PretrainReport
   model->latents = Eigen::Map<const Eigen::MatrixXd>(parameters.data() + np, d, p);
   model->states.clear();
   model->checkpoint = TrainingCheckpoint();  // a new decoder: no training done yet
+  // The fits' prior belongs to the latents (a model saved learns it again from them): the
+  // old decoder's, of another latent size, would fail the next fitter's CHECK.
+  std::string prior_error;
+  if (!LearnFitPrior(*model, FitPriorOptions(), &model->fit_prior, &prior_error)) {
+    *error = "the pre-trained latents' fit prior: " + prior_error;
+    return false;
+  }
   return true;
 }
 

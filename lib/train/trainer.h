@@ -54,7 +54,7 @@ struct TrainOptions {
   bool line_search_starts = true;
   // The adjoint solve's relative residual when it reuses a factor by CG (a fresh
   // factorization solves it exactly): |K lambda - dL/dx| <= adjoint_tolerance |dL/dx|,
-  // in (0, 0.01]. The gradient is then off by about that fraction.
+  // in [1e-14, 0.01]. The gradient is then off by about that fraction.
   double adjoint_tolerance = 1e-10;
   // How far the line search may expand a step that is too short (Ceres'
   // max_line_search_step_expansion, > 1): a longer trial starts its solves farther

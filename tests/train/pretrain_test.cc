@@ -10,6 +10,7 @@
 
 #include <Eigen/SVD>
 
+#include "model/fit_prior.h"
 #include "prepare/volumetric_targets.h"
 #include "testing/synthetic_muscles.h"
 #include "testing/training_fixtures.h"
@@ -32,6 +33,26 @@ TEST(PretrainTest, DecoderRegularizationShrinksTheDecoder) {
   EXPECT_LT(decayed_norm, 0.9 * plain_norm);
   std::printf("decoder parameters' norm: %.4f without weight decay, %.4f with 1e-3\n", plain_norm,
               decayed_norm);
+}
+
+// Pre-training anew learns the fits' prior of its own latents: the old decoder's (here of
+// another latent size) made the next LatentFitter fail a CHECK, and one of the same size
+// centred fits on the old latents.
+TEST(PretrainTest, ThePriorOfTheFitsIsTheNewLatents) {
+  testing::SyntheticBarSpec spec;
+  spec.pretrain_iterations = 10;
+  ActiveModel model = testing::PretrainedSyntheticBar(spec);
+  ASSERT_EQ(model.fit_prior.latent.size(), 2);
+  PretrainOptions options = testing::SyntheticPretrainOptions(spec);
+  options.spec.latent_dim = 3;
+  PretrainReport report;
+  std::ostringstream log;
+  std::string error;
+  ASSERT_TRUE(Pretrain(options, &model, &report, log, &error)) << error;
+  EXPECT_EQ(model.fit_prior.latent.size(), 3);
+  const FitPrior learned = LearnFitPrior(model);
+  EXPECT_EQ(model.fit_prior.latent.mean, learned.latent.mean);
+  EXPECT_EQ(model.fit_prior.latent.covariance, learned.latent.covariance);
 }
 
 TEST(PretrainTest, ReportedLossIncludesTheDecoderRegularizer) {
