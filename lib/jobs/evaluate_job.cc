@@ -39,6 +39,10 @@
 namespace aqs {
 namespace {
 
+// The output folder's subfolders a run empties before it writes: per-pose outputs and
+// pictures (held_out_fits/, the fits' store, is kept: it resumes).
+constexpr const char* kEmptiedEvaluationFolders[] = {"/fields", "/fitted", "/budget", "/images"};
+
 // The file that marks a folder as an evaluation's (written at its first run).
 constexpr char kEvaluationMarker[] = ".aqs-evaluation";
 
@@ -107,6 +111,16 @@ bool ReadEvaluationInputs(const EvaluateJobOptions& options, bool distributed, b
   }
   // Paths may resolve differently on another machine: the ranks agree.
   bool ok = CheckOutputApart(options.output_directory, options.model, error);
+  // Nor may an input lie in the folders this job empties (a model kept there, a surface
+  // an earlier evaluation wrote): they were deleted, and the run went on from memory.
+  for (const char* folder : kEmptiedEvaluationFolders) {
+    const std::string emptied = options.output_directory + folder;
+    ok = ok && CheckInputOutside(options.model, emptied, error) &&
+         CheckInputOutside(options.report_script, emptied, error);
+    for (size_t t = 0; ok && t < options.test_paths.size(); ++t) {
+      ok = CheckInputOutside(options.test_paths[t], emptied, error);
+    }
+  }
   if (distributed) ok = communicator->Agree(ok, error);
   if (!ok) return false;
   ok = LoadModel(options.model, model, error);
@@ -177,7 +191,7 @@ bool ReadEvaluationInputs(const EvaluateJobOptions& options, bool distributed, b
     // to draw, nor an earlier run's page and pictures stand for this run's when its
     // report is not written. (The held-out fits' store, held_out_fits/, is kept: it
     // resumes.)
-    for (const char* folder : {"/fields", "/fitted", "/budget", "/images"}) {
+    for (const char* folder : kEmptiedEvaluationFolders) {
       if (ok && !code) std::filesystem::remove_all(out + folder, code);
     }
     if (ok && !code) std::filesystem::remove(out + "/index.html", code);

@@ -30,6 +30,7 @@
 #include "util/machine_info.h"
 #include "util/number_format.h"
 #include "util/option_checks.h"
+#include "util/path_lock.h"
 #include "util/wall_timer.h"
 
 namespace aqs {
@@ -280,6 +281,12 @@ bool BenchmarkFits::Fit(const std::string& mix, const std::string& method, int m
   r.seconds = timer.Seconds();
   r.start = fit.start + (fit.retry_reason.empty() ? "" : fit.retry_kept ? " (retried, kept)"
                                                                         : " (retried)");
+  // A fit whose minimizer failed (Ceres' FAILURE) has no result either: aqs_fit exits 2
+  // for it, sequences mark it -1 and the evaluation n/a (it became a row with errors).
+  if (ok && fit.failed) {
+    ok = false;
+    fit_error = "the fit failed: " + fit.message;
+  }
   if (!ok) {
     r.converged = false;
     r.mean = r.max = std::nan("");
@@ -466,6 +473,12 @@ JobStatus BenchmarkSequence(const FitBenchmarkOptions& options, const FitSequenc
                             const ActiveModel& model, const std::vector<int>& measured,
                             std::string* md, std::ostream& log, std::string* error) {
   std::error_code code;
+  // The folder's writers' lock before it is emptied (RunFitSequence takes it again): a
+  // sequence another process is fitting there keeps its frames.
+  PathLock lock;
+  if (!lock.Acquire(sequence.output_dir, error, "the sequence folder " + sequence.output_dir)) {
+    return JobStatus::kBadInput;
+  }
   if (fs::exists(sequence.output_dir, code)) {
     log << "sequence: emptied " << sequence.output_dir << ": the benchmark fits and times every "
         << "frame (an earlier run's frames are not resumed)\n";

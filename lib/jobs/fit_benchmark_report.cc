@@ -1,9 +1,11 @@
 #include "jobs/fit_benchmark_report.h"
 
 #include <algorithm>
+#include <cmath>
 #include <iomanip>
 #include <map>
 #include <sstream>
+#include <string>
 
 namespace aqs {
 namespace fit_benchmark {
@@ -38,6 +40,19 @@ using fit_benchmark::Max;
 using fit_benchmark::Mean;
 using fit_benchmark::Median;
 
+namespace {
+
+// A fit that failed (no result: its errors are NaN, its other figures 0): left out of
+// every statistic, and counted where the table says how many failed.
+bool Failed(const FitBenchmarkRow& row) { return !std::isfinite(row.mean); }
+
+// " (N failed)" where N > 0, else "".
+std::string FailedNote(int failed) {
+  return failed > 0 ? " (" + std::to_string(failed) + " failed)" : "";
+}
+
+}  // namespace
+
 std::string FitBenchmarkTables(const std::vector<FitBenchmarkRow>& rows,
                                const FitBenchmarkParts& parts, size_t num_measured) {
   auto select = [&](const std::string& method, int markers) {
@@ -56,12 +71,16 @@ std::string FitBenchmarkTables(const std::vector<FitBenchmarkRow>& rows,
     for (int k : parts.marker_counts) {
       const auto p = select("pca", k), f = select("physics", k);
       std::vector<double> n_err, p_err, f_err, secs, work;
-      int better = 0, pca_worse = 0, phys_worse = 0;
+      int better = 0, pca_worse = 0, phys_worse = 0, failed = 0;
       double worst_ratio = 0;
       for (const auto& [mix, row] : f) {
         // Rows come per mix in order neutral, PCA, physics; a mix without them (a run
         // stopped in between) is left out rather than looked up.
         if (!neutral.count(mix) || !p.count(mix)) continue;
+        if (Failed(row)) {
+          ++failed;
+          continue;
+        }
         n_err.push_back(neutral.at(mix).mean);
         p_err.push_back(p.at(mix).mean);
         f_err.push_back(row.mean);
@@ -74,7 +93,8 @@ std::string FitBenchmarkTables(const std::vector<FitBenchmarkRow>& rows,
       }
       const int n = static_cast<int>(f_err.size());
       md << "| " << k << " | " << Fixed(Mean(n_err), 4) << " | " << Fixed(Mean(p_err), 4) << " | "
-         << Fixed(Mean(f_err), 4) << " | " << better << " of " << n << " | " << pca_worse << " | "
+         << Fixed(Mean(f_err), 4) << FailedNote(failed) << " | " << better << " of " << n
+         << " | " << pca_worse << " | "
          << phys_worse << " | " << Fixed(worst_ratio, 2) << " | " << Fixed(Median(secs), 2)
          << " | " << Fixed(Max(secs), 2) << " | "
          << Fixed(Median(work), 0) << " |\n";
@@ -97,13 +117,18 @@ std::string FitBenchmarkTables(const std::vector<FitBenchmarkRow>& rows,
                          scan_from_pose)}) {
       if (set.empty()) continue;
       std::vector<double> err, secs, its, work;
+      int failed = 0;
       for (const auto& [mix, row] : set) {
+        if (Failed(row)) {
+          ++failed;
+          continue;
+        }
         err.push_back(row.mean);
         secs.push_back(row.seconds);
         its.push_back(row.iterations);
         work.push_back(row.factorizations + row.jacobians);
       }
-      md << "| " << name << " | " << Fixed(Mean(err), 4) << " | "
+      md << "| " << name << FailedNote(failed) << " | " << Fixed(Mean(err), 4) << " | "
          << Fixed(Max(err), 4) << " | " << Fixed(Median(secs), 2)
          << " | " << Fixed(Max(secs), 2) << " | "
          << Fixed(Median(its), 0) << " | " << Fixed(Median(work), 0) << " |\n";
@@ -121,11 +146,14 @@ std::string FitBenchmarkTables(const std::vector<FitBenchmarkRow>& rows,
                          scan_from_pose)}) {
       if (pose.empty() || set.empty()) continue;
       int within = 0, missed_minimum = 0, judged = 0, split = 0, beyond = 0, closer_normal = 0;
+      int fitted = 0;
       double worst = 0, fraction = 0, distance = 0;
       std::vector<double> seen, normal, tangential, pose_normal, pose_tangential, unseen,
           pose_unseen;
       for (const auto& [mix, row] : set) {
         if (!pose.count(mix)) continue;  // the pose's fit comes first; see above
+        if (Failed(row) || Failed(pose.at(mix))) continue;
+        ++fitted;
         const double ratio = row.mean / pose.at(mix).mean;
         within += ratio <= 1.2;
         if (ratio > 1.2 && !std::isnan(row.pose_fit_objective_ratio)) {
@@ -149,11 +177,15 @@ std::string FitBenchmarkTables(const std::vector<FitBenchmarkRow>& rows,
           }
         }
         worst = std::max(worst, ratio);
-        fraction += row.matched_fraction / set.size();
-        distance += row.matched_distance / set.size();
+        fraction += row.matched_fraction;
+        distance += row.matched_distance;
+      }
+      if (fitted > 0) {
+        fraction /= fitted;
+        distance /= fitted;
       }
       md << "\n" << name << " within 1.2x of the fit with correspondence: " << within << " of "
-         << set.size() << "; worst ratio " << Fixed(worst, 2) << "; matched points "
+         << set.size() << FailedNote(static_cast<int>(set.size()) - fitted) << "; worst ratio " << Fixed(worst, 2) << "; matched points "
          << Fixed(100 * fraction, 1) << "% on average, matched distance " << Fixed(distance, 4)
          << " on average. Of the " << judged << " beyond 1.2x, " << missed_minimum
          << " stopped where the scan's objective is larger than at the fit with "

@@ -93,7 +93,7 @@ int RunProgram(const std::vector<std::string>& command, std::string* message) {
   }
   if (WIFEXITED(status)) return WEXITSTATUS(status);
   *message = "'" + command[0] + "' was killed by signal " + std::to_string(WTERMSIG(status));
-  return -1;
+  return kKilledBySignal;
 }
 
 bool RunReportScript(const std::string& python, const std::string& script,
@@ -111,7 +111,10 @@ bool RunReportScript(const std::string& python, const std::string& script,
   std::string message;
   const int status = RunProgram(command, &message);
   if (status == 0) return true;
-  if (status == -1 || status == 127) {
+  if (status == kKilledBySignal) {  // not a missing package: say what happened
+    log << "report: no pictures or HTML page: the report script " << message << "; " << written
+        << "\n";
+  } else if (status == -1 || status == 127) {
     log << "report: no pictures or HTML page: "
         << (status == -1 ? message : "cannot run '" + python + "'")
         << " (--python; install python3, python3-matplotlib and python3-numpy); " << written

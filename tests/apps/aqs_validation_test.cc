@@ -526,6 +526,18 @@ TEST_F(AqsValidationModelTest, OutputsLeaveTheInputsAndTheModelAlone) {
                {"--output={dir}c.obj --output_before={dir}c.obj", 1,
                 "{dir}c.obj: given for two outputs"}},
               dir.path());
+  // Nor may an input lie in a folder the evaluation empties (they were deleted).
+  fs::create_directories(dir.File("ev2/fitted"));
+  fs::copy_file(dir_->File("poses/bend_x.obj"), dir.File("ev2/fitted/t.obj"));
+  fs::create_directories(dir.File("ev3/budget"));
+  const std::string kept_model = CopyOfModel(dir, "ev3/budget/model");
+  ExpectCases("aqs_evaluate", "",
+              {{m + " --output_dir={dir}ev2 --test_poses={dir}ev2/fitted/t.obj", 1,
+                "{dir}ev2/fitted/t.obj"},
+               {"--model=" + kept_model + " --output_dir={dir}ev3", 1, kept_model}},
+              dir.path());
+  EXPECT_TRUE(fs::exists(dir.File("ev2/fitted/t.obj")));
+  EXPECT_TRUE(fs::exists(kept_model + "/model.txt"));
   ExpectCases("aqs_evaluate", m,
               {{"--output_dir=" + model, 1, "is inside the input folder"},
                // A baseline too large for memory, before any fit (it aborted in training).

@@ -310,5 +310,49 @@ TEST(FitBenchmarkTest, TablesCountTheMixesThatHaveTheirReferences) {
       << md;
 }
 
+// A failed fit (NaN errors, its other figures 0) is left out of every statistic (the
+// baselines' means are over the mixes physics fitted) and counted as failed: it counted as 0 in the matched points, distances, iterations and
+// work, and "max of mean errors" was NaN or not by the order of the mixes.
+TEST(FitBenchmarkTest, TablesLeaveFailedFitsOutAndCountThem) {
+  auto row = [](const std::string& mix, const std::string& method, int markers, double mean) {
+    FitBenchmarkRow r;
+    r.mix = mix;
+    r.method = method;
+    r.markers = markers;
+    r.mean = mean;
+    r.iterations = 12;
+    r.factorizations = 42;
+    r.matched_fraction = 0.9;
+    r.matched_distance = 0.03;
+    return r;
+  };
+  const double nan = std::nan("");
+  std::vector<FitBenchmarkRow> rows = {
+      row("mix_000", "neutral", 0, 0.2),      row("mix_000", "pca", 20, 0.1),
+      row("mix_000", "physics", 20, nan),     row("mix_001", "neutral", 0, 0.1),
+      row("mix_001", "pca", 20, 0.05),        row("mix_001", "physics", 20, 0.04),
+      row("mix_000", "physics_pose", 0, 0.05), row("mix_001", "physics_pose", 0, 0.05),
+      row("mix_000", "physics_scan", 0, nan), row("mix_001", "physics_scan", 0, 0.055)};
+  for (FitBenchmarkRow& r : rows) {  // as a failed fit's row is written
+    if (!std::isnan(r.mean)) continue;
+    r.iterations = r.factorizations = 0;
+    r.matched_fraction = r.matched_distance = 0;
+  }
+  FitBenchmarkParts parts;
+  parts.markers = parts.poses = parts.scans = true;
+  parts.marker_counts = {20};
+  const std::string md = FitBenchmarkTables(rows, parts, 100);
+  EXPECT_NE(md.find("| 20 | 0.1000 | 0.0500 | 0.0400 (1 failed) | 1 of 1 | 0 | 0 | 0.40 |"),
+            std::string::npos)
+      << md;
+  EXPECT_NE(md.find("| scan (1 failed) | 0.0550 | 0.0550 |"), std::string::npos) << md;
+  EXPECT_NE(md.find("| 12 | 42 |"), std::string::npos) << md;
+  EXPECT_NE(md.find("within 1.2x of the fit with correspondence: 1 of 2 (1 failed); worst "
+                    "ratio 1.10; matched points 90.0% on average, matched distance 0.0300"),
+            std::string::npos)
+      << md;
+  EXPECT_EQ(md.find("nan"), std::string::npos) << md;
+}
+
 }  // namespace
 }  // namespace aqs

@@ -11,6 +11,7 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
 #include <thread>
 
@@ -38,7 +39,7 @@ TEST(RunProgramTest, ReturnsTheExitStatusAndNamesAMissingProgram) {
   EXPECT_EQ(RunProgram({"aqs_no_such_program_here"}, &message), -1);
   EXPECT_NE(message.find("cannot run 'aqs_no_such_program_here'"), std::string::npos)
       << message;
-  EXPECT_EQ(RunProgram({"sh", "-c", "kill -9 $$"}, &message), -1);
+  EXPECT_EQ(RunProgram({"sh", "-c", "kill -9 $$"}, &message), kKilledBySignal);
   EXPECT_NE(message.find("killed by signal 9"), std::string::npos) << message;
   // A file that is there but cannot be executed: the exec's reason.
   testing::TempDir dir;
@@ -48,6 +49,17 @@ TEST(RunProgramTest, ReturnsTheExitStatusAndNamesAMissingProgram) {
   EXPECT_EQ(RunProgram({bad}, &message), -1);
   EXPECT_NE(message.find("cannot run '" + bad + "' (" + bad + "): "), std::string::npos)
       << message;
+}
+
+// A report script that a signal ends is said to be: the log told the user to install
+// python3, matplotlib and numpy.
+TEST(RunProgramTest, AReportScriptKilledByASignalIsNotAMissingPackage) {
+  testing::TempDir dir;
+  const std::string script = dir.Write("report.sh", "kill -9 $$\n");
+  std::ostringstream log;
+  EXPECT_FALSE(RunReportScript("sh", script, {}, log));
+  EXPECT_NE(log.str().find("'sh' was killed by signal 9"), std::string::npos) << log.str();
+  EXPECT_EQ(log.str().find("install"), std::string::npos) << log.str();
 }
 
 TEST(RunProgramTest, TheProgramDiesWithTheProcessThatStartedIt) {
