@@ -1,5 +1,8 @@
 #include "util/keyed_store.h"
 
+#include <fcntl.h>
+#include <stdio.h>
+
 #include <cstdio>
 #include <filesystem>
 
@@ -18,19 +21,38 @@ bool KeyedStore::Open(const std::string& directory, const std::string& key, std:
   directory_.clear();
   std::error_code code;
   const std::string key_path = directory + "/key.txt";
+  const std::string previous = PreviousPath(directory);
+  // The generation moved aside, if it is this key's (a run stopped, then a rerun with a
+  // mistyped flag, then this run again): taken back, not replaced by the mistyped one.
+  const bool previous_is_ours = ReadWholeFile(previous + "/key.txt") == key;
   if (fs::exists(directory, code) && ReadWholeFile(key_path) != key) {
-    if (fs::is_empty(directory, code) && !code) {
-      // Nothing to keep.
-    } else {
+    const bool empty = fs::is_empty(directory, code) && !code;
+    if (previous_is_ours) {
+      // The two folders trade places (atomically where the file system can).
+      if (::renameat2(AT_FDCWD, directory.c_str(), AT_FDCWD, previous.c_str(),
+                      RENAME_EXCHANGE) != 0) {
+        const std::string aside = directory + ".exchange";
+        fs::remove_all(aside, code);
+        if (!code) fs::rename(directory, aside, code);
+        if (!code) fs::rename(previous, directory, code);
+        if (!code) fs::rename(aside, previous, code);
+      }
+      if (!code && empty) fs::remove_all(previous, code);
+    } else if (!empty) {
       // Moved aside, not emptied: a rerun with one flag mistyped must not delete the
       // stopped run's work before it has made anything (one generation is kept).
-      const std::string previous = PreviousPath(directory);
       fs::remove_all(previous, code);
       if (!code) fs::rename(directory, previous, code);
-      if (code) {
-        *error = directory + ": cannot move aside to " + previous + " (" + code.message() + ")";
-        return false;
-      }
+    }
+    if (code) {
+      *error = directory + ": cannot move aside to " + previous + " (" + code.message() + ")";
+      return false;
+    }
+  } else if (!fs::exists(directory, code) && previous_is_ours) {
+    fs::rename(previous, directory, code);
+    if (code) {
+      *error = previous + ": cannot move back to " + directory + " (" + code.message() + ")";
+      return false;
     }
   }
   if (!MakeDirectory(directory, error)) return false;

@@ -22,8 +22,10 @@ class KeyedStore {
   // PreviousPath(directory) (replacing what an earlier such move left there): its items
   // belong to something else, and a rerun with other options (a mistyped flag) must not
   // delete them before it has made anything; the caller removes that folder with its
-  // own once the job is done. Returns false with *error (naming the path) if the folder
-  // cannot be made or moved aside, or key.txt cannot be written.
+  // own once the job is done. Where the folder moved aside holds `key` (this run's, back
+  // after a run with another key), the two trade places instead: that run's items are
+  // taken back. Returns false with *error (naming the path) if the folder cannot be made
+  // or moved, or key.txt cannot be written.
   bool Open(const std::string& directory, const std::string& key, std::string* error);
 
   // Where Open moves a store of another key: directory + ".previous".

@@ -58,6 +58,39 @@ TEST(KeyedStoreTest, ItemsStayForTheSameKeyAndGoForAnother) {
   EXPECT_EQ(ReadWholeFile(folder + "/key.txt"), "");
 }
 
+// Run A stopped with items kept, run B (a mistyped flag) stopped, run A again: A's items
+// come back from the folder moved aside, and B's are kept there in their turn (A's were
+// deleted when B's replaced them). A store whose folder is gone takes them back too.
+TEST(KeyedStoreTest, TheKeysFolderMovedAsideIsTakenBack) {
+  testing::TempDir dir;
+  const std::string folder = dir.File("store");
+  const std::string previous = KeyedStore::PreviousPath(folder);
+  KeyedStore store;
+  std::string error;
+  ASSERT_TRUE(store.Open(folder, "A\n", &error)) << error;
+  std::ofstream(store.ItemPath(0, "txt")) << "A's fit";
+  ASSERT_TRUE(store.Open(folder, "B\n", &error)) << error;
+  std::ofstream(store.ItemPath(0, "txt")) << "B's fit";
+  ASSERT_TRUE(store.Open(folder, "A\n", &error)) << error;
+  EXPECT_EQ(ReadWholeFile(folder + "/0000.txt"), "A's fit");
+  EXPECT_EQ(ReadWholeFile(folder + "/key.txt"), "A\n");
+  EXPECT_EQ(ReadWholeFile(previous + "/0000.txt"), "B's fit");
+  EXPECT_EQ(ReadWholeFile(previous + "/key.txt"), "B\n");
+  EXPECT_FALSE(fs::exists(folder + ".exchange"));
+  // B stopped before its first item: A's comes back all the same.
+  ASSERT_TRUE(store.Open(folder, "B\n", &error)) << error;  // A's aside, B's back
+  fs::remove(folder + "/0000.txt");
+  ASSERT_TRUE(store.Open(folder, "A\n", &error)) << error;
+  EXPECT_EQ(ReadWholeFile(folder + "/0000.txt"), "A's fit");
+  EXPECT_EQ(ReadWholeFile(previous + "/key.txt"), "B\n");
+  // The folder itself gone: the one moved aside with this key comes back.
+  ASSERT_TRUE(store.Open(folder, "B\n", &error)) << error;
+  std::ofstream(store.ItemPath(1, "txt")) << "B's";
+  ASSERT_TRUE(RemoveDirectory(folder, &error)) << error;
+  ASSERT_TRUE(store.Open(folder, "A\n", &error)) << error;
+  EXPECT_EQ(ReadWholeFile(folder + "/0000.txt"), "A's fit");
+}
+
 TEST(KeyedStoreTest, AFolderThatCannotBeMadeFailsNamingIt) {
   testing::TempDir dir;
   const std::string file = dir.Write("file", "not a folder");
