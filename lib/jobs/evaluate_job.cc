@@ -97,6 +97,21 @@ bool RemoveStaleEvaluationFiles(const std::string& out, std::ostream& log, std::
   return true;
 }
 
+// The auto-encoder baseline's options: the model's latent size, and its decoder's
+// layout, activation, anchoring and skip where the job's options do not set them.
+SurfaceAutoencoderOptions BaselineAutoencoderOptions(const EvaluateJobOptions& options,
+                                                     const ActiveModel& model) {
+  const DecoderSpec& spec = model.decoder->spec();
+  SurfaceAutoencoderOptions ae_options = options.autoencoder;
+  ae_options.latent_dim = model.latent_dim();
+  ae_options.hidden_dims =
+      options.autoencoder_hidden_dims ? *options.autoencoder_hidden_dims : spec.hidden_dims;
+  ae_options.activation = spec.activation;
+  ae_options.anchored = spec.anchored;
+  ae_options.linear_skip = options.autoencoder_linear_skip.value_or(spec.linear_skip);
+  return ae_options;
+}
+
 // The trained model and the held-out poses, read and checked on every rank alike (each
 // refuses bad input alike, before and at the collectives), and the output folders
 // (rank 0). Collective when distributed.
@@ -137,6 +152,17 @@ bool ReadEvaluationInputs(const EvaluateJobOptions& options, bool distributed, b
                std::to_string(ns) + " vertices";
       return false;
     }
+  }
+  // The baseline's network, before any fit and before the output folders are emptied:
+  // one too large fails only at its training, or aborts there (every rank sees the same
+  // model and options); a refused run must not have deleted the last run's outputs.
+  const double bytes = SurfaceAutoencoderMemoryBytes(BaselineAutoencoderOptions(options, *model),
+                                                     ns, model->num_poses());
+  if (!(bytes <= options.max_memory_bytes)) {
+    *error = "autoencoder_hidden_dims: the auto-encoder baseline would take about " +
+             FormatBytes(bytes) + " to train, above the memory limit of " +
+             FormatBytes(options.max_memory_bytes) + " (max_memory_bytes)";
+    return false;
   }
   ok = options.test_paths.empty() ||
        ReadPoseSurfaces(options.test_paths, ns, options.num_threads, test_names, test_surfaces,
@@ -223,21 +249,6 @@ std::string HeldOutOverlapNote(const ActiveModel& model, const std::vector<std::
          << overlap.motion << " from the neutral): it is not held out. ";
   }
   return note.str();
-}
-
-// The auto-encoder baseline's options: the model's latent size, and its decoder's
-// layout, activation, anchoring and skip where the job's options do not set them.
-SurfaceAutoencoderOptions BaselineAutoencoderOptions(const EvaluateJobOptions& options,
-                                                     const ActiveModel& model) {
-  const DecoderSpec& spec = model.decoder->spec();
-  SurfaceAutoencoderOptions ae_options = options.autoencoder;
-  ae_options.latent_dim = model.latent_dim();
-  ae_options.hidden_dims =
-      options.autoencoder_hidden_dims ? *options.autoencoder_hidden_dims : spec.hidden_dims;
-  ae_options.activation = spec.activation;
-  ae_options.anchored = spec.anchored;
-  ae_options.linear_skip = options.autoencoder_linear_skip.value_or(spec.linear_skip);
-  return ae_options;
 }
 
 // The baselines of one evaluation, trained on the model's training poses.
@@ -599,19 +610,6 @@ bool RunEvaluateJob(const EvaluateJobOptions& options, std::ostream& job_log,
   if (!ReadEvaluationInputs(options, distributed, root, &model, &test_names, &test_surfaces,
                             &output_lock, log, error)) {
     return false;
-  }
-  {
-    // The baseline's network, before any fit: one too large fails only at its training,
-    // or aborts there (every rank sees the same model and options).
-    const double bytes = SurfaceAutoencoderMemoryBytes(BaselineAutoencoderOptions(options, model),
-                                                       model.num_surface_vertices(),
-                                                       model.num_poses());
-    if (!(bytes <= options.max_memory_bytes)) {
-      *error = "autoencoder_hidden_dims: the auto-encoder baseline would take about " +
-               FormatBytes(bytes) + " to train, above the memory limit of " +
-               FormatBytes(options.max_memory_bytes) + " (max_memory_bytes)";
-      return false;
-    }
   }
   const int ns = model.num_surface_vertices();
   const std::string& out = options.output_directory;

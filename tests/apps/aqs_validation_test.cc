@@ -554,6 +554,9 @@ TEST_F(AqsValidationModelTest, OutputsLeaveTheInputsAndTheModelAlone) {
                {"--output_dir={dir}ev --baseline_iterations=0", 1,
                 "--baseline_iterations must be >= 1 (is 0)"}},
               dir.path());
+  // Refused before the output folder is touched (the baseline too large for memory was
+  // refused after an earlier run's outputs were deleted).
+  EXPECT_FALSE(fs::exists(dir.File("ev")));
   // Flags of the other mode are refused, not dropped without a word.
   ExpectCases("aqs_simulate", m + " --pose=bend_x --output={dir}s.obj",
               {{"--gradient={dir}g.txt", 1, "--gradient and --initial do not apply"},
