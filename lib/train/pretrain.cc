@@ -458,13 +458,9 @@ bool Pretrain(const PretrainOptions& options, ActiveModel* model, PretrainReport
   model->latents = Eigen::Map<const Eigen::MatrixXd>(parameters.data() + np, d, p);
   model->states.clear();
   model->checkpoint = TrainingCheckpoint();  // a new decoder: no training done yet
-  // The fits' prior belongs to the latents (a model saved learns it again from them): the
-  // old decoder's, of another latent size, would fail the next fitter's CHECK.
-  std::string prior_error;
-  if (!LearnFitPrior(*model, FitPriorOptions(), &model->fit_prior, &prior_error)) {
-    *error = "the pre-trained latents' fit prior: " + prior_error;
-    return false;
-  }
+  // The fits' prior belonged to the old latents (of another size, it failed the next
+  // fitter's CHECK): none, so that fits learn it from these (and a save writes theirs).
+  model->fit_prior = FitPrior();
   return true;
 }
 

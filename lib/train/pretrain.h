@@ -131,9 +131,9 @@ bool PretrainMemoryBytes(const PretrainOptions& options, const ActiveModel& mode
 // checkpoint to resume (options.checkpoint_directory, resume), at the checkpoint's point,
 // with the rest of the budget (L-BFGS' history starts anew there). Every pose needs a
 // target. A checkpoint that cannot be written stops pre-training with the error.
-// Sets model->decoder, decoder_params and latents, learns model->fit_prior from the new
-// latents (LearnFitPrior), and clears the states and the training checkpoint (they
-// belonged to the old decoder). Progress lines go to `log`.
+// Sets model->decoder, decoder_params and latents, and clears the states, the training
+// checkpoint and the fits' prior (they belonged to the old decoder; fits learn the prior
+// from the new latents, as a save does). Progress lines go to `log`.
 // Fails with *error, before allocating, on invalid options (options.Validate) and on
 // an estimate (PretrainMemoryBytes) above options.max_memory_bytes.
 bool Pretrain(const PretrainOptions& options, ActiveModel* model, PretrainReport* report,
