@@ -185,7 +185,8 @@ std::string FitBenchmarkTables(const std::vector<FitBenchmarkRow>& rows,
         distance /= fitted;
       }
       md << "\n" << name << " within 1.2x of the fit with correspondence: " << within << " of "
-         << set.size() << FailedNote(static_cast<int>(set.size()) - fitted) << "; worst ratio " << Fixed(worst, 2) << "; matched points "
+         << set.size() << FailedNote(static_cast<int>(set.size()) - fitted) << "; worst ratio "
+         << Fixed(worst, 2) << "; matched points "
          << Fixed(100 * fraction, 1) << "% on average, matched distance " << Fixed(distance, 4)
          << " on average. Of the " << judged << " beyond 1.2x, " << missed_minimum
          << " stopped where the scan's objective is larger than at the fit with "

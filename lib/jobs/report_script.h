@@ -26,7 +26,8 @@ int RunProgram(const std::vector<std::string>& command, std::string* message);
 // otherwise logs one line that says what is missing or failed and that the tables were
 // written (python not found; matplotlib or numpy missing: install
 // python3-matplotlib and python3-numpy; the script missing; the script ended by a
-// signal; any other failure with its exit status). Returns true on success; a failure is never fatal for the caller.
+// signal; any other failure with its exit status). Returns true on success; a failure
+// is never fatal for the caller.
 bool RunReportScript(const std::string& python, const std::string& script,
                      const std::vector<std::string>& arguments, std::ostream& log);
 

@@ -38,8 +38,9 @@ struct PointOnLine;
 // if an equilibrium cannot be reached, if the loss is not finite, if an adjoint cannot
 // be solved even with the shifted stiffness (an equilibrium whose exact stiffness is not
 // positive definite is first left by a perturbation, kMaxEscapes times, then takes the
-// adjoint of K + shift I: kFirstAdjointShift...), or once a time limit has passed. A pose whose warm start fails is retried from the rest shape
-// only until it has converged once: afterwards a failure is a step too long for the
+// adjoint of K + shift I: kFirstAdjointShift...), or once a time limit has passed. A
+// pose whose warm start fails is retried from the rest shape only until it has
+// converged once: afterwards a failure is a step too long for the
 // branch training follows (retrying from rest would cost a long solve and could jump
 // to another branch of the non-convex energy). Not thread-safe (Ceres calls it from
 // one thread).

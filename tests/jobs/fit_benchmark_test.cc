@@ -311,8 +311,9 @@ TEST(FitBenchmarkTest, TablesCountTheMixesThatHaveTheirReferences) {
 }
 
 // A failed fit (NaN errors, its other figures 0) is left out of every statistic (the
-// baselines' means are over the mixes physics fitted) and counted as failed: it counted as 0 in the matched points, distances, iterations and
-// work, and "max of mean errors" was NaN or not by the order of the mixes.
+// baselines' means are over the mixes physics fitted) and counted as failed: it counted
+// as 0 in the matched points, distances, iterations and work, and "max of mean errors"
+// was NaN or not by the order of the mixes.
 TEST(FitBenchmarkTest, TablesLeaveFailedFitsOutAndCountThem) {
   auto row = [](const std::string& mix, const std::string& method, int markers, double mean) {
     FitBenchmarkRow r;
