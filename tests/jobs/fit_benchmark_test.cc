@@ -281,24 +281,28 @@ TEST(FitBenchmarkTest, MarkersNeedThreeTrainingPoses) {
   EXPECT_EQ(log.str().find("physics_pose"), std::string::npos) << "no fit ran:\n" << log.str();
 }
 
+// A row of the benchmark's tables: `method`'s fit of `mix` with `markers` markers (0: none),
+// of mean error `mean`.
+FitBenchmarkRow TableRow(const std::string& mix, const std::string& method, int markers,
+                         double mean) {
+  FitBenchmarkRow r;
+  r.mix = mix;
+  r.method = method;
+  r.markers = markers;
+  r.mean = mean;
+  return r;
+}
+
 // The tables count each marker set's mixes against their PCA and neutral rows, and a
 // mix without them (rows of a run stopped in between) is left out, not looked up (an
 // uncaught std::out_of_range after every fit).
 TEST(FitBenchmarkTest, TablesCountTheMixesThatHaveTheirReferences) {
-  auto row = [](const std::string& mix, const std::string& method, int markers, double mean) {
-    FitBenchmarkRow r;
-    r.mix = mix;
-    r.method = method;
-    r.markers = markers;
-    r.mean = mean;
-    return r;
-  };
   const std::vector<FitBenchmarkRow> rows = {
-      row("mix_000", "neutral", 0, 0.2), row("mix_000", "pca", 20, 0.1),
-      row("mix_000", "physics", 20, 0.08), row("mix_001", "neutral", 0, 0.1),
-      row("mix_001", "pca", 20, 0.05), row("mix_001", "physics", 20, 0.12),
-      row("mix_002", "physics", 20, 0.3),  // its neutral and PCA rows missing
-      row("mix_003", "physics_scan", 0, 0.1)};  // a scan without its pose fit
+      TableRow("mix_000", "neutral", 0, 0.2), TableRow("mix_000", "pca", 20, 0.1),
+      TableRow("mix_000", "physics", 20, 0.08), TableRow("mix_001", "neutral", 0, 0.1),
+      TableRow("mix_001", "pca", 20, 0.05), TableRow("mix_001", "physics", 20, 0.12),
+      TableRow("mix_002", "physics", 20, 0.3),  // its neutral and PCA rows missing
+      TableRow("mix_003", "physics_scan", 0, 0.1)};  // a scan without its pose fit
   FitBenchmarkParts parts;
   parts.markers = parts.poses = parts.scans = true;
   parts.marker_counts = {20};
@@ -316,11 +320,7 @@ TEST(FitBenchmarkTest, TablesCountTheMixesThatHaveTheirReferences) {
 // was NaN or not by the order of the mixes.
 TEST(FitBenchmarkTest, TablesLeaveFailedFitsOutAndCountThem) {
   auto row = [](const std::string& mix, const std::string& method, int markers, double mean) {
-    FitBenchmarkRow r;
-    r.mix = mix;
-    r.method = method;
-    r.markers = markers;
-    r.mean = mean;
+    FitBenchmarkRow r = TableRow(mix, method, markers, mean);
     r.iterations = 12;
     r.factorizations = 42;
     r.matched_fraction = 0.9;
