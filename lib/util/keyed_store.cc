@@ -27,6 +27,7 @@ bool KeyedStore::Open(const std::string& directory, const std::string& key, std:
   const bool previous_is_ours = ReadWholeFile(previous + "/key.txt") == key;
   if (fs::exists(directory, code) && ReadWholeFile(key_path) != key) {
     const bool empty = fs::is_empty(directory, code) && !code;
+    code.clear();  // a folder whose emptiness cannot be told is moved as a full one
     if (previous_is_ours) {
       // The two folders trade places (atomically where the file system can).
       if (::renameat2(AT_FDCWD, directory.c_str(), AT_FDCWD, previous.c_str(),
