@@ -18,9 +18,10 @@ face_landmarks finds except the mouth corners (6155 and 5650 here, about 0.28 cm
 the lip seam's extreme vertices 6434 and 5929 that face_landmarks returns).
 A development-time tool; the project does not run it."""
 import argparse
-import os
 import random
 import sys
+
+from make_fit_tests import write_atomically  # beside this script
 
 
 def read_vertices(path):
@@ -37,27 +38,6 @@ def read_triangles(path):
                 for k in range(1, len(corners) - 1):
                     triangles.append((corners[0], corners[k], corners[k + 1]))
     return triangles
-
-
-class AtomicText:
-    """A text file written whole or not at all: a temporary file beside it, moved into
-    place when the block ends without an exception (and removed when it does not)."""
-
-    def __init__(self, path):
-        self.path = path
-        self.temporary = "%s.tmp%d" % (path, os.getpid())
-
-    def __enter__(self):
-        self.file = open(self.temporary, "w")
-        return self.file
-
-    def __exit__(self, kind, value, traceback):
-        self.file.close()
-        if kind is None:
-            os.replace(self.temporary, self.path)
-        else:
-            os.remove(self.temporary)
-        return False
 
 
 def main():
@@ -105,22 +85,22 @@ def main():
             u, v = 1 - u, 1 - v
         points.append([a[k] + u * (b[k] - a[k]) + v * (c[k] - a[k]) + rng.gauss(0, args.noise)
                        for k in range(3)])
-    with AtomicText(args.output) as out:
-        out.write("ply\nformat ascii 1.0\n")
-        out.write("comment synthetic scan of %s: %d points on triangles with z >= %g, noise %g\n"
-                  % (args.pose, len(points), args.min_z, args.noise))
-        out.write("element vertex %d\nproperty float x\nproperty float y\nproperty float z\n"
-                  "end_header\n" % len(points))
-        for p in points:
-            out.write("%.5f %.5f %.5f\n" % tuple(p))
+    # Each file whole or not at all (make_fit_tests.write_atomically).
+    text = ["ply\nformat ascii 1.0\n",
+            "comment synthetic scan of %s: %d points on triangles with z >= %g, noise %g\n"
+            % (args.pose, len(points), args.min_z, args.noise),
+            "element vertex %d\nproperty float x\nproperty float y\nproperty float z\n"
+            "end_header\n" % len(points)]
+    text += ["%.5f %.5f %.5f\n" % tuple(p) for p in points]
+    write_atomically(args.output, "".join(text))
     if args.landmarks:
         landmark_rng = random.Random(args.seed + 1000)
-        with AtomicText(args.landmarks) as out:
-            out.write("# landmarks of %s: vertices of %s plus noise %g\n# vertex x y z\n"
-                      % (args.output, args.pose, args.landmark_noise))
-            for v in landmark_vertices:
-                p = [vertices[v][k] + landmark_rng.gauss(0, args.landmark_noise) for k in range(3)]
-                out.write("%d %.5f %.5f %.5f\n" % (v, p[0], p[1], p[2]))
+        text = ["# landmarks of %s: vertices of %s plus noise %g\n# vertex x y z\n"
+                % (args.output, args.pose, args.landmark_noise)]
+        for v in landmark_vertices:
+            p = [vertices[v][k] + landmark_rng.gauss(0, args.landmark_noise) for k in range(3)]
+            text.append("%d %.5f %.5f %.5f\n" % (v, p[0], p[1], p[2]))
+        write_atomically(args.landmarks, "".join(text))
 
 
 if __name__ == "__main__":
