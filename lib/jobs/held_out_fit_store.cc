@@ -1,6 +1,8 @@
 #include "jobs/held_out_fit_store.h"
 
+#include <algorithm>
 #include <filesystem>
+#include <string>
 
 #include "model/model_fingerprint.h"
 #include "util/atomic_file.h"
@@ -27,6 +29,26 @@ int StartIndex(const ActiveModel& model, const std::string& start) {
 std::string StartName(const ActiveModel& model, int index) {
   if (index == -2) return kFailedFitStart;
   return index >= 0 && index < model.num_poses() ? model.poses[index].name : kMeanLatentStart;
+}
+
+// The record at `path` (NNNN.txt): its pose, surface fingerprint and message ("" where
+// absent). False if it cannot be read.
+bool ReadRecord(const std::string& path, std::string* pose, std::string* fingerprint,
+                std::string* message) {
+  LineReader reader(path);
+  std::vector<std::string> tokens;
+  while (reader.NextTokens(&tokens, '\0')) {
+    const std::string& line = reader.line();
+    if (tokens[0] == "pose" && line.size() > 5) *pose = line.substr(5);
+    if (tokens[0] == "surface" && tokens.size() == 2) *fingerprint = tokens[1];
+    if (tokens[0] == "message" && line.size() > 8) *message = line.substr(8);
+  }
+  return reader.ok();
+}
+
+// An item's key: the pose's name and its surface's fingerprint.
+std::string ItemKey(const std::string& pose, const std::string& fingerprint) {
+  return pose + "\n" + fingerprint;
 }
 
 }  // namespace
@@ -102,26 +124,45 @@ std::string HeldOutFitKey(const ActiveModel& model, const LatentFitOptions& opti
          std::to_string(training_pose_starts) + "\n" + options.KeyText();
 }
 
-bool HeldOutFitStore::Load(const ActiveModel& model, int t, const std::string& name,
+bool HeldOutFitStore::Open(const std::string& directory, const std::string& key,
+                           std::string* error) {
+  items_.clear();
+  next_item_ = 0;
+  if (!store_.Open(directory, key, error)) return false;
+  // The items kept, by pose and surface (a list with a pose added or removed finds them).
+  std::error_code code;
+  for (const std::filesystem::directory_entry& entry :
+       std::filesystem::directory_iterator(directory, code)) {
+    const std::string name = entry.path().filename().string();
+    const size_t dot = name.size() > 4 ? name.size() - 4 : 0;
+    if (dot < 4 || name.compare(dot, 4, ".txt") != 0 ||
+        name.find_first_not_of("0123456789") != dot) {
+      continue;
+    }
+    const int item = std::stoi(name.substr(0, dot));
+    std::string pose, fingerprint, message;
+    if (ReadRecord(entry.path().string(), &pose, &fingerprint, &message)) {
+      items_[ItemKey(pose, fingerprint)] = item;
+    }
+    next_item_ = std::max(next_item_, item + 1);
+  }
+  return true;
+}
+
+bool HeldOutFitStore::Load(const ActiveModel& model, const std::string& name,
                            const Eigen::Matrix3Xd& surface, LatentFitResult* fit,
                            double* seconds) const {
   if (!store_.is_open()) return false;
-  const std::string record = store_.ItemPath(t, "txt");
-  std::error_code code;
-  if (!std::filesystem::exists(record, code)) return false;
-  LineReader reader(record);
-  std::string pose, fingerprint, message;
-  std::vector<std::string> tokens;
-  while (reader.NextTokens(&tokens, '\0')) {
-    const std::string& line = reader.line();
-    if (tokens[0] == "pose" && line.size() > 5) pose = line.substr(5);
-    if (tokens[0] == "surface" && tokens.size() == 2) fingerprint = tokens[1];
-    if (tokens[0] == "message" && line.size() > 8) message = line.substr(8);
-  }
+  const std::string fingerprint = SurfaceFingerprint(surface);
+  const auto found = items_.find(ItemKey(name, fingerprint));
+  if (found == items_.end()) return false;
+  const int t = found->second;
+  std::string pose, recorded, message;
   const int size = HeldOutFitBlockSize(model);
   Eigen::MatrixXd block;
   std::string ignored;
-  if (!reader.ok() || pose != name || fingerprint != SurfaceFingerprint(surface) ||
+  if (!ReadRecord(store_.ItemPath(t, "txt"), &pose, &recorded, &message) || pose != name ||
+      recorded != fingerprint ||
       !ReadMatrixFile(store_.ItemPath(t, "bin"), size, 1, &block, &ignored) ||
       !block.allFinite()) {
     return false;
@@ -131,16 +172,21 @@ bool HeldOutFitStore::Load(const ActiveModel& model, int t, const std::string& n
   return true;
 }
 
-bool HeldOutFitStore::Save(const ActiveModel& model, int t, const std::string& name,
+bool HeldOutFitStore::Save(const ActiveModel& model, const std::string& name,
                            const Eigen::Matrix3Xd& surface, const LatentFitResult& fit,
-                           double seconds, std::string* error) const {
+                           double seconds, std::string* error) {
+  // The pose's item if it has one (a fit kept that could not be read), else a new one.
+  const std::string key = ItemKey(OneLine(name), SurfaceFingerprint(surface));
+  const auto found = items_.find(key);
+  const int t = found != items_.end() ? found->second : next_item_++;
+  items_[key] = t;
   std::vector<double> block;
   PackHeldOutFit(model, fit, seconds, &block);
   const Eigen::Map<const Eigen::MatrixXd> column(block.data(),
                                                  static_cast<Eigen::Index>(block.size()), 1);
   // The record names the pose whose numbers the .bin holds: it goes before the .bin is
-  // replaced (item t may have held another pose, of another --test_poses list), so that
-  // a failed or killed write never leaves one pose's record over another's numbers.
+  // replaced (item t may hold this pose's earlier fit, or numbers a killed write left),
+  // so that a failed or killed write never leaves a record over other numbers.
   std::error_code code;
   std::filesystem::remove(store_.ItemPath(t, "txt"), code);
   if (code) {

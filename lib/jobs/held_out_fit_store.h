@@ -5,6 +5,7 @@
 // 0, and what the evaluation keeps as it goes (so that a rerun after a stop takes the
 // fits already done). Internal to jobs/.
 
+#include <map>
 #include <string>
 #include <vector>
 
@@ -57,26 +58,29 @@ std::string HeldOutFitKey(const ActiveModel& model, const LatentFitOptions& opti
 // failed fit's why, or the solver's termination; line breaks as spaces).
 class HeldOutFitStore {
  public:
-  // Opens (or empties, for another key) the folder; false with *error.
-  bool Open(const std::string& directory, const std::string& key, std::string* error) {
-    return store_.Open(directory, key, error);
-  }
+  // Opens (or empties, for another key) the folder and indexes the fits kept there by
+  // pose and surface; false with *error.
+  bool Open(const std::string& directory, const std::string& key, std::string* error);
 
-  // Held-out pose t's kept fit, if there is a whole one of pose `name` with this
-  // `surface` (3 x ns): fills *fit and *seconds and returns true. False (nothing
+  // The kept fit of pose `name` with this `surface` (3 x ns), if there is a whole one
+  // (whatever its place in an earlier run's list: a pose added or removed does not
+  // refit the others): fills *fit and *seconds and returns true. False (nothing
   // changed) otherwise, or when the files cannot be read.
-  bool Load(const ActiveModel& model, int t, const std::string& name,
-            const Eigen::Matrix3Xd& surface, LatentFitResult* fit, double* seconds) const;
+  bool Load(const ActiveModel& model, const std::string& name, const Eigen::Matrix3Xd& surface,
+            LatentFitResult* fit, double* seconds) const;
 
-  // Keeps held-out pose t's fit. False with *error if a file cannot be written.
-  bool Save(const ActiveModel& model, int t, const std::string& name,
-            const Eigen::Matrix3Xd& surface, const LatentFitResult& fit, double seconds,
-            std::string* error) const;
+  // Keeps the fit of pose `name` with this `surface`: in its item if it has one, else in
+  // a new one (an item of another pose is never replaced). False with *error if a file
+  // cannot be written.
+  bool Save(const ActiveModel& model, const std::string& name, const Eigen::Matrix3Xd& surface,
+            const LatentFitResult& fit, double seconds, std::string* error);
 
   const std::string& directory() const { return store_.directory(); }
 
  private:
   KeyedStore store_;
+  std::map<std::string, int> items_;  // pose name + "\n" + surface fingerprint -> item
+  int next_item_ = 0;                 // the first item number not in use
 };
 
 }  // namespace aqs

@@ -90,7 +90,7 @@ void FitHeldOutPoses(const ActiveModel& model, const LatentFitOptions& options,
                          HeldOutFitKey(model, options, training_pose_starts), &error);
     if (!keeping) out->store_warning = error;
     for (int t = 0; keeping && t < count; ++t) {
-      if (store.Load(model, t, names[t], surfaces[t], &fits[t], &seconds[t])) {
+      if (store.Load(model, names[t], surfaces[t], &fits[t], &seconds[t])) {
         done[t] = 1;
         ++out->kept;
       }
@@ -99,7 +99,7 @@ void FitHeldOutPoses(const ActiveModel& model, const LatentFitOptions& options,
   auto keep = [&](int t) {
     std::string error;
     if (keeping &&
-        !store.Save(model, t, names[t], surfaces[t], fits[t], seconds[t], &error)) {
+        !store.Save(model, names[t], surfaces[t], fits[t], seconds[t], &error)) {
       keeping = false;  // one warning; the fits themselves stand
       out->store_warning = error + " (a stopped run would fit the held-out poses again)";
     }

@@ -42,8 +42,8 @@ class HeldOutFitsTest : public ::testing::Test {
   HeldOutFits Fit(const LatentFitOptions& options, const std::string& store = "") const {
     HeldOutFits out;
     FitHeldOutPoses(model_, options, false, names_, surfaces_, store, nullptr, &out);
-    EXPECT_EQ(out.fits.size(), 2u);
-    EXPECT_EQ(out.seconds.size(), 2u);
+    EXPECT_EQ(out.fits.size(), names_.size());
+    EXPECT_EQ(out.seconds.size(), names_.size());
     EXPECT_EQ(out.store_warning, "");
     return out;
   }
@@ -155,10 +155,10 @@ TEST_F(HeldOutFitsTest, KeptFitsOfAnotherModelOptionsOrPoseAreNotTaken) {
 }
 
 // An item's record goes before its numbers are replaced: a save that fails after the
-// numbers (here the record's temporary file is blocked by a folder) leaves no record of
-// the pose the item held before (another --test_poses list's), which a later run took
-// the new numbers for.
-TEST_F(HeldOutFitsTest, AFailedSaveLeavesNoRecordOverAnotherPosesNumbers) {
+// numbers (here the record's temporary file is blocked by a folder) leaves no record over
+// other numbers, which a later run would take for the pose's fit. The other pose's item
+// is not touched.
+TEST_F(HeldOutFitsTest, AFailedSaveLeavesNoRecordOverOtherNumbers) {
   const std::string folder = dir_.File("held_out_fits");
   const HeldOutFits first = Fit(options_, folder);
   std::ifstream key_file(folder + "/key.txt");
@@ -169,12 +169,34 @@ TEST_F(HeldOutFitsTest, AFailedSaveLeavesNoRecordOverAnotherPosesNumbers) {
   ASSERT_TRUE(store.Open(folder, key, &error)) << error;
   LatentFitResult fit;
   double seconds = 0.0;
-  ASSERT_TRUE(store.Load(model_, 0, names_[0], surfaces_[0], &fit, &seconds));
+  ASSERT_TRUE(store.Load(model_, names_[0], surfaces_[0], &fit, &seconds));
   fs::create_directories(folder + "/0000.txt.tmp" + std::to_string(::getpid()));
-  EXPECT_FALSE(store.Save(model_, 0, names_[1], surfaces_[1], first.fits[1], 1.0, &error));
-  EXPECT_FALSE(store.Load(model_, 0, names_[0], surfaces_[0], &fit, &seconds))
+  EXPECT_FALSE(store.Save(model_, names_[0], surfaces_[0], first.fits[1], 1.0, &error));
+  EXPECT_FALSE(store.Load(model_, names_[0], surfaces_[0], &fit, &seconds))
       << "pose 1's numbers taken for pose 0's fit";
-  EXPECT_FALSE(store.Load(model_, 0, names_[1], surfaces_[1], &fit, &seconds));
+  EXPECT_TRUE(store.Load(model_, names_[1], surfaces_[1], &fit, &seconds));
+}
+
+// Kept fits are found by pose and surface, not by their place in the list: a pose added
+// in front, or the list in another order, takes every fit kept (they were refitted from
+// the first pose out of place on, and the kept ones overwritten).
+TEST_F(HeldOutFitsTest, KeptFitsAreFoundByPoseNotByPlace) {
+  const std::string store = dir_.File("held_out_fits");
+  const HeldOutFits first = Fit(options_, store);
+  std::swap(names_[0], names_[1]);
+  std::swap(surfaces_[0], surfaces_[1]);
+  HeldOutFits again = Fit(options_, store);
+  EXPECT_EQ(again.kept, 2);
+  ExpectSameFit(again.fits[0], first.fits[1], 0);
+  ExpectSameFit(again.fits[1], first.fits[0], 1);
+  // One pose added in front: the two kept, one fitted (and kept in a new item).
+  names_.insert(names_.begin(), "bent_again");
+  Eigen::Matrix3Xd moved = surfaces_[0];
+  moved.row(2).array() += 1e-3;
+  surfaces_.insert(surfaces_.begin(), moved);
+  EXPECT_EQ(Fit(options_, store).kept, 2);
+  EXPECT_EQ(Fit(options_, store).kept, 3);
+  EXPECT_TRUE(fs::exists(store + "/0002.txt"));
 }
 
 TEST_F(HeldOutFitsTest, FailedFitsAreKeptWithTheirMessage) {
