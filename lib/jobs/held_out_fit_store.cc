@@ -135,7 +135,8 @@ bool HeldOutFitStore::Open(const std::string& directory, const std::string& key,
        std::filesystem::directory_iterator(directory, code)) {
     const std::string name = entry.path().filename().string();
     const size_t dot = name.size() > 4 ? name.size() - 4 : 0;
-    if (dot < 4 || name.compare(dot, 4, ".txt") != 0 ||
+    // NNNN.txt, at most 9 digits (a stray file of more would overflow std::stoi).
+    if (dot < 4 || dot > 9 || name.compare(dot, 4, ".txt") != 0 ||
         name.find_first_not_of("0123456789") != dot) {
       continue;
     }
@@ -154,14 +155,15 @@ bool HeldOutFitStore::Load(const ActiveModel& model, const std::string& name,
                            double* seconds) const {
   if (!store_.is_open()) return false;
   const std::string fingerprint = SurfaceFingerprint(surface);
-  const auto found = items_.find(ItemKey(name, fingerprint));
+  const auto found = items_.find(ItemKey(OneLine(name), fingerprint));
   if (found == items_.end()) return false;
   const int t = found->second;
   std::string pose, recorded, message;
   const int size = HeldOutFitBlockSize(model);
   Eigen::MatrixXd block;
   std::string ignored;
-  if (!ReadRecord(store_.ItemPath(t, "txt"), &pose, &recorded, &message) || pose != name ||
+  if (!ReadRecord(store_.ItemPath(t, "txt"), &pose, &recorded, &message) ||
+      pose != OneLine(name) ||
       recorded != fingerprint ||
       !ReadMatrixFile(store_.ItemPath(t, "bin"), size, 1, &block, &ignored) ||
       !block.allFinite()) {
