@@ -290,8 +290,13 @@ std::string EvaluationMarkdown(const EvaluationReportParts& parts, const Evaluat
      << " (" << parts.autoencoder_termination << ")";
   if (parts.autoencoder_resumed_after > 0) {
     md << "; it resumed a stopped run's checkpoint after iteration "
-       << parts.autoencoder_resumed_after << " (loss " << parts.autoencoder_resumed_loss
-       << "; L-BFGS restarts there: the result differs a little from an uninterrupted run's)";
+       << parts.autoencoder_resumed_after << " (loss " << parts.autoencoder_resumed_loss;
+    if (parts.autoencoder_iterations > parts.autoencoder_resumed_after) {
+      md << "; L-BFGS' memory starts empty there, so the result differs a little from an "
+         << "uninterrupted run's)";
+    } else {
+      md << "; the checkpoint was the finished training, so the result is that run's)";
+    }
   }
   md << ".\n\n";
   if (!parts.overlap_note.empty()) md << "**Warning:** " << parts.overlap_note << "\n\n";
@@ -303,8 +308,13 @@ std::string EvaluationMarkdown(const EvaluationReportParts& parts, const Evaluat
                : "the mean training latent (the physics model: bones at rest, from the rest shape)")
        << ":";
     for (size_t t = 0; t < parts.test_names.size(); ++t) {
-      md << (t ? "; " : " ") << parts.test_names[t] << " from " << parts.physics_starts[t]
-         << " / " << parts.autoencoder_starts[t];
+      md << (t ? "; " : " ") << parts.test_names[t] << " from ";
+      if (parts.physics_starts[t] == kFailedFitStart) {
+        md << "(physics fit failed)";
+      } else {
+        md << parts.physics_starts[t];
+      }
+      md << " / " << parts.autoencoder_starts[t];
     }
     md << ". The physics model's and the auto-encoder's latents are fitted with the same "
        << "prior rule: ";

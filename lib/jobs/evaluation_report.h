@@ -12,6 +12,12 @@
 
 namespace aqs {
 
+// How the report names the start of a held-out fit at the mean training latent.
+constexpr char kMeanLatentStart[] = "mean latent";
+
+// LatentFitResult::start of a held-out fit that failed (the report says the fit failed).
+inline constexpr const char* kFailedFitStart = "failed";
+
 // One row of the evaluation: the vertex distances of one method on one pose.
 struct EvaluationRow {
   std::string split;   // "train" or "test"
@@ -80,8 +86,9 @@ struct EvaluationReportParts {
   int autoencoder_iterations = 0;
   int autoencoder_restarts = 0;
   // > 0: its training resumed an earlier, stopped run's checkpoint after this many
-  // iterations (L-BFGS' memory restarts there, so the result differs a little from an
-  // uninterrupted run's).
+  // iterations. If it trained on from there (autoencoder_iterations > this), L-BFGS'
+  // memory started empty, so the result differs a little from an uninterrupted run's;
+  // otherwise the checkpoint was the finished training and the result is that run's.
   int autoencoder_resumed_after = 0;
   // Held-out physics fits taken from a stopped run's store (jobs/held_out_fits.h).
   int physics_fits_kept = 0;

@@ -12,16 +12,11 @@
 #include <Eigen/Core>
 
 #include "fit/latent_fit.h"
+#include "jobs/evaluation_report.h"
 #include "model/active_model.h"
 #include "util/keyed_store.h"
 
 namespace aqs {
-
-// How the report names the start of a held-out fit at the mean training latent.
-constexpr char kMeanLatentStart[] = "mean latent";
-
-// LatentFitResult::start of a held-out fit that failed.
-inline constexpr const char* kFailedFitStart = "failed";
 
 // A fingerprint of a surface's points (3 x n, and n), as 16 hexadecimal digits: what
 // the held-out fits' store and the ranks of a distributed evaluation compare poses by.

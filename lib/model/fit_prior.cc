@@ -93,7 +93,14 @@ bool LearnLatentPrior(const Eigen::MatrixXd& latents, int center, const FitPrior
   prior.mean = center >= 0 ? Eigen::VectorXd(latents.col(center))
                            : Eigen::VectorXd(latents.rowwise().mean());
   Eigen::MatrixXd covariance = MomentAbout(latents, prior.mean);
-  const double mean_variance = std::max(covariance.trace() / d, 1e-12);
+  double mean_variance = covariance.trace() / d;
+  if (std::isfinite(mean_variance) && mean_variance <= kNoLatentSpread) {
+    // No spread to learn from (one training pose, or latents all alike): unit variance,
+    // the scale of the whitened latents training starts from, not a prior that pins
+    // every fit to the centre (1e-14 I before).
+    covariance.setIdentity(d, d);
+    mean_variance = 1.0;
+  }
   covariance.diagonal().array() += options.latent_floor * mean_variance;
   if (!covariance.allFinite() || !prior.SetCovariance(covariance)) {
     *error = "the training latents are too far apart to give a latent prior (their second "

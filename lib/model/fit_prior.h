@@ -58,12 +58,18 @@ struct FitPriorOptions {
 // the neutral centres a fit prior (LearnFitPrior).
 bool IsNeutralSurface(const Eigen::Matrix3Xd& surface, const Eigen::Matrix3Xd& neutral);
 
+// Training latents whose mean variance is at most this have no spread to learn from.
+inline constexpr double kNoLatentSpread = 1e-12;
+
 // The latent prior of a fit (FitPrior::latent) learned from training latents (d x P,
 // P >= 1): centred on latents.col(center) for center >= 0 (the neutral's training pose),
 // else on their mean; its covariance is the second moment of the latents about that
-// centre, plus options.latent_floor x its mean variance on the diagonal. LearnFitPrior's
-// latent part, and the evaluation's auto-encoder's (eval/surface_autoencoder.h). False,
-// with *error saying why, where that covariance is not finite and positive definite.
+// centre, plus options.latent_floor x its mean variance on the diagonal. Latents without
+// spread (one pose, or all alike: kNoLatentSpread) give (1 + latent_floor) I instead,
+// unit variance being the scale of the whitened latents training starts from.
+// LearnFitPrior's latent part, and the evaluation's auto-encoder's
+// (eval/surface_autoencoder.h). False, with *error saying why, where that covariance is
+// not finite and positive definite.
 bool LearnLatentPrior(const Eigen::MatrixXd& latents, int center, const FitPriorOptions& options,
                       GaussianPrior* prior, std::string* error);
 

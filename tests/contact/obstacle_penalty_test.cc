@@ -207,6 +207,7 @@ TEST(ObstaclePenaltyTest, GradientMatchesDifferencesNearACreaseItsEndsAndInside)
                                         0.9 * uniform(rng)),
                         1e-7, 1e-6});
     }
+    int checked = 0;
     for (const auto& [name, local, step, tolerance] : points) {
       SCOPED_TRACE(name);
       const Eigen::Vector3d p = notch.World(local);
@@ -214,6 +215,7 @@ TEST(ObstaclePenaltyTest, GradientMatchesDifferencesNearACreaseItsEndsAndInside)
       Eigen::Matrix3d hessian;
       const double penalty = Penalty(notch.obstacle, thickness, p, &gradient, &hessian);
       if (penalty == 0.0) continue;  // out of reach
+      ++checked;
       EXPECT_GT(penalty, 0.0);
       EXPECT_LT(GradientError({&notch.obstacle}, thickness, p, step), tolerance);
       // Symmetric and positive semi-definite up to round-off of its size (1e-6 above the
@@ -222,6 +224,8 @@ TEST(ObstaclePenaltyTest, GradientMatchesDifferencesNearACreaseItsEndsAndInside)
       EXPECT_GE(eigen.eigenvalues().minCoeff(), -1e-14 * (1.0 + hessian.norm()));
       EXPECT_LT((hessian - hessian.transpose()).norm(), 1e-14 * (1.0 + hessian.norm()));
     }
+    // Most of the band is within reach: the checks above ran, not skipped.
+    EXPECT_GE(checked, 40);  // measured: 43, 43 and 44 of the 44
   }
 }
 

@@ -6,6 +6,7 @@
 
 #include <ceres/cost_function.h>
 #include <ceres/gradient_checker.h>
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
@@ -73,6 +74,15 @@ void CheckActiveSelfContactPair(const SelfContactPair& pair, const Eigen::Matrix
     for (int j = 0; j < 4; ++j) tets(j, m) = stencils[m]->vertex[j];
   }
   EXPECT_LT(testing::RelativeError(DenseStiffness(term, x, tets), DifferencedHessian(term, x)), 1e-6);
+  // The projected stiffness (what contact Newton steps factor) is the Gauss-Newton part
+  // alone: for one pair, E = r^2 / 2 and grad E = r dr, so it is grad grad^T / (2 E),
+  // positive semi-definite.
+  const double e = term.AddEnergyAndGradient(x, &gradient.setZero());
+  const Eigen::MatrixXd projected = DenseStiffness(term, x, tets, StiffnessKind::kProjected);
+  EXPECT_LT(testing::RelativeError(projected, flat_gradient * flat_gradient.transpose() / (2 * e)),
+            1e-12);
+  EXPECT_GE(Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(projected).eigenvalues().minCoeff(),
+            -1e-12 * projected.norm());
 }
 
 TEST(SelfContactTermTest, ResidualJacobianAndEnergyGradient) {

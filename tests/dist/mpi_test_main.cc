@@ -45,6 +45,13 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "aqs_mpi_test: %s\n", error.c_str());
     return 1;
   }
+  // Every test compares ranks with one process: on one rank (a launcher that starts
+  // singletons, or the binary run by hand) they would compare a process with itself.
+  if (world->size() < 2) {
+    std::fprintf(stderr, "aqs_mpi_test: %d rank; the tests need 2 or more (mpiexec -n 2)\n",
+                 world->size());
+    return 1;
+  }
   aqs::testing::g_world = world.get();
   if (world->rank() != 0) GTEST_FLAG_SET(brief, true);
   const int status = RUN_ALL_TESTS();

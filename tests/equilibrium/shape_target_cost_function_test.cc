@@ -86,7 +86,7 @@ TEST(ShapeTargetCostFunctionTest, JacobiansPassGradientChecker) {
         << results.error_log;
     ++checked;
   }
-  EXPECT_EQ(checked, 6 * 7);
+  EXPECT_EQ(checked, 6 * 9);
 }
 
 TEST(ShapeTargetCostFunctionTest, ReadsActuationInPlace) {

@@ -354,6 +354,33 @@ TEST(LatentFitTest, AFreePieceWithoutSurfaceIsFittedThroughTheRegularizedStiffne
   EXPECT_EQ(fit.shifted_jacobians, fit.jacobians);
 }
 
+// The same model's fit Jacobian (latent block) against Ridders' differences of re-solved
+// equilibria: the exact K is singular there, so every Jacobian comes from the
+// regularized one, and its shift (1e-10 of the mean diagonal) must not show.
+TEST(LatentFitTest, CostJacobianThroughTheRegularizedStiffnessPassesGradientChecker) {
+  const ActiveModel model = testing::PretrainedBarForFits(false, true);
+  const std::vector<int> vertices = {3, 20, 41, 57, 77};
+  const FitTarget target = VertexTarget(vertices, model.neutral.vertices(Eigen::all, vertices));
+  LatentFitOptions options;
+  options.solver.relative_force_tolerance = 1e-12;
+  options.fit_bones = false;
+  LatentFitter fitter(model, options);
+  std::unique_ptr<ceres::CostFunction> cost(fitter.NewCostFunction(target));
+  ASSERT_EQ(cost->parameter_block_sizes().size(), 1u);
+  const Eigen::VectorXd z = 0.5 * (model.latents.col(1) + model.latents.col(4));
+  const double* parameters[1] = {z.data()};
+  ceres::NumericDiffOptions numeric_options;
+  numeric_options.ridders_relative_initial_step_size = 1e-3;
+  const std::vector<const ceres::Manifold*>* no_manifolds = nullptr;
+  ceres::GradientChecker checker(cost.get(), no_manifolds, numeric_options);
+  ceres::GradientChecker::ProbeResults results;
+  checker.Probe(parameters, 1e-6, &results);
+  ASSERT_EQ(results.jacobians.size(), 1u) << results.error_log;
+  EXPECT_GT(results.jacobians[0].norm(), 0.0);
+  EXPECT_LT(testing::RelativeError(results.jacobians[0], results.numeric_jacobians[0]), 1e-6)
+      << results.error_log;
+}
+
 TEST(LatentFitTest, RecoversLatentAndBoneMotion) {
   const ActiveModel model = TrainedModel(true);
   LatentFitOptions options;

@@ -206,10 +206,25 @@ TEST(EvaluationReportTest, MarkdownSaysWhatWasComparedAndCsvKeepsEveryDigit) {
             std::string::npos);
   parts.autoencoder_resumed_after = 432;
   parts.autoencoder_resumed_loss = 0.25;
+  parts.autoencoder_iterations = 500;
   EXPECT_NE(EvaluationMarkdown(parts, tables)
                 .find("; it resumed a stopped run's checkpoint after iteration 432 (loss "
-                      "0.25; L-BFGS"),
+                      "0.25; L-BFGS' memory starts empty there, so the result differs a little"),
             std::string::npos);
+  // A checkpoint of the finished training gives that training's result, not a different one.
+  parts.autoencoder_iterations = 432;
+  const std::string finished = EvaluationMarkdown(parts, tables);
+  EXPECT_NE(finished.find("(loss 0.25; the checkpoint was the finished training, so the result "
+                          "is that run's)"),
+            std::string::npos)
+      << finished;
+  EXPECT_EQ(finished.find("differs a little"), std::string::npos) << finished;
+  // A failed physics fit has no start; it is said to have failed, not to start at "failed".
+  parts.physics_starts = {kFailedFitStart, "jawOpen"};
+  const std::string failed = EvaluationMarkdown(parts, tables);
+  EXPECT_NE(failed.find(": a from (physics fit failed) / jawOpen; b from jawOpen"),
+            std::string::npos)
+      << failed;
 
   parts.error_budget = false;
   EXPECT_EQ(MakeEvaluationTables(rows, parts).budget, "");

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <string>
 
@@ -117,6 +118,38 @@ TEST(FitPriorTest, NoPriorFromNoPosesOrOverflowingSpreads) {
   no_poses.latents.resize(model.latent_dim(), 0);
   EXPECT_FALSE(LearnFitPrior(no_poses, FitPriorOptions(), &prior, &error));
   EXPECT_EQ(error, "the model has no training poses to learn a fit prior from");
+}
+
+TEST(FitPriorTest, LatentsWithoutSpreadGiveUnitVarianceNotAPin) {
+  FitPriorOptions options;
+  GaussianPrior prior;
+  std::string error;
+  // One training pose: no spread about it (the covariance was 1e-14 I, which pinned every
+  // fit to that latent).
+  Eigen::MatrixXd one(3, 1);
+  one.col(0) = Eigen::Vector3d(0.5, -1.0, 2.0);
+  ASSERT_TRUE(LearnLatentPrior(one, 0, options, &prior, &error)) << error;
+  EXPECT_TRUE(prior.mean.isApprox(one.col(0)));
+  EXPECT_TRUE(prior.covariance.isApprox((1.0 + options.latent_floor) *
+                                        Eigen::MatrixXd::Identity(3, 3)))
+      << prior.covariance;
+  // Latents all alike, centred on their mean: the same.
+  const Eigen::MatrixXd alike = one.replicate(1, 4);
+  ASSERT_TRUE(LearnLatentPrior(alike, -1, options, &prior, &error)) << error;
+  EXPECT_NEAR(prior.covariance(1, 1), 1.0 + options.latent_floor, 1e-12);
+  EXPECT_NEAR(prior.SquaredMahalanobis(one.col(0) + Eigen::Vector3d(1, 0, 0)),
+              1.0 / (1.0 + options.latent_floor), 1e-9);
+  // A small but real spread is kept as it is.
+  Eigen::MatrixXd small = alike;
+  small(0, 1) += 1e-3;
+  small(0, 2) -= 1e-3;
+  ASSERT_TRUE(LearnLatentPrior(small, -1, options, &prior, &error)) << error;
+  EXPECT_LT(prior.covariance(0, 0), 1e-5);
+  // Non-finite latents are still refused, not taken for latents without spread.
+  Eigen::MatrixXd bad = alike;
+  bad(2, 3) = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(LearnLatentPrior(bad, -1, options, &prior, &error));
+  EXPECT_EQ(error.rfind("the training latents are too far apart", 0), 0u) << error;
 }
 
 TEST(FitPriorTest, FileRoundTripsIsLearnedWhenAbsentAndBadFilesNameTheLine) {

@@ -65,6 +65,16 @@ std::vector<ElementState> DerivativeTestStates(int random_count, unsigned seed) 
                         r * (identity + RandomMatrix(&rng, 0.3)),
                         q * lambda.asDiagonal() * q.transpose()});
     }
+    // G = F S a rotation: its three singular values 1 (the polar twists' U and V columns
+    // are not unique there); with S != I the stress is not zero.
+    states.push_back({"triple_" + std::to_string(i), RandomRotation(&rng) * s.inverse(), s});
+    // Two nearly repeated positive singular values of G = F S.
+    {
+      const Eigen::Vector3d sigma(1.0 + 1e-9, 1.0, 0.7);
+      const Eigen::Matrix3d g = RandomRotation(&rng) * sigma.asDiagonal() *
+                                RandomRotation(&rng).transpose();
+      states.push_back({"repeated_" + std::to_string(i), g * s.inverse(), s});
+    }
   }
   return states;
 }

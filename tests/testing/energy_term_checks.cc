@@ -9,13 +9,13 @@ namespace aqs {
 namespace testing {
 
 Eigen::MatrixXd DenseStiffness(const EnergyTerm& term, const Eigen::Matrix3Xd& x,
-                               const Eigen::Matrix4Xi& tets) {
+                               const Eigen::Matrix4Xi& tets, StiffnessKind kind) {
   const int n = static_cast<int>(x.cols());
   std::vector<std::vector<int>> couplings;
   term.AppendVertexCouplings(&couplings);
   const StiffnessPattern pattern(tets, std::vector<bool>(n, false), couplings);
   std::vector<double> values(pattern.num_nonzeros(), 0.0);
-  term.AddStiffness(x, pattern, StiffnessKind::kExact, &values);
+  term.AddStiffness(x, pattern, kind, &values);
   Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(3 * n, 3 * n);
   for (int j = 0; j < pattern.num_dofs(); ++j) {
     for (int64_t k = pattern.column_starts()[j]; k < pattern.column_starts()[j + 1]; ++k) {

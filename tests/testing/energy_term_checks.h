@@ -8,10 +8,11 @@
 namespace aqs {
 namespace testing {
 
-// A term's stiffness at x (3 x n, all vertices free) as a dense 3n x 3n matrix, on the
-// pattern of the given elements plus the term's couplings.
+// A term's stiffness of `kind` at x (3 x n, all vertices free) as a dense 3n x 3n
+// matrix, on the pattern of the given elements plus the term's couplings.
 Eigen::MatrixXd DenseStiffness(const EnergyTerm& term, const Eigen::Matrix3Xd& x,
-                               const Eigen::Matrix4Xi& tets);
+                               const Eigen::Matrix4Xi& tets,
+                               StiffnessKind kind = StiffnessKind::kExact);
 
 // Central differences of a term's energy gradient at x (3 x n): its Hessian, 3n x 3n.
 Eigen::MatrixXd DifferencedHessian(const EnergyTerm& term, const Eigen::Matrix3Xd& x);

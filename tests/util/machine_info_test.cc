@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -21,8 +22,8 @@ TEST(MachineInfoTest, DescribesHostCoresAndProcessor) {
 }
 
 TEST(MachineInfoTest, LoadAverageHasThreeNumbers) {
+  if (!std::filesystem::exists("/proc/loadavg")) GTEST_SKIP() << "no /proc/loadavg";
   const std::string text = LoadAverage();
-  if (text == "unknown") GTEST_SKIP() << "no /proc/loadavg";
   double one = -1, five = -1, fifteen = -1;
   ASSERT_EQ(std::sscanf(text.c_str(), "%lf %lf %lf", &one, &five, &fifteen), 3) << text;
   EXPECT_GE(one, 0.0);
