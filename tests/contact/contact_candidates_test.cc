@@ -5,13 +5,18 @@
 
 #include "contact/contact_solver.h"
 
+#include <algorithm>
+#include <cmath>
+#include <limits>
 #include <set>
 #include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
 
+#include "geometry/distance/plane_distance.h"
 #include "geometry/embedding.h"
+#include "geometry/vertex_normals.h"
 #include "testing/contact_scenes.h"
 
 namespace aqs {
@@ -58,6 +63,54 @@ TEST(ContactCandidatesTest, PairsJoinTheTwoBallsWithinReach) {
     EXPECT_LE(outside, options.margin + 1e-12) << pair.surface_vertex;
     EXPECT_GT(pair.stiffness, 0.0);
   }
+
+  // And no point is missed: by brute force over the other ball's triangles, with the
+  // rules DetectSelfContacts states (facing at rest, the projection within the margin,
+  // -max_depth < s < thickness + search radius, outside at rest), every point that has
+  // an eligible triangle has its pair, with the nearest one's distance.
+  std::vector<int> pairs_of(pushed.cols(), 0);
+  std::vector<double> paired_distance(pushed.cols(), 0.0);
+  for (const SelfContactPair& pair : pairs) {
+    const Eigen::Vector3d points[4] = {pair.point.Position(balls.free),
+                                       pair.corner[0].Position(balls.free),
+                                       pair.corner[1].Position(balls.free),
+                                       pair.corner[2].Position(balls.free)};
+    ++pairs_of[pair.surface_vertex];
+    double distance = 0.0, outside = 0.0;
+    SelfContactDistance(pair, points, &distance, nullptr, &outside);
+    paired_distance[pair.surface_vertex] = std::abs(distance);
+  }
+  const Eigen::Matrix3Xi& triangles = model.neutral.triangles;
+  const Eigen::Matrix3Xd rest_normals = VertexNormals(rest, triangles);
+  int eligible_points = 0;
+  for (int v = 0; v < pushed.cols(); ++v) {
+    double nearest = std::numeric_limits<double>::infinity();
+    for (int t = 0; t < triangles.cols(); ++t) {
+      if (ball(triangles(0, t)) == ball(v)) continue;
+      auto corner = [&](const Eigen::Matrix3Xd& x, int k) { return x.col(triangles(k, t)); };
+      const Eigen::Vector3d normal =
+          (corner(rest, 1) - corner(rest, 0)).cross(corner(rest, 2) - corner(rest, 0)).normalized();
+      if (rest_normals.col(v).dot(normal) > options.max_normal_alignment) continue;
+      double s = 0, s_rest = 0;
+      Eigen::Vector3d beta, beta_rest;
+      if (!PlaneDistance(pushed.col(v), corner(pushed, 0), corner(pushed, 1), corner(pushed, 2),
+                         &s, nullptr, &beta) ||
+          beta.minCoeff() < -options.margin || s <= -options.max_depth || s >= reach ||
+          !PlaneDistance(rest.col(v), corner(rest, 0), corner(rest, 1), corner(rest, 2),
+                         &s_rest, nullptr, &beta_rest) ||
+          s_rest < -options.rest_tolerance) {
+        continue;
+      }
+      nearest = std::min(nearest, std::abs(s));
+    }
+    if (!std::isfinite(nearest)) continue;
+    ++eligible_points;
+    EXPECT_EQ(pairs_of[v], 1) << "surface vertex " << v << " at " << nearest;
+    if (pairs_of[v] == 1) {
+      EXPECT_NEAR(paired_distance[v], nearest, 1e-12) << v;
+    }
+  }
+  EXPECT_EQ(eligible_points, static_cast<int>(pairs.size()));
 
   const std::vector<SelfContactPair> edges = contact.DetectEdgeContacts(pushed, rest);
   EXPECT_FALSE(edges.empty());

@@ -283,6 +283,51 @@ class NearestPenaltyTerm : public EnergyTerm {
   const Obstacle* obstacle_;
 };
 
+// The Ceres residual (what the Levenberg-Marquardt phase of contact solves uses) in a
+// concave crease, where the penalty is the C1 sum over the crease's features rather than
+// one distance's, and barely in contact (r -> 0 as the depth reaches the thickness).
+TEST(ObstacleContactTermTest, ResidualJacobianInACreaseAndAtTheEdgeOfContact) {
+  Eigen::Matrix3Xd v;
+  Eigen::Matrix3Xi t;
+  const double depth = 0.2, thickness = 0.05;
+  testing::NotchedPrismSurface(depth, &v, &t);
+  std::mt19937 rng(29);
+  const Eigen::Matrix3d rotation = testing::RandomRotation(&rng);
+  const Eigen::Vector3d shift(0.3, -0.2, 0.5);
+  const Obstacle notch("notch", (rotation * v).colwise() + shift, t);
+  // Local points: 0.03 above the crease and 0.01 off its bisector; and above the right
+  // face (from (0, -depth) to (1, 0)) at 1e-6 less than the thickness along its normal.
+  const Eigen::Vector3d face_normal = Eigen::Vector3d(-depth, 1.0, 0.0).normalized();
+  const std::vector<std::pair<std::string, Eigen::Vector3d>> locals = {
+      {"in the crease", Eigen::Vector3d(0.01, -depth + 0.03, 0.2)},
+      {"at the edge of contact",
+       Eigen::Vector3d(0.5, -0.5 * depth, -0.3) + (thickness - 1e-6) * face_normal}};
+  std::normal_distribution<double> noise(0.0, 0.02);
+  const Eigen::Vector4d w(0.1, 0.2, 0.3, 0.4);
+  for (const auto& [name, local] : locals) {
+    SCOPED_TRACE(name);
+    const PointStencil stencil = testing::Stencil(0, w);
+    // Vertices about the point, so that the stencil's point is exactly the local point.
+    Eigen::Matrix3Xd x(3, 4);
+    for (int j = 0; j < 4; ++j) x.col(j) = Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+    const Eigen::Vector3d p = rotation * local + shift;
+    const Eigen::Vector3d correction = p - stencil.Position(x);
+    x.colwise() += correction;  // the weights sum to 1
+    ASSERT_LT((stencil.Position(x) - p).norm(), 1e-14);
+    const ObstacleContactTerm term({stencil}, Eigen::VectorXd::Constant(1, 3.0), thickness,
+                                   {&notch});
+    std::unique_ptr<ceres::CostFunction> cost(term.NewCostFunction(0));
+    const double* parameters[4];
+    for (int j = 0; j < 4; ++j) parameters[j] = x.col(j).data();
+    double r = 0;
+    ASSERT_TRUE(cost->Evaluate(parameters, &r, nullptr));
+    EXPECT_GT(r, 0.0) << "in contact";
+    ceres::GradientChecker::ProbeResults results;
+    testing::ProbeJacobians(*cost, parameters, 1e-7, &results, testing::RiddersFrom(1e-7));
+    EXPECT_LT(testing::MaxBlockError(results, 1e-10), 1e-6) << results.error_log;
+  }
+}
+
 TEST(ObstacleContactTermTest, ABlockPressedIntoACreaseConvergesWhereTheNearestPenaltyStalls) {
   // A block [-0.5, 0.5] x [0, 0.75] x [-0.25, 0.25] (4 x 3 x 2 cubes) whose top is pushed
   // down by 0.2 and sideways by 0.01 into a shallow valley: the notched prism with faces
