@@ -11,7 +11,8 @@
 #   3. aqs_collide: re-solves jawOpen and the two fits with contact (teeth as obstacles,
 #      the skin against itself), and reports penetrations and intersecting triangles
 #      before and after.
-# 8 to 18 minutes on 2 cores after the build (about 11 on an idle machine). Results in out/face_demo/: see the README.
+# 8 to 18 minutes on 2 cores after the build (the README's run of 2026-12-06 took 9 min 28 s).
+# Results in out/face_demo/: see the README.
 # Arguments go to aqs_pipeline: ./scripts/demo.sh --restart starts the model anew (needed
 # when configs/face_demo.flags changed since out/face_demo/model was made).
 set -euo pipefail

@@ -1,7 +1,8 @@
 #!/usr/bin/python3
 """Makes held-out test sets for fitting (aqs_bench_fit, aqs_fit) from the ICT face data:
 random sparse blendshape mixes, marker subsets of them, partial noisy scans of them, and
-a smooth marker sequence.
+a smooth marker sequence. The ICT face data (--ict) are made from ICT-FaceKit by
+scripts/ict_facekit_to_aqs.py (docs/tutorial_face.md, "Getting the full ICT face").
 
 Usage: /usr/bin/python3 scripts/make_fit_tests.py --ict ../shared/data/ict-face --out DIR
        [--seed 1] [--mixes 20] [--min_expressions 2] [--max_expressions 5]

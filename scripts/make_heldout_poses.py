@@ -1,6 +1,7 @@
 #!/usr/bin/python3
 """Writes a held-out pose list for aqs_evaluate (--test_poses): every ICT expression that a
-model's training list does not name, with absolute paths.
+model's training list does not name, with absolute paths. The ICT face data (--ict) are
+made from ICT-FaceKit by scripts/ict_facekit_to_aqs.py (docs/tutorial_face.md).
 
 Usage: python3 scripts/make_heldout_poses.py --ict ../shared/data/ict-face
        --train data/ict-face-demo/train.txt --out out/heldout_poses.txt
