@@ -1,11 +1,13 @@
 #include "physics/rotation_variant_svd.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
 #include <string>
 #include <vector>
 
+#include <Eigen/Geometry>
 #include <Eigen/LU>
 #include <Eigen/SVD>
 #include <gtest/gtest.h>
@@ -108,6 +110,38 @@ TEST(RotationVariantSvdTest, FastPathServesRegularStates) {
     if (JacobiQrSvd(m.g, &svd)) ++served;
   }
   EXPECT_EQ(served, regular);
+}
+
+// Where the fast path refuses (flat and collapsed states), the fallback's rotation
+// U V^T is checked by what defines it, not against the reference it is built from: it
+// maximizes tr(R^T G) over rotations, random ones and ones turned by 1e-3 and 1e-2.
+TEST(RotationVariantSvdTest, FallbackRotationMaximizesTheTrace) {
+  std::mt19937 rng(13);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  int fallbacks = 0;
+  for (const NamedMatrix& m : TestMatrices()) {
+    RotationVariantSvd fast;
+    if (JacobiQrSvd(m.g, &fast)) continue;
+    ++fallbacks;
+    const RotationVariantSvd svd = ComputeRotationVariantSvd(m.g);
+    const Eigen::Matrix3d r = svd.u * svd.v.transpose();
+    const double best = (r.transpose() * m.g).trace();
+    const double slack = 1e-13 * std::max(m.g.norm(), 1e-300);
+    for (int trial = 0; trial < 20; ++trial) {
+      const Eigen::Matrix3d other = testing::RandomRotation(&rng) * r;
+      EXPECT_LE((other.transpose() * m.g).trace(), best + slack) << m.name;
+    }
+    for (const double angle : {1e-3, 1e-2}) {
+      for (int trial = 0; trial < 10; ++trial) {
+        const Eigen::Vector3d axis =
+            Eigen::Vector3d(normal(rng), normal(rng), normal(rng)).normalized();
+        const Eigen::Matrix3d other = Eigen::AngleAxisd(angle, axis).toRotationMatrix() * r;
+        EXPECT_LE((other.transpose() * m.g).trace(), best + slack)
+            << m.name << " angle " << angle;
+      }
+    }
+  }
+  EXPECT_GT(fallbacks, 100) << "the flat and collapsed families must reach the fallback";
 }
 
 TEST(RotationVariantSvdTest, NonFiniteInputGivesNan) {
