@@ -128,7 +128,8 @@ bool PretrainOptionsFromFlags(PretrainOptions* options, std::string* error) {
   options->decoder_regularization = FLAGS_decoder_regularization;
   options->max_iterations = FLAGS_pretrain_iterations;
   options->max_restarts = FLAGS_train_restarts;
-  if (!(FLAGS_pretrain_minutes >= 0) || !std::isfinite(FLAGS_pretrain_minutes)) {
+  // In minutes, the flag's unit: 1e307 minutes are inf seconds.
+  if (!(FLAGS_pretrain_minutes >= 0) || !std::isfinite(60.0 * FLAGS_pretrain_minutes)) {
     *error = "--pretrain_minutes must be finite and >= 0 (is " +
              FormatDouble(FLAGS_pretrain_minutes) + ")";
     return false;
@@ -176,6 +177,7 @@ FlagNames PretrainFlagNames() {
                 {"latent_regularization", "--latent_regularization"},
                 {"decoder_regularization", "--decoder_regularization"},
                 {"max_iterations", "--pretrain_iterations"},
+                {"max_seconds", "--pretrain_minutes"},
                 {"max_restarts", "--train_restarts"},
                 {"simulation.solver.relative_force_tolerance", "--train_tolerance"}});
   return flags;
@@ -210,7 +212,7 @@ bool TrainOptionsFromFlags(TrainOptions* options, std::string* error) {
   options->decoder_regularization = FLAGS_decoder_regularization;
   options->energy_regularization = FLAGS_energy_regularization;
   options->max_iterations = FLAGS_train_iterations;
-  if (!(FLAGS_train_minutes >= 0) || !std::isfinite(FLAGS_train_minutes)) {
+  if (!(FLAGS_train_minutes >= 0) || !std::isfinite(60.0 * FLAGS_train_minutes)) {
     *error = "--train_minutes must be finite and >= 0 (is " + FormatDouble(FLAGS_train_minutes) +
              ")";  // here, in minutes: max_seconds' check would print seconds
     return false;

@@ -16,6 +16,7 @@
 #include "util/input_file.h"
 #include "util/line_reader.h"
 #include "util/matrix_io.h"
+#include "util/number_format.h"
 #include "util/parallel_for.h"
 #include "util/option_checks.h"
 
@@ -160,6 +161,18 @@ bool ReadPretrainSurfaceErrors(const std::string& model_directory, const ActiveM
   if (!ReadMatrixFile(BinaryPath(model_directory), model.num_surface_vertices(), model.num_poses(),
                       &read.distances, error)) {
     return false;
+  }
+  // Distances are finite and >= 0 (a damaged file put NaN and -9e296 into the training
+  // log and the evaluation's tables; the callers leave stage (b) out, saying why).
+  for (Eigen::Index p = 0; p < read.distances.cols(); ++p) {
+    for (Eigen::Index v = 0; v < read.distances.rows(); ++v) {
+      const double d = read.distances(v, p);
+      if (std::isfinite(d) && d >= 0) continue;
+      *error = BinaryPath(model_directory) + ": the distance of surface vertex " +
+               std::to_string(v) + " in pose " + std::to_string(p) + " is " + FormatDouble(d) +
+               ", not a finite distance >= 0";
+      return false;
+    }
   }
   LineReader reader(text_path);
   if (!reader.ok()) {

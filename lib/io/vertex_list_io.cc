@@ -2,6 +2,7 @@
 
 #include <sstream>
 
+#include "geometry/points_near_model.h"
 #include "util/atomic_file.h"
 #include "util/line_reader.h"
 
@@ -62,6 +63,12 @@ bool ReadFixedVertices(const std::string& path, const Eigen::Matrix3Xd& rest_pos
           *error = reader.Where("expected a finite coordinate, got " + Quoted(tokens[1 + c]));
           return false;
         }
+      }
+      // As every target is checked against the model (a position 1e200 away overflowed
+      // the solve, and the message named an output field).
+      if (!CheckPointsNearModel(reader.Where("the position of vertex " + tokens[0]),
+                                rest_positions, p, error)) {
+        return false;
       }
     }
     vertices.push_back(v);

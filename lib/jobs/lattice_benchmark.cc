@@ -28,9 +28,12 @@ namespace aqs {
 bool LatticeBenchmarkOptions::Validate(std::string* error) const {
   OptionChecks checks;
   checks.Require(!cubes.empty(), "cubes must list a lattice size")
-      .Require(std::isfinite(amplitude),
-               "amplitude must be finite (is " + OptionValue(amplitude) + ")")
+      // The fibres' stretches 1 - amplitude sin(.) etc. stay positive (SmoothFibreActuation).
+      .Require(std::abs(amplitude) < 1.0,
+               "amplitude must be in (-1, 1) (is " + OptionValue(amplitude) +
+                   "): beyond, some fibres' target stretch is not positive")
       .Positive("tolerance", tolerance)
+      .ReachableTolerance("tolerance", tolerance)
       .IntInRange("num_threads", num_threads, 1, 1024)
       .IntAtLeast("compare_orderings_max_elements", compare_orderings_max_elements, 0)
       .Positive("max_memory_bytes", max_memory_bytes);

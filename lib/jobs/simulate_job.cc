@@ -8,6 +8,7 @@
 #include <Eigen/LU>
 
 #include "fit/latent_fit.h"
+#include "geometry/points_near_model.h"
 #include "io/actuation_io.h"
 #include "io/vertex_list_io.h"
 #include "jobs/deformed_output.h"
@@ -205,6 +206,9 @@ bool ReadStateOfMesh(const std::string& path, const TetMesh& mesh, Eigen::Matrix
     *error = out.str();
     return false;
   }
+  // Far from the mesh, a start or a target overflows the energy or the loss (a vertex at
+  // 1e200 gave loss inf and an infinite gradient with exit 0).
+  if (!CheckPointsNearModel(path, mesh.vertices, state.vertices, error)) return false;
   *vertices = state.vertices;
   return true;
 }

@@ -212,6 +212,7 @@ bool SolveBenchmarkOptions::Validate(std::string* error) const {
       .Require(curl >= 0.0 && curl < 1.0,
                "curl must be in [0, 1) (the fibres contract by 1 - curl), is " + OptionValue(curl))
       .Positive("tolerance", tolerance)
+      .ReachableTolerance("tolerance", tolerance)
       .IntAtLeast("max_iterations", max_iterations, 1)
       .IntInRange("num_threads", num_threads, 1, 1024)
       .Positive("attachment_stiffness", attachment_stiffness)

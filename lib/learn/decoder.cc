@@ -491,17 +491,20 @@ bool ReadDecoderField(DecoderReader* in, const std::vector<std::string>& field_l
   return true;
 }
 
-// The parameter count the sizes imply, in 64 bits (Mlp CHECKs that it fits an int).
+// The parameter count the sizes imply, or -1 where it is above INT_MAX (Mlp CHECKs that
+// it fits an int). Summed in double, which holds every count up to 2^53 exactly and
+// cannot wrap as int64 did: layers of 2^31 - 1 units passed for 970 parameters.
 int64_t DecoderParameterCount(const DecoderSpec& s, const GridFieldDescription& f) {
-  int64_t count = 0;
-  int64_t fan_in = s.latent_dim;
+  const double limit = std::numeric_limits<int>::max();
+  double count = 0;
+  double fan_in = s.latent_dim;
   for (int width : s.hidden_dims) {
-    count += width * (fan_in + 1);
+    count += static_cast<double>(width) * (fan_in + 1);
     fan_in = width;
   }
-  count += 6 * static_cast<int64_t>(f.num_nodes()) * (fan_in + 1);
-  if (s.linear_skip) count += 6 * static_cast<int64_t>(f.num_nodes()) * s.latent_dim;
-  return count;
+  count += 6.0 * f.num_nodes() * (fan_in + 1);
+  if (s.linear_skip) count += 6.0 * f.num_nodes() * s.latent_dim;
+  return count <= limit ? static_cast<int64_t>(count) : -1;
 }
 
 // The "num_parameters" line, which must say `expected`, and the parameters, one per
@@ -509,6 +512,10 @@ int64_t DecoderParameterCount(const DecoderSpec& s, const GridFieldDescription& 
 bool ReadDecoderParameters(DecoderReader* in, int64_t expected, Eigen::VectorXd* p) {
   std::vector<std::string> v;
   if (!in->Keyword("num_parameters", 1, &v)) return false;
+  if (expected < 0) {
+    return in->Fail("the layer sizes need more than " +
+                    std::to_string(std::numeric_limits<int>::max()) + " parameters");
+  }
   long long count = 0;
   if (!ParseInt64(v[0], &count) || count != expected) {
     return in->Fail("num_parameters '" + v[0] + "' does not match the layer sizes, which need " +
@@ -541,8 +548,16 @@ bool LoadDecoder(const std::string& path, DecoderSpec* spec, GridFieldDescriptio
   GridFieldDescription f;
   Eigen::VectorXd p;
   std::vector<std::string> field_line;
-  if (!ReadDecoderSpec(&in, &s) || !ReadDecoderFlags(&in, &s, &field_line) ||
-      !ReadDecoderField(&in, field_line, &f) ||
+  std::string invalid;
+  if (!ReadDecoderSpec(&in, &s) || !ReadDecoderFlags(&in, &s, &field_line)) {
+    *error = in.error();
+    return false;
+  }
+  if (!s.Validate(&invalid)) {
+    *error = path + ": " + invalid;
+    return false;
+  }
+  if (!ReadDecoderField(&in, field_line, &f) ||
       !ReadDecoderParameters(&in, DecoderParameterCount(s, f), &p) || !in.AtEnd()) {
     *error = in.error();
     return false;

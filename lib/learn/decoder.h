@@ -13,8 +13,9 @@
 namespace aqs {
 
 // The largest latent dimension DecoderSpec::Validate accepts (a latent describes a pose
-// by a few numbers; the demo uses 8).
-constexpr int kMaxLatentDim = 65536;
+// by a few numbers; the demo uses 8). Fits hold d x d prior covariances and Jacobians:
+// 128 MB each at this size.
+constexpr int kMaxLatentDim = 4096;
 
 // Architecture of an ActuationDecoder (saved in decoder files together with the field
 // description and the parameters).

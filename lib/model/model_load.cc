@@ -31,6 +31,7 @@
 #include "util/input_file.h"
 #include "util/line_reader.h"
 #include "util/matrix_io.h"
+#include "util/name_rules.h"
 #include "util/number_format.h"
 #include "util/staged_directory.h"
 
@@ -214,7 +215,14 @@ bool CheckNeutralHasFaces(const std::string& dir, const ActiveModel& model, std:
 // absurd targets). Errors name `source` (the decoder) or `prior_source`.
 bool CheckLearnedActuations(const std::string& source, const std::string& prior_source,
                             const ActiveModel& model, std::string* error) {
-  if (!model.decoder || model.num_poses() == 0) return true;
+  if (!model.decoder) return true;
+  // Fits learn their priors from the training latents, and the evaluation and training
+  // need the poses: a learned state without them is another model's or damaged.
+  if (model.num_poses() == 0) {
+    *error = source + ": a learned decoder in a model without training poses (poses.txt "
+                      "lists none)";
+    return false;
+  }
   std::vector<ActuationMatrix> actuations;
   DecoderWorkspace workspace;
   model.decoder->DecodeBatch(model.decoder_params.data(), model.latents, &actuations, &workspace);
@@ -379,6 +387,17 @@ bool ReadPoses(const std::string& dir, ActiveModel* model, std::string* error) {
       return false;
     }
     pose.name = t[1];
+    // The names go into CSV fields (evaluation.csv, frames.csv): a ',' split their rows.
+    const std::string problem = NameProblem(pose.name);
+    if (!problem.empty()) {
+      *error = reader.Where("pose name '" + pose.name + "' " + problem);
+      return false;
+    }
+    if (!(pose.embedding_mean_error >= 0 && pose.embedding_max_error >= 0 &&
+          std::isfinite(pose.embedding_mean_error) && std::isfinite(pose.embedding_max_error))) {
+      *error = reader.Where("the embedding errors must be finite distances >= 0");
+      return false;
+    }
     const auto [it, inserted] = lines.emplace(pose.name, reader.line_number());
     if (!inserted) {
       *error = reader.Where("pose '" + pose.name + "' again (first on line " +
@@ -468,6 +487,11 @@ bool ReadFixedVerticesAndBones(const std::string& dir, ActiveModel* model, std::
         }
         Bone bone;
         bone.name = t[2];
+        const std::string problem = NameProblem(bone.name);
+        if (!problem.empty()) {
+          *error = reader.Where("bone name '" + bone.name + "' " + problem);
+          return false;
+        }
         m.bones.push_back(bone);
         continue;
       }

@@ -6,6 +6,7 @@
 
 #include <glog/logging.h>
 
+#include "geometry/points_near_model.h"
 #include "geometry/rigid_transform.h"
 #include "geometry/triangle_bvh.h"
 #include "geometry/winding_number.h"
@@ -14,6 +15,7 @@
 #include "util/input_file.h"
 #include "util/line_reader.h"
 #include "util/name_rules.h"
+#include "util/number_format.h"
 #include "util/option_checks.h"
 #include "util/text_split.h"
 
@@ -54,6 +56,9 @@ bool FitBone(const BoneRule& rule, const std::vector<std::string>& pose_names, B
                rule.name + "' at rest (" + rule.neutral_mesh + ") has " + std::to_string(n);
       return false;
     }
+    // One vertex far away (in another unit or frame) made every other vertex's motion
+    // look like none, and the bone static in every pose.
+    if (!CheckPointsNearModel(path, rest.vertices, surface.vertices, error)) return false;
     posed[p] = surface.vertices;
     largest = largest.cwiseMax((surface.vertices - rest.vertices).colwise().norm().transpose());
     ++with_files;
@@ -76,7 +81,14 @@ bool FitBone(const BoneRule& rule, const std::vector<std::string>& pose_names, B
   *log << "bone '" << rule.name << "': " << n << " vertices, pose surfaces for " << with_files
        << " of " << pose_names.size() << " poses, transform fitted to " << moving.size()
        << " moving vertices\n";
-  if (moving.size() < 3) return true;  // the bone never moves: identities
+  if (moving.empty()) return true;  // the bone never moves: identities
+  if (moving.size() < 3) {
+    *error = "bone '" + rule.name + "': only " + std::to_string(moving.size()) +
+             " of its vertices move (by more than " + FormatDouble(rule.moving_fraction) +
+             " of the largest motion): a rigid transform needs 3; are the pose surfaces "
+             "the bone's, in its vertex order?";
+    return false;
+  }
   Eigen::Matrix3Xd from(3, moving.size()), to(3, moving.size());
   for (size_t i = 0; i < moving.size(); ++i) from.col(i) = rest.vertices.col(moving[i]);
   for (size_t p = 0; p < pose_names.size(); ++p) {

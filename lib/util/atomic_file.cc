@@ -87,6 +87,13 @@ bool WriteFileAtomically(const std::string& path, const std::string& content,
 }
 
 std::string ReadWholeFile(const std::string& path) {
+  // Only a regular file of bounded size: a FIFO put in its place would block the reader
+  // forever (holding its job's lock), and a link to a device such as /dev/zero would be
+  // read until memory ran out.
+  std::error_code code;
+  if (!std::filesystem::is_regular_file(path, code)) return "";
+  const std::uintmax_t size = std::filesystem::file_size(path, code);
+  if (code || size > kMaxWholeFileBytes) return "";
   std::ifstream in(path, std::ios::binary);
   return std::string(std::istreambuf_iterator<char>(in), {});
 }

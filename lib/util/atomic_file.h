@@ -1,6 +1,7 @@
 #ifndef AQS_UTIL_ATOMIC_FILE_H_
 #define AQS_UTIL_ATOMIC_FILE_H_
 
+#include <cstdint>
 #include <fstream>
 #include <functional>
 #include <string>
@@ -41,7 +42,11 @@ class AtomicFileWriter {
 bool WriteFileAtomically(const std::string& path, const std::string& content,
                          std::string* error);
 
-// The text of the file at `path` ("" if it cannot be read): what WriteFileAtomically
+// The largest file ReadWholeFile reads (its records and logs are kilobytes).
+inline constexpr std::uintmax_t kMaxWholeFileBytes = std::uintmax_t{256} << 20;
+
+// The text of the file at `path` ("" if it cannot be read, is not a regular file (a
+// FIFO, a device) or is larger than kMaxWholeFileBytes): what WriteFileAtomically
 // wrote, for records compared whole (store keys, pre-training's record).
 std::string ReadWholeFile(const std::string& path);
 

@@ -8,6 +8,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <vector>
 
@@ -35,6 +36,13 @@ bool PrepareIterationLog(const std::string& path, const std::string& header, int
   *last_row = -1;
   if (last_line != nullptr) last_line->clear();
   if (iteration > 0) {
+    // The log is the job's own: anything but a regular file (or none) in its place is
+    // refused, not read (a FIFO blocked the training forever, holding the model's lock).
+    std::error_code code;
+    if (std::filesystem::exists(path, code) && !std::filesystem::is_regular_file(path, code)) {
+      *error = path + " is not a regular file: remove it (the log is written anew)";
+      return false;
+    }
     std::ifstream in(path);
     std::string line;
     std::getline(in, line);  // header

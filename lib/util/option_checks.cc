@@ -57,6 +57,9 @@ OptionChecks& OptionChecks::ReachableTolerance(const char* field, double value) 
     error_ = std::string(field) + " must be >= " + OptionValue(kMinReachableRelativeTolerance) +
              " (is " + OptionValue(value) +
              "): below, the force test meets round-off and the solves may not end";
+  } else if (!Failed() && !(value <= kMaxRelativeTolerance)) {
+    error_ = std::string(field) + " must be at most " + OptionValue(kMaxRelativeTolerance) +
+             " (is " + OptionValue(value) + "): above, a solve stops where it starts";
   }
   return *this;
 }

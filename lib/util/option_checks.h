@@ -36,9 +36,11 @@ class OptionChecks {
   // value >= lowest (integers).
   OptionChecks& IntAtLeast(const char* field, long long value, long long lowest);
   // A relative force tolerance of the equilibrium solves (QuasistaticSolverOptions::
-  // relative_force_tolerance) that solves can reach: >= kMinReachableRelativeTolerance.
-  // Below it the force test meets round-off and a solve may run on for minutes (the
-  // finger at 1e-14: more than 2 minutes; at 1e-13: 0.7 s, converged).
+  // relative_force_tolerance) that solves can reach and that asks for a solve: in
+  // [kMinReachableRelativeTolerance, kMaxRelativeTolerance]. Below, the force test meets
+  // round-off and a solve may run on for minutes (the finger at 1e-14: more than 2
+  // minutes; at 1e-13: 0.7 s, converged); above, a solve stops where it starts (1e300
+  // "converged" with no iterations, and prepare wrote targets it never solved).
   OptionChecks& ReachableTolerance(const char* field, double value);
   // A nested struct's Validate result: its message gets "<prefix>." in front.
   OptionChecks& Nested(const char* prefix, bool ok, const std::string& nested_error);
@@ -59,8 +61,9 @@ class OptionChecks {
 constexpr double kMaxRegularization = 1e6;
 
 // The smallest relative force tolerance the jobs accept (README: about 1e-13 is
-// reachable).
+// reachable), and the largest (a tenth of the force scale).
 constexpr double kMinReachableRelativeTolerance = 1e-13;
+constexpr double kMaxRelativeTolerance = 0.1;
 
 // `value` for messages: "nan", "inf", "-1", "1e-09", ...
 std::string OptionValue(double value);

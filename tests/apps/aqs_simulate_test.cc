@@ -232,6 +232,7 @@ TEST_P(AqsSimulateBadInputTest, FailsClearly) {
   testing::TempDir dir;
   dir.Write("short_actuation.txt", "1 1 1 0 0 0\n");
   dir.Write("bad_fixed.txt", "0\n1\n99999\n");
+  dir.Write("far_fixed.txt", "0\n1 1e200 0 0\n");
   dir.Write("broken.mesh", "MeshVersionFormatted 2\nDimension 3\nVertices\n2\n0 0 0 0\n");
   std::string flags = GetParam().flags;
   for (const auto& [key, value] :
@@ -263,6 +264,11 @@ INSTANTIATE_TEST_SUITE_P(
         BadInputCase{"FixedOutOfRange",
                      "--mesh={finger}finger.msh --fixed={dir}bad_fixed.txt --output={dir}x.mesh",
                      1, "bad_fixed.txt:3: vertex index 99999 is outside"},
+        // A prescribed position far from the mesh: named at its line (the solve overflowed
+        // and the message blamed an output field).
+        BadInputCase{"FixedFarAway",
+                     "--mesh={finger}finger.msh --fixed={dir}far_fixed.txt --output={dir}x.mesh",
+                     1, "far_fixed.txt:2: the position of vertex 1: point 0 (1e+200 0 0) is"},
         BadInputCase{"GradientWithoutLoss",
                      "--mesh={finger}finger.msh --output={dir}x.mesh --gradient={dir}g.txt", 1,
                      "--gradient needs --loss_target"},

@@ -163,7 +163,8 @@ TEST(AqsValidationTest, BenchmarksRefuseBadSizesBeforeAnyMeasurement) {
                   {"--cubes=3,2000", 1,
                    "--cubes: a lattice of 2000 x 2000 x 2000 cubes is too large"},
                   {"--cubes=3,300", 1, "--max_memory_gb (8 GB) is below the estimated"},
-                  {"--cubes=3 --amplitude=nan", 1, "--amplitude must be finite"},
+                  {"--cubes=3 --amplitude=nan", 1, "--amplitude must be in (-1, 1) (is nan)"},
+                  {"--cubes=3 --amplitude=5", 1, "--amplitude must be in (-1, 1) (is 5)"},
                   // Read whole: "12x" was 12.
                   {"--cubes=12x", 1, "--cubes takes positive integers, got '12x'"},
                   {"--cubes=3 --csv={dir}missing/b.csv", 1,
@@ -234,6 +235,9 @@ TEST(AqsValidationTest, SimulateRefusesBadFlagsAndInputs) {
                    "the force scale 2 mean(mu V^(2/3)) of the mesh is inf"},
                   {finger + " --tolerance=1e-17 --output={dir}x.mesh", 1,
                    "--tolerance must be >= 1e-13 (is 1e-17)"},
+                  // A solve that would stop where it starts ("converged", no iterations).
+                  {finger + " --tolerance=1e300 --output={dir}x.mesh", 1,
+                   "--tolerance must be at most 0.1 (is 1e+300)"},
                   // A mesh larger than the memory limit allows (it went straight to the
                   // factorization: bad_alloc or the OOM killer).
                   {finger + " --max_memory_gb=0.01 --output={dir}x.mesh", 1,
@@ -447,6 +451,9 @@ TEST_F(AqsValidationModelTest, FitRefusesBadFlagsTargetsAndOutputs) {
                   {target + " --newton_stall_steps=-3", 1,
                    "--newton_stall_steps must be >= 0 (is -3)"},
                   {target + " --fit_tolerance=1", 1, "--fit_tolerance must be at most 0.1 (is 1)"},
+                  // Below one point the cap multiplied the priors (1e-300: Ceres failed).
+                  {target + " --prior_points_cap=1e-300", 1,
+                   "--prior_points_cap must be <= 0 (no cap) or >= 1 point (is 1e-300)"},
                   {target + " --landmark_weight=1e300", 1,
                    "--landmark_weight must be in [0, 1e+06]"},
                   {target + " --max_memory_gb=nan", 1,
@@ -643,7 +650,7 @@ TEST_F(AqsValidationModelTest, LearningAppsRefuseBadFlags) {
   const std::string before = ReadAll(model + "/learned/decoder.txt");
   ExpectCases("aqs_pretrain", "--model={dir}m",
               {
-                  {"--latent_dim=2147483647", 1, "--latent_dim must be in [1, 65536] (is 2147483647)"},
+                  {"--latent_dim=2147483647", 1, "--latent_dim must be in [1, 4096] (is 2147483647)"},
                   {"--hidden=100000,100000", 1, "--hidden: the decoder would have 1e+10 parameters"},
                   {"--hidden=1000000", 1, "--max_memory_gb (8 GB) is below the estimated"},
                   {"--hidden=1000000", 1, "that pre-training needs"},
@@ -662,6 +669,9 @@ TEST_F(AqsValidationModelTest, LearningAppsRefuseBadFlags) {
                   {"--hidden=8,,8", 1, "--hidden has an empty width in '8,,8'"},
                   {"--pretrain_minutes=-1", 1,
                    "--pretrain_minutes must be finite and >= 0 (is -1)"},
+                  // Inf in seconds: named in the flag's unit (it said max_seconds ... inf).
+                  {"--pretrain_minutes=1e307", 1,
+                   "--pretrain_minutes must be finite and >= 0 (is 1e+307)"},
                   {"--pretrain_latents=poses", 1,
                    "--pretrain_latents must be targets or surfaces, got 'poses'"},
                   {"--output_scale=1e308", 1,

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <sstream>
 
 #include <Eigen/Geometry>
@@ -217,6 +218,17 @@ TEST(ErrorBudgetTest, RecordFilesRoundTripAndBadFilesAreNamed) {
   std::ofstream(dir.File("pretrain/surface_errors.txt"), std::ios::app) << "3 train_3 0.1\n";
   EXPECT_FALSE(ReadPretrainSurfaceErrors(dir.path(), model, &errors, &error));
   EXPECT_NE(error.find("surface_errors.txt:7"), std::string::npos) << error;
+  std::ofstream(dir.File("pretrain/surface_errors.txt")) << text;
+  // Distances that are no distances (NaN reached the training log and the tables).
+  for (const double bad : {std::numeric_limits<double>::quiet_NaN(), -1e296}) {
+    PretrainSurfaceErrors damaged_distances = written;
+    damaged_distances.distances(4, 2) = bad;
+    ASSERT_TRUE(WritePretrainSurfaceErrors(dir.path(), model, damaged_distances, &error)) << error;
+    EXPECT_FALSE(ReadPretrainSurfaceErrors(dir.path(), model, &errors, &error));
+    EXPECT_NE(error.find("surface_errors.bin: the distance of surface vertex 4 in pose 2 is "),
+              std::string::npos)
+        << error;
+  }
 }
 
 }  // namespace

@@ -28,7 +28,19 @@ TEST(LatticeBenchmarkTest, OptionsCheckEverySizeFirst) {
   options.cubes = {3};
   options.amplitude = std::numeric_limits<double>::infinity();
   EXPECT_FALSE(options.Validate(&error));
-  EXPECT_EQ(error, "amplitude must be finite (is inf)");
+  EXPECT_EQ(error,
+            "amplitude must be in (-1, 1) (is inf): beyond, some fibres' target stretch is not "
+            "positive");
+  options.amplitude = 1.0;
+  EXPECT_FALSE(options.Validate(&error));
+  options.amplitude = 0.3;
+  options.tolerance = 1e300;  // "converged" before any step
+  EXPECT_FALSE(options.Validate(&error));
+  EXPECT_EQ(error, "tolerance must be at most 0.1 (is 1e+300): above, a solve stops where it "
+                   "starts");
+  options.tolerance = 1e-17;
+  EXPECT_FALSE(options.Validate(&error));
+  EXPECT_EQ(error.rfind("tolerance must be >= 1e-13", 0), 0u) << error;
 }
 
 TEST(LatticeBenchmarkTest, MeasuresEverySizeAsRatiosToItsUnit) {

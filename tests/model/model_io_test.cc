@@ -24,6 +24,7 @@
 #include "testing/temp_dir.h"
 #include "train/pretrain.h"
 #include "util/fault_injection.h"
+#include "util/matrix_io.h"
 #include "util/staged_directory.h"
 
 namespace aqs {
@@ -167,6 +168,96 @@ TEST(ModelIoTest, DamagedModelsFailNamingTheFile) {
   }
   EXPECT_FALSE(LoadModel(path, &back, &error));
   EXPECT_NE(error.find("mu.bin: the stiffness of element 3 is -1, not positive"),
+            std::string::npos)
+      << error;
+  // A pose name with a ',' (it split the evaluation's CSV rows) and a negative embedding
+  // error (it went into the error budget's tables) are refused at their line.
+  ASSERT_TRUE(SaveModel(path, model, &error)) << error;
+  const std::string poses = testing::ReadAll(path + "/poses.txt");
+  const size_t name = poses.find(" " + model.poses[1].name + " ");
+  ASSERT_NE(name, std::string::npos) << poses;
+  std::string damaged = poses;
+  damaged.replace(name + 1, model.poses[1].name.size(), "bend,x");
+  std::ofstream(path + "/poses.txt", std::ios::trunc) << damaged;
+  EXPECT_FALSE(LoadModel(path, &back, &error));
+  EXPECT_NE(error.find("poses.txt:"), std::string::npos) << error;
+  EXPECT_NE(error.find("pose name 'bend,x' contains ','"), std::string::npos) << error;
+  damaged = poses;
+  damaged.replace(name + 1 + model.poses[1].name.size() + 1, 0, "-");
+  std::ofstream(path + "/poses.txt", std::ios::trunc) << damaged;
+  EXPECT_FALSE(LoadModel(path, &back, &error));
+  EXPECT_NE(error.find("the embedding errors must be finite distances >= 0"), std::string::npos)
+      << error;
+}
+
+// Decoder sizes that would exhaust memory are refused at load, naming decoder.txt: a
+// latent above kMaxLatentDim (a d x d prior), and layers whose parameter count wrapped
+// around in 64 bits (widths of 2^31 - 1 passed for 970 parameters, then Forward threw
+// bad_alloc inside LoadModel).
+TEST(ModelIoTest, DecoderSizesThatWouldExhaustMemoryAreRefused) {
+  const ActiveModel model = TrainedSyntheticModel();
+  testing::TempDir dir;
+  std::string error;
+  const std::string path = dir.File("m");
+  ASSERT_TRUE(SaveModel(path, model, &error)) << error;
+  const std::string decoder = path + "/learned/decoder.txt";
+  const std::string text = testing::ReadAll(decoder);
+  auto with_line = [&](const std::string& key, const std::string& line) {
+    const size_t start = text.find("\n" + key + " ") + 1;
+    const size_t end = text.find('\n', start);
+    std::ofstream(decoder, std::ios::trunc) << text.substr(0, start) + line + text.substr(end);
+  };
+  ActiveModel back;
+  with_line("latent_dim", "latent_dim 100000");
+  EXPECT_FALSE(LoadModel(path, &back, &error));
+  EXPECT_NE(error.find("decoder.txt: latent_dim must be in [1, 4096] (is 100000)"),
+            std::string::npos)
+      << error;
+  with_line("hidden_dims", "hidden_dims 5 2147483647 2147483647 2147483647 2147483647 2");
+  EXPECT_FALSE(LoadModel(path, &back, &error));
+  EXPECT_NE(error.find("the layer sizes need more than 2147483647 parameters"),
+            std::string::npos)
+      << error;
+  std::ofstream(decoder, std::ios::trunc) << text;
+  ASSERT_TRUE(LoadModel(path, &back, &error)) << error;
+}
+
+// A learned decoder in a model without training poses is refused at load (the
+// evaluation and the training benchmark aborted on it). SaveModel never writes one: the
+// files of a saved model are edited, as a damaged or hand-made model would be, with the
+// checkpoint of a version before it named its model.
+TEST(ModelIoTest, ALearnedStateWithoutTrainingPosesIsRefused) {
+  const ActiveModel model = TrainedSyntheticModel();
+  testing::TempDir dir;
+  std::string error;
+  const std::string path = dir.File("m");
+  ASSERT_TRUE(SaveModel(path, model, &error)) << error;
+  auto edit = [&](const std::string& file, const std::function<bool(const std::string&)>& keep,
+                  const std::string& replace_from = "", const std::string& replace_to = "") {
+    std::istringstream lines(testing::ReadAll(path + "/" + file));
+    std::string kept;
+    for (std::string line; std::getline(lines, line);) {
+      if (!replace_from.empty() && line.rfind(replace_from, 0) == 0) line = replace_to;
+      if (keep(line)) kept += line + "\n";
+    }
+    std::ofstream(path + "/" + file, std::ios::trunc) << kept;
+  };
+  edit("model.txt", [](const std::string&) { return true; }, "poses ", "poses 0");
+  edit("poses.txt", [](const std::string& line) { return line.empty() || line[0] == '#'; });
+  edit("bones.txt", [](const std::string& line) {
+    return line.empty() || line[0] == '#' || line.rfind("bone ", 0) == 0;
+  });
+  edit("learned/checkpoint.txt",
+       [](const std::string& line) { return line.rfind("model ", 0) != 0; });
+  std::filesystem::remove_all(path + "/poses");
+  std::filesystem::remove_all(path + "/targets");
+  std::filesystem::remove_all(path + "/learned/states");
+  ASSERT_TRUE(WriteMatrixFile(path + "/learned/latents.bin",
+                              Eigen::MatrixXd(model.latent_dim(), 0), &error))
+      << error;
+  ActiveModel back;
+  EXPECT_FALSE(LoadModel(path, &back, &error));
+  EXPECT_NE(error.find("a learned decoder in a model without training poses"),
             std::string::npos)
       << error;
 }

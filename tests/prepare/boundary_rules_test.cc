@@ -103,6 +103,23 @@ TEST_F(BoneClearanceTest, APoseNamedWithThePatternsKeyIsReplacedOnce) {
   EXPECT_TRUE(model.bones[0].pose_transforms[0].rotation.isIdentity(1e-12));
 }
 
+// A bone's pose surface with a vertex far away is refused by name (it made every other
+// vertex's motion look like none, and the bone static in every pose); so is one where
+// fewer than 3 vertices move, which no rigid transform is fitted to.
+TEST_F(BoneClearanceTest, FarOrTooFewMovingBoneVerticesAreRefused) {
+  options_.bones[0].pose_mesh_pattern = dir_.File("{pose}.bone.obj");
+  dir_.Write("far.bone.obj", "v 0 0 0\nv 1 0 0\nv 0 1e10 0\nf 1 2 3\n");
+  dir_.Write("one.bone.obj", "v 0 0 0\nv 1 0 0\nv 0 1.5 0\nf 1 2 3\n");
+  std::string error, log;
+  ActiveModel model;
+  EXPECT_FALSE(
+      ApplyBoundaryRules(options_, mesh_, SurfaceMesh(), {"far"}, nullptr, &model, &log, &error));
+  EXPECT_NE(error.find("far.bone.obj: point 2 (0 1e+10 0) is"), std::string::npos) << error;
+  EXPECT_FALSE(
+      ApplyBoundaryRules(options_, mesh_, SurfaceMesh(), {"one"}, nullptr, &model, &log, &error));
+  EXPECT_NE(error.find("bone 'jaw': only 1 of its vertices move"), std::string::npos) << error;
+}
+
 // Bone names are written as one field of bones.txt, where '#' starts a comment.
 TEST_F(BoneClearanceTest, RejectsBoneNamesTheModelFilesCannotHold) {
   for (const std::string bad : {"jaw#1", "jaw 1", "jaw,1", ""}) {

@@ -1,6 +1,7 @@
 #include "util/atomic_file.h"
 
 #include <signal.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -41,6 +42,21 @@ TEST(AtomicFileTest, CommitReplacesAndAbandonLeavesOldContent) {
     ++files;
   }
   EXPECT_EQ(files, 1) << "temporary files left behind";
+}
+
+// ReadWholeFile reads regular files only: a FIFO in a key's place blocked the reader
+// forever, and a link to /dev/zero was read until memory ran out.
+TEST(AtomicFileTest, ReadWholeFileReadsOnlyRegularFiles) {
+  testing::TempDir dir;
+  EXPECT_EQ(ReadWholeFile(dir.Write("key.txt", "key\n")), "key\n");
+  EXPECT_EQ(ReadWholeFile(dir.File("missing.txt")), "");
+  const std::string fifo = dir.File("fifo.txt");
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  EXPECT_EQ(ReadWholeFile(fifo), "");  // returns at once
+  const std::string zero = dir.File("zero.txt");
+  std::filesystem::create_symlink("/dev/zero", zero);
+  EXPECT_EQ(ReadWholeFile(zero), "");
+  EXPECT_EQ(ReadWholeFile(dir.path()), "");  // a folder
 }
 
 TEST(AtomicFileTest, UnwritableDirectoryIsAnError) {

@@ -3,6 +3,8 @@
 
 #include "util/iteration_log.h"
 
+#include <sys/stat.h>
+
 #include <filesystem>
 #include <string>
 
@@ -47,6 +49,12 @@ TEST(IterationLogTest, AResumeKeepsTheWholeRowsUpToItsCheckpointInOrder) {
   ASSERT_TRUE(PrepareIterationLog(missing, kHeader, 7, &last, &error)) << error;
   EXPECT_EQ(last, -1);
   EXPECT_EQ(testing::ReadAll(missing), kHeader);
+  // Something other than a regular file in the log's place is refused, not read (a FIFO
+  // blocked a resumed training forever).
+  const std::string fifo = dir.File("fifo.csv");
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  EXPECT_FALSE(PrepareIterationLog(fifo, kHeader, 3, &last, &error));
+  EXPECT_EQ(error, fifo + " is not a regular file: remove it (the log is written anew)");
 }
 
 TEST(IterationLogTest, AppendsAndSaysWhyNot) {
