@@ -128,51 +128,60 @@ TEST(EquilibriumDifferentiatorTest, FullGradientMatchesResolvedEquilibria) {
               static_cast<int>(numeric.size()), error_value);
 }
 
-// At the equilibrium of actuation a on `mesh` (left face fixed), reached from rest: the
-// adjoint's directional gradient of L = 1/2 |x - y|^2 and the Jacobian products for k
-// random directions against central differences of re-solved equilibria.
-// The equilibrium in *equilibrium if not null.
-void ExpectProductsMatchResolvedEquilibria(const TetMesh& mesh, const ActuationMatrix& a, int k,
-                                           unsigned seed, Eigen::Matrix3Xd* equilibrium = nullptr) {
-  const ShapeTargetModel model(mesh, 1.0);
-  QuasistaticSolver solver(model, testing::LeftFaceFixed(mesh), SolverOptions());
+// At an equilibrium x of actuation a (the solver holding the model's boundary
+// conditions): the adjoint's directional gradient of L = 1/2 |x - y|^2 and the Jacobian
+// products for k random directions against central differences (step `step`) of
+// re-solved equilibria, to a relative `tolerance`.
+void ExpectProductsMatchResolvedEquilibriaAt(const ShapeTargetModel& model,
+                                             QuasistaticSolver* solver, const ActuationMatrix& a,
+                                             const Eigen::Matrix3Xd& x, int k, unsigned seed,
+                                             double step, double tolerance) {
   std::mt19937 rng(seed);
-  const Eigen::Matrix3Xd x = Equilibrium(&solver, a, mesh.vertices);
-  if (equilibrium != nullptr) *equilibrium = x;
   const Eigen::Matrix3Xd y = x + 0.05 * Eigen::Matrix3Xd::Random(3, x.cols());
 
-  EquilibriumDifferentiator differentiator(model, solver.fixed_mask());
+  EquilibriumDifferentiator differentiator(model, solver->fixed_mask());
   std::string error;
   ASSERT_TRUE(differentiator.Prepare(x, a, &error)) << error;
   const ActuationMatrix gradient = differentiator.LossGradient(x - y);
 
-  Eigen::MatrixXd directions(6 * mesh.num_tets(), k);
+  Eigen::MatrixXd directions(6 * model.num_elements(), k);
   for (int i = 0; i < directions.size(); ++i) {
     directions.data()[i] = std::uniform_real_distribution<double>(-1, 1)(rng);
   }
   const Eigen::MatrixXd jvp = differentiator.ActuationJacobianProduct(directions);
-  ASSERT_EQ(jvp.rows(), 3 * mesh.num_vertices());
+  ASSERT_EQ(jvp.rows(), x.size());
   for (int c = 0; c < k; ++c) {
     auto equilibrium_along = [&](const Eigen::VectorXd& t) -> Eigen::VectorXd {
       const ActuationMatrix perturbed =
           a + t[0] * Eigen::Map<const ActuationMatrix>(directions.col(c).data(), 6, a.cols());
-      const Eigen::Matrix3Xd xt = Equilibrium(&solver, perturbed, x);
+      const Eigen::Matrix3Xd xt = Equilibrium(solver, perturbed, x);
       Eigen::VectorXd out(xt.size() + 1);
       out.head(xt.size()) = Eigen::Map<const Eigen::VectorXd>(xt.data(), xt.size());
       out[xt.size()] = Loss(xt, y);
       return out;
     };
     const Eigen::VectorXd numeric = testing::CentralDifferenceDirectional(
-        equilibrium_along, Eigen::VectorXd::Zero(1), Eigen::VectorXd::Ones(1), 1e-4);
+        equilibrium_along, Eigen::VectorXd::Zero(1), Eigen::VectorXd::Ones(1), step);
     const double directional = Eigen::Map<const Eigen::VectorXd>(gradient.data(), gradient.size())
                                    .dot(directions.col(c));
-    EXPECT_NEAR(directional, numeric[x.size()], 1e-5 * std::abs(numeric[x.size()]))
+    EXPECT_NEAR(directional, numeric[x.size()], tolerance * std::abs(numeric[x.size()]))
         << "direction " << c;
-    EXPECT_LT(testing::RelativeError(jvp.col(c), numeric.head(x.size())), 1e-5)
+    EXPECT_LT(testing::RelativeError(jvp.col(c), numeric.head(x.size())), tolerance)
         << "direction " << c;
   }
   // Fixed vertices do not move.
-  for (int v : solver.fixed_vertices()) EXPECT_EQ(jvp.block(3 * v, 0, 3, k).norm(), 0.0);
+  for (int v : solver->fixed_vertices()) EXPECT_EQ(jvp.block(3 * v, 0, 3, k).norm(), 0.0);
+}
+
+// The same at the equilibrium of actuation a on `mesh` (left face fixed), reached from
+// rest (in *equilibrium if not null).
+void ExpectProductsMatchResolvedEquilibria(const TetMesh& mesh, const ActuationMatrix& a, int k,
+                                           unsigned seed, Eigen::Matrix3Xd* equilibrium = nullptr) {
+  const ShapeTargetModel model(mesh, 1.0);
+  QuasistaticSolver solver(model, testing::LeftFaceFixed(mesh), SolverOptions());
+  const Eigen::Matrix3Xd x = Equilibrium(&solver, a, mesh.vertices);
+  if (equilibrium != nullptr) *equilibrium = x;
+  ExpectProductsMatchResolvedEquilibriaAt(model, &solver, a, x, k, seed, 1e-4, 1e-5);
 }
 
 TEST(EquilibriumDifferentiatorTest, DirectionalGradientAndJacobianProductsOnLargerBar) {
@@ -246,40 +255,9 @@ TEST(EquilibriumDifferentiatorTest, ProductsMatchResolvedEquilibriaNearBuckling)
 
   const Eigen::Matrix3Xd x = Equilibrium(&solver, a, mesh.vertices);
   EXPECT_LT((x - mesh.vertices).cwiseAbs().maxCoeff(), 1e-8) << "still straight";
-  std::mt19937 rng(41);
-  const Eigen::Matrix3Xd y = x + 0.05 * Eigen::Matrix3Xd::Random(3, x.cols());
-  EquilibriumDifferentiator differentiator(model, solver.fixed_mask());
-  std::string error;
-  ASSERT_TRUE(differentiator.Prepare(x, a, &error)) << error;
-  const ActuationMatrix gradient = differentiator.LossGradient(x - y);
-  Eigen::MatrixXd directions(6 * mesh.num_tets(), 2);
-  for (int i = 0; i < directions.size(); ++i) {
-    directions.data()[i] = std::uniform_real_distribution<double>(-1, 1)(rng);
-  }
-  const Eigen::MatrixXd jvp = differentiator.ActuationJacobianProduct(directions);
-  for (int c = 0; c < 2; ++c) {
-    auto equilibrium_along = [&](const Eigen::VectorXd& t) -> Eigen::VectorXd {
-      const ActuationMatrix perturbed =
-          a + t[0] * Eigen::Map<const ActuationMatrix>(directions.col(c).data(), 6, a.cols());
-      const Eigen::Matrix3Xd xt = Equilibrium(&solver, perturbed, x);
-      Eigen::VectorXd out(xt.size() + 1);
-      out.head(xt.size()) = Eigen::Map<const Eigen::VectorXd>(xt.data(), xt.size());
-      out[xt.size()] = Loss(xt, y);
-      return out;
-    };
-    // Small steps: the equilibrium's curvature along the soft mode grows near buckling.
-    const Eigen::VectorXd numeric = testing::CentralDifferenceDirectional(
-        equilibrium_along, Eigen::VectorXd::Zero(1), Eigen::VectorXd::Ones(1), 1e-6);
-    const double directional = Eigen::Map<const Eigen::VectorXd>(gradient.data(), gradient.size())
-                                   .dot(directions.col(c));
-    // Measured: relative errors of 2e-10 and 9e-10 at lambda_min / mean |diag K| = 4e-4.
-    EXPECT_NEAR(directional, numeric[x.size()], 1e-7 * std::abs(numeric[x.size()]))
-        << "direction " << c;
-    EXPECT_LT(testing::RelativeError(jvp.col(c), numeric.head(x.size())), 1e-7)
-        << "direction " << c;
-    std::printf("  direction %d: |dx/da d| = %.3g, relative error %.2e\n", c,
-                jvp.col(c).norm(), testing::RelativeError(jvp.col(c), numeric.head(x.size())));
-  }
+  // Small steps: the equilibrium's curvature along the soft mode grows near buckling.
+  // Measured: relative errors of 2e-10 and 9e-10.
+  ExpectProductsMatchResolvedEquilibriaAt(model, &solver, a, x, 2, 41, 1e-6, 1e-7);
 }
 
 TEST(EquilibriumDifferentiatorTest, FixedVertexProductsMatchResolvedEquilibria) {

@@ -22,6 +22,7 @@
 #include "prepare/volumetric_targets.h"
 #include "testing/finite_difference.h"
 #include "testing/fit_fixtures.h"
+#include "testing/gradient_check.h"
 #include "testing/synthetic_muscles.h"
 #include "train/pretrain.h"
 #include "train/trainer.h"
@@ -369,12 +370,8 @@ TEST(LatentFitTest, CostJacobianThroughTheRegularizedStiffnessPassesGradientChec
   ASSERT_EQ(cost->parameter_block_sizes().size(), 1u);
   const Eigen::VectorXd z = 0.5 * (model.latents.col(1) + model.latents.col(4));
   const double* parameters[1] = {z.data()};
-  ceres::NumericDiffOptions numeric_options;
-  numeric_options.ridders_relative_initial_step_size = 1e-3;
-  const std::vector<const ceres::Manifold*>* no_manifolds = nullptr;
-  ceres::GradientChecker checker(cost.get(), no_manifolds, numeric_options);
   ceres::GradientChecker::ProbeResults results;
-  checker.Probe(parameters, 1e-6, &results);
+  testing::ProbeJacobians(*cost, parameters, 1e-6, &results, testing::RiddersFrom(1e-3));
   ASSERT_EQ(results.jacobians.size(), 1u) << results.error_log;
   EXPECT_GT(results.jacobians[0].norm(), 0.0);
   EXPECT_LT(testing::RelativeError(results.jacobians[0], results.numeric_jacobians[0]), 1e-6)
