@@ -200,6 +200,36 @@ TEST(FitPriorTest, FileRoundTripsIsLearnedWhenAbsentAndBadFilesNameTheLine) {
     EXPECT_NE(error.find("prior.txt:15: a second '"), std::string::npos) << error;
     EXPECT_NE(error.find("(the first is line "), std::string::npos) << error;
   }
+  // Finite but absurd priors (every fit failed inside Ceres, naming nothing).
+  FitPrior far = learned;
+  far.bones[0].mean[3] = 1e300;
+  ASSERT_TRUE(WriteFitPrior(path + "/learned/prior.txt", far, names, &error)) << error;
+  EXPECT_FALSE(LoadModel(path, &back, &error));
+  EXPECT_NE(error.find("prior.txt: the mean motion of bone 'tip' turns by more than 2 pi or "
+                       "moves more than 1000 model sizes"),
+            std::string::npos)
+      << error;
+  FitPrior pinned = learned;
+  ASSERT_TRUE(pinned.latent.SetCovariance(
+      1e-300 * Eigen::MatrixXd::Identity(pinned.latent.size(), pinned.latent.size())));
+  ASSERT_TRUE(WriteFitPrior(path + "/learned/prior.txt", pinned, names, &error)) << error;
+  EXPECT_FALSE(LoadModel(path, &back, &error));
+  EXPECT_NE(error.find("prior.txt: the latent covariance's mean variance is 1e-300, below 1e-14"),
+            std::string::npos)
+      << error;
+  pinned = learned;
+  Eigen::MatrixXd bone_covariance = pinned.bones[0].covariance;
+  bone_covariance(4, 4) = 1e-300;
+  bone_covariance.row(4).setZero();
+  bone_covariance.col(4).setZero();
+  bone_covariance(4, 4) = 1e-300;
+  ASSERT_TRUE(pinned.bones[0].SetCovariance(bone_covariance));
+  ASSERT_TRUE(WriteFitPrior(path + "/learned/prior.txt", pinned, names, &error)) << error;
+  EXPECT_FALSE(LoadModel(path, &back, &error));
+  EXPECT_NE(error.find("the covariance of bone 'tip' has a variance near 0"), std::string::npos)
+      << error;
+  ASSERT_TRUE(WriteFitPrior(path + "/learned/prior.txt", learned, names, &error)) << error;
+  ASSERT_TRUE(LoadModel(path, &back, &error)) << error;
 }
 
 }  // namespace
