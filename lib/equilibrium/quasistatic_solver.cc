@@ -113,6 +113,9 @@ QuasistaticSolver::QuasistaticSolver(const ShapeTargetModel& model, const Bounda
                  model.rest_positions().data() + 3 * static_cast<size_t>(model.num_vertices())) {
   actuation() = IdentityActuations(model.num_elements());
   std::string error;
+  // Options are the caller's to validate (the jobs do, naming the flags): invalid ones
+  // here are a programmer error.
+  CHECK(options.Validate(&error)) << "QuasistaticSolverOptions: " << error;
   CHECK(ValidateBoundaryConditions(bc, model.num_vertices(), "boundary conditions", &error))
       << error;
   if (bc.positions.cols() == 0) {

@@ -226,7 +226,8 @@ class QuasistaticSolver {
   // preconditioner's (a mesh piece that nothing holds makes every K singular).
   static constexpr double kSingularShift = 1e-10;
 
-  // bc must be valid for the model (ValidateBoundaryConditions; CHECKed).
+  // options must be valid (Validate) and bc valid for the model
+  // (ValidateBoundaryConditions): both CHECKed.
   // The initial state is the rest shape with fixed vertices at their prescribed
   // positions, and the actuation is S = I.
   QuasistaticSolver(const ShapeTargetModel& model, const BoundaryConditions& bc,

@@ -33,6 +33,8 @@ LatentFitter::LatentFitter(const ActiveModel& model, const LatentFitOptions& opt
     : model_(model), options_(options), bones_(RestBoneTransforms(model)),
       accepted_state_(model.mesh.vertices) {
   CHECK(model.decoder) << "latent fitting needs a trained model";
+  std::string invalid;
+  CHECK(options.Validate(&invalid)) << "LatentFitOptions: " << invalid;
   prior_ = model.fit_prior.empty() ? LearnFitPrior(model) : model.fit_prior;
   CHECK_EQ(prior_.latent.size(), model.latent_dim());
   CHECK_EQ(prior_.bones.size(), model.bones.size());

@@ -240,7 +240,8 @@ struct FitStartOptions {
 // Jacobian comes from implicit differentiation: with one
 // stiffness factorization, latent_dim Jacobian-vector products through da/dz (the
 // decoder's forward-mode Jacobian) and 6 per bone through the fixed vertices it moves.
-// Equilibria are warm-started from the last one. The model must outlive the fitter.
+// Equilibria are warm-started from the last one. The model must outlive the fitter, and
+// the options must be valid (LatentFitOptions::Validate; CHECKed).
 class LatentFitter {
  public:
   LatentFitter(const ActiveModel& model, const LatentFitOptions& options);

@@ -369,6 +369,12 @@ int RunTrainingSolves(const TrainOptions& options, const ceres::GradientProblem&
 bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport* report,
                    std::ostream& log, std::string* error) {
   WallTimer timer;
+  // Validated here too, for library callers (the apps' jobs validate before).
+  std::string invalid;
+  if (!options.Validate(&invalid)) {
+    *error = "training options: " + invalid;
+    return false;
+  }
   if (!model->decoder) {
     *error = "the model has no decoder yet: pre-train it first (aqs_pretrain)";
     return false;
