@@ -450,7 +450,17 @@ def classify(app, code, output, case_dir, outputs):
     if "bad_alloc" in output or "Cannot allocate memory" in output:
         return "memory", "allocation failed"
     if code == 0:
+        # The names of the case's files, longest first, are taken out of the log before it
+        # is searched: an output a mutated flagfile named "out.obj inf" was logged as
+        # "wrote out.obj inf", which is no non-finite number.
+        try:
+            names = sorted(os.listdir(case_dir), key=len, reverse=True)
+        except OSError:
+            names = []
         for line in output.split("\n"):
+            for name in names:
+                if NONFINITE.search(name):
+                    line = line.replace(name, "")
             m = NONFINITE.search(line)
             # (A reader's report of a damaged input it then did without, such as
             # aqs_pipeline's "the model at M ... cannot be read (F: entry ... is not finite
