@@ -18,13 +18,17 @@
 #include "mpi_flags.h"
 #include "prepare_flags.h"
 
+DEFINE_bool(restart, false, "Prepare anew even where the model at --model is the model of "
+            "these inputs and flags (kept otherwise, with its learned state) or holds a "
+            "learned state that preparing anew discards (refused otherwise).");
+
 int main(int argc, char** argv) {
   aqs::InitApp(
       "Prepare an active model from surface poses.\n"
       "  aqs_prepare --neutral=N.obj --poses=DIR --model=MODEL --spacing=H [--shell=T]\n"
       "              [--fixed_depth=D | --fixed_box=... | --fixed_inside=... | --fixed_list=...]\n"
       "              [--bone_mesh=B.obj --bone_poses=DIR/{pose}.b.obj --bone_region=BOX]\n"
-      "              [--overwrite]\n"
+      "              [--overwrite] [--restart]\n"
       "  mpirun -np N aqs_prepare ...   (the targets' simulations shared among N ranks)",
       &argc, &argv);
   const std::unique_ptr<aqs::Communicator> ranks = aqs::StartRanks(&argc, &argv);
@@ -40,6 +44,10 @@ int main(int argc, char** argv) {
     aqs::PrintRankError(ranks.get(), aqs::FlagError(error, aqs::PrepareFlagNames()));
     return 1;
   }
+  // As aqs_pipeline's prepare stage: a rerun keeps the same model with its learned state,
+  // and does not discard another's (a rerun of a prepare, pretrain, train script after a
+  // stop deleted the training).
+  options.keep_same_model = !FLAGS_restart;
   aqs::JobStatus status = aqs::JobStatus::kOk;
   ok = aqs::RunPrepareJob(options, std::cout, &error, &status);
   if (ranks == nullptr) return aqs::FinishJob(status, error, aqs::PrepareFlagNames());

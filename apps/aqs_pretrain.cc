@@ -18,8 +18,10 @@
 #include "mpi_flags.h"
 
 DECLARE_string(model);
-DEFINE_bool(restart, false, "Pre-train anew, not from the checkpoint of an earlier run that "
-            "was stopped (with the same model and decoder flags it would resume).");
+DEFINE_bool(restart, false, "Pre-train anew: not from the checkpoint of an earlier run that "
+            "was stopped (with the same model and decoder flags it would resume), and even "
+            "where the model's decoder was pre-trained with these flags (kept otherwise) or "
+            "trained since (refused otherwise).");
 
 int main(int argc, char** argv) {
   aqs::InitApp("Pre-train the decoder of a prepared model.\n"
@@ -46,8 +48,11 @@ int main(int argc, char** argv) {
     return 1;
   }
   options.resume = !FLAGS_restart;
+  // As aqs_pipeline's pretrain stage: a decoder pre-trained with these flags is kept, and
+  // one pre-trained otherwise and trained since is not discarded (a rerun after a stop of
+  // a later stage pre-trained anew, and over a trained model deleted its training).
   bool ok = aqs::RunPretrainJob(FLAGS_model, options, simulate ? &simulation : nullptr,
-                                std::cout, &error, false, ranks.get());
+                                std::cout, &error, !FLAGS_restart, ranks.get());
   if (ranks == nullptr) {
     return aqs::FinishJob(ok ? aqs::JobStatus::kOk : aqs::JobStatus::kBadInput, error,
                           aqs::PretrainFlagNames());

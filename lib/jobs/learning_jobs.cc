@@ -16,6 +16,7 @@
 #include "train/progress.h"
 #include "util/atomic_file.h"
 #include "util/make_directory.h"
+#include "util/memory_limit.h"
 #include "util/number_format.h"
 #include "util/text_split.h"
 #include "util/wall_timer.h"
@@ -96,6 +97,16 @@ PretrainResult PretrainHere(const std::string& model_directory, const PretrainOp
   if (!LockAndLoad(model_directory, log, lock, model, error) ||
       !CheckReplaceable(model_directory, true, error)) {
     return PretrainResult::kFailed;
+  }
+  // Sizes this model cannot take are refused first, before a kept decoder is compared
+  // with these flags (they would otherwise be reported as flags that discard training).
+  {
+    double bytes = 0.0;
+    std::string details;
+    if (!PretrainMemoryBytes(options, *model, &bytes, &details, error) ||
+        !CheckMemoryEstimate(bytes, options.max_memory_bytes, "pre-training", details, error)) {
+      return PretrainResult::kFailed;
+    }
   }
   *run = options;
   run->checkpoint_directory = ResolveModelPath(model_directory) + "/pretrain";

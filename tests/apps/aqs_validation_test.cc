@@ -303,6 +303,46 @@ class AqsValidationModelTest : public ::testing::Test {
 
 testing::TempDir* AqsValidationModelTest::dir_ = nullptr;
 
+// The standalone apps rerun as the pipeline's stages do (a kill campaign found that a
+// rerun of a prepare, pretrain, train script deleted the training): aqs_prepare and
+// aqs_pretrain with the model's own inputs and flags keep it with its learned state;
+// with others, they refuse to discard it; --restart replaces it.
+TEST_F(AqsValidationModelTest, RerunsOfPrepareAndPretrainKeepOrRefuseNotDiscardTraining) {
+  testing::TempDir dir;
+  const std::string model = CopyOfModel(dir, "m");
+  const std::string checkpoint = ReadAll(model + "/learned/checkpoint.txt");
+  ASSERT_NE(checkpoint.find("\niterations 2\n"), std::string::npos) << checkpoint;
+  const std::string prepare = AppPath("aqs_prepare") + " --neutral=" + dir_->File("neutral.obj") +
+                              " --poses=" + dir_->File("poses") + " --model=" + model +
+                              " --spacing=0.5 --lattice=kuhn --fixed_box=-2,-2,-1,2,2,0.3 "
+                              "--threads=1";
+  testing::CommandResult run = RunCommand(prepare);
+  EXPECT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("is the model of these inputs and flags"), std::string::npos)
+      << run.output;
+  const std::string pretrain = AppPath("aqs_pretrain") + " --model=" + model +
+                               " --latent_dim=2 --hidden=8 --grid_spacing=1.5 "
+                               "--pretrain_iterations=30 --threads=1";
+  run = RunCommand(pretrain);
+  EXPECT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("kept, with 2 training iterations since"), std::string::npos)
+      << run.output;
+  EXPECT_EQ(ReadAll(model + "/learned/checkpoint.txt"), checkpoint);
+  // Other flags: refused, the training kept.
+  run = RunCommand(prepare + " --spacing=0.6");
+  EXPECT_EQ(run.exit_code, 1) << run.output;
+  EXPECT_NE(run.output.find("would discard its learned state"), std::string::npos) << run.output;
+  run = RunCommand(pretrain + " --hidden=9");
+  EXPECT_EQ(run.exit_code, 1) << run.output;
+  EXPECT_NE(run.output.find("which pre-training anew would discard"), std::string::npos)
+      << run.output;
+  EXPECT_EQ(ReadAll(model + "/learned/checkpoint.txt"), checkpoint);
+  // --restart asks for it.
+  run = RunCommand(pretrain + " --hidden=9 --restart");
+  EXPECT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_FALSE(fs::exists(model + "/train"));
+}
+
 TEST_F(AqsValidationModelTest, DamagedModelsAreRefusedNamingTheFile) {
   testing::TempDir dir;
   const std::string empty_fixed = CopyOfModel(dir, "empty_fixed");
@@ -674,7 +714,8 @@ TEST_F(AqsValidationModelTest, LearningAppsRefuseBadFlags) {
                    "--pretrain_minutes must be finite and >= 0 (is 1e+307)"},
                   {"--pretrain_latents=poses", 1,
                    "--pretrain_latents must be targets or surfaces, got 'poses'"},
-                  {"--output_scale=1e308", 1,
+                  // (--restart: the model here was pre-trained with other flags and trained.)
+                  {"--output_scale=1e308 --restart", 1,
                    "the pre-training loss is not finite at the start (inf): the decoder's output "
                    "scale (--output_scale) or the latent regularization (--latent_regularization) "
                    "is far too large?"},
