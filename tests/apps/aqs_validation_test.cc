@@ -690,7 +690,8 @@ TEST_F(AqsValidationModelTest, LearningAppsRefuseBadFlags) {
   const std::string before = ReadAll(model + "/learned/decoder.txt");
   ExpectCases("aqs_pretrain", "--model={dir}m",
               {
-                  {"--latent_dim=2147483647", 1, "--latent_dim must be in [1, 4096] (is 2147483647)"},
+                  {"--latent_dim=2147483647", 1,
+                   "--latent_dim must be in [1, 4096] (is 2147483647)"},
                   {"--hidden=100000,100000", 1, "--hidden: the decoder would have 1e+10 parameters"},
                   {"--hidden=1000000", 1, "--max_memory_gb (8 GB) is below the estimated"},
                   {"--hidden=1000000", 1, "that pre-training needs"},
