@@ -574,6 +574,18 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
   if (!CheckOutputFile(csv_path, error) || !CheckOutputFile(md_path, error)) {
     return JobStatus::kBadInput;
   }
+  // The temporaries of the tables a killed run left (util/atomic_file.h): they stayed for
+  // good, one more with each such kill. Those of a running process are kept.
+  std::vector<std::string> removed;
+  if (!RemoveStaleTemporaryFiles(
+          options.output_dir,
+          [](const std::string& name) {
+            return name == "fit_benchmark.csv" || name == "fit_benchmark.md";
+          },
+          &removed, error)) {
+    return JobStatus::kBadInput;
+  }
+  for (const std::string& line : removed) log << "cleanup: " << line << "\n";
   ActiveModel model;
   if (!LoadModel(options.model, &model, error)) return JobStatus::kBadInput;
   if (!model.decoder) {

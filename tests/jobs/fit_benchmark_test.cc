@@ -15,6 +15,7 @@
 
 #include "mesh/mesh_io.h"
 #include "model/model_io.h"
+#include "testing/fault_kill.h"
 #include "testing/file_contents.h"
 #include "testing/fit_fixtures.h"
 #include "testing/synthetic_muscles.h"
@@ -230,7 +231,11 @@ TEST(FitBenchmarkTest, KeepsTheRowsFittedBeforeAFailure) {
   EXPECT_NE(error.find("scans/mix_001.ply: missing"), std::string::npos) << error;
   EXPECT_EQ(log.str().find("physics_pose"), std::string::npos) << "no fit ran:\n" << log.str();
   // A damaged one stops the run there, and the rows of the mixes before it are written.
+  // A temporary of the tables that a killed run left is removed first, and logged.
   dir.Write("set/scans/mix_001.ply", "ply\nformat ascii 1.0\nelement vertex 2\nend_header\n");
+  const std::string stale =
+      dir.File("out/fit_benchmark.csv.tmp" + std::to_string(testing::DeadPid()));
+  std::ofstream(stale) << "case,method\n";
   log.str("");
   EXPECT_EQ(RunFitBenchmark(options, log, &error), JobStatus::kBadInput);
   EXPECT_NE(error.find("mix_001.ply"), std::string::npos) << error;
@@ -241,6 +246,8 @@ TEST(FitBenchmarkTest, KeepsTheRowsFittedBeforeAFailure) {
   EXPECT_FALSE(rows.count("mix_001 physics_scan"));
   const std::string md = testing::ReadAll(dir.File("out/fit_benchmark.md"));
   EXPECT_NE(md.find("**Stopped early** (1 of 2 mixes fitted)"), std::string::npos) << md;
+  EXPECT_FALSE(std::filesystem::exists(stale));
+  EXPECT_NE(log.str().find("cleanup: "), std::string::npos) << log.str();
   // No frames to fit is refused before anything runs.
   options.sequence_frames = 0;
   EXPECT_EQ(RunFitBenchmark(options, log, &error), JobStatus::kBadInput);
