@@ -209,6 +209,43 @@ bool CheckNeutralHasFaces(const std::string& dir, const ActiveModel& model, std:
   return false;
 }
 
+// A fit prior's scales (`prior_source`: its file): finite but absurd priors (a bone's mean
+// 1e300 away, a covariance of 1e-300) made every fit fail inside Ceres, naming nothing.
+// Learned ones are far inside these bounds (the latent's mean variance above 1e-12, a
+// bone's translation deviation above 1e-3 model sizes and its rotation's above 0.01 rad).
+bool CheckFitPriorScales(const std::string& prior_source, const ActiveModel& model,
+                         std::string* error) {
+  const Eigen::Vector3d lo = model.mesh.vertices.rowwise().minCoeff();
+  const Eigen::Vector3d hi = model.mesh.vertices.rowwise().maxCoeff();
+  const double size = std::max((hi - lo).norm(), 1e-300);
+  const std::string remedy = " (remove it to learn it again from the training latents)";
+  const GaussianPrior& latent = model.fit_prior.latent;
+  if (latent.size() > 0 && !(latent.covariance.diagonal().mean() >= 1e-14)) {
+    *error = prior_source + ": the latent covariance's mean variance is " +
+             FormatDouble(latent.covariance.diagonal().mean()) + ", below 1e-14" + remedy;
+    return false;
+  }
+  for (size_t b = 0; b < model.fit_prior.bones.size() && b < model.bones.size(); ++b) {
+    const GaussianPrior& bone = model.fit_prior.bones[b];
+    const std::string name = "bone '" + model.bones[b].name + "'";
+    if (!(bone.mean.head<3>().norm() <= 2 * M_PI) ||
+        !(bone.mean.tail<3>().norm() <= kMaxDistanceInModelSizes * size)) {
+      *error = prior_source + ": the mean motion of " + name + " turns by more than 2 pi " +
+               "or moves more than " + FormatDouble(kMaxDistanceInModelSizes) +
+               " model sizes" + remedy;
+      return false;
+    }
+    const Eigen::VectorXd variances = bone.covariance.diagonal();
+    if (!(variances.head<3>().minCoeff() >= 1e-20) ||
+        !(variances.tail<3>().minCoeff() >= 1e-18 * size * size)) {
+      *error = prior_source + ": the covariance of " + name +
+               " has a variance near 0, which pins every fit" + remedy;
+      return false;
+    }
+  }
+  return true;
+}
+
 // The learned state must give actuations a simulation can use: the training latents
 // and the fit prior's latent mean decode to entries of at most kMaxActuationStretch in
 // magnitude (a damaged decoder, latent or prior file otherwise sends every solve after
@@ -241,39 +278,8 @@ bool CheckLearnedActuations(const std::string& source, const std::string& prior_
              "', which is not a training pose of this model";
     return false;
   }
-  // Finite but absurd priors (a bone's mean 1e300 away, a covariance of 1e-300) made every
-  // fit fail inside Ceres, naming nothing. Learned ones are far inside these bounds (the
-  // latent's mean variance above 1e-12, a bone's translation deviation above 1e-3 model
-  // sizes and its rotation's above 0.01 rad).
-  if (!model.fit_prior.empty()) {
-    const Eigen::Vector3d lo = model.mesh.vertices.rowwise().minCoeff();
-    const Eigen::Vector3d hi = model.mesh.vertices.rowwise().maxCoeff();
-    const double size = std::max((hi - lo).norm(), 1e-300);
-    const std::string remedy = " (remove it to learn it again from the training latents)";
-    const GaussianPrior& latent = model.fit_prior.latent;
-    if (latent.size() > 0 && !(latent.covariance.diagonal().mean() >= 1e-14)) {
-      *error = prior_source + ": the latent covariance's mean variance is " +
-               FormatDouble(latent.covariance.diagonal().mean()) + ", below 1e-14" + remedy;
-      return false;
-    }
-    for (size_t b = 0; b < model.fit_prior.bones.size() && b < model.bones.size(); ++b) {
-      const GaussianPrior& bone = model.fit_prior.bones[b];
-      const std::string name = "bone '" + model.bones[b].name + "'";
-      if (!(bone.mean.head<3>().norm() <= 2 * M_PI) ||
-          !(bone.mean.tail<3>().norm() <= kMaxDistanceInModelSizes * size)) {
-        *error = prior_source + ": the mean motion of " + name + " turns by more than 2 pi " +
-                 "or moves more than " + FormatDouble(kMaxDistanceInModelSizes) +
-                 " model sizes" + remedy;
-        return false;
-      }
-      const Eigen::VectorXd variances = bone.covariance.diagonal();
-      if (!(variances.head<3>().minCoeff() >= 1e-20) ||
-          !(variances.tail<3>().minCoeff() >= 1e-18 * size * size)) {
-        *error = prior_source + ": the covariance of " + name +
-                 " has a variance near 0, which pins every fit" + remedy;
-        return false;
-      }
-    }
+  if (!model.fit_prior.empty() && !CheckFitPriorScales(prior_source, model, error)) {
+    return false;
   }
   // Every fit starts from the prior's centre by default: it must decode as sanely.
   if (!model.fit_prior.empty() && model.fit_prior.latent.size() == model.latent_dim()) {
