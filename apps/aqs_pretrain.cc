@@ -2,7 +2,8 @@
 // volumetric targets (supervised), to start end-to-end training from.
 // It holds the model's writers' lock and replaces the model as a whole
 // (docs/model_format.md, "Writing"). It writes checkpoints into the model's pretrain/
-// folder every minute; run again after a kill, it resumes from the last (--restart: not).
+// folder every minute (--pretrain_checkpoint_seconds); run again after a kill, it
+// resumes from the last (--restart: not).
 // Exit status: 0 done; 1 bad input (a file, a flag, a decoder whose memory estimate is
 // above --max_memory_gb) or a model another process is writing. Under mpirun (or with
 // --mpi; docs/distributed.md) rank 0 pre-trains, and the simulation of every pre-trained

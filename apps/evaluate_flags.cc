@@ -30,6 +30,10 @@ DEFINE_string(baseline_hidden, "decoder", "Hidden layer widths of the auto-encod
               "(comma-separated), or 'decoder': the same as the model's decoder. A linear "
               "decoder's comparison should keep a network here (a linear auto-encoder is the "
               "PCA about the neutral).");
+DEFINE_double(baseline_checkpoint_seconds, 60.0, "The auto-encoder baseline's training saves a "
+              "checkpoint (autoencoder_checkpoint/ in --output_dir) at most every this many "
+              "seconds of its iterations; a run killed between them resumes from the last "
+              "(0: every iteration).");
 DEFINE_bool(baseline_lbfgs_scaling, true, "The auto-encoder baseline's L-BFGS scales its initial "
             "inverse Hessian as end-to-end training does (--lbfgs_scaling).");
 DEFINE_int32(baseline_seed, 1, "Seed of the auto-encoder baseline's random initial weights "
@@ -107,6 +111,7 @@ bool EvaluateOptionsFromFlags(EvaluateJobOptions* options, std::string* error) {
   // The physics training's restart rule and maximum (--train_restarts).
   options->autoencoder.max_restarts = FLAGS_train_restarts;
   options->autoencoder.lbfgs_scaling = FLAGS_baseline_lbfgs_scaling;
+  options->autoencoder.checkpoint_seconds = FLAGS_baseline_checkpoint_seconds;
   if (FLAGS_baseline_seed < 0) {
     *error = "--baseline_seed must be >= 0 (is " + std::to_string(FLAGS_baseline_seed) + ")";
     return false;
@@ -183,6 +188,7 @@ FlagNames EvaluateFlagNames() {
                 {"autoencoder_hidden_dims", "--baseline_hidden"},
                 {"autoencoder_linear_skip", "--baseline_linear_skip"},
                 {"autoencoder.lbfgs_scaling", "--baseline_lbfgs_scaling"},
+                {"autoencoder.checkpoint_seconds", "--baseline_checkpoint_seconds"},
                 {"held_out_targets.relative_stiffness", "--attachment_stiffness"},
                 {"held_out_targets.inverted_targets", "--inverted_targets"},
                 {"held_out_targets.solver.relative_force_tolerance", "--prepare_tolerance"}});

@@ -13,7 +13,8 @@
 DEFINE_int32(latent_dim, 16, "Latent dimension d.");
 DEFINE_string(hidden, "128,128", "Hidden layer widths of the decoder (comma-separated).");
 DEFINE_string(activation, "elu", "Hidden activation: elu, tanh or softplus.");
-DEFINE_double(output_scale, 0.1, "Decoder output scale (a = I + field(scale * mlp(z))).");
+DEFINE_double(output_scale, 0.1,
+              "Decoder output scale (a = I + field(scale * mlp(z))), in [1e-6, 1e6].");
 DEFINE_bool(anchored_decoder, false, "Anchor the decoder at the origin: a(z) = I + field(scale * "
             "(mlp(z) - mlp(0))), so that the zero latent decodes to the rest shape exactly and "
             "the latent prior pulls towards it (the evaluation's auto-encoder follows).");
@@ -36,6 +37,9 @@ DEFINE_double(energy_regularization, 0.0,
 DEFINE_int32(pretrain_iterations, 500, "L-BFGS iterations of pre-training.");
 DEFINE_double(pretrain_minutes, 0.0, "Stop pre-training after this many minutes of its "
               "iterations, keeping the point reached (0: no limit).");
+DEFINE_double(pretrain_checkpoint_seconds, 60.0, "Pre-training saves a checkpoint (pretrain/ in "
+              "the model) at most every this many seconds of its iterations, and at its end; "
+              "a run killed between them resumes from the last (0: every iteration).");
 DEFINE_string(pretrain_latents, "targets", "Where pre-training's latents start: 'targets' (the "
               "volumetric targets' principal components, fitted with the decoder) or 'surfaces' "
               "(the pose surfaces' principal components about the neutral, held while the "
@@ -135,6 +139,7 @@ bool PretrainOptionsFromFlags(PretrainOptions* options, std::string* error) {
     return false;
   }
   options->max_seconds = 60.0 * FLAGS_pretrain_minutes;
+  options->checkpoint_seconds = FLAGS_pretrain_checkpoint_seconds;
   if (!PretrainLatentStartFromName(FLAGS_pretrain_latents, &options->latent_start)) {
     *error = "--pretrain_latents must be targets or surfaces, got '" + FLAGS_pretrain_latents + "'";
     return false;
@@ -178,6 +183,7 @@ FlagNames PretrainFlagNames() {
                 {"decoder_regularization", "--decoder_regularization"},
                 {"max_iterations", "--pretrain_iterations"},
                 {"max_seconds", "--pretrain_minutes"},
+                {"checkpoint_seconds", "--pretrain_checkpoint_seconds"},
                 {"max_restarts", "--train_restarts"},
                 {"simulation.solver.relative_force_tolerance", "--train_tolerance"}});
   return flags;

@@ -110,7 +110,7 @@ bool ContactSolver::SolveRounds(const ActuationMatrix& a, const std::vector<Rigi
     if (!near.points.empty()) solver.AddEnergyTerm(&obstacle_term);
     if (!pairs.empty()) solver.AddEnergyTerm(&self_term);
     const QuasistaticSolveReport solve = solver.Solve();
-    if (!solve.converged && !std::isfinite(solve.final_energy)) {
+    if (solve.refused || (!solve.converged && !std::isfinite(solve.final_energy))) {
       *error = "the equilibrium with contact failed" + label + ": " + solve.Summary();
       return false;
     }

@@ -143,6 +143,8 @@ class ContactSolver {
   // ContactOptions::Validate) and its surface_vertices in [0, the model's surface vertex
   // count) (CHECK; RunCollideJob reports both as user errors first).
   ContactSolver(const ActiveModel& model, const ContactOptions& options);
+  // It keeps a reference to the model: a temporary one does not compile.
+  ContactSolver(ActiveModel&& model, const ContactOptions& options) = delete;
   ~ContactSolver();
 
   // The equilibrium with contact for actuation a (6 x num_elements) and bone transforms
@@ -150,8 +152,10 @@ class ContactSolver {
   // placed by the bones, and what changed, into *report. `start` (3 x num_vertices) is
   // the contact-free equilibrium for a and bones: the reference of the report, and the
   // start of the rounds when options.path_steps is 0 (otherwise the path starts at
-  // rest). Returns false with *error if an equilibrium cannot be reached. Each call is
-  // independent of the others (the augmented-Lagrangian offsets are its own).
+  // rest). Returns false with *error if an equilibrium cannot be reached (also for a
+  // non-finite actuation: the solves refuse it). Each call is independent of the others
+  // (the augmented-Lagrangian offsets are its own). Obstacles from files, one per closed
+  // shell: ReadMovingObstacles (contact/read_obstacles.h), as aqs_collide reads them.
   bool Resolve(const ActuationMatrix& a, const std::vector<RigidTransform>& bones,
                const std::vector<MovingObstacle>& obstacles, const Eigen::Matrix3Xd& start,
                Eigen::Matrix3Xd* state, ContactReport* report, std::string* error) const;

@@ -56,6 +56,10 @@ class EquilibriumDifferentiator {
   EquilibriumDifferentiator(const ShapeTargetModel& model, const std::vector<bool>& fixed_mask,
                             const EquilibriumDifferentiatorOptions& options =
                                 EquilibriumDifferentiatorOptions());
+  // It keeps a reference to the model: a temporary one does not compile.
+  EquilibriumDifferentiator(ShapeTargetModel&& model, const std::vector<bool>& fixed_mask,
+                            const EquilibriumDifferentiatorOptions& options =
+                                EquilibriumDifferentiatorOptions()) = delete;
   // Uses `factorization` (not owned; same model and fixed set), so that one CHOLMOD
   // factor serves Newton steps and gradients (memory: one factor instead of two).
   EquilibriumDifferentiator(StiffnessFactorization* factorization,
@@ -69,6 +73,12 @@ class EquilibriumDifferentiator {
   // or a body whose fixed vertices do not remove all rigid motions). With
   // options().reuse (max_iterations > 0) it only assembles K and returns true: whether K
   // is positive definite is found by the first adjoint solve (the bool overloads).
+  // That x is an equilibrium is not checked (it costs an energy gradient): the
+  // gradients are exact to the degree it is one. A bar whose largest force was 4e4
+  // times the solve's tolerance (Prepare before Solve) gave a gradient 37% off; check
+  // QuasistaticSolveReport::converged first. Finite differences to compare with need
+  // re-solves tighter than their step: at the default tolerance 1e-6, a step of 1e-6
+  // in a leaves the warm-started re-solve "already in equilibrium" (a zero difference).
   bool Prepare(const ShapeTargetModel::PositionsRef& x, const ShapeTargetModel::ActuationRef& a,
                std::string* error);
 

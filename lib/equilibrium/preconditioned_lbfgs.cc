@@ -3,6 +3,7 @@
 #include <cmath>
 #include <deque>
 #include <sstream>
+#include <string>
 
 #include <glog/logging.h>
 
@@ -56,6 +57,9 @@ PreconditionedLbfgsReport MinimizeEnergyLbfgs(const PreconditionedLbfgsOptions& 
                                               StiffnessFactorization* preconditioner,
                                               Eigen::Matrix3Xd* x) {
   CHECK(preconditioner->factorized()) << "factorize the preconditioner first";
+  // The solver builds the options from validated QuasistaticSolverOptions.
+  std::string invalid;
+  CHECK(options.Validate(&invalid)) << "PreconditionedLbfgsOptions: " << invalid;
   PreconditionedLbfgsReport report;
   const StiffnessPattern& pattern = preconditioner->pattern();
   Eigen::Matrix3Xd gradient, trial_gradient, trial;

@@ -60,6 +60,7 @@ struct PreconditionedLbfgsReport {
 // Stops at the force tolerance, at max_iterations, at a stall (see
 // PreconditionedLbfgsOptions::stall_iterations), or when the line search fails even on
 // the preconditioned gradient (message says which); x then holds the best state.
+// CHECKs options.Validate() (a programmer error: the solver builds valid options).
 PreconditionedLbfgsReport MinimizeEnergyLbfgs(const PreconditionedLbfgsOptions& options,
                                               const ShapeTargetModel::ActuationRef& a,
                                               StiffnessFactorization* preconditioner,

@@ -187,7 +187,7 @@ void QuasistaticSolver::PerturbFreeVertices(double relative_size, unsigned seed)
 
 void QuasistaticSolver::SetFixedPositions(const Eigen::Matrix3Xd& fixed_positions) {
   CHECK_EQ(fixed_positions.cols(), static_cast<Eigen::Index>(fixed_vertices_.size()));
-  CHECK(fixed_positions.allFinite());
+  // Non-finite positions are data (a lost marker, a bone of NaN): Solve refuses them.
   fixed_positions_ = fixed_positions;
   ApplyFixedPositions();
 }
@@ -210,7 +210,25 @@ double QuasistaticSolver::MaxFreeForce(double* energy) const {
   return max_force;
 }
 
+void ActuationView::CheckAssignedSize(Eigen::Index rows, Eigen::Index cols) const {
+  CHECK(rows == 6 && cols == this->cols())
+      << "the solver's actuation is 6 x " << this->cols()
+      << " (one column per element); a matrix of " << rows << " x " << cols
+      << " was assigned to it";
+}
+
+void QuasistaticSolver::set_options(const QuasistaticSolverOptions& options) {
+  std::string error;
+  CHECK(options.Validate(&error)) << "QuasistaticSolverOptions: " << error;
+  options_ = options;
+}
+
 StiffnessFactorization* QuasistaticSolver::stiffness_factorization() {
+  factorization_handed_out_ = true;
+  return OwnFactorization();
+}
+
+StiffnessFactorization* QuasistaticSolver::OwnFactorization() {
   if (!factorization_) {
     std::vector<std::vector<int>> couplings;
     for (const EnergyTerm* term : terms_) term->AppendVertexCouplings(&couplings);
@@ -237,6 +255,10 @@ void QuasistaticSolver::AddEnergyTerm(const EnergyTerm* term) {
   std::vector<std::vector<int>> couplings;
   term->AppendVertexCouplings(&couplings);
   if (!couplings.empty()) {
+    CHECK(!factorization_handed_out_)
+        << "AddEnergyTerm: a term with vertex couplings replaces the stiffness factorization, "
+           "which stiffness_factorization() has handed out (to an EquilibriumDifferentiator?): "
+           "add the energy terms first";
     factorization_.reset();  // its pattern lacks the new couplings; rebuilt on next use
     preconditioner_.reset();
   } else {
@@ -258,7 +280,7 @@ bool QuasistaticSolver::RunNewton(double exact_threshold, QuasistaticSolveReport
   newton.stall_steps = options_.newton_stall_steps;
   Eigen::Matrix3Xd x = positions();
   const NewtonSolveReport result =
-      MinimizeEnergyNewton(newton, actuation(), stiffness_factorization(), &x);
+      MinimizeEnergyNewton(newton, actuation(), OwnFactorization(), &x);
   SetPositions(x);
   report->projected_steps += result.projected_steps;
   report->exact_steps += result.exact_steps;
@@ -278,7 +300,7 @@ bool QuasistaticSolver::RunNewton(double exact_threshold, QuasistaticSolveReport
 
 void QuasistaticSolver::RunLbfgs(double tolerance, QuasistaticSolveReport* report) {
   if (options_.lbfgs_reuses_factor) {
-    StiffnessFactorization* own = stiffness_factorization();
+    StiffnessFactorization* own = OwnFactorization();
     if (own->factorized()) {
       // A factor marked for refreshing (an aged one) is a poor preconditioner, and Newton
       // factorizes anyway: its steps start at once (L-BFGS on it cost more in 240K
@@ -358,6 +380,12 @@ std::string QuasistaticSolver::RefusalReason() const {
       return "the actuation of element " + std::to_string(e) + " is not finite";
     }
   }
+  for (size_t i = 0; i < fixed_vertices_.size(); ++i) {
+    if (!fixed_positions_.col(i).allFinite()) {
+      return "the prescribed position of fixed vertex " + std::to_string(fixed_vertices_[i]) +
+             " is not finite";
+    }
+  }
   if (options_.method == EquilibriumMethod::kNewton && fixed_vertices_.empty()) {
     return "the body has no fixed vertex, so its stiffness is singular (rigid motions are "
            "free) and Newton steps are undefined: fix vertices, or use Levenberg-Marquardt";
@@ -434,6 +462,7 @@ QuasistaticSolveReport QuasistaticSolver::LeaveUnstableEquilibrium(double relati
   }
   if (!refusal.empty()) {
     report.termination = "refused: " + refusal;
+    report.refused = true;
     report.seconds = timer.Seconds();
     return report;
   }
@@ -459,6 +488,7 @@ QuasistaticSolveReport QuasistaticSolver::Solve() {
   const std::string refusal = RefusalReason();
   if (!refusal.empty()) {
     report.termination = "refused: " + refusal;
+    report.refused = true;
     report.seconds = timer.Seconds();
     return report;
   }
@@ -529,7 +559,7 @@ void QuasistaticSolver::EnsureStable(QuasistaticSolveReport* report) {
   for (int escape = 0;; ++escape) {
     std::string error;
     ++report->factorizations;
-    StiffnessFactorization& factorization = *stiffness_factorization();
+    StiffnessFactorization& factorization = *OwnFactorization();
     factorization.Assemble(positions(), actuation(), StiffnessKind::kExact);
     bool stable = factorization.FactorizeAssembled(0.0, &error);
     if (!stable) {

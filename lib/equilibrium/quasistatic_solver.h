@@ -182,6 +182,10 @@ struct QuasistaticSolveReport {
   double force_tolerance = 0.0;
   // Why the solve stopped (Ceres' termination message, Newton's, or why neither ran).
   std::string termination;
+  // The solve could not start: a non-finite actuation or fixed position, a free body
+  // for kNewton (termination says which; "refused: ..."). Nothing ran, and the
+  // energies and forces above are 0.
+  bool refused = false;
   double seconds = 0.0;
   // Ceres' own accounting (0 if Ceres did not run): problem preparation, and the
   // minimizer's time with its residual/Jacobian evaluation and linear-solver parts.
@@ -196,6 +200,33 @@ struct QuasistaticSolveReport {
   std::string Path() const;
   // One line: converged/NOT CONVERGED, path, energies, forces, reason, time.
   std::string Summary() const;
+};
+
+// The solver's actuation (QuasistaticSolver::actuation()): an Eigen::Map of its storage,
+// 6 x num_elements (column e is element e's 6 shape-target entries), whose assignment
+// from a whole matrix CHECKs that the sizes agree. (A plain Map cannot resize, and
+// under NDEBUG Eigen does not check: an actuation of another mesh was read past its
+// end, or written past the solver's storage.) Blocks, columns and coefficients are
+// the Map's own.
+class ActuationView : public Eigen::Map<ActuationMatrix> {
+ public:
+  using Base = Eigen::Map<ActuationMatrix>;
+  ActuationView(double* data, Eigen::Index num_elements) : Base(data, 6, num_elements) {}
+  ActuationView(const ActuationView&) = default;
+  ActuationView& operator=(const ActuationView& other) {
+    CheckAssignedSize(other.rows(), other.cols());
+    Base::operator=(other);
+    return *this;
+  }
+  template <typename Derived>
+  ActuationView& operator=(const Eigen::DenseBase<Derived>& other) {
+    CheckAssignedSize(other.rows(), other.cols());
+    Base::operator=(other);
+    return *this;
+  }
+
+ private:
+  void CheckAssignedSize(Eigen::Index rows, Eigen::Index cols) const;
 };
 
 // Finds the quasistatic equilibrium x*(a) = argmin_x E(x, a) of a ShapeTargetModel
@@ -232,20 +263,24 @@ class QuasistaticSolver {
   // positions, and the actuation is S = I.
   QuasistaticSolver(const ShapeTargetModel& model, const BoundaryConditions& bc,
                     const QuasistaticSolverOptions& options = QuasistaticSolverOptions());
+  // The solver keeps a reference to the model: a temporary one does not compile.
+  QuasistaticSolver(ShapeTargetModel&& model, const BoundaryConditions& bc,
+                    const QuasistaticSolverOptions& options = QuasistaticSolverOptions()) =
+      delete;
   ~QuasistaticSolver();
   QuasistaticSolver(const QuasistaticSolver&) = delete;
   QuasistaticSolver& operator=(const QuasistaticSolver&) = delete;
 
   const ShapeTargetModel& model() const { return model_; }
   const QuasistaticSolverOptions& options() const { return options_; }
-  void set_options(const QuasistaticSolverOptions& options) { options_ = options; }
+  // options must be valid (CHECK: Validate), as in the constructor.
+  void set_options(const QuasistaticSolverOptions& options);
 
   // Per-element actuation (6 x num_elements), read by every evaluation: change it in
   // place between solves (solver.actuation() = a; solver.actuation().col(e) = ...).
-  // It is a view of storage the solver owns (assignment copies into it).
-  Eigen::Map<ActuationMatrix> actuation() {
-    return Eigen::Map<ActuationMatrix>(actuation_.data(), 6, model_.num_elements());
-  }
+  // It is a view of storage the solver owns: assigning a whole matrix copies into it,
+  // and CHECKs that it is 6 x num_elements (ActuationView).
+  ActuationView actuation() { return ActuationView(actuation_.data(), model_.num_elements()); }
   Eigen::Map<const ActuationMatrix> actuation() const {
     return Eigen::Map<const ActuationMatrix>(actuation_.data(), 6, model_.num_elements());
   }
@@ -263,7 +298,8 @@ class QuasistaticSolver {
   // which Solve() then descends to a stable one.
   void PerturbFreeVertices(double relative_size, unsigned seed);
   // New prescribed positions of the fixed vertices (3 x bc.vertices.size(), in the
-  // order of bc.vertices); applied to the state immediately.
+  // order of bc.vertices); applied to the state immediately. Non-finite ones are taken,
+  // and Solve() refuses them (report.refused, naming the vertex).
   void SetFixedPositions(const Eigen::Matrix3Xd& fixed_positions);
 
   const std::vector<int>& fixed_vertices() const { return fixed_vertices_; }
@@ -273,7 +309,9 @@ class QuasistaticSolver {
 
   // Adds an energy term (not owned; must outlive the solver) to the equilibrium:
   // the solver then minimizes E(x, a) + the terms. Call before Solve(), and before
-  // taking stiffness_factorization(): a term with vertex couplings replaces it.
+  // taking stiffness_factorization(): a term with vertex couplings replaces it (CHECK:
+  // not once stiffness_factorization() has handed it out, whose holder would be left
+  // with a freed factor).
   void AddEnergyTerm(const EnergyTerm* term);
   const std::vector<const EnergyTerm*>& energy_terms() const { return terms_; }
 
@@ -288,7 +326,8 @@ class QuasistaticSolver {
   // Minimizes E(., actuation()) (plus energy terms) from positions() by
   // options().method. Returns what happened; a solve that does not reach the force
   // tolerance says so (converged = false), as does one refused before it starts
-  // (non-finite actuations; kNewton on a body without fixed vertices).
+  // (report.refused: non-finite actuations or prescribed positions; kNewton on a body
+  // without fixed vertices).
   QuasistaticSolveReport Solve();
 
   // Largest |dE/dx_v| over free vertices at the current state (and E through *energy;
@@ -300,6 +339,7 @@ class QuasistaticSolver {
   // The stiffness factorization the Newton steps use (created on first use, its pattern
   // with the energy terms' couplings), to share with an EquilibriumDifferentiator so
   // that one CHOLMOD factor serves both.
+  // Once handed out, AddEnergyTerm CHECKs that no term with vertex couplings replaces it.
   StiffnessFactorization* stiffness_factorization();
   // Whether the solver holds a factor of the rotation-fixed stiffness for its L-BFGS
   // phase between solves (never with lbfgs_reuses_factor).
@@ -339,6 +379,9 @@ class QuasistaticSolver {
   // definite) and every energy term supplies its stiffness.
   bool NewtonApplies() const;
   double* vertex(int v) { return positions_.data() + 3 * static_cast<size_t>(v); }
+  // The factorization, created on first use, for the solver's own solves (not marked
+  // as handed out).
+  StiffnessFactorization* OwnFactorization();
 
   const ShapeTargetModel& model_;
   QuasistaticSolverOptions options_;
@@ -351,6 +394,7 @@ class QuasistaticSolver {
   std::vector<double> positions_;
   std::unique_ptr<ceres::Problem> problem_;
   std::unique_ptr<StiffnessFactorization> factorization_;
+  bool factorization_handed_out_ = false;  // stiffness_factorization() was called
   // The rotation-fixed stiffness, factorized, preconditioning L-BFGS (kNewton far from
   // equilibrium); kept across solves while every energy term's Hessian is constant.
   std::unique_ptr<StiffnessFactorization> preconditioner_;

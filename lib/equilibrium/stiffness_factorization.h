@@ -82,6 +82,10 @@ class StiffnessFactorization {
   // (EnergyTerm::AppendVertexCouplings of the terms to be set).
   StiffnessFactorization(const ShapeTargetModel& model, const std::vector<bool>& fixed_mask,
                          int num_threads, const std::vector<std::vector<int>>& couplings = {});
+  // It keeps a reference to the model: a temporary one does not compile.
+  StiffnessFactorization(ShapeTargetModel&& model, const std::vector<bool>& fixed_mask,
+                         int num_threads,
+                         const std::vector<std::vector<int>>& couplings = {}) = delete;
   ~StiffnessFactorization();
 
   // Extra energy terms of the system (see EnergyTerm): their Hessians are added to K

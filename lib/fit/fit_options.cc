@@ -80,4 +80,22 @@ bool PointCloudFitOptions::Validate(std::string* error) const {
       .Done(error);
 }
 
+bool CheckPointCloudScales(const PointCloudFitOptions& options, double model_size,
+                           std::string* error) {
+  const double smallest = kMinPointScaleInModelSizes * model_size;
+  const auto on_and_below = [&](double value) { return value > 0.0 && value < smallest; };
+  const std::string floor = OptionValue(kMinPointScaleInModelSizes) +
+                            " times the model's size (" + OptionValue(model_size) + "): " +
+                            OptionValue(smallest);
+  return OptionChecks()
+      .Require(!on_and_below(options.robust_scale),
+               "points.robust_scale must be 0 (no robust weights) or at least " + floor +
+                   " (is " + OptionValue(options.robust_scale) +
+                   "; smaller, every scan point weighs alike and next to nothing)")
+      .Require(!on_and_below(options.max_distance),
+               "points.max_distance must be 0 (no cap) or at least " + floor + " (is " +
+                   OptionValue(options.max_distance) + ")")
+      .Done(error);
+}
+
 }  // namespace aqs

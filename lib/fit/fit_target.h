@@ -1,6 +1,7 @@
 #ifndef AQS_FIT_FIT_TARGET_H_
 #define AQS_FIT_FIT_TARGET_H_
 
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -25,6 +26,15 @@ struct FitTarget {
 
   int num_points() const { return static_cast<int>(positions.cols()); }
 };
+
+// Checks a target as data for a model with `num_surface_vertices` surface vertices: at
+// least one point; vertices and barycentric 3 x K, weights and normals empty or K
+// columns; every vertex in [0, num_surface_vertices); finite barycentric coordinates,
+// positions and normals; finite weights >= 0 with a positive sum; a finite tangential
+// weight >= 0. Returns false with *error naming the first problem (point k, its
+// vertex). (A NaN position made a fit "succeed" with a NaN error; an empty target,
+// negative weights or a vertex of another mesh aborted.)
+bool ValidateFitTarget(const FitTarget& target, int num_surface_vertices, std::string* error);
 
 // Targets on single surface vertices (markers): vertex v_k at positions.col(k).
 FitTarget VertexTarget(const std::vector<int>& vertices, const Eigen::Matrix3Xd& positions);

@@ -151,6 +151,10 @@ void AddFitCounters(const LatentFitResult& other, LatentFitResult* result) {
 
 bool LatentFitter::Fit(const FitTarget& target, const Eigen::VectorXd& initial,
                        LatentFitResult* result, std::string* error) {
+  if (direct_cloud_ == nullptr &&
+      !ValidateFitTarget(target, model_.num_surface_vertices(), error)) {
+    return false;
+  }
   const int coarse = options_.coarse_points;
   if (direct_cloud_ != nullptr || coarse <= 0 || target.num_points() <= 2 * coarse ||
       target.normals.cols() > 0) {
@@ -397,6 +401,17 @@ bool LatentFitter::FitPointCloud(const Eigen::Matrix3Xd& points,
                                  std::string* error) {
   if (points.cols() < 3) {
     *error = "a point cloud needs at least 3 points";
+    return false;
+  }
+  for (Eigen::Index i = 0; i < points.cols(); ++i) {
+    if (!points.col(i).allFinite()) {
+      *error = "point " + std::to_string(i) + " of the point cloud is not finite";
+      return false;
+    }
+  }
+  if (cloud_options.landmarks.num_points() > 0 &&
+      !ValidateFitTarget(cloud_options.landmarks, model_.num_surface_vertices(), error)) {
+    *error = "landmarks: " + *error;
     return false;
   }
   Eigen::VectorXd z = initial;

@@ -205,6 +205,20 @@ struct PointCloudFitOptions {
   std::string KeyText() const;
 };
 
+// The smallest robust_scale and max_distance a point-cloud fit takes (when on, > 0), in
+// model sizes (ModelSize: the diagonal of the neutral's bounding box). Below, every scan
+// point weighs alike and next to nothing (robust_scale 1e-300: the fit stays where it
+// starts), or none is matched.
+constexpr double kMinPointScaleInModelSizes = 1e-6;
+
+// Checks options.robust_scale and options.max_distance against a model of size
+// `model_size` (model units): each 0 (off) or at least kMinPointScaleInModelSizes model
+// sizes. Returns false with *error naming the field ("points.robust_scale",
+// "points.max_distance"), its value and the smallest it takes. Validate() checks the
+// rest, without the model.
+bool CheckPointCloudScales(const PointCloudFitOptions& options, double model_size,
+                           std::string* error);
+
 // Where fits start (LatentFitter::ChooseStart).
 struct FitStartOptions {
   // Consider the training poses with a stored equilibrium (their latent, bone motions
@@ -245,6 +259,8 @@ struct FitStartOptions {
 class LatentFitter {
  public:
   LatentFitter(const ActiveModel& model, const LatentFitOptions& options);
+  // It keeps a reference to the model: a temporary one does not compile.
+  LatentFitter(ActiveModel&& model, const LatentFitOptions& options) = delete;
   ~LatentFitter();
 
   // Bone motions used by Simulate, and the start of fits (default: rest).

@@ -8,13 +8,17 @@
 
 namespace aqs {
 
+double ModelSize(const Eigen::Matrix3Xd& neutral) {
+  if (neutral.cols() == 0) return 0.0;
+  return (neutral.rowwise().maxCoeff() - neutral.rowwise().minCoeff()).norm();
+}
+
 bool CheckPointsNearModel(const std::string& path, const Eigen::Matrix3Xd& neutral,
                           const Eigen::Matrix3Xd& points, std::string* error) {
   if (neutral.cols() == 0) return true;
-  const Eigen::Vector3d lower = neutral.rowwise().minCoeff();
-  const Eigen::Vector3d upper = neutral.rowwise().maxCoeff();
-  const Eigen::Vector3d centre = 0.5 * (lower + upper);
-  const double size = std::max((upper - lower).norm(), 1e-300);
+  const Eigen::Vector3d centre =
+      0.5 * (neutral.rowwise().minCoeff() + neutral.rowwise().maxCoeff());
+  const double size = std::max(ModelSize(neutral), 1e-300);
   for (Eigen::Index i = 0; i < points.cols(); ++i) {
     const double distance = (points.col(i) - centre).stableNorm();
     if (!(distance <= kMaxDistanceInModelSizes * size)) {
@@ -37,8 +41,7 @@ bool CheckTargetOffsetFromModel(const std::string& path, const Eigen::Matrix3Xd&
   if (neutral.cols() == 0 || points.cols() == 0) return true;
   if (!vertices.empty()) CHECK_EQ(static_cast<Eigen::Index>(vertices.size()), points.cols());
   for (int v : vertices) CHECK(v >= 0 && v < neutral.cols()) << "neutral vertex " << v;
-  const double size = std::max(
-      (neutral.rowwise().maxCoeff() - neutral.rowwise().minCoeff()).norm(), 1e-300);
+  const double size = std::max(ModelSize(neutral), 1e-300);
   constexpr Eigen::Index kMaxMeasured = 2000;
   // Rounded up: at most kMaxMeasured points (3,999 points had stride 1).
   const Eigen::Index stride =

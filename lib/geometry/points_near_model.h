@@ -8,6 +8,10 @@
 
 namespace aqs {
 
+// A model's size: the diagonal of the bounding box of its neutral surface's vertices
+// `neutral` (3 x n, one column per vertex); 0 without vertices.
+double ModelSize(const Eigen::Matrix3Xd& neutral);
+
 // Surfaces and points given for a model (poses, held-out poses, fit targets) must lie
 // within this many model sizes (the diagonal of the neutral's bounding box) of the
 // neutral's bounding-box centre: farther, they are in another frame or unit, or broken

@@ -5,6 +5,7 @@
 #include <memory>
 #include <sstream>
 
+#include "contact/read_obstacles.h"
 #include "fit/latent_fit.h"
 #include "geometry/points_near_model.h"
 #include "jobs/deformed_output.h"
@@ -90,44 +91,6 @@ bool CheckContactForModel(const ContactOptions& contact, const ActiveModel& mode
                std::to_string(model.num_surface_vertices()) + " vertices";
       return false;
     }
-  }
-  return true;
-}
-
-// The obstacles of --obstacles (ObstacleSpec syntax), read, each with the index of the
-// model's bone it moves with (-1: fixed); logged.
-bool ReadObstacles(const std::string& spec, const ActiveModel& model,
-                   std::vector<MovingObstacle>* obstacles, std::ostream& log, std::string* error) {
-  std::vector<ObstacleSpec> specs;
-  if (!ParseObstacleSpecs(spec, &specs, error)) return false;
-  std::vector<Eigen::Matrix3Xd> obstacle_vertices;
-  std::vector<Eigen::Matrix3Xi> obstacle_triangles;
-  if (!ReadObstacleSurfaces(specs, &obstacle_vertices, &obstacle_triangles, error)) return false;
-  for (size_t i = 0; i < specs.size(); ++i) {
-    if (!CheckPointsNearModel(specs[i].path, model.neutral.vertices, obstacle_vertices[i],
-                              error)) {
-      return false;
-    }
-    MovingObstacle obstacle;
-    obstacle.name = specs[i].path;
-    obstacle.vertices = obstacle_vertices[i];
-    obstacle.triangles = obstacle_triangles[i];
-    if (!specs[i].bone.empty()) {
-      for (size_t k = 0; k < model.bones.size(); ++k) {
-        if (model.bones[k].name == specs[i].bone) obstacle.bone = static_cast<int>(k);
-      }
-      if (obstacle.bone < 0) {
-        *error = "obstacle " + specs[i].path + ": the model has no bone '" + specs[i].bone + "'";
-        return false;
-      }
-    }
-    // One obstacle per closed shell: a file of teeth holds one shell per tooth, and
-    // neighbours overlap (their union is no closed surface of its own).
-    const std::vector<MovingObstacle> shells = SplitIntoShells(obstacle);
-    obstacles->insert(obstacles->end(), shells.begin(), shells.end());
-    log << "obstacle " << specs[i].path << ": " << obstacle_triangles[i].cols() << " triangles"
-        << (shells.size() > 1 ? " in " + std::to_string(shells.size()) + " shells" : "")
-        << (specs[i].bone.empty() ? "" : ", moving with " + specs[i].bone) << "\n";
   }
   return true;
 }
@@ -226,7 +189,7 @@ CollideJobResult RunCollideJob(const CollideJobOptions& options, std::ostream& l
   std::vector<MovingObstacle> obstacles;
   if (!CheckContactForModel(options.contact, model, &error) ||
       !ResolveModelPose(model, options.latent, options.pose, &pose, &error) ||
-      !ReadObstacles(options.obstacles, model, &obstacles, log, &error)) {
+      !ReadMovingObstacles(options.obstacles, model, &obstacles, log, &error)) {
     return Fail(JobStatus::kBadInput, error);
   }
   if (!pose.warning.empty()) log << "warning: " << pose.warning << "\n";

@@ -16,6 +16,7 @@
 #include "eval/scan_error_split.h"
 #include "eval/surface_pca.h"
 #include "fit/chosen_start_fit.h"
+#include "geometry/points_near_model.h"
 #include "geometry/vertex_normals.h"
 #include "io/vertex_list_io.h"
 #include "jobs/fit_benchmark_report.h"
@@ -592,6 +593,9 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
     *error = options.model + ": the model is not trained";
     return JobStatus::kBadInput;
   }
+  if (!CheckPointCloudScales(options.points, ModelSize(model.neutral.vertices), error)) {
+    return JobStatus::kBadInput;
+  }
   const int ns = model.num_surface_vertices();
   std::vector<int> measured = options.error_vertices;
   if (measured.empty()) {
@@ -702,7 +706,15 @@ JobStatus RunFitBenchmark(const FitBenchmarkOptions& options, std::ostream& log,
   md << "\n" << BenchmarkMachineLine() << " (at the end).\n";
   log << "\n" << md.str();
   std::string write_error;
-  if (!WriteFileAtomically(csv_path, FitBenchmarkCsv(fits.rows()), &write_error) ||
+  // The tables go as a pair: an earlier run's .md is removed before the new CSV replaces
+  // its CSV, so a kill between the two renames leaves a CSV without its .md, never the
+  // .md of another run beside it (a rerun writes both).
+  std::error_code remove_code;
+  std::filesystem::remove(md_path, remove_code);
+  if (remove_code) {
+    write_error = md_path + ": cannot remove the earlier run's table: " + remove_code.message();
+  }
+  if (remove_code || !WriteFileAtomically(csv_path, FitBenchmarkCsv(fits.rows()), &write_error) ||
       !WriteFileAtomically(md_path, md.str(), &write_error)) {
     *error = status == JobStatus::kOk ? write_error : *error + "; and " + write_error;
     return JobStatus::kBadInput;

@@ -464,6 +464,9 @@ FitJobResult RunFitJob(const FitJobOptions& options, std::ostream& log) {
   ActiveModel model;
   if (!LoadModel(options.model, &model, &error)) return Fail(error);
   if (!model.decoder) return Fail(options.model + ": the model is not trained (no decoder)");
+  if (!CheckPointCloudScales(options.points, ModelSize(model.neutral.vertices), &error)) {
+    return Fail(error);
+  }
   JobTarget job;
   if (!ReadJobTarget(options, model, &job, &error)) return Fail(error);
   const std::string& kind = job.kind;

@@ -10,6 +10,7 @@
 
 #include "dist/model_sharing.h"
 #include "fit/chosen_start_fit.h"
+#include "geometry/points_near_model.h"
 #include "jobs/fit_job.h"
 #include "jobs/sequence_frames.h"
 #include "jobs/sequence_outputs.h"
@@ -463,6 +464,9 @@ FitSequenceResult RunFitSequence(const FitSequenceOptions& options, const Active
     return fail(JobStatus::kBadInput, error);
   }
   if (!model.decoder) return fail(JobStatus::kBadInput, options.model + ": the model is not trained");
+  if (!CheckPointCloudScales(options.points, ModelSize(model.neutral.vertices), &error)) {
+    return fail(JobStatus::kBadInput, error);
+  }
   std::vector<SequenceFrame> frames;
   if (!ReadFramesOnEveryRank(options, model, ranks, &frames, &error)) {
     return fail(JobStatus::kBadInput, error);

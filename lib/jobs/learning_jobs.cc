@@ -144,6 +144,10 @@ PretrainResult PretrainHere(const std::string& model_directory, const PretrainOp
       return PretrainResult::kFailed;
     }
   }
+  if (!keep_pretrained && model->decoder) {
+    log << "pretrain: --restart: the model's decoder and latents (" << model->checkpoint.iterations
+        << " training iterations) are replaced by a new pre-training\n";
+  }
   PretrainReport report;
   if (!Pretrain(*run, model, &report, log, error)) return PretrainResult::kFailed;
   if (report.stalled_without_restarts) *record += PretrainStallLine(run->max_restarts);

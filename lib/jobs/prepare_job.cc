@@ -360,6 +360,25 @@ ExistingModel CheckExistingModel(const std::string& output, const std::string& t
   return ExistingModel::kReplace;
 }
 
+// Without keep_same_model (--restart): says in the log what preparing anew discards of
+// the model at `output`, if there is one (its learned state, its training iterations).
+void LogReplacedModel(const std::string& output, std::ostream& log) {
+  std::error_code code;
+  if (!std::filesystem::exists(output + "/model.txt", code)) return;
+  ActiveModel existing;
+  std::string load_error;
+  if (!LoadModel(output, &existing, &load_error)) {
+    log << "prepare: --restart: the model at " << output << " is replaced (it cannot be read: "
+        << load_error << ")\n";
+  } else if (existing.decoder) {
+    log << "prepare: --restart: the model at " << output << " is replaced, with its learned "
+        << "state (pre-trained, " << existing.checkpoint.iterations
+        << " training iterations), once its targets are made\n";
+  } else {
+    log << "prepare: --restart: the model at " << output << " (not pre-trained) is replaced\n";
+  }
+}
+
 // What rank 0 (or the one process) prepares before the volumetric targets.
 struct PreparedModel {
   PathLock lock;  // the output's writers' lock, held until the model is saved
@@ -490,6 +509,8 @@ BuildResult BuildModel(const PrepareJobOptions& options, PreparedModel* prepared
       }
       return BuildResult::kKept;
     }
+  } else {
+    LogReplacedModel(output, log);
   }
   return BuildResult::kMakeTargets;
 }

@@ -30,7 +30,7 @@ using ConstNodeValueMap = Eigen::Map<const NodeValueMatrix>;
 bool DecoderSpec::Validate(std::string* error) const {
   OptionChecks checks;
   checks.IntInRange("latent_dim", latent_dim, 1, kMaxLatentDim)
-      .Positive("output_scale", output_scale);
+      .InRange("output_scale", output_scale, kMinDecoderOutputScale, kMaxDecoderOutputScale);
   for (int width : hidden_dims) {
     checks.Require(width >= 1, "hidden_dims must be positive widths (has " +
                                    std::to_string(width) + ")");

@@ -16,6 +16,12 @@ namespace aqs {
 // by a few numbers; the demo uses 8). Fits hold d x d prior covariances and Jacobians:
 // 128 MB each at this size.
 constexpr int kMaxLatentDim = 4096;
+// The range DecoderSpec::Validate accepts for output_scale (a strain per unit output):
+// at 1e-6 a strain of 0.1 needs raw outputs of 1e5, at 1e6 an output of 1e-7 is already
+// 10% strain; outside, the network cannot be trained (1e-300 accepted before 2026-12-07
+// left every actuation at I and every gradient at 0).
+constexpr double kMinDecoderOutputScale = 1e-6;
+constexpr double kMaxDecoderOutputScale = 1e6;
 
 // Architecture of an ActuationDecoder (saved in decoder files together with the field
 // description and the parameters).
@@ -28,7 +34,8 @@ struct DecoderSpec {
   // field(output_scale * mlp(z)). Useful actuations deviate from I by about 0.05 to 0.3
   // (5 to 30% strain), so with 0.1 the raw outputs of a trained network are O(1), the
   // same scale as its hidden units, which keeps the output-layer weights and their
-  // gradients on the scale of the others (better conditioned for L-BFGS).
+  // gradients on the scale of the others (better conditioned for L-BFGS). In
+  // [kMinDecoderOutputScale, kMaxDecoderOutputScale].
   double output_scale = 0.1;
   // Anchored at the origin: a(z) = I + field(output_scale (mlp(z) - mlp(0))), so that
   // z = 0 decodes to the identity actuation exactly (the rest shape: the neutral, for a

@@ -318,7 +318,17 @@ bool ReadLearned(const std::string& dir, const std::string& checkpoint_path, Act
     return false;
   }
   Eigen::MatrixXd matrix;
-  if (MayExist(dir + "/decoder.txt")) {
+  if (!MayExist(dir + "/decoder.txt")) {
+    // The decoder's latents, prior or equilibria without it: a damaged learned state
+    // (it loaded as an untrained model, and the next fit or training aborted).
+    for (const char* part : {"/latents.bin", "/prior.txt", "/states"}) {
+      if (!MayExist(dir + part)) continue;
+      *error = dir + "/decoder.txt: missing, but " + dir + part + " is there: the learned "
+               "state is damaged (restore the file, or remove the learned state and "
+               "pre-train the model again)";
+      return false;
+    }
+  } else {
     DecoderSpec spec;
     GridFieldDescription description;
     Eigen::VectorXd params;

@@ -22,8 +22,10 @@ namespace aqs {
 // safe to share between threads.
 class ShapeTargetModel {
  public:
-  // `mesh` must have non-degenerate elements (ValidateTetMesh; CHECKed here);
-  // `mu` holds one stiffness (> 0) per element.
+  // `mesh` must have elements of non-zero, finite rest volume (CHECKed here: det Dm != 0;
+  // either orientation is taken, the energy does not depend on it). ValidateTetMesh's
+  // stricter checks (orientation, near-degenerate elements) are the caller's to make on
+  // meshes read from files. `mu` holds one stiffness (> 0) per element.
   ShapeTargetModel(const TetMesh& mesh, const Eigen::VectorXd& mu);
   // Homogeneous stiffness mu for every element.
   ShapeTargetModel(const TetMesh& mesh, double mu);

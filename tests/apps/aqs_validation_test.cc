@@ -337,10 +337,22 @@ TEST_F(AqsValidationModelTest, RerunsOfPrepareAndPretrainKeepOrRefuseNotDiscardT
   EXPECT_NE(run.output.find("which pre-training anew would discard"), std::string::npos)
       << run.output;
   EXPECT_EQ(ReadAll(model + "/learned/checkpoint.txt"), checkpoint);
-  // --restart asks for it.
+  // --restart asks for it, and the log says what it discards.
   run = RunCommand(pretrain + " --hidden=9 --restart");
   EXPECT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("pretrain: --restart: the model's decoder and latents (2 training "
+                            "iterations) are replaced by a new pre-training"),
+            std::string::npos)
+      << run.output;
   EXPECT_FALSE(fs::exists(model + "/train"));
+  run = RunCommand(prepare + " --spacing=0.6 --restart");
+  EXPECT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("prepare: --restart: the model at " + model +
+                            " is replaced, with its learned state (pre-trained, 0 training "
+                            "iterations), once its targets are made"),
+            std::string::npos)
+      << run.output;
+  EXPECT_FALSE(fs::exists(model + "/learned"));
 }
 
 TEST_F(AqsValidationModelTest, DamagedModelsAreRefusedNamingTheFile) {
@@ -416,8 +428,14 @@ TEST_F(AqsValidationModelTest, DamagedModelsAreRefusedNamingTheFile) {
   ExpectCases("aqs_simulate", "--pose=bend_x --output={dir}s.obj",
               {{"--model={dir}empty_fixed", 1, "empty_fixed/fixed.txt: lists no fixed vertices"}},
               dir.path());
+  // A learned state without its decoder loaded as an untrained model, and the library's
+  // next call aborted (the embedder's review).
+  fs::remove(CopyOfModel(dir, "no_decoder") + "/learned/decoder.txt");
   ExpectCases("aqs_train", "--train_iterations=3",
-              {{"--model={dir}nan_latents", 1, "nan_latents/learned/latents.bin: entry (0, 0)"}},
+              {{"--model={dir}nan_latents", 1, "nan_latents/learned/latents.bin: entry (0, 0)"},
+               {"--model={dir}no_decoder", 1,
+                "no_decoder/learned/decoder.txt: missing, but {dir}no_decoder/learned/latents.bin "
+                "is there: the learned state is damaged"}},
               dir.path());
   EXPECT_FALSE(fs::exists(dir.File("f.obj")));
   EXPECT_FALSE(fs::exists(dir.File("s.obj")));
@@ -599,7 +617,9 @@ TEST_F(AqsValidationModelTest, OutputsLeaveTheInputsAndTheModelAlone) {
                {"--output_dir={dir}ev --baseline_hidden=64,,64", 1,
                 "--baseline_hidden has an empty width in '64,,64'"},
                {"--output_dir={dir}ev --baseline_iterations=0", 1,
-                "--baseline_iterations must be >= 1 (is 0)"}},
+                "--baseline_iterations must be >= 1 (is 0)"},
+               {"--output_dir={dir}ev --baseline_checkpoint_seconds=nan", 1,
+                "--baseline_checkpoint_seconds must be finite and >= 0 (is nan)"}},
               dir.path());
   // Refused before the output folder is touched (the baseline too large for memory was
   // refused after an earlier run's outputs were deleted).
@@ -651,7 +671,7 @@ TEST_F(AqsValidationModelTest, TargetsInAnotherUnitAreRefused) {
   dir.Write("mm.txt", markers.str());
   dir.Write("mm.ply", ply.str());
   SurfaceMesh shifted = pose;
-  shifted.vertices.row(2).array() += 0.01;  // no start's surface within 1e-9 of it
+  shifted.vertices.row(2).array() += 0.01;  // no start's surface within 1e-4 of it
   ASSERT_TRUE(WriteObj(dir.File("shifted.obj"), shifted, &error)) << error;
   const std::string unit = "is it in another unit (millimetres for centimetres?) or frame?";
   ExpectCases("aqs_fit", "--model=" + dir_->File("model") + " --output={dir}f.obj",
@@ -660,12 +680,21 @@ TEST_F(AqsValidationModelTest, TargetsInAnotherUnitAreRefused) {
                   {"--target={dir}mm.obj", 1, unit},
                   {"--target={dir}mm.txt", 1, "{dir}mm.txt: its points lie a median"},
                   {"--target={dir}mm.ply", 1, "from the model's nearest vertices"},
-                  {"--target={dir}shifted.obj --target_kind=points --max_distance=1e-9",
+                  {"--target={dir}shifted.obj --target_kind=points --max_distance=1e-4",
                    2, "fewer than 3 of the scan's 1098 points lie within --max_distance"},
+                  // Scales that small were legal, and every scan point weighed alike and
+                  // next to nothing (the fit stayed at its start) or none was matched.
+                  {"--target={dir}shifted.obj --target_kind=points --robust_scale=1e-300", 1,
+                   "--robust_scale must be 0 (no robust weights) or at least 1e-06 times the "
+                   "model's size ("},
+                  {"--target={dir}shifted.obj --target_kind=points --max_distance=1e-300", 1,
+                   "--max_distance must be 0 (no cap) or at least 1e-06 times the model's size"},
               },
               dir.path());
   ExpectCases("aqs_fit", "--model=" + dir_->File("model"),
-              {{"--sequence={dir}seq --output_dir={dir}out", 1, "f0.obj: its points lie a median"}},
+              {{"--sequence={dir}seq --output_dir={dir}out", 1, "f0.obj: its points lie a median"},
+               {"--sequence={dir}seq --output_dir={dir}out --robust_scale=1e-300", 1,
+                "--robust_scale must be 0 (no robust weights) or at least 1e-06 times"}},
               dir.path());
   EXPECT_FALSE(fs::exists(dir.File("f.obj")));
 }
@@ -699,15 +728,20 @@ TEST_F(AqsValidationModelTest, LearningAppsRefuseBadFlags) {
                   {"--grid_spacing_factor=0", 1, "--grid_spacing_factor must be finite and > 0 (is 0)"},
                   {"--grid_spacing_factor=-1", 1, "--grid_spacing_factor must be finite and > 0 (is -1)"},
                   {"--grid_spacing_factor=1e-6", 1, "--grid_spacing_factor 1e-06 gives the control grid"},
-                  {"--output_scale=0", 1, "--output_scale must be finite and > 0 (is 0)"},
-                  {"--output_scale=nan", 1, "--output_scale must be finite and > 0 (is nan)"},
-                  {"--output_scale=-1", 1, "--output_scale must be finite and > 0 (is -1)"},
+                  {"--output_scale=0", 1, "--output_scale must be in [1e-06, 1e+06] (is 0)"},
+                  {"--output_scale=nan", 1, "--output_scale must be in [1e-06, 1e+06] (is nan)"},
+                  {"--output_scale=-1", 1, "--output_scale must be in [1e-06, 1e+06] (is -1)"},
+                  // Legal before, useless: every actuation I, every gradient 0.
+                  {"--output_scale=1e-300", 1,
+                   "--output_scale must be in [1e-06, 1e+06] (is 1e-300)"},
                   {"--latent_regularization=-1", 1, "--latent_regularization must be in [0, 1e+06] (is -1)"},
                   {"--train_tolerance=0", 1, "--train_tolerance must be finite and > 0"},
                   // A training flag of a shared flagfile, before pre-training (it was
                   // ignored until aqs_train read it).
                   {"--energy_regularization=nan", 1, "--energy_regularization must be"},
                   {"--hidden=8,,8", 1, "--hidden has an empty width in '8,,8'"},
+                  {"--pretrain_checkpoint_seconds=-1", 1,
+                   "--pretrain_checkpoint_seconds must be finite and >= 0 (is -1)"},
                   {"--pretrain_minutes=-1", 1,
                    "--pretrain_minutes must be finite and >= 0 (is -1)"},
                   // Inf in seconds: named in the flag's unit (it said max_seconds ... inf).
@@ -717,9 +751,7 @@ TEST_F(AqsValidationModelTest, LearningAppsRefuseBadFlags) {
                    "--pretrain_latents must be targets or surfaces, got 'poses'"},
                   // (--restart: the model here was pre-trained with other flags and trained.)
                   {"--output_scale=1e308 --restart", 1,
-                   "the pre-training loss is not finite at the start (inf): the decoder's output "
-                   "scale (--output_scale) or the latent regularization (--latent_regularization) "
-                   "is far too large?"},
+                   "--output_scale must be in [1e-06, 1e+06] (is 1e+308)"},
               },
               dir.path());
   ExpectCases("aqs_train", "--model={dir}m --train_iterations=3",

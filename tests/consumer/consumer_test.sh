@@ -12,7 +12,7 @@ cmake --install "$build_dir" --prefix "$work/prefix" > "$work/install.log"
 # The curated header set: entry points installed, internal helpers not.
 include="$work/prefix/include/activeqs"
 for header in equilibrium/quasistatic_solver.h diff/equilibrium_differentiator.h model/model_io.h \
-    jobs/fit_sequence.h; do
+    jobs/fit_sequence.h io/latent_io.h util/matrix_io.h; do
   [ -f "$include/$header" ] || { echo "missing public header $header"; exit 1; }
 done
 for header in util/disjoint_sets.h mesh/text_io_util.h util/atomic_file.h; do

@@ -88,6 +88,16 @@ TEST(ContactSolverTest, BlockPushedIntoASlabStopsAtItsSurface) {
   EXPECT_GE(lowest, -0.2 - 1e-9);
   EXPECT_LE(lowest, -0.2 + options.thickness);
   EXPECT_GT(report.obstacle_contacts, 0);
+  // A NaN actuation is refused, not reported as success at the start (the embedder's
+  // review); one of another mesh's size is a programmer error, not read past its end.
+  ActuationMatrix nan = IdentityActuations(block.num_tets());
+  nan(2, 1) = std::nan("");
+  ContactReport refused;
+  EXPECT_FALSE(solver.Resolve(nan, {push}, {slab}, free, &state, &refused, &error));
+  EXPECT_NE(error.find("the actuation of element 1 is not finite"), std::string::npos) << error;
+  EXPECT_DEATH(solver.Resolve(IdentityActuations(block.num_tets() - 1), {push}, {slab}, free,
+                              &state, &refused, &error),
+               "a matrix of 6 x [0-9]+ was assigned");
 }
 
 // An obstacle that moves with a bone through a face whose vertices are all fixed: a

@@ -4,9 +4,12 @@
 #include <limits>
 #include <random>
 #include <string>
+#include <type_traits>
+#include <vector>
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
+#include <ceres/ceres.h>
 #include <gtest/gtest.h>
 
 #include "testing/element_states.h"
@@ -390,6 +393,79 @@ TEST(QuasistaticSolverTest, AFreePieceIsNotTakenForASaddle) {
         << trial << ": " << report.Summary();
     EXPECT_LE(report.factorizations, 12) << trial << ": " << report.Summary();
   }
+}
+
+// An energy term coupling two vertices of different elements (its pattern needs them),
+// with no energy of its own: only its couplings matter here.
+class CouplingTerm : public EnergyTerm {
+ public:
+  CouplingTerm(int a, int b) : a_(a), b_(b) {}
+  double AddEnergyAndGradient(const Eigen::Ref<const Eigen::Matrix3Xd>& /*x*/,
+                              Eigen::Matrix3Xd* /*gradient*/) const override {
+    return 0.0;
+  }
+  void AppendVertexCouplings(std::vector<std::vector<int>>* couplings) const override {
+    couplings->push_back({a_, b_});
+  }
+  void AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>& /*x*/,
+                    const StiffnessPattern& /*pattern*/, StiffnessKind /*kind*/,
+                    std::vector<double>* /*values*/) const override {}
+  void AddResidualBlocks(ceres::Problem* /*problem*/,
+                         const std::vector<double*>& /*vertex_blocks*/) const override {}
+
+ private:
+  int a_, b_;
+};
+
+// The solver keeps references to its model: temporaries do not compile.
+static_assert(!std::is_constructible_v<QuasistaticSolver, ShapeTargetModel&&,
+                                       const BoundaryConditions&>);
+static_assert(std::is_constructible_v<QuasistaticSolver, const ShapeTargetModel&,
+                                      const BoundaryConditions&>);
+
+// Mistakes an embedder makes (the embedder's review, 2026-12-07): each is named, none
+// is read past the solver's storage or solved silently.
+TEST(QuasistaticSolverTest, MisusesAreCaughtOrRefused) {
+  const TetMesh mesh = BarMesh(3, 2, 2, 0.5);
+  const ShapeTargetModel model(mesh, 1.0);
+  QuasistaticSolver solver(model, LeftFaceFixed(mesh));
+  // An actuation of another mesh: the sizes are checked even under NDEBUG (a Map
+  // assignment read past the smaller matrix and "converged").
+  const ActuationMatrix small = IdentityActuations(model.num_elements() - 2);
+  EXPECT_DEATH(solver.actuation() = small,
+               "the solver's actuation is 6 x [0-9]+ \\(one column per element\\); a matrix "
+               "of 6 x [0-9]+ was assigned");
+  const Eigen::MatrixXd nine = Eigen::MatrixXd::Zero(9, model.num_elements());
+  EXPECT_DEATH(solver.actuation() = nine, "a matrix of 9 x [0-9]+ was assigned");
+  solver.actuation() = testing::SmoothActuation(mesh, 0.2);  // the right size: taken
+  solver.actuation().col(3) = IdentityActuations(1);
+  // Options are checked as the constructor checks them.
+  QuasistaticSolverOptions bad;
+  bad.relative_force_tolerance = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_DEATH(solver.set_options(bad), "QuasistaticSolverOptions: .*relative_force_tolerance");
+  // A non-finite prescribed position (a lost marker) is refused by the solve, by vertex.
+  Eigen::Matrix3Xd fixed = solver.fixed_positions();
+  fixed(1, 2) = std::numeric_limits<double>::quiet_NaN();
+  solver.SetFixedPositions(fixed);
+  const QuasistaticSolveReport refused = solver.Solve();
+  EXPECT_TRUE(refused.refused);
+  EXPECT_FALSE(refused.converged);
+  EXPECT_NE(refused.termination.find("refused: the prescribed position of fixed vertex " +
+                                     std::to_string(solver.fixed_vertices()[2]) +
+                                     " is not finite"),
+            std::string::npos)
+      << refused.Summary();
+  solver.SetFixedPositions(mesh.vertices(Eigen::all, solver.fixed_vertices()));
+  const QuasistaticSolveReport solved = solver.Solve();
+  EXPECT_TRUE(solved.converged) << solved.Summary();
+  EXPECT_FALSE(solved.refused);
+  // A coupling term would replace the factorization a differentiator holds.
+  const CouplingTerm coupling(0, model.num_vertices() - 1);
+  const CouplingTerm other(1, model.num_vertices() - 2);
+  QuasistaticSolver early(model, LeftFaceFixed(mesh));
+  early.AddEnergyTerm(&coupling);  // before the factorization is handed out: fine
+  early.stiffness_factorization();
+  EXPECT_DEATH(early.AddEnergyTerm(&other), "add the energy terms first");
 }
 
 }  // namespace

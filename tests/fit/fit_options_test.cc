@@ -117,5 +117,32 @@ TEST(FitOptionsTest, EveryScanFitOptionChangesItsKey) {
   EXPECT_EQ(same.KeyText(), base.KeyText());
 }
 
+// Robust scales and distance caps are 0 (off) or at least 1e-6 model sizes: below,
+// every scan point weighs alike and next to nothing (1e-300 was accepted).
+TEST(FitOptionsTest, ScanScalesAreOffOrAtLeastAMillionthOfTheModel) {
+  PointCloudFitOptions options;
+  std::string error;
+  EXPECT_TRUE(CheckPointCloudScales(options, 2.0, &error)) << error;
+  options.robust_scale = 0.0;
+  options.max_distance = 0.0;
+  EXPECT_TRUE(CheckPointCloudScales(options, 2.0, &error)) << error;
+  options.robust_scale = 2e-6;  // exactly the floor of a model of size 2
+  options.max_distance = 2e-6;
+  EXPECT_TRUE(CheckPointCloudScales(options, 2.0, &error)) << error;
+  options.robust_scale = 1.9e-6;
+  EXPECT_FALSE(CheckPointCloudScales(options, 2.0, &error));
+  EXPECT_EQ(error.rfind("points.robust_scale must be 0 (no robust weights) or at least 1e-06 "
+                        "times the model's size (2): 2e-06 (is 1.9e-06",
+                        0),
+            0u)
+      << error;
+  options.robust_scale = 0.2;
+  options.max_distance = 1e-300;
+  EXPECT_FALSE(CheckPointCloudScales(options, 2.0, &error));
+  EXPECT_EQ(error.rfind("points.max_distance must be 0 (no cap) or at least", 0), 0u) << error;
+  // The same scales are fine for a model a million times smaller.
+  EXPECT_TRUE(CheckPointCloudScales(options, 1e-300, &error)) << error;
+}
+
 }  // namespace
 }  // namespace aqs

@@ -343,6 +343,27 @@ TEST(LatentFitTest, RecoversAKnownLatentFromAnotherStart) {
   EXPECT_EQ(fit.shifted_jacobians, 0);
 }
 
+// Bad target data returns false with a message (a NaN position "succeeded" with a NaN
+// error; a vertex of another mesh aborted).
+TEST(LatentFitTest, BadTargetDataIsRefusedNotFitted) {
+  const ActiveModel model = TrainedModel(false);
+  LatentFitter fitter(model, LatentFitOptions());
+  FitTarget target = FullSurfaceTarget(model.poses[0].surface);
+  target.positions(1, 5) = std::nan("");
+  LatentFitResult result;
+  std::string error;
+  EXPECT_FALSE(fitter.Fit(target, model.latents.col(0), &result, &error));
+  EXPECT_EQ(error, "fit target: point 5 has a non-finite position");
+  target = VertexTarget({model.num_surface_vertices()}, Eigen::Matrix3Xd::Zero(3, 1));
+  EXPECT_FALSE(fitter.Fit(target, model.latents.col(0), &result, &error));
+  EXPECT_NE(error.find("not a surface vertex of the model"), std::string::npos) << error;
+  Eigen::Matrix3Xd cloud = model.poses[0].surface;
+  cloud(0, 7) = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(fitter.FitPointCloud(cloud, PointCloudFitOptions(), model.latents.col(0), &result,
+                                    &error));
+  EXPECT_EQ(error, "point 7 of the point cloud is not finite");
+}
+
 // A mesh piece that nothing holds and no surface vertex is embedded in makes the exact
 // stiffness singular at every state. The fit's Jacobians then come from the
 // regularized stiffness, as training's adjoints do (it failed at its first evaluation,

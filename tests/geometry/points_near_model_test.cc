@@ -17,6 +17,15 @@ Eigen::Matrix3Xd UnitCubeCorners() {
   return corners;
 }
 
+TEST(PointsNearModelTest, ModelSizeIsTheBoundingBoxDiagonal) {
+  EXPECT_DOUBLE_EQ(ModelSize(UnitCubeCorners()), std::sqrt(3.0));
+  Eigen::Matrix3Xd moved = 2.0 * UnitCubeCorners();
+  moved.row(1).array() += 5.0;
+  EXPECT_DOUBLE_EQ(ModelSize(moved), 2.0 * std::sqrt(3.0));
+  EXPECT_EQ(ModelSize(Eigen::Matrix3Xd(3, 0)), 0.0);
+  EXPECT_EQ(ModelSize(Eigen::Matrix3Xd::Ones(3, 1)), 0.0);
+}
+
 TEST(PointsNearModelTest, AcceptsPointsWithinTheLimitAndNamesTheFirstBeyondIt) {
   const Eigen::Matrix3Xd neutral = UnitCubeCorners();
   const double limit = kMaxDistanceInModelSizes * std::sqrt(3.0);

@@ -1,0 +1,84 @@
+// ReadMovingObstacles (contact/read_obstacles.h): obstacle specs read into the obstacles
+// ContactSolver::Resolve takes, as aqs_collide reads --obstacles.
+
+#include "contact/read_obstacles.h"
+
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <gtest/gtest.h>
+
+#include "mesh/mesh_io.h"
+#include "testing/contact_scenes.h"
+#include "testing/temp_dir.h"
+
+namespace aqs {
+namespace {
+
+// Two boxes in one file (as a file of teeth holds one shell per tooth) beside a model
+// whose neutral is the unit cube's corners, with a bone "jaw".
+class ReadObstaclesTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    Eigen::Matrix3Xd a, b;
+    Eigen::Matrix3Xi ta, tb;
+    testing::BoxSurface(Eigen::Vector3d(0, -1, 0), Eigen::Vector3d(0.4, -0.5, 1), &a, &ta);
+    testing::BoxSurface(Eigen::Vector3d(0.6, -1, 0), Eigen::Vector3d(1, -0.5, 1), &b, &tb);
+    SurfaceMesh both;
+    both.vertices.resize(3, a.cols() + b.cols());
+    both.vertices << a, b;
+    both.triangles.resize(3, ta.cols() + tb.cols());
+    both.triangles << ta, (tb.array() + static_cast<int>(a.cols())).matrix();
+    std::string error;
+    ASSERT_TRUE(WriteObj(dir_.File("teeth.obj"), both, &error)) << error;
+    SurfaceMesh far = both;
+    far.vertices.array() += 1e5;
+    ASSERT_TRUE(WriteObj(dir_.File("far.obj"), far, &error)) << error;
+    model_.neutral.vertices.resize(3, 8);
+    for (int i = 0; i < 8; ++i) model_.neutral.vertices.col(i) << (i & 1), (i >> 1) & 1, i >> 2;
+    Bone jaw;
+    jaw.name = "jaw";
+    model_.bones = {jaw};
+  }
+
+  testing::TempDir dir_;
+  ActiveModel model_;
+};
+
+TEST_F(ReadObstaclesTest, SplitsFilesIntoShellsTiedToTheirBone) {
+  const std::string teeth = dir_.File("teeth.obj");
+  std::vector<MovingObstacle> obstacles;
+  std::ostringstream log;
+  std::string error;
+  ASSERT_TRUE(ReadMovingObstacles(teeth + " bone=jaw, " + teeth, model_, &obstacles, log, &error))
+      << error;
+  ASSERT_EQ(obstacles.size(), 4u);
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_EQ(obstacles[i].bone, i < 2 ? 0 : -1) << i;
+    EXPECT_EQ(obstacles[i].triangles.cols(), 12) << i;
+    EXPECT_EQ(obstacles[i].name, teeth + " shell " + std::to_string(i % 2 + 1));
+  }
+  EXPECT_EQ(log.str(), "obstacle " + teeth + ": 24 triangles in 2 shells, moving with jaw\n" +
+                           "obstacle " + teeth + ": 24 triangles in 2 shells\n");
+}
+
+TEST_F(ReadObstaclesTest, NamesTheItemOrFileOfEachError) {
+  std::vector<MovingObstacle> obstacles;
+  std::ostringstream log;
+  std::string error;
+  const std::string teeth = dir_.File("teeth.obj");
+  EXPECT_FALSE(ReadMovingObstacles(teeth + " bone=skull", model_, &obstacles, log, &error));
+  EXPECT_EQ(error, "obstacle " + teeth + ": the model has no bone 'skull'");
+  EXPECT_FALSE(ReadMovingObstacles(dir_.File("far.obj"), model_, &obstacles, log, &error));
+  EXPECT_NE(error.find(dir_.File("far.obj") + ": point 0"), std::string::npos) << error;
+  EXPECT_FALSE(ReadMovingObstacles(dir_.File("none.obj"), model_, &obstacles, log, &error));
+  EXPECT_NE(error.find(dir_.File("none.obj")), std::string::npos) << error;
+  EXPECT_FALSE(ReadMovingObstacles(teeth + " colour=red", model_, &obstacles, log, &error));
+  EXPECT_NE(error.find("colour"), std::string::npos) << error;
+  EXPECT_TRUE(obstacles.empty());
+}
+
+}  // namespace
+}  // namespace aqs
