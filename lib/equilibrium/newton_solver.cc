@@ -132,6 +132,14 @@ class NewtonMinimizer {
         projected_here_ = false;
         no_reuse_here_ = false;
         if (Stalled(length)) break;
+        if (!exact && options_.hand_back_after_projected_steps > 0 &&
+            report_.projected_steps >= options_.hand_back_after_projected_steps &&
+            force_ > options_.force_tolerance) {
+          report_.handed_back = true;
+          message_ << "handed back after " << report_.projected_steps
+                   << " projected steps at largest force " << force_;
+          break;
+        }
         continue;
       }
       if (reused) {  // the inexact step failed: an exact one from a fresh factorization
@@ -411,6 +419,9 @@ bool NewtonSolverOptions::Validate(std::string* error) const {
     out << "max_reused_steps must be >= 0 (is " << max_reused_steps << ")";
   } else if (stall_steps < 0) {
     out << "stall_steps must be >= 0 (is " << stall_steps << ")";
+  } else if (hand_back_after_projected_steps < 0) {
+    out << "hand_back_after_projected_steps must be >= 0 (is "
+        << hand_back_after_projected_steps << ")";
   }
   *error = out.str();
   return error->empty() && line_search.Validate(error);

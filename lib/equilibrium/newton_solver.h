@@ -42,6 +42,13 @@ struct NewtonSolverOptions {
   // replaces the projected step: it leaves a saddle that projected steps leave only
   // slowly. false (the default, see QuasistaticSolverOptions): projected steps only.
   bool negative_curvature_steps = false;
+  // The solve stops, not converged (NewtonSolveReport::handed_back), after this many
+  // accepted projected steps: for a caller that then descends by a cheaper method
+  // (QuasistaticSolver's preconditioned L-BFGS, one factorization per solve instead of
+  // one per step) to a smaller force and comes back. Where the exact K is indefinite
+  // well below the handover force, projected steps crawl, one factorization each (a
+  // bar curled at 0.99: 36 of them; the demo face's jaw pushed back: 64). 0: never.
+  int hand_back_after_projected_steps = 0;
   ArmijoLineSearch line_search;
   // Exact steps first try conjugate gradients on the current stiffness preconditioned by
   // the factor the factorization holds from an earlier state (a warm start's, the last
@@ -66,6 +73,8 @@ struct NewtonSolveReport {
   int energy_evaluations = 0;  // line-search trials
   // Stopped by the stall rule (NewtonSolverOptions::stall_steps).
   bool stalled = false;
+  // Stopped after NewtonSolverOptions::hand_back_after_projected_steps projected steps.
+  bool handed_back = false;
   double initial_energy = 0.0, final_energy = 0.0;
   double initial_max_force = 0.0, final_max_force = 0.0;
   std::string message;  // why the solve stopped

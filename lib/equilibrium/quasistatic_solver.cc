@@ -76,6 +76,9 @@ std::string QuasistaticSolveReport::Path() const {
     parts.push_back("L-BFGS " + std::to_string(lbfgs_iterations) + " iterations" +
                     (lbfgs_stalled ? " (stalled)" : ""));
   }
+  if (newton_hand_backs > 0) {
+    parts.push_back(std::to_string(newton_hand_backs) + " hand-backs to L-BFGS");
+  }
   if (newton_steps > 0) {
     std::string newton = "Newton " + std::to_string(projected_steps) + " projected + " +
                          std::to_string(exact_steps) + " exact steps";
@@ -268,8 +271,10 @@ void QuasistaticSolver::AddEnergyTerm(const EnergyTerm* term) {
   preconditioner_current_ = false;
 }
 
-bool QuasistaticSolver::RunNewton(double exact_threshold, QuasistaticSolveReport* report) {
+bool QuasistaticSolver::RunNewton(double exact_threshold, QuasistaticSolveReport* report,
+                                  int hand_back_after) {
   NewtonSolverOptions newton;
+  newton.hand_back_after_projected_steps = hand_back_after;
   newton.force_tolerance = report->force_tolerance;
   newton.exact_force_threshold = exact_threshold;
   newton.max_factorizations = std::max(1, options_.max_iterations - report->iterations);
@@ -293,6 +298,7 @@ bool QuasistaticSolver::RunNewton(double exact_threshold, QuasistaticSolveReport
   report->final_max_force = result.final_max_force;
   report->final_energy = result.final_energy;
   report->newton_stalled = report->newton_stalled || result.stalled;
+  if (result.handed_back) ++report->newton_hand_backs;
   if (!report->termination.empty()) report->termination += "; ";
   report->termination += "Newton: " + result.message;
   return result.converged;
@@ -517,11 +523,25 @@ QuasistaticSolveReport QuasistaticSolver::Solve() {
   if (options_.method == EquilibriumMethod::kNewton && have_stiffness) {
     // Far from equilibrium preconditioned L-BFGS (no factorization once its
     // preconditioner is built), then Newton.
-    if (report.initial_max_force > std::max(report.force_tolerance, newton_threshold) &&
-        options_.max_lbfgs_iterations > 0) {
-      RunLbfgs(std::max(report.force_tolerance, newton_threshold), &report);
+    // Where Newton's exact K is indefinite well below the handover force, its projected
+    // steps crawl (one factorization each): after kProjectedStepsBeforeLbfgs of them it
+    // hands back to L-BFGS, which descends to kLbfgsHandBackFactor of the force, at most
+    // kMaxNewtonHandBacks times (docs/solver.md, "Hand-backs").
+    double threshold = newton_threshold;
+    for (int round = 0;; ++round) {
+      const double lbfgs_tolerance = std::max(report.force_tolerance, threshold);
+      if (report.final_max_force > lbfgs_tolerance && options_.max_lbfgs_iterations > 0) {
+        RunLbfgs(lbfgs_tolerance, &report);
+      }
+      if (report.final_max_force <= report.force_tolerance) break;
+      const bool last = round == kMaxNewtonHandBacks || options_.max_lbfgs_iterations == 0;
+      RunNewton(threshold, &report, last ? 0 : kProjectedStepsBeforeLbfgs);
+      if (last || report.newton_hand_backs == round || report.newton_stalled ||
+          report.iterations >= options_.max_iterations) {
+        break;
+      }
+      threshold = std::min(threshold, report.final_max_force) * kLbfgsHandBackFactor;
     }
-    if (report.final_max_force > report.force_tolerance) RunNewton(newton_threshold, &report);
   } else {
     const bool use_newton = have_stiffness && options_.newton_relative_force > 0.0;
     const double ceres_tolerance = std::max(report.force_tolerance, newton_threshold);

@@ -37,8 +37,9 @@ enum class EquilibriumMethod {
   // Far from equilibrium, L-BFGS preconditioned by the rotation-fixed stiffness (one
   // factorization for the phase); then Newton's method with a line search on the energy
   // (equilibrium/newton_solver.h): steps on the PSD-projected stiffness, on the exact one
-  // below newton_relative_force (docs/solver.md). Converges from any start in a few
-  // factorizations. Needs fixed vertices (a free body's stiffness is singular) and
+  // below newton_relative_force, handing back to L-BFGS where projected Newton steps
+  // crawl (docs/solver.md). From rest, large poses take 2 to 4 factorizations, hard ones
+  // (a bar curled to 1%, random indefinite targets) 7 to 16. Needs fixed vertices (a free body's stiffness is singular) and
   // energy terms that have a stiffness.
   kNewton,
   // Ceres' Levenberg-Marquardt on the least-squares form (one ShapeTargetCostFunction
@@ -154,6 +155,9 @@ struct QuasistaticSolveReport {
   // rotation-fixed stiffness each; equilibrium/preconditioned_lbfgs.h).
   int lbfgs_iterations = 0;
   bool lbfgs_stalled = false;  // Newton took over from a stalled L-BFGS phase
+  // kNewton: how often Newton's projected steps handed back to L-BFGS (at most
+  // QuasistaticSolver::kMaxNewtonHandBacks).
+  int newton_hand_backs = 0;
   // A Newton phase stopped by its stall rule (the solve may still converge after it, as
   // in EnsureStable's descent from a perturbed state).
   bool newton_stalled = false;
@@ -256,6 +260,12 @@ class QuasistaticSolver {
   // indefinite factorizes: the stability check's second try, and the L-BFGS
   // preconditioner's (a mesh piece that nothing holds makes every K singular).
   static constexpr double kSingularShift = 1e-10;
+  // kNewton's hand-backs (Solve): after this many projected Newton steps, L-BFGS takes
+  // over again down to kLbfgsHandBackFactor of the force, at most kMaxNewtonHandBacks
+  // times in a solve (then Newton goes on to the end). Measured in docs/solver.md.
+  static constexpr int kProjectedStepsBeforeLbfgs = 4;
+  static constexpr double kLbfgsHandBackFactor = 1e-2;
+  static constexpr int kMaxNewtonHandBacks = 3;
 
   // options must be valid (Validate) and bc valid for the model
   // (ValidateBoundaryConditions): both CHECKed.
@@ -353,7 +363,10 @@ class QuasistaticSolver {
   void RunCeres(double tolerance, QuasistaticSolveReport* report);
   // Newton steps (MinimizeEnergyNewton) from the current state, exact stiffness below
   // the absolute force `exact_threshold`; true if the force tolerance was reached.
-  bool RunNewton(double exact_threshold, QuasistaticSolveReport* report);
+  // hand_back_after > 0: Newton stops after that many projected steps (report->
+  // newton_hand_backs counts it), for L-BFGS to take over.
+  bool RunNewton(double exact_threshold, QuasistaticSolveReport* report,
+                 int hand_back_after = 0);
   // Preconditioned L-BFGS from the current state down to the absolute force
   // `tolerance` (builds or refreshes the preconditioner as needed).
   void RunLbfgs(double tolerance, QuasistaticSolveReport* report);
