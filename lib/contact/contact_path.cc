@@ -180,7 +180,13 @@ bool ContactSolver::Resolve(const ActuationMatrix& a, const std::vector<RigidTra
                             const std::vector<MovingObstacle>& obstacles,
                             const Eigen::Matrix3Xd& start, Eigen::Matrix3Xd* state,
                             ContactReport* report, std::string* error) const {
-  CHECK_EQ(bones.size(), model_.bones.size());
+  CHECK_EQ(bones.size(), model_.bones.size()) << "Resolve: one transform per model bone";
+  CHECK(a.cols() == model_.mesh.num_tets())
+      << "Resolve: the actuation has " << a.cols() << " columns, the model "
+      << model_.mesh.num_tets() << " elements";
+  CHECK(start.cols() == model_.mesh.num_vertices())
+      << "Resolve: the start has " << start.cols() << " vertices, the model's mesh "
+      << model_.mesh.num_vertices();
   *report = ContactReport();
   const std::vector<std::unique_ptr<Obstacle>> placed = PlaceAll(obstacles, bones);
   const std::vector<const Obstacle*> final_obstacles = Pointers(placed);

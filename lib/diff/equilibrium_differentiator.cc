@@ -94,6 +94,9 @@ void EquilibriumDifferentiator::CheckPrepared() const {
 
 Eigen::Matrix3Xd EquilibriumDifferentiator::SolveAdjoint(const Eigen::Matrix3Xd& dl_dx) {
   CheckPrepared();
+  CHECK(dl_dx.cols() == model_.num_vertices())
+      << "dL/dx has " << dl_dx.cols() << " columns, the model " << model_.num_vertices()
+      << " vertices (one column per vertex)";
   CHECK(!deferred_) << "with options().reuse, use the overloads that return false on failure";
   Eigen::Matrix3Xd lambda = factorization_->Solve(dl_dx);
   timings_.solve = factorization_->timings().solve;
@@ -103,6 +106,9 @@ Eigen::Matrix3Xd EquilibriumDifferentiator::SolveAdjoint(const Eigen::Matrix3Xd&
 bool EquilibriumDifferentiator::SolveAdjoint(const Eigen::Matrix3Xd& dl_dx, Eigen::Matrix3Xd* lambda,
                                              std::string* error) {
   CheckPrepared();
+  CHECK(dl_dx.cols() == model_.num_vertices())
+      << "dL/dx has " << dl_dx.cols() << " columns, the model " << model_.num_vertices()
+      << " vertices (one column per vertex)";
   if (!deferred_) {
     *lambda = SolveAdjoint(dl_dx);
     return true;

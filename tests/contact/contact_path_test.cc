@@ -97,7 +97,10 @@ TEST(ContactSolverTest, BlockPushedIntoASlabStopsAtItsSurface) {
   EXPECT_NE(error.find("the actuation of element 1 is not finite"), std::string::npos) << error;
   EXPECT_DEATH(solver.Resolve(IdentityActuations(block.num_tets() - 1), {push}, {slab}, free,
                               &state, &refused, &error),
-               "a matrix of 6 x [0-9]+ was assigned");
+               "Resolve: the actuation has [0-9]+ columns, the model [0-9]+ elements");
+  EXPECT_DEATH(solver.Resolve(IdentityActuations(block.num_tets()), {push}, {slab},
+                              Eigen::Matrix3Xd::Zero(3, 5), &state, &refused, &error),
+               "Resolve: the start has 5 vertices, the model's mesh [0-9]+");
 }
 
 // An obstacle that moves with a bone through a face whose vertices are all fixed: a

@@ -479,6 +479,9 @@ TEST(EquilibriumDifferentiatorTest, RefusesAFactorizationChangedSincePrepare) {
   ActuationMatrix gradient;
   EXPECT_DEATH(shared.LossGradient(dl_dx, &gradient, &error), "changed since Prepare");
   ASSERT_TRUE(shared.Prepare(x1, a1, &error)) << error;
+  // dL/dx of another mesh is named as such (it was a check inside the factorization).
+  EXPECT_DEATH(shared.LossGradient(Eigen::Matrix3Xd::Zero(3, 5)),
+               "dL/dx has 5 columns, the model [0-9]+ vertices");
   EXPECT_LT(testing::RelativeError(shared.LossGradient(dl_dx), reference), 1e-12);
   EXPECT_LT((shared.ActuationJacobianProduct(direction) - product_reference).norm(),
             1e-12 * product_reference.norm());
