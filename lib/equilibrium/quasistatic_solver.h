@@ -39,8 +39,8 @@ enum class EquilibriumMethod {
   // (equilibrium/newton_solver.h): steps on the PSD-projected stiffness, on the exact one
   // below newton_relative_force, handing back to L-BFGS where projected Newton steps
   // crawl (docs/solver.md). From rest, large poses take 2 to 4 factorizations, hard ones
-  // (a bar curled to 1%, random indefinite targets) 7 to 16. Needs fixed vertices (a free body's stiffness is singular) and
-  // energy terms that have a stiffness.
+  // (a bar curled to 1%, random indefinite targets) 7 to 16. Needs fixed vertices (a
+  // free body's stiffness is singular) and energy terms that have a stiffness.
   kNewton,
   // Ceres' Levenberg-Marquardt on the least-squares form (one ShapeTargetCostFunction
   // per element), then exact Newton steps once the largest force is below
