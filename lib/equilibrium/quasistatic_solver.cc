@@ -535,7 +535,10 @@ QuasistaticSolveReport QuasistaticSolver::Solve() {
       }
       if (report.final_max_force <= report.force_tolerance) break;
       const bool last = round == kMaxNewtonHandBacks || options_.max_lbfgs_iterations == 0;
-      RunNewton(threshold, &report, last ? 0 : kProjectedStepsBeforeLbfgs);
+      // Exact steps from the handover force on, in every round: L-BFGS may stop short of
+      // its lowered target (its iteration limit), and exact steps held back to that
+      // target left the last round to projected steps alone (a crawl to the budget).
+      RunNewton(newton_threshold, &report, last ? 0 : kProjectedStepsBeforeLbfgs);
       if (last || report.newton_hand_backs == round || report.newton_stalled ||
           report.iterations >= options_.max_iterations) {
         break;
