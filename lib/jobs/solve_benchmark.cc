@@ -5,6 +5,7 @@
 
 #include "equilibrium/embedded_attachments.h"
 #include "equilibrium/quasistatic_solver.h"
+#include "geometry/points_near_model.h"
 #include "jobs/model_pose.h"
 #include "mesh/lattice.h"
 #include "model/model_io.h"
@@ -69,7 +70,7 @@ double FactorizationSeconds(const Case& c, int num_threads) {
 void RunCase(const SolveBenchmarkOptions& options, const Case& c, std::ostream& out,
              std::vector<Row>* rows) {
   const double unit = FactorizationSeconds(c, options.num_threads);
-  const double size = (c.rest.rowwise().maxCoeff() - c.rest.rowwise().minCoeff()).norm();
+  const double size = ModelSize(c.rest);
   Eigen::Matrix3Xd reference;
   for (const std::string& name : options.methods) {
     QuasistaticSolverOptions solver_options;

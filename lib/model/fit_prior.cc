@@ -9,6 +9,7 @@
 #include <Eigen/Geometry>
 #include <glog/logging.h>
 
+#include "geometry/points_near_model.h"
 #include "model/active_model.h"
 #include "util/atomic_file.h"
 #include "util/line_reader.h"
@@ -80,7 +81,7 @@ bool FitPriorOptions::Validate(std::string* error) const {
 
 bool IsNeutralSurface(const Eigen::Matrix3Xd& surface, const Eigen::Matrix3Xd& neutral) {
   if (surface.cols() != neutral.cols() || neutral.cols() == 0) return false;
-  const double diagonal = (neutral.rowwise().maxCoeff() - neutral.rowwise().minCoeff()).norm();
+  const double diagonal = ModelSize(neutral);
   return (surface - neutral).colwise().norm().maxCoeff() <= 1e-6 * diagonal;
 }
 

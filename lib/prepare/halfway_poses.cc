@@ -8,6 +8,7 @@
 #include <Eigen/Geometry>
 #include <glog/logging.h>
 
+#include "geometry/points_near_model.h"
 #include "geometry/rigid_transform.h"
 #include "util/option_checks.h"
 
@@ -44,8 +45,7 @@ bool AddHalfwayPoses(const HalfwayOptions& options, ActiveModel* model, int* add
     CHECK_EQ(static_cast<int>(bone.pose_transforms.size()), given);
   }
   const Eigen::Matrix3Xd& rest = model->mesh.vertices;
-  const double diagonal =
-      rest.cols() > 0 ? (rest.rowwise().maxCoeff() - rest.rowwise().minCoeff()).norm() : 0.0;
+  const double diagonal = ModelSize(rest);
   const double threshold = options.min_bone_motion * diagonal;
   const Eigen::Matrix3Xd& neutral = model->neutral.vertices;
   std::vector<int> sources;

@@ -5,6 +5,7 @@
 
 #include <glog/logging.h>
 
+#include "geometry/points_near_model.h"
 #include "geometry/triangle_grid.h"
 #include "util/option_checks.h"
 
@@ -105,7 +106,7 @@ bool AddMirrorPoses(const MirrorOptions& options, ActiveModel* model, std::vecto
   CHECK(options.enabled());
   sources->clear();
   const Eigen::Matrix3Xd& neutral = model->neutral.vertices;
-  const double diagonal = (neutral.rowwise().maxCoeff() - neutral.rowwise().minCoeff()).norm();
+  const double diagonal = ModelSize(neutral);
   std::vector<int> map;
   if (!MirrorVertexMap(neutral, options.axis, options.plane, options.tolerance * diagonal, &map,
                        error)) {
