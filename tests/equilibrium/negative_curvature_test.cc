@@ -186,5 +186,35 @@ TEST(NegativeCurvatureTest, StepLowersTheEnergyOfASaddleAndKeepsFixedVertices) {
   }
 }
 
+// Off the saddle (moved along its negative-curvature direction d, where the gradient g
+// has g . d != 0) the step orients d itself: d and -d give the same state, bit for bit,
+// and it moves downhill (its displacement . g < 0).
+TEST(NegativeCurvatureTest, StepGoesDownhillWhereTheGradientIsNotZero) {
+  StraightBar straight(1.4);
+  const HeldBar& bar = straight.bar;
+  StiffnessFactorization& factorization = straight.factorization;
+  Eigen::VectorXd direction;
+  double curvature = 0.0;
+  ASSERT_TRUE(FindNegativeCurvature(straight.exact, 30, &factorization, &direction, &curvature));
+  Eigen::Matrix3Xd d = factorization.ScatterFree(direction.data());
+  const Eigen::Matrix3Xd start = bar.mesh.vertices + 1e-3 * d / d.colwise().norm().maxCoeff();
+  Eigen::Matrix3Xd start_gradient;
+  const double start_energy = factorization.EnergyAndGradient(start, bar.a, &start_gradient);
+  ASSERT_GT(std::abs(start_gradient.cwiseProduct(d).sum()), 0.0);
+  std::vector<Eigen::Matrix3Xd> ends;
+  for (const double sign : {1.0, -1.0}) {
+    Eigen::Matrix3Xd x = start;
+    Eigen::Matrix3Xd gradient = start_gradient;
+    double energy = start_energy;
+    const NegativeCurvatureStep step = StepAlongNegativeCurvature(
+        factorization, bar.a, sign * direction, 1e-3, 30, &x, &energy, &gradient);
+    ASSERT_TRUE(step.accepted) << "sign " << sign;
+    EXPECT_LT(energy, start_energy);
+    EXPECT_LT((x - start).cwiseProduct(start_gradient).sum(), 0.0) << "sign " << sign;
+    ends.push_back(x);
+  }
+  EXPECT_EQ(ends[0], ends[1]);
+}
+
 }  // namespace
 }  // namespace aqs

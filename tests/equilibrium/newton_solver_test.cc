@@ -734,6 +734,60 @@ TEST(NewtonSolverTest, AKinkWithNegativeCurvatureStopsTheSolveEarly) {
   EXPECT_EQ(factorizations[0], 200);
 }
 
+// A spring pulling one vertex to p, E = k/2 |x_v - p|^2, whose stiffness understates its
+// Hessian as k / (2 + 1e-4) I (both kinds): the Newton step overshoots p to 1 + 1e-4 times
+// the distance on the other side, raising the energy by about 2e-4 of it, which is less
+// than armijo x |slope| (1e-4 x 2k|x_v - p|^2) but still a rise.
+class OverstepSpringTerm : public StiffnessFreeTerm {
+ public:
+  OverstepSpringTerm(int vertex, const Eigen::Vector3d& p, double k)
+      : vertex_(vertex), p_(p), k_(k) {}
+  double AddEnergyAndGradient(const Eigen::Ref<const Eigen::Matrix3Xd>& x,
+                              Eigen::Matrix3Xd* gradient) const override {
+    const Eigen::Vector3d d = x.col(vertex_) - p_;
+    gradient->col(vertex_) += k_ * d;
+    return 0.5 * k_ * d.squaredNorm();
+  }
+  void AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>& /*x*/,
+                    const StiffnessPattern& pattern, StiffnessKind /*kind*/,
+                    std::vector<double>* values) const override {
+    const Eigen::MatrixXd hessian = k_ / (2.0 + 1e-4) * Eigen::Matrix3d::Identity();
+    AddVertexHessian({vertex_}, hessian, pattern, values);
+  }
+
+ private:
+  int vertex_;
+  Eigen::Vector3d p_;
+  double k_;
+};
+
+// The line search takes a step only where the energy falls by the Armijo fraction of
+// the slope: the spring's overstepping unit step raises the energy and is refused, and
+// half of it (at p, to 1e-4 of the distance) is taken. The bar itself is nearly
+// weightless (mu 1e-9) and at rest.
+TEST(NewtonSolverTest, TheLineSearchRefusesAUnitStepThatRaisesTheEnergy) {
+  const TetMesh mesh = BarMesh(4, 1, 1, 0.5);
+  const ShapeTargetModel model(mesh, 1e-9);
+  const BoundaryConditions bc = LeftFaceFixed(mesh);
+  int tip = 0;
+  for (int v = 1; v < mesh.num_vertices(); ++v) {
+    if (mesh.vertices(0, v) > mesh.vertices(0, tip)) tip = v;
+  }
+  const Eigen::Vector3d p = mesh.vertices.col(tip) + Eigen::Vector3d(0.0, 0.1, 0.0);
+  const OverstepSpringTerm spring(tip, p, 1.0);
+  StiffnessFactorization factorization(model, FixedVertexMask(bc, mesh.num_vertices()), 1);
+  factorization.set_energy_terms({&spring});
+  NewtonSolverOptions options;
+  options.force_tolerance = 1e-14;
+  options.max_factorizations = 1;
+  Eigen::Matrix3Xd x = mesh.vertices;
+  const NewtonSolveReport report =
+      MinimizeEnergyNewton(options, IdentityActuations(mesh.num_tets()), &factorization, &x);
+  EXPECT_LT(report.final_energy, 1e-3 * report.initial_energy) << report.message;
+  EXPECT_LT((x.col(tip) - p).norm(), 1e-3 * 0.1) << report.message;
+  EXPECT_GE(report.energy_evaluations, 2) << "the unit step was refused";
+}
+
 // QuasistaticSolverOptions::newton_stall_steps reaches the Newton phase: the cone-pinned
 // bar stalls with the default and runs to its factorization budget with 0.
 TEST(NewtonSolverTest, TheQuasistaticSolverPassesItsStallSteps) {
@@ -931,6 +985,13 @@ TEST(NewtonSolverTest, FactorOfANearbyStateSolvesByConjugateGradients) {
   const Eigen::MatrixXd k_far = DenseFromUpperCsc(factorization.pattern(), factorization.values());
   EXPECT_LT((k_far * x - b).norm(), 1e-9 * b.norm());
   EXPECT_EQ(factorization.counters().factorizations, 2);
+  // A shifted factor is not K's: SolveAssembled still solves with K itself (by CG on
+  // the shifted factor, or by factorizing K), never with K + shift.
+  ASSERT_TRUE(factorization.FactorizeAssembled(1e-2, &error)) << error;
+  EXPECT_FALSE(factorization.factor_current());
+  reuse.max_iterations = 50;
+  ASSERT_TRUE(factorization.SolveAssembled(b, reuse, &x, &error)) << error;
+  EXPECT_LT((k_far * x - b).norm(), 1e-9 * b.norm());
 }
 
 // The 8 x 2 x 2 bar fixed at its left face, curled by CurlActuation(0.2) and solved to a

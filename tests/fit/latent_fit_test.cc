@@ -778,6 +778,12 @@ TEST(LatentFitTest, UncertaintyShrinksWithMoreDataAndNearTheFixedEnd) {
     EXPECT_GE(eigen.eigenvalues().minCoeff(), -1e-12 * eigen.eigenvalues().maxCoeff());
     EXPECT_GT(fit.noise_sigma, 0.005) << "stride " << stride;
     EXPECT_LT(fit.noise_sigma, 0.02) << "stride " << stride;
+    // Exactly the residual variance per degree of freedom: sum |fitted - marker|^2 over
+    // the 3 x markers coordinates, divided by their number less the fitted parameters.
+    const double squared = (fit.surface(Eigen::all, vertices) - positions).squaredNorm();
+    const double dof = 3.0 * static_cast<double>(vertices.size()) - parameters;
+    EXPECT_NEAR(fit.noise_sigma * fit.noise_sigma, squared / dof, 1e-6 * squared / dof)
+        << "stride " << stride;
     EXPECT_TRUE(fit.surface_std.allFinite());
     mean_std.push_back(fit.surface_std.mean());
     if (stride == 1) {
@@ -1072,6 +1078,14 @@ TEST(LatentFitTest, TemporalPriorAddsItsTermAndPullsTheFitTowardThePreviousFrame
   fitter.SetTemporalPrior(weight, previous, previous_bones);
   ASSERT_TRUE(fitter.Fit(target, previous, &held, &error)) << error;
   EXPECT_LT((held.latent - previous).norm(), (free.latent - previous).norm());
+  // ... and its bone toward the previous frame's (not toward the bone prior's mean).
+  ASSERT_EQ(held.bones.size(), previous_bones.size());
+  Eigen::Matrix<double, 6, 1> free_bone, held_bone;
+  BoneTransformToParameters(free.bones[0], free_bone.data());
+  BoneTransformToParameters(held.bones[0], held_bone.data());
+  EXPECT_LT((held_bone - bone_before).norm(), 0.9 * (free_bone - bone_before).norm())
+      << "free " << free_bone.transpose() << "\nheld " << held_bone.transpose()
+      << "\nprevious " << bone_before.transpose();
 }
 
 // The matching rounds' work counts the solve of their start, whose surface the first

@@ -152,6 +152,31 @@ TEST(FitPriorTest, LatentsWithoutSpreadGiveUnitVarianceNotAPin) {
   EXPECT_EQ(error.rfind("the training latents are too far apart", 0), 0u) << error;
 }
 
+// SetCovariance takes symmetric positive definite matrices only (up to round-off of
+// 1e-9 relative), and leaves the prior as it was when it refuses one.
+TEST(FitPriorTest, SetCovarianceRefusesAsymmetricIndefiniteAndMisshapenMatrices) {
+  GaussianPrior prior;
+  prior.mean = Eigen::VectorXd::Zero(3);
+  Eigen::MatrixXd c(3, 3);
+  c << 2.0, 0.3, 0.1,
+       0.3, 1.0, 0.2,
+       0.1, 0.2, 0.5;
+  ASSERT_TRUE(prior.SetCovariance(c));
+  EXPECT_LT((prior.whitening.transpose() * prior.whitening * c -
+             Eigen::MatrixXd::Identity(3, 3)).cwiseAbs().maxCoeff(), 1e-12);
+  Eigen::MatrixXd asymmetric = c;
+  asymmetric(0, 2) += 1e-6;
+  EXPECT_FALSE(prior.SetCovariance(asymmetric));
+  EXPECT_EQ(prior.covariance, c);
+  Eigen::MatrixXd round_off = c;
+  round_off(0, 2) += 1e-12;
+  EXPECT_TRUE(prior.SetCovariance(round_off));
+  Eigen::MatrixXd indefinite = c;
+  indefinite(2, 2) = -0.5;
+  EXPECT_FALSE(prior.SetCovariance(indefinite));
+  EXPECT_FALSE(prior.SetCovariance(Eigen::MatrixXd::Identity(2, 2)));
+}
+
 TEST(FitPriorTest, FileRoundTripsIsLearnedWhenAbsentAndBadFilesNameTheLine) {
   const ActiveModel model = ModelWithNeutralPose();
   testing::TempDir dir;
@@ -176,6 +201,14 @@ TEST(FitPriorTest, FileRoundTripsIsLearnedWhenAbsentAndBadFilesNameTheLine) {
   const std::vector<std::string> names = {"tip"};
   FitPrior bad = learned;
   bad.latent.covariance(0, 0) = -1.0;  // not positive definite (written as is)
+  ASSERT_TRUE(WriteFitPrior(path + "/learned/prior.txt", bad, names, &error)) << error;
+  EXPECT_FALSE(LoadModel(path, &back, &error));
+  EXPECT_NE(error.find("prior.txt:7: the covariance of the latent is not symmetric positive definite"),
+            std::string::npos) << error;
+  // Not symmetric (written as is; the reader must not symmetrise it silently).
+  bad = learned;
+  bad.latent.covariance(0, 1) += 0.5 * std::sqrt(bad.latent.covariance(0, 0) *
+                                                 bad.latent.covariance(1, 1));
   ASSERT_TRUE(WriteFitPrior(path + "/learned/prior.txt", bad, names, &error)) << error;
   EXPECT_FALSE(LoadModel(path, &back, &error));
   EXPECT_NE(error.find("prior.txt:7: the covariance of the latent is not symmetric positive definite"),

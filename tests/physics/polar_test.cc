@@ -119,6 +119,14 @@ TEST(PolarTest, ExactlyDegenerateStateIsFinite) {
   // A collapsed element (G = 0): every gain is the floor's, 2 / (ratio x max(sigma_1, 1)).
   const PolarTwists zero = ComputePolarTwists(ComputeRotationVariantSvd(Eigen::Matrix3d::Zero()));
   for (int k = 0; k < 3; ++k) EXPECT_EQ(zero.gain[k], 2.0 / kPolarDegenerateRatio) << k;
+  // Stretched beyond 1 (G = diag(3, 1, -1), sigma_2 + sigma_3 = 0): the floor scales with
+  // sigma_1, so the clamped gain is 2 / (ratio x 3), not 2 / ratio.
+  const RotationVariantSvd stretched =
+      ComputeRotationVariantSvd(Eigen::Vector3d(3, 1, -1).asDiagonal());
+  ASSERT_NEAR(stretched.sigma[0], 3.0, 1e-14);
+  const PolarTwists clamped = ComputePolarTwists(stretched);
+  const double expected = 2.0 / (kPolarDegenerateRatio * 3.0);
+  EXPECT_NEAR(clamped.gain.maxCoeff(), expected, 1e-12 * expected);
 }
 
 }  // namespace

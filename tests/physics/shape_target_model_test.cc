@@ -1,7 +1,9 @@
 #include "physics/shape_target_model.h"
 
+#include <cmath>
 #include <random>
 
+#include <Eigen/LU>
 #include <gtest/gtest.h>
 
 #include "testing/element_states.h"
@@ -122,6 +124,30 @@ TEST(ShapeTargetModelTest, ForceScaleAndVolume) {
   EXPECT_NEAR(model.total_volume(), volume, 1e-15);
   EXPECT_NEAR(model.rest_shape(0).volume, 1.0 / 6.0, 1e-15);
   EXPECT_GT(model.force_scale(), 0.0);
+}
+
+// The documented scales, recomputed from the mesh's own vertices with a stiffness that
+// differs per element (with mu = 1 everywhere, sum mu V = sum V hides a dropped mu).
+TEST(ShapeTargetModelTest, StiffnessVolumeAndForceScaleFollowTheirFormulas) {
+  const TetMesh mesh = SmallMesh();
+  const ShapeTargetModel model = SmallModel();
+  double volume = 0.0;
+  double stiffness_volume = 0.0;
+  double scale_sum = 0.0;
+  for (int e = 0; e < mesh.num_tets(); ++e) {
+    Eigen::Matrix3d edges;
+    for (int k = 0; k < 3; ++k) {
+      edges.col(k) = mesh.vertices.col(mesh.tets(k + 1, e)) - mesh.vertices.col(mesh.tets(0, e));
+    }
+    const double v = std::abs(edges.determinant()) / 6.0;
+    volume += v;
+    stiffness_volume += model.mu(e) * v;
+    scale_sum += model.mu(e) * std::pow(v, 2.0 / 3.0);
+  }
+  EXPECT_NEAR(model.total_volume(), volume, 1e-14 * volume);
+  EXPECT_NEAR(model.stiffness_volume(), stiffness_volume, 1e-14 * stiffness_volume);
+  const double force_scale = 2.0 * scale_sum / mesh.num_tets();
+  EXPECT_NEAR(model.force_scale(), force_scale, 1e-14 * force_scale);
 }
 
 }  // namespace

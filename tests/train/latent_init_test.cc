@@ -61,5 +61,24 @@ TEST(WhitenedPcaScoresTest, ExtraRowsAreZero) {
   EXPECT_EQ(z.bottomRows(3).norm(), 0.0);
 }
 
+// A row weight is a multiplicity: weights of 2 on some rows give the scores of the
+// samples with those rows written twice and every weight 1 (each component up to its
+// sign, which an eigenvector does not fix).
+TEST(WhitenedPcaScoresTest, ARowOfWeightTwoCountsAsTheRowTwice) {
+  const int d = 12;
+  const Eigen::MatrixXd samples = RandomSamples(d, 6, 11);
+  Eigen::VectorXd weights = Eigen::VectorXd::Ones(d);
+  weights.head(4).setConstant(2.0);
+  Eigen::MatrixXd doubled(d + 4, samples.cols());
+  doubled << samples, samples.topRows(4);
+  const Eigen::MatrixXd weighted = WhitenedPcaScores(samples, weights, 3);
+  const Eigen::MatrixXd repeated = WhitenedPcaScores(doubled, Eigen::VectorXd::Ones(d + 4), 3);
+  for (int k = 0; k < 3; ++k) {
+    const double sign = weighted.row(k).dot(repeated.row(k)) < 0.0 ? -1.0 : 1.0;
+    EXPECT_LT((weighted.row(k) - sign * repeated.row(k)).norm(), 1e-9 * repeated.row(k).norm())
+        << "component " << k;
+  }
+}
+
 }  // namespace
 }  // namespace aqs
