@@ -56,19 +56,10 @@ bool EndToEndObjective::StartOnLine(const Eigen::Matrix3Xd& from, const Eigen::M
     }
   };
   consider(from + t * (to - from));
-  // With the last evaluation at one end E (the other O), the start already there is E's
-  // first-order prediction E + delta; the quadratic in the line's coordinate (tau = 0 at
-  // O, 1 at E) through O and E with E's predicted slope gives E + tau delta + (1 - tau)^2
-  // (O - E).
-  const bool last_is_to = last.cols() == nv && (to.array() == last.array()).all();
-  const bool last_is_from =
-      last.cols() == nv && !last_is_to && (from.array() == last.array()).all();
-  if (last_is_to || last_is_from) {
-    const Eigen::Matrix3Xd& e = last_is_to ? to : from;
-    const Eigen::Matrix3Xd& o = last_is_to ? from : to;
-    const double tau = last_is_to ? t : 1.0 - t;
-    consider(e + tau * (start - e) + (1.0 - tau) * (1.0 - tau) * (o - e));
-  }
+  // With the last evaluation at one end, the start already there is that end's
+  // first-order prediction: the quadratic through the other end with its slope.
+  Eigen::Matrix3Xd curved;
+  if (CurvedLineStart(from, to, t, last, start, &curved)) consider(curved);
   worker->solver->SetPositions(chosen.cols() == nv ? chosen : start);
   return chosen.cols() == nv;
 }

@@ -51,4 +51,19 @@ bool FindPointOnLine(const std::vector<const Eigen::VectorXd*>& points, const do
   return found;
 }
 
+bool CurvedLineStart(const Eigen::Matrix3Xd& from, const Eigen::Matrix3Xd& to, double t,
+                     const Eigen::Matrix3Xd& last, const Eigen::Matrix3Xd& start,
+                     Eigen::Matrix3Xd* candidate) {
+  const auto same = [&](const Eigen::Matrix3Xd& end) {
+    return last.cols() == end.cols() && (end.array() == last.array()).all();
+  };
+  const bool last_is_to = same(to);
+  if (!last_is_to && !same(from)) return false;
+  const Eigen::Matrix3Xd& e = last_is_to ? to : from;
+  const Eigen::Matrix3Xd& o = last_is_to ? from : to;
+  const double tau = last_is_to ? t : 1.0 - t;
+  *candidate = e + tau * (start - e) + (1.0 - tau) * (1.0 - tau) * (o - e);
+  return true;
+}
+
 }  // namespace aqs

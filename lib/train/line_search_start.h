@@ -31,6 +31,18 @@ constexpr double kPointOnLineMaxT = 20.0;
 bool FindPointOnLine(const std::vector<const Eigen::VectorXd*>& points, const double* point,
                      PointOnLine* line);
 
+// The curved warm start of a pose's equilibrium at a line-search trial t (0 at `from`,
+// 1 at `to`: the pose's equilibria, 3 x n, at the line's two evaluated ends). `last` is
+// the end the solver's warm start came from and `start` that warm start (the end's
+// first-order prediction of the trial's equilibrium). With E = last, O the other end
+// and tau the trial's coordinate from O (0) to E (1) (tau = t where E is `to`, 1 - t
+// where E is `from`), *candidate is the quadratic in tau through O with E's predicted
+// step, E + tau (start - E) + (1 - tau)^2 (O - E): O at tau = 0, start at tau = 1.
+// False (candidate untouched) where `last` is neither end.
+bool CurvedLineStart(const Eigen::Matrix3Xd& from, const Eigen::Matrix3Xd& to, double t,
+                     const Eigen::Matrix3Xd& last, const Eigen::Matrix3Xd& start,
+                     Eigen::Matrix3Xd* candidate);
+
 }  // namespace aqs
 
 #endif  // AQS_TRAIN_LINE_SEARCH_START_H_

@@ -211,7 +211,8 @@ TEST(FitPriorTest, FileRoundTripsIsLearnedWhenAbsentAndBadFilesNameTheLine) {
                                                  bad.latent.covariance(1, 1));
   ASSERT_TRUE(WriteFitPrior(path + "/learned/prior.txt", bad, names, &error)) << error;
   EXPECT_FALSE(LoadModel(path, &back, &error));
-  EXPECT_NE(error.find("prior.txt:7: the covariance of the latent is not symmetric positive definite"),
+  EXPECT_NE(error.find("prior.txt:7: the covariance of the latent is not symmetric "
+                       "positive definite"),
             std::string::npos) << error;
   ASSERT_TRUE(WriteFitPrior(path + "/learned/prior.txt", learned, names, &error)) << error;
   std::ofstream(path + "/learned/prior.txt", std::ios::app) << "bone jaw mean 0 0 0 0 0 0\n";

@@ -1,6 +1,7 @@
 #include "train/line_search_start.h"
 
 #include <random>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -90,6 +91,52 @@ TEST(FindPointOnLineTest, RefusesPointsOffTheLineRepeatsAndTooFewPoints) {
   const std::vector<Eigen::VectorXd> one = {points[0]};
   const Eigen::VectorXd any = points[1];
   EXPECT_FALSE(FindPointOnLine(Pointers(one), any.data(), &line));
+}
+
+// The curved warm start is the quadratic in the trial's coordinate through the far end
+// and the warm start, with the near end (the last evaluation) as its vertex's side: the
+// far end at the far end, the warm start at the near end, constant second differences,
+// and the same curve seen from either end of the line.
+TEST(CurvedLineStartTest, PassesThroughTheFarEndAndTheWarmStartAndIsQuadratic) {
+  std::mt19937 rng(17);
+  std::normal_distribution<double> normal;
+  auto random = [&]() {
+    Eigen::Matrix3Xd m(3, 5);
+    for (Eigen::Index i = 0; i < m.size(); ++i) m.data()[i] = normal(rng);
+    return m;
+  };
+  const Eigen::Matrix3Xd from = random(), to = random(), start = random();
+  const double tolerance = 1e-12 * (from.norm() + to.norm() + start.norm());
+  Eigen::Matrix3Xd c0, c1, c;
+  // The last evaluation at `to`: from at t = 0, the warm start at t = 1.
+  ASSERT_TRUE(CurvedLineStart(from, to, 0.0, to, start, &c0));
+  ASSERT_TRUE(CurvedLineStart(from, to, 1.0, to, start, &c1));
+  EXPECT_LT((c0 - from).norm(), tolerance);
+  EXPECT_LT((c1 - start).norm(), tolerance);
+  // At `from`: to at t = 1, the warm start at t = 0.
+  ASSERT_TRUE(CurvedLineStart(from, to, 1.0, from, start, &c1));
+  ASSERT_TRUE(CurvedLineStart(from, to, 0.0, from, start, &c0));
+  EXPECT_LT((c1 - to).norm(), tolerance);
+  EXPECT_LT((c0 - start).norm(), tolerance);
+  // Quadratic in t: equal second differences over t = 0.2, 0.5, 0.8, 1.1 (an expansion
+  // beyond the bracket too), and the same curve as the line reversed.
+  for (const Eigen::Matrix3Xd* last : {&from, &to}) {
+    std::vector<Eigen::Matrix3Xd> points;
+    for (const double t : {0.2, 0.5, 0.8, 1.1}) {
+      ASSERT_TRUE(CurvedLineStart(from, to, t, *last, start, &c));
+      points.push_back(c);
+      Eigen::Matrix3Xd reversed;
+      ASSERT_TRUE(CurvedLineStart(to, from, 1.0 - t, *last, start, &reversed));
+      EXPECT_LT((reversed - c).norm(), tolerance);
+    }
+    const Eigen::Matrix3Xd second = points[2] - 2.0 * points[1] + points[0];
+    EXPECT_LT((points[3] - 2.0 * points[2] + points[1] - second).norm(), tolerance);
+    EXPECT_GT(second.norm(), 1e-3) << "curved, not the chord";
+  }
+  // The warm start from neither end: no candidate, the output untouched.
+  c = start;
+  EXPECT_FALSE(CurvedLineStart(from, to, 0.5, random(), start, &c));
+  EXPECT_EQ(c, start);
 }
 
 }  // namespace
