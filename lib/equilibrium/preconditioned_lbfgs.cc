@@ -125,7 +125,9 @@ PreconditionedLbfgsReport MinimizeEnergyLbfgs(const PreconditionedLbfgsOptions& 
     Correction pair{t * direction, trial_g - g, 0.0};
     const double sy = pair.s.dot(pair.y);
     // Keep only pairs of positive curvature (the energy is not convex).
-    if (options.memory > 0 && sy > 1e-12 * pair.s.norm() * pair.y.norm()) {
+    if (!(sy > 1e-12 * pair.s.norm() * pair.y.norm())) {
+      ++report.skipped_pairs;
+    } else if (options.memory > 0) {
       pair.rho = 1.0 / sy;
       pairs.push_back(std::move(pair));
       if (static_cast<int>(pairs.size()) > options.memory) pairs.pop_front();

@@ -38,6 +38,10 @@ struct PreconditionedLbfgsReport {
   int iterations = 0;      // accepted steps (one preconditioner solve each)
   int energy_evaluations = 0;
   int memory_resets = 0;  // directions that did not descend, replaced by M^-1 g
+  // Accepted steps whose correction pair (s, y) had no positive curvature (s . y <= 1e-12
+  // |s| |y|, where the energy is concave along the step): not kept in the memory, whose
+  // inverse Hessian would be indefinite with them.
+  int skipped_pairs = 0;
   double initial_energy = 0.0, final_energy = 0.0;
   double initial_max_force = 0.0, final_max_force = 0.0;
   std::string message;

@@ -1,9 +1,13 @@
 #include "equilibrium/preconditioned_lbfgs.h"
 
+#include <cmath>
+#include <cstdio>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
+#include "equilibrium/energy_term.h"
 #include "physics/boundary_conditions.h"
 #include "physics/stiffness_assembly.h"
 #include "testing/test_meshes.h"
@@ -81,6 +85,70 @@ TEST_F(CurlFromRestTest, StopsWhereTheForceStopsHalving) {
   EXPECT_LT(stall.final_energy, stall.initial_energy);
   // The same steps as the crawl up to the stop (the test only stops, never steers).
   EXPECT_LE(crawl.final_energy, stall.final_energy);
+}
+
+// A hill under one vertex, E = c exp(-|x_v - p|^2 / (2 s^2)): concave within s of its
+// top p, so that steps down it have correction pairs of negative curvature. As its
+// preconditioner stiffness it adds k I (positive definite; its Hessian is not).
+class HillTerm : public EnergyTerm {
+ public:
+  HillTerm(int vertex, const Eigen::Vector3d& top, double c, double s, double k)
+      : vertex_(vertex), top_(top), c_(c), s_(s), k_(k) {}
+  double AddEnergyAndGradient(const Eigen::Ref<const Eigen::Matrix3Xd>& x,
+                              Eigen::Matrix3Xd* gradient) const override {
+    const Eigen::Vector3d d = x.col(vertex_) - top_;
+    const double e = c_ * std::exp(-d.squaredNorm() / (2.0 * s_ * s_));
+    gradient->col(vertex_) -= e / (s_ * s_) * d;
+    return e;
+  }
+  void AddStiffness(const Eigen::Ref<const Eigen::Matrix3Xd>& /*x*/,
+                    const StiffnessPattern& pattern, StiffnessKind /*kind*/,
+                    std::vector<double>* values) const override {
+    AddVertexHessian({vertex_}, k_ * Eigen::MatrixXd::Identity(3, 3), pattern, values);
+  }
+  void AddResidualBlocks(ceres::Problem* /*problem*/,
+                         const std::vector<double*>& /*vertex_blocks*/) const override {
+    ADD_FAILURE() << "L-BFGS builds no Ceres problem";
+  }
+
+ private:
+  int vertex_;
+  Eigen::Vector3d top_;
+  double c_, s_, k_;
+};
+
+// Steps down the hill's concave top give pairs with s . y < 0: they are skipped (were they
+// kept, the memory's inverse Hessian would be indefinite and its directions could ascend), and
+// the descent off the hill converges without forgetting its memory.
+TEST(PreconditionedLbfgsTest, PairsOfNegativeCurvatureAreSkipped) {
+  const TetMesh mesh = BarMesh(8, 2, 2, 0.5);
+  const ShapeTargetModel model(mesh, 10.0);
+  int tip = 0;
+  for (int v = 1; v < mesh.num_vertices(); ++v) {
+    if (mesh.vertices(0, v) > mesh.vertices(0, tip)) tip = v;
+  }
+  const double s = 0.1;
+  const Eigen::Vector3d top = mesh.vertices.col(tip) - Eigen::Vector3d(0.0, 0.2 * s, 0.0);
+  const HillTerm hill(tip, top, 1.0, s, 10.0);
+  StiffnessFactorization factorization(model, FixedVertexMask(LeftFaceFixed(mesh),
+                                                              mesh.num_vertices()), 1);
+  factorization.set_energy_terms({&hill});
+  const ActuationMatrix a = IdentityActuations(mesh.num_tets());
+  std::string error;
+  factorization.Assemble(mesh.vertices, a, StiffnessKind::kRotationFixed);
+  ASSERT_TRUE(factorization.FactorizeAssembled(0.0, &error)) << error;
+  PreconditionedLbfgsOptions options;
+  options.force_tolerance = 1e-6 * model.force_scale();
+  options.max_iterations = 300;  // 66 needed (2026-12-07)
+  Eigen::Matrix3Xd x = mesh.vertices;
+  const PreconditionedLbfgsReport report = MinimizeEnergyLbfgs(options, a, &factorization, &x);
+  std::printf("down the hill: %d iterations, %d pairs skipped, %d memory resets; %s\n",
+              report.iterations, report.skipped_pairs, report.memory_resets,
+              report.message.c_str());
+  EXPECT_TRUE(report.converged) << report.message;
+  EXPECT_GT(report.skipped_pairs, 0);
+  EXPECT_EQ(report.memory_resets, 0);
+  EXPECT_GT((x.col(tip) - top).norm(), s) << "off the hill's concave top";
 }
 
 TEST(PreconditionedLbfgsOptionsTest, StallFieldsAreValidated) {
