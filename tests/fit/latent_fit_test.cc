@@ -1088,6 +1088,141 @@ TEST(LatentFitTest, TemporalPriorAddsItsTermAndPullsTheFitTowardThePreviousFrame
       << "\nprevious " << bone_before.transpose();
 }
 
+// The fit minimizes its documented objective: at its result, Objective (the data term
+// plus every prior, each value-tested on its own) is stationary in the latent and the
+// bone's 6 parameters, by central differences of re-solved equilibria. Unequal weights, a
+// prior-points cap below the targets' total weight, and the latent, bone and temporal
+// priors and the latent regularization all on, so that each weight and normalisation of
+// the Ceres problem is compared with the formula's (a factor applied alike to a cost and
+// its Jacobian passes every derivative test, and moves the minimum). Point-to-point and
+// point-to-plane.
+TEST(LatentFitTest, FitIsAStationaryPointOfItsDocumentedObjective) {
+  const ActiveModel model = TrainedModel(true);
+  LatentFitOptions options;
+  options.num_threads = 1;
+  options.latent_prior = 0.3;
+  options.bone_prior = 0.1;
+  options.prior_points_cap = 7;
+  options.latent_regularization = 1e-3;
+  options.function_tolerance = 1e-15;
+  options.parameter_tolerance = 1e-15;
+  options.max_iterations = 200;
+  options.solver.relative_force_tolerance = 1e-12;
+  LatentFitter fitter(model, options);
+  const std::vector<RigidTransform> rest_bones = fitter.bone_transforms();
+  ASSERT_EQ(rest_bones.size(), 1u);
+  std::vector<RigidTransform> moved = rest_bones;
+  moved[0].translation += Eigen::Vector3d(0.0, 0.02, 0.01);
+  fitter.set_bone_transforms(moved);
+  Eigen::Matrix3Xd state, surface;
+  std::string error;
+  ASSERT_TRUE(fitter.Simulate(model.latents.col(3), &state, &surface, &error)) << error;
+  std::vector<int> markers;
+  for (int v = 0; v < surface.cols(); v += 5) markers.push_back(v);
+  std::mt19937 rng(8);
+  std::normal_distribution<double> noise(0.0, 0.005);
+  Eigen::Matrix3Xd positions = surface(Eigen::all, markers);
+  for (Eigen::Index i = 0; i < positions.size(); ++i) positions.data()[i] += noise(rng);
+  FitTarget point = VertexTarget(markers, positions);
+  point.weights.resize(point.num_points());
+  const double cycle[3] = {0.3, 1.0, 2.5};
+  for (int k = 0; k < point.num_points(); ++k) point.weights[k] = cycle[k % 3];
+  ASSERT_GT(point.weights.sum(), 2.0 * options.prior_points_cap);
+  FitTarget plane = point;
+  plane.normals = Eigen::Matrix3Xd::Random(3, point.num_points()).colwise().normalized();
+  plane.tangential_weight = 0.2;
+  std::vector<RigidTransform> previous = rest_bones;
+  previous[0].translation += Eigen::Vector3d(0.01, 0.0, 0.0);
+  const int d = model.latent_dim();
+  for (const FitTarget* target : {&point, &plane}) {
+    SCOPED_TRACE(target == &point ? "point-to-point" : "point-to-plane");
+    fitter.set_bone_transforms(rest_bones);
+    fitter.set_start_state(model.mesh.vertices);
+    fitter.SetTemporalPrior(0.2, model.latents.col(1), previous);
+    LatentFitResult fit;
+    ASSERT_TRUE(fitter.Fit(*target, model.latents.col(0), &fit, &error)) << error;
+    Eigen::VectorXd theta(d + 6);
+    theta.head(d) = fit.latent;
+    BoneTransformToParameters(fit.bones[0], theta.data() + d);
+    auto value = [&](const Eigen::VectorXd& t, bool data_only) {
+      fitter.set_bone_transforms({BoneTransformFromParameters(t.data() + d)});
+      fitter.set_start_state(fit.state);
+      Eigen::Matrix3Xd x, y;
+      std::string solve_error;
+      EXPECT_TRUE(fitter.Simulate(t.head(d), &x, &y, &solve_error)) << solve_error;
+      return data_only ? TargetDataTerm(*target, y) : fitter.Objective(*target, y, t.head(d));
+    };
+    const Eigen::VectorXd objective = testing::CentralDifferenceGradient(
+        [&](const Eigen::VectorXd& t) { return value(t, false); }, theta, 1e-4);
+    const Eigen::VectorXd data = testing::CentralDifferenceGradient(
+        [&](const Eigen::VectorXd& t) { return value(t, true); }, theta, 1e-4);
+    std::printf("fit's stationarity: |d objective| %.3g, |d data term| %.3g (%d iterations)\n",
+                objective.norm(), data.norm(), fit.iterations);
+    EXPECT_GT(data.norm(), 1e-3) << "the priors pull the fit off the data's own minimum";
+    EXPECT_LT(objective.norm(), 1e-5 * data.norm()) << "objective " << objective.transpose()
+                                                    << "\ndata " << data.transpose();
+  }
+}
+
+// The same for a scan fit re-matched at every evaluation: at its result, StartObjective
+// (the robust closest-point term over 1/sqrt(M), the scan's latent prior over
+// min(M, cap) points and the landmarks' term) is stationary in the latent. The scan's
+// latent prior differs from the options' and the cap is below M, so each weight is the
+// scan's own.
+TEST(LatentFitTest, ScanFitIsAStationaryPointOfItsObjective) {
+  const ActiveModel model = TrainedModel(false);
+  LatentFitOptions options;
+  options.num_threads = 1;
+  options.latent_prior = 0.03;
+  options.prior_points_cap = 20;
+  options.function_tolerance = 1e-15;
+  options.parameter_tolerance = 1e-15;
+  options.max_iterations = 200;
+  options.solver.relative_force_tolerance = 1e-12;
+  LatentFitter fitter(model, options);
+  Eigen::Matrix3Xd state, surface, landmark_surface;
+  std::string error;
+  ASSERT_TRUE(fitter.Simulate(model.latents.col(2), &state, &landmark_surface, &error)) << error;
+  ASSERT_TRUE(fitter.Simulate(model.latents.col(3), &state, &surface, &error)) << error;
+  std::mt19937 rng(9);
+  std::normal_distribution<double> noise(0.0, 0.003);
+  Eigen::Matrix3Xd scan = surface;
+  for (Eigen::Index i = 0; i < scan.size(); ++i) scan.data()[i] += noise(rng);
+  ASSERT_GT(scan.cols(), 2 * options.prior_points_cap);
+  PointCloudFitOptions cloud;
+  cloud.rematch_every_evaluation = true;
+  cloud.max_distance = 0.5;
+  cloud.robust_scale = 0.05;
+  cloud.latent_prior = 0.3;
+  const std::vector<int> landmarks = {0, 13, 27, 41, 55, 69};
+  cloud.landmarks = VertexTarget(landmarks, landmark_surface(Eigen::all, landmarks));
+  cloud.landmark_weight = 0.5;
+  fitter.set_start_state(model.mesh.vertices);
+  LatentFitResult fit;
+  ASSERT_TRUE(fitter.FitPointCloud(scan, cloud, model.latents.col(0), &fit, &error)) << error;
+  auto value = [&](const Eigen::VectorXd& z, bool data_only) {
+    fitter.set_start_state(fit.state);
+    Eigen::Matrix3Xd x, y;
+    std::string solve_error;
+    EXPECT_TRUE(fitter.Simulate(z, &x, &y, &solve_error)) << solve_error;
+    PointCloudFitOptions data = cloud;
+    if (data_only) {
+      data.latent_prior = 0.0;
+      data.landmark_weight = 0.0;
+    }
+    return fitter.StartObjective(nullptr, &scan, data, y, z);
+  };
+  const Eigen::VectorXd objective = testing::CentralDifferenceGradient(
+      [&](const Eigen::VectorXd& z) { return value(z, false); }, fit.latent, 1e-4);
+  const Eigen::VectorXd data = testing::CentralDifferenceGradient(
+      [&](const Eigen::VectorXd& z) { return value(z, true); }, fit.latent, 1e-4);
+  std::printf("scan fit's stationarity: |d objective| %.3g, |d scan term| %.3g (%d "
+              "iterations)\n", objective.norm(), data.norm(), fit.iterations);
+  EXPECT_GT(data.norm(), 1e-3) << "the prior and landmarks pull the fit off the scan's minimum";
+  EXPECT_LT(objective.norm(), 1e-5 * data.norm()) << "objective " << objective.transpose()
+                                                  << "\nscan term " << data.transpose();
+}
+
 // The matching rounds' work counts the solve of their start, whose surface the first
 // round matches: one round is that solve plus a fit to that matching, which a fitter of
 // its own repeats step by step (the rounds counted only the fit's solves before).
