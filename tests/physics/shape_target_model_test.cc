@@ -126,6 +126,39 @@ TEST(ShapeTargetModelTest, ForceScaleAndVolume) {
   EXPECT_GT(model.force_scale(), 0.0);
 }
 
+// E = sum_e V_e Psi_e(F_e, S_e, mu_e) with each element's own mu, recomputed from the
+// vertices (F_e = Ds Dm^-1), equals what Energy, EnergyAndGradient (with and without a
+// polar cache) and EnergyActuationGradient return.
+TEST(ShapeTargetModelTest, EnergyIsTheVolumeWeightedSumOfDensitiesWithEachElementsMu) {
+  const TetMesh mesh = SmallMesh();
+  const ShapeTargetModel model = SmallModel();
+  std::mt19937 rng(5);
+  std::normal_distribution<double> normal(0.0, 0.1);
+  const ActuationMatrix a = RandomActuation(3, &rng, 0.3);
+  Eigen::Matrix3Xd x = mesh.vertices;
+  for (Eigen::Index i = 0; i < x.size(); ++i) x.data()[i] += normal(rng);
+  double expected = 0.0;
+  for (int e = 0; e < mesh.num_tets(); ++e) {
+    Eigen::Matrix3d rest, deformed;
+    for (int k = 0; k < 3; ++k) {
+      rest.col(k) = mesh.vertices.col(mesh.tets(k + 1, e)) - mesh.vertices.col(mesh.tets(0, e));
+      deformed.col(k) = x.col(mesh.tets(k + 1, e)) - x.col(mesh.tets(0, e));
+    }
+    const Eigen::Matrix3d f = deformed * rest.inverse();
+    const double volume = std::abs(rest.determinant()) / 6.0;
+    expected += volume * ShapeTargetElement(f, SymmetricFromActuation(a.col(e).data()), model.mu(e))
+                             .EnergyDensity();
+  }
+  EXPECT_NEAR(model.Energy(x, a, 1), expected, 1e-12 * expected);
+  Eigen::Matrix3Xd gradient;
+  EXPECT_NEAR(model.EnergyAndGradient(x, a, &gradient, 2), expected, 1e-12 * expected);
+  PolarCache cache;
+  EXPECT_NEAR(model.EnergyAndGradient(x, a, &gradient, 1, &cache), expected, 1e-12 * expected);
+  EXPECT_NEAR(model.EnergyAndGradient(x, a, &gradient, 1, &cache), expected, 1e-12 * expected);
+  ActuationMatrix da;
+  EXPECT_NEAR(model.EnergyActuationGradient(x, a, &da, 1), expected, 1e-12 * expected);
+}
+
 // The documented scales, recomputed from the mesh's own vertices with a stiffness that
 // differs per element (with mu = 1 everywhere, sum mu V = sum V hides a dropped mu).
 TEST(ShapeTargetModelTest, StiffnessVolumeAndForceScaleFollowTheirFormulas) {
