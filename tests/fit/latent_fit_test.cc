@@ -1127,6 +1127,10 @@ TEST(LatentFitTest, FitIsAStationaryPointOfItsDocumentedObjective) {
   point.weights.resize(point.num_points());
   const double cycle[3] = {0.3, 1.0, 2.5};
   for (int k = 0; k < point.num_points(); ++k) point.weights[k] = cycle[k % 3];
+  for (const int k : {1, 4, 7}) {  // unused points, far off: no part of the fit or its errors
+    point.weights[k] = 0.0;
+    point.positions(1, k) += 0.5;
+  }
   ASSERT_GT(point.weights.sum(), 2.0 * options.prior_points_cap);
   FitTarget plane = point;
   plane.normals = Eigen::Matrix3Xd::Random(3, point.num_points()).colwise().normalized();
@@ -1158,6 +1162,18 @@ TEST(LatentFitTest, FitIsAStationaryPointOfItsDocumentedObjective) {
         [&](const Eigen::VectorXd& t) { return value(t, true); }, theta, 1e-4);
     std::printf("fit's stationarity: |d objective| %.3g, |d data term| %.3g (%d iterations)\n",
                 objective.norm(), data.norm(), fit.iterations);
+    // The errors it reports: mean, rms and max distance over the points of positive weight.
+    std::vector<double> distances;
+    for (int k = 0; k < target->num_points(); ++k) {
+      if (target->weights[k] > 0.0) {
+        distances.push_back((fit.surface.col(markers[k]) - target->positions.col(k)).norm());
+      }
+    }
+    const Eigen::Map<const Eigen::VectorXd> used(distances.data(), distances.size());
+    EXPECT_EQ(fit.used_points, target->num_points() - 3);
+    EXPECT_NEAR(fit.mean_error, used.mean(), 1e-14);
+    EXPECT_NEAR(fit.rms_error, std::sqrt(used.squaredNorm() / used.size()), 1e-14);
+    EXPECT_NEAR(fit.max_error, used.maxCoeff(), 1e-14);
     EXPECT_GT(data.norm(), 1e-3) << "the priors pull the fit off the data's own minimum";
     EXPECT_LT(objective.norm(), 1e-5 * data.norm()) << "objective " << objective.transpose()
                                                     << "\ndata " << data.transpose();
