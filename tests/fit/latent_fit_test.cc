@@ -807,6 +807,12 @@ TEST(LatentFitTest, UncertaintyShrinksWithMoreDataAndNearTheFixedEnd) {
         worst = std::max(worst, std::abs(fit.surface_std[v] - expected));
       }
       EXPECT_LT(worst, 1e-5 * fit.surface_std.maxCoeff());
+      // And the covariance's own scale: the noise variance times (G^T G)^-1, G the
+      // markers' rows of that Jacobian (every vertex is a marker here, weights 1).
+      const Eigen::MatrixXd expected_covariance =
+          fit.noise_sigma * fit.noise_sigma * (g.transpose() * g).inverse();
+      EXPECT_LT(testing::RelativeError(fit.parameter_covariance, expected_covariance), 1e-4)
+          << fit.parameter_covariance << "\n" << expected_covariance;
     }
     // Near the fixed end the surface is held (its embedding weighs fixed vertices): its
     // predicted deviation is far below the free end's.
