@@ -11,7 +11,7 @@
 #include "geometry/embedding.h"
 #include "geometry/triangle_intersections.h"
 #include "geometry/vertex_normals.h"
-#include "mesh/mesh_measures.h"
+#include "model/surface_springs.h"
 #include "util/option_checks.h"
 #include "util/parallel_for.h"
 
@@ -63,12 +63,7 @@ ContactSolver::ContactSolver(const ActiveModel& model, const ContactOptions& opt
   CHECK(options.Validate(&error)) << "ContactOptions: " << error;
   physics_ = std::make_unique<ShapeTargetModel>(model.mesh, model.mu);
   stencils_ = EmbeddingStencils(model.embedding, model.mesh.tets);
-  stiffness_ = VertexAreas(model.neutral.vertices, model.neutral.triangles);
-  const double mean_area = stiffness_.sum() / std::max<Eigen::Index>(1, stiffness_.size());
-  for (Eigen::Index i = 0; i < stiffness_.size(); ++i) {
-    if (!(stiffness_[i] > 0)) stiffness_[i] = mean_area;
-  }
-  stiffness_ *= options.relative_stiffness * model.mu.mean() / MeanEdgeLength(model.mesh);
+  stiffness_ = SurfaceSpringStiffness(model, options.relative_stiffness);
   rest_surface_ = EmbeddedPositions(model.embedding, model.mesh.tets, model.mesh.vertices);
   rest_normals_ = VertexNormals(rest_surface_, model.neutral.triangles);
   const int num_surface = model.num_surface_vertices();

@@ -9,6 +9,7 @@
 #include "jobs/model_pose.h"
 #include "mesh/lattice.h"
 #include "model/model_io.h"
+#include "model/surface_springs.h"
 #include "prepare/volumetric_targets.h"
 #include "util/atomic_file.h"
 #include "util/input_file.h"
@@ -150,7 +151,7 @@ bool ModelCases(const SolveBenchmarkOptions& options, const ActiveModel& model,
       c.actuation = IdentityActuations(model.mesh.num_tets());
       c.springs = std::make_shared<EmbeddedAttachments>(
           model.embedding, model.mesh.tets,
-          AttachmentStiffness(model, options.attachment_stiffness), model.mesh.vertices);
+          SurfaceSpringStiffness(model, options.attachment_stiffness), model.mesh.vertices);
       c.spring_targets = model.poses[p].surface;
     } else if (model.decoder) {
       DecoderWorkspace workspace;

@@ -14,6 +14,7 @@
 #include "equilibrium/embedded_attachments.h"
 #include "equilibrium/rest_factor.h"
 #include "geometry/embedding.h"
+#include "model/surface_springs.h"
 #include "physics/rotation_variant_svd.h"
 #include "prepare/target_store.h"
 #include "util/blas.h"
@@ -56,17 +57,6 @@ bool ParseInvertedTargets(const std::string& name, InvertedTargets* kind) {
   return false;
 }
 
-Eigen::VectorXd AttachmentStiffness(const ActiveModel& model, double relative_stiffness) {
-  // Springs: per unit area as stiff as relative_stiffness layers of elements. Surface
-  // vertices with no area (isolated) get the mean.
-  Eigen::VectorXd stiffness = VertexAreas(model.neutral.vertices, model.neutral.triangles);
-  const double mean_area = stiffness.sum() / std::max<Eigen::Index>(1, stiffness.size());
-  for (Eigen::Index i = 0; i < stiffness.size(); ++i) {
-    if (!(stiffness[i] > 0)) stiffness[i] = mean_area;
-  }
-  return stiffness * (relative_stiffness * model.mu.mean() / MeanEdgeLength(model.mesh));
-}
-
 bool VolumetricTargetOptions::Validate(std::string* error) const {
   std::string solver_error;
   const bool solver_ok = solver.Validate(&solver_error);
@@ -99,7 +89,7 @@ VolumetricTargetMaker::VolumetricTargetMaker(const VolumetricTargetOptions& opti
     : options_(options),
       model_(model),
       physics_(std::make_unique<ShapeTargetModel>(model.mesh, model.mu)),
-      stiffness_(AttachmentStiffness(model, options.relative_stiffness)),
+      stiffness_(SurfaceSpringStiffness(model, options.relative_stiffness)),
       workers_(std::max(1, options.num_threads)) {}  // Make uses at least one
 
 VolumetricTargetMaker::~VolumetricTargetMaker() = default;

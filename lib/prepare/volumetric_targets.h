@@ -120,7 +120,7 @@ class VolumetricTargetMaker {
   const VolumetricTargetOptions options_;
   const ActiveModel& model_;
   std::unique_ptr<ShapeTargetModel> physics_;
-  Eigen::VectorXd stiffness_;  // AttachmentStiffness
+  Eigen::VectorXd stiffness_;  // SurfaceSpringStiffness (model/surface_springs.h)
   std::vector<std::unique_ptr<Worker>> workers_;  // made when first needed
 };
 
@@ -129,11 +129,6 @@ class VolumetricTargetMaker {
 // (docs/benchmarks.md: 2.0 GB peak), growing as the cube root of the element count
 // above that (the factor's fill).
 double EquilibriumSolverMemoryBytes(double num_elements);
-
-// The spring stiffness of MakeVolumetricTargets per neutral surface vertex
-// (num_surface_vertices): relative_stiffness * mean(mu) * A_i / h (see
-// VolumetricTargetOptions); vertices with no area get the mean area.
-Eigen::VectorXd AttachmentStiffness(const ActiveModel& model, double relative_stiffness);
 
 // sqrt(F^T F), the symmetric positive semi-definite polar factor of F.
 Eigen::Matrix3d SymmetricPolarFactor(const Eigen::Matrix3d& f);
