@@ -8,6 +8,7 @@
 #include <random>
 #include <vector>
 
+#include <Eigen/QR>
 #include <Eigen/SVD>
 #include <gtest/gtest.h>
 
@@ -129,6 +130,33 @@ TEST(SurfacePcaTest, NoRidgeWithTooFewMarkersIsTheLimitOfSmallRidges) {
   EXPECT_LT((none - small).cwiseAbs().maxCoeff(), 1e-6 * (small - pca.Decode(
       Eigen::VectorXd::Zero(5))).cwiseAbs().maxCoeff());
   EXPECT_LT((none.col(7) - at.col(0)).norm(), 1e-10);  // still through the marker
+}
+
+// The ridge fit minimizes |A c - b|^2 + ridge sum_j c_j^2 / variance_j over the markers'
+// rows A of the basis (b: the markers less the mean), recomputed here as one stacked
+// least-squares problem: the ridge is divided by each component's own variance.
+TEST(SurfacePcaTest, RidgeFitMinimizesTheMarkersMisfitPlusRidgeOverVariances) {
+  const std::vector<Eigen::Matrix3Xd> surfaces = LinearSurfaces(12, 5, 3);
+  const SurfacePca pca(surfaces, 5);
+  ASSERT_EQ(pca.num_components(), 5);
+  ASSERT_GT(pca.variances().maxCoeff(), 2.0 * pca.variances().minCoeff());
+  const std::vector<int> markers = {4, 17};
+  Eigen::Matrix3Xd at = surfaces[2](Eigen::all, markers);
+  at(1, 0) += 0.3;
+  const double ridge = 0.37;
+  const int k = pca.num_components();
+  const int rows = 3 * static_cast<int>(markers.size());
+  Eigen::MatrixXd stacked = Eigen::MatrixXd::Zero(rows + k, k);
+  Eigen::VectorXd right = Eigen::VectorXd::Zero(rows + k);
+  for (size_t i = 0; i < markers.size(); ++i) {
+    stacked.middleRows(3 * i, 3) = pca.basis().middleRows(3 * markers[i], 3);
+    right.segment<3>(3 * i) = at.col(i) - pca.mean().segment<3>(3 * markers[i]);
+  }
+  for (int j = 0; j < k; ++j) stacked(rows + j, j) = std::sqrt(ridge / pca.variances()[j]);
+  const Eigen::VectorXd c = stacked.colPivHouseholderQr().solve(right);
+  const Eigen::Matrix3Xd expected = pca.Decode(c);
+  const Eigen::Matrix3Xd fitted = pca.FitToVerticesRidge(markers, at, ridge);
+  EXPECT_LT((fitted - expected).cwiseAbs().maxCoeff(), 1e-10 * expected.cwiseAbs().maxCoeff());
 }
 
 // Markers that determine the coefficients: no ridge reproduces a left-out surface

@@ -83,6 +83,43 @@ TEST(FitPriorTest, CentredOnTheNeutralWithTheTrainingSpread) {
   EXPECT_NEAR(c(2, 2), rz + rotation_floor * rotation_floor, 1e-12);
   EXPECT_NEAR(c(0, 0), rotation_floor * rotation_floor, 1e-12);
   EXPECT_GT(c(1, 1), 0.0);
+  // The whole 6 x 6 covariance: the second moment of the motions' parameters (z rotation
+  // 0.1 (p + 1), translation (0.02 p, -0.01 p, 0); the neutral at rest) about the
+  // neutral's, plus the rotation floor and the translation floor, the larger of a
+  // fraction of the largest translation deviation and 1e-3 of the mesh's diagonal.
+  Eigen::MatrixXd moment = Eigen::MatrixXd::Zero(6, 6);
+  for (int p = 0; p + 1 < model.num_poses(); ++p) {
+    Eigen::Matrix<double, 6, 1> q;
+    q << 0.0, 0.0, 0.1 * (p + 1), 0.02 * p, -0.01 * p, 0.0;
+    moment += q * q.transpose() / model.num_poses();
+  }
+  const double diagonal =
+      (model.mesh.vertices.rowwise().maxCoeff() - model.mesh.vertices.rowwise().minCoeff()).norm();
+  const double translation_floor =
+      std::max(options.translation_floor_fraction *
+                   std::sqrt(moment.diagonal().tail<3>().maxCoeff()),
+               1e-3 * diagonal);
+  Eigen::MatrixXd expected_bone = moment;
+  for (int i = 0; i < 3; ++i) {
+    expected_bone(i, i) += rotation_floor * rotation_floor;
+    expected_bone(3 + i, 3 + i) += translation_floor * translation_floor;
+  }
+  EXPECT_LT((c - expected_bone).cwiseAbs().maxCoeff(), 1e-12) << c << "\n" << expected_bone;
+  EXPECT_GT(translation_floor, 1e-3 * diagonal) << "the fraction's branch";
+}
+
+// A bone that only turns: its translation variances are the floor of 1e-3 of the mesh's
+// bounding-box diagonal (squared).
+TEST(FitPriorTest, ABoneThatOnlyTurnsHasTheMeshFloorOnItsTranslation) {
+  ActiveModel model = ModelWithNeutralPose();
+  for (RigidTransform& t : model.bones[0].pose_transforms) t.translation.setZero();
+  const FitPrior prior = LearnFitPrior(model, FitPriorOptions());
+  const double diagonal =
+      (model.mesh.vertices.rowwise().maxCoeff() - model.mesh.vertices.rowwise().minCoeff()).norm();
+  const Eigen::MatrixXd& c = prior.bones[0].covariance;
+  for (int i = 3; i < 6; ++i) {
+    EXPECT_NEAR(c(i, i), std::pow(1e-3 * diagonal, 2), 1e-15) << i;
+  }
 }
 
 // No prior from a model without poses, or from latents or bone motions so far apart
