@@ -1094,6 +1094,20 @@ TEST(LatentFitTest, TemporalPriorAddsItsTermAndPullsTheFitTowardThePreviousFrame
       << "\nprevious " << bone_before.transpose();
 }
 
+// Fit options that run Ceres and the equilibrium solves to round-off, on one thread, with
+// the given latent prior and prior-points cap (for the stationarity checks below).
+LatentFitOptions RoundOffFitOptions(double latent_prior, double prior_points_cap) {
+  LatentFitOptions options;
+  options.num_threads = 1;
+  options.latent_prior = latent_prior;
+  options.prior_points_cap = prior_points_cap;
+  options.function_tolerance = 1e-15;
+  options.parameter_tolerance = 1e-15;
+  options.max_iterations = 200;
+  options.solver.relative_force_tolerance = 1e-12;
+  return options;
+}
+
 // The fit minimizes its documented objective: at its result, Objective (the data term
 // plus every prior, each value-tested on its own) is stationary in the latent and the
 // bone's 6 parameters, by central differences of re-solved equilibria. Unequal weights, a
@@ -1104,16 +1118,9 @@ TEST(LatentFitTest, TemporalPriorAddsItsTermAndPullsTheFitTowardThePreviousFrame
 // point-to-plane.
 TEST(LatentFitTest, FitIsAStationaryPointOfItsDocumentedObjective) {
   const ActiveModel model = TrainedModel(true);
-  LatentFitOptions options;
-  options.num_threads = 1;
-  options.latent_prior = 0.3;
+  LatentFitOptions options = RoundOffFitOptions(0.3, 7);
   options.bone_prior = 0.1;
-  options.prior_points_cap = 7;
   options.latent_regularization = 1e-3;
-  options.function_tolerance = 1e-15;
-  options.parameter_tolerance = 1e-15;
-  options.max_iterations = 200;
-  options.solver.relative_force_tolerance = 1e-12;
   LatentFitter fitter(model, options);
   const std::vector<RigidTransform> rest_bones = fitter.bone_transforms();
   ASSERT_EQ(rest_bones.size(), 1u);
@@ -1193,14 +1200,7 @@ TEST(LatentFitTest, FitIsAStationaryPointOfItsDocumentedObjective) {
 // scan's own.
 TEST(LatentFitTest, ScanFitIsAStationaryPointOfItsObjective) {
   const ActiveModel model = TrainedModel(false);
-  LatentFitOptions options;
-  options.num_threads = 1;
-  options.latent_prior = 0.03;
-  options.prior_points_cap = 20;
-  options.function_tolerance = 1e-15;
-  options.parameter_tolerance = 1e-15;
-  options.max_iterations = 200;
-  options.solver.relative_force_tolerance = 1e-12;
+  const LatentFitOptions options = RoundOffFitOptions(0.03, 20);
   LatentFitter fitter(model, options);
   Eigen::Matrix3Xd state, surface, landmark_surface;
   std::string error;
