@@ -1,5 +1,6 @@
 #include "jobs/report_script.h"
 
+#include <fcntl.h>
 #include <signal.h>
 #include <sys/prctl.h>
 #include <sys/stat.h>
@@ -63,12 +64,19 @@ int RunProgram(const std::vector<std::string>& command, std::string* message) {
   char* const* arguments = argv.data();
   // vfork, as posix_spawn does: no copy of a large process's memory (which fork may be
   // refused under strict overcommit), and no fork warnings from MPI libraries. The child
-  // only makes system calls, and leaves the reason of a failed exec in exec_errno,
-  // which it shares with this process until it execs or exits.
-  volatile int exec_errno = 0;
+  // only makes system calls. It reports a failed exec's errno through a pipe that a
+  // successful exec closes (O_CLOEXEC): writing it into memory shared with this process
+  // is undefined, and was lost where vfork is a fork (ThreadSanitizer's).
+  int error_pipe[2];
+  if (::pipe2(error_pipe, O_CLOEXEC) != 0) {
+    *message = "cannot run '" + command[0] + "': " + std::strerror(errno);
+    return -1;
+  }
   const pid_t pid = ::vfork();
   if (pid < 0) {
     *message = "cannot run '" + command[0] + "': " + std::strerror(errno);
+    ::close(error_pipe[0]);
+    ::close(error_pipe[1]);
     return -1;
   }
   if (pid == 0) {
@@ -77,9 +85,18 @@ int RunProgram(const std::vector<std::string>& command, std::string* message) {
     ::prctl(PR_SET_PDEATHSIG, SIGKILL);
     if (::getppid() != parent) ::_exit(127);
     ::execve(path, arguments, environ);
-    exec_errno = errno;
-    ::_exit(127);
+    const int failure = errno;
+    const ssize_t written = ::write(error_pipe[1], &failure, sizeof failure);
+    ::_exit(written == sizeof failure ? 127 : 126);
   }
+  ::close(error_pipe[1]);
+  int exec_errno = 0;
+  ssize_t got;
+  do {
+    got = ::read(error_pipe[0], &exec_errno, sizeof exec_errno);
+  } while (got < 0 && errno == EINTR);
+  ::close(error_pipe[0]);
+  if (got != static_cast<ssize_t>(sizeof exec_errno)) exec_errno = 0;  // the exec succeeded
   int status = 0;
   while (waitpid(pid, &status, 0) < 0) {
     if (errno != EINTR) {
