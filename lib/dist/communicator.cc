@@ -14,7 +14,8 @@ void Communicator::BroadcastText(std::string* text, int root) const {
   Broadcast(&length, 1, root);
   const size_t bytes = static_cast<size_t>(length);
   std::vector<double> packed((bytes + 7) / 8, 0.0);
-  if (rank() == root) std::memcpy(packed.data(), text->data(), bytes);
+  // (memcpy of 0 bytes from an empty vector's null data() is undefined: UBSan aborted.)
+  if (rank() == root && bytes > 0) std::memcpy(packed.data(), text->data(), bytes);
   constexpr size_t kMaxPiece = size_t{1} << 28;
   for (size_t begin = 0; begin < packed.size(); begin += kMaxPiece) {
     const size_t count = std::min(kMaxPiece, packed.size() - begin);
