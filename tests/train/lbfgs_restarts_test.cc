@@ -275,14 +275,20 @@ TEST(LbfgsRestartsTest, HooksAndCallbacksEndSolvesAndRuns) {
     EXPECT_EQ(recorder.iterations, Range(0, 30));
     EXPECT_NE(report.termination.find(" (segment)"), std::string::npos);
     EXPECT_EQ(log.str(), "");
+    EXPECT_EQ(recorder.points.back(), x);
     hooks.starts.clear();
     hooks.stop_after = 14;
-    x = RosenbrockStart(n);
+    // Into the same buffer: the recorder holds x.data() (assigning a new vector would
+    // swap buffers and free the one it reads; AddressSanitizer found that).
+    x.head(n) = RosenbrockStart(n);
+    recorder.points.clear();
     EXPECT_EQ(RunLbfgsWithRestarts(LbfgsOptions(1e-12), problem, options, 0, x.data(), log,
                                    &hooks)
                   .iterations,
               14);
     EXPECT_EQ(hooks.starts, (std::vector<int>{0, 7}));
+    ASSERT_FALSE(recorder.points.empty());
+    EXPECT_EQ(recorder.points.back(), x);
   }
   for (const ceres::CallbackReturnType stop :
        {ceres::SOLVER_TERMINATE_SUCCESSFULLY, ceres::SOLVER_ABORT}) {
