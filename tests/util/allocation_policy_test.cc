@@ -9,6 +9,8 @@
 
 #include <gtest/gtest.h>
 
+#include "testing/sanitizers.h"
+
 #if defined(__GLIBC__)
 #include <malloc.h>
 #endif
@@ -18,6 +20,9 @@ namespace {
 
 #if defined(__GLIBC__)
 TEST(AllocationPolicyTest, LargeBlocksComeFromTheHeapAndStay) {
+  if (testing::kSanitizedAllocator) {
+    GTEST_SKIP() << "a sanitizer's allocator replaces glibc's malloc, mallopt and mallinfo2";
+  }
   constexpr size_t kBytes = size_t{64} << 20;  // above glibc's largest mmap threshold
   // By default such a block is a mapping of its own.
   void* block = std::malloc(kBytes);
