@@ -50,7 +50,8 @@ class DecoderTest : public ::testing::TestWithParam<bool> {
   bool per_element() const { return GetParam(); }
 
   ActuationDecoder MakeDecoder(Activation activation = Activation::kTanh,
-                               bool linear_skip = false, bool anchored = false) const {
+                               bool linear_skip = false, bool anchored = false,
+                               double output_scale = 0.1) const {
     GridActuationFieldOptions options;
     options.node_spacing = 0.6;
     options.per_element = per_element();
@@ -60,6 +61,7 @@ class DecoderTest : public ::testing::TestWithParam<bool> {
     spec.activation = activation;
     spec.linear_skip = linear_skip;
     spec.anchored = anchored;
+    spec.output_scale = output_scale;
     return ActuationDecoder(spec, GridActuationField(mesh_, options));
   }
 
@@ -190,6 +192,49 @@ TEST_P(DecoderTest, ActuationJacobianMatchesFiniteDifferences) {
   Eigen::MatrixXd latent_gradient;
   decoder.Backward(params.data(), workspace, probe, param_gradient.data(), &latent_gradient);
   EXPECT_LT(testing::RelativeError(latent_gradient, jacobian.transpose() * Flat(probe)), 1e-12);
+}
+
+// a(z) = I + field(s mlp(z)) with s = output_scale: by formula, from the network and the
+// field called directly; a decoder with twice the scale deviates from I twice as much,
+// and its Jacobian and both reverse-mode gradients are twice as large (a decoder that
+// ignored s, or applied it twice, passes every finite-difference test).
+TEST_P(DecoderTest, OutputScaleMultipliesTheNetworksOutputsBeforeTheField) {
+  const ActuationDecoder decoder = MakeDecoder(Activation::kSoftplus, false, false, 0.13);
+  const ActuationDecoder doubled = MakeDecoder(Activation::kSoftplus, false, false, 0.26);
+  std::mt19937 rng(36);
+  const Eigen::VectorXd params = RandomMatrix(decoder.num_parameters(), 1, 0.5, &rng);
+  const Eigen::VectorXd z = RandomMatrix(3, 1, 1.0, &rng);
+  Eigen::MatrixXd outputs;
+  MlpWorkspace mlp_workspace;
+  decoder.mlp().Forward(params.data(), z, &outputs, &mlp_workspace);
+  const NodeValueMatrix node_values =
+      0.13 * Eigen::Map<const NodeValueMatrix>(outputs.data(), 6, decoder.num_nodes());
+  ActuationMatrix expected;
+  decoder.field().Apply(node_values, &expected);
+
+  DecoderWorkspace workspace, doubled_workspace;
+  ActuationMatrix a, a_doubled;
+  decoder.Decode(params.data(), z, &a, &workspace);
+  doubled.Decode(params.data(), z, &a_doubled, &doubled_workspace);
+  EXPECT_LT(testing::RelativeError(a, expected), 1e-14);
+  const ActuationMatrix identity = IdentityActuations(decoder.num_elements());
+  EXPECT_GT((a - identity).norm(), 1e-2);
+  EXPECT_LT(testing::RelativeError(a_doubled - identity, 2.0 * (a - identity)), 1e-13);
+
+  const Eigen::MatrixXd jacobian = decoder.ActuationJacobian(params.data(), z, nullptr);
+  EXPECT_LT(testing::RelativeError(doubled.ActuationJacobian(params.data(), z, nullptr),
+                                   2.0 * jacobian),
+            1e-13);
+  const ActuationMatrix probe = RandomMatrix(6, decoder.num_elements(), 1.0, &rng);
+  Eigen::VectorXd param_gradient = Eigen::VectorXd::Zero(decoder.num_parameters());
+  Eigen::VectorXd doubled_param_gradient = Eigen::VectorXd::Zero(decoder.num_parameters());
+  Eigen::MatrixXd latent_gradient, doubled_latent_gradient;
+  decoder.Backward(params.data(), workspace, probe, param_gradient.data(), &latent_gradient);
+  doubled.Backward(params.data(), doubled_workspace, probe, doubled_param_gradient.data(),
+                   &doubled_latent_gradient);
+  EXPECT_GT(param_gradient.norm(), 1e-2);
+  EXPECT_LT(testing::RelativeError(doubled_param_gradient, 2.0 * param_gradient), 1e-13);
+  EXPECT_LT(testing::RelativeError(doubled_latent_gradient, 2.0 * latent_gradient), 1e-13);
 }
 
 TEST_P(DecoderTest, SingleDecodeAndBackwardMatchTheBatch) {
