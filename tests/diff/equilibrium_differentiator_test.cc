@@ -567,6 +567,14 @@ TEST(EquilibriumDifferentiatorTest, ShiftedAdjointApproachesTheExactGradient) {
   EXPECT_LT((tiny - exact).norm(), 1e-7 * exact.norm());
   EXPECT_GT((large - exact).norm(), 1e-4 * exact.norm());
   EXPECT_LT((large - exact).norm(), exact.norm());
+  // The shift is relative to K's own scale: with mu 1000 times larger, x is the same
+  // equilibrium, K and dg/da are 1000 times larger and the adjoint 1000 times smaller, so
+  // the shifted gradient is the same (a shift of 1e-2 absolute would be 1000 times
+  // smaller relative to this K).
+  const ShapeTargetModel stiffer(mesh, Eigen::VectorXd(1000.0 * model.mu()));
+  EquilibriumDifferentiator stiffer_differentiator(stiffer, solver.fixed_mask());
+  ASSERT_TRUE(stiffer_differentiator.PrepareShifted(x, a, 1e-2, &error)) << error;
+  EXPECT_LT((stiffer_differentiator.LossGradient(x - y) - large).norm(), 1e-10 * large.norm());
 
   // Squeezed to 30%: not positive definite unshifted (see the test above), definite
   // with a large enough shift.
