@@ -1,7 +1,8 @@
 // The contact candidates (ContactSolver::DetectSelfContacts and DetectEdgeContacts,
 // contact/contact_candidates.cc) on two soft balls pressed together: every pair joins
 // the two balls (none within one ball: exclusion rings and rest normals), points pair
-// only with triangles within thickness + search radius, and balls apart have none.
+// only with triangles within thickness + search radius, each with the stiffness of its
+// points' surface springs, and balls apart have none.
 
 #include "contact/contact_solver.h"
 
@@ -17,6 +18,7 @@
 #include "geometry/distance/plane_distance.h"
 #include "geometry/embedding.h"
 #include "geometry/vertex_normals.h"
+#include "model/surface_springs.h"
 #include "testing/contact_scenes.h"
 
 namespace aqs {
@@ -132,6 +134,20 @@ TEST(ContactCandidatesTest, PairsJoinTheTwoBallsWithinReach) {
     const Eigen::Vector3d other = pair.corner[1].Position(balls.free);
     EXPECT_NE(ball(first), ball(SurfaceVertexAt(pushed, other))) << "edge " << pair.edge;
     EXPECT_TRUE(pair.sign == 1.0 || pair.sign == -1.0);
+  }
+
+  // Each pair's stiffness: a point's own spring (SurfaceSpringStiffness), an edge pair's
+  // the mean of its four ends'.
+  const Eigen::VectorXd k = SurfaceSpringStiffness(model, options.relative_stiffness);
+  for (const SelfContactPair& pair : pairs) {
+    EXPECT_NEAR(pair.stiffness, k[pair.surface_vertex], 1e-12 * k[pair.surface_vertex]);
+  }
+  for (const SelfContactPair& pair : edges) {
+    const Eigen::Matrix2Xi& e = contact.edges();
+    const double mean = 0.25 * (k[e(0, pair.edge)] + k[e(1, pair.edge)] +
+                                k[e(0, pair.second_edge)] + k[e(1, pair.second_edge)]);
+    EXPECT_NEAR(pair.stiffness, mean, 1e-12 * mean) << "edges " << pair.edge << " "
+                                                    << pair.second_edge;
   }
 
   // The right ball moved 2 away: nothing in reach.
