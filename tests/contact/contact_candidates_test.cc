@@ -2,7 +2,7 @@
 // contact/contact_candidates.cc) on two soft balls pressed together: every pair joins
 // the two balls (none within one ball: exclusion rings and rest normals), points pair
 // only with triangles within thickness + search radius, each with the stiffness of its
-// points' surface springs, and balls apart have none.
+// points' surface springs, and balls apart have none; DetectObstacleContacts under a slab.
 
 #include "contact/contact_solver.h"
 
@@ -15,6 +15,7 @@
 
 #include <gtest/gtest.h>
 
+#include "contact/obstacle.h"
 #include "geometry/distance/plane_distance.h"
 #include "geometry/embedding.h"
 #include "geometry/vertex_normals.h"
@@ -155,6 +156,44 @@ TEST(ContactCandidatesTest, PairsJoinTheTwoBallsWithinReach) {
   apart.rightCols(apart.cols() - per_ball).row(0).array() += 2.0;
   EXPECT_TRUE(contact.DetectSelfContacts(apart).empty());
   EXPECT_TRUE(contact.DetectEdgeContacts(apart, rest).empty());
+}
+
+// DetectObstacleContacts: under a slab whose top cuts into the pushed balls, the
+// candidates are exactly the surface points within thickness + search radius of it
+// (those inside it included), each once, with its own surface-spring stiffness.
+TEST(ContactCandidatesTest, ObstacleCandidatesAreThePointsWithinReachWithTheirSprings) {
+  testing::PushedBalls balls;
+  ASSERT_TRUE(testing::PushBalls(0.3, &balls));
+  const ActiveModel& model = balls.model;
+  const ContactOptions options = testing::BallsContactOptions(0.4);
+  const ContactSolver contact(model, options);
+  const Eigen::Matrix3Xd pushed = EmbeddedPositions(model.embedding, model.mesh.tets, balls.free);
+  const double top = pushed.row(1).minCoeff() + 0.05;
+  Eigen::Matrix3Xd v;
+  Eigen::Matrix3Xi t;
+  testing::BoxSurface(Eigen::Vector3d(-10, top - 5, -10), Eigen::Vector3d(10, top, 10), &v, &t);
+  const Obstacle slab("slab", v, t);
+  const ObstacleCandidates candidates = contact.DetectObstacleContacts(pushed, {&slab});
+  const double reach = options.thickness + options.search_radius;
+  std::vector<int> expected;
+  for (int i = 0; i < pushed.cols(); ++i) {
+    if (pushed(1, i) < top + reach) expected.push_back(i);
+  }
+  ASSERT_GT(expected.size(), 5u);
+  ASSERT_LT(expected.size(), static_cast<size_t>(pushed.cols()));
+  EXPECT_EQ(candidates.surface_vertices, expected);
+  ASSERT_EQ(candidates.stiffness.size(), expected.size());
+  ASSERT_EQ(candidates.points.size(), expected.size());
+  const Eigen::VectorXd k = SurfaceSpringStiffness(model, options.relative_stiffness);
+  for (size_t j = 0; j < expected.size(); ++j) {
+    EXPECT_EQ(candidates.stiffness[j], k[expected[j]]) << "surface vertex " << expected[j];
+    EXPECT_LT((candidates.points[j].Position(balls.free) - pushed.col(expected[j])).norm(),
+              1e-12);
+  }
+  ContactOptions without = options;
+  without.obstacle_contact = false;
+  EXPECT_TRUE(ContactSolver(model, without).DetectObstacleContacts(pushed, {&slab})
+                  .points.empty());
 }
 
 }  // namespace
