@@ -116,8 +116,8 @@ class LatentFitter::FitEquilibrium final : public ceres::EvaluationCallback {
       fitter_->stats_.jacobians += 1;
       std::string error;
       // Where the exact K is singular or barely not positive definite (a free mesh piece
-      // without surface, which prepare keeps: its block is singular at every state), the
-      // regularized K, as training's adjoint does.
+      // without surface, which models prepared before 2026-12-07 keep: its block is
+      // singular at every state), the regularized K, as training's adjoint does.
       double shift = 0.0;
       const bool prepared = PrepareExactOrShifted(fitter_->differentiator_.get(), point_.state,
                                                   point_.a, &shift, &error);

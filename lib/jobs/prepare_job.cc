@@ -14,10 +14,10 @@
 #include "jobs/shared_pose_work.h"
 #include "mesh/element_subset.h"
 #include "mesh/mesh_io.h"
-#include "mesh/tet_components.h"
 #include "model/model_directory.h"
 #include "model/model_fingerprint.h"
 #include "model/model_io.h"
+#include "prepare/free_pieces.h"
 #include "prepare/pose_files.h"
 #include "prepare/target_store.h"
 #include "util/atomic_file.h"
@@ -272,30 +272,17 @@ void EmbedNeutral(const PrepareJobOptions& options, const CutMesh& cut_mesh, Act
 
 // Every piece of the simulation mesh held (a lattice around two surfaces, a user's mesh
 // of several bodies, a part joined by an edge only): a free piece the surface is embedded
-// in moves it arbitrarily, and is refused. One the surface is not embedded in (a lone
-// element copy that cuts leave: two in the full face at 232,635 elements) does not move
-// the surface and is left, with a warning (its stiffness is singular; solves shift it).
-bool CheckMeshPieces(const ActiveModel& model, std::ostream& log, std::string* error) {
-  std::vector<bool> held(model.mesh.num_vertices(), false);
-  for (int v : model.static_vertices) held[v] = true;
-  for (const Bone& bone : model.bones) {
-    for (int v : bone.vertices) held[v] = true;
-  }
-  std::vector<int> piece;
-  const std::vector<MeshPiece> pieces = DescribeMeshPieces(model.mesh, held, &piece);
-  std::vector<int> embedded(pieces.size(), 0);
-  for (int e : model.embedding.element) ++embedded[piece[e]];
-  for (size_t p = 0; p < pieces.size(); ++p) {
-    if (pieces[p].held) continue;
-    const std::string what = UnheldPieceText(pieces[p], static_cast<int>(pieces.size()));
-    if (embedded[p] > 0) {
-      *error = what + ", and " + std::to_string(embedded[p]) + " surface vertices are " +
-               "embedded in it (fix at least 3 of its vertices not on one line with the " +
-               "boundary rules, or leave it out of the mesh)";
-      return false;
-    }
-    log << "warning: " << what << "; no surface vertex is embedded in it, so it is left "
-        << "free (its stiffness is singular there: solves shift it)\n";
+// in would move it, and is refused; one it is not (a lone element copy that cuts leave:
+// two in the full face at 232,635 elements) is removed (RemoveFreePieces).
+bool CheckMeshPieces(ActiveModel* model, std::ostream& log, std::string* error) {
+  FreePieceRemoval removal;
+  if (!RemoveFreePieces(model, &removal, error)) return false;
+  if (removal.pieces > 0) {
+    log << "removed " << removal.pieces << " free piece(s) of the simulation mesh that no "
+        << "fixed vertex holds and no surface vertex is embedded in: " << removal.elements
+        << " element(s) (the first was element " << removal.first_element << ") and "
+        << removal.vertices << " vertices; " << model->mesh.num_vertices() << " vertices, "
+        << model->mesh.num_tets() << " elements left\n";
   }
   return true;
 }
@@ -465,7 +452,7 @@ BuildResult BuildModel(const PrepareJobOptions& options, PreparedModel* prepared
     return BuildResult::kFailed;
   }
   log << rules_log;
-  if (!CheckMeshPieces(model, log, error)) return BuildResult::kFailed;
+  if (!CheckMeshPieces(&model, log, error)) return BuildResult::kFailed;
   if (!mirror_sources.empty()) {
     MirrorBoneTransforms(options.mirror, mirror_sources, given_poses, &model);
     for (const Bone& bone : model.bones) {

@@ -312,6 +312,58 @@ TEST_F(PrepareJobTest, UserTetMeshAndBoxRule) {
   }
 }
 
+// A piece of a user's mesh that no fixed vertex holds and no surface vertex is embedded
+// in (a lone element inside the sphere; pruning, which would take it too, is off): removed,
+// and the model is the one made without it.
+TEST_F(PrepareJobTest, AFreePieceWithoutSurfaceIsRemoved) {
+  std::ostringstream log;
+  std::string error;
+  PrepareJobOptions options = options_;
+  options.min_elements_per_vertex = 0;
+  options.output = dir_.File("plain");
+  ASSERT_TRUE(RunPrepareJob(options, log, &error)) << error;
+  ActiveModel plain;
+  ASSERT_TRUE(LoadModel(options.output, &plain, &error)) << error;
+  ASSERT_TRUE(WriteMeditMesh(dir_.File("plain.mesh"), plain.mesh, &error)) << error;
+  TetMesh with_lone = plain.mesh;
+  const int n = with_lone.num_vertices(), m = with_lone.num_tets();
+  with_lone.vertices.conservativeResize(3, n + 4);
+  with_lone.vertices.rightCols(4) << 0.0, 0.1, 0.0, 0.0,  //
+      0.0, 0.0, 0.1, 0.0,                                 //
+      0.0, 0.0, 0.0, 0.1;
+  with_lone.tets.conservativeResize(4, m + 1);
+  with_lone.tets.col(m) << n, n + 1, n + 2, n + 3;
+  if ((SignedTetVolume(with_lone, with_lone.vertices, m) > 0) !=
+      (SignedTetVolume(with_lone, with_lone.vertices, 0) > 0)) {
+    std::swap(with_lone.tets(1, m), with_lone.tets(2, m));
+  }
+  ASSERT_TRUE(WriteMeditMesh(dir_.File("lone.mesh"), with_lone, &error)) << error;
+  options.boundary.fixed_depth = -1;  // a box below: the lone element at the centre is free
+  options.boundary.fixed_boxes = {Eigen::AlignedBox3d(Eigen::Vector3d(-3, -3, -3),
+                                                      Eigen::Vector3d(3, 3, -1.5))};
+  options.tet_mesh = dir_.File("plain.mesh");
+  options.output = dir_.File("from_plain");
+  ASSERT_TRUE(RunPrepareJob(options, log, &error)) << error;
+  options.tet_mesh = dir_.File("lone.mesh");
+  options.output = dir_.File("from_lone");
+  log.str("");
+  ASSERT_TRUE(RunPrepareJob(options, log, &error)) << error;
+  EXPECT_NE(log.str().find("removed 1 free piece(s) of the simulation mesh that no fixed vertex "
+                           "holds and no surface vertex is embedded in: 1 element(s) (the "
+                           "first was element " + std::to_string(m) + ") and 4 vertices"),
+            std::string::npos)
+      << log.str();
+  ActiveModel expected, model;
+  ASSERT_TRUE(LoadModel(dir_.File("from_plain"), &expected, &error)) << error;
+  ASSERT_TRUE(LoadModel(dir_.File("from_lone"), &model, &error)) << error;
+  EXPECT_EQ(model.mesh.tets, expected.mesh.tets);
+  EXPECT_EQ(model.mesh.vertices, expected.mesh.vertices);
+  EXPECT_EQ(model.static_vertices, expected.static_vertices);
+  EXPECT_EQ(model.embedding.element, expected.embedding.element);
+  ASSERT_EQ(model.num_poses(), expected.num_poses());
+  EXPECT_EQ(model.poses[0].target, expected.poses[0].target);
+}
+
 // --fixed_list indexes the vertices of --tet_mesh's file, which prepare renumbers when it
 // prunes weakly held elements: the listed vertices are fixed where they are, and a
 // listed vertex that pruning removed is named.

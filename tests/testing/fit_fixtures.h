@@ -10,7 +10,7 @@ namespace testing {
 // decoder 16-16; no end-to-end training), for fits. with_bone: its fixed end is a bone
 // "base" (rest in every training pose) instead of static vertices. with_free_piece: the
 // mesh also has one element apart from the bar, above it, that nothing holds and no
-// surface vertex is embedded in (as meshers leave; prepare keeps such pieces): its
+// surface vertex is embedded in (as meshers leave; prepare kept such pieces): its
 // exact stiffness is singular at every state.
 ActiveModel PretrainedBarForFits(bool with_bone, bool with_free_piece = false);
 

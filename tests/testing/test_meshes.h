@@ -29,7 +29,7 @@ BoundaryConditions LeftFaceFixed(const TetMesh& mesh, double tolerance = 1e-9);
 // Appends one element apart from the mesh (4 new vertices, the last element): a corner
 // `gap` above the mesh's largest x, y and z, and edges of length `size` along -x, -y and
 // +z from it, oriented as element 0. Nothing holds it: a piece whose stiffness is
-// singular, as meshers leave and prepare keeps.
+// singular, as meshers leave (prepare removes such pieces since 2026-12-07).
 void AppendLoneElement(TetMesh* mesh, double gap, double size);
 
 // SmoothFibreActuation(mesh, amplitude) (physics/actuation_fields.h).
