@@ -157,6 +157,63 @@ TEST_F(BoneClearanceTest, AnEmptyBoneSurfaceIsRefused) {
 
 // --fixed_inside takes a closed surface either way oriented (an inward one fixed no
 // vertex, silently), and one that holds no vertex is refused by name.
+// Regions that overlap: a vertex in both goes to the first bone that lists it, only.
+// The jaw (x < 1.5) first: it drives x = 0 and 1, the skull (x < 2.5) only x = 2, and 12
+// static vertices stay (x = 3 to 5). The skull first: it takes x = 0 to 2, and the jaw's
+// region holds no fixed vertex left for it.
+TEST_F(BoneClearanceTest, OverlappingRegionsGiveAVertexToTheFirstBoneOnly) {
+  BoneRule skull = options_.bones[0];
+  skull.name = "skull";
+  skull.region_boxes = {Eigen::AlignedBox3d(Eigen::Vector3d(-1, -1, -1), Eigen::Vector3d(2.5, 2, 2))};
+  options_.bones.push_back(skull);
+  std::string error, log;
+  ActiveModel model;
+  ASSERT_TRUE(
+      ApplyBoundaryRules(options_, mesh_, SurfaceMesh(), {"a"}, nullptr, &model, &log, &error))
+      << error;
+  ASSERT_EQ(model.bones.size(), 2u);
+  std::vector<int> drives(mesh_.num_vertices(), 0);
+  for (const Bone& bone : model.bones) {
+    for (int v : bone.vertices) ++drives[v];
+  }
+  for (int v = 0; v < mesh_.num_vertices(); ++v) EXPECT_LE(drives[v], 1) << "vertex " << v;
+  for (int v : model.bones[0].vertices) EXPECT_LE(mesh_.vertices(0, v), 1.0);
+  for (int v : model.bones[1].vertices) EXPECT_EQ(mesh_.vertices(0, v), 2.0);
+  EXPECT_EQ(model.bones[0].vertices.size(), 8u);
+  EXPECT_EQ(model.bones[1].vertices.size(), 4u);
+  EXPECT_EQ(model.static_vertices.size(), 12u);
+
+  std::swap(options_.bones[0], options_.bones[1]);
+  EXPECT_FALSE(
+      ApplyBoundaryRules(options_, mesh_, SurfaceMesh(), {"a"}, nullptr, &model, &log, &error));
+  EXPECT_NE(error.find("bone 'jaw': no fixed vertex lies in its region"), std::string::npos)
+      << error;
+}
+
+// --fixed_box, --keep_box and --bone_region's parser, by whole messages.
+TEST(ParseBoxTest, ReadsSixNumbersAndRefusesMalformedBoxesNamingThem) {
+  Eigen::AlignedBox3d box;
+  std::string error;
+  ASSERT_TRUE(ParseBox("-1,-1,-1,1,2,3", &box, &error)) << error;
+  EXPECT_EQ(box.min(), Eigen::Vector3d(-1, -1, -1));
+  EXPECT_EQ(box.max(), Eigen::Vector3d(1, 2, 3));
+  const std::string below = "each minimum must be below its maximum";
+  for (const char* text : {"0,0,0,0,1,1", "1,0,0,0,1,1", "0,0,2,1,1,1"}) {
+    EXPECT_FALSE(ParseBox(text, &box, &error)) << text;
+    EXPECT_EQ(error, "box '" + std::string(text) + "': " + below);
+  }
+  EXPECT_FALSE(ParseBox("0,0,0,1,1", &box, &error));
+  EXPECT_EQ(error, "box '0,0,0,1,1': expected six numbers xmin,ymin,zmin,xmax,ymax,zmax");
+  EXPECT_FALSE(ParseBox("0,0,0,1,1,1,1", &box, &error));
+  EXPECT_EQ(error, "box '0,0,0,1,1,1,1': expected six numbers xmin,ymin,zmin,xmax,ymax,zmax");
+  EXPECT_FALSE(ParseBox("0,0,0,1,1,x", &box, &error));
+  EXPECT_EQ(error, "box '0,0,0,1,1,x': 'x' is not a number");
+  for (const char* text : {"0,0,0,1,1,inf", "0,0,0,1,1,nan"}) {
+    EXPECT_FALSE(ParseBox(text, &box, &error)) << text;
+    EXPECT_NE(error.find("is not a number"), std::string::npos) << error;
+  }
+}
+
 TEST(FixedInsideTest, EitherOrientationAndNoneInsideIsRefused) {
   testing::TempDir dir;
   const TetMesh mesh = testing::BarMesh(6, 1, 1, 1.0);

@@ -66,6 +66,32 @@ TEST(StagedDirectoryTest, InstallsIntoMissingEmptyAndExistingTargets) {
   DisableExchangeForTesting(false);
 }
 
+// Something that is not an ActiveQS temporary at this process's staging path (a user's
+// folder or file of that name) is refused and kept; an empty directory, or a leftover
+// with the marker, is replaced by a fresh staging directory.
+TEST(StagedDirectoryTest, AForeignEntryAtTheStagingPathIsRefusedAndKept) {
+  testing::TempDir dir;
+  const std::string staging = StagingPathOf(dir.File("unit"));
+  std::string error;
+  fs::create_directory(staging);
+  std::ofstream(staging + "/mine.txt") << "my data";
+  EXPECT_FALSE(CreateStagingDirectory(staging, &error));
+  EXPECT_EQ(error, staging + " exists and is not an ActiveQS temporary directory");
+  EXPECT_EQ(ReadAll(staging + "/mine.txt"), "my data");
+  fs::remove_all(staging);
+  std::ofstream(staging) << "a file";
+  EXPECT_FALSE(CreateStagingDirectory(staging, &error));
+  EXPECT_EQ(error, staging + " exists and is not an ActiveQS temporary directory");
+  EXPECT_EQ(ReadAll(staging), "a file");
+  fs::remove(staging);
+  fs::create_directory(staging);  // empty: replaced
+  ASSERT_TRUE(CreateStagingDirectory(staging, &error)) << error;
+  EXPECT_EQ(Entries(staging), std::set<std::string>({kTemporaryMarker}));
+  std::ofstream(staging + "/half_written.txt") << "from a killed run";  // with the marker
+  ASSERT_TRUE(CreateStagingDirectory(staging, &error)) << error;
+  EXPECT_EQ(Entries(staging), std::set<std::string>({kTemporaryMarker}));
+}
+
 // A process killed at any step of a replacement leaves the old or the new unit at the
 // target (or, without RENAME_EXCHANGE, a moved-aside one that CleanLeftovers renames
 // back), and CleanLeftovers then removes everything else.
