@@ -73,6 +73,29 @@ TEST(FindPointOnLineTest, ExtrapolatesAnExpansionFromTheNearerEnd) {
   EXPECT_FALSE(FindPointOnLine(Pointers(points), far.data(), &line));
 }
 
+// The remembered points in either order: an expansion beyond the older point (the
+// newer one is the base), and a backtrack beyond the older of two trial points whose
+// base has left the memory (t = 1.8 from the newer one through the older).
+TEST(FindPointOnLineTest, TheOrderOfTheRememberedPointsDoesNotMatter) {
+  std::mt19937 rng(5);
+  const Eigen::VectorXd base = RandomPoint(&rng), direction = RandomPoint(&rng);
+  const std::vector<Eigen::VectorXd> reversed = {base + direction, base};
+  const Eigen::VectorXd trial = base + 10.0 * direction;
+  PointOnLine line;
+  ASSERT_TRUE(FindPointOnLine(Pointers(reversed), trial.data(), &line));
+  EXPECT_EQ(line.from, 1);
+  EXPECT_EQ(line.to, 0);
+  EXPECT_NEAR(line.t, 10.0, 1e-12);
+  ExpectReproduces(reversed, trial, line);
+  const std::vector<Eigen::VectorXd> steps = {base + 0.5 * direction, base + direction};
+  const Eigen::VectorXd back = base + 0.1 * direction;
+  ASSERT_TRUE(FindPointOnLine(Pointers(steps), back.data(), &line));
+  EXPECT_EQ(line.from, 1);
+  EXPECT_EQ(line.to, 0);
+  EXPECT_NEAR(line.t, 1.8, 1e-12);
+  ExpectReproduces(steps, back, line);
+}
+
 TEST(FindPointOnLineTest, RefusesPointsOffTheLineRepeatsAndTooFewPoints) {
   std::mt19937 rng(4);
   const std::vector<Eigen::VectorXd> points = {RandomPoint(&rng), RandomPoint(&rng),

@@ -106,6 +106,12 @@ TEST(SolverCheckpointTest, ACheckpointOfSomethingElseIsNotResumed) {
   key.push_back({"surfaces", "1"});
   EXPECT_FALSE(ReadSolverCheckpoint(dir.path(), key, 7, &read, &why_not));
   EXPECT_NE(why_not.find("'surfaces' differs (none; now 1)"), std::string::npos) << why_not;
+  key = SomeKey();
+  key.pop_back();  // the saved 'options' entry is not this run's
+  EXPECT_FALSE(ReadSolverCheckpoint(dir.path(), key, 7, &read, &why_not));
+  EXPECT_NE(why_not.find("checkpoint.txt: it has other key entries than this run's"),
+            std::string::npos)
+      << why_not;
   EXPECT_FALSE(ReadSolverCheckpoint(dir.path(), SomeKey(), 8, &read, &why_not));
   EXPECT_NE(why_not.find("7 parameters"), std::string::npos) << why_not;
 }
