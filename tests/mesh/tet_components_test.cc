@@ -49,6 +49,22 @@ TEST(TetComponentsTest, PiecesAreJoinedByTriangles) {
   EXPECT_EQ(TetMeshPieces(hinged, &piece), 2);
   EXPECT_EQ(TetMeshPieces(TwoBars(Eigen::Vector3d(2, 0, 0)), &piece), 1);  // a shared face
   EXPECT_EQ(TetMeshPieces(testing::BarMesh(5, 2, 1, 1.0), &piece), 1);
+  // Two elements sharing the edge (0, 1) only: two pieces, however the other vertices
+  // are numbered (the faces at the shared edge then sort next to each other in a table
+  // of faces by their vertices).
+  TetMesh two_tets;
+  two_tets.vertices.resize(3, 6);
+  two_tets.vertices << 0, 1, 0, 0, 0, 0,  //
+      0, 0, 1, 0, -1, 0,                  //
+      0, 0, 0, 1, 0, -1;
+  for (const Eigen::Matrix<int, 4, 2>& tets :
+       {(Eigen::Matrix<int, 4, 2>() << 0, 0, 1, 1, 2, 4, 3, 5).finished(),
+        (Eigen::Matrix<int, 4, 2>() << 4, 2, 5, 3, 0, 0, 1, 1).finished()}) {
+    two_tets.tets = tets;
+    EXPECT_EQ(TetMeshPieces(two_tets, &piece), 2) << tets.transpose();
+  }
+  two_tets.tets << 0, 0, 1, 1, 2, 2, 3, 4;  // sharing the triangle (0, 1, 2): one piece
+  EXPECT_EQ(TetMeshPieces(two_tets, &piece), 1);
 }
 
 // A piece without 3 fixed vertices off one line is refused, named by an element; fixed
