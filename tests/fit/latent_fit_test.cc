@@ -995,6 +995,33 @@ TEST(LatentFitTest, LandmarksHoldAScanOutOfReachOnlyWhereTheyWeigh) {
   EXPECT_TRUE(fitter.FitPointCloud(far, cloud, fitter.PriorLatent(), &fit, &error)) << error;
 }
 
+// A start whose surface matches only 2 of the scan's points scores infinity in both
+// modes (a match of fewer than 3 holds nothing, and its small mean distance must not win
+// ChooseStart); with 3 it is finite. Only 0 matched points had been tried.
+TEST(LatentFitTest, AStartMatchingFewerThanThreeScanPointsScoresInfinity) {
+  const ActiveModel model = TrainedModel(false);
+  LatentFitter fitter(model, LatentFitOptions());
+  Eigen::Matrix3Xd state, surface;
+  std::string error;
+  ASSERT_TRUE(fitter.Simulate(model.latents.col(2), &state, &surface, &error)) << error;
+  for (const bool rematch : {false, true}) {
+    PointCloudFitOptions cloud;
+    cloud.max_distance = 0.5;
+    cloud.rematch_every_evaluation = rematch;
+    for (const int near : {2, 3}) {
+      Eigen::Matrix3Xd scan = surface.colwise() + Eigen::Vector3d(0, 0, 5.0);
+      for (int k = 0; k < near; ++k) scan.col(10 * k) = surface.col(10 * k);
+      const double objective =
+          fitter.StartObjective(nullptr, &scan, cloud, surface, fitter.PriorLatent());
+      if (near < 3) {
+        EXPECT_TRUE(std::isinf(objective)) << "rematch " << rematch << ": " << objective;
+      } else {
+        EXPECT_TRUE(std::isfinite(objective)) << "rematch " << rematch;
+      }
+    }
+  }
+}
+
 // The surface of training latent p simulated at rest bones: a scan with every point.
 void ScanOfTrainingPose(const ActiveModel& model, int p, Eigen::Matrix3Xd* scan) {
   LatentFitter fitter(model, LatentFitOptions());
