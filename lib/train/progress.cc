@@ -1,5 +1,6 @@
 #include "train/progress.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -27,13 +28,18 @@ double EstimateRemaining(int done, int total, double elapsed) {
   return elapsed / done * std::max(0, total - done);
 }
 
+double ProgressEta(int done_here, int total, int done_before, double elapsed,
+                   double seconds_left) {
+  double remaining = EstimateRemaining(done_here, total - done_before, elapsed);
+  if (seconds_left >= 0) remaining = std::min(remaining, std::max(0.0, seconds_left - elapsed));
+  return remaining;
+}
+
 ceres::CallbackReturnType ProgressLogger::operator()(const ceres::IterationSummary& s) {
   if (every_ > 0 && (s.iteration % every_ == 0)) {
     const double elapsed = timer_.Seconds();
-    double remaining = EstimateRemaining(s.iteration, total_ - done_before_, elapsed);
-    if (seconds_left_ >= 0) {
-      remaining = std::min(remaining, std::max(0.0, seconds_left_ - elapsed));
-    }
+    const double remaining =
+        ProgressEta(s.iteration, total_, done_before_, elapsed, seconds_left_);
     char line[320];
     std::snprintf(line, sizeof(line), "  %s iter %5d/%d  loss %.6e  |g| %.3e  %s  ETA %s\n",
                   label_.c_str(), done_before_ + s.iteration, total_, s.cost, s.gradient_norm,

@@ -18,6 +18,13 @@ std::string FormatDuration(double seconds);
 // The estimated time left after `done` of `total` steps took `elapsed` seconds.
 double EstimateRemaining(int done, int total, double elapsed);
 
+// The ETA a progress line prints: a run that resumes after `done_before` of `total`
+// iterations has done `done_here` more in `elapsed` seconds; the estimate is for its own
+// rest (total - done_before - done_here), at most what is left of a time budget of
+// `seconds_left` (at the run's start; < 0: none). -1 (unknown) before its first iteration.
+double ProgressEta(int done_here, int total, int done_before, double elapsed,
+                   double seconds_left);
+
 // A Ceres iteration callback that prints, every `every` iterations (0: never),
 //   "  <label> iter    k/total  loss ...  |g| ...  <elapsed>  ETA <remaining>"
 // to `log`, timed from construction. k counts from `done_before` (iterations of an

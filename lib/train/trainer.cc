@@ -90,12 +90,10 @@ class TrainingCallback final : public ceres::IterationCallback {
     if (s.iteration == 0 && first_ > 0) return ceres::SOLVER_CONTINUE;
     if (options_.log_every > 0 && (s.iteration % options_.log_every == 0)) {
       char line[360];
-      const int planned = options_.max_iterations - first_;
       // The iteration cap's estimate, or the time budget's rest if that ends sooner.
-      double remaining = EstimateRemaining(iteration - first_, planned, elapsed);
-      if (options_.max_seconds > 0) {
-        remaining = std::min(remaining, std::max(0.0, options_.max_seconds - elapsed));
-      }
+      const double remaining =
+          ProgressEta(iteration - first_, options_.max_iterations, first_, elapsed,
+                      options_.max_seconds > 0 ? options_.max_seconds : -1.0);
       std::snprintf(line, sizeof(line),
                     "  train iter %5d/%d  loss %.6e  surface mean %.4g max %.4g  |g| %.3e  "
                     "fact/pose %.2f  %s  ETA %s\n",

@@ -32,6 +32,18 @@ TEST(ProgressTest, TheTimeLeftGrowsWithTheStepsLeft) {
   EXPECT_LT(EstimateRemaining(0, 40, 5.0), 0.0);  // nothing done: unknown
 }
 
+// A run resumed after 4 of 10 iterations: its ETA counts only its own 6 (after 2 of them
+// in 1 s, 4 more at 0.5 s), capped by a time budget, unknown before its first iteration
+// (the pre-training's and the auto-encoder's lines counted all 10).
+TEST(ProgressTest, AResumedRunsEtaCountsOnlyItsOwnIterations) {
+  EXPECT_DOUBLE_EQ(ProgressEta(2, 10, 4, 1.0, -1.0), 2.0);
+  EXPECT_DOUBLE_EQ(ProgressEta(6, 10, 4, 3.0, -1.0), 0.0);
+  EXPECT_DOUBLE_EQ(ProgressEta(2, 10, 4, 1.0, 1.5), 0.5);
+  EXPECT_DOUBLE_EQ(ProgressEta(2, 10, 4, 2.0, 1.5), 0.0);
+  EXPECT_LT(ProgressEta(0, 10, 4, 0.5, 1.5), 0.0);
+  EXPECT_DOUBLE_EQ(ProgressEta(2, 10, 0, 1.0, -1.0), 4.0);  // a fresh run
+}
+
 // With a time budget the ETA is at most what is left of it (pre-training's said 2:39:08
 // and stopped at 6 s).
 TEST(ProgressTest, TheTimeBudgetCapsTheEta) {
