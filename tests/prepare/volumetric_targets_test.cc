@@ -103,6 +103,37 @@ TEST_F(VolumetricTargetsTest, InvertedElementsAreCounted) {
   EXPECT_EQ(text.substr(second).find("inverted"), std::string::npos) << text;
 }
 
+// A pose whose direct solve fails within the budget (one Newton step after at most 3
+// L-BFGS iterations) is reached by continuation in 4 steps, each from the last: its
+// target is the one the direct solve reaches with the default budget. (No test had
+// entered the continuation before.)
+TEST_F(VolumetricTargetsTest, ContinuationReachesThePoseWhereTheDirectSolveFails) {
+  const ActiveModel expected = MakeOf({0}, 1);
+  VolumetricTargetOptions options;
+  options.num_threads = 1;
+  options.solver.max_iterations = 1;
+  options.solver.max_lbfgs_iterations = 3;
+  options.continuation_steps = 1;
+  ActiveModel model = base_;
+  std::vector<std::string> failures(kPoses);
+  std::ostringstream log;
+  MakeVolumetricTargetsOf(options, {0}, nullptr, &model, log, &failures);
+  EXPECT_NE(failures[0].find("did not converge"), std::string::npos) << failures[0];
+  options.continuation_steps = 4;
+  model = base_;
+  failures.assign(kPoses, "");
+  log.str("");
+  MakeVolumetricTargetsOf(options, {0}, nullptr, &model, log, &failures);
+  EXPECT_EQ(failures[0], "");
+  EXPECT_NE(log.str().find(" in 4 steps"), std::string::npos) << log.str();
+  ASSERT_EQ(model.poses[0].target.cols(), model.mesh.num_tets());
+  const ActuationMatrix& target = expected.poses[0].target;
+  EXPECT_LT((model.poses[0].target - target).cwiseAbs().maxCoeff(),
+            1e-6 * target.cwiseAbs().maxCoeff());
+  EXPECT_NEAR(model.poses[0].embedding_mean_error, expected.poses[0].embedding_mean_error,
+              1e-6 * expected.poses[0].embedding_mean_error);
+}
+
 // An element's target reproduces its deformation gradient F up to a proper rotation:
 // R S = F with R in SO(3), for inverted F too with kExact (S then has one negative
 // eigenvalue, det S = det F); kMirror gives sqrt(F^T F) there, the mirror image, which
