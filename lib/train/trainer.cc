@@ -116,9 +116,10 @@ class TrainingCallback final : public ceres::IterationCallback {
              << "state)\n";
         log_warned_ = true;
       }
-      const bool checkpoint = options_.checkpoint_every > 0 &&
-                              s.iteration > 0 && s.iteration % options_.checkpoint_every == 0;
-      if (checkpoint && !Save(iteration, s.cost)) return ceres::SOLVER_ABORT;
+      if (CheckpointDue(iteration, s.iteration, options_.checkpoint_every) &&
+          !Save(iteration, s.cost)) {
+        return ceres::SOLVER_ABORT;
+      }
     }
     if (options_.max_seconds > 0 && elapsed > options_.max_seconds) {
       log_ << "  time budget of " << FormatDuration(options_.max_seconds) << " reached\n";
@@ -363,6 +364,10 @@ int RunTrainingSolves(const TrainOptions& options, const ceres::GradientProblem&
 }
 
 }  // namespace
+
+bool CheckpointDue(int iteration, int run_iteration, int every) {
+  return every > 0 && run_iteration > 0 && iteration % every == 0;
+}
 
 bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport* report,
                    std::ostream& log, std::string* error) {

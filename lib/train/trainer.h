@@ -151,6 +151,14 @@ struct TrainReport {
 bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport* report,
                    std::ostream& log, std::string* error);
 
+// Whether training saves a checkpoint after `iteration` (counted over every run of the
+// model, as the log's rows are), `run_iteration` of them this run's: at the multiples of
+// `every` (> 0; 0: never), as the periodic latent refits are, so that a run resumed from
+// another iteration (one that ended on its budget) keeps the same schedule; never at a
+// run's start point (run_iteration 0, the last run's checkpoint). Each run also saves
+// where it ends.
+bool CheckpointDue(int iteration, int run_iteration, int every);
+
 }  // namespace aqs
 
 #endif  // AQS_TRAIN_TRAINER_H_

@@ -157,6 +157,19 @@ TEST_F(CheckpointResumeTest, ResumeAfterAFinishedRunStartsAtTheLoggedLoss) {
   EXPECT_EQ(count, 6);
 }
 
+// Checkpoints fall on the multiples of checkpoint_every counted over all runs, as the
+// latent refits do: a run resumed from iteration 4 (a run that stopped on its budget or
+// its cap) saves at 6, not at 7 (4 + 3); never at its start point.
+TEST(CheckpointScheduleTest, CheckpointsFallOnMultiplesOfAllIterations) {
+  EXPECT_TRUE(CheckpointDue(3, 3, 3));   // a fresh run
+  EXPECT_TRUE(CheckpointDue(6, 2, 3));   // resumed from 4
+  EXPECT_FALSE(CheckpointDue(7, 3, 3));
+  EXPECT_FALSE(CheckpointDue(6, 0, 3));  // resumed at 6: its start point
+  EXPECT_FALSE(CheckpointDue(0, 0, 1));
+  EXPECT_TRUE(CheckpointDue(5, 1, 1));
+  EXPECT_FALSE(CheckpointDue(6, 2, 0));  // never
+}
+
 // A periodic latent refit runs after its iteration's checkpoint. A run resumed at that
 // checkpoint refits first (it used to go on without the refit, on another path), and a
 // checkpoint saved after the refit (a run that ended in it) is not refitted twice. Every
