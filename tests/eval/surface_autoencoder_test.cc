@@ -311,6 +311,41 @@ TEST_F(TrainedAutoencoderTest, FitLatentUsesThePhysicsFitsPriorRule) {
 
 // With a linear skip, the fit cost keeps the skip weights' rows of the listed vertices:
 // its residuals are the decoded surface's, and its Jacobian matches central differences.
+// Before any iteration (max_iterations 0) the network decodes every training latent
+// near the neutral plus the training surfaces' mean displacement (its output bias starts
+// there, divided by output_scale; the small output layer adds a little): it learns only
+// the variation about the mean. Without the division it started 1/s - 1 = 9 mean
+// displacements off, and only tests that follow its exact optimisation path noticed.
+TEST(SurfaceAutoencoderTest, StartsAtTheMeanDisplacement) {
+  const std::vector<Eigen::Matrix3Xd> surfaces = TrainingSurfaces();
+  const Eigen::Matrix3Xd neutral = BentGrid(0.6, 0.0);
+  Eigen::Matrix3Xd mean = Eigen::Matrix3Xd::Zero(3, neutral.cols());
+  for (const Eigen::Matrix3Xd& s : surfaces) mean += (s - neutral) / surfaces.size();
+  double spread = 0.0;  // mean squared distance of the surfaces from their mean
+  for (const Eigen::Matrix3Xd& s : surfaces) {
+    spread += (s - neutral - mean).colwise().squaredNorm().mean() / surfaces.size();
+  }
+  SurfaceAutoencoderOptions options;
+  options.latent_dim = 2;
+  options.hidden_dims = {16};
+  options.output_scale = 0.1;
+  options.max_iterations = 0;
+  SurfaceAutoencoder ae;
+  std::ostringstream log;
+  std::string error;
+  ASSERT_TRUE(ae.Train(neutral, surfaces, options, log, &error)) << error;
+  ASSERT_EQ(ae.training_latents().cols(), static_cast<Eigen::Index>(surfaces.size()));
+  const double mean_norm = mean.colwise().squaredNorm().mean();
+  ASSERT_GT(mean_norm, 0.1 * spread) << "the mean displacement is not negligible";
+  for (int p = 0; p < ae.training_latents().cols(); ++p) {
+    const Eigen::Matrix3Xd decoded = ae.Decode(ae.training_latents().col(p));
+    // Measured at most 0.39 of it (the output layer's start); 81 times it without the
+    // division by output_scale.
+    EXPECT_LT((decoded - neutral - mean).colwise().squaredNorm().mean(), mean_norm)
+        << "surface " << p;
+  }
+}
+
 TEST(SurfaceAutoencoderTest, LinearSkipFitCostMatchesTheDecoder) {
   const std::vector<Eigen::Matrix3Xd> surfaces = TrainingSurfaces();
   const Eigen::Matrix3Xd neutral = BentGrid(0.6, 0.0);
