@@ -62,7 +62,9 @@ bool RemoveFreePieces(ActiveModel* model, FreePieceRemoval* removal, std::string
   std::vector<int> kept_vertices;
   TetMesh kept = ElementSubset(mesh, kept_elements, &kept_vertices);
   std::vector<int> new_vertex(mesh.num_vertices(), -1);
-  for (size_t v = 0; v < kept_vertices.size(); ++v) new_vertex[kept_vertices[v]] = static_cast<int>(v);
+  for (size_t v = 0; v < kept_vertices.size(); ++v) {
+    new_vertex[kept_vertices[v]] = static_cast<int>(v);
+  }
   removal->vertices = mesh.num_vertices() - kept.num_vertices();
 
   Eigen::VectorXd mu(kept.num_tets());

@@ -384,10 +384,10 @@ TEST(QuasistaticSolverTest, OptionsCheckEveryFactorReuseField) {
 }
 
 // A mesh piece that nothing holds (a lone element beside the held bar, as meshers leave
-// and models prepared before 2026-12-07 keep) makes every stiffness singular; whether CHOLMOD factorizes it then
-// depends on the sign of a round-off pivot. The stability check took such stable
-// equilibria for saddles (3 escapes, then "unstable"), and L-BFGS lost its
-// preconditioner. Both now factorize K + 1e-10 mean(diag K) I where K does not.
+// and models prepared before 2026-12-07 keep) makes every stiffness singular; whether
+// CHOLMOD factorizes it then depends on the sign of a round-off pivot. The stability
+// check took such stable equilibria for saddles (3 escapes, then "unstable"), and L-BFGS
+// lost its preconditioner. Both now factorize K + 1e-10 mean(diag K) I where K does not.
 TEST(QuasistaticSolverTest, AFreePieceIsNotTakenForASaddle) {
   TetMesh mesh = BarMesh(4, 2, 2, 0.5);
   testing::AppendLoneElement(&mesh, 0.5, 0.3);

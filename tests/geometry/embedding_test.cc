@@ -10,21 +10,11 @@
 #include <vector>
 
 #include "mesh/lattice.h"
+#include "testing/test_meshes.h"
 #include "util/wall_timer.h"
 
 namespace aqs {
 namespace {
-
-TetMesh UnitTet() {
-  TetMesh mesh;
-  mesh.vertices.resize(3, 4);
-  mesh.vertices << 0, 1, 0, 0,  //
-      0, 0, 1, 0,               //
-      0, 0, 0, 1;
-  mesh.tets.resize(4, 1);
-  mesh.tets << 0, 1, 2, 3;
-  return mesh;
-}
 
 TetMesh Lattice(LatticeType type, int n, double spacing) {
   LatticeOptions options;
@@ -48,7 +38,7 @@ void ExpectReproduces(const TetMesh& mesh, const Embedding& embedding,
 }
 
 TEST(EmbeddingTest, SingleTetInsideBoundaryAndOutside) {
-  const TetMesh mesh = UnitTet();
+  const TetMesh mesh = testing::UnitTet();
   Eigen::Matrix3Xd points(3, 6);
   points << 0.1, 0, 1, 0.5, -1, 1,  //
       0.2, 0, 0, 0.5, 0.2, 1,       //

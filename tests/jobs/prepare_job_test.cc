@@ -15,6 +15,7 @@
 #include "prepare/halfway_poses.h"
 #include "prepare/target_store.h"
 #include "testing/temp_dir.h"
+#include "testing/test_meshes.h"
 #include "testing/test_surfaces.h"
 #include "util/fault_injection.h"
 
@@ -325,18 +326,10 @@ TEST_F(PrepareJobTest, AFreePieceWithoutSurfaceIsRemoved) {
   ActiveModel plain;
   ASSERT_TRUE(LoadModel(options.output, &plain, &error)) << error;
   ASSERT_TRUE(WriteMeditMesh(dir_.File("plain.mesh"), plain.mesh, &error)) << error;
-  TetMesh with_lone = plain.mesh;
-  const int n = with_lone.num_vertices(), m = with_lone.num_tets();
-  with_lone.vertices.conservativeResize(3, n + 4);
-  with_lone.vertices.rightCols(4) << 0.0, 0.1, 0.0, 0.0,  //
-      0.0, 0.0, 0.1, 0.0,                                 //
-      0.0, 0.0, 0.0, 0.1;
-  with_lone.tets.conservativeResize(4, m + 1);
-  with_lone.tets.col(m) << n, n + 1, n + 2, n + 3;
-  if ((SignedTetVolume(with_lone, with_lone.vertices, m) > 0) !=
-      (SignedTetVolume(with_lone, with_lone.vertices, 0) > 0)) {
-    std::swap(with_lone.tets(1, m), with_lone.tets(2, m));
-  }
+  TetMesh lone = testing::UnitTet();  // edges of 0.1 at the centre
+  lone.vertices *= 0.1;
+  const int m = plain.mesh.num_tets();
+  const TetMesh with_lone = testing::JoinMeshes(plain.mesh, lone);
   ASSERT_TRUE(WriteMeditMesh(dir_.File("lone.mesh"), with_lone, &error)) << error;
   options.boundary.fixed_depth = -1;  // a box below: the lone element at the centre is free
   options.boundary.fixed_boxes = {Eigen::AlignedBox3d(Eigen::Vector3d(-3, -3, -3),

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "mesh/tet_mesh.h"
+#include "testing/test_meshes.h"
 
 namespace aqs {
 namespace testing {
@@ -14,18 +15,6 @@ namespace testing {
 inline ::testing::AssertionResult Contains(const std::string& text, const std::string& part) {
   if (text.find(part) != std::string::npos) return ::testing::AssertionSuccess();
   return ::testing::AssertionFailure() << "\"" << text << "\" does not contain \"" << part << "\"";
-}
-
-// The tetrahedron (0,0,0) (1,0,0) (0,1,0) (0,0,1), positive signed volume 1/6.
-inline TetMesh UnitTet() {
-  TetMesh mesh;
-  mesh.vertices.resize(3, 4);
-  mesh.vertices << 0, 1, 0, 0,  //
-      0, 0, 1, 0,               //
-      0, 0, 0, 1;
-  mesh.tets.resize(4, 1);
-  mesh.tets << 0, 1, 2, 3;
-  return mesh;
 }
 
 inline double TotalSignedVolume(const TetMesh& mesh) {

@@ -164,7 +164,8 @@ TEST_F(BoneClearanceTest, AnEmptyBoneSurfaceIsRefused) {
 TEST_F(BoneClearanceTest, OverlappingRegionsGiveAVertexToTheFirstBoneOnly) {
   BoneRule skull = options_.bones[0];
   skull.name = "skull";
-  skull.region_boxes = {Eigen::AlignedBox3d(Eigen::Vector3d(-1, -1, -1), Eigen::Vector3d(2.5, 2, 2))};
+  skull.region_boxes = {
+      Eigen::AlignedBox3d(Eigen::Vector3d(-1, -1, -1), Eigen::Vector3d(2.5, 2, 2))};
   options_.bones.push_back(skull);
   std::string error, log;
   ActiveModel model;

@@ -33,18 +33,10 @@ PiecesScene MakeScene() {
   for (int v = 0; v < scene.bar.num_vertices(); ++v) {
     if (scene.bar.vertices(0, v) > x_max - 1e-9) scene.right.push_back(v);
   }
-  TetMesh lone;
-  lone.vertices.resize(3, 4);
-  lone.vertices << 5, 5.2, 5, 5,  //
-      0, 0, 0.2, 0,               //
-      0, 0, 0, 0.2;
-  lone.tets.resize(4, 1);
-  lone.tets << 0, 1, 2, 3;
+  TetMesh lone = testing::UnitTet();  // edges of 0.2 from (5, 0, 0)
+  lone.vertices = (0.2 * lone.vertices).colwise() + Eigen::Vector3d(5, 0, 0);
   ActiveModel& model = scene.model;
-  model.mesh.vertices.resize(3, 4 + scene.bar.num_vertices());
-  model.mesh.vertices << lone.vertices, scene.bar.vertices;
-  model.mesh.tets.resize(4, 1 + scene.bar.num_tets());
-  model.mesh.tets << lone.tets, (scene.bar.tets.array() + 4).matrix();
+  model.mesh = testing::JoinMeshes(lone, scene.bar);
   model.mu = Eigen::VectorXd::LinSpaced(model.mesh.num_tets(), 1.0, 2.0);
   model.static_vertices = {1};
   for (int v : scene.left.vertices) model.static_vertices.push_back(v + 4);

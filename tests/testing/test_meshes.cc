@@ -8,6 +8,33 @@
 namespace aqs {
 namespace testing {
 
+TetMesh UnitTet() {
+  TetMesh mesh;
+  mesh.vertices.resize(3, 4);
+  mesh.vertices << 0, 1, 0, 0,  //
+      0, 0, 1, 0,               //
+      0, 0, 0, 1;
+  mesh.tets.resize(4, 1);
+  mesh.tets << 0, 1, 2, 3;
+  return mesh;
+}
+
+TetMesh JoinMeshes(const TetMesh& a, const TetMesh& b) {
+  TetMesh joined;
+  const int n = a.num_vertices(), m = a.num_tets();
+  joined.vertices.resize(3, n + b.num_vertices());
+  joined.vertices << a.vertices, b.vertices;
+  joined.tets.resize(4, m + b.num_tets());
+  joined.tets << a.tets, (b.tets.array() + n).matrix();
+  const bool positive = SignedTetVolume(joined, joined.vertices, 0) > 0;
+  for (int t = m; t < joined.num_tets(); ++t) {
+    if ((SignedTetVolume(joined, joined.vertices, t) > 0) != positive) {
+      std::swap(joined.tets(1, t), joined.tets(2, t));
+    }
+  }
+  return joined;
+}
+
 TetMesh OneTetMesh() {
   TetMesh mesh;
   mesh.vertices.resize(3, 4);
@@ -82,20 +109,15 @@ Eigen::Matrix3Xd JitteredVertices(const TetMesh& mesh, double sigma, std::mt1993
 }
 
 void AppendLoneElement(TetMesh* mesh, double gap, double size) {
-  const int n = mesh->num_vertices(), m = mesh->num_tets();
   const Eigen::Vector3d corner =
       mesh->vertices.rowwise().maxCoeff() + Eigen::Vector3d(0.0, 0.0, gap);
-  mesh->vertices.conservativeResize(3, n + 4);
-  mesh->vertices.col(n) = corner;
-  mesh->vertices.col(n + 1) = corner + Eigen::Vector3d(-size, 0.0, 0.0);
-  mesh->vertices.col(n + 2) = corner + Eigen::Vector3d(0.0, -size, 0.0);
-  mesh->vertices.col(n + 3) = corner + Eigen::Vector3d(0.0, 0.0, size);
-  mesh->tets.conservativeResize(4, m + 1);
-  mesh->tets.col(m) << n, n + 1, n + 2, n + 3;
-  const bool positive = SignedTetVolume(*mesh, mesh->vertices, 0) > 0;
-  if ((SignedTetVolume(*mesh, mesh->vertices, m) > 0) != positive) {
-    std::swap(mesh->tets(1, m), mesh->tets(2, m));
-  }
+  TetMesh lone;
+  lone.vertices.resize(3, 4);
+  lone.vertices << corner, corner + Eigen::Vector3d(-size, 0.0, 0.0),
+      corner + Eigen::Vector3d(0.0, -size, 0.0), corner + Eigen::Vector3d(0.0, 0.0, size);
+  lone.tets.resize(4, 1);
+  lone.tets << 0, 1, 2, 3;
+  *mesh = JoinMeshes(*mesh, lone);
 }
 
 }  // namespace testing

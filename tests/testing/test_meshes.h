@@ -15,6 +15,14 @@ namespace testing {
 // A Kuhn lattice bar of nx x ny x nz cubes of edge `spacing`, minimum corner at 0.
 TetMesh BarMesh(int nx, int ny, int nz, double spacing);
 
+// The tetrahedron (0,0,0) (1,0,0) (0,1,0) (0,0,1), positive signed volume 1/6.
+TetMesh UnitTet();
+
+// `a` and then `b` as one mesh: b's vertices after a's, its elements after a's with their
+// indices shifted, each turned (two vertices swapped) where its orientation differs from
+// a's element 0.
+TetMesh JoinMeshes(const TetMesh& a, const TetMesh& b);
+
 // One skewed tetrahedron (vertices near the unit corners, positively oriented): the
 // single-element meshes of the derivative tests.
 TetMesh OneTetMesh();
