@@ -54,7 +54,8 @@ DEFINE_bool(pretrain_simulate, true, "After pre-training, simulate every pose's 
             "latent (from rest, at --train_tolerance): logs and stores the surface error after "
             "pre-training (pretrain/surface_errors.*, the error budget's stage (b)) and gives "
             "training its starting equilibria.");
-DEFINE_int32(checkpoint_every, 1, "Save the learned state every this many iterations.");
+DEFINE_int32(checkpoint_every, 1, "Save the learned state at the multiples of this many "
+             "iterations (counted over all runs of the model), and where a run ends.");
 DEFINE_double(factor_cache_gb, 4.0, "End-to-end training keeps one stiffness factor per pose (far "
               "fewer factorizations) while the poses' factors take at most this many GB in all "
               "(per process), else one solver per thread with single-precision copies of as many "
