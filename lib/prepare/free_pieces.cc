@@ -1,5 +1,7 @@
 #include "prepare/free_pieces.h"
 
+#include <string>
+#include <utility>
 #include <vector>
 
 #include <glog/logging.h>
