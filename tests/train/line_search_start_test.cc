@@ -31,6 +31,17 @@ void ExpectReproduces(const std::vector<Eigen::VectorXd>& points, const Eigen::V
   EXPECT_LT((on_line - x).norm(), 1e-12 * x.norm());
 }
 
+// FindPointOnLine finds x on the line from points[from] to points[to] at t.
+void ExpectLine(const std::vector<Eigen::VectorXd>& points, const Eigen::VectorXd& x, int from,
+                int to, double t) {
+  PointOnLine line;
+  ASSERT_TRUE(FindPointOnLine(Pointers(points), x.data(), &line));
+  EXPECT_EQ(line.from, from);
+  EXPECT_EQ(line.to, to);
+  EXPECT_NEAR(line.t, t, 1e-12);
+  ExpectReproduces(points, x, line);
+}
+
 TEST(FindPointOnLineTest, FindsTheBacktrackOfALineSearch) {
   std::mt19937 rng(1);
   const Eigen::VectorXd base = RandomPoint(&rng), direction = RandomPoint(&rng);
@@ -61,15 +72,11 @@ TEST(FindPointOnLineTest, ExtrapolatesAnExpansionFromTheNearerEnd) {
   std::mt19937 rng(3);
   const Eigen::VectorXd base = RandomPoint(&rng), direction = RandomPoint(&rng);
   const std::vector<Eigen::VectorXd> points = {base, base + direction};
-  const Eigen::VectorXd trial = base + 10.0 * direction;  // Ceres' largest expansion
-  PointOnLine line;
-  ASSERT_TRUE(FindPointOnLine(Pointers(points), trial.data(), &line));
-  EXPECT_EQ(line.from, 0);
-  EXPECT_EQ(line.to, 1);
-  EXPECT_NEAR(line.t, 10.0, 1e-12);
-  ExpectReproduces(points, trial, line);
+  // Ceres' largest expansion.
+  ExpectLine(points, base + 10.0 * direction, 0, 1, 10.0);
   // Beyond kPointOnLineMaxT times the span: too far to extrapolate.
   const Eigen::VectorXd far = base + 25.0 * direction;
+  PointOnLine line;
   EXPECT_FALSE(FindPointOnLine(Pointers(points), far.data(), &line));
 }
 
@@ -79,21 +86,8 @@ TEST(FindPointOnLineTest, ExtrapolatesAnExpansionFromTheNearerEnd) {
 TEST(FindPointOnLineTest, TheOrderOfTheRememberedPointsDoesNotMatter) {
   std::mt19937 rng(5);
   const Eigen::VectorXd base = RandomPoint(&rng), direction = RandomPoint(&rng);
-  const std::vector<Eigen::VectorXd> reversed = {base + direction, base};
-  const Eigen::VectorXd trial = base + 10.0 * direction;
-  PointOnLine line;
-  ASSERT_TRUE(FindPointOnLine(Pointers(reversed), trial.data(), &line));
-  EXPECT_EQ(line.from, 1);
-  EXPECT_EQ(line.to, 0);
-  EXPECT_NEAR(line.t, 10.0, 1e-12);
-  ExpectReproduces(reversed, trial, line);
-  const std::vector<Eigen::VectorXd> steps = {base + 0.5 * direction, base + direction};
-  const Eigen::VectorXd back = base + 0.1 * direction;
-  ASSERT_TRUE(FindPointOnLine(Pointers(steps), back.data(), &line));
-  EXPECT_EQ(line.from, 1);
-  EXPECT_EQ(line.to, 0);
-  EXPECT_NEAR(line.t, 1.8, 1e-12);
-  ExpectReproduces(steps, back, line);
+  ExpectLine({base + direction, base}, base + 10.0 * direction, 1, 0, 10.0);
+  ExpectLine({base + 0.5 * direction, base + direction}, base + 0.1 * direction, 1, 0, 1.8);
 }
 
 TEST(FindPointOnLineTest, RefusesPointsOffTheLineRepeatsAndTooFewPoints) {
