@@ -16,7 +16,8 @@ DECLARE_int32(threads);
 DEFINE_string(latent, "", "A latent file (as aqs_fit writes) to pose the model with.");
 DEFINE_string(pose, "", "Or a training pose's name.");
 DEFINE_string(obstacles, "", "Rigid obstacles: 'path [vertices=a:b] [bone=name]' items "
-              "separated by commas (e.g. the lower teeth moving with the jaw bone).");
+              "separated by commas (e.g. the lower teeth moving with the jaw bone); a path "
+              "with spaces or commas goes in double quotes.");
 DEFINE_string(output, "", "The surface with contact (OBJ).");
 DEFINE_string(output_before, "", "Optional: the surface without contact (OBJ).");
 DEFINE_string(output_volume, "", "Optional: the equilibrium with contact (.vtu or .mesh).");

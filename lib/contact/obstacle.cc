@@ -1,16 +1,18 @@
 #include "contact/obstacle.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <limits>
 #include <set>
+#include <string>
+#include <vector>
 
 #include <glog/logging.h>
 
 #include "geometry/surface_components.h"
 #include "mesh/mesh_io.h"
 #include "util/line_reader.h"
-#include "util/text_split.h"
 
 namespace aqs {
 
@@ -169,12 +171,73 @@ Eigen::Matrix3d FeatureDistanceHessian(const FeatureDistance& feature, double mi
   return hessian / std::max(feature.distance, min_distance);
 }
 
+namespace {
+
+// One comma-separated item of an obstacle spec: its text as given (for messages) and its
+// whitespace-separated fields, double quotes removed.
+struct SpecItem {
+  std::string text;
+  std::vector<std::string> fields;
+};
+
+// Splits `text` into items at commas and each item into fields at whitespace, both only
+// outside double quotes ("My Teeth/teeth,upper.obj" is one field). A comma at the very end
+// closes the last item without opening another, as it always did. False with *error if a
+// quote is not closed.
+bool SplitSpecItems(const std::string& text, std::vector<SpecItem>* items,
+                    std::string* error) {
+  SpecItem item;
+  std::string field;
+  bool in_field = false;  // a field has begun (an empty quoted field "" counts)
+  bool quoted = false;
+  auto end_field = [&]() {
+    if (in_field) item.fields.push_back(field);
+    field.clear();
+    in_field = false;
+  };
+  for (const char c : text) {
+    if (c == '"') {
+      quoted = !quoted;
+      in_field = true;
+    } else if (quoted) {
+      field += c;
+    } else if (c == ',') {
+      end_field();
+      items->push_back(item);
+      item = SpecItem();
+      continue;
+    } else if (std::isspace(static_cast<unsigned char>(c))) {
+      end_field();
+    } else {
+      field += c;
+      in_field = true;
+    }
+    item.text += c;
+  }
+  if (quoted) {
+    *error = "obstacles '" + text + "': a double quote is not closed";
+    return false;
+  }
+  end_field();
+  if (!item.text.empty()) items->push_back(item);
+  return true;
+}
+
+}  // namespace
+
 bool ParseObstacleSpecs(const std::string& text, std::vector<ObstacleSpec>* specs,
                         std::string* error) {
-  for (const std::string& item : SplitFields(text)) {
-    const std::vector<std::string> fields = SplitTokens(item);
+  std::vector<SpecItem> items;
+  if (!SplitSpecItems(text, &items, error)) return false;
+  for (const SpecItem& spec_item : items) {
+    const std::string& item = spec_item.text;
+    const std::vector<std::string>& fields = spec_item.fields;
     if (fields.empty()) {
       *error = "obstacles '" + text + "': an empty item (between commas)";
+      return false;
+    }
+    if (fields[0].empty()) {
+      *error = "obstacle '" + item + "': the path is empty";
       return false;
     }
     ObstacleSpec spec;
@@ -188,7 +251,11 @@ bool ParseObstacleSpecs(const std::string& text, std::vector<ObstacleSpec>* spec
         *error = "obstacle '" + item + "': '" + key + "=' is given twice";
         return false;
       }
-      if (key == "bone" && !value.empty()) {
+      if (key == "bone") {
+        if (value.empty()) {
+          *error = "obstacle '" + item + "': bone= needs the bone's name";
+          return false;
+        }
         spec.bone = value;
       } else if (key == "vertices") {
         const size_t colon = value.find(':');
@@ -198,6 +265,10 @@ bool ParseObstacleSpecs(const std::string& text, std::vector<ObstacleSpec>* spec
           *error = "obstacle '" + item + "': vertices=a:b needs 0 <= a < b";
           return false;
         }
+      } else if (eq == std::string::npos) {
+        *error = "obstacle '" + item + "': '" + fields[i] +
+                 "' after the path (a path with spaces or commas goes in double quotes)";
+        return false;
       } else {
         *error = "obstacle '" + item + "': unknown field '" + fields[i] +
                  "' (expected: path [vertices=a:b] [bone=name])";

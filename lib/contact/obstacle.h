@@ -108,8 +108,11 @@ struct ObstacleSpec {
   std::string bone;     // empty: static
 };
 
-// Parses "path [vertices=a:b] [bone=name]" items separated by commas. Errors (false,
-// *error naming the item): an empty item, a key given twice, an unknown key, a bad range.
+// Parses "path [vertices=a:b] [bone=name]" items separated by commas, fields separated by
+// whitespace; a field in double quotes may hold spaces and commas ("My Scans/teeth.obj").
+// Errors (false, *error naming the item): an empty item or path, a quote not closed, a
+// key given twice, an unknown key or a second field without '=', a bad range, bone= with
+// no name.
 bool ParseObstacleSpecs(const std::string& text, std::vector<ObstacleSpec>* specs,
                         std::string* error);
 

@@ -64,6 +64,21 @@ TEST_F(ReadObstaclesTest, SplitsFilesIntoShellsTiedToTheirBone) {
                            "obstacle " + teeth + ": 24 triangles in 2 shells\n");
 }
 
+TEST_F(ReadObstaclesTest, AQuotedPathWithSpacesIsRead) {
+  SurfaceMesh teeth;
+  std::string error;
+  ASSERT_TRUE(ReadObj(dir_.File("teeth.obj"), &teeth, &error)) << error;
+  const std::string spaced = dir_.File("lower teeth, v2.obj");
+  ASSERT_TRUE(WriteObj(spaced, teeth, &error)) << error;
+  std::vector<MovingObstacle> obstacles;
+  std::ostringstream log;
+  ASSERT_TRUE(ReadMovingObstacles("\"" + spaced + "\" bone=jaw", model_, &obstacles, log, &error))
+      << error;
+  ASSERT_EQ(obstacles.size(), 2u);
+  EXPECT_EQ(obstacles[0].bone, 0);
+  EXPECT_EQ(obstacles[0].name, spaced + " shell 1");
+}
+
 TEST_F(ReadObstaclesTest, NamesTheItemOrFileOfEachError) {
   std::vector<MovingObstacle> obstacles;
   std::ostringstream log;
