@@ -1,9 +1,9 @@
-// Validate() (and KeyText()) of the fit options (LatentFitOptions, PointCloudFitOptions).
+// Validate() and KeyText() of the fit options (fit/fit_options.h), and CheckPointCloudScales.
 
 #include <cmath>
 #include <string>
 
-#include "fit/latent_fit.h"
+#include "fit/fit_options.h"
 #include "util/number_format.h"
 #include "util/option_checks.h"
 
