@@ -1,6 +1,7 @@
 #include "contact/read_obstacles.h"
 
 #include "geometry/points_near_model.h"
+#include "geometry/surface_components.h"
 
 namespace aqs {
 
@@ -37,6 +38,19 @@ bool ReadMovingObstacles(const std::string& spec, const ActiveModel& model,
     log << "obstacle " << specs[i].path << ": " << obstacle_triangles[i].cols() << " triangles"
         << (shells.size() > 1 ? " in " + std::to_string(shells.size()) + " shells" : "")
         << (specs[i].bone.empty() ? "" : ", moving with " + specs[i].bone) << "\n";
+    // An open shell encloses nothing well defined: an open patch gave no contact, exit 0
+    // and no word.
+    for (const MovingObstacle& shell : shells) {
+      int open_edges = 0;
+      for (const BoundaryLoop& loop : FindBoundaryLoops(shell.triangles)) {
+        open_edges += loop.num_edges();
+      }
+      if (open_edges > 0) {
+        log << "obstacle " << shell.name << ": warning: not closed (" << open_edges
+            << " edges of one triangle only): contact pushes points out of what a closed "
+               "surface encloses, and points may pass through this one\n";
+      }
+    }
   }
   return true;
 }

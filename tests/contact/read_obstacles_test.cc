@@ -64,6 +64,27 @@ TEST_F(ReadObstaclesTest, SplitsFilesIntoShellsTiedToTheirBone) {
                            "obstacle " + teeth + ": 24 triangles in 2 shells\n");
 }
 
+// A shell that is not closed is read with a warning naming it (an open patch gave no
+// contact and no word); closed shells get none (the test above).
+TEST_F(ReadObstaclesTest, AnOpenShellIsReadWithAWarning) {
+  SurfaceMesh teeth;
+  std::string error;
+  ASSERT_TRUE(ReadObj(dir_.File("teeth.obj"), &teeth, &error)) << error;
+  SurfaceMesh open;  // triangles only (no stored polygons), the 2nd box's last one left out
+  open.vertices = teeth.vertices;
+  open.triangles = teeth.triangles.leftCols(teeth.num_triangles() - 1);
+  ASSERT_TRUE(WriteObj(dir_.File("open.obj"), open, &error)) << error;
+  std::vector<MovingObstacle> obstacles;
+  std::ostringstream log;
+  ASSERT_TRUE(ReadMovingObstacles(dir_.File("open.obj"), model_, &obstacles, log, &error))
+      << error;
+  ASSERT_EQ(obstacles.size(), 2u);
+  EXPECT_EQ(log.str(), "obstacle " + dir_.File("open.obj") + ": 23 triangles in 2 shells\n" +
+                           "obstacle " + dir_.File("open.obj") + " shell 2: warning: not closed "
+                           "(3 edges of one triangle only): contact pushes points out of what a "
+                           "closed surface encloses, and points may pass through this one\n");
+}
+
 TEST_F(ReadObstaclesTest, AQuotedPathWithSpacesIsRead) {
   SurfaceMesh teeth;
   std::string error;
@@ -92,6 +113,13 @@ TEST_F(ReadObstaclesTest, NamesTheItemOrFileOfEachError) {
   EXPECT_NE(error.find(dir_.File("none.obj")), std::string::npos) << error;
   EXPECT_FALSE(ReadMovingObstacles(teeth + " colour=red", model_, &obstacles, log, &error));
   EXPECT_NE(error.find("colour"), std::string::npos) << error;
+  SurfaceMesh points;
+  points.vertices = model_.neutral.vertices;
+  points.triangles.resize(3, 0);
+  ASSERT_TRUE(WriteObj(dir_.File("points.obj"), points, &error)) << error;
+  EXPECT_FALSE(ReadMovingObstacles(dir_.File("points.obj"), model_, &obstacles, log, &error));
+  EXPECT_EQ(error, dir_.File("points.obj") +
+                       ": has no faces (an obstacle is a closed surface of triangles)");
   EXPECT_TRUE(obstacles.empty());
 }
 
