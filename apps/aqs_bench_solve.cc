@@ -35,7 +35,8 @@ DEFINE_string(latents, "", "With --model: NAME=FILE pairs (comma-separated) of l
               "rest without).");
 DEFINE_bool(springs, false, "With --poses: solve prepare's embedded simulation instead (the passive "
             "body, S = I, pulled by springs onto the pose's surface; see aqs_prepare).");
-DEFINE_double(attachment_stiffness, 100.0, "With --springs: the springs' relative stiffness.");
+DEFINE_double(attachment_stiffness, 100.0, "With --springs: the springs' relative stiffness, in "
+              "(0, 1e8] (as aqs_prepare's).");
 DEFINE_string(methods, "newton,lm", "Solver methods to compare (the first is the reference).");
 DEFINE_double(tolerance, 1e-6, "Relative force tolerance of the solves.");
 DEFINE_int32(max_iterations, 1000, "Iterations at most per solve (factorizations or LM iterations).");

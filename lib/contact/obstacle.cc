@@ -286,6 +286,10 @@ bool ReadObstacleSurfaces(const std::vector<ObstacleSpec>& specs,
   for (const ObstacleSpec& spec : specs) {
     SurfaceMesh surface;
     if (!ReadObj(spec.path, &surface, error)) return false;
+    if (surface.num_triangles() == 0) {
+      *error = spec.path + ": has no faces (an obstacle is a closed surface of triangles)";
+      return false;
+    }
     const int end = spec.end_vertex < 0 ? surface.num_vertices() : spec.end_vertex;
     if (end > surface.num_vertices()) {
       *error = spec.path + ": vertices=" + std::to_string(spec.first_vertex) + ":" +

@@ -333,7 +333,16 @@ bool SurfaceAutoencoder::Train(const Eigen::Matrix3Xd& neutral,
   ceres::GradientProblem problem(objective);  // takes ownership
   SurfaceAutoencoderReport report;
   report.initial_loss = objective->Loss(fresh.data(), nullptr);
-  if (start.iterations > 0) report.resumed_loss = objective->Loss(x.data(), nullptr);
+  if (start.iterations > 0) {
+    report.resumed_loss = objective->Loss(x.data(), nullptr);
+    if (!SameLoss(report.resumed_loss, start.loss)) {
+      // Its numbers were read as finite, but they are not the point it recorded: damaged.
+      *error = "the checkpoint in " + options.checkpoint_directory + " resumed gives a loss of " +
+               FormatDouble(report.resumed_loss) + " where it recorded " +
+               FormatDouble(start.loss) + ": it is damaged; remove it to train anew";
+      return false;
+    }
+  }
   ceres::GradientProblemSolver::Options solver_options;
   solver_options.line_search_direction_type = ceres::LBFGS;
   solver_options.max_lbfgs_rank = kLbfgsRank;

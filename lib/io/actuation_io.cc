@@ -113,6 +113,32 @@ bool ReadActuationTargets(const std::string& path, int num_elements, ActuationMa
   return true;
 }
 
+bool CheckStoredTargets(const std::string& source, const ActuationMatrix& a, std::string* error) {
+  int bad = 0, first = -1;
+  Eigen::Vector3d first_eigenvalues = Eigen::Vector3d::Zero();
+  for (Eigen::Index e = 0; e < a.cols(); ++e) {
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(
+        SymmetricFromActuation(a.col(e).data()), Eigen::EigenvaluesOnly);
+    const double largest = eigen.eigenvalues().cwiseAbs().maxCoeff();
+    if (largest >= kMinActuationStretch && largest <= kMaxActuationStretch) continue;
+    if (bad++ == 0) {
+      first = static_cast<int>(e);
+      first_eigenvalues = eigen.eigenvalues();
+    }
+  }
+  if (bad == 0) return true;
+  std::ostringstream out;
+  out.precision(6);
+  out << source << ": " << bad << " of " << a.cols()
+      << " targets have their largest principal stretch (in magnitude) outside ["
+      << kMinActuationStretch << ", " << kMaxActuationStretch << "]; the first, element "
+      << first << ", has eigenvalues " << first_eigenvalues[0] << ", " << first_eigenvalues[1]
+      << ", " << first_eigenvalues[2]
+      << " (no embedded simulation gives such a target: a damaged file?)";
+  *error = out.str();
+  return false;
+}
+
 int CountNonPositiveDefinite(const ActuationMatrix& a, int* first) {
   int count = 0;
   if (first != nullptr) *first = -1;

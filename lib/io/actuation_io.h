@@ -37,6 +37,16 @@ constexpr double kMaxStiffnessContrast = 1e12;
 bool ReadActuationTargets(const std::string& path, int num_elements, ActuationMatrix* a,
                           std::string* error);
 
+// Checks targets that prepare computed (a model's targets/NNNN.bin, the resume store's):
+// every element's largest principal stretch in magnitude must lie in
+// [kMinActuationStretch, kMaxActuationStretch]. Unlike ReadActuationTargets it accepts S
+// that are not positive definite (prepare's exact targets of elements its embedded
+// simulation inverts have a negative eigenvalue, a flat one a zero) but refuses a target
+// collapsed along every direction (S = 0) or blown up (1e300): a damaged file. `a` is
+// 6 x num_elements. False with *error naming `source`, the number of such elements and the
+// first one's element index and eigenvalues.
+bool CheckStoredTargets(const std::string& source, const ActuationMatrix& a, std::string* error);
+
 // The number of elements of `a` whose S is not positive definite (smallest eigenvalue
 // <= 0). *first (may be null) receives the first such element, or -1.
 int CountNonPositiveDefinite(const ActuationMatrix& a, int* first = nullptr);

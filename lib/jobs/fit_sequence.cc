@@ -12,6 +12,7 @@
 #include "fit/chosen_start_fit.h"
 #include "geometry/points_near_model.h"
 #include "jobs/fit_job.h"
+#include "jobs/model_pose.h"
 #include "jobs/sequence_frames.h"
 #include "jobs/sequence_outputs.h"
 #include "mesh/mesh_io.h"
@@ -519,6 +520,17 @@ FitSequenceResult RunFitSequence(const FitSequenceOptions& options, const Active
   result.frames_resumed = first;
   SequenceFrameFitter fitter(options, model, frames);
   const ScopedBlasThreads blas(BlasThreadsForFactor(fitter.FactorNonzeros(), BlasThreads()));
+  if (options.warm_start && !done.empty() && first < n) {
+    // The row a warm start continues from drives the next solve: its numbers were read as
+    // finite, but a damaged row (a latent of 1e6) ran for minutes to a solve that failed.
+    const std::string row =
+        options.output_dir + "/frames.csv:" + std::to_string(done.back().line_number);
+    if (!CheckLatentActuations(model, done.back().latent, row, &error) ||
+        !CheckBoneMotions(model, done.back().bones, row, &error)) {
+      return fail(JobStatus::kBadInput, error + " (the file is damaged: remove the folder or "
+                                                "choose another --output_dir)");
+    }
+  }
   if (first > 0) {
     log << "resuming at frame " << first << " (" << frames[first < n ? first : n - 1].name
         << "): " << first << " frames done\n";

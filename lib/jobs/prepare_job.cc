@@ -24,6 +24,7 @@
 #include "util/fault_injection.h"
 #include "util/keyed_store.h"
 #include "util/make_directory.h"
+#include "util/number_format.h"
 #include "util/option_checks.h"
 #include "util/wall_timer.h"
 
@@ -94,6 +95,17 @@ bool ReadNeutralAndPoses(const PrepareJobOptions& options, ActiveModel* model,
   if (!ReadObj(options.neutral, &model->neutral, error)) return false;
   if (model->neutral.num_vertices() == 0 || model->neutral.num_triangles() == 0) {
     *error = options.neutral + ": the neutral surface needs vertices and faces";
+    return false;
+  }
+  // Volumes go as the size cubed: a neutral at one point, or of a size whose cube doubles
+  // cannot hold, gave messages about an open patch or a pose far from the model.
+  const double size = ModelSize(model->neutral.vertices);
+  if (!std::isnormal(size * size * size)) {
+    *error = options.neutral + ": the neutral surface's bounding-box diagonal is " +
+             FormatDouble(size) +
+             (size == 0.0 ? " (every vertex at one point)"
+                          : " (its cube, the scale of a volume, is beyond what doubles hold: "
+                            "scale the surfaces to another unit)");
     return false;
   }
   log << "neutral " << options.neutral << ": " << model->neutral.num_vertices() << " vertices, "

@@ -105,6 +105,7 @@ bool ReadFramesDone(const std::string& csv, const std::string& output_dir,
     }
     DoneFrame row;
     row.line = reader.line();
+    row.line_number = reader.line_number();
     row.failed = cells[11] == "-1";
     if (row.failed) {
       // Could not be fitted: no OBJ, "nan" for the matched fraction, the errors, the

@@ -31,6 +31,7 @@ std::string SequenceCsvHeader(const ActiveModel& model);
 // bones' motions.
 struct DoneFrame {
   std::string line;
+  int line_number = 0;  // in frames.csv
   Eigen::VectorXd latent;
   std::vector<RigidTransform> bones;
   bool failed = false;  // converged -1: could not be fitted (latent and bones: none)

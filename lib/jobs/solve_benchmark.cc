@@ -118,7 +118,7 @@ Case BarCase(const SolveBenchmarkOptions& options, TetMesh* mesh,
   c.physics = physics->get();
   c.rest = mesh->vertices;
   for (int v = 0; v < mesh->num_vertices(); ++v) {
-    if (mesh->vertices(0, v) < 1e-9) c.bc.vertices.push_back(v);
+    if (mesh->vertices(0, v) < 1e-9 * options.spacing) c.bc.vertices.push_back(v);
   }
   c.actuation = IdentityActuations(mesh->num_tets());
   const double middle = 0.5 * options.lattice[1] * options.spacing;
@@ -218,6 +218,7 @@ bool SolveBenchmarkOptions::Validate(std::string* error) const {
       .IntAtLeast("max_iterations", max_iterations, 1)
       .IntInRange("num_threads", num_threads, 1, 1024)
       .Positive("attachment_stiffness", attachment_stiffness)
+      .InRange("attachment_stiffness", attachment_stiffness, 0.0, kMaxRelativeStiffness)
       .Positive("max_memory_bytes", max_memory_bytes);
   if (!checks.Done(error)) return false;
   return elements == 0.0 ||

@@ -81,6 +81,12 @@ bool LatticeOptions::Validate(std::string* error) const {
         << ", " << options.nz << ")";
   } else if (!(options.spacing > 0.0) || !std::isfinite(options.spacing)) {
     out << "the lattice's spacing must be finite and > 0 (is " << options.spacing << ")";
+  } else if (!std::isnormal(options.spacing * options.spacing * options.spacing)) {
+    // An element's volume scales as spacing^3: beyond the doubles' range it is 0 or inf,
+    // and every element is flat (the rest shape's CHECK).
+    out << "the lattice's spacing " << options.spacing
+        << " is beyond what doubles can hold of an element's volume (spacing^3 is "
+        << options.spacing * options.spacing * options.spacing << ")";
   } else if (!options.origin.allFinite()) {
     out << "the lattice's origin must be finite";
   } else if (static_cast<double>(options.nx) * options.ny * options.nz * 48 >

@@ -26,9 +26,10 @@ struct LatticeOptions {
   LatticeType type = LatticeType::kKuhn;
 
   // Whether MakeLatticeMesh can build these options: cube counts >= 1, a finite positive
-  // spacing, a finite origin, and element indices that fit an int (at most about 44
-  // million cubes). False with *error naming the field. (The memory such a mesh's
-  // simulation needs is the caller's to check.)
+  // spacing whose cube (an element's volume scale) is a normal double, a finite origin,
+  // and element indices that fit an int (at most about 44 million cubes). False with
+  // *error naming the field. (The memory such a mesh's simulation needs is the caller's
+  // to check.)
   bool Validate(std::string* error) const;
 };
 

@@ -7,6 +7,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <algorithm>
 #include <cerrno>
@@ -209,6 +210,23 @@ bool CheckNeutralHasFaces(const std::string& dir, const ActiveModel& model, std:
   return false;
 }
 
+// The smallest eigenvalue of a fit prior's covariance must be at least this fraction of its
+// largest. A covariance that is nearly singular, with ordinary variances on its diagonal,
+// pinned fits silently to a line of latents or the jaw to rest; learned ones are far
+// inside (the latent's floor is 1% of the mean variance, the bones' floors 1% of a radian
+// and 10% of the motions' spread).
+constexpr double kMinPriorEigenvalueRatio = 1e-12;
+
+// Whether the symmetric matrix `c` has eigenvalues in [kMinPriorEigenvalueRatio x its
+// largest, its largest], the largest positive.
+bool WellConditionedCovariance(const Eigen::MatrixXd& c) {
+  if (c.size() == 0) return true;
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(c, Eigen::EigenvaluesOnly);
+  const Eigen::VectorXd& lambda = eigen.eigenvalues();  // increasing
+  return lambda[lambda.size() - 1] > 0.0 &&
+         lambda[0] >= kMinPriorEigenvalueRatio * lambda[lambda.size() - 1];
+}
+
 // A fit prior's scales (`prior_source`: its file): finite but absurd priors (a bone's mean
 // 1e300 away, a covariance of 1e-300) made every fit fail inside Ceres, naming nothing.
 // Learned ones are far inside these bounds (the latent's mean variance above 1e-12, a
@@ -223,6 +241,12 @@ bool CheckFitPriorScales(const std::string& prior_source, const ActiveModel& mod
   if (latent.size() > 0 && !(latent.covariance.diagonal().mean() >= 1e-14)) {
     *error = prior_source + ": the latent covariance's mean variance is " +
              FormatDouble(latent.covariance.diagonal().mean()) + ", below 1e-14" + remedy;
+    return false;
+  }
+  if (!WellConditionedCovariance(latent.covariance)) {
+    *error = prior_source + ": the latent covariance is nearly singular (its smallest " +
+             "eigenvalue is below " + FormatDouble(kMinPriorEigenvalueRatio) +
+             " of its largest), which pins fits to a subspace" + remedy;
     return false;
   }
   for (size_t b = 0; b < model.fit_prior.bones.size() && b < model.bones.size(); ++b) {
@@ -240,6 +264,12 @@ bool CheckFitPriorScales(const std::string& prior_source, const ActiveModel& mod
         !(variances.tail<3>().minCoeff() >= 1e-18 * size * size)) {
       *error = prior_source + ": the covariance of " + name +
                " has a variance near 0, which pins every fit" + remedy;
+      return false;
+    }
+    if (!WellConditionedCovariance(bone.covariance)) {
+      *error = prior_source + ": the covariance of " + name + " is nearly singular (its " +
+               "smallest eigenvalue is below " + FormatDouble(kMinPriorEigenvalueRatio) +
+               " of its largest), which pins fits to a subspace" + remedy;
       return false;
     }
   }
@@ -472,7 +502,10 @@ bool ReadPoses(const std::string& dir, ActiveModel* model, std::string* error) {
     m.poses[p].surface = matrix;
     const std::string target = internal::PoseFile(dir + "/targets", p);
     if (MayExist(target)) {
-      if (!ReadFiniteMatrix(target, 6, ne, &matrix, error)) return false;
+      if (!ReadFiniteMatrix(target, 6, ne, &matrix, error) ||
+          !CheckStoredTargets(target, matrix, error)) {
+        return false;
+      }
       m.poses[p].target = matrix;
     }
   }
@@ -527,6 +560,12 @@ bool ReadFixedVerticesAndBones(const std::string& dir, ActiveModel* model, std::
       *error = reader.error();
       return false;
     }
+    const Eigen::Vector3d centre =
+        m.neutral.num_vertices() > 0
+            ? Eigen::Vector3d(0.5 * (m.neutral.vertices.rowwise().minCoeff() +
+                                     m.neutral.vertices.rowwise().maxCoeff()))
+            : Eigen::Vector3d::Zero();
+    const double size = ModelSize(m.neutral.vertices);
     std::vector<std::string> t;
     while (reader.NextTokens(&t)) {
       int b = 0, p = 0;
@@ -566,6 +605,18 @@ bool ReadFixedVerticesAndBones(const std::string& dir, ActiveModel* model, std::
                               std::to_string(p) +
                               " is not a proper rotation and a finite "
                               "translation");
+        return false;
+      }
+      // A motion that carries the neutral's centre more than kMaxDistanceInModelSizes
+      // model sizes is another unit or frame, or a damaged file: simulating it ran on for
+      // minutes to a face dragged off (1e6 in a translation).
+      const double moved = (r * centre + transform.translation - centre).norm();
+      if (!(moved <= kMaxDistanceInModelSizes * size)) {
+        std::ostringstream out;
+        out << "the motion of bone '" << m.bones[b].name << "' in pose " << p
+            << " moves the neutral's centre by " << moved << ", more than "
+            << kMaxDistanceInModelSizes << " times the model's size (" << size << ")";
+        *error = reader.Where(out.str());
         return false;
       }
       m.bones[b].pose_transforms.push_back(transform);

@@ -243,6 +243,10 @@ bool ApplyBoundaryRules(const BoundaryRuleOptions& options, const TetMesh& mesh,
     const int list_size = list_numbering == nullptr ? nv : list_numbering->num_vertices;
     std::vector<int> list;
     if (!ReadVertexList(options.fixed_list, list_size, &list, error)) return false;
+    if (list.empty()) {
+      *error = options.fixed_list + ": lists no vertices";
+      return false;
+    }
     std::vector<char> listed(list_size, 0);
     for (int v : list) listed[v] = 1;
     std::vector<char> found(list_size, 0);

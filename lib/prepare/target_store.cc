@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <sstream>
 
+#include "io/actuation_io.h"
 #include "model/model_directory.h"
 #include "model/model_fingerprint.h"
 #include "util/atomic_file.h"
@@ -68,7 +69,7 @@ bool TargetStore::Load(int p, int num_elements, TrainingPose* pose, std::string*
   std::string ignored;
   if (!reader.ok() || damaged || !(mean >= 0) || !(max >= 0) ||
       !ReadMatrixFile(store_.ItemPath(p, "bin"), 6, num_elements, &target, &ignored) ||
-      !target.allFinite()) {
+      !target.allFinite() || !CheckStoredTargets(store_.ItemPath(p, "bin"), target, &ignored)) {
     return false;
   }
   pose->target = target;

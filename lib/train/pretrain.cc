@@ -365,6 +365,15 @@ bool Pretrain(const PretrainOptions& options, ActiveModel* model, PretrainReport
                                          options.decoder_regularization);
   objective->HoldLatents(hold_latents);
   report->initial_loss = objective->Loss(parameters.data(), nullptr, nullptr);
+  if (start.iterations > 0 && !SameLoss(report->initial_loss, start.loss)) {
+    // Its numbers were read as finite, but they are not the point it recorded: damaged.
+    *error = "the checkpoint in " + options.checkpoint_directory + " resumed gives a loss of " +
+             FormatDouble(report->initial_loss) + " where it recorded " +
+             FormatDouble(start.loss) + ": it is damaged; pre-train anew without resuming it " +
+             "(resume off) or remove it";
+    delete objective;
+    return false;
+  }
   if (!std::isfinite(report->initial_loss)) {
     *error = "the pre-training loss is not finite at the start (" +
              std::to_string(report->initial_loss) +

@@ -69,6 +69,11 @@ bool CopySynced(const std::string& from, const std::string& to, std::string* err
 
 }  // namespace
 
+bool SameLoss(double loss, double recorded) {
+  return std::isfinite(loss) && std::isfinite(recorded) &&
+         std::abs(loss - recorded) <= 1e-6 * std::max(std::abs(loss), std::abs(recorded));
+}
+
 bool ReadSolverCheckpoint(const std::string& directory, const CheckpointKey& key,
                           int num_parameters, SolverCheckpoint* checkpoint,
                           std::string* why_not) {

@@ -46,6 +46,12 @@ bool ReadSolverCheckpoint(const std::string& directory, const CheckpointKey& key
                           int num_parameters, SolverCheckpoint* checkpoint,
                           std::string* why_not);
 
+// Whether `loss`, the objective evaluated at a resumed checkpoint's parameters, is the
+// loss the checkpoint recorded there, `recorded`: both finite and equal to 1e-6 of their
+// size (the same objective in another run can differ in its last digits, with other
+// threads). A checkpoint whose finite numbers give another loss is damaged.
+bool SameLoss(double loss, double recorded);
+
 // Checkpoints of other runs kept in `kept_root` (a folder outside any model: a run that
 // starts anew does not destroy the one it does not resume, and a run of that one's key
 // takes it back). One folder per key: kept_root/<KeptCheckpointName(key)>/ holds that

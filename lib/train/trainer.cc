@@ -35,16 +35,16 @@ constexpr char kLogHeader[] =
     "iteration,loss,mean_surface_error,max_surface_error,gradient_norm,step_norm,seconds,"
     "function_evaluations,factorizations_per_pose,cg_solves_per_pose\n";
 
-// The seconds column (the 7th, kLogHeader's) of a row of the log: what the runs before
-// this one spent; 0 if it has none.
-double LoggedSeconds(const std::string& row) {
+// The seconds column (the 7th, kLogHeader's) of a row of the log into *seconds: what the
+// runs before this one spent. False, *seconds 0, if the row has no such number >= 0.
+bool LoggedSeconds(const std::string& row, double* seconds) {
   std::stringstream fields(row);
   std::string field;
   for (int k = 0; k < 7 && std::getline(fields, field, ','); ++k) {
-    double seconds = 0.0;
-    if (k == 6 && ParseDouble(field, &seconds) && seconds >= 0.0) return seconds;
+    if (k == 6 && ParseDouble(field, seconds) && *seconds >= 0.0) return true;
   }
-  return 0.0;
+  *seconds = 0.0;
+  return false;
 }
 
 class TrainingCallback final : public ceres::IterationCallback {
@@ -414,7 +414,10 @@ bool TrainEndToEnd(const TrainOptions& options, ActiveModel* model, TrainReport*
                              report->iterations_before, &last_row, error, &last_line)) {
       return false;
     }
-    seconds_before = LoggedSeconds(last_line);
+    if (!LoggedSeconds(last_line, &seconds_before) && !last_line.empty()) {
+      log << "train: warning: the last row of " << LogPath(options.model_directory)
+          << " has no seconds >= 0 (its 7th field): the log's seconds start again at 0\n";
+    }
     if (report->iterations_before > 0 && last_row < report->iterations_before) {
       // The learned state is whole (it is saved as one unit); only the record is short.
       log << "train: warning: " << options.model_directory << "/train/log.csv has rows up to "

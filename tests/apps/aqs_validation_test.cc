@@ -193,6 +193,8 @@ TEST(AqsValidationTest, BenchmarksRefuseBadSizesBeforeAnyMeasurement) {
                   {"--lattice=40x,4,4", 1, "--lattice must be three positive cube counts"},
                   {"--lattice=4,4,4 --spacing=nan", 1, "the lattice's spacing must be finite"},
                   {"--lattice=4,4,4 --spacing=-1", 1, "the lattice's spacing must be finite"},
+                  {"--lattice=2,1,1 --spacing=1e-300", 1, "is beyond what doubles can hold"},
+                  {"--lattice=2,1,1 --spacing=1e200", 1, "is beyond what doubles can hold"},
                   {"--lattice=4,4,4 --curl=5", 1, "--curl must be in [0, 1)"},
                   {"--lattice=4,4,4 --csv={dir}missing/b.csv", 1, "cannot write here"},
                   {"--lattice=4,4,4 --solver=lm", 1, "--solver does not apply here"},

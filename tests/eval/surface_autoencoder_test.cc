@@ -12,6 +12,7 @@
 #include "fit/latent_fit.h"
 #include "testing/finite_difference.h"
 #include "testing/temp_dir.h"
+#include "testing/training_fixtures.h"
 #include "util/fault_injection.h"
 
 namespace aqs {
@@ -437,6 +438,35 @@ TEST(SurfaceAutoencoderTest, TrainingResumesFromItsCheckpoint) {
             std::string::npos)
       << other_log.str();
   EXPECT_EQ(other.report().iterations, 15);
+}
+
+// A checkpoint whose numbers are finite but not the point it recorded is refused, naming
+// it (resumed, every run failed with "training diverged").
+TEST(SurfaceAutoencoderTest, ACheckpointWhoseNumbersGiveAnotherLossIsRefused) {
+  testing::TempDir dir;
+  const std::vector<Eigen::Matrix3Xd> surfaces = TrainingSurfaces();
+  const Eigen::Matrix3Xd neutral = BentGrid(0.6, 0.0);
+  SurfaceAutoencoderOptions options;
+  options.latent_dim = 2;
+  options.hidden_dims = {8};
+  options.output_scale = 0.5;
+  options.max_iterations = 5;
+  options.checkpoint_directory = dir.File("checkpoint");
+  options.checkpoint_seconds = 0.0;
+  std::ostringstream log;
+  std::string error;
+  SurfaceAutoencoder first;
+  ASSERT_TRUE(first.Train(neutral, surfaces, options, log, &error)) << error;
+  testing::ScaleCheckpointParameters(options.checkpoint_directory, 1.5);
+  options.max_iterations = 10;
+  SurfaceAutoencoder resumed;
+  EXPECT_FALSE(resumed.Train(neutral, surfaces, options, log, &error));
+  EXPECT_EQ(error.rfind("the checkpoint in " + options.checkpoint_directory +
+                            " resumed gives a loss of ",
+                        0),
+            0u)
+      << error;
+  EXPECT_NE(error.find(": it is damaged; remove it to train anew"), std::string::npos) << error;
 }
 
 // A small auto-encoder of the bent grids (8 hidden units), quick to train.

@@ -196,6 +196,47 @@ TEST_F(FitSequenceTest, IndependentFramesResumeWithTheSameResults) {
       << damaged.message;
 }
 
+// The row a warm-started sequence continues from drives the next solve, so it is checked
+// as a latent file is: a latent that is finite but decodes to absurd actuations is refused
+// naming frames.csv and its line, before any solve (it ran for minutes to a solve that
+// failed, naming nothing).
+TEST_F(FitSequenceTest, AWarmResumeFromAnAbsurdRowIsRefusedNamingItsLine) {
+  // A decoder with a linear part, so that a far latent decodes far (the fixture's tanh
+  // network alone saturates).
+  ActiveModel skip = *model_;
+  PretrainOptions pretrain;
+  pretrain.spec.latent_dim = 2;
+  pretrain.spec.hidden_dims = {8};
+  pretrain.spec.activation = Activation::kTanh;
+  pretrain.spec.linear_skip = true;
+  pretrain.field.node_spacing = 0.35;
+  pretrain.max_iterations = 10;
+  pretrain.log_every = 0;
+  PretrainReport report;
+  std::ostringstream log;
+  std::string error;
+  ASSERT_TRUE(Pretrain(pretrain, &skip, &report, log, &error)) << error;
+  FitSequenceOptions options = Options();
+  options.start.training_poses = false;  // the fixture's states are of its own decoder
+  options.sequence = Target(0) + ",";
+  options.output_dir = dir_->File("absurd");
+  ASSERT_EQ(RunFitSequence(options, skip, log).status, JobStatus::kOk) << log.str();
+  std::string csv = ReadAll(dir_->File("absurd/frames.csv"));
+  size_t field = csv.find('\n') + 1;                                   // frame 0's row
+  for (int c = 0; c < 14; ++c) field = csv.find(',', field) + 1;       // z0
+  csv.replace(field, csv.find(',', field) - field, "1e6");
+  std::ofstream(dir_->File("absurd/frames.csv"), std::ios::trunc) << csv;
+  options.sequence = Target(0) + "," + Target(1) + ",";
+  const FitSequenceResult result = RunFitSequence(options, skip, log);
+  EXPECT_EQ(result.status, JobStatus::kBadInput);
+  EXPECT_EQ(result.message.rfind(dir_->File("absurd") + "/frames.csv:2: the latent decodes to "
+                                                        "actuations with entries up to ",
+                                 0),
+            0u)
+      << result.message;
+  EXPECT_EQ(result.frames_fitted, 0);
+}
+
 // The temporal prior pulls every frame after the first toward the one before it (here
 // strongly), is part of the folder's key, resumes from the last frame done as an
 // unstopped run goes on, and needs warm starts.

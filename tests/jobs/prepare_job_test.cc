@@ -608,6 +608,30 @@ TEST_F(PrepareJobTest, BadInputsFailClearly) {
   options.boundary.fixed_depth = -1;
   EXPECT_FALSE(RunPrepareJob(options, log, &error));
   EXPECT_NE(error.find("no simulation vertex is fixed"), std::string::npos) << error;
+  // A fixed list that lists nothing is named (it said "no simulation vertex is fixed").
+  std::ofstream(dir_.File("empty_list.txt")) << "# no vertices\n";
+  options.boundary.fixed_list = dir_.File("empty_list.txt");
+  EXPECT_FALSE(RunPrepareJob(options, log, &error));
+  EXPECT_EQ(error, dir_.File("empty_list.txt") + ": lists no vertices");
+  // A neutral at one point, and one whose size cubed no double holds (the messages named
+  // a pose, or an open patch).
+  for (const double scale : {0.0, 1e-110, 1e105}) {
+    SurfaceMesh scaled = neutral_;
+    scaled.vertices *= scale;
+    ASSERT_TRUE(WriteObj(dir_.File("scaled.obj"), scaled, &error)) << error;
+    options = options_;
+    options.neutral = dir_.File("scaled.obj");
+    options.pose_paths = {dir_.File("scaled.obj")};
+    EXPECT_FALSE(RunPrepareJob(options, log, &error)) << scale;
+    EXPECT_EQ(error.rfind(dir_.File("scaled.obj") +
+                              ": the neutral surface's bounding-box diagonal is ",
+                          0),
+              0u)
+        << error;
+    EXPECT_NE(error.find(scale == 0.0 ? "(every vertex at one point)" : "beyond what doubles"),
+              std::string::npos)
+        << error;
+  }
   // A missing neutral.
   options = options_;
   options.neutral = dir_.File("missing.obj");

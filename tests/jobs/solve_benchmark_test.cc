@@ -30,6 +30,10 @@ TEST(SolveBenchmarkTest, OptionsNameTheBadField) {
   EXPECT_FALSE(options.Validate(&error));
   EXPECT_EQ(error.rfind("curl must be in [0, 1)", 0), 0u) << error;
   options = SolveBenchmarkOptions();
+  options.attachment_stiffness = 1e9;  // prepare's largest is 1e8
+  EXPECT_FALSE(options.Validate(&error));
+  EXPECT_EQ(error.rfind("attachment_stiffness must be in [0, 1e+08]", 0), 0u) << error;
+  options = SolveBenchmarkOptions();
   options.max_memory_bytes = 1e6;
   EXPECT_FALSE(options.Validate(&error));
   EXPECT_EQ(error.rfind("max_memory_bytes (1 MB) is below the estimated", 0), 0u) << error;
@@ -58,6 +62,25 @@ TEST(SolveBenchmarkTest, BothMethodsReachTheSameCurl) {
   const std::string row = csv.substr(lm + 1, end == std::string::npos ? end : end - lm - 1);
   const double difference = std::stod(row.substr(row.rfind(',') + 1));
   EXPECT_LT(difference, 1e-5) << row;
+}
+
+// The end x = 0 is held at any spacing: with an absolute threshold of 1e-9 a lattice that
+// fine had every vertex fixed, and each solve "converged" at the start.
+TEST(SolveBenchmarkTest, AFineLatticeHoldsOnlyItsEnd) {
+  testing::TempDir dir;
+  SolveBenchmarkOptions options;
+  options.lattice = {10, 2, 2};
+  options.spacing = 1e-12;
+  options.methods = {"newton"};
+  options.csv = dir.File("solves.csv");
+  std::ostringstream out;
+  std::string error;
+  ASSERT_EQ(RunSolveBenchmark(options, out, &error), JobStatus::kOk) << error;
+  const std::string csv = testing::ReadAll(options.csv);
+  const std::string prefix = "\nlattice_curl,240,newton,1,";
+  const size_t row = csv.find(prefix);
+  ASSERT_NE(row, std::string::npos) << csv;
+  EXPECT_GE(std::stoi(csv.substr(row + prefix.size())), 1) << "factorizations\n" << csv;
 }
 
 TEST(SolveBenchmarkTest, AMissingModelIsRefusedBeforeAnySolve) {

@@ -143,6 +143,19 @@ TEST(LatticeDefaultsTest, ValidateNamesTheBadField) {
   options.spacing = std::numeric_limits<double>::quiet_NaN();
   EXPECT_FALSE(options.Validate(&error));
   EXPECT_EQ(error.rfind("the lattice's spacing must be finite and > 0", 0), 0u) << error;
+  for (const double spacing : {1e-110, 1e200}) {  // spacing^3 is 0 or inf
+    options = LatticeOptions();
+    options.spacing = spacing;
+    EXPECT_FALSE(options.Validate(&error)) << spacing;
+    EXPECT_NE(error.find("is beyond what doubles can hold of an element's volume"),
+              std::string::npos)
+        << error;
+  }
+  for (const double spacing : {1e-100, 1e100}) {
+    options = LatticeOptions();
+    options.spacing = spacing;
+    EXPECT_TRUE(options.Validate(&error)) << error;
+  }
   options = LatticeOptions();
   options.origin.x() = std::numeric_limits<double>::infinity();
   EXPECT_FALSE(options.Validate(&error));

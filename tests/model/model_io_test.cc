@@ -10,6 +10,8 @@
 #include <sstream>
 
 #include <set>
+#include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -400,6 +402,114 @@ TEST(ModelIoTest, EmptyFixedSetsAndNonFiniteNumbersFailNamingTheFile) {
     EXPECT_NE(error.find(path + "/" + file + ": entry"), std::string::npos) << error;
     EXPECT_NE(error.find("is not finite (nan)"), std::string::npos) << error;
   }
+  restore();
+  EXPECT_TRUE(LoadModel(path, &back, &error)) << error;
+}
+
+// Rewrites the lines of `path` that start with `prefix` (and a space) by `lines`, in
+// place of the first of them.
+void ReplaceLines(const std::string& path, const std::string& prefix,
+                  const std::vector<std::string>& lines) {
+  std::istringstream in(testing::ReadAll(path));
+  std::string text, line;
+  bool replaced = false;
+  while (std::getline(in, line)) {
+    if (line.rfind(prefix + " ", 0) != 0) {
+      text += line + "\n";
+    } else if (!replaced) {
+      for (const std::string& l : lines) text += l + "\n";
+      replaced = true;
+    }
+  }
+  ASSERT_TRUE(replaced) << path << " has no line starting with " << prefix;
+  std::ofstream(path, std::ios::trunc) << text;
+}
+
+// Values that are finite but absurd, which the loader took until 2026-12-08: a bone moved
+// a million units (simulating it ran for minutes to a dragged face), targets of S = 0 or
+// 1e300 (pre-training trained on them), a prior covariance that is nearly singular (fits
+// pinned to a line). Each is refused naming the file; an inverted element's exact target
+// (a negative eigenvalue) is not absurd and loads.
+TEST(ModelIoTest, AbsurdButFiniteBonesTargetsAndPriorsAreRefusedNamingTheFile) {
+  const ActiveModel model = TrainedSyntheticModel();
+  testing::TempDir dir;
+  std::string error;
+  ActiveModel back;
+  const std::string path = dir.File("m");
+  ASSERT_TRUE(SaveModel(path, model, &error)) << error;
+  const std::string pristine = dir.File("pristine");
+  std::filesystem::copy(path, pristine, std::filesystem::copy_options::recursive);
+  auto restore = [&]() {
+    std::filesystem::remove_all(path);
+    std::filesystem::copy(pristine, path, std::filesystem::copy_options::recursive);
+  };
+  // Pose 2 of bone 0 ("tip", a translation of 0.02 along x) moved 1e6 along x, then
+  // 0.003, which is no absurd motion.
+  ReplaceLines(path + "/bones.txt", "0 2", {"0 2 1 0 0 0 1 0 0 0 1 1e6 0 0"});
+  EXPECT_FALSE(LoadModel(path, &back, &error));
+  EXPECT_NE(error.find(path + "/bones.txt:"), std::string::npos) << error;
+  EXPECT_NE(error.find("the motion of bone 'tip' in pose 2 moves the neutral's centre by 1e+06"),
+            std::string::npos)
+      << error;
+  restore();
+  // (Bones are part of the model's fingerprint: the learned state is then another model's.)
+  ReplaceLines(path + "/bones.txt", "0 2", {"0 2 1 0 0 0 1 0 0 0 1 0.003 0 0"});
+  EXPECT_FALSE(LoadModel(path, &back, &error));
+  EXPECT_EQ(error.find("moves the neutral's centre"), std::string::npos) << error;
+
+  // A target file's numbers after its 24-byte header (6 x elements, column by column).
+  const int elements = model.mesh.num_tets();
+  auto write_target = [&](const std::vector<double>& first_columns, double rest) {
+    std::vector<double> values(6 * elements, rest);
+    std::copy(first_columns.begin(), first_columns.end(), values.begin());
+    std::fstream out(path + "/targets/0001.bin", std::ios::in | std::ios::out | std::ios::binary);
+    out.seekp(24);
+    out.write(reinterpret_cast<const char*>(values.data()),
+              static_cast<std::streamsize>(values.size() * sizeof(double)));
+  };
+  for (const double absurd : {0.0, 1e300}) {
+    restore();
+    write_target({}, absurd);
+    EXPECT_FALSE(LoadModel(path, &back, &error)) << absurd;
+    EXPECT_EQ(error.rfind(path + "/targets/0001.bin: " + std::to_string(elements) + " of " +
+                              std::to_string(elements) + " targets have their largest",
+                          0),
+              0u)
+        << error;
+  }
+  restore();
+  write_target({1, 1, -0.5, 0, 0, 0}, 0.0);  // one element's, the rest S = 0
+  EXPECT_FALSE(LoadModel(path, &back, &error));
+  EXPECT_NE(error.find(std::to_string(elements - 1) + " of " + std::to_string(elements) +
+                       " targets have their largest principal stretch (in magnitude) outside "
+                       "[0.001, 1000]; the first, element 1,"),
+            std::string::npos)
+      << error;
+  restore();
+  write_target({1, 1, -0.5, 0, 0, 0, 1e-4, 0.5, 2, 0, 0, 0}, 1.0);  // inverted; one flat axis
+  EXPECT_TRUE(LoadModel(path, &back, &error)) << error;
+
+  // The latent prior (latent_dim 2) and the bone's: variances 1 and 0.01 on the diagonal,
+  // but correlated to within 1e-15.
+  const std::string prior = path + "/learned/prior.txt";
+  restore();
+  ReplaceLines(prior, "latent_covariance",
+               {"latent_covariance 0 1 1", "latent_covariance 1 1 1.000000000000001"});
+  EXPECT_FALSE(LoadModel(path, &back, &error));
+  EXPECT_NE(error.find("prior.txt: the latent covariance is nearly singular"), std::string::npos)
+      << error;
+  restore();
+  std::vector<std::string> bone_rows;
+  for (int i = 0; i < 6; ++i) {
+    std::string row = "bone tip covariance " + std::to_string(i);
+    for (int j = 0; j < 6; ++j) row += i == j ? " 0.0100000000000001" : " 0.01";
+    bone_rows.push_back(row);
+  }
+  ReplaceLines(prior, "bone tip covariance", bone_rows);
+  EXPECT_FALSE(LoadModel(path, &back, &error));
+  EXPECT_NE(error.find("prior.txt: the covariance of bone 'tip' is nearly singular"),
+            std::string::npos)
+      << error;
   restore();
   EXPECT_TRUE(LoadModel(path, &back, &error)) << error;
 }

@@ -1,8 +1,11 @@
 #include "testing/training_fixtures.h"
 
 #include <cstdio>
+#include <cstring>
 #include <fstream>
+#include <iterator>
 #include <sstream>
+#include <string>
 
 #include <gtest/gtest.h>
 
@@ -67,6 +70,25 @@ void WritePretrainedSyntheticModel(const std::string& path, int num_poses, unsig
   const ActiveModel model = PretrainedSyntheticBar(spec);
   std::string error;
   ASSERT_TRUE(SaveModel(path, model, &error)) << error;
+}
+
+void ScaleCheckpointParameters(const std::string& directory, double factor) {
+  std::ifstream in(directory + "/checkpoint.txt");
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const size_t line = text.find("\nparameters ");
+  ASSERT_NE(line, std::string::npos) << directory << "/checkpoint.txt:\n" << text;
+  const size_t at = line + 12;
+  const std::string slot = directory + "/" + text.substr(at, text.find(' ', at) - at);
+  std::ifstream slot_in(slot, std::ios::binary);
+  std::string bytes((std::istreambuf_iterator<char>(slot_in)), std::istreambuf_iterator<char>());
+  ASSERT_GT(bytes.size(), 24u) << slot;
+  for (size_t i = 24; i + sizeof(double) <= bytes.size(); i += sizeof(double)) {
+    double value = 0.0;
+    std::memcpy(&value, bytes.data() + i, sizeof(double));
+    value *= factor;
+    std::memcpy(&bytes[i], &value, sizeof(double));
+  }
+  std::ofstream(slot, std::ios::binary | std::ios::trunc) << bytes;
 }
 
 }  // namespace testing

@@ -50,6 +50,12 @@ ActiveModel PretrainedSyntheticBar(const SyntheticBarSpec& spec, PretrainReport*
 void WritePretrainedSyntheticModel(const std::string& path, int num_poses, unsigned seed,
                                    int hidden, int pretrain_iterations);
 
+// Multiplies the numbers of the parameter slot that the solver checkpoint in `directory`
+// (train/solver_checkpoint.h) names in its checkpoint.txt by `factor`, after the slot
+// file's 24-byte header: finite numbers of another point than the one it recorded, as a
+// damaged file holds. Adds a test failure if there is no such slot.
+void ScaleCheckpointParameters(const std::string& directory, double factor);
+
 }  // namespace testing
 }  // namespace aqs
 

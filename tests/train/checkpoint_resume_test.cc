@@ -356,6 +356,29 @@ TEST_F(CheckpointResumeTest, AShortLogIsReportedAndTrainingResumes) {
   EXPECT_EQ(rows.back().first, 5);
 }
 
+// A last row whose seconds are negative (rows that are not numbers are cut as damaged) is
+// said, not read as 0 in silence.
+TEST_F(CheckpointResumeTest, ALastRowWithoutSecondsIsReported) {
+  ASSERT_TRUE(Train(2));
+  std::string text = testing::ReadAll(LogPath());
+  const size_t last = text.rfind('\n', text.size() - 2) + 1;
+  size_t field = last;
+  for (int c = 0; c < 6; ++c) field = text.find(',', field) + 1;  // seconds
+  text.replace(field, text.find(',', field) - field, "-5");
+  std::ofstream(LogPath(), std::ios::trunc) << text;
+  TrainOptions options = options_;
+  options.max_iterations = 3;
+  std::ostringstream log;
+  std::string error;
+  ASSERT_TRUE(RunTrainJob(path_, options, false, log, &error)) << error;
+  EXPECT_NE(log.str().find("train: warning: the last row of " + LogPath() +
+                           " has no seconds >= 0 (its 7th field): the log's seconds start "
+                           "again at 0"),
+            std::string::npos)
+      << log.str();
+  EXPECT_EQ(SavedIterations(), 3);
+}
+
 // A file of the user's inside learned/, which a checkpoint would delete, stops training
 // before any work; pre-training likewise refuses a model holding foreign files.
 // What WatchModelInstall saw: at the last directory installed (a staged directory taking

@@ -236,6 +236,41 @@ TEST_F(PretrainResumeTest, ResumesAtTheCheckpointAndCountsItsIterations) {
               fresh.initial_loss, fresh.final_loss, resumed.initial_loss, resumed.final_loss);
 }
 
+// A checkpoint whose numbers are finite but not the point it recorded (a damaged slot) is
+// refused, naming it: resumed, it failed every run with a message about the decoder's
+// output scale.
+TEST_F(PretrainResumeTest, ACheckpointWhoseNumbersGiveAnotherLossIsRefused) {
+  Run(4);
+  testing::ScaleCheckpointParameters(options_.checkpoint_directory, 1.5);
+  ActiveModel model = model_;
+  PretrainOptions options = options_;
+  options.max_iterations = 8;
+  PretrainReport report;
+  std::ostringstream log;
+  std::string error;
+  EXPECT_FALSE(Pretrain(options, &model, &report, log, &error));
+  EXPECT_EQ(error.rfind("the checkpoint in " + options_.checkpoint_directory +
+                            " resumed gives a loss of ",
+                        0),
+            0u)
+      << error;
+  EXPECT_NE(error.find(": it is damaged; pre-train anew without resuming it"), std::string::npos)
+      << error;
+  options.resume = false;
+  EXPECT_TRUE(Pretrain(options, &model, &report, log, &error)) << error;
+  EXPECT_EQ(report.iterations_before, 0);
+}
+
+TEST(SameLossTest, EqualToAMillionthAndFinite) {
+  EXPECT_TRUE(SameLoss(1.0, 1.0));
+  EXPECT_TRUE(SameLoss(1.0 + 5e-7, 1.0));
+  EXPECT_FALSE(SameLoss(1.0 + 2e-6, 1.0));
+  EXPECT_TRUE(SameLoss(0.0, 0.0));
+  EXPECT_FALSE(SameLoss(1e-300, 0.0));
+  EXPECT_FALSE(SameLoss(std::nan(""), 1.0));
+  EXPECT_FALSE(SameLoss(INFINITY, INFINITY));
+}
+
 // A run its time budget stops has the log row and the checkpoint of the iteration it
 // stopped at (the budget was checked before the row was written, so the row was lost and
 // the next run said rows were missing from a log nobody had touched).
