@@ -196,5 +196,26 @@ TEST(ContactCandidatesTest, ObstacleCandidatesAreThePointsWithinReachWithTheirSp
                   .points.empty());
 }
 
+// Obstacle candidates come only from the surface vertices contact acts on
+// (ContactOptions::surface_vertices, --contact_vertices): here the left ball's.
+TEST(ContactCandidatesTest, ObstacleCandidatesAreOnlyTheContactVertices) {
+  testing::PushedBalls balls;
+  ASSERT_TRUE(testing::PushBalls(0.3, &balls));
+  const ActiveModel& model = balls.model;
+  ContactOptions options = testing::BallsContactOptions(0.4);
+  const Eigen::Matrix3Xd pushed = EmbeddedPositions(model.embedding, model.mesh.tets, balls.free);
+  for (int i = 0; i < balls.surface_vertices_per_ball; ++i) options.surface_vertices.push_back(i);
+  const ContactSolver contact(model, options);
+  // A slab under both balls, reaching just above their lowest point.
+  const double top = pushed.row(1).minCoeff() + 0.05;
+  Eigen::Matrix3Xd v;
+  Eigen::Matrix3Xi t;
+  testing::BoxSurface(Eigen::Vector3d(-10, top - 5, -10), Eigen::Vector3d(10, top, 10), &v, &t);
+  const Obstacle slab("slab", v, t);
+  const ObstacleCandidates candidates = contact.DetectObstacleContacts(pushed, {&slab});
+  EXPECT_FALSE(candidates.surface_vertices.empty());
+  for (int i : candidates.surface_vertices) EXPECT_LT(i, balls.surface_vertices_per_ball);
+}
+
 }  // namespace
 }  // namespace aqs

@@ -123,5 +123,28 @@ TEST_F(ReadObstaclesTest, NamesTheItemOrFileOfEachError) {
   EXPECT_TRUE(obstacles.empty());
 }
 
+// vertices=a:b keeps the triangles whose corners all lie in [a, b): of a strip of two
+// triangles, (0 1 2) and (1 3 2), vertices=0:3 keeps the first only.
+TEST_F(ReadObstaclesTest, AVertexRangeEndsBeforeItsEnd) {
+  SurfaceMesh strip;
+  strip.vertices.resize(3, 4);
+  strip.vertices << 0, 1, 0, 1,  //
+      0, 0, 1, 1,                //
+      0, 0, 0, 0;
+  strip.triangles.resize(3, 2);
+  strip.triangles << 0, 1,  //
+      1, 3,                 //
+      2, 2;
+  std::string error;
+  ASSERT_TRUE(WriteObj(dir_.File("strip.obj"), strip, &error)) << error;
+  std::vector<MovingObstacle> obstacles;
+  std::ostringstream log;
+  ASSERT_TRUE(ReadMovingObstacles(dir_.File("strip.obj") + " vertices=0:3", model_, &obstacles,
+                                  log, &error))
+      << error;
+  ASSERT_EQ(obstacles.size(), 1u);
+  EXPECT_EQ(obstacles[0].triangles.cols(), 1) << log.str();
+}
+
 }  // namespace
 }  // namespace aqs

@@ -229,5 +229,23 @@ TEST(MpiPoseWorkTest, PretrainedPosesSimulatedByTheRanksAreOneProcesss) {
   }
 }
 
+// Poses that another rank could not bring to equilibrium come back unconverged, as in one
+// process (every earlier scene converged).
+TEST(MpiPoseWorkTest, UnconvergedPosesOfOtherRanksStayUnconverged) {
+  const Communicator& world = World();
+  const ActiveModel model = testing::PretrainedBar(3);
+  PoseSimulationOptions options;
+  options.num_threads = 1;
+  options.solver.max_iterations = 1;
+  options.solver.max_lbfgs_iterations = 1;
+  const std::vector<SimulatedPose> shared = SimulateTrainingPosesOnRanks(world, model, options);
+  if (!world.is_root()) return;
+  const std::vector<SimulatedPose> alone =
+      SimulateTrainingPosesOnRanks(LocalCommunicator(), model, options);
+  ASSERT_EQ(shared.size(), 3u);
+  for (int p = 0; p < 3; ++p) EXPECT_EQ(shared[p].converged, alone[p].converged) << "pose " << p;
+  EXPECT_FALSE(alone[1].converged) << "the scene must leave pose 1 unconverged";
+}
+
 }  // namespace
 }  // namespace aqs

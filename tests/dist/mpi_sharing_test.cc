@@ -198,5 +198,33 @@ TEST(MpiSharingTest, RankZerosLearnedStateReachesEveryRank) {
   }
 }
 
+// Rank 0's bone priors and its checkpoint's next latent refit reach every rank (the other
+// sharing tests' model had no bone, and nothing read the refit mark on other ranks).
+TEST(MpiSharingTest, RankZerosBonePriorAndRefitMarkReachEveryRank) {
+  const Communicator& world = World();
+  ActiveModel model = testing::PretrainedBar(3);
+  Bone bone;
+  bone.name = "b";
+  bone.pose_transforms.assign(model.num_poses(), RigidTransform());
+  model.bones.push_back(bone);
+  std::string error;
+  EXPECT_TRUE(LearnFitPrior(model, FitPriorOptions(), &model.fit_prior, &error)) << error;
+  ASSERT_EQ(model.fit_prior.bones.size(), 1u);
+  if (world.is_root()) {
+    model.fit_prior.bones[0].mean.array() += 0.25;
+    model.checkpoint.latent_refit_at = 6;
+  }
+  EXPECT_TRUE(ShareModel(world, "DIR", true, &model, &error)) << error;
+  double mine[2] = {model.fit_prior.bones[0].mean.sum(),
+                    static_cast<double>(model.checkpoint.latent_refit_at)};
+  std::vector<double> all(2 * world.size());
+  world.GatherToRoot(mine, std::vector<int>(world.size(), 2), all.data());
+  if (!world.is_root()) return;
+  for (int r = 0; r < world.size(); ++r) {
+    EXPECT_EQ(all[2 * r], all[0]) << "rank " << r;
+    EXPECT_EQ(all[2 * r + 1], 6.0) << "rank " << r;
+  }
+}
+
 }  // namespace
 }  // namespace aqs

@@ -3,6 +3,7 @@
 
 #include "model/fit_prior.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -13,6 +14,7 @@
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
+#include "model/model_fingerprint.h"
 #include "model/model_io.h"
 #include "prepare/volumetric_targets.h"
 #include "testing/synthetic_muscles.h"
@@ -21,6 +23,13 @@
 
 namespace aqs {
 namespace {
+
+std::string ReadText(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
 
 // A pre-trained synthetic bar whose last pose is the neutral, with a bone "tip" that
 // moves in every pose but the neutral.
@@ -301,6 +310,101 @@ TEST(FitPriorTest, FileRoundTripsIsLearnedWhenAbsentAndBadFilesNameTheLine) {
       << error;
   ASSERT_TRUE(WriteFitPrior(path + "/learned/prior.txt", learned, names, &error)) << error;
   ASSERT_TRUE(LoadModel(path, &back, &error)) << error;
+}
+
+// The model readers' boundaries, each a single comparison (a third mutation review,
+// 2026-12-08: with `<=` for `<` an embedding element equal to the element count aborted the
+// load, and a covariance row index equal to the latent size corrupted the heap): the
+// prior's centre must be a training pose, its rows complete and in range, and an
+// embedding's elements in [0, elements).
+TEST(FitPriorFileTest, BoundariesOfThePriorAndTheEmbeddingAreRefusedNamingThem) {
+  const ActiveModel model = ModelWithNeutralPose();
+  testing::TempDir dir;
+  std::string error;
+  const std::string path = dir.File("m");
+  ASSERT_TRUE(SaveModel(path, model, &error)) << error;
+  const std::string prior = path + "/learned/prior.txt";
+  const std::string original = ReadText(prior);
+  ActiveModel back;
+  auto with_prior = [&](const std::string& text) { std::ofstream(prior, std::ios::trunc) << text; };
+  auto replaced = [&](const std::string& from, const std::string& to) {
+    std::string text = original;
+    const size_t at = text.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    if (at != std::string::npos) text.replace(at, from.size(), to);
+    return text;
+  };
+  auto without_line = [&](const std::string& start) {
+    std::string text = original;
+    const size_t at = text.find(start);
+    EXPECT_NE(at, std::string::npos) << start;
+    if (at != std::string::npos) text.erase(at, text.find('\n', at) - at + 1);
+    return text;
+  };
+  with_prior(replaced("latent_covariance 2 ", "latent_covariance 3 "));  // latent size 3
+  EXPECT_FALSE(LoadModel(path, &back, &error));
+  EXPECT_NE(error.find("covariance row index must be in [0, 3)"), std::string::npos) << error;
+  with_prior(without_line("center "));
+  EXPECT_FALSE(LoadModel(path, &back, &error));
+  EXPECT_NE(error.find("prior.txt: no 'center' line"), std::string::npos) << error;
+  with_prior(without_line("latent_covariance 1 "));
+  EXPECT_FALSE(LoadModel(path, &back, &error));
+  EXPECT_NE(error.find("prior.txt: the latent needs its mean and every covariance row"),
+            std::string::npos)
+      << error;
+  with_prior(replaced("center neutral", "center nosuch"));
+  EXPECT_FALSE(LoadModel(path, &back, &error));
+  EXPECT_NE(error.find("the priors are centred on 'nosuch', which is not a training pose"),
+            std::string::npos)
+      << error;
+  with_prior(original);
+  ASSERT_TRUE(LoadModel(path, &back, &error)) << error;
+  // The first embedding line's element set to the element count.
+  const std::string embedding = path + "/embedding.txt";
+  std::string text = ReadText(embedding);
+  size_t at = 0;
+  while (text[at] == '#') at = text.find('\n', at) + 1;
+  text = text.substr(0, at) + std::to_string(model.mesh.num_tets()) +
+         text.substr(text.find(' ', at));
+  std::ofstream(embedding, std::ios::trunc) << text;
+  EXPECT_FALSE(LoadModel(path, &back, &error));
+  EXPECT_NE(error.find("expected '<element in [0, " + std::to_string(model.mesh.num_tets()) + ")>"),
+            std::string::npos)
+      << error;
+}
+
+// What the model's fingerprint and validation see, and how bones drive their own vertices
+// (no test model had mu differing per element, a vertex fixed twice, or two bones).
+TEST(ModelFingerprintTest, SeesMuAndSavingRefusesAVertexFixedTwiceAndBonesMoveTheirOwn) {
+  const ActiveModel model = ModelWithNeutralPose();
+  ActiveModel stiffer = model;
+  stiffer.mu[0] *= 2.0;
+  EXPECT_NE(ModelFingerprint(stiffer), ModelFingerprint(model));
+  ActiveModel twice = model;
+  ASSERT_FALSE(twice.static_vertices.empty());
+  ASSERT_FALSE(twice.bones.empty());
+  twice.bones[0].vertices.push_back(twice.static_vertices[0]);
+  testing::TempDir dir;
+  std::string error;
+  EXPECT_FALSE(SaveModel(dir.File("t"), twice, &error));
+  EXPECT_NE(error.find("is fixed twice"), std::string::npos) << error;
+  // A second bone, lifted by 0.5 in every pose, moves its own vertex by its own motion.
+  ActiveModel two = model;
+  Bone second;
+  second.name = "second";
+  second.vertices = {two.mesh.num_vertices() - 2};
+  for (int p = 0; p < two.num_poses(); ++p) {
+    RigidTransform t;
+    t.translation = Eigen::Vector3d(0.0, 0.0, 0.5);
+    second.pose_transforms.push_back(t);
+  }
+  two.bones.push_back(second);
+  const BoundaryConditions bc = PoseBoundaryConditions(two, 0);
+  const int v = two.mesh.num_vertices() - 2;
+  const auto k = std::find(bc.vertices.begin(), bc.vertices.end(), v) - bc.vertices.begin();
+  ASSERT_LT(k, static_cast<long>(bc.vertices.size()));
+  EXPECT_LT((bc.positions.col(k) - (two.mesh.vertices.col(v) + Eigen::Vector3d(0, 0, 0.5))).norm(),
+            1e-12);
 }
 
 }  // namespace

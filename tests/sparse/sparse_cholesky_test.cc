@@ -226,5 +226,24 @@ TEST_F(SparseCholeskyTest, StoredFactorLoadsBackAsAnApproximateInverse) {
   EXPECT_EQ((coupled.Solve(b) - before).cwiseAbs().maxCoeff(), 0.0);
 }
 
+// A factorization that fails names the matrix's column (not its place in the elimination
+// order), and its factor cannot be stored.
+TEST_F(SparseCholeskyTest, AFailedFactorizationNamesItsColumnAndIsNotStored) {
+  SparseCholesky cholesky(pattern_.num_dofs(), &pattern_.column_starts(), &pattern_.row_indices());
+  const int c = pattern_.num_dofs() / 2;
+  std::vector<double> bad = values_;
+  const int64_t diagonal = pattern_.column_starts()[c + 1] - 1;  // upper triangle, by column
+  bad[diagonal] = -1e3 * std::abs(bad[diagonal]);
+  std::string error;
+  EXPECT_FALSE(cholesky.Factorize(bad, &error));
+  const std::vector<int64_t> permutation = cholesky.Permutation();
+  ASSERT_NE(std::find(permutation.begin(), permutation.end(), c) - permutation.begin(), c)
+      << "column " << c << " is eliminated at its own place: the test tells nothing";
+  EXPECT_EQ(cholesky.failed_column(), c) << error;
+  StoredFactor stored;
+  EXPECT_FALSE(cholesky.StoreFactor(&stored));
+  EXPECT_TRUE(stored.empty());
+}
+
 }  // namespace
 }  // namespace aqs
