@@ -440,16 +440,22 @@ TEST(SurfaceAutoencoderTest, TrainingResumesFromItsCheckpoint) {
   EXPECT_EQ(other.report().iterations, 15);
 }
 
+// A small auto-encoder of the bent grids (8 hidden units), quick to train.
+SurfaceAutoencoderOptions SmallOptions() {
+  SurfaceAutoencoderOptions options;
+  options.latent_dim = 2;
+  options.hidden_dims = {8};
+  options.output_scale = 0.5;
+  return options;
+}
+
 // A checkpoint whose numbers are finite but not the point it recorded is refused, naming
 // it (resumed, every run failed with "training diverged").
 TEST(SurfaceAutoencoderTest, ACheckpointWhoseNumbersGiveAnotherLossIsRefused) {
   testing::TempDir dir;
   const std::vector<Eigen::Matrix3Xd> surfaces = TrainingSurfaces();
   const Eigen::Matrix3Xd neutral = BentGrid(0.6, 0.0);
-  SurfaceAutoencoderOptions options;
-  options.latent_dim = 2;
-  options.hidden_dims = {8};
-  options.output_scale = 0.5;
+  SurfaceAutoencoderOptions options = SmallOptions();
   options.max_iterations = 5;
   options.checkpoint_directory = dir.File("checkpoint");
   options.checkpoint_seconds = 0.0;
@@ -467,15 +473,6 @@ TEST(SurfaceAutoencoderTest, ACheckpointWhoseNumbersGiveAnotherLossIsRefused) {
             0u)
       << error;
   EXPECT_NE(error.find(": it is damaged; remove it to train anew"), std::string::npos) << error;
-}
-
-// A small auto-encoder of the bent grids (8 hidden units), quick to train.
-SurfaceAutoencoderOptions SmallOptions() {
-  SurfaceAutoencoderOptions options;
-  options.latent_dim = 2;
-  options.hidden_dims = {8};
-  options.output_scale = 0.5;
-  return options;
 }
 
 // How often `text` occurs in `log`.

@@ -32,6 +32,18 @@
 namespace aqs {
 namespace {
 
+// Puts the copy `pristine` of a model directory back at `path`.
+void RestoreCopy(const std::string& pristine, const std::string& path) {
+  std::filesystem::remove_all(path);
+  std::filesystem::copy(pristine, path, std::filesystem::copy_options::recursive);
+}
+
+// Copies the model directory `path` to `pristine` and returns what puts it back.
+std::function<void()> KeepPristineCopy(const std::string& path, const std::string& pristine) {
+  std::filesystem::copy(path, pristine, std::filesystem::copy_options::recursive);
+  return [path, pristine]() { RestoreCopy(pristine, path); };
+}
+
 ActiveModel TrainedSyntheticModel() {
   testing::SyntheticMuscles data = testing::MakeSyntheticMuscles(3, 0, 0.3, 5);
   ActiveModel& model = data.model;
@@ -374,12 +386,7 @@ TEST(ModelIoTest, EmptyFixedSetsAndNonFiniteNumbersFailNamingTheFile) {
   ActiveModel back;
   const std::string path = dir.File("m");
   ASSERT_TRUE(SaveModel(path, model, &error)) << error;
-  const std::string pristine = dir.File("pristine");
-  std::filesystem::copy(path, pristine, std::filesystem::copy_options::recursive);
-  auto restore = [&]() {
-    std::filesystem::remove_all(path);
-    std::filesystem::copy(pristine, path, std::filesystem::copy_options::recursive);
-  };
+  const std::function<void()> restore = KeepPristineCopy(path, dir.File("pristine"));
   { std::ofstream(path + "/fixed.txt") << "# vertex bone\n"; }
   EXPECT_FALSE(LoadModel(path, &back, &error));
   EXPECT_NE(error.find(path + "/fixed.txt: lists no fixed vertices"), std::string::npos) << error;
@@ -437,12 +444,7 @@ TEST(ModelIoTest, AbsurdButFiniteBonesTargetsAndPriorsAreRefusedNamingTheFile) {
   ActiveModel back;
   const std::string path = dir.File("m");
   ASSERT_TRUE(SaveModel(path, model, &error)) << error;
-  const std::string pristine = dir.File("pristine");
-  std::filesystem::copy(path, pristine, std::filesystem::copy_options::recursive);
-  auto restore = [&]() {
-    std::filesystem::remove_all(path);
-    std::filesystem::copy(pristine, path, std::filesystem::copy_options::recursive);
-  };
+  const std::function<void()> restore = KeepPristineCopy(path, dir.File("pristine"));
   // Pose 2 of bone 0 ("tip", a translation of 0.02 along x) moved 1e6 along x, then
   // 0.003, which is no absurd motion.
   ReplaceLines(path + "/bones.txt", "0 2", {"0 2 1 0 0 0 1 0 0 0 1 1e6 0 0"});
@@ -564,11 +566,6 @@ std::string WhichOf(const ActiveModel& m, const ActiveModel& a, const ActiveMode
 }
 
 // Replaces `path` by a copy of `pristine` (faster than saving: no fsync).
-void RestoreCopy(const std::string& pristine, const std::string& path) {
-  fs::remove_all(path);
-  fs::copy(pristine, path, fs::copy_options::recursive);
-}
-
 // Takes and releases the model's lock, which cleans up after killed writers.
 void CleanUp(const std::string& path) {
   PathLock lock;
