@@ -364,6 +364,40 @@ TEST(QuasistaticSolverTest, EnsureStableLeavesTheSaddleASolveConvergedTo) {
   EXPECT_EQ(again.factorizations, 1);
 }
 
+// Where the descent from a perturbed saddle fails (here: the factorization budget runs out
+// in it), the saddle is the result again, bit for bit, with its energy and force: the
+// solve is converged and not stable, and says why. Budgets from the unchecked solve's
+// count upwards are tried; some leave the descent short.
+TEST(QuasistaticSolverTest, AFailedEscapeLeavesTheSaddleAsTheResult) {
+  const CompressedHeldBar bar;
+  QuasistaticSolverOptions options = TightOptions();
+  options.num_threads = 1;
+  QuasistaticSolver unchecked(bar.model, bar.ends, options);
+  unchecked.actuation() = bar.a;
+  const QuasistaticSolveReport saddle = unchecked.Solve();
+  ASSERT_TRUE(saddle.converged) << saddle.Summary();
+  int failed_escapes = 0;
+  for (int budget = saddle.factorizations + 1; budget <= saddle.factorizations + 8; ++budget) {
+    options.ensure_stable = true;
+    options.max_iterations = budget;
+    QuasistaticSolver checked(bar.model, bar.ends, options);
+    checked.actuation() = bar.a;
+    const QuasistaticSolveReport report = checked.Solve();
+    if (report.termination.find("the descent from a perturbation of it failed") ==
+        std::string::npos) {
+      continue;
+    }
+    ++failed_escapes;
+    EXPECT_TRUE(report.converged) << budget << ": " << report.Summary();
+    EXPECT_FALSE(report.stable) << budget << ": " << report.Summary();
+    EXPECT_EQ(report.unstable_escapes, 0) << budget;
+    EXPECT_TRUE(checked.positions() == unchecked.positions()) << budget;
+    EXPECT_EQ(report.final_energy, saddle.final_energy) << budget;
+    EXPECT_EQ(report.final_max_force, saddle.final_max_force) << budget;
+  }
+  EXPECT_GE(failed_escapes, 1) << "no budget left the escape's descent short";
+}
+
 // Every field of the factor reuse is checked (an infinite tolerance made a warm re-solve
 // take 178 CG-solved steps instead of 2; a NaN probe tolerance turned the probe off).
 TEST(QuasistaticSolverTest, OptionsCheckEveryFactorReuseField) {
