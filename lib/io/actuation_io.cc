@@ -64,6 +64,26 @@ bool ReadFixedWidthRows(const std::string& path, int count, int width, const cha
   return true;
 }
 
+// The elements of the 6 x n actuations at `data` (column-major) whose S's eigenvalues
+// (increasing) `accept` refuses: their count, and the first one's index and eigenvalues in
+// *first (-1 if none) and *first_eigenvalues (may be null).
+template <typename Accept>
+int CountRefusedTargets(const double* data, Eigen::Index n, const Accept& accept, int* first,
+                        Eigen::Vector3d* first_eigenvalues) {
+  int count = 0;
+  *first = -1;
+  for (Eigen::Index e = 0; e < n; ++e) {
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(
+        SymmetricFromActuation(data + 6 * e), Eigen::EigenvaluesOnly);
+    if (accept(eigen.eigenvalues())) continue;
+    if (count++ == 0) {
+      *first = static_cast<int>(e);
+      if (first_eigenvalues != nullptr) *first_eigenvalues = eigen.eigenvalues();
+    }
+  }
+  return count;
+}
+
 }  // namespace
 
 bool ReadActuation(const std::string& path, int num_elements, ActuationMatrix* a,
@@ -85,18 +105,14 @@ bool ReadActuationTargets(const std::string& path, int num_elements, ActuationMa
     return false;
   }
   const Eigen::Map<const ActuationMatrix> read(values.data(), 6, num_elements);
-  int bad = 0, first = -1;
+  int first = -1;
   Eigen::Vector3d first_eigenvalues = Eigen::Vector3d::Zero();
-  for (int e = 0; e < num_elements; ++e) {
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(
-        SymmetricFromActuation(read.col(e).data()), Eigen::EigenvaluesOnly);
-    const Eigen::Vector3d lambda = eigen.eigenvalues();  // increasing
-    if (lambda[0] >= kMinActuationStretch && lambda[2] <= kMaxActuationStretch) continue;
-    if (bad++ == 0) {
-      first = e;
-      first_eigenvalues = lambda;
-    }
-  }
+  const int bad = CountRefusedTargets(
+      values.data(), num_elements,
+      [](const Eigen::Vector3d& lambda) {
+        return lambda[0] >= kMinActuationStretch && lambda[2] <= kMaxActuationStretch;
+      },
+      &first, &first_eigenvalues);
   if (bad > 0) {
     std::ostringstream out;
     out.precision(6);
@@ -114,18 +130,15 @@ bool ReadActuationTargets(const std::string& path, int num_elements, ActuationMa
 }
 
 bool CheckStoredTargets(const std::string& source, const ActuationMatrix& a, std::string* error) {
-  int bad = 0, first = -1;
+  int first = -1;
   Eigen::Vector3d first_eigenvalues = Eigen::Vector3d::Zero();
-  for (Eigen::Index e = 0; e < a.cols(); ++e) {
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(
-        SymmetricFromActuation(a.col(e).data()), Eigen::EigenvaluesOnly);
-    const double largest = eigen.eigenvalues().cwiseAbs().maxCoeff();
-    if (largest >= kMinActuationStretch && largest <= kMaxActuationStretch) continue;
-    if (bad++ == 0) {
-      first = static_cast<int>(e);
-      first_eigenvalues = eigen.eigenvalues();
-    }
-  }
+  const int bad = CountRefusedTargets(
+      a.data(), a.cols(),
+      [](const Eigen::Vector3d& lambda) {
+        const double largest = lambda.cwiseAbs().maxCoeff();
+        return largest >= kMinActuationStretch && largest <= kMaxActuationStretch;
+      },
+      &first, &first_eigenvalues);
   if (bad == 0) return true;
   std::ostringstream out;
   out.precision(6);
@@ -140,14 +153,11 @@ bool CheckStoredTargets(const std::string& source, const ActuationMatrix& a, std
 }
 
 int CountNonPositiveDefinite(const ActuationMatrix& a, int* first) {
-  int count = 0;
-  if (first != nullptr) *first = -1;
-  for (Eigen::Index e = 0; e < a.cols(); ++e) {
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(
-        SymmetricFromActuation(a.col(e).data()), Eigen::EigenvaluesOnly);
-    if (eigen.eigenvalues()[0] > 0.0) continue;
-    if (count++ == 0 && first != nullptr) *first = static_cast<int>(e);
-  }
+  int first_refused = -1;
+  const int count = CountRefusedTargets(
+      a.data(), a.cols(), [](const Eigen::Vector3d& lambda) { return lambda[0] > 0.0; },
+      &first_refused, nullptr);
+  if (first != nullptr) *first = first_refused;
   return count;
 }
 
