@@ -13,11 +13,20 @@ double ModelSize(const Eigen::Matrix3Xd& neutral) {
   return (neutral.rowwise().maxCoeff() - neutral.rowwise().minCoeff()).norm();
 }
 
+Eigen::Vector3d ModelCentre(const Eigen::Matrix3Xd& neutral) {
+  if (neutral.cols() == 0) return Eigen::Vector3d::Zero();
+  return 0.5 * (neutral.rowwise().minCoeff() + neutral.rowwise().maxCoeff());
+}
+
+double CentreDisplacement(const Eigen::Matrix3Xd& neutral, const RigidTransform& motion) {
+  const Eigen::Vector3d centre = ModelCentre(neutral);
+  return (motion.rotation * centre + motion.translation - centre).norm();
+}
+
 bool CheckPointsNearModel(const std::string& path, const Eigen::Matrix3Xd& neutral,
                           const Eigen::Matrix3Xd& points, std::string* error) {
   if (neutral.cols() == 0) return true;
-  const Eigen::Vector3d centre =
-      0.5 * (neutral.rowwise().minCoeff() + neutral.rowwise().maxCoeff());
+  const Eigen::Vector3d centre = ModelCentre(neutral);
   const double size = std::max(ModelSize(neutral), 1e-300);
   for (Eigen::Index i = 0; i < points.cols(); ++i) {
     const double distance = (points.col(i) - centre).stableNorm();

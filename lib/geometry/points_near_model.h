@@ -6,11 +6,21 @@
 
 #include <Eigen/Core>
 
+#include "geometry/rigid_transform.h"
+
 namespace aqs {
 
 // A model's size: the diagonal of the bounding box of its neutral surface's vertices
 // `neutral` (3 x n, one column per vertex); 0 without vertices.
 double ModelSize(const Eigen::Matrix3Xd& neutral);
+
+// The centre of the bounding box of the neutral surface's vertices `neutral` (3 x n); the
+// origin without vertices.
+Eigen::Vector3d ModelCentre(const Eigen::Matrix3Xd& neutral);
+
+// How far the rigid `motion` (a bone's) carries the model's centre: |R c + t - c|, c =
+// ModelCentre(neutral).
+double CentreDisplacement(const Eigen::Matrix3Xd& neutral, const RigidTransform& motion);
 
 // Surfaces and points given for a model (poses, held-out poses, fit targets) must lie
 // within this many model sizes (the diagonal of the neutral's bounding box) of the

@@ -2,6 +2,7 @@
 
 #include <sstream>
 
+#include "geometry/points_near_model.h"
 #include "io/actuation_io.h"
 #include "io/latent_io.h"
 #include "model/model_fingerprint.h"
@@ -77,13 +78,9 @@ bool CheckBoneMotions(const ActiveModel& model, const std::vector<RigidTransform
                       const std::string& source, std::string* error) {
   const Eigen::Matrix3Xd& neutral = model.neutral.vertices;
   if (neutral.cols() == 0) return true;
-  const Eigen::Vector3d lower = neutral.rowwise().minCoeff();
-  const Eigen::Vector3d upper = neutral.rowwise().maxCoeff();
-  const Eigen::Vector3d centre = 0.5 * (lower + upper);
-  const double size = (upper - lower).norm();
+  const double size = ModelSize(neutral);
   for (size_t b = 0; b < bones.size() && b < model.bones.size(); ++b) {
-    const double moved =
-        (bones[b].rotation * centre + bones[b].translation - centre).norm();
+    const double moved = CentreDisplacement(neutral, bones[b]);
     if (!(moved <= size)) {
       std::ostringstream out;
       out << source << ": bone '" << model.bones[b].name << "' moves the model's centre by "

@@ -560,11 +560,6 @@ bool ReadFixedVerticesAndBones(const std::string& dir, ActiveModel* model, std::
       *error = reader.error();
       return false;
     }
-    const Eigen::Vector3d centre =
-        m.neutral.num_vertices() > 0
-            ? Eigen::Vector3d(0.5 * (m.neutral.vertices.rowwise().minCoeff() +
-                                     m.neutral.vertices.rowwise().maxCoeff()))
-            : Eigen::Vector3d::Zero();
     const double size = ModelSize(m.neutral.vertices);
     std::vector<std::string> t;
     while (reader.NextTokens(&t)) {
@@ -610,7 +605,7 @@ bool ReadFixedVerticesAndBones(const std::string& dir, ActiveModel* model, std::
       // A motion that carries the neutral's centre more than kMaxDistanceInModelSizes
       // model sizes is another unit or frame, or a damaged file: simulating it ran on for
       // minutes to a face dragged off (1e6 in a translation).
-      const double moved = (r * centre + transform.translation - centre).norm();
+      const double moved = CentreDisplacement(m.neutral.vertices, transform);
       if (!(moved <= kMaxDistanceInModelSizes * size)) {
         std::ostringstream out;
         out << "the motion of bone '" << m.bones[b].name << "' in pose " << p
